@@ -1,0 +1,37 @@
+"""barkgen: turn one photograph of tree bark into unlimited new, seamless, varied bark.
+
+The public API is imported lazily so that ``import barkgen`` (and the CLI's start-up) stays
+cheap: numba kernels compile (once, cached on disk) only when first used.
+"""
+
+from __future__ import annotations
+
+from importlib import import_module
+from typing import TYPE_CHECKING, Any
+
+__version__ = "0.1.0"
+
+_LAZY = {
+    "synthesize": "barkgen.synth",
+    "apply_references": "barkgen.synth",
+    "SynthesisConfig": "barkgen.synth",
+    "SynthesisResult": "barkgen.synth",
+    "BarkgenError": "barkgen.errors",
+    "read_image": "barkgen.io",
+    "write_png": "barkgen.io",
+    "sample_exemplar_path": "barkgen.data",
+}
+
+__all__ = sorted(_LAZY) + ["__version__"]
+
+if TYPE_CHECKING:  # pragma: no cover
+    from barkgen.data import sample_exemplar_path
+    from barkgen.errors import BarkgenError
+    from barkgen.io import read_image, write_png
+    from barkgen.synth import SynthesisConfig, SynthesisResult, apply_references, synthesize
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        return getattr(import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'barkgen' has no attribute {name!r}")

@@ -1,0 +1,219 @@
+"""The ``barkgen`` command line: a thin front end over the public API."""
+
+from __future__ import annotations
+
+import functools
+import re
+import sys
+import warnings
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Annotated, Optional, TypeVar
+
+import typer
+
+from barkgen.errors import BarkgenError, InvalidInputError
+
+F = TypeVar("F", bound=Callable[..., None])
+
+app = typer.Typer(
+    name="barkgen",
+    help="Turn one photograph of tree bark into unlimited new, seamless, varied bark.",
+    add_completion=False,
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    rich_markup_mode=None,
+)
+
+_SIZE_RE = re.compile(r"^\s*(-?\d+)\s*[xX×]\s*(-?\d+)\s*$")
+_MEM_RE = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*([kKmMgGtT]?)i?[bB]?\s*$")
+
+
+def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    print(f"barkgen: warning: {message}", file=sys.stderr)
+
+
+def _fail(message: str, status: int = 2) -> typer.Exit:
+    print(f"barkgen: error: {message}", file=sys.stderr)
+    return typer.Exit(status)
+
+
+def user_errors(func: F) -> F:
+    """Run a command so that every failure is one line on stderr, never a traceback:
+    user errors exit with status 2, interruptions with 130, anything unexpected with 1."""
+
+    @functools.wraps(func)
+    def wrapper(*args, **kwargs):
+        warnings.showwarning = _one_line_warning
+        try:
+            return func(*args, **kwargs)
+        except (typer.Exit, typer.Abort):
+            raise
+        except BarkgenError as exc:
+            raise _fail(str(exc)) from None
+        except MemoryError:
+            raise _fail("out of memory (try a smaller --size or fewer --extra maps)") from None
+        except OSError as exc:
+            where = f" ({exc.filename})" if getattr(exc, "filename", None) else ""
+            raise _fail(f"{exc.strerror or exc}{where}") from None
+        except KeyboardInterrupt:
+            raise _fail("interrupted", 130) from None
+        except Exception as exc:  # noqa: BLE001 - last resort: still one line, no traceback
+            raise _fail(f"internal error: {type(exc).__name__}: {exc}", 1) from None
+
+    return wrapper  # type: ignore[return-value]
+
+
+def parse_size(text: str) -> tuple[int, int]:
+    """``"WxH"`` -> ``(height, width)``; raises :class:`InvalidInputError` with a clear message."""
+    m = _SIZE_RE.match(text or "")
+    if not m:
+        raise InvalidInputError(f"invalid size {text!r}: expected WIDTHxHEIGHT, e.g. 1024x1024")
+    w, h = int(m.group(1)), int(m.group(2))
+    if w <= 0 or h <= 0:
+        raise InvalidInputError(f"invalid size {text!r}: width and height must be positive")
+    return h, w
+
+
+def parse_memory(text: str) -> int:
+    """``"8G"``, ``"512M"``, ``"1.5GB"`` or a byte count -> bytes."""
+    m = _MEM_RE.match(text or "")
+    if not m:
+        raise InvalidInputError(f"invalid memory amount {text!r}: use e.g. 8G or 512M")
+    value = float(m.group(1)) * 1024 ** " KMGT".index((m.group(2) or " ").upper())
+    if value <= 0:
+        raise InvalidInputError(f"invalid memory amount {text!r}: must be positive")
+    return int(value)
+
+
+def parse_extras(items: list[str] | None) -> dict[str, Path]:
+    """``["height=h.png", ...]`` -> ``{"height": Path("h.png")}``."""
+    out: dict[str, Path] = {}
+    for item in items or []:
+        name, sep, path = item.partition("=")
+        name = name.strip()
+        if not sep or not name or not path or not re.fullmatch(r"[A-Za-z0-9_\-]+", name):
+            raise InvalidInputError(f"invalid --extra {item!r}: expected NAME=PATH, e.g. height=h.png")
+        if name in out:
+            raise InvalidInputError(f"--extra {name!r} given twice")
+        out[name] = Path(path)
+    return out
+
+
+def _check_png_target(path: Path, what: str) -> None:
+    if path.suffix.lower() != ".png":
+        raise InvalidInputError(f"{what} {str(path)!r} must be a .png file")
+    if path.exists() and path.is_dir():
+        raise InvalidInputError(f"{what} {str(path)!r} is a directory")
+
+
+@contextmanager
+def _progress(enabled: bool, description: str) -> Iterator:
+    """A rich progress bar on stderr when it is a terminal, else a no-op callback."""
+    if not enabled or not sys.stderr.isatty():
+        yield None
+        return
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
+                  TimeElapsedColumn(), console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task(description, total=None)
+
+        def update(done: int, total: int) -> None:
+            bar.update(task, completed=done, total=total)
+
+        yield update
+
+
+def _extra_output_path(output: Path, name: str) -> Path:
+    return output.with_name(f"{output.stem}_{name}{output.suffix}")
+
+
+@app.command("synth")
+@user_errors
+def synth_command(
+    exemplar: Annotated[Optional[Path], typer.Argument(
+        help="Bark photo to learn from (PNG/JPEG/TIFF/WebP). Default: the bundled sample.")] = None,
+    output: Annotated[Path, typer.Option("-o", "--output", help="Output PNG.")] = Path("barkgen.png"),
+    size: Annotated[str, typer.Option("--size", help="Output size WIDTHxHEIGHT.")] = "1024x1024",
+    tile: Annotated[bool, typer.Option("--tile", help="Make the output tile seamlessly.")] = False,
+    seed: Annotated[int, typer.Option("--seed", min=0, help="Random seed (same seed, same bytes).")] = 0,
+    extra: Annotated[Optional[list[str]], typer.Option(
+        "--extra", help="NAME=PATH map aligned with the exemplar (height, normal, ...), "
+        "synthesized along; written as OUTPUT_NAME.png.")] = None,
+    save_reference: Annotated[Optional[Path], typer.Option(
+        "--save-reference", help="Also write the reference map (16-bit PNG of exemplar x, y).")] = None,
+    bits: Annotated[Optional[int], typer.Option(
+        "--bits", help="Bits per channel of the output (8 or 16). Default: the exemplar's.")] = None,
+    max_memory: Annotated[str, typer.Option(
+        "--max-memory", help="Refuse jobs estimated to need more memory than this.")] = "8G",
+    threads: Annotated[Optional[int], typer.Option("--threads", min=1, help="Worker threads.")] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
+) -> None:
+    """Synthesize a new bark texture of any size from one exemplar photo."""
+    from barkgen.data import sample_exemplar_path
+    from barkgen.io import read_image, write_png, write_reference
+    from barkgen.synth import SynthesisConfig, synthesize
+
+    out_shape = parse_size(size)
+    budget = parse_memory(max_memory)
+    extra_paths = parse_extras(extra)
+    if bits not in (None, 8, 16):
+        raise InvalidInputError(f"--bits must be 8 or 16, not {bits}")
+    _check_png_target(output, "output")
+    if save_reference is not None:
+        _check_png_target(save_reference, "--save-reference")
+    src = exemplar if exemplar is not None else sample_exemplar_path()
+    image = read_image(src)
+    extras = {name: read_image(p) for name, p in extra_paths.items()}
+    config = SynthesisConfig(threads=threads, max_memory=budget)
+    with _progress(not quiet, "synthesizing") as progress:
+        result = synthesize(image, out_shape, tile=tile, seed=seed, extra=extras, config=config,
+                            progress=progress)
+    write_png(output, result.image, bits=bits)
+    for name, arr in result.extras.items():
+        write_png(_extra_output_path(output, name), arr)
+    if save_reference is not None:
+        write_reference(save_reference, result.references, result.exemplar_shape)
+    if not quiet:
+        t = result.timings
+        typer.echo(f"wrote {output} ({out_shape[1]}x{out_shape[0]}, seed {seed}"
+                   f"{', tileable' if tile else ''}) in {t['analysis'] + t['synthesis']:.2f} s",
+                   err=True)
+
+
+@app.command("apply-reference")
+@user_errors
+def apply_reference_command(
+    reference: Annotated[Path, typer.Argument(help="Reference map written by --save-reference.")],
+    map_path: Annotated[Path, typer.Argument(metavar="MAP", help="Map of the exemplar's size.")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="Output PNG.")],
+    bits: Annotated[Optional[int], typer.Option("--bits", help="8 or 16. Default: the map's.")] = None,
+) -> None:
+    """Re-apply a saved reference map to another map of the exemplar (height, normal, ...)."""
+    from barkgen.io import read_image, read_reference, write_png
+    from barkgen.synth import apply_references
+
+    if bits not in (None, 8, 16):
+        raise InvalidInputError(f"--bits must be 8 or 16, not {bits}")
+    _check_png_target(output, "output")
+    refs, ex_shape = read_reference(reference)
+    image = read_image(map_path)
+    if ex_shape is not None and image.shape[:2] != ex_shape:
+        raise InvalidInputError(
+            f"{map_path} is {image.shape[1]}x{image.shape[0]} px but the reference map was made for "
+            f"a {ex_shape[1]}x{ex_shape[0]} exemplar")
+    write_png(output, apply_references(refs, image), bits=bits)
+
+
+@app.callback(invoke_without_command=True)
+def _root(
+    version: Annotated[bool, typer.Option("--version", help="Print the version and exit.")] = False,
+) -> None:
+    if version:
+        from barkgen import __version__
+
+        typer.echo(f"barkgen {__version__}")
+        raise typer.Exit()

@@ -1,0 +1,24 @@
+"""Image and reference-map input/output: the only place where barkgen touches image files."""
+
+from barkgen.io.images import (
+    AlphaDroppedWarning,
+    encode_png,
+    read_image,
+    read_png_text,
+    to_bits,
+    write_bytes_atomic,
+    write_png,
+)
+from barkgen.io.references import read_reference, write_reference
+
+__all__ = [
+    "AlphaDroppedWarning",
+    "encode_png",
+    "read_image",
+    "read_png_text",
+    "read_reference",
+    "to_bits",
+    "write_bytes_atomic",
+    "write_png",
+    "write_reference",
+]

@@ -1,0 +1,229 @@
+"""Reading and writing images: PNG/JPEG/TIFF/WebP in, 8- or 16-bit PNG out, atomically.
+
+Images are numpy arrays of shape ``(H, W, C)`` with ``C`` = 1 (grey) or 3 (RGB) and dtype
+``uint8`` or ``uint16``. Alpha channels are dropped with a warning. Every write goes to a
+temporary file in the destination folder that is renamed into place, so an interrupted or failed
+write never leaves a half-written file under the requested name.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import struct
+import tempfile
+import warnings
+import zlib
+from pathlib import Path
+
+import numpy as np
+
+from barkgen.errors import ImageReadError, InvalidInputError
+
+_TIFF_MAGIC = (b"II*\x00", b"MM\x00*")
+_PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+class AlphaDroppedWarning(UserWarning):
+    """An input image had an alpha channel, which barkgen ignores."""
+
+
+def _check_file(path: Path) -> bytes:
+    if not path.exists():
+        raise ImageReadError(f"{path}: no such file")
+    if path.is_dir():
+        raise ImageReadError(f"{path}: is a directory, not an image")
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise ImageReadError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    if not data:
+        raise ImageReadError(f"{path}: file is empty (0 bytes)")
+    return data
+
+
+def _normalise(arr: np.ndarray, path: Path, has_alpha: bool) -> np.ndarray:
+    """Bring a decoded array to (H, W, 1|3) uint8/uint16, dropping alpha."""
+    if arr.dtype.kind == "f":
+        arr = np.round(np.clip(arr, 0.0, 1.0) * 65535.0).astype(np.uint16)
+    elif arr.dtype == np.bool_:
+        arr = arr.astype(np.uint8) * 255
+    elif arr.dtype not in (np.uint8, np.uint16):
+        raise ImageReadError(f"{path}: unsupported pixel type {arr.dtype} (use 8- or 16-bit)")
+    if arr.ndim == 2:
+        arr = arr[:, :, None]
+    if arr.ndim != 3 or arr.shape[2] not in (1, 2, 3, 4):
+        raise ImageReadError(f"{path}: unsupported image layout {arr.shape}")
+    if arr.shape[2] in (2, 4):
+        has_alpha = True
+        arr = arr[:, :, :-1]
+    if has_alpha:
+        warnings.warn(f"{path}: alpha channel dropped", AlphaDroppedWarning, stacklevel=3)
+    if arr.shape[0] == 0 or arr.shape[1] == 0:
+        raise ImageReadError(f"{path}: image has no pixels")
+    return np.ascontiguousarray(arr)
+
+
+def _png_bit_depth(data: bytes) -> int:
+    # IHDR is always the first chunk: 8 magic + 4 length + 4 type + 4 w + 4 h + 1 depth.
+    return data[24] if len(data) > 25 and data.startswith(_PNG_MAGIC) else 8
+
+
+def read_image(path: str | os.PathLike) -> np.ndarray:
+    """Read an image file into an ``(H, W, C)`` uint8/uint16 array (C = 1 or 3).
+
+    Supports PNG, JPEG, TIFF and WebP, 8 and 16 bits per channel, grey, RGB and RGBA (alpha
+    is dropped with an :class:`AlphaDroppedWarning`). Raises :class:`ImageReadError` with a
+    one-line message for a missing, empty, truncated or unreadable file.
+    """
+    path = Path(path)
+    data = _check_file(path)
+    if data[:4] in _TIFF_MAGIC:
+        import tifffile
+
+        try:
+            arr = tifffile.imread(io.BytesIO(data))
+        except Exception as exc:  # tifffile raises many types for corrupt files
+            raise ImageReadError(f"{path}: not a readable TIFF image ({exc})") from None
+        if arr.ndim == 3 and arr.shape[0] in (1, 3, 4) and arr.shape[2] not in (1, 2, 3, 4):
+            arr = np.moveaxis(arr, 0, -1)  # planar TIFF
+        return _normalise(arr, path, has_alpha=False)
+
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(io.BytesIO(data)) as im:
+            im.load()  # decodes fully: raises on truncated data
+            mode = im.mode
+            has_alpha = mode in ("RGBA", "LA", "PA") or (
+                mode == "P" and "transparency" in im.info
+            )
+            if _png_bit_depth(data) == 16 and mode not in ("I;16", "I;16B", "I"):
+                arr = None  # 16-bit colour PNG: Pillow keeps 8 bits, decode with OpenCV
+            elif mode in ("I;16", "I;16B", "I;16L"):
+                arr = np.asarray(im, dtype=np.uint16)
+            elif mode == "I":
+                arr = np.clip(np.asarray(im), 0, 65535).astype(np.uint16)
+            elif mode == "F":
+                arr = np.asarray(im, dtype=np.float32)
+            elif mode in ("L", "1"):
+                arr = np.asarray(im.convert("L"))
+            elif mode == "LA":
+                arr = np.asarray(im)[:, :, 0]
+            elif mode == "RGBA":
+                arr = np.asarray(im)[:, :, :3]
+            else:
+                arr = np.asarray(im.convert("RGB"))
+    except UnidentifiedImageError:
+        raise ImageReadError(f"{path}: not an image (unrecognised format)") from None
+    except (OSError, SyntaxError, ValueError) as exc:
+        raise ImageReadError(f"{path}: truncated or corrupt image ({exc})") from None
+    except Image.DecompressionBombError as exc:
+        raise ImageReadError(f"{path}: image too large ({exc})") from None
+
+    if arr is None:
+        import cv2
+
+        dec = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+        if dec is None:
+            raise ImageReadError(f"{path}: truncated or corrupt 16-bit PNG")
+        if dec.ndim == 3:
+            dec = dec[:, :, [2, 1, 0, 3][: dec.shape[2]]] if dec.shape[2] == 4 else dec[:, :, ::-1]
+        arr = dec
+    return _normalise(np.asarray(arr), path, has_alpha)
+
+
+def to_bits(image: np.ndarray, bits: int) -> np.ndarray:
+    """Convert a uint8/uint16 image to ``bits`` (8 or 16) per channel, rounding."""
+    if bits not in (8, 16):
+        raise InvalidInputError(f"bit depth must be 8 or 16, not {bits}")
+    if image.dtype == np.uint8:
+        return image if bits == 8 else image.astype(np.uint16) * 257
+    if image.dtype == np.uint16:
+        return image if bits == 16 else ((image.astype(np.uint32) + 128) // 257).astype(np.uint8)
+    raise InvalidInputError(f"cannot write pixel type {image.dtype} (use uint8 or uint16)")
+
+
+def _png_text_chunk(key: str, value: str) -> bytes:
+    payload = key.encode("latin-1") + b"\x00" + value.encode("latin-1")
+    body = b"tEXt" + payload
+    return struct.pack(">I", len(payload)) + body + struct.pack(">I", zlib.crc32(body))
+
+
+def encode_png(image: np.ndarray, *, bits: int | None = None, text: dict[str, str] | None = None) -> bytes:
+    """Encode an ``(H, W[, C])`` uint8/uint16 array as PNG bytes (optional tEXt metadata)."""
+    import cv2
+
+    arr = np.asarray(image)
+    if bits is not None:
+        arr = to_bits(arr, bits)
+    if arr.dtype not in (np.uint8, np.uint16):
+        raise InvalidInputError(f"cannot write pixel type {arr.dtype} (use uint8 or uint16)")
+    if arr.ndim == 3 and arr.shape[2] == 1:
+        arr = arr[:, :, 0]
+    if arr.ndim == 3:
+        if arr.shape[2] != 3:
+            raise InvalidInputError(f"cannot write an image with {arr.shape[2]} channels")
+        arr = arr[:, :, ::-1]  # OpenCV writes BGR
+    ok, buf = cv2.imencode(".png", np.ascontiguousarray(arr), [cv2.IMWRITE_PNG_COMPRESSION, 6])
+    if not ok:
+        raise InvalidInputError("PNG encoding failed")
+    data = buf.tobytes()
+    if text:
+        ihdr_end = 8 + 4 + 4 + 13 + 4
+        extra = b"".join(_png_text_chunk(k, v) for k, v in text.items())
+        data = data[:ihdr_end] + extra + data[ihdr_end:]
+    return data
+
+
+def read_png_text(path: str | os.PathLike) -> dict[str, str]:
+    """Return the tEXt metadata of a PNG file (empty for other formats)."""
+    data = _check_file(Path(path))
+    out: dict[str, str] = {}
+    if not data.startswith(_PNG_MAGIC):
+        return out
+    pos = 8
+    while pos + 8 <= len(data):
+        (length,) = struct.unpack(">I", data[pos : pos + 4])
+        ctype = data[pos + 4 : pos + 8]
+        if ctype == b"tEXt":
+            key, _, value = data[pos + 8 : pos + 8 + length].partition(b"\x00")
+            out[key.decode("latin-1")] = value.decode("latin-1")
+        if ctype in (b"IDAT", b"IEND"):
+            break
+        pos += 12 + length
+    return out
+
+
+def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
+    """Write ``data`` to ``path`` through a temporary file renamed into place."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+    return path
+
+
+def write_png(
+    path: str | os.PathLike,
+    image: np.ndarray,
+    *,
+    bits: int | None = None,
+    text: dict[str, str] | None = None,
+) -> Path:
+    """Write an image as an 8- or 16-bit PNG, atomically.
+
+    ``bits`` defaults to the array's own depth (uint8 -> 8, uint16 -> 16).
+    """
+    return write_bytes_atomic(path, encode_png(image, bits=bits, text=text))

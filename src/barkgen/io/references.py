@@ -1,0 +1,50 @@
+"""Reference maps on disk: 16-bit RGB PNGs whose pixels are exemplar coordinates.
+
+Channel R holds the exemplar column (x), G the row (y), B is 0. A ``barkgen-reference`` tEXt
+chunk records the exemplar size (``WxH``) so a reference map is only re-applied to maps of the
+size it was made for (laitoch2018 §3.3.1, "image of references").
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from barkgen.errors import ImageReadError, InvalidInputError
+from barkgen.io.images import read_image, read_png_text, write_png
+
+_KEY = "barkgen-reference"
+
+
+def write_reference(path: str | os.PathLike, references: np.ndarray, exemplar_shape: tuple[int, int]) -> Path:
+    """Save an ``(H, W, 2)`` array of (row, col) exemplar coordinates as a 16-bit PNG."""
+    refs = np.asarray(references)
+    h, w = int(exemplar_shape[0]), int(exemplar_shape[1])
+    if refs.ndim != 3 or refs.shape[2] != 2:
+        raise InvalidInputError(f"reference map must have shape (H, W, 2), not {refs.shape}")
+    if max(h, w) > 65535:
+        raise InvalidInputError("exemplars wider or taller than 65535 px cannot be saved as references")
+    rgb = np.zeros(refs.shape[:2] + (3,), np.uint16)
+    rgb[:, :, 0] = refs[:, :, 1]
+    rgb[:, :, 1] = refs[:, :, 0]
+    return write_png(path, rgb, text={_KEY: f"exemplar={w}x{h}"})
+
+
+def read_reference(path: str | os.PathLike) -> tuple[np.ndarray, tuple[int, int] | None]:
+    """Load a reference map: ``((H, W, 2) int32 (row, col) array, exemplar (h, w) or None)``."""
+    path = Path(path)
+    image = read_image(path)
+    if image.dtype != np.uint16 or image.shape[2] != 3:
+        raise ImageReadError(f"{path}: not a barkgen reference map (expected a 16-bit RGB PNG)")
+    refs = np.stack([image[:, :, 1], image[:, :, 0]], axis=-1).astype(np.int32)
+    shape = None
+    meta = read_png_text(path).get(_KEY, "")
+    if meta.startswith("exemplar="):
+        try:
+            w, h = (int(v) for v in meta[len("exemplar="):].split("x"))
+            shape = (h, w)
+        except ValueError:
+            shape = None
+    return refs, shape

@@ -1,0 +1,132 @@
+"""Numba kernels of the neighbour-search stage (compiled lazily, cached on disk)."""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+
+@nb.njit(parallel=True, cache=True)
+def select_spread_neighbours(knn, width, k, radius):  # pragma: no cover - compiled
+    """Keep, per row of ``knn`` (nearest first), the first ``k`` exemplar pixels that lie more than
+    ``radius`` (Chebyshev) from the query pixel and from each already kept one.
+
+    Rows left short are padded with their last kept entry (or the query itself).
+    """
+    n, kk = knn.shape
+    out = np.empty((n, k), np.int32)
+    for i in nb.prange(n):
+        qy = i // width
+        qx = i - qy * width
+        m = 0
+        for j in range(kk):
+            c = knn[i, j]
+            if c < 0:
+                continue
+            cy = c // width
+            cx = c - cy * width
+            if abs(cy - qy) <= radius and abs(cx - qx) <= radius:
+                continue
+            ok = True
+            for t in range(m):
+                o = out[i, t]
+                oy = o // width
+                ox = o - oy * width
+                if abs(cy - oy) <= radius and abs(cx - ox) <= radius:
+                    ok = False
+                    break
+            if ok:
+                out[i, m] = c
+                m += 1
+                if m == k:
+                    break
+        fill = out[i, m - 1] if m > 0 else i
+        for t in range(m, k):
+            out[i, t] = fill
+    return out
+
+
+@nb.njit(parallel=True, cache=True, fastmath=True)
+def refine_child_sets(parent_sets, coarse_w, coarse_h, features, height, width, k,
+                      radius):  # pragma: no cover - compiled
+    """k-coherence sets of a pyramid level from those of the next coarser level.
+
+    For each pixel, every entry of its parent's k-coherence set proposes its child with the same
+    sub-pixel offset; the best of that child and its 3x3 neighbours (by appearance distance) is
+    the proposal. Proposals are kept nearest first, spread apart by more than ``radius`` pixels
+    (from the pixel and from each other) as in :func:`select_spread_neighbours`.
+    """
+    n = height * width
+    kp = parent_sets.shape[1]
+    D = features.shape[1]
+    out = np.empty((n, k), np.int32)
+    for y in nb.prange(height):
+        cand = np.empty(kp, np.int32)
+        dist = np.empty(kp, np.float32)
+        for x in range(width):
+            i = y * width + x
+            py = min(y // 2, coarse_h - 1)
+            px = min(x // 2, coarse_w - 1)
+            p = py * coarse_w + px
+            m = 0
+            for t in range(kp):
+                c = parent_sets[p, t]
+                cy = c // coarse_w
+                cx = c - cy * coarse_w
+                by = 2 * cy + (y & 1)
+                bx = 2 * cx + (x & 1)
+                ubest = -1
+                dbest = np.inf
+                for dy in range(-1, 2):
+                    yy = by + dy
+                    if yy < 0 or yy >= height:
+                        continue
+                    for dx in range(-1, 2):
+                        xx = bx + dx
+                        if xx < 0 or xx >= width:
+                            continue
+                        if abs(yy - y) <= radius and abs(xx - x) <= radius:
+                            continue
+                        u = yy * width + xx
+                        d2 = 0.0
+                        for d in range(D):
+                            diff = features[u, d] - features[i, d]
+                            d2 += diff * diff
+                        if d2 < dbest:
+                            dbest = d2
+                            ubest = u
+                if ubest >= 0:
+                    cand[m] = ubest
+                    dist[m] = dbest
+                    m += 1
+            got = 0
+            for _ in range(m):
+                jbest = -1
+                dbest = np.inf
+                for j in range(m):
+                    if dist[j] < dbest:
+                        dbest = dist[j]
+                        jbest = j
+                if jbest < 0:
+                    break
+                dist[jbest] = np.inf
+                c = cand[jbest]
+                cy = c // width
+                cx = c - cy * width
+                ok = True
+                for t in range(got):
+                    o = out[i, t]
+                    oy = o // width
+                    ox = o - oy * width
+                    if abs(cy - oy) <= radius and abs(cx - ox) <= radius:
+                        ok = False
+                        break
+                if ok:
+                    out[i, got] = c
+                    got += 1
+                    if got == k:
+                        break
+            fill = out[i, got - 1] if got > 0 else i
+            for t in range(got, k):
+                out[i, t] = fill
+    return out

@@ -1,0 +1,77 @@
+"""k-coherence analysis (Tong et al. 2002; mazzolini2012 §4.1.2 "k-coherence analysis phase";
+laitoch2018 §3.3.6): for every exemplar pixel, the ``k`` exemplar pixels whose neighbourhoods are
+most similar, found once by nearest-neighbour search on appearance vectors (faiss).
+
+Candidates closer than ``radius`` pixels to the query, or to an already chosen candidate, are
+skipped: they would only repeat what forward-shifting already proposes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+_FLAT_LIMIT = 24_000  # exact search below this many exemplar pixels
+
+
+def knn_search(features: np.ndarray, n_neighbours: int) -> tuple[np.ndarray, np.ndarray]:
+    """``n_neighbours`` approximate nearest neighbours of every row of ``features`` among all rows
+    (itself included). Exact (flat index) for small sets, IVF with 4·sqrt(N) lists otherwise."""
+    import faiss
+
+    x = np.ascontiguousarray(features, dtype=np.float32)
+    n, d = x.shape
+    kk = min(n_neighbours, n)
+    if n <= _FLAT_LIMIT:
+        index = faiss.IndexFlatL2(d)
+    else:
+        nlist = int(4 * np.sqrt(n))
+        quantizer = faiss.IndexFlatL2(d)
+        index = faiss.IndexIVFFlat(quantizer, d, nlist)
+        step = max(1, n // (nlist * 48))
+        index.train(x[::step])
+        index.nprobe = 10
+    index.add(x)
+    dist, idx = index.search(x, kk)
+    return dist, idx
+
+
+def k_coherence_sets(features: np.ndarray, width: int, k: int, radius: int = 2,
+                     search: int | None = None) -> tuple[np.ndarray, float]:
+    """k-coherence sets of an exemplar level.
+
+    Returns ``(sets, scale)``: ``sets`` is ``(h * w, k)`` int32 flat exemplar indices; ``scale``
+    is the median squared appearance distance from a pixel to its first kept neighbour, the
+    natural unit of the synthesis costs.
+    """
+    from barkgen.nnf._kernels import select_spread_neighbours
+
+    search = search or max(4 * k + 8, 32)
+    dist, idx = knn_search(features, search)
+    sets = select_spread_neighbours(idx.astype(np.int32), np.int32(width), np.int32(k),
+                                    np.int32(radius))
+    return sets, _scale(features, sets)
+
+
+def _scale(features: np.ndarray, sets: np.ndarray) -> float:
+    first = sets[:, 0].astype(np.int64)
+    d2 = np.sum((features - features[first]) ** 2, axis=1)
+    scale = float(np.median(d2)) if d2.size else 1.0
+    return max(scale, 1e-6)
+
+
+def k_coherence_sets_from_parent(parent_sets: np.ndarray, parent_shape: tuple[int, int],
+                                 features: np.ndarray, shape: tuple[int, int], k: int,
+                                 radius: int = 2) -> tuple[np.ndarray, float]:
+    """k-coherence sets of a level propagated from the next coarser level's sets and refined
+    on this level's appearance vectors (hierarchical search: the children of the parent's
+    similar pixels and their 3x3 neighbours). Far cheaper than a fresh search on large levels,
+    with the same result wherever the coarse level already found the right region.
+    """
+    from barkgen.nnf._kernels import refine_child_sets
+
+    sets = refine_child_sets(np.ascontiguousarray(parent_sets, dtype=np.int32),
+                             np.int32(parent_shape[1]), np.int32(parent_shape[0]),
+                             np.ascontiguousarray(features, dtype=np.float32),
+                             np.int32(shape[0]), np.int32(shape[1]), np.int32(k),
+                             np.int32(radius))
+    return sets, _scale(features, sets)

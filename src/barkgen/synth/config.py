@@ -1,0 +1,80 @@
+"""Typed, validated configuration of the synthesizer."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from barkgen.errors import InvalidInputError
+
+#: (neighbourhood size, iterations) pairs run at the coarsest, middle and finest levels.
+Schedule = tuple[tuple[int, int], ...]
+
+
+@dataclass(frozen=True)
+class SynthesisConfig:
+    """Parameters of the k-coherence discrete solver.
+
+    Defaults are tuned on the bark photos of the team's evaluation set (see the README's
+    benchmark section); every field is validated once, here.
+
+    Attributes:
+        k: size of each k-coherence set (Tong 2002).
+        pca_components: appearance-space dimensions (Lefebvre & Hoppe 2006).
+        coarsest_exemplar: short side, in pixels, of the exemplar's coarsest pyramid level.
+        schedule_coarsest, schedule_middle, schedule_finest: ``(size, iterations)`` pairs run at
+            each level: several neighbourhood sizes per level, largest first (Kwatra 2005).
+        kset_cost: extra cost of a non-coherent candidate, in units of the typical
+            nearest-neighbour distance (favours coherent patches, Ashikhmin 2001).
+        occurrence_weight: weight of the penalty on exemplar regions used more often than the
+            uniform expectation (Kaspar 2015 occurrence maps), same units.
+        jitter: references are displaced by up to ``jitter * 2**level`` pixels after upsampling at
+            levels above the finest two (Lefebvre & Hoppe 2005), a source of variation.
+        extra_weight: weight of the extra channels relative to luminance in the matching.
+        threads: worker threads for numba/faiss (None: all cores).
+        max_memory: refuse jobs whose estimated peak memory exceeds this many bytes.
+    """
+
+    k: int = 6
+    pca_components: int = 8
+    coarsest_exemplar: int = 32
+    schedule_coarsest: Schedule = ((7, 5), (5, 2))
+    schedule_middle: Schedule = ((7, 2), (5, 2))
+    schedule_finest: Schedule = ((5, 1), (3, 1))
+    kset_cost: float = 0.5
+    occurrence_weight: float = 1.0
+    jitter: float = 0.0
+    extra_weight: float = 0.5
+    threads: int | None = None
+    max_memory: int = 8 * 1024**3
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.k <= 32:
+            raise InvalidInputError(f"k must be between 1 and 32, not {self.k}")
+        if not 1 <= self.pca_components <= 64:
+            raise InvalidInputError("pca_components must be between 1 and 64")
+        if self.coarsest_exemplar < 8:
+            raise InvalidInputError("coarsest_exemplar must be at least 8 px")
+        for name in ("schedule_coarsest", "schedule_middle", "schedule_finest"):
+            sched = getattr(self, name)
+            if not sched:
+                raise InvalidInputError(f"{name} must list at least one (size, iterations) pair")
+            for size, iters in sched:
+                if size < 3 or size % 2 == 0 or size > 15:
+                    raise InvalidInputError(f"{name}: neighbourhood size must be odd, 3..15, not {size}")
+                if iters < 0:
+                    raise InvalidInputError(f"{name}: iterations must be >= 0")
+        for name in ("kset_cost", "occurrence_weight", "jitter", "extra_weight"):
+            if getattr(self, name) < 0:
+                raise InvalidInputError(f"{name} must be >= 0")
+        if self.threads is not None and self.threads < 1:
+            raise InvalidInputError("threads must be >= 1")
+        if self.max_memory <= 0:
+            raise InvalidInputError("max_memory must be positive")
+
+    def schedule_for(self, level: int, n_levels: int) -> Schedule:
+        """The (size, iterations) pairs of pyramid level ``level`` (0 = finest)."""
+        if level == n_levels - 1:
+            return self.schedule_coarsest
+        if level == 0:
+            return self.schedule_finest
+        return self.schedule_middle

@@ -1,0 +1,383 @@
+"""Example-based texture synthesis with the k-coherence discrete solver.
+
+Implements the texture-optimization solver of Han et al. 2006 as described in mazzolini2012 §4.1
+(k-coherence analysis and synthesis phases, multi-resolution) and laitoch2018 §3.3 (image of
+references, forward-shifted neighbourhoods, exact reference up-sampling, M-step on a sparse subset,
+E-step, extra channels), with these additions:
+
+* appearance space (Lefebvre & Hoppe 2006): neighbourhoods are compared as PCA vectors;
+* several neighbourhood sizes per level, largest first (Kwatra et al. 2005);
+* an occurrence penalty (Kaspar et al. 2015) so every exemplar region is used about equally,
+  which answers the "same patterns repeated" defect of laitoch2018 §4.1;
+* a coherence bias (Ashikhmin 2001) that keeps exemplar patches whole;
+* toroidal neighbourhoods at every level for tileable output;
+* the output is an image of references, resolved to exemplar pixels only at the end, so nothing
+  is ever averaged: the result is exactly as sharp as the exemplar (laitoch2018 §4.2's blur).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from barkgen.errors import InvalidInputError, MemoryBudgetError
+from barkgen.nnf import (
+    NeighbourhoodProjection,
+    k_coherence_sets,
+    k_coherence_sets_from_parent,
+    neighbourhood_pca,
+)
+from barkgen.pyramid import count_levels, gaussian_pyramid, level_shape
+from barkgen.synth.config import SynthesisConfig
+
+#: progress(done, total): called after each unit of work.
+ProgressCallback = Callable[[int, int], None]
+
+MIN_EXEMPLAR_SIDE = 16
+#: exemplar levels with at most this many pixels get an exact k-NN search (faiss); larger
+#: ones refine their parent's k-coherence sets
+DIRECT_SEARCH_LIMIT = 2048
+
+
+@dataclass
+class SynthesisResult:
+    """What :func:`synthesize` returns.
+
+    Attributes:
+        image: the synthesized texture, same dtype and channel count as the exemplar.
+        references: ``(H, W, 2)`` int32, the exemplar (row, col) each output pixel copies.
+        extras: each extra map of the exemplar, resolved through the same references.
+        exemplar_shape: ``(h, w)`` of the exemplar the references point into.
+        seed, tile: as requested.
+        timings: seconds spent in ``analysis`` and ``synthesis``.
+    """
+
+    image: np.ndarray
+    references: np.ndarray
+    extras: dict[str, np.ndarray] = field(default_factory=dict)
+    exemplar_shape: tuple[int, int] = (0, 0)
+    seed: int = 0
+    tile: bool = False
+    timings: dict[str, float] = field(default_factory=dict)
+
+
+@dataclass
+class LevelAnalysis:
+    """The k-coherence analysis of one exemplar pyramid level (mazzolini2012 §4.1.2)."""
+
+    height: int
+    width: int
+    features: np.ndarray  # (h * w, C) float32 per-pixel matching features
+    projections: dict[int, NeighbourhoodProjection]
+    ksets: np.ndarray  # (h * w, k) int32
+    scale: float  # typical squared appearance distance to the nearest distinct neighbour
+
+
+# --------------------------------------------------------------------------------------------
+# validation and set-up
+
+
+def _as_hw_c(name: str, array: np.ndarray) -> np.ndarray:
+    arr = np.asarray(array)
+    if arr.ndim == 2:
+        arr = arr[:, :, None]
+    if arr.ndim != 3 or arr.shape[2] < 1:
+        raise InvalidInputError(f"{name} must be an (H, W) or (H, W, C) array, not {arr.shape}")
+    if arr.dtype.kind not in "uif" or arr.dtype == np.bool_:
+        raise InvalidInputError(f"{name} has unsupported dtype {arr.dtype}")
+    return arr
+
+
+def _unit_float(arr: np.ndarray) -> np.ndarray:
+    if arr.dtype == np.uint8:
+        return arr.astype(np.float32) / 255.0
+    if arr.dtype == np.uint16:
+        return arr.astype(np.float32) / 65535.0
+    if arr.dtype.kind == "f":
+        return arr.astype(np.float32)
+    info = np.iinfo(arr.dtype)
+    return (arr.astype(np.float64) / max(info.max, 1)).astype(np.float32)
+
+
+def parse_output_shape(size: int | tuple[int, int]) -> tuple[int, int]:
+    """``size`` as ``(height, width)``; an int is a square."""
+    if isinstance(size, (int, np.integer)):
+        shape = (int(size), int(size))
+    else:
+        try:
+            h, w = size
+            shape = (int(h), int(w))
+        except (TypeError, ValueError):
+            raise InvalidInputError(f"size must be an int or (height, width), not {size!r}") from None
+    if shape[0] < 1 or shape[1] < 1:
+        raise InvalidInputError(f"output size must be positive, not {shape[1]}x{shape[0]}")
+    return shape
+
+
+def matching_features(exemplar: np.ndarray, extras: Mapping[str, np.ndarray] | None,
+                      extra_weight: float) -> np.ndarray:
+    """Per-pixel features used for matching: CIELAB (L in 0..100) or L alone for grey images,
+    plus each extra channel scaled to 0..100 and weighted (laitoch2018 §3.3.1, extra channels).
+    """
+    import cv2
+
+    ex = _unit_float(_as_hw_c("exemplar", exemplar))
+    if ex.shape[2] >= 3:
+        feats = [cv2.cvtColor(np.ascontiguousarray(ex[:, :, :3]), cv2.COLOR_RGB2Lab)]
+    else:
+        feats = [ex[:, :, :1] * 100.0]
+    for name, arr in (extras or {}).items():
+        e = _unit_float(_as_hw_c(f"extra map {name!r}", arr))
+        feats.append(e * (100.0 * extra_weight / np.sqrt(e.shape[2])))
+    return np.ascontiguousarray(np.concatenate(feats, axis=2), dtype=np.float32)
+
+
+def estimate_memory(exemplar_shape: tuple[int, int], output_shape: tuple[int, int],
+                    channels: int, bytes_per_channel: int, feature_channels: int,
+                    config: SynthesisConfig) -> int:
+    """Estimated peak memory of a synthesis, in bytes (made before any work starts)."""
+    n_ex = exemplar_shape[0] * exemplar_shape[1]
+    n_out = output_shape[0] * output_shape[1]
+    sizes = {s for sched in (config.schedule_coarsest, config.schedule_middle,
+                             config.schedule_finest) for s, _ in sched}
+    per_ex = (feature_channels * 4 * 3 + config.pca_components * 4 * len(sizes) * 1.4
+              + config.k * 4 * 1.4 + 8)
+    per_out = 64 + 3 * channels * bytes_per_channel
+    search = min(n_ex, 262_144) * max(4 * config.k + 8, 32) * 12
+    return int(200e6 + n_ex * per_ex + n_out * per_out + search)
+
+
+# --------------------------------------------------------------------------------------------
+# analysis
+
+
+def _schedule_sizes(config: SynthesisConfig, level: int, n_levels: int) -> list[int]:
+    return sorted({s for s, _ in config.schedule_for(level, n_levels)}, reverse=True)
+
+
+def analyse_exemplar(features: np.ndarray, n_levels: int, config: SynthesisConfig,
+                     progress: Callable[[], None] | None = None) -> list[LevelAnalysis]:
+    """k-coherence analysis phase on every pyramid level of the exemplar features."""
+    pyramid = gaussian_pyramid(features, n_levels)
+    levels: list[LevelAnalysis | None] = [None] * n_levels
+    parent: LevelAnalysis | None = None
+    for lvl in reversed(range(n_levels)):
+        img = pyramid[lvl]
+        h, w, c = img.shape
+        projections = {s: neighbourhood_pca(img, s, config.pca_components)
+                       for s in _schedule_sizes(config, lvl, n_levels)}
+        largest = projections[max(projections)]
+        if parent is None or h * w <= DIRECT_SEARCH_LIMIT:
+            ksets, scale = k_coherence_sets(largest.features, w, config.k, radius=2)
+        else:
+            ksets, scale = k_coherence_sets_from_parent(
+                parent.ksets, (parent.height, parent.width), largest.features, (h, w),
+                config.k, radius=2)
+        parent = LevelAnalysis(h, w, img.reshape(h * w, c), projections, ksets, scale)
+        levels[lvl] = parent
+        if progress:
+            progress()
+    return levels  # type: ignore[return-value]
+
+
+# --------------------------------------------------------------------------------------------
+# synthesis steps
+
+
+def _upsample(refs: np.ndarray, coarse: LevelAnalysis, fine: LevelAnalysis,
+              out_shape: tuple[int, int]) -> np.ndarray:
+    """Exact reference up-sampling (laitoch2018 §3.3.2): child (2y+i, 2x+j) of an output pixel
+    takes the child (2v+i, 2u+j) of its exemplar reference (v, u)."""
+    H, W = out_shape
+    ys = np.arange(H, dtype=np.int32)[:, None]
+    xs = np.arange(W, dtype=np.int32)[None, :]
+    parent = refs[ys // 2, xs // 2]
+    py, px = np.divmod(parent, np.int32(coarse.width))
+    fy = np.minimum(2 * py + (ys & 1), fine.height - 1)
+    fx = np.minimum(2 * px + (xs & 1), fine.width - 1)
+    return np.ascontiguousarray(fy * fine.width + fx, dtype=np.int32)
+
+
+def _jitter(refs: np.ndarray, level: LevelAnalysis, amplitude: int,
+            rng: np.random.Generator) -> np.ndarray:
+    """Displace every reference by a seeded random offset in [-amplitude, amplitude]
+    (Lefebvre & Hoppe 2005, controllable jitter)."""
+    if amplitude <= 0:
+        return refs
+    ry, rx = np.divmod(refs, np.int32(level.width))
+    jy = rng.integers(-amplitude, amplitude + 1, size=refs.shape, dtype=np.int32)
+    jx = rng.integers(-amplitude, amplitude + 1, size=refs.shape, dtype=np.int32)
+    ry = np.clip(ry + jy, 0, level.height - 1)
+    rx = np.clip(rx + jx, 0, level.width - 1)
+    return np.ascontiguousarray(ry * level.width + rx, dtype=np.int32)
+
+
+def _occurrence_penalty(refs: np.ndarray, level: LevelAnalysis, weight: float,
+                        radius: int) -> np.ndarray:
+    """Penalty per exemplar pixel, growing with how much more often its region is referenced than
+    a uniform use of the exemplar would give (occurrence map, Kaspar et al. 2015 §5)."""
+    n = level.height * level.width
+    if weight <= 0:
+        return np.zeros(n, np.float32)
+    import cv2
+
+    counts = np.bincount(refs.ravel(), minlength=n).astype(np.float32).reshape(level.height, level.width)
+    k = 2 * radius + 1
+    regional = cv2.blur(counts, (k, k), borderType=cv2.BORDER_REFLECT_101)
+    expected = max(1.0, refs.size / n)
+    excess = np.maximum(regional / expected - 1.0, 0.0)
+    return np.ascontiguousarray((weight * level.scale) * excess, dtype=np.float32).ravel()
+
+
+def _stride_for(size: int) -> int:
+    return 1 if size <= 3 else 2
+
+
+# --------------------------------------------------------------------------------------------
+# public API
+
+
+def synthesize(
+    exemplar: np.ndarray,
+    size: int | tuple[int, int],
+    *,
+    tile: bool = False,
+    seed: int = 0,
+    extra: Mapping[str, np.ndarray] | None = None,
+    config: SynthesisConfig | None = None,
+    progress: ProgressCallback | None = None,
+) -> SynthesisResult:
+    """Synthesize a new texture of ``size`` = ``(height, width)`` from ``exemplar``.
+
+    Args:
+        exemplar: ``(h, w)`` or ``(h, w, C)`` array (uint8, uint16 or float), C = 1 or 3.
+        size: output ``(height, width)`` (numpy order) or an int for a square.
+        tile: make the output wrap seamlessly in x and y (toroidal neighbourhoods).
+        seed: seeds the one ``numpy.random.Generator`` behind every random choice.
+        extra: named maps aligned with the exemplar (height, normal, ...); they take part in the
+            matching (weight ``config.extra_weight``) and are returned resolved.
+        config: solver parameters (:class:`SynthesisConfig`).
+        progress: optional ``progress(done, total)`` callback.
+
+    Returns:
+        :class:`SynthesisResult` with the image, the references and the extra maps.
+
+    Raises:
+        InvalidInputError: bad shapes, sizes or parameters.
+        MemoryBudgetError: the estimated memory exceeds ``config.max_memory``.
+    """
+    config = config or SynthesisConfig()
+    ex = _as_hw_c("exemplar", exemplar)
+    if ex.shape[2] not in (1, 3):
+        raise InvalidInputError(f"exemplar must have 1 or 3 channels, not {ex.shape[2]}")
+    if min(ex.shape[:2]) < MIN_EXEMPLAR_SIDE:
+        raise InvalidInputError(
+            f"exemplar is {ex.shape[1]}x{ex.shape[0]} px; it must be at least "
+            f"{MIN_EXEMPLAR_SIDE} px on each side")
+    out_shape = parse_output_shape(size)
+    if not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InvalidInputError(f"seed must be a non-negative integer, not {seed!r}")
+    extras = {}
+    for name, arr in (extra or {}).items():
+        e = _as_hw_c(f"extra map {name!r}", arr)
+        if e.shape[:2] != ex.shape[:2]:
+            raise InvalidInputError(
+                f"extra map {name!r} is {e.shape[1]}x{e.shape[0]} px but the exemplar is "
+                f"{ex.shape[1]}x{ex.shape[0]} px; they must match")
+        extras[name] = e
+    n_feat = (3 if ex.shape[2] == 3 else 1) + sum(e.shape[2] for e in extras.values())
+    need = estimate_memory(ex.shape[:2], out_shape,
+                           ex.shape[2] + sum(e.shape[2] for e in extras.values()),
+                           max([ex.dtype.itemsize] + [e.dtype.itemsize for e in extras.values()]),
+                           n_feat, config)
+    if need > config.max_memory:
+        raise MemoryBudgetError(
+            f"output {out_shape[1]}x{out_shape[0]} needs about {need / 1e9:.1f} GB, more than the "
+            f"memory budget of {config.max_memory / 1e9:.1f} GB (raise it with --max-memory)")
+
+    if config.threads is not None:
+        import faiss
+        import numba
+
+        numba.set_num_threads(min(config.threads, numba.config.NUMBA_NUM_THREADS))
+        faiss.omp_set_num_threads(config.threads)
+
+    from barkgen.synth import _kernels as K
+
+    rng = np.random.default_rng(int(seed))
+    n_levels = count_levels(ex.shape[:2], out_shape, config.coarsest_exemplar)
+    total = n_levels + sum(it for lvl in range(n_levels) for _, it in config.schedule_for(lvl, n_levels))
+    done = 0
+
+    def tick() -> None:
+        nonlocal done
+        done += 1
+        if progress:
+            progress(done, total)
+
+    t0 = time.perf_counter()
+    feats = matching_features(ex, extras, config.extra_weight)
+    levels = analyse_exemplar(feats, n_levels, config, progress=tick)
+    t1 = time.perf_counter()
+
+    refs = None
+    for lvl in reversed(range(n_levels)):
+        la = levels[lvl]
+        shape = level_shape(out_shape, lvl)
+        if refs is None:
+            refs = rng.integers(0, la.height * la.width, size=shape, dtype=np.int32)
+        else:
+            refs = _upsample(refs, levels[lvl + 1], la, shape)
+            if lvl >= 2:
+                refs = _jitter(refs, la, int(round(config.jitter * 2)), rng)
+        match = np.empty(shape, np.int32)
+        new = np.empty(shape, np.int32)
+        occ_radius = 3
+        penalty = _occurrence_penalty(refs, la, config.occurrence_weight, occ_radius)
+        for nb_size, iters in config.schedule_for(lvl, n_levels):
+            proj = la.projections[nb_size]
+            stride = _stride_for(nb_size)
+            for _ in range(iters):
+                oy, ox = (int(v) for v in rng.integers(0, stride, size=2))
+                match.fill(-1)
+                K.m_step(refs, la.features, la.height, la.width, proj.weights, proj.mean,
+                         proj.features, la.ksets, penalty, np.float32(config.kset_cost * la.scale),
+                         stride, oy, ox, tile, match)
+                K.e_step(match, refs, la.features, la.height, la.width, nb_size // 2, stride,
+                         oy, ox, tile, np.float32(max(nb_size / 3.0, 1.0)), new)
+                refs, new = new, refs
+                penalty = _occurrence_penalty(refs, la, config.occurrence_weight, occ_radius)
+                tick()
+    t2 = time.perf_counter()
+
+    h, w = ex.shape[:2]
+    image = ex.reshape(h * w, ex.shape[2])[refs].reshape(out_shape + (ex.shape[2],))
+    out_extras = {name: e.reshape(h * w, e.shape[2])[refs].reshape(out_shape + (e.shape[2],))
+                  for name, e in extras.items()}
+    ry, rx = np.divmod(refs, np.int32(w))
+    references = np.stack([ry, rx], axis=-1).astype(np.int32)
+    if np.asarray(exemplar).ndim == 2:
+        image = image[:, :, 0]
+    return SynthesisResult(image=image, references=references, extras=out_extras,
+                           exemplar_shape=(h, w), seed=int(seed), tile=bool(tile),
+                           timings={"analysis": t1 - t0, "synthesis": t2 - t1})
+
+
+def apply_references(references: np.ndarray, image: np.ndarray) -> np.ndarray:
+    """Resolve a reference map against any map of the exemplar's size (laitoch2018 §3.3.1):
+    ``out[y, x] = image[references[y, x, 0], references[y, x, 1]]``."""
+    refs = np.asarray(references)
+    img = np.asarray(image)
+    if refs.ndim != 3 or refs.shape[2] != 2:
+        raise InvalidInputError(f"references must have shape (H, W, 2), not {refs.shape}")
+    if img.ndim not in (2, 3):
+        raise InvalidInputError(f"image must be (H, W) or (H, W, C), not {img.shape}")
+    if refs.size and (refs.min() < 0 or refs[:, :, 0].max() >= img.shape[0]
+                      or refs[:, :, 1].max() >= img.shape[1]):
+        raise InvalidInputError(
+            f"the reference map points outside a {img.shape[1]}x{img.shape[0]} image; "
+            "apply it to a map of the exemplar's size")
+    return img[refs[:, :, 0], refs[:, :, 1]]

@@ -1,0 +1,62 @@
+"""Shared fixtures: real bark photos and the team's texeval from ../shared (skipped if absent)."""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+SHARED = Path(os.environ.get("BARKGEN_SHARED", REPO.parent / "shared"))
+BARK = SHARED / "data" / "bark"
+EVAL = SHARED / "eval"
+
+
+def _need_shared() -> None:
+    if not (BARK.is_dir() and (EVAL / "texeval.py").is_file()):
+        pytest.skip(f"needs the team's shared folder with data/bark and eval/texeval.py at {SHARED} "
+                    "(set BARKGEN_SHARED); not part of a user's checkout")
+
+
+@pytest.fixture(scope="session")
+def texeval():
+    """The texeval module of ../shared/eval."""
+    _need_shared()
+    if str(EVAL) not in sys.path:
+        sys.path.insert(0, str(EVAL))
+    import texeval as module
+
+    return module
+
+
+def bark_exemplar(name: str, size: int) -> np.ndarray:
+    """Centre crop of a real bark photo, short side resized to ``size`` (like compare.py)."""
+    _need_shared()
+    from PIL import Image
+
+    path = next(BARK.glob(name + ".*"))
+    im = Image.open(path).convert("RGB")
+    w, h = im.size
+    s = size / min(w, h)
+    im = im.resize((max(size, round(w * s)), max(size, round(h * s))), Image.LANCZOS)
+    w, h = im.size
+    left, top = (w - size) // 2, (h - size) // 2
+    return np.asarray(im.crop((left, top, left + size, top + size)))
+
+
+@pytest.fixture(scope="session")
+def pine64() -> np.ndarray:
+    return bark_exemplar("pine_plated_01", 64)
+
+
+@pytest.fixture(scope="session")
+def synthetic_exemplar() -> np.ndarray:
+    """A small structured colour texture that needs no shared data."""
+    rng = np.random.default_rng(7)
+    y, x = np.mgrid[0:48, 0:40]
+    base = 128 + 60 * np.sin(x / 3.0) * np.cos(y / 5.0)
+    img = np.stack([base, base * 0.8 + 20, 255 - base], axis=-1) + rng.normal(0, 8, (48, 40, 3))
+    return np.clip(img, 0, 255).astype(np.uint8)

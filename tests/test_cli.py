@@ -1,0 +1,115 @@
+"""The command line: outputs, reference maps, and one clear error line (exit 2) on bad input,
+with no output file left behind."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from barkgen.io import read_image, write_png
+
+
+def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "barkgen", *args], capture_output=True, text=True,
+                          cwd=cwd, timeout=600)
+
+
+@pytest.fixture(scope="module")
+def exemplar_png(tmp_path_factory, synthetic_exemplar) -> Path:
+    p = tmp_path_factory.mktemp("ex") / "ex.png"
+    write_png(p, synthetic_exemplar)
+    return p
+
+
+def test_synth_writes_output_extras_and_reference(tmp_path, exemplar_png, synthetic_exemplar):
+    h, w = synthetic_exemplar.shape[:2]
+    height = np.linspace(0, 65535, h * w).reshape(h, w).astype(np.uint16)
+    write_png(tmp_path / "height.png", height)
+    out = tmp_path / "out" / "bark.png"
+    r = run("synth", str(exemplar_png), "-o", str(out), "--size", "70x40", "--tile", "--seed", "3",
+            "--extra", f"height={tmp_path / 'height.png'}", "--save-reference", str(tmp_path / "ref.png"),
+            "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert r.stderr == "" and r.stdout == ""  # --quiet, and piped: no progress bar
+    img = read_image(out)
+    assert img.shape == (40, 70, 3)
+    hmap = read_image(tmp_path / "out" / "bark_height.png")
+    assert hmap.shape == (40, 70, 1) and hmap.dtype == np.uint16
+    # the saved reference map re-applied to the same height map gives the same bytes
+    r2 = run("apply-reference", str(tmp_path / "ref.png"), str(tmp_path / "height.png"),
+             "-o", str(tmp_path / "height2.png"))
+    assert r2.returncode == 0, r2.stderr
+    assert (tmp_path / "height2.png").read_bytes() == (tmp_path / "out" / "bark_height.png").read_bytes()
+    # ... and to the exemplar itself gives the texture
+    r3 = run("apply-reference", str(tmp_path / "ref.png"), str(exemplar_png), "-o", str(tmp_path / "c.png"))
+    assert r3.returncode == 0 and np.array_equal(read_image(tmp_path / "c.png"), img)
+
+
+def test_same_seed_same_bytes(tmp_path, exemplar_png):
+    for name in ("a", "b"):
+        assert run("synth", str(exemplar_png), "-o", str(tmp_path / f"{name}.png"), "--size", "64x48",
+                   "--seed", "9", "-q").returncode == 0
+    assert (tmp_path / "a.png").read_bytes() == (tmp_path / "b.png").read_bytes()
+
+
+def test_bundled_sample_is_the_default_exemplar(tmp_path):
+    r = run("synth", "-o", str(tmp_path / "s.png"), "--size", "96x64", "-q")
+    assert r.returncode == 0, r.stderr
+    assert read_image(tmp_path / "s.png").shape == (64, 96, 3)
+
+
+def _bad_inputs(tmp: Path, exemplar_png: Path) -> dict[str, list[str]]:
+    (tmp / "empty.png").write_bytes(b"")
+    (tmp / "text.png").write_text("not an image")
+    data = exemplar_png.read_bytes()
+    (tmp / "trunc.png").write_bytes(data[: len(data) // 2])
+    Image.fromarray(np.zeros((10, 40, 3), np.uint8)).save(tmp / "tiny.png")
+    Image.fromarray(np.zeros((7, 7), np.uint8)).save(tmp / "small_extra.png")
+    ex = str(exemplar_png)
+    return {
+        "missing file": [str(tmp / "nope.png")],
+        "not an image": [str(tmp / "text.png")],
+        "truncated image": [str(tmp / "trunc.png")],
+        "0-byte file": [str(tmp / "empty.png")],
+        "exemplar < 16 px": [str(tmp / "tiny.png")],
+        "size 0x0": [ex, "--size", "0x0"],
+        "size -5x10": [ex, "--size", "-5x10"],
+        "size abc": [ex, "--size", "abc"],
+        "memory budget": [ex, "--size", "20000x20000", "--max-memory", "1G"],
+        "extra size mismatch": [ex, "--extra", f"height={tmp / 'small_extra.png'}"],
+        "bad extra syntax": [ex, "--extra", "height"],
+        "not a png output": [ex, "-o", str(tmp / "out.jpg")],
+    }
+
+
+@pytest.mark.parametrize("case", [
+    "missing file", "not an image", "truncated image", "0-byte file", "exemplar < 16 px",
+    "size 0x0", "size -5x10", "size abc", "memory budget", "extra size mismatch",
+    "bad extra syntax", "not a png output",
+])
+def test_bad_input_one_line_exit_2_no_output(tmp_path, exemplar_png, case):
+    args = _bad_inputs(tmp_path, exemplar_png)[case]
+    outdir = tmp_path / "outdir"
+    outdir.mkdir()
+    if "-o" not in args:
+        args = args + ["-o", str(outdir / "out.png")]
+    r = run("synth", *args, "--save-reference", str(outdir / "ref.png"))
+    assert r.returncode == 2, (r.returncode, r.stderr)
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("barkgen: error: "), r.stderr
+    assert "Traceback" not in r.stderr
+    assert list(outdir.iterdir()) == []  # nothing written, no temp files
+
+
+def test_apply_reference_rejects_a_map_of_another_size(tmp_path, exemplar_png):
+    assert run("synth", str(exemplar_png), "-o", str(tmp_path / "o.png"), "--size", "32x32",
+               "--save-reference", str(tmp_path / "ref.png"), "-q").returncode == 0
+    write_png(tmp_path / "other.png", np.zeros((20, 20), np.uint8))
+    r = run("apply-reference", str(tmp_path / "ref.png"), str(tmp_path / "other.png"),
+            "-o", str(tmp_path / "x.png"))
+    assert r.returncode == 2 and "exemplar" in r.stderr and not (tmp_path / "x.png").exists()

@@ -1,0 +1,109 @@
+"""barkgen.io: formats, bit depths, alpha, broken files, atomic writes."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from barkgen.errors import ImageReadError
+from barkgen.io import AlphaDroppedWarning, read_image, read_png_text, write_png, write_reference
+from barkgen.io import read_reference
+
+
+@pytest.fixture
+def rgb8():
+    return np.random.default_rng(0).integers(0, 256, (20, 30, 3), dtype=np.uint8)
+
+
+def test_png_roundtrip_8_and_16_bit(tmp_path, rgb8):
+    write_png(tmp_path / "a.png", rgb8)
+    assert np.array_equal(read_image(tmp_path / "a.png"), rgb8)
+    rgb16 = rgb8.astype(np.uint16) * 257 + 3
+    write_png(tmp_path / "b.png", rgb16)
+    back = read_image(tmp_path / "b.png")
+    assert back.dtype == np.uint16 and np.array_equal(back, rgb16)
+    grey16 = rgb16[:, :, :1]
+    write_png(tmp_path / "g.png", grey16)
+    assert np.array_equal(read_image(tmp_path / "g.png"), grey16)
+
+
+def test_bit_depth_conversion_on_write(tmp_path, rgb8):
+    write_png(tmp_path / "a.png", rgb8, bits=16)
+    back = read_image(tmp_path / "a.png")
+    assert back.dtype == np.uint16 and np.array_equal(back, rgb8.astype(np.uint16) * 257)
+    write_png(tmp_path / "b.png", back, bits=8)
+    assert np.array_equal(read_image(tmp_path / "b.png"), rgb8)
+
+
+@pytest.mark.parametrize("fmt", ["JPEG", "WEBP", "TIFF"])
+def test_other_formats(tmp_path, rgb8, fmt):
+    p = tmp_path / f"a.{fmt.lower()}"
+    Image.fromarray(rgb8).save(p, fmt, **({"quality": 95} if fmt != "TIFF" else {}))
+    img = read_image(p)
+    assert img.shape == (20, 30, 3) and img.dtype == np.uint8
+    if fmt == "TIFF":
+        assert np.array_equal(img, rgb8)
+
+
+def test_tiff_16_bit(tmp_path, rgb8):
+    import tifffile
+
+    data = rgb8.astype(np.uint16) * 200
+    tifffile.imwrite(tmp_path / "a.tif", data)
+    assert np.array_equal(read_image(tmp_path / "a.tif"), data)
+
+
+def test_alpha_is_dropped_with_warning(tmp_path, rgb8):
+    rgba = np.dstack([rgb8, np.full(rgb8.shape[:2], 128, np.uint8)])
+    Image.fromarray(rgba, "RGBA").save(tmp_path / "a.png")
+    with pytest.warns(AlphaDroppedWarning):
+        img = read_image(tmp_path / "a.png")
+    assert np.array_equal(img, rgb8)
+
+
+@pytest.mark.parametrize("case", ["missing", "empty", "text", "truncated_png", "truncated_jpg", "dir"])
+def test_bad_files_raise_one_clear_error(tmp_path, rgb8, case):
+    p = tmp_path / "bad.png"
+    if case == "empty":
+        p.write_bytes(b"")
+    elif case == "text":
+        p.write_text("hello, I am not an image\n")
+    elif case == "truncated_png":
+        write_png(tmp_path / "full.png", rgb8)
+        p.write_bytes((tmp_path / "full.png").read_bytes()[:200])
+    elif case == "truncated_jpg":
+        p = tmp_path / "bad.jpg"
+        big = np.random.default_rng(1).integers(0, 256, (200, 200, 3), dtype=np.uint8)
+        Image.fromarray(big).save(tmp_path / "full.jpg", quality=95)
+        p.write_bytes((tmp_path / "full.jpg").read_bytes()[:3000])
+    elif case == "dir":
+        p = tmp_path
+    with pytest.raises(ImageReadError) as err:
+        read_image(p)
+    assert "\n" not in str(err.value) and str(p) in str(err.value)
+
+
+def test_write_is_atomic_on_failure(tmp_path, rgb8, monkeypatch):
+    target = tmp_path / "out.png"
+    write_png(target, rgb8)
+    before = target.read_bytes()
+
+    def boom(*a, **k):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(os, "replace", boom)
+    with pytest.raises(OSError):
+        write_png(target, rgb8[::-1])
+    assert target.read_bytes() == before  # old content intact
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.png"]  # no temp file left
+
+
+def test_reference_map_roundtrip(tmp_path):
+    refs = np.stack(np.meshgrid(np.arange(7), np.arange(9), indexing="ij"), -1).astype(np.int32)
+    write_reference(tmp_path / "r.png", refs, (300, 400))
+    back, shape = read_reference(tmp_path / "r.png")
+    assert np.array_equal(back, refs) and shape == (300, 400)
+    assert read_png_text(tmp_path / "r.png")["barkgen-reference"] == "exemplar=400x300"
