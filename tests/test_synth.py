@@ -107,20 +107,21 @@ def _shuffled_blocks(exemplar: np.ndarray, shape: tuple[int, int], block: int, s
     return out
 
 
-@pytest.mark.parametrize("name", ["pine_plated_01", "fissured_gray_01"])
+@pytest.mark.parametrize("name", ["pine_plated_01", "fissured_gray_01", "oak_furrowed_moss_01"])
 def test_quality_on_real_bark(texeval, name):
+    """128 px exemplar -> 256 px tileable output, against a baseline of randomly pasted 32 px
+    exemplar blocks (coherent inside, unoptimised seams) scored in the same run."""
     from conftest import bark_exemplar
 
-    ex = bark_exemplar(name, 64)
-    a = synthesize(ex, 192, tile=True, seed=0).image
-    b = synthesize(ex, 192, tile=True, seed=1).image
+    ex = bark_exemplar(name, 128)
+    a = synthesize(ex, 256, tile=True, seed=0).image
+    b = synthesize(ex, 256, tile=True, seed=1).image
     ev = texeval.TexEval(ex)
     m = ev.evaluate(a, output2=b, tile=True)
-    base = ev.evaluate(_shuffled_blocks(ex, (192, 192), 16, 0), tile=True)
-    # coherent seams: clearly better than pasting random blocks, in both directions
-    assert m["coherence"] < 0.8 * base["coherence"]
-    assert m["completeness"] < base["completeness"] + 0.5
-    assert 0.85 <= m["sharpness_ratio"] <= 1.15  # no blur, no noise
-    assert m["seam_ratio"] <= 1.2  # tiles seamlessly
-    assert m["largest_copy"] <= 0.6  # does not paste the exemplar whole (64 px exemplar: lenient)
-    assert m["diversity"] >= 0.6  # seeds give different textures
+    base = ev.evaluate(_shuffled_blocks(ex, (256, 256), 32, 0), tile=True)
+    assert m["coherence"] < 0.9 * base["coherence"]  # seams hidden in the texture
+    assert m["completeness"] < base["completeness"]  # the whole exemplar is used
+    assert 0.9 <= m["sharpness_ratio"] <= 1.1  # no blur, no noise
+    assert m["seam_ratio"] <= 1.15  # tiles seamlessly
+    assert m["largest_copy"] <= 0.35  # copy-size control
+    assert m["diversity"] >= 0.8  # seeds give different textures

@@ -53,7 +53,7 @@ def _sample_neighbourhoods(image: np.ndarray, size: int, max_samples: int) -> np
 
 
 def neighbourhood_pca(image: np.ndarray, size: int, n_components: int,
-                      max_samples: int = 32768) -> NeighbourhoodProjection:
+                      max_samples: int = 8192) -> NeighbourhoodProjection:
     """Fit the neighbourhood PCA of an ``(h, w, C)`` float32 feature image and project it.
 
     The principal axes are fitted on a regular grid of neighbourhoods (so the fit is independent of
@@ -68,7 +68,8 @@ def neighbourhood_pca(image: np.ndarray, size: int, n_components: int,
     samples = _sample_neighbourhoods(image, size, max_samples).astype(np.float64)
     samples *= np.repeat(win.reshape(-1), c)[None, :]
     mean = samples.mean(axis=0)
-    cov = np.cov(samples - mean, rowvar=False)
+    centred = samples - mean
+    cov = centred.T @ centred / max(len(centred) - 1, 1)
     evals, evecs = np.linalg.eigh(cov)
     order = np.argsort(evals)[::-1][:n_components]
     basis = evecs[:, order]

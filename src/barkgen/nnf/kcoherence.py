@@ -10,17 +10,28 @@ from __future__ import annotations
 
 import numpy as np
 
-_FLAT_LIMIT = 24_000  # exact search below this many exemplar pixels
+_BRUTE_LIMIT = 4_096  # exact numpy search up to this many exemplar pixels
+_FLAT_LIMIT = 24_000  # exact faiss search up to this many, IVF beyond
 
 
 def knn_search(features: np.ndarray, n_neighbours: int) -> tuple[np.ndarray, np.ndarray]:
-    """``n_neighbours`` approximate nearest neighbours of every row of ``features`` among all rows
-    (itself included). Exact (flat index) for small sets, IVF with 4·sqrt(N) lists otherwise."""
-    import faiss
-
+    """``n_neighbours`` nearest neighbours of every row of ``features`` among all rows (itself
+    included), nearest first. Exact for small sets (numpy, then a faiss flat index); faiss IVF with
+    4·sqrt(N) lists beyond ``_FLAT_LIMIT`` rows."""
     x = np.ascontiguousarray(features, dtype=np.float32)
     n, d = x.shape
     kk = min(n_neighbours, n)
+    if n <= _BRUTE_LIMIT:
+        # small sets (coarse pyramid levels): exact search by one distance matrix
+        sq = np.einsum("ij,ij->i", x, x)
+        dist = np.maximum(sq[:, None] + sq[None, :] - 2.0 * (x @ x.T), 0.0)
+        idx = np.argpartition(dist, kk - 1, axis=1)[:, :kk] if kk < n else np.tile(np.arange(n), (n, 1))
+        part = np.take_along_axis(dist, idx, axis=1)
+        order = np.lexsort((idx, part), axis=1)
+        return np.take_along_axis(part, order, axis=1), np.take_along_axis(idx, order, axis=1)
+
+    import faiss
+
     if n <= _FLAT_LIMIT:
         index = faiss.IndexFlatL2(d)
     else:

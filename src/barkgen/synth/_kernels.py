@@ -14,9 +14,10 @@ import numpy as np
 @nb.njit(inline="always")
 def _wrap_or_clamp(v, n, tile):
     if tile:
-        v = v % n
-        if v < 0:
+        while v < 0:
             v += n
+        while v >= n:
+            v -= n
         return v
     if v < 0:
         return 0
@@ -25,19 +26,30 @@ def _wrap_or_clamp(v, n, tile):
     return v
 
 
+#: offsets (ref - position) are encoded as one int64: (dy + BIAS) * 2 * BIAS + (dx + BIAS)
+OFFSET_BIAS = 1 << 20
+
+
+@nb.njit(inline="always")
+def offset_code(ey, ex, y, x):
+    """Code of the offset from output pixel (y, x) to exemplar pixel (ey, ex)."""
+    return (np.int64(ey - y) + OFFSET_BIAS) * (2 * OFFSET_BIAS) + (ex - x + OFFSET_BIAS)
+
+
 @nb.njit(parallel=True, cache=True, fastmath=True)
-def m_step(refs, ex_feat, ex_h, ex_w, proj_w, proj_mean, appearance, ksets, penalty,
-           kset_cost, stride, oy, ox, tile, match):  # pragma: no cover - compiled
+def m_step(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, proj_w, proj_mean, appearance, ksets,
+           penalty, kset_cost, stride, oy, ox, tile, forbid, match):  # pragma: no cover - compiled
     """M-step on the sparse grid ``(oy + i * stride, ox + j * stride)``.
 
     For each grid pixel, the output neighbourhood (resolved references) is projected into
-    appearance space and compared with the candidates of k-coherence search: the forward-shifted
+    appearance space (``proj_w[dy, dx, c, d]``, ``proj_mean[dy, dx, c]``) and compared with the candidates of k-coherence search: the forward-shifted
     sources of its 3x3 neighbours and their k-coherence sets (laitoch2018 eq. 3.4). The cost adds
     the occurrence ``penalty`` of the candidate and ``kset_cost`` for non-coherent candidates.
-    ``match`` receives the best exemplar index at grid pixels (others are left untouched).
+    Candidates whose offset (reference - position) equals ``forbid[y, x]`` are skipped (copy-size
+    control, see ``solver._limit_copies``). ``match`` receives the best exemplar index at grid pixels (others are left untouched).
     """
     H, W = refs.shape
-    D, S, _, C = proj_w.shape
+    S, _, C, D = proj_w.shape
     r = S // 2
     K = ksets.shape[1]
     ny = (H - oy + stride - 1) // stride
@@ -56,10 +68,11 @@ def m_step(refs, ex_feat, ex_h, ex_w, proj_w, proj_mean, appearance, ksets, pena
                     for c in range(C):
                         v = ex_feat[e, c] - proj_mean[dy + r, dx + r, c]
                         for d in range(D):
-                            q[d] += proj_w[d, dy + r, dx + r, c] * v
+                            q[d] += proj_w[dy + r, dx + r, c, d] * v
             best = refs[y, x]
             best_cost = np.inf
             n_seen = 0
+            fb = forbid[y, x]
             for dy in range(-1, 2):
                 yy = y + dy
                 if not tile and (yy < 0 or yy >= H):
@@ -71,8 +84,8 @@ def m_step(refs, ex_feat, ex_h, ex_w, proj_w, proj_mean, appearance, ksets, pena
                         continue
                     xx = _wrap_or_clamp(xx, W, tile)
                     e = refs[yy, xx]
-                    ey = e // ex_w - dy
-                    ex = e - (e // ex_w) * ex_w - dx
+                    ey = ex_y[e] - dy
+                    ex = ex_x[e] - dx
                     if ey < 0 or ey >= ex_h or ex < 0 or ex >= ex_w:
                         continue
                     u = ey * ex_w + ex
@@ -85,6 +98,8 @@ def m_step(refs, ex_feat, ex_h, ex_w, proj_w, proj_mean, appearance, ksets, pena
                         continue
                     seen[n_seen] = u
                     n_seen += 1
+                    if fb >= 0 and offset_code(ey, ex, y, x) == fb:
+                        continue
                     cost = penalty[u]
                     for d in range(D):
                         diff = appearance[u, d] - q[d]
@@ -97,6 +112,8 @@ def m_step(refs, ex_feat, ex_h, ex_w, proj_w, proj_mean, appearance, ksets, pena
                         cost = penalty[v2] + kset_cost
                         if cost >= best_cost:
                             continue
+                        if fb >= 0 and offset_code(ex_y[v2], ex_x[v2], y, x) == fb:
+                            continue
                         for d in range(D):
                             diff = appearance[v2, d] - q[d]
                             cost += diff * diff
@@ -106,84 +123,125 @@ def m_step(refs, ex_feat, ex_h, ex_w, proj_w, proj_mean, appearance, ksets, pena
             match[y, x] = best
 
 
+@nb.njit(inline="always")
+def y_first(y, radius, o, stride, n, tile):
+    """First offset d >= -radius with (y + d - o) divisible by ``stride`` (on the torus when
+    ``n`` is a multiple of it), or -radius when the grid is irregular."""
+    if tile and n % stride != 0:
+        return -radius
+    return -radius + (o - (y - radius)) % stride
+
+
 @nb.njit(parallel=True, cache=True, fastmath=True)
-def e_step(match, refs, ex_feat, ex_h, ex_w, radius, stride, oy, ox, tile, sigma,
-           out):  # pragma: no cover - compiled
+def e_step(match, refs, ex_feat, ex_y, ex_x, ex_h, ex_w, radius, stride, oy, ox, tile, sigma,
+           forbid, out):  # pragma: no cover - compiled
     """E-step (laitoch2018 eq. 3.5, Han et al. 2006): every output pixel collects the
     forward-shifted references voted by the matched neighbourhoods that cover it (Gaussian
     weights by distance to the neighbourhood centre) and takes the reference with the largest
     total weight; among equally supported references, the one whose features are closest to the
     weighted average of all votes (the least-squares value of the original E-step). Choosing the
     best-supported vote instead of the nearest-to-average one keeps neighbouring pixels on the
-    same exemplar patch, so patches stay whole and seams stay thin. Pixels with no valid vote
-    keep their reference.
+    same exemplar patch, so patches stay whole and seams stay thin. Votes whose offset equals
+    ``forbid[y, x]`` are ignored. Pixels with no valid vote keep their reference.
     """
     H, W = refs.shape
     C = ex_feat.shape[1]
-    nmax = (2 * radius + 1) * (2 * radius + 1)
+    side = 2 * radius + 1
+    nmax = side * side
     inv2s2 = 0.5 / (sigma * sigma)
+    wtab = np.empty((side, side), np.float32)
+    for dy in range(-radius, radius + 1):
+        for dx in range(-radius, radius + 1):
+            wtab[dy + radius, dx + radius] = np.exp(-(dy * dy + dx * dx) * inv2s2)
+    # neighbourhood centres lie on a grid of step ``stride``: visit only those, unless a wrap
+    # with a size that is not a multiple of the stride breaks the regularity
+    y_step = stride if (not tile or H % stride == 0) else 1
+    x_step = stride if (not tile or W % stride == 0) else 1
     for y in nb.prange(H):
         votes = np.empty(nmax, np.int32)
         vw = np.empty(nmax, np.float32)
+        uniq = np.empty(nmax, np.int32)
+        usup = np.empty(nmax, np.float32)
         avg = np.empty(C, np.float32)
         for x in range(W):
             nv = 0
-            wsum = 0.0
-            for c in range(C):
-                avg[c] = 0.0
-            for dy in range(-radius, radius + 1):
+            nu = 0
+            fb = forbid[y, x]
+            for dy in range(y_first(y, radius, oy, stride, H, tile), radius + 1, y_step):
                 yy = y + dy
                 if tile:
                     yy = _wrap_or_clamp(yy, H, True)
                 elif yy < 0 or yy >= H:
                     continue
-                if (yy - oy) % stride != 0 or yy < oy:
+                if y_step == 1 and (yy < oy or (yy - oy) % stride != 0):
                     continue
-                for dx in range(-radius, radius + 1):
+                for dx in range(y_first(x, radius, ox, stride, W, tile), radius + 1, x_step):
                     xx = x + dx
                     if tile:
                         xx = _wrap_or_clamp(xx, W, True)
                     elif xx < 0 or xx >= W:
                         continue
-                    if (xx - ox) % stride != 0 or xx < ox:
+                    if x_step == 1 and (xx < ox or (xx - ox) % stride != 0):
                         continue
                     m = match[yy, xx]
                     if m < 0:
                         continue
-                    ey = m // ex_w - dy
-                    ex = m - (m // ex_w) * ex_w - dx
+                    ey = ex_y[m] - dy
+                    ex = ex_x[m] - dx
                     if ey < 0 or ey >= ex_h or ex < 0 or ex >= ex_w:
                         continue
                     v = ey * ex_w + ex
-                    wgt = np.exp(-(dy * dy + dx * dx) * inv2s2)
+                    if fb >= 0 and offset_code(ey, ex, y, x) == fb:
+                        continue
+                    wgt = wtab[dy + radius, dx + radius]
                     votes[nv] = v
                     vw[nv] = wgt
                     nv += 1
-                    wsum += wgt
-                    for c in range(C):
-                        avg[c] += wgt * ex_feat[v, c]
+                    found = False
+                    for t in range(nu):
+                        if uniq[t] == v:
+                            usup[t] += wgt
+                            found = True
+                            break
+                    if not found:
+                        uniq[nu] = v
+                        usup[nu] = wgt
+                        nu += 1
             if nv == 0:
                 out[y, x] = refs[y, x]
                 continue
+            top = 0
+            n_top = 1
+            for t in range(1, nu):
+                if usup[t] > usup[top] + 1e-6:
+                    top = t
+                    n_top = 1
+                elif usup[t] > usup[top] - 1e-6:
+                    n_top += 1
+            if n_top == 1:
+                out[y, x] = uniq[top]
+                continue
+            # tie: the least-squares choice among the best-supported references
+            wsum = 0.0
+            for c in range(C):
+                avg[c] = 0.0
+            for t in range(nv):
+                wsum += vw[t]
+                for c in range(C):
+                    avg[c] += vw[t] * ex_feat[votes[t], c]
             for c in range(C):
                 avg[c] /= wsum
-            best = votes[0]
-            best_support = -1.0
+            best = uniq[top]
             best_cost = np.inf
-            for t in range(nv):
-                v = votes[t]
-                support = 0.0
-                for t2 in range(nv):
-                    if votes[t2] == v:
-                        support += vw[t2]
-                if support < best_support - 1e-6:
+            for t in range(nu):
+                if usup[t] < usup[top] - 1e-6:
                     continue
+                v = uniq[t]
                 cost = 0.0
                 for c in range(C):
                     diff = ex_feat[v, c] - avg[c]
                     cost += diff * diff
-                if support > best_support + 1e-6 or cost < best_cost:
-                    best_support = support
+                if cost < best_cost:
                     best_cost = cost
                     best = v
             out[y, x] = best
@@ -199,3 +257,45 @@ def resolve(refs, table, out):  # pragma: no cover - compiled
             e = refs[y, x]
             for c in range(C):
                 out[y, x, c] = table[e, c]
+
+
+@nb.njit(cache=True)
+def label_offset_regions(refs, ex_y, ex_x, labels):  # pragma: no cover - compiled
+    """Label the 4-connected regions of constant offset (reference - position), i.e. the pieces
+    copied verbatim from the exemplar. Fills ``labels`` and returns each region's pixel count."""
+    H, W = refs.shape
+    for y in range(H):
+        for x in range(W):
+            labels[y, x] = -1
+    stack = np.empty(H * W, np.int32)
+    sizes = np.empty(H * W, np.int32)
+    n = 0
+    for y0 in range(H):
+        for x0 in range(W):
+            if labels[y0, x0] >= 0:
+                continue
+            e0 = refs[y0, x0]
+            code = offset_code(ex_y[e0], ex_x[e0], y0, x0)
+            labels[y0, x0] = n
+            stack[0] = y0 * W + x0
+            top = 1
+            count = 0
+            while top > 0:
+                top -= 1
+                p = stack[top]
+                py = p // W
+                px = p - py * W
+                count += 1
+                for k in range(4):
+                    qy = py + (k == 0) - (k == 1)
+                    qx = px + (k == 2) - (k == 3)
+                    if qy < 0 or qy >= H or qx < 0 or qx >= W or labels[qy, qx] >= 0:
+                        continue
+                    e1 = refs[qy, qx]
+                    if offset_code(ex_y[e1], ex_x[e1], qy, qx) == code:
+                        labels[qy, qx] = n
+                        stack[top] = qy * W + qx
+                        top += 1
+            sizes[n] = count
+            n += 1
+    return sizes[:n].copy()

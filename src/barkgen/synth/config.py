@@ -27,6 +27,8 @@ class SynthesisConfig:
             nearest-neighbour distance (favours coherent patches, Ashikhmin 2001).
         occurrence_weight: weight of the penalty on exemplar regions used more often than the
             uniform expectation (Kaspar 2015 occurrence maps), same units.
+        max_copy: largest piece copied verbatim from the exemplar, as a fraction of the
+            exemplar's area; larger pieces are cut (1.0 disables the control).
         jitter: references are displaced by up to ``jitter * 2**level`` pixels after upsampling at
             levels above the finest two (Lefebvre & Hoppe 2005), a source of variation.
         extra_weight: weight of the extra channels relative to luminance in the matching.
@@ -36,12 +38,13 @@ class SynthesisConfig:
 
     k: int = 6
     pca_components: int = 8
-    coarsest_exemplar: int = 32
-    schedule_coarsest: Schedule = ((7, 5), (5, 2))
-    schedule_middle: Schedule = ((7, 2), (5, 2))
-    schedule_finest: Schedule = ((5, 1), (3, 1))
-    kset_cost: float = 0.5
+    coarsest_exemplar: int = 16
+    schedule_coarsest: Schedule = ((9, 5), (7, 3), (5, 2))
+    schedule_middle: Schedule = ((9, 2), (7, 2), (5, 2))
+    schedule_finest: Schedule = ((5, 1),)
+    kset_cost: float = 2.0
     occurrence_weight: float = 1.0
+    max_copy: float = 0.2
     jitter: float = 0.0
     extra_weight: float = 0.5
     threads: int | None = None
@@ -66,6 +69,8 @@ class SynthesisConfig:
         for name in ("kset_cost", "occurrence_weight", "jitter", "extra_weight"):
             if getattr(self, name) < 0:
                 raise InvalidInputError(f"{name} must be >= 0")
+        if not 0.0 < self.max_copy <= 1.0:
+            raise InvalidInputError("max_copy must be in (0, 1]")
         if self.threads is not None and self.threads < 1:
             raise InvalidInputError("threads must be >= 1")
         if self.max_memory <= 0:

@@ -71,6 +71,8 @@ class LevelAnalysis:
     height: int
     width: int
     features: np.ndarray  # (h * w, C) float32 per-pixel matching features
+    coords_y: np.ndarray  # (h * w,) int32 row of each flat index (division-free decoding)
+    coords_x: np.ndarray  # (h * w,) int32 column of each flat index
     projections: dict[int, NeighbourhoodProjection]
     ksets: np.ndarray  # (h * w, k) int32
     scale: float  # typical squared appearance distance to the nearest distinct neighbour
@@ -145,7 +147,7 @@ def estimate_memory(exemplar_shape: tuple[int, int], output_shape: tuple[int, in
                              config.schedule_finest) for s, _ in sched}
     per_ex = (feature_channels * 4 * 3 + config.pca_components * 4 * len(sizes) * 1.4
               + config.k * 4 * 1.4 + 8)
-    per_out = 64 + 3 * channels * bytes_per_channel
+    per_out = 100 + 3 * channels * bytes_per_channel
     search = min(n_ex, 262_144) * max(4 * config.k + 8, 32) * 12
     return int(200e6 + n_ex * per_ex + n_out * per_out + search)
 
@@ -176,7 +178,8 @@ def analyse_exemplar(features: np.ndarray, n_levels: int, config: SynthesisConfi
             ksets, scale = k_coherence_sets_from_parent(
                 parent.ksets, (parent.height, parent.width), largest.features, (h, w),
                 config.k, radius=2)
-        parent = LevelAnalysis(h, w, img.reshape(h * w, c), projections, ksets, scale)
+        cy, cx = np.divmod(np.arange(h * w, dtype=np.int32), np.int32(w))
+        parent = LevelAnalysis(h, w, img.reshape(h * w, c), cy, cx, projections, ksets, scale)
         levels[lvl] = parent
         if progress:
             progress()
@@ -230,6 +233,67 @@ def _occurrence_penalty(refs: np.ndarray, level: LevelAnalysis, weight: float,
     expected = max(1.0, refs.size / n)
     excess = np.maximum(regional / expected - 1.0, 0.0)
     return np.ascontiguousarray((weight * level.scale) * excess, dtype=np.float32).ravel()
+
+
+def _limit_copies(refs: np.ndarray, level: LevelAnalysis, max_area: float,
+                  forbid: np.ndarray) -> int:
+    """Copy-size control: find the pieces copied verbatim (regions of constant offset) larger than
+    ``max_area`` pixels and forbid their offset on a cross-shaped band through each one's
+    centroid, so the next iterations cut it in up to four. Returns the number of regions cut.
+
+    The discrete solver left alone grows whole-exemplar copies wherever nothing stops coherence
+    (G'MIC's results copy 64 % of the exemplar in one piece); this keeps the coherence bias while
+    bounding the largest verbatim piece.
+    """
+    from barkgen.synth import _kernels as K
+
+    labels = np.empty(refs.shape, np.int32)
+    sizes = K.label_offset_regions(refs, level.coords_y, level.coords_x, labels)
+    big = sizes > max_area
+    if not big.any():
+        return 0
+    ys, xs = np.nonzero(big[labels])
+    lab = labels[ys, xs]
+    n = np.bincount(lab, minlength=sizes.size).astype(np.float64)
+    cy = np.bincount(lab, ys, minlength=sizes.size) / np.maximum(n, 1)
+    cx = np.bincount(lab, xs, minlength=sizes.size) / np.maximum(n, 1)
+    band = (np.abs(ys - cy[lab]) <= 1.0) | (np.abs(xs - cx[lab]) <= 1.0)
+    ys, xs = ys[band], xs[band]
+    e = refs[ys, xs].astype(np.int64)
+    ey, ex = np.divmod(e, level.width)
+    bias = K.OFFSET_BIAS
+    forbid[ys, xs] = (ey - ys + bias) * (2 * bias) + (ex - xs + bias)
+    return int(big.sum())
+
+
+def _upsample_forbid(forbid: np.ndarray, out_shape: tuple[int, int]) -> np.ndarray:
+    """Carry forbidden offsets to the next finer level (offsets double with the resolution)."""
+    from barkgen.synth import _kernels as K
+
+    H, W = out_shape
+    coarse = forbid[np.arange(H)[:, None] // 2, np.arange(W)[None, :] // 2]
+    bias = K.OFFSET_BIAS
+    dy, dx = np.divmod(coarse, 2 * bias)
+    fine = (2 * (dy - bias) + bias) * (2 * bias) + (2 * (dx - bias) + bias)
+    return np.where(coarse >= 0, fine, -1).astype(np.int64)
+
+
+def _roll(refs: np.ndarray, forbid: np.ndarray, shift: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """Toroidal shift of the output state; forbidden offsets are re-expressed for the pixels'
+    new positions."""
+    from barkgen.synth import _kernels as K
+
+    H, W = refs.shape
+    bias = K.OFFSET_BIAS
+    dy, dx = np.divmod(forbid, 2 * bias)
+    ys = np.arange(H)[:, None]
+    xs = np.arange(W)[None, :]
+    # an offset is relative to the position; after the shift the position is (y + sy) mod H
+    ny = dy - ((ys + shift[0]) % H - ys)
+    nx = dx - ((xs + shift[1]) % W - xs)
+    moved = np.where(forbid >= 0, ny * (2 * bias) + nx, -1)
+    return (np.ascontiguousarray(np.roll(refs, shift, axis=(0, 1))),
+            np.ascontiguousarray(np.roll(moved, shift, axis=(0, 1))))
 
 
 def _stride_for(size: int) -> int:
@@ -329,26 +393,39 @@ def synthesize(
         shape = level_shape(out_shape, lvl)
         if refs is None:
             refs = rng.integers(0, la.height * la.width, size=shape, dtype=np.int32)
+            forbid = np.full(shape, -1, np.int64)
         else:
             refs = _upsample(refs, levels[lvl + 1], la, shape)
+            forbid = _upsample_forbid(forbid, shape)
+            if tile:
+                # seams formed at coarse levels lie on the block grid of the upsampling; a random
+                # toroidal shift per level keeps that grid from lining up with the tile border
+                shift = (int(rng.integers(0, shape[0])), int(rng.integers(0, shape[1])))
+                refs, forbid = _roll(refs, forbid, shift)
             if lvl >= 2:
                 refs = _jitter(refs, la, int(round(config.jitter * 2)), rng)
         match = np.empty(shape, np.int32)
         new = np.empty(shape, np.int32)
         occ_radius = 3
         penalty = _occurrence_penalty(refs, la, config.occurrence_weight, occ_radius)
+        weights_t = {size: np.ascontiguousarray(p.weights.transpose(1, 2, 3, 0))
+                     for size, p in la.projections.items()}
         for nb_size, iters in config.schedule_for(lvl, n_levels):
             proj = la.projections[nb_size]
             stride = _stride_for(nb_size)
             for _ in range(iters):
                 oy, ox = (int(v) for v in rng.integers(0, stride, size=2))
                 match.fill(-1)
-                K.m_step(refs, la.features, la.height, la.width, proj.weights, proj.mean,
+                K.m_step(refs, la.features, la.coords_y, la.coords_x, la.height, la.width,
+                         weights_t[nb_size], proj.mean,
                          proj.features, la.ksets, penalty, np.float32(config.kset_cost * la.scale),
-                         stride, oy, ox, tile, match)
-                K.e_step(match, refs, la.features, la.height, la.width, nb_size // 2, stride,
-                         oy, ox, tile, np.float32(max(nb_size / 3.0, 1.0)), new)
+                         stride, oy, ox, tile, forbid, match)
+                K.e_step(match, refs, la.features, la.coords_y, la.coords_x, la.height, la.width,
+                         nb_size // 2, stride,
+                         oy, ox, tile, np.float32(max(nb_size / 3.0, 1.0)), forbid, new)
                 refs, new = new, refs
+                if config.max_copy < 1.0:
+                    _limit_copies(refs, la, config.max_copy * la.height * la.width, forbid)
                 penalty = _occurrence_penalty(refs, la, config.occurrence_weight, occ_radius)
                 tick()
     t2 = time.perf_counter()
