@@ -58,17 +58,45 @@ def m_step(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, proj_w, proj_mean, appearance,
         q = np.empty(D, np.float32)
         seen = np.empty(9, np.int32)
         for x in range(ox, W, stride):
-            for d in range(D):
-                q[d] = 0.0
+            # fast path: a neighbourhood copied whole from the exemplar projects exactly onto the
+            # exemplar's own appearance vector, no need to recompute it
+            e0 = refs[y, x]
+            cy0 = ex_y[e0]
+            cx0 = ex_x[e0]
+            whole = True
             for dy in range(-r, r + 1):
-                yy = _wrap_or_clamp(y + dy, H, tile)
+                if not whole:
+                    break
+                yy = y + dy
+                if not tile and (yy < 0 or yy >= H):
+                    whole = False
+                    break
+                yy = _wrap_or_clamp(yy, H, tile)
                 for dx in range(-r, r + 1):
-                    xx = _wrap_or_clamp(x + dx, W, tile)
+                    xx = x + dx
+                    if not tile and (xx < 0 or xx >= W):
+                        whole = False
+                        break
+                    xx = _wrap_or_clamp(xx, W, tile)
                     e = refs[yy, xx]
-                    for c in range(C):
-                        v = ex_feat[e, c] - proj_mean[dy + r, dx + r, c]
-                        for d in range(D):
-                            q[d] += proj_w[dy + r, dx + r, c, d] * v
+                    if ex_y[e] != cy0 + dy or ex_x[e] != cx0 + dx:
+                        whole = False
+                        break
+            if whole:
+                for d in range(D):
+                    q[d] = appearance[e0, d]
+            else:
+                for d in range(D):
+                    q[d] = 0.0
+                for dy in range(-r, r + 1):
+                    yy = _wrap_or_clamp(y + dy, H, tile)
+                    for dx in range(-r, r + 1):
+                        xx = _wrap_or_clamp(x + dx, W, tile)
+                        e = refs[yy, xx]
+                        for c in range(C):
+                            v = ex_feat[e, c] - proj_mean[dy + r, dx + r, c]
+                            for d in range(D):
+                                q[d] += proj_w[dy + r, dx + r, c, d] * v
             best = refs[y, x]
             best_cost = np.inf
             n_seen = 0

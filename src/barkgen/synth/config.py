@@ -29,8 +29,10 @@ class SynthesisConfig:
             uniform expectation (Kaspar 2015 occurrence maps), same units.
         max_copy: largest piece copied verbatim from the exemplar, as a fraction of the
             exemplar's area; larger pieces are cut (1.0 disables the control).
-        jitter: references are displaced by up to ``jitter * 2**level`` pixels after upsampling at
-            levels above the finest two (Lefebvre & Hoppe 2005), a source of variation.
+        jitter: after up-sampling to levels 2 and coarser, every reference is displaced by a
+            seeded random offset of up to ``round(2 * jitter)`` pixels (Lefebvre & Hoppe 2005).
+            Off by default: the random initialisation and per-level random grid offsets already
+            give seeds independent results, and jitter measurably costs coherence.
         extra_weight: weight of the extra channels relative to luminance in the matching.
         threads: worker threads for numba/faiss (None: all cores).
         max_memory: refuse jobs whose estimated peak memory exceeds this many bytes.

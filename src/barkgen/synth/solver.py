@@ -359,8 +359,8 @@ def synthesize(
                            n_feat, config)
     if need > config.max_memory:
         raise MemoryBudgetError(
-            f"output {out_shape[1]}x{out_shape[0]} needs about {need / 1e9:.1f} GB, more than the "
-            f"memory budget of {config.max_memory / 1e9:.1f} GB (raise it with --max-memory)")
+            f"output {out_shape[1]}x{out_shape[0]} needs about {need / 2**30:.1f} GiB, more than "
+            f"the memory budget of {config.max_memory / 2**30:.1f} GiB (raise it with --max-memory)")
 
     if config.threads is not None:
         import faiss
@@ -397,9 +397,11 @@ def synthesize(
         else:
             refs = _upsample(refs, levels[lvl + 1], la, shape)
             forbid = _upsample_forbid(forbid, shape)
-            if tile:
+            if tile and lvl > 0:
                 # seams formed at coarse levels lie on the block grid of the upsampling; a random
-                # toroidal shift per level keeps that grid from lining up with the tile border
+                # toroidal shift per level keeps that grid from lining up with the tile border.
+                # (None at the finest level: shifts stay even there, so exemplar pieces keep the
+                # pixel parity of the exemplar and survive 2x downsampling intact.)
                 shift = (int(rng.integers(0, shape[0])), int(rng.integers(0, shape[1])))
                 refs, forbid = _roll(refs, forbid, shift)
             if lvl >= 2:
