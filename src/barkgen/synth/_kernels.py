@@ -275,18 +275,6 @@ def e_step(match, refs, ex_feat, ex_y, ex_x, ex_h, ex_w, radius, stride, oy, ox,
             out[y, x] = best
 
 
-@nb.njit(parallel=True, cache=True)
-def resolve(refs, table, out):  # pragma: no cover - compiled
-    """``out[y, x, :] = table[refs[y, x], :]`` (turn references into pixel values)."""
-    H, W = refs.shape
-    C = table.shape[1]
-    for y in nb.prange(H):
-        for x in range(W):
-            e = refs[y, x]
-            for c in range(C):
-                out[y, x, c] = table[e, c]
-
-
 @nb.njit(cache=True)
 def label_offset_regions(refs, ex_y, ex_x, labels):  # pragma: no cover - compiled
     """Label the 4-connected regions of constant offset (reference - position), i.e. the pieces

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from barkgen.color import rgb_to_lab
 from barkgen.errors import InvalidInputError, MemoryBudgetError
 from barkgen.nnf import (
     NeighbourhoodProjection,
@@ -124,11 +125,9 @@ def matching_features(exemplar: np.ndarray, extras: Mapping[str, np.ndarray] | N
     """Per-pixel features used for matching: CIELAB (L in 0..100) or L alone for grey images,
     plus each extra channel scaled to 0..100 and weighted (laitoch2018 §3.3.1, extra channels).
     """
-    import cv2
-
     ex = _unit_float(_as_hw_c("exemplar", exemplar))
     if ex.shape[2] >= 3:
-        feats = [cv2.cvtColor(np.ascontiguousarray(ex[:, :, :3]), cv2.COLOR_RGB2Lab)]
+        feats = [rgb_to_lab(ex[:, :, :3])]
     else:
         feats = [ex[:, :, :1] * 100.0]
     for name, arr in (extras or {}).items():
@@ -271,6 +270,8 @@ def _upsample_forbid(forbid: np.ndarray, out_shape: tuple[int, int]) -> np.ndarr
     from barkgen.synth import _kernels as K
 
     H, W = out_shape
+    if not (forbid >= 0).any():
+        return np.full(out_shape, -1, np.int64)
     coarse = forbid[np.arange(H)[:, None] // 2, np.arange(W)[None, :] // 2]
     bias = K.OFFSET_BIAS
     dy, dx = np.divmod(coarse, 2 * bias)
@@ -423,7 +424,7 @@ def synthesize(
                          proj.features, la.ksets, penalty, np.float32(config.kset_cost * la.scale),
                          stride, oy, ox, tile, forbid, match)
                 K.e_step(match, refs, la.features, la.coords_y, la.coords_x, la.height, la.width,
-                         nb_size // 2, stride,
+                         min(nb_size // 2, config.vote_radius), stride,
                          oy, ox, tile, np.float32(max(nb_size / 3.0, 1.0)), forbid, new)
                 refs, new = new, refs
                 if config.max_copy < 1.0:

@@ -1,0 +1,28 @@
+"""Colour-space conversions shared by the stages (CIELAB, laitoch2018 §3.5.1)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+# sRGB (IEC 61966-2-1) primaries, D65 white
+_RGB_TO_XYZ = np.array([[0.4124564, 0.3575761, 0.1804375],
+                        [0.2126729, 0.7151522, 0.0721750],
+                        [0.0193339, 0.1191920, 0.9503041]], np.float32)
+_WHITE_D65 = np.array([0.95047, 1.0, 1.08883], np.float32)
+_EPS = (6.0 / 29.0) ** 3
+
+
+def rgb_to_lab(rgb: np.ndarray) -> np.ndarray:
+    """CIELAB (D65) of an ``(..., 3)`` sRGB array in [0, 1]; L in [0, 100], float32.
+
+    Plain numpy (no lazily built lookup tables), so the first call is as cheap as the next.
+    """
+    c = np.asarray(rgb, dtype=np.float32)
+    lin = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    xyz = (lin @ _RGB_TO_XYZ.T) / _WHITE_D65
+    f = np.where(xyz > _EPS, np.cbrt(xyz), xyz / (3.0 * (6.0 / 29.0) ** 2) + 4.0 / 29.0)
+    lab = np.empty_like(f)
+    lab[..., 0] = 116.0 * f[..., 1] - 16.0
+    lab[..., 1] = 500.0 * (f[..., 0] - f[..., 1])
+    lab[..., 2] = 200.0 * (f[..., 1] - f[..., 2])
+    return lab.astype(np.float32, copy=False)
