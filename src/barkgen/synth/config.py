@@ -28,8 +28,9 @@ class SynthesisConfig:
             the full 9x9 window on our bark set and 30 % faster.
         kset_cost: extra cost of a non-coherent candidate, in units of the typical
             nearest-neighbour distance (favours coherent patches, Ashikhmin 2001).
-        occurrence_weight: weight of the penalty on exemplar regions used more often than the
-            uniform expectation (Kaspar 2015 occurrence maps), same units.
+        occurrence_weight: weight of the occurrence cost: exemplar regions used more often than
+            the uniform expectation are penalised, unused ones favoured (Kaspar 2015 occurrence
+            maps), same units.
         max_copy: largest piece copied verbatim from the exemplar, as a fraction of the
             exemplar's area; larger pieces are cut (1.0 disables the control).
         jitter: after up-sampling to levels 2 and coarser, every reference is displaced by a

@@ -219,8 +219,8 @@ def _jitter(refs: np.ndarray, level: LevelAnalysis, amplitude: int,
 
 def _occurrence_penalty(refs: np.ndarray, level: LevelAnalysis, weight: float,
                         radius: int) -> np.ndarray:
-    """Penalty per exemplar pixel, growing with how much more often its region is referenced than
-    a uniform use of the exemplar would give (occurrence map, Kaspar et al. 2015 §5)."""
+    """Cost per exemplar pixel from how much more (or less) often its region is referenced than a
+    uniform use of the exemplar would give (occurrence map, Kaspar et al. 2015 §5)."""
     n = level.height * level.width
     if weight <= 0:
         return np.zeros(n, np.float32)
@@ -230,7 +230,9 @@ def _occurrence_penalty(refs: np.ndarray, level: LevelAnalysis, weight: float,
     k = 2 * radius + 1
     regional = cv2.blur(counts, (k, k), borderType=cv2.BORDER_REFLECT_101)
     expected = max(1.0, refs.size / n)
-    excess = np.maximum(regional / expected - 1.0, 0.0)
+    # > 0 for regions used more than their share, down to -1 (a bonus) for unused ones: small
+    # outputs then still cover the whole exemplar (completeness)
+    excess = regional / expected - 1.0
     return np.ascontiguousarray((weight * level.scale) * excess, dtype=np.float32).ravel()
 
 
