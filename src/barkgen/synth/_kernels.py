@@ -315,3 +315,32 @@ def label_offset_regions(refs, ex_y, ex_x, labels):  # pragma: no cover - compil
             sizes[n] = count
             n += 1
     return sizes[:n].copy()
+
+
+@nb.njit(parallel=True, cache=True)
+def upsample_state(refs, forbid, coarse_y, coarse_x, fine_h, fine_w, out_refs,
+                   out_forbid):  # pragma: no cover - compiled
+    """Exact reference up-sampling (laitoch2018 §3.3.2): output pixel (y, x) takes the child
+    (2v + y % 2, 2u + x % 2) of the exemplar reference (v, u) of its parent (y // 2, x // 2).
+    Forbidden offsets (copy-size control) double with the resolution."""
+    H, W = out_refs.shape
+    two_b = 2 * OFFSET_BIAS
+    for y in nb.prange(H):
+        py = y // 2
+        for x in range(W):
+            px = x // 2
+            e = refs[py, px]
+            fy = 2 * coarse_y[e] + (y & 1)
+            fx = 2 * coarse_x[e] + (x & 1)
+            if fy >= fine_h:
+                fy = fine_h - 1
+            if fx >= fine_w:
+                fx = fine_w - 1
+            out_refs[y, x] = fy * fine_w + fx
+            code = forbid[py, px]
+            if code < 0:
+                out_forbid[y, x] = -1
+            else:
+                dy = code // two_b - OFFSET_BIAS
+                dx = code - (code // two_b) * two_b - OFFSET_BIAS
+                out_forbid[y, x] = (2 * dy + OFFSET_BIAS) * two_b + (2 * dx + OFFSET_BIAS)

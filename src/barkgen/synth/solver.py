@@ -189,20 +189,6 @@ def analyse_exemplar(features: np.ndarray, n_levels: int, config: SynthesisConfi
 # synthesis steps
 
 
-def _upsample(refs: np.ndarray, coarse: LevelAnalysis, fine: LevelAnalysis,
-              out_shape: tuple[int, int]) -> np.ndarray:
-    """Exact reference up-sampling (laitoch2018 §3.3.2): child (2y+i, 2x+j) of an output pixel
-    takes the child (2v+i, 2u+j) of its exemplar reference (v, u)."""
-    H, W = out_shape
-    ys = np.arange(H, dtype=np.int32)[:, None]
-    xs = np.arange(W, dtype=np.int32)[None, :]
-    parent = refs[ys // 2, xs // 2]
-    py, px = np.divmod(parent, np.int32(coarse.width))
-    fy = np.minimum(2 * py + (ys & 1), fine.height - 1)
-    fx = np.minimum(2 * px + (xs & 1), fine.width - 1)
-    return np.ascontiguousarray(fy * fine.width + fx, dtype=np.int32)
-
-
 def _jitter(refs: np.ndarray, level: LevelAnalysis, amplitude: int,
             rng: np.random.Generator) -> np.ndarray:
     """Displace every reference by a seeded random offset in [-amplitude, amplitude]
@@ -265,20 +251,6 @@ def _limit_copies(refs: np.ndarray, level: LevelAnalysis, max_area: float,
     bias = K.OFFSET_BIAS
     forbid[ys, xs] = (ey - ys + bias) * (2 * bias) + (ex - xs + bias)
     return int(big.sum())
-
-
-def _upsample_forbid(forbid: np.ndarray, out_shape: tuple[int, int]) -> np.ndarray:
-    """Carry forbidden offsets to the next finer level (offsets double with the resolution)."""
-    from barkgen.synth import _kernels as K
-
-    H, W = out_shape
-    if not (forbid >= 0).any():
-        return np.full(out_shape, -1, np.int64)
-    coarse = forbid[np.arange(H)[:, None] // 2, np.arange(W)[None, :] // 2]
-    bias = K.OFFSET_BIAS
-    dy, dx = np.divmod(coarse, 2 * bias)
-    fine = (2 * (dy - bias) + bias) * (2 * bias) + (2 * (dx - bias) + bias)
-    return np.where(coarse >= 0, fine, -1).astype(np.int64)
 
 
 def _roll(refs: np.ndarray, forbid: np.ndarray, shift: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
@@ -398,8 +370,12 @@ def synthesize(
             refs = rng.integers(0, la.height * la.width, size=shape, dtype=np.int32)
             forbid = np.full(shape, -1, np.int64)
         else:
-            refs = _upsample(refs, levels[lvl + 1], la, shape)
-            forbid = _upsample_forbid(forbid, shape)
+            coarse = levels[lvl + 1]
+            fine_refs = np.empty(shape, np.int32)
+            fine_forbid = np.empty(shape, np.int64)
+            K.upsample_state(refs, forbid, coarse.coords_y, coarse.coords_x, la.height, la.width,
+                             fine_refs, fine_forbid)
+            refs, forbid = fine_refs, fine_forbid
             if tile and lvl > 0:
                 # seams formed at coarse levels lie on the block grid of the upsampling; a random
                 # toroidal shift per level keeps that grid from lining up with the tile border.
@@ -415,24 +391,26 @@ def synthesize(
         penalty = _occurrence_penalty(refs, la, config.occurrence_weight, occ_radius)
         weights_t = {size: np.ascontiguousarray(p.weights.transpose(1, 2, 3, 0))
                      for size, p in la.projections.items()}
-        for nb_size, iters in config.schedule_for(lvl, n_levels):
+        schedule = [size for size, iters in config.schedule_for(lvl, n_levels) for _ in range(iters)]
+        for step, nb_size in enumerate(schedule):
             proj = la.projections[nb_size]
             stride = _stride_for(nb_size)
-            for _ in range(iters):
-                oy, ox = (int(v) for v in rng.integers(0, stride, size=2))
-                match.fill(-1)
-                K.m_step(refs, la.features, la.coords_y, la.coords_x, la.height, la.width,
-                         weights_t[nb_size], proj.mean,
-                         proj.features, la.ksets, penalty, np.float32(config.kset_cost * la.scale),
-                         stride, oy, ox, tile, forbid, match)
-                K.e_step(match, refs, la.features, la.coords_y, la.coords_x, la.height, la.width,
-                         min(nb_size // 2, config.vote_radius), stride,
-                         oy, ox, tile, np.float32(max(nb_size / 3.0, 1.0)), forbid, new)
-                refs, new = new, refs
-                if config.max_copy < 1.0:
-                    _limit_copies(refs, la, config.max_copy * la.height * la.width, forbid)
-                penalty = _occurrence_penalty(refs, la, config.occurrence_weight, occ_radius)
-                tick()
+            oy, ox = (int(v) for v in rng.integers(0, stride, size=2))
+            match.fill(-1)
+            K.m_step(refs, la.features, la.coords_y, la.coords_x, la.height, la.width,
+                     weights_t[nb_size], proj.mean,
+                     proj.features, la.ksets, penalty, np.float32(config.kset_cost * la.scale),
+                     stride, oy, ox, tile, forbid, match)
+            K.e_step(match, refs, la.features, la.coords_y, la.coords_x, la.height, la.width,
+                     min(nb_size // 2, config.vote_radius), stride,
+                     oy, ox, tile, np.float32(max(nb_size / 3.0, 1.0)), forbid, new)
+            refs, new = new, refs
+            if config.max_copy < 1.0 and step < len(schedule) - 1:
+                # (not after a level's last iteration: its cuts would act only through the
+                # next level, whose first iterations check again at their own scale)
+                _limit_copies(refs, la, config.max_copy * la.height * la.width, forbid)
+            penalty = _occurrence_penalty(refs, la, config.occurrence_weight, occ_radius)
+            tick()
     t2 = time.perf_counter()
 
     h, w = ex.shape[:2]
