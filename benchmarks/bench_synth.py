@@ -10,7 +10,7 @@ drift hits every tool alike):
    frame (``../shared/eval/peers/gmic.sh --tile``); ratio barkgen / G'MIC.
 2. 256x256 -> 4096x4096 tileable: wall time and peak memory (max RSS of the process).
 3. Thread scaling (mazzolini2012 §6.3): 256 -> 2048 tileable with ``--threads 1`` and ``--threads 2``:
-   speed-up and parallel efficiency.
+   speed-up and parallel efficiency, for the whole command and for the solver alone (in process).
 4. Numba compilation: the first run with an empty cache (``NUMBA_CACHE_DIR`` pointed at a fresh
    folder) against a warm run.
 
@@ -120,6 +120,24 @@ def main() -> int:
     rows.append(("speed-up 1->2 threads / efficiency", f"{t1 / t2:.2f}x / {t1 / t2 / 2:.0%}"))
     same = (work / "t1.png").read_bytes() == (work / "t2.png").read_bytes()
     rows.append(("1-thread and 2-thread outputs byte-identical", "yes" if same else "NO"))
+
+    # 3b. the same, in process: the solver alone (start-up, I/O and analysis excluded)
+    code = (
+        "import sys, time, statistics; sys.path.insert(0, %r)\n"
+        "from barkgen.io import read_image\n"
+        "from barkgen.synth import synthesize, SynthesisConfig\n"
+        "ex = read_image(%r); synthesize(ex, 128, tile=True)\n"
+        "res = {1: [], 2: []}\n"
+        "for _ in range(3):\n"
+        "    for n in (1, 2):\n"
+        "        r = synthesize(ex, 2048, tile=True, config=SynthesisConfig(threads=n))\n"
+        "        res[n].append(r.timings['synthesis'])\n"
+        "print(statistics.median(res[1]), statistics.median(res[2]))\n"
+    ) % (str(REPO / "src"), str(ex))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    s1, s2 = (float(v) for v in out.stdout.split())
+    rows.append(("solver only (in process), 2048, 1 / 2 threads", f"{s1:.2f} s / {s2:.2f} s"))
+    rows.append(("solver speed-up 1->2 threads / efficiency", f"{s1 / s2:.2f}x / {s1 / s2 / 2:.0%}"))
 
     # 4. numba cache: cold vs warm
     cache = Path(tempfile.mkdtemp(prefix="barkgen-numba-"))

@@ -405,9 +405,8 @@ def synthesize(
                      min(nb_size // 2, config.vote_radius), stride,
                      oy, ox, tile, np.float32(max(nb_size / 3.0, 1.0)), forbid, new)
             refs, new = new, refs
-            if config.max_copy < 1.0 and step < len(schedule) - 1:
-                # (not after a level's last iteration: its cuts would act only through the
-                # next level, whose first iterations check again at their own scale)
+            if config.max_copy < 1.0 and (lvl > 0 or step < len(schedule) - 1):
+                # (cuts act through the following iterations, none after the very last one)
                 _limit_copies(refs, la, config.max_copy * la.height * la.width, forbid)
             penalty = _occurrence_penalty(refs, la, config.occurrence_weight, occ_radius)
             tick()
