@@ -6,6 +6,29 @@ import numba as nb
 import numpy as np
 
 
+@nb.njit(inline="always")
+def _far_from_kept(out, i, got, c, width, radius):
+    """True when exemplar pixel ``c`` lies more than ``radius`` (Chebyshev) from each of the
+    ``got`` entries already kept in ``out[i]``."""
+    cy = c // width
+    cx = c - cy * width
+    for t in range(got):
+        o = out[i, t]
+        oy = o // width
+        ox = o - oy * width
+        if abs(cy - oy) <= radius and abs(cx - ox) <= radius:
+            return False
+    return True
+
+
+@nb.njit(inline="always")
+def _pad_row(out, i, got, k):
+    """Fill the unfilled tail of ``out[i]`` with its last kept entry (or ``i`` itself)."""
+    fill = out[i, got - 1] if got > 0 else i
+    for t in range(got, k):
+        out[i, t] = fill
+
+
 @nb.njit(parallel=True, cache=True)
 def select_spread_neighbours(knn, width, k, radius):  # pragma: no cover - compiled
     """Keep, per row of ``knn`` (nearest first), the first ``k`` exemplar pixels that lie more than
@@ -27,22 +50,12 @@ def select_spread_neighbours(knn, width, k, radius):  # pragma: no cover - compi
             cx = c - cy * width
             if abs(cy - qy) <= radius and abs(cx - qx) <= radius:
                 continue
-            ok = True
-            for t in range(m):
-                o = out[i, t]
-                oy = o // width
-                ox = o - oy * width
-                if abs(cy - oy) <= radius and abs(cx - ox) <= radius:
-                    ok = False
-                    break
-            if ok:
+            if _far_from_kept(out, i, m, c, width, radius):
                 out[i, m] = c
                 m += 1
                 if m == k:
                     break
-        fill = out[i, m - 1] if m > 0 else i
-        for t in range(m, k):
-            out[i, t] = fill
+        _pad_row(out, i, m, k)
     return out
 
 
@@ -111,22 +124,10 @@ def refine_child_sets(parent_sets, coarse_w, coarse_h, features, height, width, 
                     break
                 dist[jbest] = np.inf
                 c = cand[jbest]
-                cy = c // width
-                cx = c - cy * width
-                ok = True
-                for t in range(got):
-                    o = out[i, t]
-                    oy = o // width
-                    ox = o - oy * width
-                    if abs(cy - oy) <= radius and abs(cx - ox) <= radius:
-                        ok = False
-                        break
-                if ok:
+                if _far_from_kept(out, i, got, c, width, radius):
                     out[i, got] = c
                     got += 1
                     if got == k:
                         break
-            fill = out[i, got - 1] if got > 0 else i
-            for t in range(got, k):
-                out[i, t] = fill
+            _pad_row(out, i, got, k)
     return out
