@@ -5,7 +5,11 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 VENV=${BARKGEN_VENV:-.venv}
 [ -x "$VENV/bin/python" ] || python3 -m venv "$VENV"
-"$VENV/bin/python" -m pip install --quiet --disable-pip-version-check -e .
+log=$(mktemp)
+if ! "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check -e . >"$log" 2>&1; then
+  cat "$log" >&2; rm -f "$log"; echo "barkgen: installing dependencies failed" >&2; exit 1
+fi
+rm -f "$log"
 mkdir -p out
 "$VENV/bin/barkgen" synth -o out/bark_1024_tile.png --size 1024x1024 --tile --seed 0 \
   --save-reference out/bark_1024_tile_reference.png "$@"
