@@ -107,3 +107,12 @@ def test_reference_map_roundtrip(tmp_path):
     back, shape = read_reference(tmp_path / "r.png")
     assert np.array_equal(back, refs) and shape == (300, 400)
     assert read_png_text(tmp_path / "r.png")["barkgen-reference"] == "exemplar=400x300"
+
+
+def test_written_files_get_the_usual_permissions(tmp_path, rgb8):
+    old = os.umask(0o022)
+    try:
+        write_png(tmp_path / "a.png", rgb8)
+    finally:
+        os.umask(old)
+    assert (tmp_path / "a.png").stat().st_mode & 0o777 == 0o644

@@ -17,6 +17,7 @@ E-step, extra channels), with these additions:
 
 from __future__ import annotations
 
+import sys
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -337,12 +338,15 @@ def synthesize(
             f"output {out_shape[1]}x{out_shape[0]} needs about {need / 2**30:.1f} GiB, more than "
             f"the memory budget of {config.max_memory / 2**30:.1f} GiB (raise it with --max-memory)")
 
-    if config.threads is not None:
-        import faiss
-        import numba
+    import numba
 
-        numba.set_num_threads(min(config.threads, numba.config.NUMBA_NUM_THREADS))
-        faiss.omp_set_num_threads(config.threads)
+    # set on every call: a previous call's thread count must not leak into this one
+    n_threads = min(config.threads or numba.config.NUMBA_NUM_THREADS, numba.config.NUMBA_NUM_THREADS)
+    numba.set_num_threads(n_threads)
+    if config.threads is not None or "faiss" in sys.modules:
+        import faiss
+
+        faiss.omp_set_num_threads(n_threads)
 
     from barkgen.synth import _kernels as K
 
