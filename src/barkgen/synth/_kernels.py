@@ -152,7 +152,7 @@ def m_step(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, proj_w, proj_mean, appearance,
 
 
 @nb.njit(inline="always")
-def y_first(y, radius, o, stride, n, tile):
+def first_on_grid(y, radius, o, stride, n, tile):
     """First offset d >= -radius with (y + d - o) divisible by ``stride`` (on the torus when
     ``n`` is a multiple of it), or -radius when the grid is irregular."""
     if tile and n % stride != 0:
@@ -195,7 +195,7 @@ def e_step(match, refs, ex_feat, ex_y, ex_x, ex_h, ex_w, radius, stride, oy, ox,
             nv = 0
             nu = 0
             fb = forbid[y, x]
-            for dy in range(y_first(y, radius, oy, stride, H, tile), radius + 1, y_step):
+            for dy in range(first_on_grid(y, radius, oy, stride, H, tile), radius + 1, y_step):
                 yy = y + dy
                 if tile:
                     yy = _wrap_or_clamp(yy, H, True)
@@ -203,7 +203,7 @@ def e_step(match, refs, ex_feat, ex_y, ex_x, ex_h, ex_w, radius, stride, oy, ox,
                     continue
                 if y_step == 1 and (yy < oy or (yy - oy) % stride != 0):
                     continue
-                for dx in range(y_first(x, radius, ox, stride, W, tile), radius + 1, x_step):
+                for dx in range(first_on_grid(x, radius, ox, stride, W, tile), radius + 1, x_step):
                     xx = x + dx
                     if tile:
                         xx = _wrap_or_clamp(xx, W, True)

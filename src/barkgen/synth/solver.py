@@ -76,6 +76,7 @@ class LevelAnalysis:
     coords_y: np.ndarray  # (h * w,) int32 row of each flat index (division-free decoding)
     coords_x: np.ndarray  # (h * w,) int32 column of each flat index
     projections: dict[int, NeighbourhoodProjection]
+    kernel_weights: dict[int, np.ndarray]  # projection weights laid out [dy, dx, c, d] for m_step
     ksets: np.ndarray  # (h * w, k) int32
     scale: float  # typical squared appearance distance to the nearest distinct neighbour
 
@@ -179,7 +180,10 @@ def analyse_exemplar(features: np.ndarray, n_levels: int, config: SynthesisConfi
                 parent.ksets, (parent.height, parent.width), largest.features, (h, w),
                 config.k, radius=2)
         cy, cx = np.divmod(np.arange(h * w, dtype=np.int32), np.int32(w))
-        parent = LevelAnalysis(h, w, img.reshape(h * w, c), cy, cx, projections, ksets, scale)
+        kernel_weights = {size: np.ascontiguousarray(p.weights.transpose(1, 2, 3, 0))
+                          for size, p in projections.items()}
+        parent = LevelAnalysis(h, w, img.reshape(h * w, c), cy, cx, projections, kernel_weights,
+                               ksets, scale)
         levels[lvl] = parent
         if progress:
             progress()
@@ -196,7 +200,7 @@ def _jitter(refs: np.ndarray, level: LevelAnalysis, amplitude: int,
     (Lefebvre & Hoppe 2005, controllable jitter)."""
     if amplitude <= 0:
         return refs
-    ry, rx = np.divmod(refs, np.int32(level.width))
+    ry, rx = level.coords_y[refs], level.coords_x[refs]
     jy = rng.integers(-amplitude, amplitude + 1, size=refs.shape, dtype=np.int32)
     jx = rng.integers(-amplitude, amplitude + 1, size=refs.shape, dtype=np.int32)
     ry = np.clip(ry + jy, 0, level.height - 1)
@@ -223,6 +227,24 @@ def _occurrence_penalty(refs: np.ndarray, level: LevelAnalysis, weight: float,
     return np.ascontiguousarray((weight * level.scale) * excess, dtype=np.float32).ravel()
 
 
+def _offset_codes(dy: np.ndarray, dx: np.ndarray) -> np.ndarray:
+    """Offsets (reference - position) as the int64 codes the kernels compare
+    (``_kernels.offset_code``)."""
+    from barkgen.synth import _kernels as K
+
+    bias = K.OFFSET_BIAS
+    return (np.asarray(dy, np.int64) + bias) * (2 * bias) + (np.asarray(dx, np.int64) + bias)
+
+
+def _offset_parts(codes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Inverse of :func:`_offset_codes`: ``(dy, dx)``."""
+    from barkgen.synth import _kernels as K
+
+    bias = K.OFFSET_BIAS
+    dy, dx = np.divmod(codes, 2 * bias)
+    return dy - bias, dx - bias
+
+
 def _limit_copies(refs: np.ndarray, level: LevelAnalysis, max_area: float,
                   forbid: np.ndarray) -> int:
     """Copy-size control: find the pieces copied verbatim (regions of constant offset) larger than
@@ -247,27 +269,21 @@ def _limit_copies(refs: np.ndarray, level: LevelAnalysis, max_area: float,
     cx = np.bincount(lab, xs, minlength=sizes.size) / np.maximum(n, 1)
     band = (np.abs(ys - cy[lab]) <= 1.0) | (np.abs(xs - cx[lab]) <= 1.0)
     ys, xs = ys[band], xs[band]
-    e = refs[ys, xs].astype(np.int64)
-    ey, ex = np.divmod(e, level.width)
-    bias = K.OFFSET_BIAS
-    forbid[ys, xs] = (ey - ys + bias) * (2 * bias) + (ex - xs + bias)
+    e = refs[ys, xs]
+    forbid[ys, xs] = _offset_codes(level.coords_y[e] - ys, level.coords_x[e] - xs)
     return int(big.sum())
 
 
 def _roll(refs: np.ndarray, forbid: np.ndarray, shift: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
     """Toroidal shift of the output state; forbidden offsets are re-expressed for the pixels'
     new positions."""
-    from barkgen.synth import _kernels as K
-
     H, W = refs.shape
-    bias = K.OFFSET_BIAS
-    dy, dx = np.divmod(forbid, 2 * bias)
+    dy, dx = _offset_parts(forbid)
     ys = np.arange(H)[:, None]
     xs = np.arange(W)[None, :]
     # an offset is relative to the position; after the shift the position is (y + sy) mod H
-    ny = dy - ((ys + shift[0]) % H - ys)
-    nx = dx - ((xs + shift[1]) % W - xs)
-    moved = np.where(forbid >= 0, ny * (2 * bias) + nx, -1)
+    moved = _offset_codes(dy - ((ys + shift[0]) % H - ys), dx - ((xs + shift[1]) % W - xs))
+    moved = np.where(forbid >= 0, moved, -1)
     return (np.ascontiguousarray(np.roll(refs, shift, axis=(0, 1))),
             np.ascontiguousarray(np.roll(moved, shift, axis=(0, 1))))
 
@@ -393,8 +409,6 @@ def synthesize(
         new = np.empty(shape, np.int32)
         occ_radius = 3
         penalty = _occurrence_penalty(refs, la, config.occurrence_weight, occ_radius)
-        weights_t = {size: np.ascontiguousarray(p.weights.transpose(1, 2, 3, 0))
-                     for size, p in la.projections.items()}
         schedule = [size for size, iters in config.schedule_for(lvl, n_levels) for _ in range(iters)]
         for step, nb_size in enumerate(schedule):
             proj = la.projections[nb_size]
@@ -402,7 +416,7 @@ def synthesize(
             oy, ox = (int(v) for v in rng.integers(0, stride, size=2))
             match.fill(-1)
             K.m_step(refs, la.features, la.coords_y, la.coords_x, la.height, la.width,
-                     weights_t[nb_size], proj.mean,
+                     la.kernel_weights[nb_size], proj.mean,
                      proj.features, la.ksets, penalty, np.float32(config.kset_cost * la.scale),
                      stride, oy, ox, tile, forbid, match)
             K.e_step(match, refs, la.features, la.coords_y, la.coords_x, la.height, la.width,
@@ -420,7 +434,7 @@ def synthesize(
     image = ex.reshape(h * w, ex.shape[2])[refs].reshape(out_shape + (ex.shape[2],))
     out_extras = {name: e.reshape(h * w, e.shape[2])[refs].reshape(out_shape + (e.shape[2],))
                   for name, e in extras.items()}
-    ry, rx = np.divmod(refs, np.int32(w))
+    ry, rx = levels[0].coords_y[refs], levels[0].coords_x[refs]
     references = np.stack([ry, rx], axis=-1).astype(np.int32)
     if np.asarray(exemplar).ndim == 2:
         image = image[:, :, 0]
