@@ -13,6 +13,8 @@ REPO = Path(__file__).resolve().parents[1]
 SHARED = Path(os.environ.get("BARKGEN_SHARED", REPO.parent / "shared"))
 BARK = SHARED / "data" / "bark"
 EVAL = SHARED / "eval"
+# the benchmark helpers (texture-by-numbers cases) are shared with the tests
+sys.path.insert(0, str(REPO / "benchmarks"))
 
 
 def _need_shared() -> None:
@@ -35,16 +37,9 @@ def texeval():
 def bark_exemplar(name: str, size: int) -> np.ndarray:
     """Centre crop of a real bark photo, short side resized to ``size`` (like compare.py)."""
     _need_shared()
-    from PIL import Image
+    from tbn_cases import centre_crop
 
-    path = next(BARK.glob(name + ".*"))
-    im = Image.open(path).convert("RGB")
-    w, h = im.size
-    s = size / min(w, h)
-    im = im.resize((max(size, round(w * s)), max(size, round(h * s))), Image.LANCZOS)
-    w, h = im.size
-    left, top = (w - size) // 2, (h - size) // 2
-    return np.asarray(im.crop((left, top, left + size, top + size)))
+    return centre_crop(next(BARK.glob(name + ".*")), size)
 
 
 @pytest.fixture(scope="session")

@@ -113,3 +113,74 @@ def test_apply_reference_rejects_a_map_of_another_size(tmp_path, exemplar_png):
     r = run("apply-reference", str(tmp_path / "ref.png"), str(tmp_path / "other.png"),
             "-o", str(tmp_path / "x.png"))
     assert r.returncode == 2 and "exemplar" in r.stderr and not (tmp_path / "x.png").exists()
+
+
+# --------------------------------------------------------------------------------------------
+# barkgen tbn
+
+
+@pytest.fixture(scope="module")
+def tbn_files(tmp_path_factory, synthetic_exemplar):
+    from tbn_cases import shuffled_blocks
+
+    d = tmp_path_factory.mktemp("tbn")
+    ex = synthetic_exemplar[:40, :40]
+    lum = ex.astype(np.float32).mean(axis=2)
+    labels = np.where(lum > np.median(lum), 255, 0).astype(np.uint8)
+    write_png(d / "ex.png", ex)
+    write_png(d / "a.png", labels)
+    write_png(d / "b.png", shuffled_blocks(labels, 48, block=8, seed=3))
+    return d
+
+
+def test_tbn_writes_output_reference_and_debug_images(tmp_path, tbn_files):
+    d = tbn_files
+    out = tmp_path / "o.png"
+    r = run("tbn", str(d / "ex.png"), "--labels", str(d / "a.png"), "--target", str(d / "b.png"),
+            "-o", str(out), "--seed", "2", "--init", "random", "--save-reference",
+            str(tmp_path / "ref.png"), "--debug-dir", str(tmp_path / "dbg"), "-q")
+    assert r.returncode == 0, r.stderr
+    assert read_image(out).shape == (48, 48, 3)
+    assert read_image(tmp_path / "ref.png").shape == (48, 48, 3)
+    names = {p.stem for p in (tmp_path / "dbg").iterdir()}
+    assert {"initialization", "level0_result", "level0_target_labels"} <= names
+    again = tmp_path / "again.png"
+    assert run("tbn", str(d / "ex.png"), "--labels", str(d / "a.png"), "--target", str(d / "b.png"),
+               "-o", str(again), "--seed", "2", "--init", "random", "-q").returncode == 0
+    assert again.read_bytes() == out.read_bytes()
+
+
+def _bad_tbn_inputs(d: Path, tmp: Path) -> dict[str, list[str]]:
+    write_png(tmp / "a_small.png", np.zeros((30, 40), np.uint8))
+    write_png(tmp / "b_new_label.png", np.full((48, 48), 77, np.uint8))
+    rng = np.random.default_rng(0)
+    write_png(tmp / "b_many.png", rng.integers(0, 255, (48, 48), dtype=np.uint8))
+    write_png(tmp / "a_many.png", rng.integers(0, 255, (40, 40), dtype=np.uint8))
+    (tmp / "text.png").write_text("not an image")
+    ex, a, b = str(d / "ex.png"), str(d / "a.png"), str(d / "b.png")
+    return {
+        "label map size mismatch": [ex, "--labels", str(tmp / "a_small.png"), "--target", b],
+        "target label absent": [ex, "--labels", a, "--target", str(tmp / "b_new_label.png")],
+        "more than 64 labels": [ex, "--labels", str(tmp / "a_many.png"), "--target",
+                                str(tmp / "b_many.png")],
+        "label file not an image": [ex, "--labels", str(tmp / "text.png"), "--target", b],
+        "missing target": [ex, "--labels", a, "--target", str(tmp / "nope.png")],
+        "bad init": [ex, "--labels", a, "--target", b, "--init", "clever"],
+        "negative weight": [ex, "--labels", a, "--target", b, "--label-weight", "-1"],
+    }
+
+
+@pytest.mark.parametrize("case", [
+    "label map size mismatch", "target label absent", "more than 64 labels",
+    "label file not an image", "missing target", "bad init", "negative weight",
+])
+def test_tbn_bad_input_one_line_exit_2_no_output(tmp_path, tbn_files, case):
+    args = _bad_tbn_inputs(tbn_files, tmp_path)[case]
+    outdir = tmp_path / "outdir"
+    outdir.mkdir()
+    r = run("tbn", *args, "-o", str(outdir / "out.png"), "--save-reference",
+            str(outdir / "ref.png"), "--debug-dir", str(outdir / "dbg"))
+    assert r.returncode == 2, (r.returncode, r.stderr)
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("barkgen: error: "), r.stderr
+    assert list(outdir.iterdir()) == []  # nothing written, not even the debug folder

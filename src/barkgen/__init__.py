@@ -13,6 +13,7 @@ __version__ = "0.1.0"
 
 _LAZY = {
     "synthesize": "barkgen.synth",
+    "texture_by_numbers": "barkgen.synth",
     "apply_references": "barkgen.synth",
     "SynthesisConfig": "barkgen.synth",
     "SynthesisResult": "barkgen.synth",
@@ -28,7 +29,13 @@ if TYPE_CHECKING:  # pragma: no cover
     from barkgen.data import sample_exemplar_path
     from barkgen.errors import BarkgenError
     from barkgen.io import read_image, write_png
-    from barkgen.synth import SynthesisConfig, SynthesisResult, apply_references, synthesize
+    from barkgen.synth import (
+        SynthesisConfig,
+        SynthesisResult,
+        apply_references,
+        synthesize,
+        texture_by_numbers,
+    )
 
 
 def __getattr__(name: str) -> Any:

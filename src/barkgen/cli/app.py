@@ -127,6 +127,23 @@ def _progress(enabled: bool, description: str) -> Iterator:
         yield update
 
 
+# options shared by the synthesis commands
+OutputOption = Annotated[Path, typer.Option("-o", "--output", help="Output PNG.")]
+TileOption = Annotated[bool, typer.Option("--tile", help="Make the output tile seamlessly.")]
+SeedOption = Annotated[int, typer.Option("--seed", min=0, help="Random seed (same seed, same bytes).")]
+ExtraOption = Annotated[Optional[list[str]], typer.Option(
+    "--extra", metavar="NAME=PATH", help="Map aligned with the exemplar (height, normal, ...), "
+    "synthesized along; written as OUTPUT_NAME.png.")]
+SaveReferenceOption = Annotated[Optional[Path], typer.Option(
+    "--save-reference", help="Also write the reference map (16-bit PNG of exemplar x, y).")]
+BitsOption = Annotated[Optional[int], typer.Option(
+    "--bits", help="Bits per channel of the output (8 or 16). Default: the exemplar's.")]
+MaxMemoryOption = Annotated[str, typer.Option(
+    "--max-memory", help="Refuse jobs estimated to need more memory than this.")]
+ThreadsOption = Annotated[Optional[int], typer.Option("--threads", min=1, help="Worker threads.")]
+QuietOption = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")]
+
+
 def _extra_output_path(output: Path, name: str) -> Path:
     return output.with_name(f"{output.stem}_{name}{output.suffix}")
 
@@ -136,35 +153,26 @@ def _extra_output_path(output: Path, name: str) -> Path:
 def synth_command(
     exemplar: Annotated[Optional[Path], typer.Argument(
         help="Bark photo to learn from (PNG/JPEG/TIFF/WebP). Default: the bundled sample.")] = None,
-    output: Annotated[Path, typer.Option("-o", "--output", help="Output PNG.")] = Path("barkgen.png"),
+    output: OutputOption = Path("barkgen.png"),
     size: Annotated[str, typer.Option("--size", help="Output size WIDTHxHEIGHT.")] = "1024x1024",
-    tile: Annotated[bool, typer.Option("--tile", help="Make the output tile seamlessly.")] = False,
-    seed: Annotated[int, typer.Option("--seed", min=0, help="Random seed (same seed, same bytes).")] = 0,
-    extra: Annotated[Optional[list[str]], typer.Option(
-        "--extra", help="NAME=PATH map aligned with the exemplar (height, normal, ...), "
-        "synthesized along; written as OUTPUT_NAME.png.")] = None,
-    save_reference: Annotated[Optional[Path], typer.Option(
-        "--save-reference", help="Also write the reference map (16-bit PNG of exemplar x, y).")] = None,
-    bits: Annotated[Optional[int], typer.Option(
-        "--bits", help="Bits per channel of the output (8 or 16). Default: the exemplar's.")] = None,
-    max_memory: Annotated[str, typer.Option(
-        "--max-memory", help="Refuse jobs estimated to need more memory than this.")] = "8G",
-    threads: Annotated[Optional[int], typer.Option("--threads", min=1, help="Worker threads.")] = None,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")] = False,
+    tile: TileOption = False,
+    seed: SeedOption = 0,
+    extra: ExtraOption = None,
+    save_reference: SaveReferenceOption = None,
+    bits: BitsOption = None,
+    max_memory: MaxMemoryOption = "8G",
+    threads: ThreadsOption = None,
+    quiet: QuietOption = False,
 ) -> None:
     """Synthesize a new bark texture of any size from one exemplar photo."""
     from barkgen.data import sample_exemplar_path
-    from barkgen.io import read_image, write_png, write_reference
+    from barkgen.io import read_image
     from barkgen.synth import SynthesisConfig, synthesize
 
     out_shape = parse_size(size)
     budget = parse_memory(max_memory)
     extra_paths = parse_extras(extra)
-    if bits not in (None, 8, 16):
-        raise InvalidInputError(f"--bits must be 8 or 16, not {bits}")
-    _check_png_target(output, "output")
-    if save_reference is not None:
-        _check_png_target(save_reference, "--save-reference")
+    _check_outputs(output, save_reference, bits)
     src = exemplar if exemplar is not None else sample_exemplar_path()
     image = read_image(src)
     extras = {name: read_image(p) for name, p in extra_paths.items()}
@@ -172,6 +180,14 @@ def synth_command(
     with _progress(not quiet, "synthesizing") as progress:
         result = synthesize(image, out_shape, tile=tile, seed=seed, extra=extras, config=config,
                             progress=progress)
+    _write_result(result, output, bits, save_reference, quiet)
+
+
+def _write_result(result, output: Path, bits: int | None, save_reference: Path | None,
+                  quiet: bool) -> None:
+    """Write a :class:`SynthesisResult`: the image, each extra map beside it, the reference map."""
+    from barkgen.io import write_png, write_reference
+
     write_png(output, result.image, bits=bits)
     for name, arr in result.extras.items():
         write_png(_extra_output_path(output, name), arr)
@@ -179,9 +195,79 @@ def synth_command(
         write_reference(save_reference, result.references, result.exemplar_shape)
     if not quiet:
         t = result.timings
-        typer.echo(f"wrote {output} ({out_shape[1]}x{out_shape[0]}, seed {seed}"
-                   f"{', tileable' if tile else ''}) in {t['analysis'] + t['synthesis']:.2f} s",
+        h, w = result.image.shape[:2]
+        typer.echo(f"wrote {output} ({w}x{h}, seed {result.seed}"
+                   f"{', tileable' if result.tile else ''}) in {t['analysis'] + t['synthesis']:.2f} s",
                    err=True)
+
+
+def _check_outputs(output: Path, save_reference: Path | None, bits: int | None) -> None:
+    if bits not in (None, 8, 16):
+        raise InvalidInputError(f"--bits must be 8 or 16, not {bits}")
+    _check_png_target(output, "output")
+    if save_reference is not None:
+        _check_png_target(save_reference, "--save-reference")
+
+
+@app.command("tbn")
+@user_errors
+def tbn_command(
+    exemplar: Annotated[Path, typer.Argument(help="Bark photo to learn from.")],
+    labels: Annotated[Path, typer.Option(
+        "--labels", help="Label map of the exemplar (lossless image, same size; each grey value "
+        "or colour is a label).")],
+    target: Annotated[Path, typer.Option(
+        "--target", help="Label map of the wanted output; sets the output size.")],
+    output: OutputOption = Path("barkgen.png"),
+    init: Annotated[str, typer.Option("--init", help="Initialisation: smart or random.")] = "smart",
+    label_weight: Annotated[float, typer.Option(
+        "--label-weight", help="Weight w of the label term (laitoch2018 eq. 3.1), in units of "
+        "the exemplar's colour variance.")] = 20.0,
+    feature_weight: Annotated[float, typer.Option(
+        "--feature-weight", help="Weight z of the feature-distance channel (eq. 3.3), same "
+        "units.")] = 8.0,
+    tile: TileOption = False,
+    seed: SeedOption = 0,
+    extra: ExtraOption = None,
+    save_reference: SaveReferenceOption = None,
+    debug_dir: Annotated[Optional[Path], typer.Option(
+        "--debug-dir", help="Write the pyramid levels, label maps, initialisation and each "
+        "level's result as PNGs into this folder.")] = None,
+    bits: BitsOption = None,
+    max_memory: MaxMemoryOption = "8G",
+    threads: ThreadsOption = None,
+    quiet: QuietOption = False,
+) -> None:
+    """Texture-by-numbers: synthesize bark that follows a target label map."""
+    import dataclasses
+
+    from barkgen.io import read_image, write_png
+    from barkgen.synth import texture_by_numbers
+    from barkgen.synth.tbn import TBN_CONFIG
+
+    budget = parse_memory(max_memory)
+    extra_paths = parse_extras(extra)
+    _check_outputs(output, save_reference, bits)
+    if debug_dir is not None and debug_dir.exists() and not debug_dir.is_dir():
+        raise InvalidInputError(f"--debug-dir {str(debug_dir)!r} exists and is not a directory")
+    image = read_image(exemplar)
+    label_map = read_image(labels)
+    target_map = read_image(target)
+    extras = {name: read_image(p) for name, p in extra_paths.items()}
+    config = dataclasses.replace(TBN_CONFIG, threads=threads, max_memory=budget)
+
+    debug = None
+    if debug_dir is not None:
+        def debug(name: str, img) -> None:
+            debug_dir.mkdir(parents=True, exist_ok=True)
+            write_png(debug_dir / f"{name}.png", img)
+
+    with _progress(not quiet, "texture-by-numbers") as progress:
+        result = texture_by_numbers(image, label_map, target_map, label_weight=label_weight,
+                                    feature_weight=feature_weight, init=init, tile=tile,
+                                    seed=seed, extra=extras, config=config, progress=progress,
+                                    debug=debug)
+    _write_result(result, output, bits, save_reference, quiet)
 
 
 @app.command("apply-reference")
@@ -189,7 +275,7 @@ def synth_command(
 def apply_reference_command(
     reference: Annotated[Path, typer.Argument(help="Reference map written by --save-reference.")],
     map_path: Annotated[Path, typer.Argument(metavar="MAP", help="Map of the exemplar's size.")],
-    output: Annotated[Path, typer.Option("-o", "--output", help="Output PNG.")],
+    output: OutputOption,
     bits: Annotated[Optional[int], typer.Option("--bits", help="8 or 16. Default: the map's.")] = None,
 ) -> None:
     """Re-apply a saved reference map to another map of the exemplar (height, normal, ...)."""

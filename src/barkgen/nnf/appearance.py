@@ -60,8 +60,6 @@ def neighbourhood_pca(image: np.ndarray, size: int, n_components: int,
     any seed) and the full projection is computed with one correlation filter per (component,
     channel) pair.
     """
-    import cv2
-
     image = np.ascontiguousarray(image, dtype=np.float32)
     h, w, c = image.shape
     win = _gaussian_window(size)
@@ -80,16 +78,33 @@ def neighbourhood_pca(image: np.ndarray, size: int, n_components: int,
     weights = (basis.T.reshape(d, size, size, c) * win[None, :, :, None]).astype(np.float32)
     mean_nb = (mean.reshape(size, size, c) / np.maximum(win[:, :, None], 1e-12)).astype(np.float32)
 
+    features = project_neighbourhoods(image, weights, mean_nb)
+    return NeighbourhoodProjection(size=size, weights=weights, mean=mean_nb,
+                                   features=features, scale=1.0)
+
+
+def project_neighbourhoods(image: np.ndarray, weights: np.ndarray, mean: np.ndarray,
+                           wrap: bool = False) -> np.ndarray:
+    """Project every ``size x size`` neighbourhood of ``image`` ``(h, w, C)``:
+    ``a(p) = sum weights[d, dy, dx, c] * (image[p + (dy, dx), c] - mean[dy, dx, c])``, one
+    correlation filter per (component, channel) pair. Borders are reflected, or wrapped around
+    when ``wrap`` (tileable outputs). Returns ``(h * w, D)`` float32."""
+    import cv2
+
+    image = np.ascontiguousarray(image, dtype=np.float32)
+    h, w, c = image.shape
+    d, size = weights.shape[0], weights.shape[1]
     r = size // 2
+    if wrap:
+        image = np.pad(image, ((r, r), (r, r), (0, 0)), mode="wrap")
     features = np.empty((h, w, d), np.float32)
-    offset = np.einsum("dyxc,yxc->d", weights, mean_nb)
+    offset = np.einsum("dyxc,yxc->d", weights, mean)
+    channels = [np.ascontiguousarray(image[:, :, ch]) for ch in range(c)]
     for k in range(d):
-        acc = np.zeros((h, w), np.float32)
+        acc = np.zeros(image.shape[:2], np.float32)
         for ch in range(c):
             kern = np.ascontiguousarray(weights[k, :, :, ch])
-            acc += cv2.filter2D(image[:, :, ch], cv2.CV_32F, kern, anchor=(r, r),
+            acc += cv2.filter2D(channels[ch], cv2.CV_32F, kern, anchor=(r, r),
                                 borderType=cv2.BORDER_REFLECT_101)
-        features[:, :, k] = acc - offset[k]
-    features = features.reshape(h * w, d)
-    return NeighbourhoodProjection(size=size, weights=weights, mean=mean_nb,
-                                   features=np.ascontiguousarray(features), scale=1.0)
+        features[:, :, k] = (acc[r:r + h, r:r + w] if wrap else acc) - offset[k]
+    return np.ascontiguousarray(features.reshape(h * w, d))

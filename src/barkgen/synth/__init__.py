@@ -10,6 +10,7 @@ from barkgen.synth.solver import (
     matching_features,
     synthesize,
 )
+from barkgen.synth.tbn import texture_by_numbers
 
 __all__ = [
     "LevelAnalysis",
@@ -20,4 +21,5 @@ __all__ = [
     "estimate_memory",
     "matching_features",
     "synthesize",
+    "texture_by_numbers",
 ]

@@ -36,17 +36,71 @@ def offset_code(ey, ex, y, x):
     return (np.int64(ey - y) + OFFSET_BIAS) * (2 * OFFSET_BIAS) + (ex - x + OFFSET_BIAS)
 
 
+@nb.njit(inline="always")
+def _reflect(v, n):
+    """Index ``v`` reflected into ``[0, n)`` without repeating the edge (OpenCV's
+    BORDER_REFLECT_101, as the analysis's filters use), for offsets smaller than ``n``."""
+    if v < 0:
+        v = -v
+    if v >= n:
+        v = 2 * n - 2 - v
+    return min(max(v, 0), n - 1)
+
+
+@nb.njit(inline="always")
+def _mix(z):
+    """splitmix64 finaliser: a well-mixed 64-bit hash of a uint64."""
+    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return z ^ (z >> np.uint64(31))
+
+
+@nb.njit(inline="always")
+def _shifted_neighbour_source(refs, y, x, dy, dx, tile, ex_y, ex_x, ex_h, ex_w):
+    """The exemplar pixel that output pixel (y, x) would take to continue the piece its
+    neighbour (y + dy, x + dx) was copied from (the neighbour's reference shifted back by
+    (dy, dx)); -1 when the neighbour is outside the output (not tiled) or the shifted pixel
+    outside the exemplar."""
+    H, W = refs.shape
+    yy = y + dy
+    xx = x + dx
+    if not tile and (yy < 0 or yy >= H or xx < 0 or xx >= W):
+        return -1
+    e = refs[_wrap_or_clamp(yy, H, tile), _wrap_or_clamp(xx, W, tile)]
+    cy = ex_y[e] - dy
+    cx = ex_x[e] - dx
+    if cy < 0 or cy >= ex_h or cx < 0 or cx >= ex_w:
+        return -1
+    return cy * ex_w + cx
+
+
 @nb.njit(parallel=True, cache=True, fastmath=True)
 def m_step(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, proj_w, proj_mean, appearance, ksets,
-           penalty, kset_cost, stride, oy, ox, tile, forbid, match):  # pragma: no cover - compiled
+           penalty, kset_cost, stride, oy, ox, tile, forbid, guide_ex, guide_out, ex_labels,
+           target, pool, pool_start, n_random, random_key, match):  # pragma: no cover - compiled
     """M-step on the sparse grid ``(oy + i * stride, ox + j * stride)``.
 
     For each grid pixel, the output neighbourhood (resolved references) is projected into
-    appearance space (``proj_w[dy, dx, c, d]``, ``proj_mean[dy, dx, c]``) and compared with the candidates of k-coherence search: the forward-shifted
-    sources of its 3x3 neighbours and their k-coherence sets (laitoch2018 eq. 3.4). The cost adds
-    the occurrence ``penalty`` of the candidate and ``kset_cost`` for non-coherent candidates.
-    Candidates whose offset (reference - position) equals ``forbid[y, x]`` are skipped (copy-size
-    control, see ``solver._limit_copies``). ``match`` receives the best exemplar index at grid pixels (others are left untouched).
+    appearance space (``proj_w[dy, dx, c, d]``, ``proj_mean[dy, dx, c]``) and compared with the
+    candidates of k-coherence search: the forward-shifted sources of its 3x3 neighbours and
+    their k-coherence sets (laitoch2018 eq. 3.4). The cost adds the occurrence ``penalty`` of the
+    candidate and ``kset_cost`` for non-coherent candidates. Candidates whose offset
+    (reference - position) equals ``forbid[y, x]`` are skipped (copy-size control, see
+    ``solver._limit_copies``). ``match`` receives the best exemplar index at grid pixels (others
+    are left untouched).
+
+    Texture-by-numbers (laitoch2018 eq. 3.2, A : A' :: B : B'): when ``guide_ex`` has columns,
+    a candidate also pays the squared distance between its label neighbourhood
+    (``guide_ex[u]``, the exemplar's label map in its own appearance space) and the wanted one
+    (``guide_out[y, x]``, the target label map projected the same way), and ``n_random`` extra
+    candidates per pixel are drawn from the exemplar pixels of the wanted label ``target[y, x]``
+    (``pool``, ``pool_start``; a hash of ``random_key`` and the position picks them, independent
+    of threads), plus one drawn from the label of the nearest pixel of the neighbourhood that
+    wants another label, shifted so that the drawn pixel lands on it: small features get
+    candidates that put them where the target wants them. These are tried only where some pixel
+    of the neighbourhood has the wrong label (``ex_labels`` of its reference differs from
+    ``target``): elsewhere coherent candidates already fit. Unguided synthesis passes zero guide
+    columns and ``n_random = 0``.
     """
     H, W = refs.shape
     S, _, C, D = proj_w.shape
@@ -58,33 +112,42 @@ def m_step(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, proj_w, proj_mean, appearance,
         q = np.empty(D, np.float32)
         seen = np.empty(9, np.int32)
         for x in range(ox, W, stride):
-            # fast path: a neighbourhood copied whole from the exemplar projects exactly onto the
-            # exemplar's own appearance vector, no need to recompute it
+            # incremental projection: the neighbourhood is compared with the exemplar
+            # neighbourhood of its centre's reference, whose projection is known
+            # (``appearance[e0]``, reflected at the exemplar border like the analysis); only the
+            # pixels that differ from it are projected (exact, the projection is linear). Pieces
+            # copied whole cost nothing; a full projection is done when most pixels differ.
             e0 = refs[y, x]
             cy0 = ex_y[e0]
             cx0 = ex_x[e0]
-            whole = True
+            n_diff = 0
+            n_wrong = 0
             for dy in range(-r, r + 1):
-                if not whole:
-                    break
-                yy = y + dy
-                if not tile and (yy < 0 or yy >= H):
-                    whole = False
-                    break
-                yy = _wrap_or_clamp(yy, H, tile)
+                yy = _wrap_or_clamp(y + dy, H, tile)
+                ey = _reflect(cy0 + dy, ex_h)
                 for dx in range(-r, r + 1):
-                    xx = x + dx
-                    if not tile and (xx < 0 or xx >= W):
-                        whole = False
-                        break
-                    xx = _wrap_or_clamp(xx, W, tile)
-                    e = refs[yy, xx]
-                    if ex_y[e] != cy0 + dy or ex_x[e] != cx0 + dx:
-                        whole = False
-                        break
-            if whole:
+                    xx = _wrap_or_clamp(x + dx, W, tile)
+                    if refs[yy, xx] != ey * ex_w + _reflect(cx0 + dx, ex_w):
+                        n_diff += 1
+                    if n_random > 0 and ex_labels[refs[yy, xx]] != target[yy, xx]:
+                        n_wrong += 1
+            if 2 * n_diff < S * S:
                 for d in range(D):
                     q[d] = appearance[e0, d]
+                if n_diff > 0:
+                    for dy in range(-r, r + 1):
+                        yy = _wrap_or_clamp(y + dy, H, tile)
+                        ey = _reflect(cy0 + dy, ex_h)
+                        for dx in range(-r, r + 1):
+                            xx = _wrap_or_clamp(x + dx, W, tile)
+                            e = refs[yy, xx]
+                            u = ey * ex_w + _reflect(cx0 + dx, ex_w)
+                            if e == u:
+                                continue
+                            for c in range(C):
+                                v = ex_feat[e, c] - ex_feat[u, c]
+                                for d in range(D):
+                                    q[d] += proj_w[dy + r, dx + r, c, d] * v
             else:
                 for d in range(D):
                     q[d] = 0.0
@@ -97,26 +160,16 @@ def m_step(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, proj_w, proj_mean, appearance,
                             v = ex_feat[e, c] - proj_mean[dy + r, dx + r, c]
                             for d in range(D):
                                 q[d] += proj_w[dy + r, dx + r, c, d] * v
-            best = refs[y, x]
+            best = np.int64(refs[y, x])
             best_cost = np.inf
             n_seen = 0
             fb = forbid[y, x]
             for dy in range(-1, 2):
-                yy = y + dy
-                if not tile and (yy < 0 or yy >= H):
-                    continue
-                yy = _wrap_or_clamp(yy, H, tile)
                 for dx in range(-1, 2):
-                    xx = x + dx
-                    if not tile and (xx < 0 or xx >= W):
+                    u = _shifted_neighbour_source(refs, y, x, dy, dx, tile, ex_y, ex_x, ex_h,
+                                                  ex_w)
+                    if u < 0:
                         continue
-                    xx = _wrap_or_clamp(xx, W, tile)
-                    e = refs[yy, xx]
-                    ey = ex_y[e] - dy
-                    ex = ex_x[e] - dx
-                    if ey < 0 or ey >= ex_h or ex < 0 or ex >= ex_w:
-                        continue
-                    u = ey * ex_w + ex
                     dup = False
                     for t in range(n_seen):
                         if seen[t] == u:
@@ -126,29 +179,92 @@ def m_step(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, proj_w, proj_mean, appearance,
                         continue
                     seen[n_seen] = u
                     n_seen += 1
-                    if fb >= 0 and offset_code(ey, ex, y, x) == fb:
-                        continue
-                    cost = penalty[u]
-                    for d in range(D):
-                        diff = appearance[u, d] - q[d]
-                        cost += diff * diff
-                    if cost < best_cost:
-                        best_cost = cost
-                        best = u
+                    if fb >= 0 and offset_code(ex_y[u], ex_x[u], y, x) == fb:
+                        continue  # (its k-coherence set goes with it)
+                    best, best_cost = _consider(u, penalty[u], best, best_cost, -1, y, x, ex_y,
+                                                ex_x, appearance, q, guide_ex, guide_out)
                     for t in range(K):
                         v2 = ksets[u, t]
-                        cost = penalty[v2] + kset_cost
-                        if cost >= best_cost:
-                            continue
-                        if fb >= 0 and offset_code(ex_y[v2], ex_x[v2], y, x) == fb:
-                            continue
-                        for d in range(D):
-                            diff = appearance[v2, d] - q[d]
-                            cost += diff * diff
-                        if cost < best_cost:
-                            best_cost = cost
-                            best = v2
+                        best, best_cost = _consider(v2, penalty[v2] + kset_cost, best, best_cost,
+                                                    fb, y, x, ex_y, ex_x, appearance, q,
+                                                    guide_ex, guide_out)
+            for t in range(n_random + 1 if n_wrong > 0 else 0):
+                h = _mix(random_key ^ _mix(np.uint64((y * W + x) * (n_random + 1) + t + 1)))
+                if t < n_random:
+                    lab = target[y, x]
+                    sy = 0
+                    sx = 0
+                else:
+                    lab, sy, sx = _nearest_other_label(target, y, x, r, tile)
+                    if lab < 0:
+                        continue
+                p0 = pool_start[lab]
+                n_pool = pool_start[lab + 1] - p0
+                v2 = pool[p0 + np.int64(h % np.uint64(n_pool))]
+                if sy != 0 or sx != 0:
+                    vy = ex_y[v2] - sy
+                    vx = ex_x[v2] - sx
+                    if vy < 0 or vy >= ex_h or vx < 0 or vx >= ex_w:
+                        continue
+                    v2 = vy * ex_w + vx
+                best, best_cost = _consider(v2, penalty[v2] + kset_cost, best, best_cost, fb, y,
+                                            x, ex_y, ex_x, appearance, q, guide_ex, guide_out)
             match[y, x] = best
+
+
+@nb.njit(inline="always")
+def _nearest_other_label(target, y, x, radius, tile):
+    """``(label, dy, dx)`` of a nearest pixel (ring by ring, Chebyshev distance <= ``radius``)
+    whose wanted label differs from ``target[y, x]``; label -1 if there is none."""
+    H, W = target.shape
+    own = target[y, x]
+    for d in range(1, radius + 1):
+        for dy in range(-d, d + 1):
+            yy = y + dy
+            if not tile and (yy < 0 or yy >= H):
+                continue
+            yy = _wrap_or_clamp(yy, H, tile)
+            step = 1 if (dy == -d or dy == d) else 2 * d
+            for dx in range(-d, d + 1, step):
+                xx = x + dx
+                if not tile and (xx < 0 or xx >= W):
+                    continue
+                lab = target[yy, _wrap_or_clamp(xx, W, tile)]
+                if lab != own:
+                    return lab, dy, dx
+    return -1, 0, 0
+
+
+@nb.njit(inline="always")
+def _consider(v, base, best, best_cost, fb, y, x, ex_y, ex_x, appearance, q, guide_ex,
+              guide_out):
+    """M-step candidate ``v`` at cost ``base`` (occurrence penalty, coherence bias) plus its
+    distances (:func:`_cost`): returns ``(v, cost)`` if it beats ``(best, best_cost)``, else
+    those. A candidate whose offset is the forbidden one ``fb`` is never taken."""
+    if base >= best_cost:
+        return best, best_cost
+    if fb >= 0 and offset_code(ex_y[v], ex_x[v], y, x) == fb:
+        return best, best_cost
+    cost = _cost(base, best_cost, appearance, q, guide_ex, guide_out, v, y, x)
+    if cost < best_cost:
+        return np.int64(v), cost
+    return best, best_cost
+
+
+@nb.njit(inline="always")
+def _cost(base, bound, appearance, q, guide_ex, guide_out, u, y, x):
+    """``base`` + appearance distance of exemplar pixel ``u`` to the query ``q`` + (guided) the
+    label-neighbourhood distance; the label part is skipped once the sum reaches ``bound``."""
+    cost = base
+    for d in range(q.shape[0]):
+        diff = appearance[u, d] - q[d]
+        cost += diff * diff
+    if cost >= bound:
+        return cost
+    for d in range(guide_ex.shape[1]):
+        diff = guide_ex[u, d] - guide_out[y, x, d]
+        cost += diff * diff
+    return cost
 
 
 @nb.njit(inline="always")
@@ -162,7 +278,7 @@ def first_on_grid(y, radius, o, stride, n, tile):
 
 @nb.njit(parallel=True, cache=True, fastmath=True)
 def e_step(match, refs, ex_feat, ex_y, ex_x, ex_h, ex_w, radius, stride, oy, ox, tile, sigma,
-           forbid, out):  # pragma: no cover - compiled
+           forbid, ex_labels, target, label_discount, out):  # pragma: no cover - compiled
     """E-step (laitoch2018 eq. 3.5, Han et al. 2006): every output pixel collects the
     forward-shifted references voted by the matched neighbourhoods that cover it (Gaussian
     weights by distance to the neighbourhood centre) and takes the reference with the largest
@@ -171,6 +287,11 @@ def e_step(match, refs, ex_feat, ex_y, ex_x, ex_h, ex_w, radius, stride, oy, ox,
     best-supported vote instead of the nearest-to-average one keeps neighbouring pixels on the
     same exemplar patch, so patches stay whole and seams stay thin. Votes whose offset equals
     ``forbid[y, x]`` are ignored. Pixels with no valid vote keep their reference.
+
+    Texture-by-numbers: when ``label_discount < 1``, a vote whose exemplar label
+    (``ex_labels``) differs from the wanted label ``target[y, x]`` weighs ``label_discount``
+    times as much, so labels are kept wherever any vote agrees with them (with 0, wrong votes
+    count only when there is no other: then the first one is taken).
     """
     H, W = refs.shape
     C = ex_feat.shape[1]
@@ -222,6 +343,8 @@ def e_step(match, refs, ex_feat, ex_y, ex_x, ex_h, ex_w, radius, stride, oy, ox,
                     if fb >= 0 and offset_code(ey, ex, y, x) == fb:
                         continue
                     wgt = wtab[dy + radius, dx + radius]
+                    if label_discount < 1.0 and ex_labels[v] != target[y, x]:
+                        wgt *= label_discount
                     votes[nv] = v
                     vw[nv] = wgt
                     nv += 1
@@ -257,9 +380,12 @@ def e_step(match, refs, ex_feat, ex_y, ex_x, ex_h, ex_w, radius, stride, oy, ox,
                 wsum += vw[t]
                 for c in range(C):
                     avg[c] += vw[t] * ex_feat[votes[t], c]
+            best = uniq[top]
+            if wsum <= 0.0:  # only votes of the wrong label, all discounted to zero: the first
+                out[y, x] = best
+                continue
             for c in range(C):
                 avg[c] /= wsum
-            best = uniq[top]
             best_cost = np.inf
             for t in range(nu):
                 if usup[t] < usup[top] - 1e-6:
@@ -344,3 +470,51 @@ def upsample_state(refs, forbid, coarse_y, coarse_x, fine_h, fine_w, out_refs,
                 dy = code // two_b - OFFSET_BIAS
                 dx = code - (code // two_b) * two_b - OFFSET_BIAS
                 out_forbid[y, x] = (2 * dy + OFFSET_BIAS) * two_b + (2 * dx + OFFSET_BIAS)
+
+
+@nb.njit(parallel=True, cache=True)
+def enforce_labels(refs, ex_y, ex_x, ex_h, ex_w, ex_labels, target, tile,
+                   out):  # pragma: no cover - compiled
+    """Label clean-up (texture-by-numbers): an output pixel whose exemplar label differs from the
+    wanted one takes, among the forward-shifted references of its 8 neighbours that have the
+    wanted label, the one most of them agree on (so it continues a neighbouring piece); pixels
+    with no such neighbour keep their reference. Returns the number of pixels changed."""
+    H, W = refs.shape
+    changed = np.zeros(H, np.int64)
+    for y in nb.prange(H):
+        cand = np.empty(8, np.int32)
+        support = np.empty(8, np.int32)
+        for x in range(W):
+            e = refs[y, x]
+            want = target[y, x]
+            out[y, x] = e
+            if ex_labels[e] == want:
+                continue
+            n = 0
+            for dy in range(-1, 2):
+                for dx in range(-1, 2):
+                    if dy == 0 and dx == 0:
+                        continue
+                    u = _shifted_neighbour_source(refs, y, x, dy, dx, tile, ex_y, ex_x, ex_h,
+                                                  ex_w)
+                    if u < 0 or ex_labels[u] != want:
+                        continue
+                    found = False
+                    for t in range(n):
+                        if cand[t] == u:
+                            support[t] += 1
+                            found = True
+                            break
+                    if not found:
+                        cand[n] = u
+                        support[n] = 1
+                        n += 1
+            if n == 0:
+                continue
+            best = 0
+            for t in range(1, n):
+                if support[t] > support[best]:
+                    best = t
+            out[y, x] = cand[best]
+            changed[y] += 1
+    return changed.sum()

@@ -31,6 +31,7 @@ from barkgen.nnf import (
     k_coherence_sets,
     k_coherence_sets_from_parent,
     neighbourhood_pca,
+    project_neighbourhoods,
 )
 from barkgen.pyramid import count_levels, gaussian_pyramid, level_shape
 from barkgen.synth.config import SynthesisConfig
@@ -209,9 +210,10 @@ def _jitter(refs: np.ndarray, level: LevelAnalysis, amplitude: int,
 
 
 def _occurrence_penalty(refs: np.ndarray, level: LevelAnalysis, weight: float,
-                        radius: int) -> np.ndarray:
+                        radius: int, expected_use: np.ndarray | None = None) -> np.ndarray:
     """Cost per exemplar pixel from how much more (or less) often its region is referenced than a
-    uniform use of the exemplar would give (occurrence map, Kaspar et al. 2015 §5)."""
+    uniform use of the exemplar would give (occurrence map, Kaspar et al. 2015 §5). With a guide,
+    ``expected_use`` gives each exemplar pixel's uniform share (per label)."""
     n = level.height * level.width
     if weight <= 0:
         return np.zeros(n, np.float32)
@@ -220,10 +222,16 @@ def _occurrence_penalty(refs: np.ndarray, level: LevelAnalysis, weight: float,
     counts = np.bincount(refs.ravel(), minlength=n).astype(np.float32).reshape(level.height, level.width)
     k = 2 * radius + 1
     regional = cv2.blur(counts, (k, k), borderType=cv2.BORDER_REFLECT_101)
-    expected = max(1.0, refs.size / n)
-    # > 0 for regions used more than their share, down to -1 (a bonus) for unused ones: small
-    # outputs then still cover the whole exemplar (completeness)
-    excess = regional / expected - 1.0
+    if expected_use is None:
+        expected = max(1.0, refs.size / n)
+        # > 0 for regions used more than their share, down to -1 (a bonus) for unused ones: small
+        # outputs then still cover the whole exemplar (completeness)
+        excess = regional / expected - 1.0
+    else:
+        share = cv2.blur(expected_use.reshape(level.height, level.width), (k, k),
+                         borderType=cv2.BORDER_REFLECT_101)
+        # regions of labels the target does not want get neither cost nor bonus
+        excess = np.where(share > 0, regional / np.maximum(share, 1.0) - 1.0, 0.0)
     return np.ascontiguousarray((weight * level.scale) * excess, dtype=np.float32).ravel()
 
 
@@ -292,6 +300,235 @@ def _stride_for(size: int) -> int:
     return 1 if size <= 3 else 2
 
 
+@dataclass
+class Guidance:
+    """What turns the solver into texture-by-numbers (laitoch2018 §3.3, image analogies).
+
+    ``exemplar_guides[l]`` ``(h_l, w_l, G)`` and ``target_guides[l]`` ``(H_l, W_l, G)`` are the
+    guide channels (soft labels) of the exemplar (``A``) and of the output (``B``) at level
+    ``l``; their neighbourhoods are compared in an appearance space of their own with
+    ``components`` dimensions. ``levels`` are the label tables; ``initial_references(a, b, rng)``
+    makes the coarsest level's reference map from its exemplar and target labels.
+
+    ``random_candidates``: M-step candidates drawn per pixel from the wanted label's exemplar
+    pixels (plus one aligned on the nearest other label). ``vote_discount``: weight of E-step
+    votes whose label is wrong (0: used only when no vote has the right label).
+    ``cleanup_passes``: label clean-up passes after the finest level (``_kernels.enforce_labels``).
+    """
+
+    levels: list  # list[LevelGuide], finest first
+    exemplar_guides: list  # list[np.ndarray], finest first
+    target_guides: list  # list[np.ndarray], finest first
+    initial_references: Callable[[np.ndarray, np.ndarray, np.random.Generator], np.ndarray]
+    components: int = 4
+    random_candidates: int = 1
+    vote_discount: float = 0.0
+    cleanup_passes: int = 3
+
+
+#: debug(name, image): receives intermediate images (uint8 RGB) when given
+DebugCallback = Callable[[str, np.ndarray], None]
+
+
+def validate_inputs(exemplar: np.ndarray, size: int | tuple[int, int], seed: int,
+                    extra: Mapping[str, np.ndarray] | None) -> tuple[np.ndarray, tuple[int, int], dict]:
+    """Check the exemplar, output size, seed and extra maps; return them normalised."""
+    ex = _as_hw_c("exemplar", exemplar)
+    if ex.shape[2] not in (1, 3):
+        raise InvalidInputError(f"exemplar must have 1 or 3 channels, not {ex.shape[2]}")
+    if min(ex.shape[:2]) < MIN_EXEMPLAR_SIDE:
+        raise InvalidInputError(
+            f"exemplar is {ex.shape[1]}x{ex.shape[0]} px; it must be at least "
+            f"{MIN_EXEMPLAR_SIDE} px on each side")
+    out_shape = parse_output_shape(size)
+    if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool) or seed < 0:
+        raise InvalidInputError(f"seed must be a non-negative integer, not {seed!r}")
+    extras = {}
+    for name, arr in (extra or {}).items():
+        e = _as_hw_c(f"extra map {name!r}", arr)
+        if e.shape[:2] != ex.shape[:2]:
+            raise InvalidInputError(
+                f"extra map {name!r} is {e.shape[1]}x{e.shape[0]} px but the exemplar is "
+                f"{ex.shape[1]}x{ex.shape[0]} px; they must match")
+        extras[name] = e
+    return ex, out_shape, extras
+
+
+def check_memory(ex: np.ndarray, extras: Mapping[str, np.ndarray], out_shape: tuple[int, int],
+                 feature_channels: int, config: SynthesisConfig, guided: bool = False) -> None:
+    """Raise :class:`MemoryBudgetError` before any work if the job would not fit the budget."""
+    need = estimate_memory(ex.shape[:2], out_shape,
+                           ex.shape[2] + sum(e.shape[2] for e in extras.values()),
+                           max([ex.dtype.itemsize] + [e.dtype.itemsize for e in extras.values()]),
+                           feature_channels, config)
+    if guided:  # label pyramids and tables
+        need += 24 * out_shape[0] * out_shape[1] + 24 * ex.shape[0] * ex.shape[1]
+    if need > config.max_memory:
+        raise MemoryBudgetError(
+            f"output {out_shape[1]}x{out_shape[0]} needs about {need / 2**30:.1f} GiB, more than "
+            f"the memory budget of {config.max_memory / 2**30:.1f} GiB (raise it with --max-memory)")
+
+
+def _set_threads(config: SynthesisConfig) -> None:
+    import numba
+
+    # set on every call: a previous call's thread count must not leak into this one
+    n_threads = min(config.threads or numba.config.NUMBA_NUM_THREADS, numba.config.NUMBA_NUM_THREADS)
+    numba.set_num_threads(n_threads)
+    if config.threads is not None or "faiss" in sys.modules:
+        import faiss
+
+        faiss.omp_set_num_threads(n_threads)
+
+
+def _level_image(ex: np.ndarray, refs: np.ndarray, level: int) -> np.ndarray:
+    """A level's reference map shown with the full-resolution exemplar's colours (debug)."""
+    h, w = ex.shape[:2]
+    lw = level_shape((h, w), level)[1]
+    ry, rx = np.divmod(refs, lw)
+    img = ex[np.minimum(ry << level, h - 1), np.minimum(rx << level, w - 1)]
+    return as_uint8(img)
+
+
+def as_uint8(img: np.ndarray) -> np.ndarray:
+    """An image as uint8 for previews (16-bit and float scaled); one channel becomes 2-D."""
+    img = np.asarray(img)
+    if img.dtype == np.uint16:
+        img = (img >> 8).astype(np.uint8)
+    elif img.dtype != np.uint8:
+        img = (np.clip(_unit_float(img), 0, 1) * 255 + 0.5).astype(np.uint8)
+    return img[:, :, 0] if img.ndim == 3 and img.shape[2] == 1 else img
+
+
+def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray,
+          out_shape: tuple[int, int], *, n_levels: int, config: SynthesisConfig, seed: int,
+          tile: bool, guidance: Guidance | None = None,
+          progress: ProgressCallback | None = None,
+          debug: DebugCallback | None = None) -> SynthesisResult:
+    """The coarse-to-fine discrete solver shared by :func:`synthesize` and texture-by-numbers.
+
+    ``ex`` ``(h, w, C)`` and ``extras`` are resolved through the final references; ``features``
+    ``(h, w, F)`` float32 are what is matched. Inputs must already be validated.
+    """
+    _set_threads(config)
+    from barkgen.synth import _kernels as K
+
+    rng = np.random.default_rng(int(seed))
+    total = n_levels + sum(it for lvl in range(n_levels) for _, it in config.schedule_for(lvl, n_levels))
+    done = 0
+
+    def tick() -> None:
+        nonlocal done
+        done += 1
+        if progress:
+            progress(done, total)
+
+    t0 = time.perf_counter()
+    levels = analyse_exemplar(features, n_levels, config, progress=tick)
+    t1 = time.perf_counter()
+
+    no_labels = np.zeros(1, np.int32)
+    no_target = np.zeros((1, 1), np.int32)
+    no_pool_start = np.zeros(2, np.int32)
+    no_guide_ex = np.zeros((1, 0), np.float32)
+    no_guide_out = np.zeros((1, 1, 0), np.float32)
+    refs = None
+    for lvl in reversed(range(n_levels)):
+        la = levels[lvl]
+        shape = level_shape(out_shape, lvl)
+        lg = guidance.levels[lvl] if guidance is not None else None
+        if debug is not None:
+            debug(f"level{lvl}_exemplar", _level_image(ex, np.arange(la.height * la.width).reshape(
+                la.height, la.width), lvl))
+        if refs is None:
+            if lg is not None:
+                refs = np.ascontiguousarray(guidance.initial_references(
+                    lg.exemplar_labels.reshape(la.height, la.width), lg.target_labels, rng),
+                    dtype=np.int32)
+                if debug is not None:
+                    debug("initialization", _level_image(ex, refs, lvl))
+            else:
+                refs = rng.integers(0, la.height * la.width, size=shape, dtype=np.int32)
+            forbid = np.full(shape, -1, np.int64)
+        else:
+            coarse = levels[lvl + 1]
+            fine_refs = np.empty(shape, np.int32)
+            fine_forbid = np.empty(shape, np.int64)
+            K.upsample_state(refs, forbid, coarse.coords_y, coarse.coords_x, la.height, la.width,
+                             fine_refs, fine_forbid)
+            refs, forbid = fine_refs, fine_forbid
+            if tile and lvl > 0 and lg is None:
+                # seams formed at coarse levels lie on the block grid of the upsampling; a random
+                # toroidal shift per level keeps that grid from lining up with the tile border.
+                # (None at the finest level: shifts stay even there, so exemplar pieces keep the
+                # pixel parity of the exemplar and survive 2x downsampling intact. None either
+                # with a guide: the output must stay aligned with its target label map.)
+                shift = (int(rng.integers(0, shape[0])), int(rng.integers(0, shape[1])))
+                refs, forbid = _roll(refs, forbid, shift)
+            if lvl >= 2:
+                refs = _jitter(refs, la, int(round(config.jitter * 2)), rng)
+        guide_ex, guide_out = {}, {}
+        if lg is not None:
+            ex_labels, target = lg.exemplar_labels, lg.target_labels
+            pool, pool_start = lg.pool, lg.pool_start
+            expected = lg.expected_use
+            n_random, discount = guidance.random_candidates, guidance.vote_discount
+            for nb_size in _schedule_sizes(config, lvl, n_levels):
+                gp = neighbourhood_pca(guidance.exemplar_guides[lvl], nb_size, guidance.components)
+                guide_ex[nb_size] = gp.features
+                guide_out[nb_size] = project_neighbourhoods(
+                    guidance.target_guides[lvl], gp.weights, gp.mean, wrap=tile).reshape(shape + (-1,))
+        else:
+            ex_labels, target, pool, pool_start = no_labels, no_target, no_labels, no_pool_start
+            expected, n_random, discount = None, 0, 1.0
+        match = np.empty(shape, np.int32)
+        new = np.empty(shape, np.int32)
+        occ_radius = 3
+        penalty = _occurrence_penalty(refs, la, config.occurrence_weight, occ_radius, expected)
+        schedule = [size for size, iters in config.schedule_for(lvl, n_levels) for _ in range(iters)]
+        for step, nb_size in enumerate(schedule):
+            proj = la.projections[nb_size]
+            stride = _stride_for(nb_size)
+            oy, ox = (int(v) for v in rng.integers(0, stride, size=2))
+            key = np.uint64(rng.integers(0, 2**63)) if lg is not None else np.uint64(0)
+            match.fill(-1)
+            K.m_step(refs, la.features, la.coords_y, la.coords_x, la.height, la.width,
+                     la.kernel_weights[nb_size], proj.mean,
+                     proj.features, la.ksets, penalty, np.float32(config.kset_cost * la.scale),
+                     stride, oy, ox, tile, forbid, guide_ex.get(nb_size, no_guide_ex),
+                     guide_out.get(nb_size, no_guide_out), ex_labels, target, pool, pool_start,
+                     n_random, key, match)
+            K.e_step(match, refs, la.features, la.coords_y, la.coords_x, la.height, la.width,
+                     min(nb_size // 2, config.vote_radius), stride,
+                     oy, ox, tile, np.float32(max(nb_size / 3.0, 1.0)), forbid,
+                     ex_labels, target, np.float32(discount), new)
+            refs, new = new, refs
+            if config.max_copy < 1.0 and (lvl > 0 or step < len(schedule) - 1):
+                # (cuts act through the following iterations, none after the very last one)
+                _limit_copies(refs, la, config.max_copy * la.height * la.width, forbid)
+            penalty = _occurrence_penalty(refs, la, config.occurrence_weight, occ_radius, expected)
+            tick()
+        if lg is not None and lvl == 0:
+            for _ in range(guidance.cleanup_passes):
+                if K.enforce_labels(refs, la.coords_y, la.coords_x, la.height, la.width,
+                                    ex_labels, target, tile, new) == 0:
+                    break
+                refs, new = new, refs
+        if debug is not None:
+            debug(f"level{lvl}_result", _level_image(ex, refs, lvl))
+    t2 = time.perf_counter()
+
+    h, w = ex.shape[:2]
+    image = ex.reshape(h * w, ex.shape[2])[refs].reshape(out_shape + (ex.shape[2],))
+    out_extras = {name: e.reshape(h * w, e.shape[2])[refs].reshape(out_shape + (e.shape[2],))
+                  for name, e in extras.items()}
+    ry, rx = levels[0].coords_y[refs], levels[0].coords_x[refs]
+    references = np.stack([ry, rx], axis=-1).astype(np.int32)
+    return SynthesisResult(image=image, references=references, extras=out_extras,
+                           exemplar_shape=(h, w), seed=int(seed), tile=bool(tile),
+                           timings={"analysis": t1 - t0, "synthesis": t2 - t1})
+
+
 # --------------------------------------------------------------------------------------------
 # public API
 
@@ -326,121 +563,16 @@ def synthesize(
         MemoryBudgetError: the estimated memory exceeds ``config.max_memory``.
     """
     config = config or SynthesisConfig()
-    ex = _as_hw_c("exemplar", exemplar)
-    if ex.shape[2] not in (1, 3):
-        raise InvalidInputError(f"exemplar must have 1 or 3 channels, not {ex.shape[2]}")
-    if min(ex.shape[:2]) < MIN_EXEMPLAR_SIDE:
-        raise InvalidInputError(
-            f"exemplar is {ex.shape[1]}x{ex.shape[0]} px; it must be at least "
-            f"{MIN_EXEMPLAR_SIDE} px on each side")
-    out_shape = parse_output_shape(size)
-    if not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise InvalidInputError(f"seed must be a non-negative integer, not {seed!r}")
-    extras = {}
-    for name, arr in (extra or {}).items():
-        e = _as_hw_c(f"extra map {name!r}", arr)
-        if e.shape[:2] != ex.shape[:2]:
-            raise InvalidInputError(
-                f"extra map {name!r} is {e.shape[1]}x{e.shape[0]} px but the exemplar is "
-                f"{ex.shape[1]}x{ex.shape[0]} px; they must match")
-        extras[name] = e
+    ex, out_shape, extras = validate_inputs(exemplar, size, seed, extra)
     n_feat = (3 if ex.shape[2] == 3 else 1) + sum(e.shape[2] for e in extras.values())
-    need = estimate_memory(ex.shape[:2], out_shape,
-                           ex.shape[2] + sum(e.shape[2] for e in extras.values()),
-                           max([ex.dtype.itemsize] + [e.dtype.itemsize for e in extras.values()]),
-                           n_feat, config)
-    if need > config.max_memory:
-        raise MemoryBudgetError(
-            f"output {out_shape[1]}x{out_shape[0]} needs about {need / 2**30:.1f} GiB, more than "
-            f"the memory budget of {config.max_memory / 2**30:.1f} GiB (raise it with --max-memory)")
-
-    import numba
-
-    # set on every call: a previous call's thread count must not leak into this one
-    n_threads = min(config.threads or numba.config.NUMBA_NUM_THREADS, numba.config.NUMBA_NUM_THREADS)
-    numba.set_num_threads(n_threads)
-    if config.threads is not None or "faiss" in sys.modules:
-        import faiss
-
-        faiss.omp_set_num_threads(n_threads)
-
-    from barkgen.synth import _kernels as K
-
-    rng = np.random.default_rng(int(seed))
-    n_levels = count_levels(ex.shape[:2], out_shape, config.coarsest_exemplar)
-    total = n_levels + sum(it for lvl in range(n_levels) for _, it in config.schedule_for(lvl, n_levels))
-    done = 0
-
-    def tick() -> None:
-        nonlocal done
-        done += 1
-        if progress:
-            progress(done, total)
-
-    t0 = time.perf_counter()
+    check_memory(ex, extras, out_shape, n_feat, config)
     feats = matching_features(ex, extras, config.extra_weight)
-    levels = analyse_exemplar(feats, n_levels, config, progress=tick)
-    t1 = time.perf_counter()
-
-    refs = None
-    for lvl in reversed(range(n_levels)):
-        la = levels[lvl]
-        shape = level_shape(out_shape, lvl)
-        if refs is None:
-            refs = rng.integers(0, la.height * la.width, size=shape, dtype=np.int32)
-            forbid = np.full(shape, -1, np.int64)
-        else:
-            coarse = levels[lvl + 1]
-            fine_refs = np.empty(shape, np.int32)
-            fine_forbid = np.empty(shape, np.int64)
-            K.upsample_state(refs, forbid, coarse.coords_y, coarse.coords_x, la.height, la.width,
-                             fine_refs, fine_forbid)
-            refs, forbid = fine_refs, fine_forbid
-            if tile and lvl > 0:
-                # seams formed at coarse levels lie on the block grid of the upsampling; a random
-                # toroidal shift per level keeps that grid from lining up with the tile border.
-                # (None at the finest level: shifts stay even there, so exemplar pieces keep the
-                # pixel parity of the exemplar and survive 2x downsampling intact.)
-                shift = (int(rng.integers(0, shape[0])), int(rng.integers(0, shape[1])))
-                refs, forbid = _roll(refs, forbid, shift)
-            if lvl >= 2:
-                refs = _jitter(refs, la, int(round(config.jitter * 2)), rng)
-        match = np.empty(shape, np.int32)
-        new = np.empty(shape, np.int32)
-        occ_radius = 3
-        penalty = _occurrence_penalty(refs, la, config.occurrence_weight, occ_radius)
-        schedule = [size for size, iters in config.schedule_for(lvl, n_levels) for _ in range(iters)]
-        for step, nb_size in enumerate(schedule):
-            proj = la.projections[nb_size]
-            stride = _stride_for(nb_size)
-            oy, ox = (int(v) for v in rng.integers(0, stride, size=2))
-            match.fill(-1)
-            K.m_step(refs, la.features, la.coords_y, la.coords_x, la.height, la.width,
-                     la.kernel_weights[nb_size], proj.mean,
-                     proj.features, la.ksets, penalty, np.float32(config.kset_cost * la.scale),
-                     stride, oy, ox, tile, forbid, match)
-            K.e_step(match, refs, la.features, la.coords_y, la.coords_x, la.height, la.width,
-                     min(nb_size // 2, config.vote_radius), stride,
-                     oy, ox, tile, np.float32(max(nb_size / 3.0, 1.0)), forbid, new)
-            refs, new = new, refs
-            if config.max_copy < 1.0 and (lvl > 0 or step < len(schedule) - 1):
-                # (cuts act through the following iterations, none after the very last one)
-                _limit_copies(refs, la, config.max_copy * la.height * la.width, forbid)
-            penalty = _occurrence_penalty(refs, la, config.occurrence_weight, occ_radius)
-            tick()
-    t2 = time.perf_counter()
-
-    h, w = ex.shape[:2]
-    image = ex.reshape(h * w, ex.shape[2])[refs].reshape(out_shape + (ex.shape[2],))
-    out_extras = {name: e.reshape(h * w, e.shape[2])[refs].reshape(out_shape + (e.shape[2],))
-                  for name, e in extras.items()}
-    ry, rx = levels[0].coords_y[refs], levels[0].coords_x[refs]
-    references = np.stack([ry, rx], axis=-1).astype(np.int32)
+    n_levels = count_levels(ex.shape[:2], out_shape, config.coarsest_exemplar)
+    result = solve(ex, extras, feats, out_shape, n_levels=n_levels, config=config, seed=seed,
+                   tile=tile, progress=progress)
     if np.asarray(exemplar).ndim == 2:
-        image = image[:, :, 0]
-    return SynthesisResult(image=image, references=references, extras=out_extras,
-                           exemplar_shape=(h, w), seed=int(seed), tile=bool(tile),
-                           timings={"analysis": t1 - t0, "synthesis": t2 - t1})
+        result.image = result.image[:, :, 0]
+    return result
 
 
 def apply_references(references: np.ndarray, image: np.ndarray) -> np.ndarray:

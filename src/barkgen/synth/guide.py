@@ -1,0 +1,223 @@
+"""Label maps as synthesis guides (texture-by-numbers, laitoch2018 §3.1 and §3.3).
+
+A label map is an image whose distinct values (grey levels or colours) are the labels. The
+exemplar's label map ``A`` and the target label map ``B`` are encoded to small integer codes over
+one shared palette, reduced level by level alongside the image pyramids, and turned into the
+per-level tables the solver's label term uses (:class:`LevelGuide`).
+
+The feature-distance map (Lefebvre & Hoppe 2006 §5, used by Fan et al. 2012 and laitoch2018
+§3.3.4) is the distance of every pixel to the nearest label boundary; it is added to the exemplar
+as an extra matching channel so that matched neighbourhoods agree on where the edges are.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from barkgen.errors import InvalidInputError
+
+#: most labels a label map may have (more usually means a lossy JPEG or a photo, not labels)
+MAX_LABELS = 64
+
+
+@dataclass(frozen=True)
+class LabelMaps:
+    """Exemplar and target label maps encoded over one palette.
+
+    Attributes:
+        exemplar: ``(h, w)`` int32 label code of every exemplar pixel.
+        target: ``(H, W)`` int32 label code of every output pixel.
+        palette: ``(n_labels, C)`` the label values, code ``i`` is ``palette[i]``.
+    """
+
+    exemplar: np.ndarray
+    target: np.ndarray
+    palette: np.ndarray
+
+    @property
+    def n_labels(self) -> int:
+        return len(self.palette)
+
+
+def _label_rows(name: str, label_map: np.ndarray) -> np.ndarray:
+    arr = np.asarray(label_map)
+    if arr.ndim == 2:
+        arr = arr[:, :, None]
+    if arr.ndim != 3 or not 1 <= arr.shape[2] <= 4:
+        raise InvalidInputError(f"{name} must be an (H, W) or (H, W, C) image, not shape {arr.shape}")
+    if arr.dtype.kind not in "uifb":
+        raise InvalidInputError(f"{name} has unsupported dtype {arr.dtype}")
+    if arr.shape[2] in (2, 4):  # drop alpha: labels are the colours
+        arr = arr[:, :, :-1]
+    if arr.shape[2] == 3 and (arr[:, :, 0] == arr[:, :, 1]).all() and (arr[:, :, 0] == arr[:, :, 2]).all():
+        arr = arr[:, :, :1]  # a grey label map saved as RGB is the same labels
+    return arr
+
+
+def _unique_values(arr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Distinct pixel values of ``(H, W, C)`` and the index of each pixel's value."""
+    flat = arr.reshape(-1, arr.shape[2])
+    if flat.shape[1] == 1 and flat.dtype.kind in "ub" and flat.dtype.itemsize <= 2:
+        # grey 8/16-bit: a histogram instead of a sort
+        v = flat[:, 0].astype(np.int64)
+        present = np.flatnonzero(np.bincount(v))
+        lookup = np.zeros(int(present[-1]) + 1, np.int64)
+        lookup[present] = np.arange(len(present))
+        return present.astype(flat.dtype)[:, None], lookup[v].reshape(arr.shape[:2])
+    if flat.dtype.kind in "ub" and flat.dtype.itemsize <= 2:
+        key = np.zeros(len(flat), np.int64)
+        for c in range(flat.shape[1]):
+            key = (key << 16) | flat[:, c].astype(np.int64)
+        keys, inverse = np.unique(key, return_inverse=True)
+        first = np.zeros(len(keys), np.int64)
+        first[inverse[::-1]] = np.arange(len(flat))[::-1]
+        return flat[first], inverse.reshape(arr.shape[:2])
+    values, inverse = np.unique(flat, axis=0, return_inverse=True)
+    return values, inverse.reshape(arr.shape[:2])
+
+
+def _describe(value: np.ndarray) -> str:
+    v = [int(x) if float(x).is_integer() else float(x) for x in np.ravel(value)]
+    return str(v[0]) if len(v) == 1 else "(" + ", ".join(map(str, v)) + ")"
+
+
+def encode_label_maps(exemplar_labels: np.ndarray, target_labels: np.ndarray,
+                      exemplar_shape: tuple[int, int] | None = None) -> LabelMaps:
+    """Encode the exemplar's and the target's label maps to integer codes over one palette.
+
+    Raises:
+        InvalidInputError: the exemplar label map does not match ``exemplar_shape``, a map has
+            more than :data:`MAX_LABELS` labels, the two maps use different kinds of values
+            (grey vs colour), or the target uses a label that the exemplar lacks.
+    """
+    a = _label_rows("exemplar label map", exemplar_labels)
+    b = _label_rows("target label map", target_labels)
+    if exemplar_shape is not None and a.shape[:2] != tuple(exemplar_shape):
+        raise InvalidInputError(
+            f"the exemplar label map is {a.shape[1]}x{a.shape[0]} px but the exemplar is "
+            f"{exemplar_shape[1]}x{exemplar_shape[0]} px; they must match")
+    values_a, codes_a = _unique_values(a)
+    values_b, codes_b = _unique_values(b)
+    for name, values in (("exemplar", values_a), ("target", values_b)):
+        if len(values) > MAX_LABELS:
+            raise InvalidInputError(
+                f"the {name} label map has {len(values)} distinct values; at most {MAX_LABELS} "
+                "labels are supported (label maps must be lossless: PNG, not JPEG)")
+    if a.shape[2] != b.shape[2]:
+        kinds = {1: "grey", 3: "colour"}
+        raise InvalidInputError(
+            f"the exemplar label map is {kinds[a.shape[2]]} but the target label map is "
+            f"{kinds[b.shape[2]]}; both must use the same label values")
+    # every target value must be one of the exemplar's
+    va = values_a.astype(np.float64)
+    vb = values_b.astype(np.float64)
+    eq = (vb[:, None, :] == va[None, :, :]).all(axis=2)
+    missing = ~eq.any(axis=1)
+    if missing.any():
+        shown = ", ".join(_describe(v) for v in values_b[missing][:5])
+        raise InvalidInputError(
+            f"the target label map uses label(s) {shown} that the exemplar label map does not "
+            "have; every target label needs exemplar pixels to copy")
+    to_a = eq.argmax(axis=1)
+    return LabelMaps(exemplar=codes_a.astype(np.int32), target=to_a[codes_b].astype(np.int32),
+                     palette=values_a)
+
+
+def label_pyramid(codes: np.ndarray, n_labels: int, n_levels: int) -> list[np.ndarray]:
+    """Labels of every pyramid level, finest first: each level's label is the one whose indicator
+    image, reduced by the same Gaussian pyramid as the exemplar (:mod:`barkgen.pyramid`), is
+    largest there (a soft majority vote, consistent with the image pyramid)."""
+    import cv2
+
+    levels = [np.ascontiguousarray(codes, dtype=np.int32)]
+    if n_levels == 1:
+        return levels
+    best = [None] * n_levels
+    score = [None] * n_levels
+    for label in range(n_labels):
+        ind = (codes == label).astype(np.float32)
+        if not ind.any():
+            continue
+        for lvl in range(1, n_levels):
+            h, w = ind.shape
+            ind = cv2.pyrDown(ind, dstsize=((w + 1) // 2, (h + 1) // 2),
+                              borderType=cv2.BORDER_REFLECT_101)
+            if best[lvl] is None:
+                best[lvl] = np.full(ind.shape, label, np.int32)
+                score[lvl] = ind.copy()
+            else:
+                better = ind > score[lvl]
+                best[lvl][better] = label
+                score[lvl][better] = ind[better]
+    return levels + best[1:]
+
+
+def boundary_distance(codes: np.ndarray, clip: float | None = None) -> np.ndarray:
+    """Distance, in pixels, from every pixel to the nearest label boundary (a pixel with a
+    4-neighbour of another label), by the 3x3 chamfer distance transform with Borgefors'
+    weights (the 3-4 DT of laitoch2018 §3.4.2, as computed by OpenCV). ``clip`` caps it."""
+    import cv2
+
+    c = np.asarray(codes)
+    edge = np.zeros(c.shape, bool)
+    dy = c[1:, :] != c[:-1, :]
+    dx = c[:, 1:] != c[:, :-1]
+    edge[1:, :] |= dy
+    edge[:-1, :] |= dy
+    edge[:, 1:] |= dx
+    edge[:, :-1] |= dx
+    if not edge.any():
+        far = float(clip) if clip is not None else float(max(c.shape))
+        return np.full(c.shape, far, np.float32)
+    src = np.where(edge, 0, 255).astype(np.uint8)
+    dist = cv2.distanceTransform(src, cv2.DIST_L2, cv2.DIST_MASK_3)
+    if clip is not None:
+        np.minimum(dist, np.float32(clip), out=dist)
+    return dist.astype(np.float32)
+
+
+@dataclass
+class LevelGuide:
+    """Label tables of one pyramid level, as the solver's kernels use them.
+
+    Attributes:
+        exemplar_labels: ``(h * w,)`` int32 label of each exemplar pixel of the level.
+        target_labels: ``(H, W)`` int32 wanted label of each output pixel of the level.
+        pool, pool_start: exemplar pixels grouped by label (CSR layout): the pixels of label
+            ``l`` are ``pool[pool_start[l]:pool_start[l + 1]]``; a label absent from this level of
+            the exemplar (lost to down-sampling) gets the whole exemplar.
+        expected_use: ``(h * w,)`` float32 how many output pixels each exemplar pixel would serve
+            if every label's output area were spread evenly over that label's exemplar pixels
+            (the occurrence cost's uniform reference).
+    """
+
+    exemplar_labels: np.ndarray
+    target_labels: np.ndarray
+    pool: np.ndarray
+    pool_start: np.ndarray
+    expected_use: np.ndarray
+
+
+def level_guide(exemplar_labels: np.ndarray, target_labels: np.ndarray, n_labels: int) -> LevelGuide:
+    """Build the :class:`LevelGuide` of one level from its exemplar and target label codes."""
+    ea = np.ascontiguousarray(exemplar_labels, dtype=np.int32).ravel()
+    tb = np.ascontiguousarray(target_labels, dtype=np.int32)
+    count_a = np.bincount(ea, minlength=n_labels)
+    count_b = np.bincount(tb.ravel(), minlength=n_labels)
+    order = np.argsort(ea, kind="stable").astype(np.int32)
+    pools = []
+    start = [0]
+    offsets = np.concatenate([[0], np.cumsum(count_a)])
+    everything = np.arange(ea.size, dtype=np.int32)
+    for lab in range(n_labels):
+        members = order[offsets[lab]:offsets[lab + 1]] if count_a[lab] else everything
+        pools.append(members)
+        start.append(start[-1] + len(members))
+    expected = (count_b / np.maximum(count_a, 1)).astype(np.float32)[ea]
+    return LevelGuide(exemplar_labels=ea, target_labels=tb,
+                      pool=np.ascontiguousarray(np.concatenate(pools), dtype=np.int32),
+                      pool_start=np.asarray(start, np.int32),
+                      expected_use=np.ascontiguousarray(expected))
+

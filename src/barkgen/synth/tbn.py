@@ -1,0 +1,208 @@
+"""Texture-by-numbers: label-guided synthesis (laitoch2018 §3.1–3.4, after Fan et al. 2012).
+
+Image analogies ``A : A' :: B : B'`` with discrete label maps: the exemplar ``A'`` comes with its
+label map ``A``; the output ``B'`` is synthesized to follow the target label map ``B``. It runs
+the same k-coherence discrete solver as :func:`barkgen.synth.synthesize` (same reference maps,
+same extra channels), with
+
+* the label term of eq. 3.2 in every M-step (a candidate pays for each neighbourhood pixel whose
+  exemplar label differs from the wanted one), and candidates drawn from the wanted label's
+  exemplar pixels, so a label can appear where the current content has none;
+* the feature-distance map (Lefebvre & Hoppe 2006), the distance to the nearest label boundary,
+  as a weighted extra matching channel (eq. 3.3);
+* label-aware votes in the E-step and per-label occurrence costs (each label's exemplar pixels are
+  used evenly for that label's output area);
+* the "smart" initialisation of §3.4.2 (seeded region growing under eq. 3.6) or the random one of
+  §3.4.1 at the coarsest level.
+
+Nothing is averaged: outputs are resolved from references, so they are as sharp as the exemplar
+(the blur of laitoch2018 §4.2–4.3 cannot occur).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from barkgen.errors import InvalidInputError
+from barkgen.pyramid import count_levels, gaussian_pyramid
+from barkgen.synth.config import SynthesisConfig
+from barkgen.synth.guide import boundary_distance, encode_label_maps, label_pyramid, level_guide
+from barkgen.synth.initialization import random_initialization, smart_initialization
+from barkgen.synth.solver import (
+    DebugCallback,
+    Guidance,
+    ProgressCallback,
+    SynthesisResult,
+    as_uint8,
+    check_memory,
+    matching_features,
+    solve,
+    validate_inputs,
+)
+
+INITIALIZATIONS = ("smart", "random")
+
+#: solver defaults for texture-by-numbers: label structure needs a coarsest level where the
+#: label regions still exist, so the pyramid stops at 32 px instead of 16; the initialisation
+#: and the guide already set the layout, so fewer and smaller iterations per level and 6
+#: appearance dimensions give the same quality (measured on the bark set, benchmarks/bench_tbn.py)
+TBN_CONFIG = SynthesisConfig(coarsest_exemplar=32, schedule_coarsest=((9, 3), (7, 2), (5, 2)),
+                             schedule_middle=((7, 1), (5, 1)), pca_components=6)
+
+#: px of Gaussian blur of the label indicators that make the guide channels
+GUIDE_BLUR = 1.0
+#: a label covering a fraction f of the exemplar weighs up to 1 / sqrt(f * n_labels) more
+RARE_LABEL_BOOST = 16.0
+#: more labels than this are compressed to this many guide channels (PCA)
+MAX_GUIDE_CHANNELS = 8
+
+#: the feature-distance channel measures up to this many (full-resolution) pixels from an edge
+FEATURE_DISTANCE_CLIP = 16.0
+
+
+def feature_distance_channel(exemplar_labels: np.ndarray, colour_variance: float,
+                             feature_weight: float) -> np.ndarray:
+    """The feature-distance map as a matching channel (laitoch2018 eq. 3.3): distance to the
+    nearest label boundary, capped at :data:`FEATURE_DISTANCE_CLIP` px and scaled so a
+    difference of the full cap costs ``feature_weight`` times the exemplar's colour variance."""
+    dist = boundary_distance(exemplar_labels, FEATURE_DISTANCE_CLIP)
+    scale = np.sqrt(max(feature_weight, 0.0) * colour_variance) / FEATURE_DISTANCE_CLIP
+    return (dist * np.float32(scale))[:, :, None]
+
+
+def guide_channels(exemplar_codes: np.ndarray, target_codes: np.ndarray, n_labels: int,
+                   scale: float) -> tuple[np.ndarray, np.ndarray]:
+    """Soft-label guide channels of the exemplar (``A``) and the target (``B``): each label's
+    indicator, blurred by a Gaussian of :data:`GUIDE_BLUR` px (a boundary one pixel off then costs
+    little), weighted up when the label is rare and multiplied by ``scale``; with more than
+    :data:`MAX_GUIDE_CHANNELS` labels, both are projected on the exemplar's first principal
+    axes."""
+    import cv2
+
+    # rare labels weigh more (up to RARE_LABEL_BOOST), so that small features such as lenticels
+    # are not traded away; the mean cost per pixel stays ``scale ** 2``
+    freq = np.bincount(exemplar_codes.ravel(), minlength=n_labels) / exemplar_codes.size
+    boost = np.clip(1.0 / np.sqrt(np.maximum(freq, 1e-9) * n_labels), 1.0, RARE_LABEL_BOOST)
+    boost /= np.sqrt(np.sum(freq * boost**2))
+
+    def soft(codes: np.ndarray) -> np.ndarray:
+        chans = [cv2.GaussianBlur((codes == lab).astype(np.float32), (0, 0), GUIDE_BLUR,
+                                  borderType=cv2.BORDER_REFLECT_101) * np.float32(boost[lab])
+                 for lab in range(n_labels)]
+        return np.stack(chans, axis=-1)
+
+    ga, gb = soft(exemplar_codes), soft(target_codes)
+    if n_labels > MAX_GUIDE_CHANNELS:
+        flat = ga.reshape(-1, n_labels)
+        mean = flat.mean(axis=0)
+        _, _, vt = np.linalg.svd((flat - mean)[:: max(1, len(flat) // 20000)], full_matrices=False)
+        basis = vt[:MAX_GUIDE_CHANNELS].T.astype(np.float32)
+        ga = (ga - mean) @ basis
+        gb = (gb - mean) @ basis
+    return (np.ascontiguousarray(ga * np.float32(scale), dtype=np.float32),
+            np.ascontiguousarray(gb * np.float32(scale), dtype=np.float32))
+
+
+def _label_colours(n_labels: int) -> np.ndarray:
+    """Distinct uint8 RGB colours for debug images of label maps (hues a golden angle apart)."""
+    import cv2
+
+    hue = (np.arange(n_labels) * 0.618034 % 1.0 * 180).astype(np.uint8)
+    hsv = np.stack([hue, np.full(n_labels, 200, np.uint8), np.full(n_labels, 230, np.uint8)], -1)
+    return cv2.cvtColor(hsv[None], cv2.COLOR_HSV2RGB)[0]
+
+
+def texture_by_numbers(
+    exemplar: np.ndarray,
+    exemplar_labels: np.ndarray,
+    target_labels: np.ndarray,
+    *,
+    label_weight: float = 20.0,
+    feature_weight: float = 8.0,
+    init: str = "smart",
+    tile: bool = False,
+    seed: int = 0,
+    extra: Mapping[str, np.ndarray] | None = None,
+    config: SynthesisConfig | None = None,
+    progress: ProgressCallback | None = None,
+    debug: DebugCallback | None = None,
+) -> SynthesisResult:
+    """Synthesize a texture that follows ``target_labels`` from ``exemplar`` and its labels.
+
+    Args:
+        exemplar: ``(h, w)`` or ``(h, w, C)`` array (uint8, uint16 or float), C = 1 or 3.
+        exemplar_labels: label map of the exemplar, same ``(h, w)``; each distinct grey value or
+            colour is a label (at most 64).
+        target_labels: label map of the wanted output; its size is the output size and every
+            label in it must occur in ``exemplar_labels``.
+        label_weight: ``w`` of laitoch2018 eq. 3.1: cost of one mismatching label pixel, in
+            units of the exemplar's colour variance.
+        feature_weight: ``z`` of eq. 3.3: weight of the feature-distance channel, same units.
+        init: ``"smart"`` (§3.4.2, region growing) or ``"random"`` (§3.4.1).
+        tile: make the output wrap seamlessly (the target label map is read as a torus too).
+        seed: seeds the one ``numpy.random.Generator`` behind every random choice.
+        extra: named maps aligned with the exemplar (height, ...), synthesized along.
+        config: solver parameters; default :data:`TBN_CONFIG`.
+        progress: optional ``progress(done, total)`` callback.
+        debug: optional ``debug(name, image)`` callback receiving the pyramid levels, label maps,
+            the initialisation and each level's result as uint8 images.
+
+    Returns:
+        :class:`~barkgen.synth.SynthesisResult` (image, references, extras).
+
+    Raises:
+        InvalidInputError: bad shapes, label maps that do not fit (size, label set, more than
+            64 labels) or bad parameters.
+        MemoryBudgetError: the estimated memory exceeds ``config.max_memory``.
+    """
+    config = config or TBN_CONFIG
+    if init not in INITIALIZATIONS:
+        raise InvalidInputError(f"init must be one of {', '.join(INITIALIZATIONS)}, not {init!r}")
+    for name, value in (("label_weight", label_weight), ("feature_weight", feature_weight)):
+        if not isinstance(value, (int, float, np.number)) or not np.isfinite(value) or value < 0:
+            raise InvalidInputError(f"{name} must be a non-negative number, not {value!r}")
+    target = np.asarray(target_labels)
+    if target.ndim not in (2, 3):
+        raise InvalidInputError(f"target label map must be an (H, W) or (H, W, C) image, not "
+                                f"shape {target.shape}")
+    ex, out_shape, extras = validate_inputs(exemplar, target.shape[:2], seed, extra)
+    labels = encode_label_maps(exemplar_labels, target, ex.shape[:2])
+    n_feat = (3 if ex.shape[2] == 3 else 1) + 1 + sum(e.shape[2] for e in extras.values())
+    check_memory(ex, extras, out_shape, n_feat, config, guided=True)
+
+    feats = matching_features(ex, extras, config.extra_weight)
+    n_colour = 3 if ex.shape[2] == 3 else 1
+    colour_variance = float(feats[:, :, :n_colour].reshape(-1, n_colour).var(axis=0).sum())
+    fdm = feature_distance_channel(labels.exemplar, colour_variance, feature_weight)
+    # a pixel whose soft label differs completely costs label_weight x the colour variance
+    guide_a, guide_b = guide_channels(labels.exemplar, labels.target, labels.n_labels,
+                                      np.sqrt(label_weight * colour_variance / 2.0))
+    feats = np.ascontiguousarray(np.concatenate([feats, fdm], axis=2), dtype=np.float32)
+
+    n_levels = count_levels(ex.shape[:2], out_shape, config.coarsest_exemplar)
+    pyr_a = label_pyramid(labels.exemplar, labels.n_labels, n_levels)
+    pyr_b = label_pyramid(labels.target, labels.n_labels, n_levels)
+    guides = [level_guide(a, b, labels.n_labels) for a, b in zip(pyr_a, pyr_b)]
+
+    if debug is not None:
+        colours = _label_colours(labels.n_labels)
+        for lvl, (a, b) in enumerate(zip(pyr_a, pyr_b)):
+            debug(f"level{lvl}_exemplar_labels", colours[a])
+            debug(f"level{lvl}_target_labels", colours[b])
+        debug("feature_distance", as_uint8(
+            boundary_distance(labels.exemplar, FEATURE_DISTANCE_CLIP) / FEATURE_DISTANCE_CLIP))
+
+    if init == "smart":
+        def initial(a: np.ndarray, b: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+            return smart_initialization(a, b, rng, tile=tile)
+    else:
+        initial = random_initialization
+    guidance = Guidance(levels=guides, exemplar_guides=gaussian_pyramid(guide_a, n_levels),
+                        target_guides=gaussian_pyramid(guide_b, n_levels), initial_references=initial)
+    result = solve(ex, extras, feats, out_shape, n_levels=n_levels, config=config, seed=seed,
+                   tile=tile, guidance=guidance, progress=progress, debug=debug)
+    if np.asarray(exemplar).ndim == 2:
+        result.image = result.image[:, :, 0]
+    return result
