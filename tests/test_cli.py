@@ -184,3 +184,64 @@ def test_tbn_bad_input_one_line_exit_2_no_output(tmp_path, tbn_files, case):
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("barkgen: error: "), r.stderr
     assert list(outdir.iterdir()) == []  # nothing written, not even the debug folder
+
+
+# --------------------------------------------------------------------------------------------
+# labels, textons, merge
+
+
+@pytest.fixture(scope="module")
+def photo_png(tmp_path_factory) -> Path:
+    from conftest import bark_exemplar
+
+    p = tmp_path_factory.mktemp("photo") / "oak.png"
+    write_png(p, bark_exemplar("oak_furrowed_moss_01", 128))
+    return p
+
+
+def test_labels_writes_map_and_preview(tmp_path, photo_png):
+    out, prev = tmp_path / "a.png", tmp_path / "prev.png"
+    r = run("labels", str(photo_png), "-o", str(out), "--k", "3", "--preview", str(prev), "-q")
+    assert r.returncode == 0, r.stderr
+    lm = read_image(out)[..., 0]  # (read as one channel)
+    assert lm.shape == (128, 128) and lm.dtype == np.uint8 and sorted(np.unique(lm)) == [0, 128, 255]
+    assert read_image(prev).shape == (128, 260, 3)
+    r = run("labels", str(photo_png), "-o", str(tmp_path / "e.png"), "--k", "2", "--edges",
+            "--method", "texton", "--seed", "3", "-q")
+    assert r.returncode == 0, r.stderr
+    assert len(np.unique(read_image(tmp_path / "e.png"))) == 3
+
+
+def test_textons_then_merge(tmp_path, photo_png):
+    d = tmp_path / "tx"
+    r = run("textons", str(photo_png), "-o", str(d), "--textons", "6", "-q")
+    assert r.returncode == 0, r.stderr
+    assert sorted(p.name for p in d.iterdir()) == sorted(
+        ["textons.png", "sheet.png"] + [f"texton_{t:02d}.png" for t in range(6)])
+    assert set(np.unique(read_image(d / "texton_03.png"))) <= {0, 255}
+    r = run("merge", str(d / "textons.png"), "-o", str(tmp_path / "m.png"), "--groups", "0,1;2,3,4,5")
+    assert r.returncode == 0, r.stderr
+    assert sorted(np.unique(read_image(tmp_path / "m.png"))) == [0, 255]
+
+
+@pytest.mark.parametrize("case", ["k 0", "k 17", "not an image", "tiny", "bad groups", "bad method"])
+def test_labels_bad_input_one_line_exit_2_no_output(tmp_path, photo_png, case):
+    (tmp_path / "text.png").write_text("not an image")
+    write_png(tmp_path / "tiny.png", np.zeros((8, 8, 3), np.uint8))
+    write_png(tmp_path / "tm.png", np.array([[0, 1], [2, 3]], np.uint8))
+    outdir = tmp_path / "out"
+    outdir.mkdir()
+    out = str(outdir / "a.png")
+    args = {
+        "k 0": ["labels", str(photo_png), "-o", out, "--k", "0"],
+        "k 17": ["labels", str(photo_png), "-o", out, "--k", "17"],
+        "not an image": ["labels", str(tmp_path / "text.png"), "-o", out],
+        "tiny": ["labels", str(tmp_path / "tiny.png"), "-o", out],
+        "bad groups": ["merge", str(tmp_path / "tm.png"), "-o", out, "--groups", "0,1;x"],
+        "bad method": ["labels", str(photo_png), "-o", out, "--method", "magic"],
+    }[case]
+    r = run(*args, "--preview", str(outdir / "p.png")) if args[0] == "labels" else run(*args)
+    assert r.returncode == 2, (r.returncode, r.stderr)
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("barkgen: error: "), r.stderr
+    assert list(outdir.iterdir()) == []

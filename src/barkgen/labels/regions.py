@@ -1,0 +1,260 @@
+"""Colour-region label maps of a bark photo (laitoch2018 §3.5).
+
+The photo is converted to CIELAB (§3.5.1), denoised by non-local means (§3.5.2), quantized into
+``k`` colour regions by mini-batch k-means (§3.5.3), and cleaned of tiny regions, every pixel of
+a tiny region taking the most common label of its neighbours (§3.5.4). Labels are numbered from
+the darkest to the lightest region (mean luminance), so maps are stable across runs, and written
+as evenly spaced grey values (§3.5.5). :func:`add_edge_label` adds the optional label of region
+edges (§3.5.6) to input and output maps alike.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from barkgen.errors import InvalidInputError
+
+#: most labels a label map may ask for
+MAX_K = 16
+#: smallest photo side accepted
+MIN_SIDE = 16
+#: a label covering less of the photo than this is grown to it (then tiny regions go)
+MIN_LABEL_FRACTION = 0.06
+#: default smallest region, as a fraction of the photo's area (at least MIN_REGION_PX pixels)
+MIN_REGION_FRACTION = 0.0005
+MIN_REGION_PX = 16
+#: filter strength h of the non-local means denoising
+DENOISE_STRENGTH = 10.0
+#: pixels sampled to fit k-means (all are then assigned)
+KMEANS_SAMPLES = 60_000
+
+
+def check_image(image: np.ndarray) -> np.ndarray:
+    """An ``(h, w)`` or ``(h, w, C)`` photo (uint8, uint16 or float in [0, 1]) as float32 RGB in
+    [0, 1]; alpha is dropped, grey is repeated to three channels."""
+    img = np.asarray(image)
+    if img.ndim == 2:
+        img = img[:, :, None]
+    if img.ndim != 3 or img.shape[2] not in (1, 2, 3, 4):
+        raise InvalidInputError(f"photo must be an (H, W) or (H, W, C) image, not shape {img.shape}")
+    if min(img.shape[:2]) < MIN_SIDE:
+        raise InvalidInputError(f"photo is {img.shape[1]}x{img.shape[0]} px; label maps need at "
+                                f"least {MIN_SIDE} px on each side")
+    if img.shape[2] in (2, 4):
+        img = img[:, :, :-1]
+    if img.dtype == np.uint8:
+        f = img.astype(np.float32) / 255.0
+    elif img.dtype == np.uint16:
+        f = img.astype(np.float32) / 65535.0
+    elif img.dtype.kind == "f":
+        f = np.clip(np.nan_to_num(img.astype(np.float32)), 0.0, 1.0)
+    else:
+        raise InvalidInputError(f"photo has unsupported dtype {img.dtype}")
+    if f.shape[2] == 1:
+        f = np.repeat(f, 3, axis=2)
+    return np.ascontiguousarray(f)
+
+
+def check_k(k: int, name: str = "k") -> int:
+    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 1 <= k <= MAX_K:
+        raise InvalidInputError(f"{name} must be an integer from 1 to {MAX_K}, not {k!r}")
+    return int(k)
+
+
+def grey_values(n_labels: int) -> np.ndarray:
+    """The grey values of ``n_labels`` labels: evenly spaced over 0-255 (code 0 -> 0)."""
+    if n_labels == 1:
+        return np.zeros(1, np.uint8)
+    return np.round(np.linspace(0, 255, n_labels)).astype(np.uint8)
+
+
+def to_label_image(codes: np.ndarray, n_labels: int) -> np.ndarray:
+    """Integer codes ``0..n_labels-1`` -> the 8-bit grey label map."""
+    return grey_values(n_labels)[codes]
+
+
+def to_codes(label_map: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A grey label map -> ``(codes, values)``: codes ``0..n-1`` in the order of the sorted grey
+    values (darkest label first)."""
+    arr = np.asarray(label_map)
+    if arr.ndim == 3 and arr.shape[2] >= 3 and (arr[..., 0] == arr[..., 1]).all() and (
+            arr[..., 0] == arr[..., 2]).all():
+        arr = arr[..., 0]
+    elif arr.ndim == 3 and arr.shape[2] == 1:
+        arr = arr[..., 0]
+    if arr.ndim != 2:
+        raise InvalidInputError("label map must be a grey image (one grey value per label)")
+    values, codes = np.unique(arr, return_inverse=True)
+    if len(values) > 64:
+        raise InvalidInputError(f"label map has {len(values)} distinct values; at most 64 labels")
+    return codes.reshape(arr.shape).astype(np.int32), values
+
+
+def nl_means(rgb: np.ndarray, strength: float = 10.0) -> np.ndarray:
+    """Non-local means denoising (laitoch2018 §3.5.2; OpenCV's ``fastNlMeansDenoisingColored``,
+    7 px template, 21 px search window) of float RGB in [0, 1]; returns float RGB."""
+    import cv2
+
+    u8 = (rgb * 255.0 + 0.5).astype(np.uint8)
+    out = cv2.fastNlMeansDenoisingColored(u8, None, h=strength, hColor=strength,
+                                          templateWindowSize=7, searchWindowSize=21)
+    return out.astype(np.float32) / 255.0
+
+
+def order_by_luminance(codes: np.ndarray, luminance: np.ndarray, n_labels: int) -> np.ndarray:
+    """Renumber labels from the darkest to the lightest mean ``luminance`` (absent labels last)."""
+    counts = np.bincount(codes.ravel(), minlength=n_labels)
+    sums = np.bincount(codes.ravel(), weights=luminance.ravel(), minlength=n_labels)
+    means = np.where(counts > 0, sums / np.maximum(counts, 1), np.inf)
+    rank = np.empty(n_labels, np.int32)
+    rank[np.argsort(means, kind="stable")] = np.arange(n_labels)
+    return rank[codes]
+
+
+def grow_small_labels(codes: np.ndarray, fraction: float, n_labels: int) -> np.ndarray:
+    """Grow every label that covers less than ``fraction`` of the pixels by rings of one pixel
+    around its regions (3x3 dilation), taking pixels only from labels that stay above the
+    fraction, until it reaches the fraction: a label of small features (lenticels, specks) keeps
+    its places and becomes large enough to be learnt from. A label absent from the map stays
+    absent."""
+    import cv2
+
+    out = np.asarray(codes, np.int32).copy()
+    need = int(np.ceil(fraction * out.size))
+    kernel = np.ones((3, 3), np.uint8)
+    for lab in range(n_labels):
+        for _ in range(max(out.shape)):
+            counts = np.bincount(out.ravel(), minlength=n_labels)
+            if counts[lab] >= need or counts[lab] == 0:
+                break
+            mask = (out == lab).astype(np.uint8)
+            ring = (cv2.dilate(mask, kernel) > 0) & (mask == 0)
+            ring &= counts[out] > need  # donors stay above the fraction
+            if not ring.any():
+                break
+            idx = np.flatnonzero(ring)
+            out.ravel()[idx[: need - counts[lab]]] = lab
+    return out
+
+
+def remove_small_regions(codes: np.ndarray, min_region: int) -> np.ndarray:
+    """laitoch2018 §3.5.4: every 8-connected region smaller than ``min_region`` pixels is
+    dissolved, its pixels taking (layer by layer from the outside) the most common label among
+    their 8 neighbours that are already decided."""
+    import cv2
+
+    codes = np.asarray(codes, np.int32)
+    n_labels = int(codes.max()) + 1
+    keep = np.zeros(codes.shape, bool)
+    for lab in range(n_labels):
+        mask = (codes == lab).astype(np.uint8)
+        n, comp, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        big = stats[:, cv2.CC_STAT_AREA] >= min_region
+        big[0] = False  # background of the mask
+        keep |= big[comp]
+    if not keep.any():  # everything tiny: keep the largest region of the commonest label
+        lab = np.bincount(codes.ravel()).argmax()
+        mask = (codes == lab).astype(np.uint8)
+        _, comp, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        keep = comp == 1 + np.argmax(stats[1:, cv2.CC_STAT_AREA])
+    out = np.where(keep, codes, -1)
+    kernel = np.ones((3, 3), np.float32)
+    while (out < 0).any():
+        votes = np.stack([cv2.filter2D((out == lab).astype(np.float32), -1, kernel,
+                                       borderType=cv2.BORDER_CONSTANT) for lab in range(n_labels)])
+        undecided = out < 0
+        has_vote = votes.max(axis=0) > 0
+        fill = undecided & has_vote
+        out[fill] = votes.argmax(axis=0)[fill]
+    return out
+
+
+def clean_regions(codes: np.ndarray, n_labels: int, min_region: int) -> np.ndarray:
+    """Small labels grown to :data:`MIN_LABEL_FRACTION` of the map, then regions smaller than
+    ``min_region`` dissolved (§3.5.4); growing the survivors once more restores labels the
+    removal shrank, and a last removal tidies what that split."""
+    codes = grow_small_labels(codes, MIN_LABEL_FRACTION, n_labels)
+    codes = remove_small_regions(codes, min_region)
+    return remove_small_regions(grow_small_labels(codes, MIN_LABEL_FRACTION, n_labels), min_region)
+
+
+def default_min_region(shape: tuple[int, int]) -> int:
+    """0.05 % of the photo's area, at least 16 px."""
+    return max(MIN_REGION_PX, int(round(MIN_REGION_FRACTION * shape[0] * shape[1])))
+
+
+def color_regions(image: np.ndarray, k: int, *, denoise: bool | float = True,
+                  min_region: int | None = None, edges: bool | int = False,
+                  seed: int = 0) -> np.ndarray:
+    """The photo's label map of ``k`` colour regions (laitoch2018 §3.5).
+
+    Args:
+        image: the photo, ``(h, w)`` or ``(h, w, C)``, uint8, uint16 or float in [0, 1].
+        k: number of labels, 1-16.
+        denoise: non-local means denoising first (§3.5.2): ``True`` (filter strength
+            :data:`DENOISE_STRENGTH`), ``False``, or the strength ``h`` itself.
+        min_region: smallest region kept, in pixels (default: 0.05 % of the photo, >= 16 px).
+        edges: add the label of region edges (§3.5.6); ``True`` for a 3 px band, or its width.
+        seed: seeds the k-means sampling and initialisation.
+
+    Returns:
+        ``(h, w)`` uint8 label map with ``k`` (``k + 1`` with ``edges``) evenly spaced grey
+        values, the darkest region first (grey 0). Labels covering less than 6 % of the photo are
+        grown to it (:func:`grow_small_labels`), and no region is smaller than ``min_region``.
+    """
+    from sklearn.cluster import MiniBatchKMeans
+
+    from barkgen.color import rgb_to_lab
+
+    k = check_k(k)
+    rgb = check_image(image)
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InvalidInputError(f"seed must be a non-negative integer, not {seed!r}")
+    h, w = rgb.shape[:2]
+    if min_region is None:
+        min_region = default_min_region((h, w))
+    if not isinstance(min_region, (int, np.integer)) or min_region < 1:
+        raise InvalidInputError(f"min_region must be a positive number of pixels, not {min_region!r}")
+    if not isinstance(denoise, (bool, int, float, np.number)) or denoise < 0:
+        raise InvalidInputError(f"denoise must be True, False or a strength >= 0, not {denoise!r}")
+    if denoise is not False and denoise != 0:
+        rgb = nl_means(rgb, DENOISE_STRENGTH if denoise is True else float(denoise))
+    lab = rgb_to_lab(rgb).reshape(-1, 3)
+    if k == 1:
+        codes = np.zeros((h, w), np.int32)
+    else:
+        rng = np.random.default_rng(seed)
+        sample = lab[rng.choice(len(lab), min(len(lab), KMEANS_SAMPLES), replace=False)]
+        km = MiniBatchKMeans(n_clusters=k, n_init=3, batch_size=4096,
+                             random_state=int(rng.integers(0, 2**31 - 1))).fit(sample)
+        dist = ((lab[:, None, :] - km.cluster_centers_[None].astype(np.float32)) ** 2).sum(-1)
+        codes = dist.argmin(axis=1).reshape(h, w).astype(np.int32)
+        codes = clean_regions(codes, k, int(min_region))
+        codes = order_by_luminance(codes, lab[:, 0].reshape(h, w), k)
+    label_map = to_label_image(codes, k)
+    if edges:
+        label_map = add_edge_label(label_map, 3 if edges is True else int(edges))
+    return label_map
+
+
+def add_edge_label(label_map: np.ndarray, width: int = 3) -> np.ndarray:
+    """laitoch2018 §3.5.6: one more label for the band along the region edges, for input and
+    output maps alike (the same label values give the same result): every pixel within
+    ``max(1, width // 2)`` px (chessboard distance) of a pixel of another label, a band about
+    ``width`` px wide. The ``n`` labels of ``label_map`` (grey values, darkest first) become the
+    first ``n`` of ``n + 1`` evenly spaced grey values; the edge label is the last (255)."""
+    import cv2
+
+    if isinstance(width, bool) or not isinstance(width, (int, np.integer)) or width < 1:
+        raise InvalidInputError(f"edge width must be a positive number of pixels, not {width!r}")
+    codes, values = to_codes(label_map)
+    n = len(values)
+    if n + 1 > MAX_K + 1:
+        raise InvalidInputError(f"label map has {n} labels; at most {MAX_K} before the edge label")
+    r = max(1, int(width) // 2)
+    kernel = np.ones((2 * r + 1, 2 * r + 1), np.uint8)
+    c16 = codes.astype(np.uint16)
+    # a pixel is near another label when the largest and smallest codes around it differ
+    near = cv2.dilate(c16, kernel, borderType=cv2.BORDER_REPLICATE) != cv2.erode(
+        c16, kernel, borderType=cv2.BORDER_REPLICATE)
+    return to_label_image(np.where(near, n, codes), n + 1)

@@ -1,0 +1,212 @@
+"""Texton channels of a bark photo and their merging into labels (wang2003 §3.2).
+
+A bank of 36 Gaussian-derivative filters (2 phases x 3 scales x 6 orientations) gives every
+pixel a 36-d response vector; k-means clusters the responses into ``K`` textons (25 in the
+paper). Each texton is a raw channel; the user merges raw channels into a few feature channels
+(fractures, lenticels, ...) with :func:`merge_channels`, or :func:`auto_merge` groups them by
+agglomerative clustering so the pipeline needs no user step.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from barkgen.errors import InvalidInputError
+from barkgen.labels.regions import (
+    check_image,
+    check_k,
+    clean_regions,
+    default_min_region,
+    order_by_luminance,
+    to_codes,
+    to_label_image,
+)
+
+#: scales (Gaussian sigma, px) and orientations of the filter bank
+FILTER_SCALES = (1.0, 2.0, 4.0)
+N_ORIENTATIONS = 6
+#: most textons
+MAX_TEXTONS = 64
+#: responses sampled to fit k-means (all pixels are then assigned)
+TEXTON_SAMPLES = 50_000
+
+
+def filter_bank(scales=FILTER_SCALES, n_orientations: int = N_ORIENTATIONS) -> list[np.ndarray]:
+    """wang2003 §3.2's bank: for every scale and orientation, the even (second derivative of an
+    elongated Gaussian, aspect 3:1) and odd (first derivative) filter across the orientation;
+    zero mean, unit L1 norm. Ordered phase-major: even filters first, then odd."""
+    bank: dict[str, list[np.ndarray]] = {"even": [], "odd": []}
+    for sigma in scales:
+        half = int(np.ceil(3 * 3 * sigma))
+        y, x = np.mgrid[-half:half + 1, -half:half + 1].astype(np.float64)
+        for i in range(n_orientations):
+            theta = np.pi * i / n_orientations
+            u = x * np.cos(theta) + y * np.sin(theta)   # across the orientation
+            v = -x * np.sin(theta) + y * np.cos(theta)  # along it
+            g = np.exp(-(u**2) / (2 * sigma**2) - (v**2) / (2 * (3 * sigma) ** 2))
+            for phase, f in (("even", (u**2 / sigma**4 - 1 / sigma**2) * g),
+                             ("odd", -u / sigma**2 * g)):
+                f = f - f.mean()
+                bank[phase].append((f / np.abs(f).sum()).astype(np.float32))
+    return bank["even"] + bank["odd"]
+
+
+def filter_responses(image: np.ndarray) -> np.ndarray:
+    """``(h, w, 36)`` float32 responses of the photo's luminance (CIELAB L / 100) to
+    :func:`filter_bank`."""
+    import cv2
+
+    from barkgen.color import rgb_to_lab
+
+    lum = rgb_to_lab(check_image(image))[..., 0] / np.float32(100.0)
+    bank = filter_bank()
+    out = np.empty(lum.shape + (len(bank),), np.float32)
+    for i, f in enumerate(bank):
+        out[..., i] = cv2.filter2D(lum, cv2.CV_32F, f, borderType=cv2.BORDER_REFLECT_101)
+    return out
+
+
+def texton_channels(image: np.ndarray, n_textons: int = 25, *,
+                    seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """wang2003 §3.2: the photo's texton map and its filter responses.
+
+    Returns:
+        ``(texton_map, responses)``: ``(h, w)`` uint8 texton index per pixel (textons numbered
+        from the darkest to the lightest mean luminance) and the ``(h, w, 36)`` float32 filter
+        responses.
+    """
+    from sklearn.cluster import MiniBatchKMeans
+
+    from barkgen.color import rgb_to_lab
+
+    if isinstance(n_textons, bool) or not isinstance(n_textons, (int, np.integer)) or not (
+            2 <= n_textons <= MAX_TEXTONS):
+        raise InvalidInputError(f"n_textons must be an integer from 2 to {MAX_TEXTONS}, "
+                                f"not {n_textons!r}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InvalidInputError(f"seed must be a non-negative integer, not {seed!r}")
+    rgb = check_image(image)
+    responses = filter_responses(rgb)
+    h, w, d = responses.shape
+    flat = responses.reshape(-1, d)
+    rng = np.random.default_rng(seed)
+    sample = flat[rng.choice(len(flat), min(len(flat), TEXTON_SAMPLES), replace=False)]
+    km = MiniBatchKMeans(n_clusters=int(n_textons), n_init=3, batch_size=4096,
+                         random_state=int(rng.integers(0, 2**31 - 1))).fit(sample)
+    codes = _nearest_centre(flat, km.cluster_centers_.astype(np.float32)).reshape(h, w)
+    codes = order_by_luminance(codes, rgb_to_lab(rgb)[..., 0], int(n_textons))
+    return codes.astype(np.uint8), responses
+
+
+def _nearest_centre(points: np.ndarray, centres: np.ndarray) -> np.ndarray:
+    """Index of the nearest centre of every point (faiss exact search)."""
+    import faiss
+
+    index = faiss.IndexFlatL2(centres.shape[1])
+    index.add(np.ascontiguousarray(centres))
+    _, idx = index.search(np.ascontiguousarray(points), 1)
+    return idx[:, 0].astype(np.int32)
+
+
+def parse_groups(text: str) -> list[list[int]]:
+    """``"0,3,7;1,2;4"`` -> ``[[0, 3, 7], [1, 2], [4]]``, with a clear error otherwise."""
+    groups: list[list[int]] = []
+    for part in (text or "").split(";"):
+        part = part.strip()
+        if not part:
+            raise InvalidInputError(f"invalid --groups {text!r}: empty group (write e.g. "
+                                    "\"0,3,7;1,2;4\")")
+        try:
+            groups.append([int(v) for v in part.split(",")])
+        except ValueError:
+            raise InvalidInputError(f"invalid --groups {text!r}: {part!r} is not a "
+                                    "comma-separated list of texton numbers") from None
+    return groups
+
+
+def merge_channels(texton_map: np.ndarray, groups) -> np.ndarray:
+    """wang2003 §3.2's user merge: ``groups[i]`` lists the raw texton channels that form label
+    ``i``; every texton of the map must be in exactly one group. Returns the ``(h, w)`` uint8
+    label map (evenly spaced grey values in group order)."""
+    tm = np.asarray(texton_map)
+    if tm.ndim == 3 and tm.shape[2] == 1:
+        tm = tm[..., 0]
+    if tm.ndim != 2 or tm.dtype.kind not in "ui":
+        raise InvalidInputError("texton map must be a grey integer image of texton numbers")
+    if isinstance(groups, str):
+        groups = parse_groups(groups)
+    if not 1 <= len(groups) <= 16:
+        raise InvalidInputError(f"groups must form 1 to 16 labels, not {len(groups)}")
+    lookup = np.full(int(tm.max()) + 1, -1, np.int32)
+    for i, group in enumerate(groups):
+        for t in group:
+            if not isinstance(t, (int, np.integer)) or t < 0:
+                raise InvalidInputError(f"texton number {t!r} in the groups is not valid")
+            if t < len(lookup) and lookup[t] >= 0:
+                raise InvalidInputError(f"texton {t} is in two groups")
+            if t < len(lookup):
+                lookup[t] = i
+    present = np.unique(tm)
+    missing = present[lookup[present] < 0]
+    if len(missing):
+        raise InvalidInputError("the groups leave out texton(s) " + ", ".join(
+            str(int(t)) for t in missing[:8]) + " of the map; every texton needs a group")
+    return to_label_image(lookup[tm], len(groups))
+
+
+def auto_merge(texton_map: np.ndarray, image: np.ndarray, k: int) -> list[list[int]]:
+    """Groups of textons for ``k`` labels, so the pipeline needs no user step: agglomerative
+    clustering of the textons by the mean CIELAB colour of their pixels (standardised), with
+    Ward's criterion weighted by pixel counts (merging groups of ``n_a`` and ``n_b`` pixels costs
+    ``n_a n_b / (n_a + n_b)`` times their squared distance), so rare textons join their nearest
+    group before common ones merge and e.g. the dark fissure textons of every orientation form
+    one label. Groups are ordered from the darkest to the lightest; pass them to
+    :func:`merge_channels`."""
+    from barkgen.color import rgb_to_lab
+
+    k = check_k(k)
+    tm = np.asarray(texton_map).astype(np.int64)
+    lab = rgb_to_lab(check_image(image)).reshape(-1, 3)
+    present = np.unique(tm)
+    if k > len(present):
+        raise InvalidInputError(f"the texton map has {len(present)} textons; cannot merge them "
+                                f"into {k} labels")
+    flat = tm.ravel()
+    size = int(present.max()) + 1
+    counts = np.bincount(flat, minlength=size)[present].astype(np.float64)
+    means = np.stack([np.bincount(flat, weights=lab[:, c], minlength=size)[present]
+                      for c in range(3)], axis=1) / counts[:, None]
+    feats = (means - means.mean(axis=0)) / (means.std(axis=0) + 1e-6)
+    groups = [[int(t)] for t in present]
+    n = list(counts)
+    centre = [f for f in feats]
+    while len(groups) > k:  # at most 64 textons: a plain loop over the pairs is enough
+        best, pair = np.inf, (0, 1)
+        for a in range(len(groups)):
+            for b in range(a + 1, len(groups)):
+                cost = n[a] * n[b] / (n[a] + n[b]) * float(((centre[a] - centre[b]) ** 2).sum())
+                if cost < best:
+                    best, pair = cost, (a, b)
+        a, b = pair
+        centre[a] = (n[a] * centre[a] + n[b] * centre[b]) / (n[a] + n[b])
+        n[a] += n[b]
+        groups[a] += groups[b]
+        del groups[b], n[b], centre[b]
+    lookup = {int(t): i for i, t in enumerate(present)}
+    lum = [np.average([means[lookup[t], 0] for t in g], weights=[counts[lookup[t]] for t in g])
+           for g in groups]
+    return [sorted(groups[i]) for i in np.argsort(lum, kind="stable")]
+
+
+def texton_regions(image: np.ndarray, k: int, *, n_textons: int = 25,
+                   min_region: int | None = None, seed: int = 0) -> np.ndarray:
+    """A ``k``-label map from texton channels with no user step: :func:`texton_channels`,
+    :func:`auto_merge`, :func:`merge_channels`, then the clean-up of the colour-region maps
+    (small labels grown, regions under ``min_region`` px dissolved; laitoch2018 §3.5.4)."""
+    k = check_k(k)
+    textons, _ = texton_channels(image, n_textons, seed=seed)
+    merged = merge_channels(textons, auto_merge(textons, image, k))
+    codes, _ = to_codes(merged)
+    if min_region is None:
+        min_region = default_min_region(codes.shape)
+    return to_label_image(clean_regions(codes, k, int(min_region)), k)
