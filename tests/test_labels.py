@@ -167,3 +167,11 @@ def test_preview_shows_photo_and_tinted_regions(oak):
     assert p.shape == (256, 2 * 256 + 4, 3) and p.dtype == np.uint8
     assert np.array_equal(p[:, :256], oak)
     assert not np.array_equal(p[:, 260:], oak)
+
+
+def test_too_little_variation_gives_fewer_labels_with_a_warning():
+    img = np.full((40, 40, 3), 120, np.uint8)
+    img[:, :20] = 30
+    with pytest.warns(UserWarning, match="only 2 distinct regions"):
+        lm = color_regions(img, 3)
+    assert sorted(np.unique(lm)) == [0, 255] and (lm[:, :20] == 0).all()

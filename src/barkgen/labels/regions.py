@@ -10,6 +10,8 @@ edges (§3.5.6) to input and output maps alike.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from barkgen.errors import InvalidInputError
@@ -59,6 +61,12 @@ def check_k(k: int, name: str = "k") -> int:
     if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 1 <= k <= MAX_K:
         raise InvalidInputError(f"{name} must be an integer from 1 to {MAX_K}, not {k!r}")
     return int(k)
+
+
+def check_seed(seed: int) -> int:
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InvalidInputError(f"seed must be a non-negative integer, not {seed!r}")
+    return int(seed)
 
 
 def grey_values(n_labels: int) -> np.ndarray:
@@ -178,6 +186,19 @@ def clean_regions(codes: np.ndarray, n_labels: int, min_region: int) -> np.ndarr
     return remove_small_regions(grow_small_labels(codes, MIN_LABEL_FRACTION, n_labels), min_region)
 
 
+def finish_label_map(codes: np.ndarray, k: int) -> np.ndarray:
+    """Label codes (in label order) -> the grey label map; labels that vanished (a photo with
+    too little variation for ``k`` regions) are dropped with a warning, the others keep their
+    order."""
+    present = np.flatnonzero(np.bincount(codes.ravel(), minlength=k))
+    if len(present) < k:
+        warnings.warn(f"the photo gives only {len(present)} distinct regions, not {k}; the label "
+                      f"map has {len(present)} labels")
+    compact = np.zeros(k, np.int32)
+    compact[present] = np.arange(len(present))
+    return to_label_image(compact[codes], len(present))
+
+
 def default_min_region(shape: tuple[int, int]) -> int:
     """0.05 % of the photo's area, at least 16 px."""
     return max(MIN_REGION_PX, int(round(MIN_REGION_FRACTION * shape[0] * shape[1])))
@@ -208,8 +229,7 @@ def color_regions(image: np.ndarray, k: int, *, denoise: bool | float = True,
 
     k = check_k(k)
     rgb = check_image(image)
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise InvalidInputError(f"seed must be a non-negative integer, not {seed!r}")
+    check_seed(seed)
     h, w = rgb.shape[:2]
     if min_region is None:
         min_region = default_min_region((h, w))
@@ -231,7 +251,7 @@ def color_regions(image: np.ndarray, k: int, *, denoise: bool | float = True,
         codes = dist.argmin(axis=1).reshape(h, w).astype(np.int32)
         codes = clean_regions(codes, k, int(min_region))
         codes = order_by_luminance(codes, lab[:, 0].reshape(h, w), k)
-    label_map = to_label_image(codes, k)
+    label_map = finish_label_map(codes, k)
     if edges:
         label_map = add_edge_label(label_map, 3 if edges is True else int(edges))
     return label_map

@@ -15,8 +15,10 @@ from barkgen.errors import InvalidInputError
 from barkgen.labels.regions import (
     check_image,
     check_k,
+    check_seed,
     clean_regions,
     default_min_region,
+    finish_label_map,
     order_by_luminance,
     to_codes,
     to_label_image,
@@ -83,8 +85,7 @@ def texton_channels(image: np.ndarray, n_textons: int = 25, *,
             2 <= n_textons <= MAX_TEXTONS):
         raise InvalidInputError(f"n_textons must be an integer from 2 to {MAX_TEXTONS}, "
                                 f"not {n_textons!r}")
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise InvalidInputError(f"seed must be a non-negative integer, not {seed!r}")
+    check_seed(seed)
     rgb = check_image(image)
     responses = filter_responses(rgb)
     h, w, d = responses.shape
@@ -209,4 +210,4 @@ def texton_regions(image: np.ndarray, k: int, *, n_textons: int = 25,
     codes, _ = to_codes(merged)
     if min_region is None:
         min_region = default_min_region(codes.shape)
-    return to_label_image(clean_regions(codes, k, int(min_region)), k)
+    return finish_label_map(clean_regions(codes, k, int(min_region)), k)
