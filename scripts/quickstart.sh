@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Set up barkgen in its own virtualenv (.venv) and run the main job on the bundled sample photo:
-# a 1024x1024 tileable bark texture, its reference map and a 2x2 tiling preview, in out/.
+# photo -> label map -> new label map -> 1024x1024 tileable bark, with its maps and a contact
+# sheet, in out/ (and a 2x2 tiling preview to check the seams by eye).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 VENV=${BARKGEN_VENV:-.venv}
@@ -10,13 +11,11 @@ if ! "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check -e . 
   cat "$log" >&2; rm -f "$log"; echo "barkgen: installing dependencies failed" >&2; exit 1
 fi
 rm -f "$log"
-mkdir -p out
-"$VENV/bin/barkgen" synth -o out/bark_1024_tile.png --size 1024x1024 --tile --seed 0 \
-  --save-reference out/bark_1024_tile_reference.png "$@"
+"$VENV/bin/barkgen" generate -o out --size 1024x1024 --tile --seed 0 "$@"
 "$VENV/bin/python" - <<'PY'
 import numpy as np
 from barkgen.io import read_image, write_png
-img = read_image("out/bark_1024_tile.png")
-write_png("out/bark_1024_tile_2x2_preview.png", np.tile(img, (2, 2, 1))[::2, ::2])
+img = read_image("out/texture.png")
+write_png("out/texture_2x2_preview.png", np.tile(img, (2, 2, 1))[::2, ::2])
 PY
-echo "outputs in $(pwd)/out: bark_1024_tile.png (texture), bark_1024_tile_reference.png, bark_1024_tile_2x2_preview.png"
+echo "outputs in $(pwd)/out: texture.png, labels_in.png, labels_out.png, reference.png, report.json, preview.png, texture_2x2_preview.png"

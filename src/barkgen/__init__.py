@@ -21,6 +21,10 @@ _LAZY = {
     "read_image": "barkgen.io",
     "write_png": "barkgen.io",
     "sample_exemplar_path": "barkgen.data",
+    "generate": "barkgen.pipeline",
+    "GenerateOptions": "barkgen.pipeline",
+    "GenerateResult": "barkgen.pipeline",
+    "synthesize_label_map": "barkgen.shapes",
 }
 
 __all__ = sorted(_LAZY) + ["__version__"]
@@ -29,6 +33,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from barkgen.data import sample_exemplar_path
     from barkgen.errors import BarkgenError
     from barkgen.io import read_image, write_png
+    from barkgen.pipeline import GenerateOptions, GenerateResult, generate
+    from barkgen.shapes import synthesize_label_map
     from barkgen.synth import (
         SynthesisConfig,
         SynthesisResult,

@@ -359,6 +359,177 @@ def merge_command(
     write_png(output, merge_channels(read_image(texton_map), parsed))
 
 
+_LEVEL_NAME = re.compile(r"level_(\d+)\.png$", re.IGNORECASE)
+
+
+def _read_resume(path: Path):
+    """An edited level for ``--resume``: ``(level, map)`` when the file name says the level
+    (``level_N.png``), else the map alone (its size tells the level)."""
+    from barkgen.io import read_image
+
+    image = read_image(path)
+    m = _LEVEL_NAME.search(path.name)
+    return (int(m.group(1)), image) if m else image
+
+
+def _check_folder(path: Path, what: str) -> None:
+    if path.exists() and not path.is_dir():
+        raise InvalidInputError(f"{what} {str(path)!r} exists and is not a folder")
+
+
+def _level_files(levels: list) -> dict[str, bytes]:
+    """``level_N.png`` of every computed level of an output label map."""
+    from barkgen.io import encode_png
+
+    return {f"level_{i}.png": encode_png(lvl) for i, lvl in enumerate(levels) if lvl is not None}
+
+
+def _write_files(folder: Path, files: dict[str, bytes]) -> None:
+    """Write encoded files into ``folder``, each atomically (all are encoded before any is
+    written, so a failure leaves nothing half-done)."""
+    from barkgen.io import write_bytes_atomic
+
+    folder.mkdir(parents=True, exist_ok=True)
+    for name, data in files.items():
+        write_bytes_atomic(folder / name, data)
+
+
+StrategyOption = Annotated[str, typer.Option(
+    "--strategy", help="Output label maps: engine (the core engine on one-hot label channels; "
+    "default) or layered (Rosenberger et al.'s layered shape synthesis, laitoch2018 §3.6).")]
+RotationsOption = Annotated[str, typer.Option(
+    "--rotations", help="Layered strategy: boundary patches may turn none, vertical (180°) or "
+    "all (90° steps).")]
+SaveLevelsOption = Annotated[Optional[Path], typer.Option(
+    "--save-levels", help="Write every pyramid level of the output label map as "
+    "DIR/level_N.png (0 = full size) to edit and --resume from.")]
+ResumeOption = Annotated[Optional[Path], typer.Option(
+    "--resume", help="Continue the output label map from an edited level (DIR/level_N.png of "
+    "--save-levels, painted with the same grey values).")]
+
+
+@app.command("shapes")
+@user_errors
+def shapes_command(
+    labels: Annotated[Path, typer.Argument(help="Label map of the exemplar (lossless, grey).")],
+    output: OutputOption,
+    size: Annotated[str, typer.Option("--size", help="Output size WIDTHxHEIGHT.")] = "1024x1024",
+    strategy: StrategyOption = "engine",
+    rotations: RotationsOption = "vertical",
+    layer_order: Annotated[Optional[str], typer.Option(
+        "--layer-order", help="Layered strategy: grey values bottom layer first, e.g. "
+        "\"255,0,128\" (default: automatic).")] = None,
+    tile: TileOption = False,
+    seed: SeedOption = 0,
+    save_levels: SaveLevelsOption = None,
+    resume: ResumeOption = None,
+    quiet: QuietOption = False,
+) -> None:
+    """Synthesize a new label map of any size from an exemplar's label map (laitoch2018 §3.6)."""
+    from barkgen.io import encode_png, read_image
+    from barkgen.shapes import synthesize_label_map
+
+    out_shape = parse_size(size)
+    _check_png_target(output, "output")
+    if save_levels is not None:
+        _check_folder(save_levels, "--save-levels")
+    order = None
+    if layer_order is not None:
+        try:
+            order = [int(v) for v in layer_order.split(",")]
+        except ValueError:
+            raise InvalidInputError(
+                f"invalid --layer-order {layer_order!r}: expected grey values such as 255,0,128") from None
+    label_map = read_image(labels)
+    edited = _read_resume(resume) if resume is not None else None
+    with _progress(not quiet, "label map") as progress:
+        result = synthesize_label_map(label_map, out_shape, strategy=strategy, tile=tile,
+                                      seed=seed, rotations=rotations, layer_order=order,
+                                      resume=edited, progress=progress)
+    files = {output.name: encode_png(result.label_map)}
+    _write_files(output.parent, files)
+    if save_levels is not None:
+        _write_files(save_levels, _level_files(result.levels))
+    if not quiet:
+        typer.echo(f"wrote {output} ({out_shape[1]}x{out_shape[0]}, {strategy}) in "
+                   f"{result.timings['label_map']:.2f} s", err=True)
+
+
+@app.command("generate")
+@user_errors
+def generate_command(
+    photo: Annotated[Optional[Path], typer.Argument(
+        help="Bark photo (PNG/JPEG/TIFF/WebP). Default: the bundled sample.")] = None,
+    output_dir: Annotated[Path, typer.Option("-o", "--output", help="Output folder.")] = Path("out"),
+    size: Annotated[str, typer.Option("--size", help="Output size WIDTHxHEIGHT.")] = "1024x1024",
+    k: Annotated[int, typer.Option("--k", help="Number of labels (1-16).")] = 3,
+    method: Annotated[str, typer.Option(
+        "--method", help="Input label map: color (laitoch2018 §3.5) or texton (wang2003 §3.2).")] = "color",
+    labels: Annotated[Optional[Path], typer.Option(
+        "--labels", help="Use this label map of the photo instead of making one.")] = None,
+    strategy: StrategyOption = "engine",
+    rotations: RotationsOption = "vertical",
+    tile: TileOption = False,
+    seed: SeedOption = 0,
+    extra: ExtraOption = None,
+    save_levels: SaveLevelsOption = None,
+    resume: ResumeOption = None,
+    bits: BitsOption = None,
+    max_memory: MaxMemoryOption = "8G",
+    threads: ThreadsOption = None,
+    quiet: QuietOption = False,
+) -> None:
+    """Photo to new bark in one step: label map, output label map, texture-by-numbers
+    (laitoch2018 Figure 1.2). Writes texture.png, labels_in.png, labels_out.png, reference.png,
+    report.json and preview.png (+ NAME.png per --extra) into the output folder."""
+    import json
+
+    from barkgen import __version__
+    from barkgen.data import sample_exemplar_path
+    from barkgen.io import encode_png, encode_reference, read_image
+    from barkgen.pipeline import GenerateOptions, generate, preview_sheet
+
+    if bits not in (None, 8, 16):
+        raise InvalidInputError(f"--bits must be 8 or 16, not {bits}")
+    _check_folder(output_dir, "output")
+    if save_levels is not None:
+        _check_folder(save_levels, "--save-levels")
+    options = GenerateOptions(size=parse_size(size), k=k, method=method, strategy=strategy,
+                              rotations=rotations, tile=tile, seed=seed, threads=threads,
+                              max_memory=parse_memory(max_memory))
+    extra_paths = parse_extras(extra)
+    reserved = {"texture", "labels_in", "labels_out", "reference", "preview", "report"}
+    clash = sorted(set(extra_paths) & reserved)
+    if clash:
+        raise InvalidInputError(f"--extra name {clash[0]!r} is taken by an output file; pick another")
+    src = photo if photo is not None else sample_exemplar_path()
+    image = read_image(src)
+    extras = {name: read_image(p) for name, p in extra_paths.items()}
+    label_map = read_image(labels) if labels is not None else None
+    edited = _read_resume(resume) if resume is not None else None
+    with _progress(not quiet, "generating") as progress:
+        result = generate(image, options, extra=extras, labels_in=label_map, resume=edited,
+                          progress=progress)
+        sheet = preview_sheet(image, result)
+    report = {"barkgen": __version__, "photo": str(src), **result.report}
+    files = {"texture.png": encode_png(result.texture, bits=bits),
+             "labels_in.png": encode_png(result.labels_in),
+             "labels_out.png": encode_png(result.labels_out),
+             "reference.png": encode_reference(result.references, image.shape[:2]),
+             "preview.png": encode_png(sheet)}
+    files.update({f"{name}.png": encode_png(arr) for name, arr in result.extras.items()})
+    report["files"] = sorted(files) + ["report.json"]
+    files["report.json"] = (json.dumps(report, indent=2) + "\n").encode()
+    _write_files(output_dir, files)
+    if save_levels is not None:
+        _write_files(save_levels, _level_files(result.label_levels))
+    if not quiet:
+        h, w = result.texture.shape[:2]
+        typer.echo(f"wrote {output_dir}/texture.png ({w}x{h}, seed {seed}"
+                   f"{', tileable' if tile else ''}) and its maps in "
+                   f"{result.report['timings_s']['total']:.1f} s", err=True)
+
+
 @app.command("apply-reference")
 @user_errors
 def apply_reference_command(

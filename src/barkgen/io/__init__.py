@@ -9,11 +9,12 @@ from barkgen.io.images import (
     write_bytes_atomic,
     write_png,
 )
-from barkgen.io.references import read_reference, write_reference
+from barkgen.io.references import encode_reference, read_reference, write_reference
 
 __all__ = [
     "AlphaDroppedWarning",
     "encode_png",
+    "encode_reference",
     "read_image",
     "read_png_text",
     "read_reference",

@@ -13,13 +13,13 @@ from pathlib import Path
 import numpy as np
 
 from barkgen.errors import ImageReadError, InvalidInputError
-from barkgen.io.images import read_image, read_png_text, write_png
+from barkgen.io.images import encode_png, read_image, read_png_text, write_bytes_atomic
 
 _KEY = "barkgen-reference"
 
 
-def write_reference(path: str | os.PathLike, references: np.ndarray, exemplar_shape: tuple[int, int]) -> Path:
-    """Save an ``(H, W, 2)`` array of (row, col) exemplar coordinates as a 16-bit PNG."""
+def encode_reference(references: np.ndarray, exemplar_shape: tuple[int, int]) -> bytes:
+    """An ``(H, W, 2)`` array of (row, col) exemplar coordinates as the bytes of a 16-bit PNG."""
     refs = np.asarray(references)
     h, w = int(exemplar_shape[0]), int(exemplar_shape[1])
     if refs.ndim != 3 or refs.shape[2] != 2:
@@ -29,7 +29,12 @@ def write_reference(path: str | os.PathLike, references: np.ndarray, exemplar_sh
     rgb = np.zeros(refs.shape[:2] + (3,), np.uint16)
     rgb[:, :, 0] = refs[:, :, 1]
     rgb[:, :, 1] = refs[:, :, 0]
-    return write_png(path, rgb, text={_KEY: f"exemplar={w}x{h}"})
+    return encode_png(rgb, text={_KEY: f"exemplar={w}x{h}"})
+
+
+def write_reference(path: str | os.PathLike, references: np.ndarray, exemplar_shape: tuple[int, int]) -> Path:
+    """Save an ``(H, W, 2)`` array of (row, col) exemplar coordinates as a 16-bit PNG, atomically."""
+    return write_bytes_atomic(path, encode_reference(references, exemplar_shape))
 
 
 def read_reference(path: str | os.PathLike) -> tuple[np.ndarray, tuple[int, int] | None]:

@@ -6,7 +6,7 @@
 spaced grey values are the labels, the darkest region first.
 """
 
-from barkgen.labels.preview import contact_sheet, label_preview
+from barkgen.labels.preview import contact_sheet, label_colour_map, label_preview
 from barkgen.labels.regions import add_edge_label, color_regions, remove_small_regions
 from barkgen.labels.textons import (
     auto_merge,
@@ -23,6 +23,7 @@ __all__ = [
     "color_regions",
     "contact_sheet",
     "filter_bank",
+    "label_colour_map",
     "label_preview",
     "merge_channels",
     "parse_groups",

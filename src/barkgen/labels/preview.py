@@ -17,6 +17,17 @@ def label_colours(n_labels: int) -> np.ndarray:
     return cv2.cvtColor(hsv[None], cv2.COLOR_HSV2RGB)[0]
 
 
+def label_colour_map(label_map: np.ndarray, values: np.ndarray | None = None) -> np.ndarray:
+    """``(h, w, 3)`` uint8: each label of ``label_map`` in its colour (the colours of
+    :func:`label_preview`). ``values``: the grey values of all labels (e.g. of the input label
+    map, so that a synthesized map missing a label keeps the same colours)."""
+    codes, own = to_codes(label_map)
+    if values is None:
+        return label_colours(own.size)[codes]
+    values = np.asarray(values)
+    return label_colours(values.size)[np.searchsorted(values, own)[codes]]
+
+
 def label_preview(image: np.ndarray, label_map: np.ndarray, *, alpha: float = 0.4) -> np.ndarray:
     """``(h, 2w + gap, 3)`` uint8: the photo with each label tinted (``alpha``) and region
     outlines in white, beside the plain photo."""

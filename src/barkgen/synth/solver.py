@@ -235,6 +235,30 @@ def _occurrence_penalty(refs: np.ndarray, level: LevelAnalysis, weight: float,
     return np.ascontiguousarray((weight * level.scale) * excess, dtype=np.float32).ravel()
 
 
+@dataclass
+class LabelBalance:
+    """Keeps the label areas of a synthesized label map (histogram matching, Kopf et al. 2007,
+    in the discrete solver's occurrence cost).
+
+    ``shares[l]`` ``(h_l * w_l, L)``: how much of each label the full-resolution exemplar
+    pixels under each pixel of level ``l`` have (finest first); ``fractions`` ``(L,)``: each
+    label's share of the exemplar. The shares of the referenced pixels predict the final label
+    areas already at coarse levels, where thin labels are not resolved; an exemplar pixel costs
+    more the more it holds of labels the output has too much of, and less for labels it lacks,
+    by ``weight`` x the relative excess (same units as the occurrence cost).
+    """
+
+    shares: list
+    fractions: np.ndarray
+    weight: float
+
+    def penalty(self, refs: np.ndarray, level: int, scale: float) -> np.ndarray:
+        shares = self.shares[level]
+        current = shares[refs.ravel()].mean(axis=0)
+        excess = np.clip(current / np.maximum(self.fractions, 1e-6) - 1.0, -1.0, 1.0)
+        return shares @ (np.float32(self.weight * scale) * excess.astype(np.float32))
+
+
 def _offset_codes(dy: np.ndarray, dx: np.ndarray) -> np.ndarray:
     """Offsets (reference - position) as the int64 codes the kernels compare
     (``_kernels.offset_code``)."""
@@ -404,11 +428,16 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
           out_shape: tuple[int, int], *, n_levels: int, config: SynthesisConfig, seed: int,
           tile: bool, guidance: Guidance | None = None,
           progress: ProgressCallback | None = None,
-          debug: DebugCallback | None = None) -> SynthesisResult:
+          debug: DebugCallback | None = None,
+          start: tuple[int, np.ndarray] | None = None,
+          balance: LabelBalance | None = None) -> SynthesisResult:
     """The coarse-to-fine discrete solver shared by :func:`synthesize` and texture-by-numbers.
 
     ``ex`` ``(h, w, C)`` and ``extras`` are resolved through the final references; ``features``
-    ``(h, w, F)`` float32 are what is matched. Inputs must already be validated.
+    ``(h, w, F)`` float32 are what is matched. Inputs must already be validated. ``start``:
+    ``(level, references)`` resumes at that level from a given reference map (flat indices
+    into the level's exemplar) instead of starting at the coarsest level. ``balance`` adds the
+    label-area term of :class:`LabelBalance` to the occurrence cost.
     """
     _set_threads(config)
     from barkgen.synth import _kernels as K
@@ -437,10 +466,17 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
         la = levels[lvl]
         shape = level_shape(out_shape, lvl)
         lg = guidance.levels[lvl] if guidance is not None else None
+        if start is not None and lvl > start[0]:  # levels above the resumed one are not run
+            for _ in range(sum(it for _, it in config.schedule_for(lvl, n_levels))):
+                tick()
+            continue
         if debug is not None:
             debug(f"level{lvl}_exemplar", _level_image(ex, np.arange(la.height * la.width).reshape(
                 la.height, la.width), lvl))
-        if refs is None:
+        if start is not None and lvl == start[0]:
+            refs = np.ascontiguousarray(start[1], dtype=np.int32)
+            forbid = np.full(shape, -1, np.int64)
+        elif refs is None:
             if lg is not None:
                 refs = np.ascontiguousarray(guidance.initial_references(
                     lg.exemplar_labels.reshape(la.height, la.width), lg.target_labels, rng),
@@ -484,7 +520,14 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
         match = np.empty(shape, np.int32)
         new = np.empty(shape, np.int32)
         occ_radius = 3
-        penalty = _occurrence_penalty(refs, la, config.occurrence_weight, occ_radius, expected)
+
+        def occurrence(refs: np.ndarray) -> np.ndarray:
+            cost = _occurrence_penalty(refs, la, config.occurrence_weight, occ_radius, expected)
+            if balance is not None:
+                cost += balance.penalty(refs, lvl, la.scale)
+            return cost
+
+        penalty = occurrence(refs)
         schedule = [size for size, iters in config.schedule_for(lvl, n_levels) for _ in range(iters)]
         for step, nb_size in enumerate(schedule):
             proj = la.projections[nb_size]
@@ -506,7 +549,7 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
             if config.max_copy < 1.0 and (lvl > 0 or step < len(schedule) - 1):
                 # (cuts act through the following iterations, none after the very last one)
                 _limit_copies(refs, la, config.max_copy * la.height * la.width, forbid)
-            penalty = _occurrence_penalty(refs, la, config.occurrence_weight, occ_radius, expected)
+            penalty = occurrence(refs)
             tick()
         if lg is not None and lvl == 0:
             for _ in range(guidance.cleanup_passes):

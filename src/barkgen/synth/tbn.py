@@ -26,7 +26,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from barkgen.errors import InvalidInputError
-from barkgen.pyramid import count_levels, gaussian_pyramid
+from barkgen.pyramid import count_levels, gaussian_pyramid, level_shape
 from barkgen.synth.config import SynthesisConfig
 from barkgen.synth.guide import boundary_distance, encode_label_maps, label_pyramid, level_guide
 from barkgen.synth.initialization import random_initialization, smart_initialization
@@ -50,6 +50,10 @@ INITIALIZATIONS = ("smart", "random")
 #: appearance dimensions give the same quality (measured on the bark set, benchmarks/bench_tbn.py)
 TBN_CONFIG = SynthesisConfig(coarsest_exemplar=32, schedule_coarsest=((9, 3), (7, 2), (5, 2)),
                              schedule_middle=((7, 1), (5, 1)), pca_components=6)
+
+#: a reference map given as ``init`` is taken up at this pyramid level (0 = finest): its
+#: coarser structure is kept, the solver refines the finer levels
+REFERENCE_START_LEVEL = 2
 
 #: px of Gaussian blur of the label indicators that make the guide channels
 GUIDE_BLUR = 1.0
@@ -114,6 +118,24 @@ def _label_colours(n_labels: int) -> np.ndarray:
     return cv2.cvtColor(hsv[None], cv2.COLOR_HSV2RGB)[0]
 
 
+def _level_references(references, out_shape: tuple[int, int], exemplar_shape: tuple[int, int],
+                      level: int) -> np.ndarray:
+    """A full-resolution reference map brought to pyramid ``level``: every ``2**level``-th
+    output pixel's exemplar position, scaled down, as flat indices into the level's exemplar."""
+    refs = np.asarray(references)
+    if refs.shape != out_shape + (2,) or not np.issubdtype(refs.dtype, np.integer):
+        raise InvalidInputError(
+            f"an initial reference map must be an integer array of shape {out_shape + (2,)}, not "
+            f"{refs.dtype} {refs.shape}")
+    if refs.min() < 0 or (refs[..., 0] >= exemplar_shape[0]).any() or (refs[..., 1] >= exemplar_shape[1]).any():
+        raise InvalidInputError("the initial reference map points outside the exemplar")
+    lh, lw = level_shape(exemplar_shape, level)
+    f = 1 << level
+    ry = np.minimum(refs[::f, ::f, 0] >> level, lh - 1)
+    rx = np.minimum(refs[::f, ::f, 1] >> level, lw - 1)
+    return np.ascontiguousarray(ry * lw + rx, dtype=np.int32)
+
+
 def texture_by_numbers(
     exemplar: np.ndarray,
     exemplar_labels: np.ndarray,
@@ -121,7 +143,7 @@ def texture_by_numbers(
     *,
     label_weight: float = 20.0,
     feature_weight: float = 8.0,
-    init: str = "smart",
+    init: str | np.ndarray = "smart",
     tile: bool = False,
     seed: int = 0,
     extra: Mapping[str, np.ndarray] | None = None,
@@ -140,7 +162,10 @@ def texture_by_numbers(
         label_weight: ``w`` of laitoch2018 eq. 3.1: cost of one mismatching label pixel, in
             units of the exemplar's colour variance.
         feature_weight: ``z`` of eq. 3.3: weight of the feature-distance channel, same units.
-        init: ``"smart"`` (§3.4.2, region growing) or ``"random"`` (§3.4.1).
+        init: ``"smart"`` (§3.4.2, region growing), ``"random"`` (§3.4.1), or an ``(H, W, 2)``
+            reference map (exemplar ``(y, x)`` per output pixel) to start from, e.g. the
+            references of a label map synthesized from ``exemplar_labels``
+            (:class:`barkgen.shapes.LabelMapResult`), whose labels then already match.
         tile: make the output wrap seamlessly (the target label map is read as a torus too).
         seed: seeds the one ``numpy.random.Generator`` behind every random choice.
         extra: named maps aligned with the exemplar (height, ...), synthesized along.
@@ -158,8 +183,9 @@ def texture_by_numbers(
         MemoryBudgetError: the estimated memory exceeds ``config.max_memory``.
     """
     config = config or TBN_CONFIG
-    if init not in INITIALIZATIONS:
-        raise InvalidInputError(f"init must be one of {', '.join(INITIALIZATIONS)}, not {init!r}")
+    if isinstance(init, str) and init not in INITIALIZATIONS:
+        raise InvalidInputError(f"init must be one of {', '.join(INITIALIZATIONS)} or a reference "
+                                f"map, not {init!r}")
     for name, value in (("label_weight", label_weight), ("feature_weight", feature_weight)):
         if not isinstance(value, (int, float, np.number)) or not np.isfinite(value) or value < 0:
             raise InvalidInputError(f"{name} must be a non-negative number, not {value!r}")
@@ -194,7 +220,12 @@ def texture_by_numbers(
         debug("feature_distance", as_uint8(
             boundary_distance(labels.exemplar, FEATURE_DISTANCE_CLIP) / FEATURE_DISTANCE_CLIP))
 
-    if init == "smart":
+    start = None
+    if not isinstance(init, str):
+        level = min(REFERENCE_START_LEVEL, n_levels - 1)
+        start = (level, _level_references(init, out_shape, ex.shape[:2], level))
+        initial = random_initialization  # not used: the solver starts from ``start``
+    elif init == "smart":
         def initial(a: np.ndarray, b: np.ndarray, rng: np.random.Generator) -> np.ndarray:
             return smart_initialization(a, b, rng, tile=tile)
     else:
@@ -202,7 +233,7 @@ def texture_by_numbers(
     guidance = Guidance(levels=guides, exemplar_guides=gaussian_pyramid(guide_a, n_levels),
                         target_guides=gaussian_pyramid(guide_b, n_levels), initial_references=initial)
     result = solve(ex, extras, feats, out_shape, n_levels=n_levels, config=config, seed=seed,
-                   tile=tile, guidance=guidance, progress=progress, debug=debug)
+                   tile=tile, guidance=guidance, progress=progress, debug=debug, start=start)
     if np.asarray(exemplar).ndim == 2:
         result.image = result.image[:, :, 0]
     return result

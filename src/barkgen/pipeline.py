@@ -1,0 +1,195 @@
+"""The one-click pipeline: photo -> new bark (laitoch2018 §1, Figure 1.2).
+
+1. input label map of the photo (:mod:`barkgen.labels`, §3.5),
+2. output label map of the requested size (:mod:`barkgen.shapes`, §3.6),
+3. texture-by-numbers of the photo from the input onto the output label map, with any extra maps
+   synthesized along (:func:`barkgen.synth.texture_by_numbers`, §3.3–3.4), started from the
+   output label map's own references into the photo when it has them (engine strategy).
+
+Arrays in, arrays out; the CLI writes the files.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from barkgen.errors import InvalidInputError
+from barkgen.synth.solver import ProgressCallback, parse_output_shape
+
+LABEL_METHODS = ("color", "texton")
+
+#: share of the progress bar of each stage
+_STAGES = {"labels": (0.0, 0.1), "label_map": (0.1, 0.35), "texture": (0.35, 1.0)}
+
+
+@dataclass(frozen=True)
+class GenerateOptions:
+    """Parameters of :func:`generate`, validated once here.
+
+    ``size``: output ``(height, width)``; ``k``: labels of the input label map; ``method``:
+    ``color`` or ``texton`` label maps; ``strategy``: ``engine`` or ``layered`` output label
+    maps; ``rotations``: boundary-patch rotations of the layered strategy; ``tile``: tileable
+    output; ``seed``: the one seed; ``label_weight`` / ``feature_weight``: texture-by-numbers
+    weights; ``threads`` / ``max_memory``: solver limits.
+    """
+
+    size: tuple[int, int] = (1024, 1024)
+    k: int = 3
+    method: str = "color"
+    strategy: str = "engine"
+    rotations: str = "vertical"
+    tile: bool = False
+    seed: int = 0
+    label_weight: float = 20.0
+    feature_weight: float = 8.0
+    threads: int | None = None
+    max_memory: int = 8 * 1024**3
+
+    def __post_init__(self) -> None:
+        from barkgen.labels.regions import check_k, check_seed
+        from barkgen.shapes import STRATEGIES, check_rotations
+
+        object.__setattr__(self, "size", parse_output_shape(self.size))
+        check_k(self.k)
+        check_seed(self.seed)
+        check_rotations(self.rotations)
+        if self.method not in LABEL_METHODS:
+            raise InvalidInputError(f"method must be one of {', '.join(LABEL_METHODS)}, not {self.method!r}")
+        if self.strategy not in STRATEGIES:
+            raise InvalidInputError(f"strategy must be one of {', '.join(STRATEGIES)}, not {self.strategy!r}")
+        if self.label_weight < 0 or self.feature_weight < 0:
+            raise InvalidInputError("label and feature weights must be >= 0")
+
+
+@dataclass
+class GenerateResult:
+    """What :func:`generate` makes: the texture, both label maps, the reference map (output ->
+    photo ``(y, x)``), the extra maps, every level of the output label map (finest first) and a
+    JSON-ready report of parameters, label areas and timings."""
+
+    texture: np.ndarray
+    labels_in: np.ndarray
+    labels_out: np.ndarray
+    references: np.ndarray
+    extras: dict
+    label_levels: list
+    report: dict = field(default_factory=dict)
+
+
+def _stage_progress(progress: ProgressCallback | None, stage: str) -> ProgressCallback | None:
+    if progress is None:
+        return None
+    lo, hi = _STAGES[stage]
+
+    def update(done: int, total: int) -> None:
+        progress(int(1000 * (lo + (hi - lo) * done / max(total, 1))), 1000)
+
+    return update
+
+
+def _fractions(label_map: np.ndarray, values: np.ndarray) -> dict[str, float]:
+    return {str(int(v)): round(float(np.mean(label_map == v)), 4) for v in values}
+
+
+def generate(
+    photo: np.ndarray,
+    options: GenerateOptions | None = None,
+    *,
+    extra: Mapping[str, np.ndarray] | None = None,
+    labels_in: np.ndarray | None = None,
+    resume: np.ndarray | tuple[int, np.ndarray] | None = None,
+    progress: ProgressCallback | None = None,
+) -> GenerateResult:
+    """Turn a bark photo into new bark of ``options.size`` (laitoch2018 Figure 1.2).
+
+    Args:
+        photo: ``(h, w, 3)`` or ``(h, w)`` bark photo (uint8, uint16 or float).
+        options: :class:`GenerateOptions` (defaults: 1024x1024, k = 3, colour labels, engine
+            label maps, not tileable, seed 0).
+        extra: maps aligned with the photo (height, ...), synthesized along.
+        labels_in: the photo's label map, when the user has one (then ``k`` and ``method`` are
+            not used).
+        resume: an edited level of the output label map to continue from
+            (:func:`barkgen.shapes.synthesize_label_map`).
+        progress: optional ``progress(done, total)`` callback over the whole run.
+    """
+    from barkgen.labels import color_regions, texton_regions
+    from barkgen.shapes import synthesize_label_map
+    from barkgen.synth import texture_by_numbers
+    from barkgen.synth.tbn import TBN_CONFIG
+
+    options = options or GenerateOptions()
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    if labels_in is None:
+        regions = color_regions if options.method == "color" else texton_regions
+        labels_in = regions(photo, options.k, seed=options.seed)
+    labels_in = np.asarray(labels_in)
+    if labels_in.shape[:2] != np.asarray(photo).shape[:2]:
+        raise InvalidInputError(
+            f"the label map is {labels_in.shape[1]}x{labels_in.shape[0]} px but the photo is "
+            f"{photo.shape[1]}x{photo.shape[0]} px; they must match")
+    stage = _stage_progress(progress, "labels")
+    if stage:
+        stage(1, 1)
+    t1 = time.perf_counter()
+    timings["labels_in"] = t1 - t0
+
+    label_result = synthesize_label_map(
+        labels_in, options.size, strategy=options.strategy, tile=options.tile, seed=options.seed,
+        rotations=options.rotations, resume=resume, progress=_stage_progress(progress, "label_map"))
+    t2 = time.perf_counter()
+    timings["labels_out"] = t2 - t1
+
+    config = dataclasses.replace(TBN_CONFIG, threads=options.threads, max_memory=options.max_memory)
+    # the engine's label map copies exemplar label pieces: the same pieces of the photo are a
+    # label-exact, coherent start for texture-by-numbers (else its smart initialisation)
+    init = label_result.references if label_result.references is not None else "smart"
+    result = texture_by_numbers(
+        photo, labels_in, label_result.label_map, label_weight=options.label_weight,
+        feature_weight=options.feature_weight, init=init, tile=options.tile, seed=options.seed,
+        extra=extra, config=config, progress=_stage_progress(progress, "texture"))
+    t3 = time.perf_counter()
+    timings["texture"] = t3 - t2
+    timings["total"] = t3 - t0
+
+    values = np.unique(labels_in)
+    report = {
+        "size": [options.size[1], options.size[0]],
+        "photo_size": [int(np.asarray(photo).shape[1]), int(np.asarray(photo).shape[0])],
+        "k": int(values.size),
+        "method": options.method,
+        "strategy": options.strategy,
+        "rotations": options.rotations,
+        "layer_order": label_result.layer_order,
+        "tile": bool(options.tile),
+        "seed": int(options.seed),
+        "label_weight": options.label_weight,
+        "feature_weight": options.feature_weight,
+        "texture_init": "label map references" if label_result.references is not None else "smart",
+        "extras": sorted(result.extras),
+        "resumed_from_level": label_result.resumed_level,
+        "label_fractions_in": _fractions(labels_in, values),
+        "label_fractions_out": _fractions(label_result.label_map, values),
+        "timings_s": {name: round(value, 3) for name, value in timings.items()},
+    }
+    return GenerateResult(texture=result.image, labels_in=labels_in,
+                          labels_out=label_result.label_map, references=result.references,
+                          extras=result.extras, label_levels=label_result.levels, report=report)
+
+
+def preview_sheet(photo: np.ndarray, result: GenerateResult, tile_size: int = 320) -> np.ndarray:
+    """The contact sheet of a run: photo, input labels, output labels, result."""
+    from barkgen.labels import contact_sheet, label_colour_map
+    from barkgen.synth.solver import as_uint8
+
+    values = np.unique(result.labels_in)
+    tiles = [as_uint8(photo), label_colour_map(result.labels_in, values),
+             label_colour_map(result.labels_out, values), as_uint8(result.texture)]
+    return contact_sheet(tiles, ["photo", "labels in", "labels out", "result"], columns=4,
+                         tile_size=tile_size)

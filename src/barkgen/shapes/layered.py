@@ -1,0 +1,154 @@
+"""Layered label-map synthesis (laitoch2018 §3.6.4, Rosenberger et al. 2009).
+
+A label map is read as a layer map: labels are stacked in an order, and a pixel of layer ``i``
+belongs to every layer below it too. Layer ``i``'s binary shape ``rank >= i`` is synthesized by
+:func:`barkgen.shapes.binary.adjust_shape` inside the shape of layer ``i - 1`` (nested masks),
+coarse to fine over a Gaussian pyramid from a random start.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Callable
+
+import numpy as np
+
+from barkgen.pyramid import level_shape
+from barkgen.shapes.binary import ExemplarBoundary, ShapeConfig, adjust_shape
+
+#: exhaustive search of layer orders up to this many labels, greedy beyond
+_EXHAUSTIVE_ORDER = 7
+
+
+def adjacency(codes: np.ndarray, n_labels: int) -> np.ndarray:
+    """``C[a, b]``: the number of 4-neighbour pixel pairs with labels ``a`` and ``b`` (symmetric)."""
+    c = np.zeros((n_labels, n_labels), np.int64)
+    for a, b in ((codes[:, 1:], codes[:, :-1]), (codes[1:, :], codes[:-1, :])):
+        diff = a != b
+        np.add.at(c, (a[diff], b[diff]), 1)
+    return c + c.T
+
+
+def automatic_layer_order(codes: np.ndarray, n_labels: int) -> list[int]:
+    """An automatic layer order, bottom layer first (laitoch2018 §3.6.4 left it to the user).
+
+    Nested layers can only reproduce boundaries between successive layers, so the order is the
+    one that puts the most of the exemplar's label boundaries between successive layers
+    (exhaustive for up to 7 labels, greedy beyond); of an order and its reverse, the one whose
+    bottom layer covers more of the exemplar (the background) is taken.
+    """
+    adj = adjacency(codes, n_labels)
+    area = np.bincount(codes.ravel(), minlength=n_labels)
+    labels = list(range(n_labels))
+    if n_labels <= 2:
+        return sorted(labels, key=lambda lab: -area[lab])
+    if n_labels <= _EXHAUSTIVE_ORDER:
+        best = max(itertools.permutations(labels),
+                   key=lambda p: (sum(adj[p[i], p[i + 1]] for i in range(n_labels - 1)),
+                                  area[p[0]] - area[p[-1]]))
+        order = list(best)
+    else:
+        order = [int(np.argmax(area))]
+        while len(order) < n_labels:
+            rest = [lab for lab in labels if lab not in order]
+            order.append(max(rest, key=lambda lab: (adj[order[-1], lab], area[lab])))
+    if area[order[-1]] > area[order[0]]:
+        order.reverse()
+    return order
+
+
+def _smooth(field: np.ndarray, sigma: float, tile: bool) -> np.ndarray:
+    import cv2
+
+    r = int(3 * sigma) + 1
+    padded = np.pad(field.astype(np.float32), r, mode="wrap" if tile else "reflect")
+    return cv2.GaussianBlur(padded, (0, 0), sigma)[r:-r, r:-r]
+
+
+def _top_fraction(score: np.ndarray, allowed: np.ndarray, count: int) -> np.ndarray:
+    """The ``count`` highest-scoring allowed pixels as a uint8 shape."""
+    out = np.zeros(score.shape, np.uint8)
+    idx = np.flatnonzero(allowed)
+    count = min(max(count, 0), idx.size)
+    if count:
+        take = idx[np.argpartition(-score.ravel()[idx], count - 1)[:count]]
+        out.ravel()[take] = 1
+    return out
+
+
+def random_layers(shape: tuple[int, int], fractions: list[float], tile: bool,
+                  rng: np.random.Generator) -> np.ndarray:
+    """Random initialisation (laitoch2018 §3.6): smooth random noise, each layer the highest
+    noise values inside the layer below, with the exemplar's area fraction. Returns ranks."""
+    rank = np.zeros(shape, np.int32)
+    allowed = np.ones(shape, bool)
+    for frac in fractions[1:]:
+        noise = _smooth(rng.random(shape), 1.0, tile)
+        layer = _top_fraction(noise, allowed, int(round(frac * rank.size)))
+        rank += layer
+        allowed = layer.astype(bool)
+    return rank
+
+
+def upsample_ranks(rank: np.ndarray, shape: tuple[int, int], n_layers: int, tile: bool) -> np.ndarray:
+    """Next pyramid level's ranks: each layer's shape doubled, smoothed by a 3x3 box and
+    re-thresholded (round corners instead of 2x2 blocks), nesting kept."""
+    h, w = shape
+    out = np.zeros(shape, np.int32)
+    below = np.ones(shape, bool)
+    for i in range(1, n_layers):
+        big = np.repeat(np.repeat((rank >= i).astype(np.float32), 2, 0), 2, 1)[:h, :w]
+        padded = np.pad(big, 1, mode="wrap" if tile else "edge")
+        box = sum(padded[dy:dy + h, dx:dx + w] for dy in range(3) for dx in range(3)) / 9.0
+        layer = (box > 0.5) & below
+        out += layer
+        below = layer
+    return out
+
+
+def synthesize_layers(exemplar_levels: list[np.ndarray], out_shape: tuple[int, int],
+                      order: list[int], *, quarter_turns: tuple[int, ...], tile: bool,
+                      config: ShapeConfig, rng: np.random.Generator,
+                      start: tuple[int, np.ndarray] | None = None,
+                      on_level: Callable[[int, np.ndarray], None] | None = None,
+                      tick: Callable[[], None] | None = None) -> np.ndarray:
+    """Layered synthesis over the pyramid. ``exemplar_levels``: the exemplar's label codes per
+    level, finest first. ``order``: labels bottom layer first. ``start``: ``(level, codes)`` to
+    resume from (an edited level); else a random start at the coarsest level. ``on_level(level,
+    codes)`` receives each level's result. Returns the finest level's codes."""
+    n_levels = len(exemplar_levels)
+    n_layers = len(order)
+    rank_of = np.empty(n_layers, np.int32)
+    rank_of[order] = np.arange(n_layers, dtype=np.int32)
+    to_label = np.asarray(order, np.int32)
+    first = n_levels - 1 if start is None else start[0]
+    rank = None
+    kept = None  # an edited level's own layer areas, kept at every finer level
+    for lvl in range(first, -1, -1):
+        shape = level_shape(out_shape, lvl)
+        ex_rank = rank_of[exemplar_levels[lvl]]
+        if rank is None:
+            if start is not None:
+                rank = rank_of[start[1]]
+                kept = [float(np.mean(rank >= i)) for i in range(n_layers)]
+            else:
+                fractions = [float(np.mean(ex_rank >= i)) for i in range(n_layers)]
+                rank = random_layers(shape, fractions, tile, rng)
+        else:
+            rank = upsample_ranks(rank, shape, n_layers, tile)
+        iterations = config.iterations(lvl, n_levels)
+        below = np.ones(shape, np.uint8)
+        new_rank = np.zeros(shape, np.int32)
+        for i in range(1, n_layers):
+            boundary = ExemplarBoundary((ex_rank >= i).astype(np.uint8), quarter_turns, config, rng)
+            layer = adjust_shape((rank >= i).astype(np.uint8), boundary, mask=below,
+                                 iterations=iterations, config=config, tile=tile, rng=rng,
+                                 fraction=None if kept is None else kept[i])
+            new_rank += layer
+            below = layer
+            if tick:
+                tick()
+        rank = new_rank
+        if on_level:
+            on_level(lvl, to_label[rank])
+    return to_label[rank]

@@ -1,0 +1,184 @@
+"""The one-click pipeline (``barkgen.pipeline.generate``, ``barkgen generate``, ``barkgen shapes``):
+files, report, determinism, quality against plain synthesis, editing levels, bad input."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_cli import run
+
+from barkgen.errors import InvalidInputError
+from barkgen.io import read_image, write_png
+from barkgen.pipeline import GenerateOptions, generate, preview_sheet
+
+OUTPUTS = {"texture.png", "labels_in.png", "labels_out.png", "reference.png", "report.json",
+           "preview.png"}
+
+
+@pytest.fixture(scope="module")
+def fir128():
+    from conftest import bark_exemplar
+
+    return bark_exemplar("fir_scaly_01", 128)
+
+
+@pytest.fixture(scope="module")
+def fir_png(tmp_path_factory, fir128) -> Path:
+    p = tmp_path_factory.mktemp("photo") / "fir.png"
+    write_png(p, fir128)
+    return p
+
+
+def test_generate_api_outputs_and_report(fir128):
+    height = np.linspace(0, 65535, 128 * 128).reshape(128, 128).astype(np.uint16)
+    result = generate(fir128, GenerateOptions(size=(96, 160), k=3, seed=2), extra={"height": height})
+    assert result.texture.shape == (96, 160, 3) and result.texture.dtype == np.uint8
+    assert result.labels_in.shape == (128, 128) and result.labels_out.shape == (96, 160)
+    assert set(np.unique(result.labels_out)) <= set(np.unique(result.labels_in))
+    assert result.extras["height"].shape == (96, 160, 1)
+    # the texture and the height map are the photo's pixels at the references
+    ry, rx = result.references[..., 0], result.references[..., 1]
+    assert np.array_equal(result.texture, fir128[ry, rx])
+    assert np.array_equal(result.extras["height"][..., 0], height[ry, rx])
+    # ... whose labels are the output label map's, nearly everywhere
+    assert np.mean(result.labels_in[ry, rx] == result.labels_out) > 0.95
+    report = result.report
+    assert report["size"] == [160, 96] and report["seed"] == 2 and report["k"] == 3
+    assert report["strategy"] == "engine" and report["extras"] == ["height"]
+    assert set(report["timings_s"]) == {"labels_in", "labels_out", "texture", "total"}
+    fin, fout = report["label_fractions_in"], report["label_fractions_out"]
+    assert set(fin) == set(fout) and abs(sum(fout.values()) - 1) < 1e-3
+    sheet = preview_sheet(fir128, result)
+    assert sheet.ndim == 3 and sheet.shape[1] > 4 * 300
+
+
+def test_generate_is_deterministic(fir128):
+    a = generate(fir128, GenerateOptions(size=(80, 80), seed=5))
+    b = generate(fir128, GenerateOptions(size=(80, 80), seed=5))
+    c = generate(fir128, GenerateOptions(size=(80, 80), seed=6))
+    assert np.array_equal(a.texture, b.texture) and np.array_equal(a.labels_out, b.labels_out)
+    assert not np.array_equal(a.texture, c.texture)
+
+
+@pytest.mark.parametrize("name", ["pine_plated_01", "birch_smooth_lenticels_01"])
+def test_generate_quality_against_plain_synthesis(texeval, name):
+    """Measured quality (small version of benchmarks/bench_generate.py): the result follows its
+    label map and is nearly as coherent and as sharp as plain synthesis of the same photo."""
+    from conftest import bark_exemplar
+
+    from barkgen.synth import synthesize
+
+    photo = bark_exemplar(name, 256)
+    result = generate(photo, GenerateOptions(size=(384, 384)))
+    plain = synthesize(photo, (384, 384), seed=0).image
+    ev = texeval.TexEval(photo, labels_in=result.labels_in)
+    ours = ev.evaluate(result.texture, labels_out=result.labels_out)
+    base = ev.evaluate(plain)
+    assert ours["label_fidelity_ratio"] >= 0.85
+    assert ours["label_fidelity_balanced"] >= 0.75
+    assert ours["coherence"] <= 1.5 * base["coherence"]
+    assert 0.85 <= ours["sharpness_ratio"] <= 1.15
+
+
+def test_generate_options_are_validated():
+    with pytest.raises(InvalidInputError, match="k"):
+        GenerateOptions(k=0)
+    with pytest.raises(InvalidInputError, match="method"):
+        GenerateOptions(method="fft")
+    with pytest.raises(InvalidInputError, match="strategy"):
+        GenerateOptions(strategy="magic")
+    with pytest.raises(InvalidInputError, match="seed"):
+        GenerateOptions(seed=-1)
+
+
+# --------------------------------------------------------------------------------------------
+# command line
+
+
+def test_generate_cli_writes_the_folder_then_resumes_from_an_edit(tmp_path, fir_png):
+    out, levels = tmp_path / "out", tmp_path / "levels"
+    r = run("generate", str(fir_png), "-o", str(out), "--size", "160x128", "--k", "3",
+            "--tile", "--seed", "1", "--save-levels", str(levels), "-q")
+    assert r.returncode == 0, r.stderr
+    assert r.stderr == ""
+    assert {p.name for p in out.iterdir()} == OUTPUTS
+    report = json.loads((out / "report.json").read_text())
+    assert report["tile"] is True and report["size"] == [160, 128]
+    assert report["photo"] == str(fir_png) and sorted(report["files"]) == sorted(OUTPUTS)
+    assert read_image(out / "texture.png").shape == (128, 160, 3)
+    assert read_image(out / "reference.png").dtype == np.uint16
+    names = sorted(p.name for p in levels.iterdir())
+    assert names[0] == "level_0.png" and len(names) >= 3
+    assert np.array_equal(read_image(levels / "level_0.png"), read_image(out / "labels_out.png"))
+
+    # paint the top half of level 2 with the lightest label and continue from it
+    edited = read_image(levels / "level_2.png")[:, :, 0].copy()
+    light = edited.max()
+    edited[: edited.shape[0] // 2] = light
+    write_png(tmp_path / "level_2.png", edited)
+    out2 = tmp_path / "out2"
+    r = run("generate", str(fir_png), "-o", str(out2), "--size", "160x128", "--k", "3", "--tile",
+            "--seed", "1", "--resume", str(tmp_path / "level_2.png"), "-q")
+    assert r.returncode == 0, r.stderr
+    assert json.loads((out2 / "report.json").read_text())["resumed_from_level"] == 2
+    before = read_image(out / "labels_out.png")[:, :, 0]
+    after = read_image(out2 / "labels_out.png")[:, :, 0]
+    # the painted half is much lighter than before (the exemplar has no light region that
+    # large, so barkgen breaks it up with exemplar-like shapes), the other half much the same
+    assert np.mean(after[8:56] == light) > np.mean(before[8:56] == light) + 0.15
+    assert abs(np.mean(after[72:120] == light) - np.mean(before[72:120] == light)) < 0.15
+
+
+def test_shapes_cli_layered_with_order_and_levels(tmp_path, fir128):
+    from barkgen.labels import color_regions
+
+    write_png(tmp_path / "a.png", color_regions(fir128, 3, seed=0))
+    r = run("shapes", str(tmp_path / "a.png"), "-o", str(tmp_path / "b.png"), "--size", "96x64",
+            "--strategy", "layered", "--layer-order", "255,0,128", "--rotations", "all",
+            "--save-levels", str(tmp_path / "lv"), "-q")
+    assert r.returncode == 0, r.stderr
+    b = read_image(tmp_path / "b.png")
+    assert b.shape == (64, 96, 1) and set(np.unique(b)) <= {0, 128, 255}
+    assert (tmp_path / "lv" / "level_1.png").exists()
+
+
+def _bad_generate(tmp: Path, photo: Path) -> dict[str, list[str]]:
+    write_png(tmp / "wrong_size.png", np.zeros((50, 50), np.uint8))
+    write_png(tmp / "level_1.png", np.zeros((30, 30), np.uint8))  # level 1 of 64x64 is 32x32
+    write_png(tmp / "unknown.png", np.full((32, 32), 77, np.uint8))
+    (tmp / "not_an_image.png").write_text("hello")
+    base = [str(photo), "-o", str(tmp / "out"), "--size", "64x64"]
+    return {
+        "edited level of no level's size": ["generate", *base, "--resume", str(tmp / "wrong_size.png")],
+        "edited level of the wrong level's size": ["generate", *base, "--resume", str(tmp / "level_1.png")],
+        "edited level with unknown labels": ["generate", *base, "--resume", str(tmp / "unknown.png")],
+        "edited level not an image": ["generate", *base, "--resume", str(tmp / "not_an_image.png")],
+        "bad size": ["generate", str(photo), "-o", str(tmp / "out"), "--size", "0x64"],
+        "bad k": ["generate", *base, "--k", "0"],
+        "bad strategy": ["generate", *base, "--strategy", "magic"],
+        "extra name taken": ["generate", *base, "--extra", f"texture={photo}"],
+        "missing photo": ["generate", str(tmp / "nope.jpg"), "-o", str(tmp / "out"), "--size", "64x64"],
+        "output is a file": ["generate", str(photo), "-o", str(tmp / "not_an_image.png"), "--size", "64x64"],
+        "shapes: bad layer order": ["shapes", str(photo), "-o", str(tmp / "out" / "b.png"),
+                                    "--layer-order", "a,b"],
+    }
+
+
+BAD_CASES = ["edited level of no level's size", "edited level of the wrong level's size",
+             "edited level with unknown labels", "edited level not an image", "bad size", "bad k",
+             "bad strategy", "extra name taken", "missing photo", "output is a file",
+             "shapes: bad layer order"]
+
+
+@pytest.mark.parametrize("case", BAD_CASES)
+def test_generate_bad_input_one_line_exit_2_nothing_written(tmp_path, fir_png, case):
+    args = _bad_generate(tmp_path, fir_png)[case]
+    r = run(*args)
+    assert r.returncode == 2, (case, r.stderr)
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("barkgen: error: "), r.stderr
+    assert "Traceback" not in r.stderr
+    assert not (tmp_path / "out").exists()

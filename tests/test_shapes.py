@@ -1,0 +1,226 @@
+"""Output label maps (laitoch2018 §3.6): the shape similarity measure, binary and layered shape
+synthesis, the engine strategy, tiling, pyramid levels and resuming from an edited level."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from barkgen.errors import InvalidInputError
+from barkgen.shapes import (
+    ShapeConfig,
+    automatic_layer_order,
+    label_dissimilarity,
+    label_map_levels,
+    shape_dissimilarity,
+    synthesize_label_map,
+)
+from barkgen.shapes.binary import ExemplarBoundary, adjust_shape
+
+
+def _discs(size: int = 192, n: int = 12, seed: int = 0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    yy, xx = np.mgrid[0:size, 0:size]
+    out = np.zeros((size, size), np.uint8)
+    for _ in range(n):
+        cy, cx = rng.integers(0, size, 2)
+        r = rng.integers(8, 16)
+        out[(yy - cy) ** 2 + (xx - cx) ** 2 < r * r] = 255
+    return out
+
+
+def _mean_dissimilarity(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.mean(list(label_dissimilarity(a, b).values())))
+
+
+def _halves_dissimilarity(a: np.ndarray) -> float:
+    w = a.shape[1] // 2
+    return _mean_dissimilarity(a[:, :w], a[:, w:])
+
+
+def _fractions(label_map: np.ndarray, values: np.ndarray) -> np.ndarray:
+    return np.array([np.mean(label_map == v) for v in values])
+
+
+@pytest.fixture(scope="module")
+def fir_labels():
+    from conftest import bark_exemplar
+
+    from barkgen.labels import color_regions
+
+    img = bark_exemplar("fir_scaly_01", 256)
+    return {k: color_regions(img, k, seed=0) for k in (2, 3, 5)}
+
+
+# --------------------------------------------------------------------------------------------
+# the similarity measure (eq. 3.7-3.9)
+
+
+def test_dissimilarity_is_zero_for_the_same_shape_and_grows_with_difference():
+    discs = _discs()
+    assert shape_dissimilarity(discs, discs) == 0.0
+    squares = np.zeros_like(discs)
+    for y, x in ((20, 20), (90, 40), (40, 120), (130, 130)):
+        squares[y:y + 24, x:x + 24] = 1
+    noise = (np.random.default_rng(1).random(discs.shape) < 0.2).astype(np.uint8)
+    d_other_discs = shape_dissimilarity(discs, _discs(seed=5))
+    d_squares = shape_dissimilarity(discs, squares)
+    d_noise = shape_dissimilarity(discs, noise)
+    assert d_other_discs < d_squares < d_noise
+
+
+def test_rotations_in_the_measure():
+    # a shape and its 180° turn: equal under vertical rotations, not without
+    shape = np.zeros((64, 64), np.uint8)
+    shape[10:50, 20:24] = 1  # a vertical bar with a foot pointing right at the bottom
+    shape[46:50, 20:40] = 1
+    turned = np.rot90(shape, 2)
+    assert shape_dissimilarity(shape, turned, rotations="vertical") == 0.0
+    assert shape_dissimilarity(shape, turned, rotations="none") > 0.0
+    sideways = np.rot90(shape, 1)
+    assert shape_dissimilarity(shape, sideways, rotations="all") == 0.0
+    assert shape_dissimilarity(shape, sideways, rotations="vertical") > 0.0
+
+
+# --------------------------------------------------------------------------------------------
+# binary shape optimisation (§3.6.2-3.6.3)
+
+
+def test_the_exemplar_is_a_fixed_point_of_shape_adjustment():
+    discs = (_discs() > 0).astype(np.uint8)
+    config = ShapeConfig()
+    rng = np.random.default_rng(0)
+    boundary = ExemplarBoundary(discs, (0,), config, rng)
+    out = adjust_shape(discs.copy(), boundary, mask=None, iterations=3, config=config,
+                       tile=False, rng=rng)
+    assert np.array_equal(out, discs)
+
+
+def test_layered_binary_synthesis_makes_discs_of_the_right_area():
+    discs = _discs(256, 16)
+    result = synthesize_label_map(discs, (256, 256), strategy="layered", rotations="all", seed=0)
+    out = result.label_map
+    assert abs(np.mean(out == 255) - np.mean(discs == 255)) < 0.01
+    d_out = shape_dissimilarity(out == 255, discs == 255, rotations="all")
+    # a map of the same area with the random start's blobs but no optimisation is much worse
+    rng = np.random.default_rng(0)
+    from barkgen.shapes.layered import random_layers
+
+    start = random_layers((256, 256), [1.0, float(np.mean(discs == 255))], False, rng)
+    d_start = shape_dissimilarity(start == 1, discs == 255, rotations="all")
+    assert d_out < 0.5 * d_start
+
+
+def test_automatic_layer_order_finds_the_nesting():
+    # background 0, inside it islands of 2, inside those cores of 1: layers 0 < 2 < 1
+    yy, xx = np.mgrid[0:128, 0:128]
+    codes = np.zeros((128, 128), np.int32)
+    for cy, cx in ((32, 32), (32, 96), (96, 64)):
+        d2 = (yy - cy) ** 2 + (xx - cx) ** 2
+        codes[d2 < 24**2] = 2
+        codes[d2 < 10**2] = 1
+    assert automatic_layer_order(codes, 3) == [0, 2, 1]
+
+
+# --------------------------------------------------------------------------------------------
+# both strategies on a real photo's label maps
+
+
+@pytest.mark.parametrize("k", [2, 3, 5])
+def test_engine_strategy_keeps_areas_and_shapes(fir_labels, k):
+    labels = fir_labels[k]
+    values = np.unique(labels)
+    out = synthesize_label_map(labels, (256, 320), seed=1).label_map
+    assert out.shape == (256, 320) and set(np.unique(out)) <= set(values)
+    assert np.abs(_fractions(out, values) - _fractions(labels, values)).max() < 0.03
+    assert _mean_dissimilarity(labels, out) <= 1.5 * _halves_dissimilarity(labels)
+
+
+def test_layered_strategy_keeps_areas_on_a_photo(fir_labels):
+    labels = fir_labels[3]
+    values = np.unique(labels)
+    result = synthesize_label_map(labels, (256, 256), strategy="layered", seed=0)
+    assert sorted(result.layer_order) == sorted(int(v) for v in values)
+    assert np.abs(_fractions(result.label_map, values) - _fractions(labels, values)).max() < 0.03
+
+
+@pytest.mark.parametrize("strategy", ["engine", "layered"])
+def test_tileable_label_maps_wrap(fir_labels, strategy):
+    labels = fir_labels[3]
+
+    def seam_excess(m):
+        # how far the wrap-around seam's share of differing neighbours exceeds the largest
+        # share between any two adjacent rows or columns inside the map
+        rows = np.mean(m[1:, :] != m[:-1, :], axis=1).max()
+        cols = np.mean(m[:, 1:] != m[:, :-1], axis=0).max()
+        return max(np.mean(m[0, :] != m[-1, :]) / rows, np.mean(m[:, 0] != m[:, -1]) / cols)
+
+    tiled = synthesize_label_map(labels, (192, 192), strategy=strategy, tile=True, seed=2).label_map
+    plain = synthesize_label_map(labels, (192, 192), strategy=strategy, tile=False, seed=2).label_map
+    assert seam_excess(tiled) <= 1.0
+    assert seam_excess(plain) > 1.2  # the test can fail: an untileable map has a seam
+
+
+@pytest.mark.parametrize("strategy", ["engine", "layered"])
+def test_same_seed_same_map(fir_labels, strategy):
+    labels = fir_labels[3]
+    a = synthesize_label_map(labels, 128, strategy=strategy, seed=4).label_map
+    b = synthesize_label_map(labels, 128, strategy=strategy, seed=4).label_map
+    c = synthesize_label_map(labels, 128, strategy=strategy, seed=5).label_map
+    assert np.array_equal(a, b) and not np.array_equal(a, c)
+
+
+# --------------------------------------------------------------------------------------------
+# levels and resuming from an edit
+
+
+@pytest.mark.parametrize("strategy", ["engine", "layered"])
+def test_levels_and_resume_from_an_edited_level(fir_labels, strategy):
+    labels = fir_labels[3]
+    values = np.unique(labels)
+    size = (256, 256)
+    result = synthesize_label_map(labels, size, strategy=strategy, seed=0)
+    shapes = label_map_levels(labels.shape, size, strategy)
+    assert [lvl.shape for lvl in result.levels] == shapes
+    assert result.resumed_level is None
+    level = 2
+    edited = result.levels[level].copy()
+    h, w = edited.shape
+    # paint large patches of the two commonest labels (a label that only exists as small
+    # blobs in the exemplar cannot fill a large area with exemplar-like shapes)
+    first, second = values[np.argsort(_fractions(labels, values))[::-1][:2]]
+    edited[h // 4: 3 * h // 4, w // 8: 3 * w // 8] = first
+    edited[h // 4: 3 * h // 4, 5 * w // 8: 7 * w // 8] = second
+    resumed = synthesize_label_map(labels, size, strategy=strategy, seed=0, resume=edited)
+    assert resumed.resumed_level == level
+    assert all(lvl is None for lvl in resumed.levels[level + 1:])
+    out = resumed.label_map
+    left, right = out[64:192, 32:96], out[64:192, 160:224]
+    assert np.mean(left == first) > 0.8 and np.mean(right == second) > 0.8
+    # ... which the unedited run does not have there
+    assert np.mean(result.label_map[64:192, 32:96] == first) < 0.7
+
+
+def test_resume_errors(fir_labels):
+    labels = fir_labels[3]
+    with pytest.raises(InvalidInputError, match="not a level of this output.*level 0: 256x256"):
+        synthesize_label_map(labels, 256, resume=np.zeros((50, 50), np.uint8))
+    with pytest.raises(InvalidInputError, match="not level 1"):
+        synthesize_label_map(labels, 256, resume=(1, np.zeros((64, 64), np.uint8)))
+    bad = np.full((64, 64), 77, np.uint8)
+    with pytest.raises(InvalidInputError, match="grey value.*77.*not labels"):
+        synthesize_label_map(labels, 256, resume=bad)
+
+
+def test_bad_parameters(fir_labels):
+    labels = fir_labels[3]
+    with pytest.raises(InvalidInputError, match="strategy"):
+        synthesize_label_map(labels, 64, strategy="magic")
+    with pytest.raises(InvalidInputError, match="rotations"):
+        synthesize_label_map(labels, 64, rotations="sideways")
+    with pytest.raises(InvalidInputError, match="layer order must list each label"):
+        synthesize_label_map(labels, 64, strategy="layered", layer_order=[0, 128])
+    with pytest.raises(InvalidInputError, match="not labels"):
+        synthesize_label_map(labels, 64, strategy="layered", layer_order=[0, 128, 7])
+    with pytest.raises(InvalidInputError, match="size"):
+        synthesize_label_map(labels, (0, 10))
