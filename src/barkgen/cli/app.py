@@ -109,6 +109,11 @@ def _check_png_target(path: Path, what: str) -> None:
         raise InvalidInputError(f"{what} {str(path)!r} is a directory")
 
 
+def _check_folder(path: Path, what: str) -> None:
+    if path.exists() and not path.is_dir():
+        raise InvalidInputError(f"{what} {str(path)!r} exists and is not a folder")
+
+
 @contextmanager
 def _progress(enabled: bool, description: str) -> Iterator:
     """A rich progress bar on stderr when it is a terminal, else a no-op callback."""
@@ -249,8 +254,8 @@ def tbn_command(
     budget = parse_memory(max_memory)
     extra_paths = parse_extras(extra)
     _check_outputs(output, save_reference, bits)
-    if debug_dir is not None and debug_dir.exists() and not debug_dir.is_dir():
-        raise InvalidInputError(f"--debug-dir {str(debug_dir)!r} exists and is not a directory")
+    if debug_dir is not None:
+        _check_folder(debug_dir, "--debug-dir")
     image = read_image(exemplar)
     label_map = read_image(labels)
     target_map = read_image(target)
@@ -326,8 +331,7 @@ def textons_command(
     from barkgen.io import read_image, write_png
     from barkgen.labels import contact_sheet, texton_channels
 
-    if output_dir.exists() and not output_dir.is_dir():
-        raise InvalidInputError(f"output {str(output_dir)!r} exists and is not a folder")
+    _check_folder(output_dir, "output")
     image = read_image(photo)
     with _progress(not quiet, "textons"):
         textons, _ = texton_channels(image, n_textons, seed=seed)
@@ -370,11 +374,6 @@ def _read_resume(path: Path):
     image = read_image(path)
     m = _LEVEL_NAME.search(path.name)
     return (int(m.group(1)), image) if m else image
-
-
-def _check_folder(path: Path, what: str) -> None:
-    if path.exists() and not path.is_dir():
-        raise InvalidInputError(f"{what} {str(path)!r} exists and is not a folder")
 
 
 def _level_files(levels: list) -> dict[str, bytes]:

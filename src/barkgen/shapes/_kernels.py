@@ -49,6 +49,14 @@ def assign_with_capacity(order, query, cand, capacity, out):
     return matched
 
 
+@nb.njit(inline="always")
+def _index(v, n, tile):
+    """``v`` wrapped into ``0..n-1`` when ``tile``, else ``v`` or -1 when outside."""
+    if tile:
+        return v % n
+    return v if 0 <= v < n else -1
+
+
 @nb.njit(cache=True)
 def accumulate_weights(ys, xs, patches, weights, falloff, tile, out):
     """Shape adjustment weights (laitoch2018 eq. 3.10): every matched exemplar patch (``patches``
@@ -61,15 +69,11 @@ def accumulate_weights(ys, xs, patches, weights, falloff, tile, out):
     for i in range(ys.shape[0]):
         wi = weights[i]
         for dy in range(n):
-            y = ys[i] + dy - r
-            if tile:
-                y %= h
-            elif y < 0 or y >= h:
+            y = _index(ys[i] + dy - r, h, tile)
+            if y < 0:
                 continue
             for dx in range(n):
-                x = xs[i] + dx - r
-                if tile:
-                    x %= w
-                elif x < 0 or x >= w:
+                x = _index(xs[i] + dx - r, w, tile)
+                if x < 0:
                     continue
                 out[y, x] += wi * falloff[dy, dx] * patches[i, dy, dx]

@@ -22,7 +22,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from barkgen.errors import InvalidInputError
-from barkgen.shapes.patches import binary_index, boundary_pixels, extract_patches, pack, rotated
+from barkgen.shapes.patches import (
+    binary_index,
+    boundary_pixels,
+    extract_patches,
+    pack,
+    rotated,
+    subsample,
+)
 
 
 @dataclass(frozen=True)
@@ -80,10 +87,7 @@ class ExemplarBoundary:
 
     def __init__(self, shape: np.ndarray, quarter_turns: tuple[int, ...], config: ShapeConfig,
                  rng: np.random.Generator) -> None:
-        ys, xs = boundary_pixels(shape, tile=False)
-        if config.max_exemplar_patches and len(ys) > config.max_exemplar_patches:
-            pick = np.sort(rng.choice(len(ys), size=config.max_exemplar_patches, replace=False))
-            ys, xs = ys[pick], xs[pick]
+        ys, xs = subsample(*boundary_pixels(shape, tile=False), config.max_exemplar_patches, rng)
         self.count = len(ys)
         self.fraction = float(np.mean(shape))
         if self.count == 0:

@@ -88,17 +88,17 @@ def synthesize_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int
     n_levels = engine_levels(codes.shape, out_shape, config)
     features, _ = guide_channels(codes, codes[:1, :1], n_labels, 1.0)
     ex = codes.astype(np.uint8)[:, :, None]
-    pyramid = label_pyramid(codes, n_labels, n_levels)
     rng = np.random.default_rng([int(seed), 1])
     if start is not None:
         # an edit sets the layout, and its own label areas: no area term pulls against it
         level, edited = start
-        resume = (level, smart_initialization(pyramid[level], edited.astype(np.int32), rng, tile=tile))
+        ex_level = label_pyramid(codes, n_labels, n_levels)[level]
+        resume = (level, smart_initialization(ex_level, edited.astype(np.int32), rng, tile=tile))
         balance = None
     else:
         level = n_levels - 1
-        resume = (level, block_initialization(pyramid[level].shape, level_shape(out_shape, level),
-                                              INIT_BLOCK, rng))
+        resume = (level, block_initialization(level_shape(codes.shape, level),
+                                              level_shape(out_shape, level), INIT_BLOCK, rng))
         balance = LabelBalance(shares=label_shares(codes, n_labels, n_levels),
                                fractions=np.bincount(codes.ravel(), minlength=n_labels) / codes.size,
                                weight=BALANCE_WEIGHT if balance_weight is None else balance_weight)

@@ -74,7 +74,8 @@ def binary_index(codes: np.ndarray):
     return index
 
 
-def _subsample(ys: np.ndarray, xs: np.ndarray, limit: int, rng: np.random.Generator):
+def subsample(ys: np.ndarray, xs: np.ndarray, limit: int, rng: np.random.Generator):
+    """At most ``limit`` of the points ``(ys, xs)``, a seeded random subset in their order."""
     if limit and len(ys) > limit:
         pick = np.sort(rng.choice(len(ys), size=limit, replace=False))
         return ys[pick], xs[pick]
@@ -91,8 +92,8 @@ def _one_sided(a: np.ndarray, b: np.ndarray, size: int, turns: tuple[int, ...], 
     if len(by) == 0:  # b has no boundary: nothing to match, every pixel of the patch differs
         return float(size * size) * len(ay), len(ay)
     n_a = len(ay)
-    ay, ax = _subsample(ay, ax, max_samples, rng)
-    by, bx = _subsample(by, bx, max_samples, rng)
+    ay, ax = subsample(ay, ax, max_samples, rng)
+    by, bx = subsample(by, bx, max_samples, rng)
     db, _ = rotated(extract_patches(b, by, bx, size, tile), turns)
     index = binary_index(pack(db))
     dist, _ = index.search(pack(extract_patches(a, ay, ax, size, tile)), 1)
