@@ -11,11 +11,12 @@ if ! "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check -e . 
   cat "$log" >&2; rm -f "$log"; echo "barkgen: installing dependencies failed" >&2; exit 1
 fi
 rm -f "$log"
-"$VENV/bin/barkgen" generate -o out --size 1024x1024 --tile --seed 0 "$@"
+"$VENV/bin/barkgen" generate -o out --size 1024x1024 --tile --seed 0 --material --name bark "$@"
+"$VENV/bin/barkgen" preview out -o out/trunk_preview.png
 "$VENV/bin/python" - <<'PY'
 import numpy as np
 from barkgen.io import read_image, write_png
 img = read_image("out/texture.png")
 write_png("out/texture_2x2_preview.png", np.tile(img, (2, 2, 1))[::2, ::2])
 PY
-echo "outputs in $(pwd)/out: texture.png, labels_in.png, labels_out.png, reference.png, report.json, preview.png, texture_2x2_preview.png"
+echo "outputs in $(pwd)/out: texture.png, labels_in.png, labels_out.png, reference.png, report.json, preview.png, texture_2x2_preview.png, the material set bark_*.png + bark.json, trunk_preview.png"

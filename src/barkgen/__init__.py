@@ -25,6 +25,12 @@ _LAZY = {
     "GenerateOptions": "barkgen.pipeline",
     "GenerateResult": "barkgen.pipeline",
     "synthesize_label_map": "barkgen.shapes",
+    "make_material": "barkgen.material",
+    "MaterialOptions": "barkgen.material",
+    "MaterialSet": "barkgen.material",
+    "HeightEditor": "barkgen.material",
+    "render_trunk": "barkgen.render",
+    "trunk_mesh": "barkgen.render",
 }
 
 __all__ = sorted(_LAZY) + ["__version__"]

@@ -15,11 +15,15 @@ import dataclasses
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from barkgen.errors import InvalidInputError
 from barkgen.synth.solver import ProgressCallback, parse_output_shape
+
+if TYPE_CHECKING:
+    from barkgen.material import Light, MaterialSet
 
 LABEL_METHODS = ("color", "texton")
 
@@ -35,7 +39,10 @@ class GenerateOptions:
     ``color`` or ``texton`` label maps; ``strategy``: ``engine`` or ``layered`` output label
     maps; ``rotations``: boundary-patch rotations of the layered strategy; ``tile``: tileable
     output; ``seed``: the one seed; ``label_weight`` / ``feature_weight``: texture-by-numbers
-    weights; ``threads`` / ``max_memory``: solver limits.
+    weights; ``threads`` / ``max_memory``: solver limits; ``material``: also make the material
+    set (:mod:`barkgen.material`) of the output, ``light`` the photo's
+    :class:`~barkgen.material.Light` for its shading removal (``None``: estimated), ``relief``
+    the height's strength (1 = as fitted).
     """
 
     size: tuple[int, int] = (1024, 1024)
@@ -49,6 +56,9 @@ class GenerateOptions:
     feature_weight: float = 8.0
     threads: int | None = None
     max_memory: int = 8 * 1024**3
+    material: bool = False
+    light: Light | None = None
+    relief: float = 1.0
 
     def __post_init__(self) -> None:
         from barkgen.labels.regions import check_k, check_seed
@@ -64,13 +74,21 @@ class GenerateOptions:
             raise InvalidInputError(f"strategy must be one of {', '.join(STRATEGIES)}, not {self.strategy!r}")
         if self.label_weight < 0 or self.feature_weight < 0:
             raise InvalidInputError("label and feature weights must be >= 0")
+        if not (np.isfinite(self.relief) and 0 < self.relief <= 100):
+            raise InvalidInputError(f"relief must be in (0, 100], not {self.relief:g}")
+        if self.light is not None:
+            from barkgen.material import Light
+
+            if not isinstance(self.light, Light):
+                raise InvalidInputError("light must be a barkgen.material.Light (or None: estimated)")
 
 
 @dataclass
 class GenerateResult:
     """What :func:`generate` makes: the texture, both label maps, the reference map (output ->
-    photo ``(y, x)``), the extra maps, every level of the output label map (finest first) and a
-    JSON-ready report of parameters, label areas and timings."""
+    photo ``(y, x)``), the extra maps, every level of the output label map (finest first), a
+    JSON-ready report of parameters, label areas and timings, and (``options.material``) the
+    output's :class:`~barkgen.material.MaterialSet`."""
 
     texture: np.ndarray
     labels_in: np.ndarray
@@ -79,6 +97,7 @@ class GenerateResult:
     extras: dict
     label_levels: list
     report: dict = field(default_factory=dict)
+    material: MaterialSet | None = None
 
 
 def _stage_progress(progress: ProgressCallback | None, stage: str) -> ProgressCallback | None:
@@ -156,7 +175,11 @@ def generate(
         extra=extra, config=config, progress=_stage_progress(progress, "texture"))
     t3 = time.perf_counter()
     timings["texture"] = t3 - t2
-    timings["total"] = t3 - t0
+    material = None
+    if options.material:
+        material = _material(photo, labels_in, result.references, options)
+        timings["material"] = time.perf_counter() - t3
+    timings["total"] = time.perf_counter() - t0
 
     values = np.unique(labels_in)
     report = {
@@ -176,11 +199,28 @@ def generate(
         "resumed_from_level": label_result.resumed_level,
         "label_fractions_in": _fractions(labels_in, values),
         "label_fractions_out": _fractions(label_result.label_map, values),
+        "material": bool(options.material),
+        "relief": options.relief if options.material else None,
+        "light": None if material is None or material.light is None else [material.light.azimuth,
+                                                                        material.light.elevation],
         "timings_s": {name: round(value, 3) for name, value in timings.items()},
     }
     return GenerateResult(texture=result.image, labels_in=labels_in,
                           labels_out=label_result.label_map, references=result.references,
-                          extras=result.extras, label_levels=label_result.levels, report=report)
+                          extras=result.extras, label_levels=label_result.levels, report=report,
+                          material=material)
+
+
+def _material(photo: np.ndarray, labels_in: np.ndarray, references: np.ndarray,
+              options: GenerateOptions):
+    """The photo's material set carried to the output through the texture's references."""
+    from barkgen.labels.regions import to_codes
+    from barkgen.material import MaterialOptions, make_material, transfer_material
+
+    source = make_material(photo, MaterialOptions(k=options.k, light=options.light, seed=options.seed,
+                                                  relief=options.relief),
+                           label_map=to_codes(labels_in)[0])
+    return transfer_material(source, references, tile=options.tile)
 
 
 def preview_sheet(photo: np.ndarray, result: GenerateResult, tile_size: int = 320) -> np.ndarray:

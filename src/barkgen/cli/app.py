@@ -148,6 +148,14 @@ MaxMemoryOption = Annotated[str, typer.Option(
     "--max-memory", help="Refuse jobs estimated to need more memory than this.")]
 ThreadsOption = Annotated[Optional[int], typer.Option("--threads", min=1, help="Worker threads.")]
 QuietOption = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")]
+NameOption = Annotated[str, typer.Option(
+    "--name", help="Material set name: files NAME_Color.png, NAME_NormalGL.png, ..., NAME.json.")]
+ReliefOption = Annotated[float, typer.Option(
+    "--relief", help="Relief strength of the estimated height (1 = as fitted on scanned bark; "
+    "2 doubles the depth of height, normals and AO).")]
+LightOption = Annotated[Optional[str], typer.Option(
+    "--light", help="The photo's light AZ,EL in degrees (azimuth counter-clockwise from the "
+    "right, elevation above the surface) for shading removal. Default: estimated.")]
 
 
 def _extra_output_path(output: Path, name: str) -> Path:
@@ -476,11 +484,18 @@ def generate_command(
     bits: BitsOption = None,
     max_memory: MaxMemoryOption = "8G",
     threads: ThreadsOption = None,
+    material: Annotated[bool, typer.Option(
+        "--material", help="Also write the material set of the new bark (NAME_Color, NormalGL/DX, "
+        "Displacement 16-bit, Roughness, AmbientOcclusion, NAME.json).")] = False,
+    name: NameOption = "bark",
+    light: LightOption = None,
+    relief: ReliefOption = 1.0,
     quiet: QuietOption = False,
 ) -> None:
     """Photo to new bark in one step: label map, output label map, texture-by-numbers
     (laitoch2018 Figure 1.2). Writes texture.png, labels_in.png, labels_out.png, reference.png,
-    report.json and preview.png (+ NAME.png per --extra) into the output folder."""
+    report.json and preview.png (+ NAME.png per --extra, + the material set with --material)
+    into the output folder."""
     import json
 
     from barkgen import __version__
@@ -491,11 +506,13 @@ def generate_command(
     if bits not in (None, 8, 16):
         raise InvalidInputError(f"--bits must be 8 or 16, not {bits}")
     _check_folder(output_dir, "output")
+    _check_material_name(name)
     if save_levels is not None:
         _check_folder(save_levels, "--save-levels")
     options = GenerateOptions(size=parse_size(size), k=k, method=method, strategy=strategy,
                               rotations=rotations, tile=tile, seed=seed, threads=threads,
-                              max_memory=parse_memory(max_memory))
+                              max_memory=parse_memory(max_memory), material=material,
+                              light=_light(light), relief=relief)
     extra_paths = parse_extras(extra)
     reserved = {"texture", "labels_in", "labels_out", "reference", "preview", "report"}
     clash = sorted(set(extra_paths) & reserved)
@@ -516,7 +533,15 @@ def generate_command(
              "labels_out.png": encode_png(result.labels_out),
              "reference.png": encode_reference(result.references, image.shape[:2]),
              "preview.png": encode_png(sheet)}
-    files.update({f"{name}.png": encode_png(arr) for name, arr in result.extras.items()})
+    files.update({f"{extra_name}.png": encode_png(arr) for extra_name, arr in result.extras.items()})
+    if result.material is not None:
+        from barkgen.io import encode_material
+
+        material_files = encode_material(result.material, name, seed=seed, source_photo=str(src))
+        clash = sorted(set(material_files) & set(files))
+        if clash:
+            raise InvalidInputError(f"--name {name!r} makes {clash[0]}, which is taken; pick another")
+        files.update(material_files)
     report["files"] = sorted(files) + ["report.json"]
     files["report.json"] = (json.dumps(report, indent=2) + "\n").encode()
     _write_files(output_dir, files)
@@ -527,6 +552,126 @@ def generate_command(
         typer.echo(f"wrote {output_dir}/texture.png ({w}x{h}, seed {seed}"
                    f"{', tileable' if tile else ''}) and its maps in "
                    f"{result.report['timings_s']['total']:.1f} s", err=True)
+
+
+def _light(text: str | None):
+    from barkgen.material import parse_light
+
+    return None if text is None else parse_light(text)
+
+
+def _check_material_name(name: str) -> None:
+    from barkgen.io import check_material_name
+
+    check_material_name(name)
+
+
+@app.command("material")
+@user_errors
+def material_command(
+    photo: Annotated[Optional[Path], typer.Argument(
+        help="Bark photo. Default: the bundled sample.")] = None,
+    output_dir: Annotated[Path, typer.Option("-o", "--output", help="Output folder.")] = Path("material"),
+    name: NameOption = "bark",
+    k: Annotated[int, typer.Option("--k", help="Labels of the structure cue (1-16).")] = 3,
+    light: LightOption = None,
+    relief: ReliefOption = 1.0,
+    edits: Annotated[Optional[Path], typer.Option(
+        "--edits", help="JSON list of height edits to replay (HeightEditor, wang2003 §3.3): "
+        '{"version": 1, "edits": [{"x": 10, "y": 20, "delta": 1.5, "radius": 4}]}.')] = None,
+    tile: Annotated[bool, typer.Option("--tile", help="The photo is a tileable texture: maps wrap.")] = False,
+    seed: SeedOption = 0,
+    quiet: QuietOption = False,
+) -> None:
+    """The material set of a photo: height, normals (OpenGL and DirectX), AO, roughness and the
+    colour with its shading removed (wang2003 §3.3-3.4), in ambientCG names."""
+    import json
+    import time
+
+    from barkgen.data import sample_exemplar_path
+    from barkgen.io import encode_material, read_image
+    from barkgen.material import MaterialOptions, make_material, parse_edits
+
+    _check_material_name(name)
+    _check_folder(output_dir, "output")
+    options = MaterialOptions(k=k, light=_light(light), tile=tile, seed=seed, relief=relief)
+    edit_list = []
+    if edits is not None:
+        try:
+            document = json.loads(edits.read_text())
+        except OSError as exc:
+            raise InvalidInputError(f"{edits}: cannot read the edit list ({exc.strerror})") from None
+        except ValueError as exc:
+            raise InvalidInputError(f"{edits}: not JSON ({exc})") from None
+        edit_list = parse_edits(document)
+    src = photo if photo is not None else sample_exemplar_path()
+    image = read_image(src)
+    h, w = image.shape[:2]
+    outside = [e for e in edit_list if not (0 <= e.x < w and 0 <= e.y < h)]
+    if outside:
+        raise InvalidInputError(f"edit at ({outside[0].x}, {outside[0].y}) is outside the {w}x{h} photo")
+    start = time.perf_counter()
+    with _progress(not quiet, "material") as progress:
+        material = make_material(image, options, edits=edit_list)
+        if progress:
+            progress(1, 1)
+    files = encode_material(material, name, seed=seed, source_photo=str(src),
+                            edits=len(edit_list))
+    _write_files(output_dir, files)
+    if not quiet:
+        lt = material.light
+        typer.echo(f"wrote {output_dir}/{name}_*.png ({w}x{h}; light {lt.azimuth:g},{lt.elevation:g}; "
+                   f"depth {material.depth:.1f} px) in {time.perf_counter() - start:.1f} s", err=True)
+
+
+ViewRepeat = Annotated[float, typer.Option("--repeat", help="Times the texture goes round the trunk.")]
+ViewDisplacement = Annotated[float, typer.Option(
+    "--displacement", help="Relief scale (1 = the set's own depth).")]
+
+
+@app.command("preview")
+@user_errors
+def preview_command(
+    folder: Annotated[Path, typer.Argument(help="Material set folder (barkgen material / generate --material).")],
+    output: OutputOption = Path("preview.png"),
+    size: Annotated[str, typer.Option("--size", help="Image size WIDTHxHEIGHT.")] = "1024x1024",
+    light: Annotated[str, typer.Option("--light", help="Light AZ,EL in degrees.")] = "135,35",
+    repeat: ViewRepeat = 2.0,
+    displacement: ViewDisplacement = 1.0,
+) -> None:
+    """Render the set on a trunk (displaced cylinder, normal-mapped, lit; CPU only)."""
+    from barkgen.io import encode_png, read_material
+    from barkgen.render import TrunkView, render_trunk
+
+    out_shape = parse_size(size)
+    _check_png_target(output, "output")
+    view = TrunkView(repeat=repeat, displacement=displacement, light=_light(light))
+    material, _ = read_material(folder)
+    _write_files(output.parent, {output.name: encode_png(render_trunk(material, out_shape, view))})
+
+
+@app.command("export-glb")
+@user_errors
+def export_glb_command(
+    folder: Annotated[Path, typer.Argument(help="Material set folder.")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="Output .glb.")] = Path("trunk.glb"),
+    repeat: ViewRepeat = 2.0,
+    displacement: ViewDisplacement = 1.0,
+    segments: Annotated[int, typer.Option("--segments", help="Vertices around the trunk.")] = 256,
+) -> None:
+    """Write a glTF 2.0 trunk: the relief in the geometry, colour, normal and
+    occlusion-roughness-metallic textures."""
+    from barkgen.io import encode_glb, read_material
+    from barkgen.render import TrunkView, trunk_mesh
+
+    if output.suffix.lower() != ".glb":
+        raise InvalidInputError(f"{output}: the output must end in .glb")
+    if output.is_dir():
+        raise InvalidInputError(f"{output} is a folder; give a .glb file name")
+    view = TrunkView(repeat=repeat, displacement=displacement)
+    material, _ = read_material(folder)
+    _write_files(output.parent, {output.name: encode_glb(trunk_mesh(material, segments=segments, view=view),
+                                                         material)})
 
 
 @app.command("apply-reference")

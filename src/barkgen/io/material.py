@@ -1,0 +1,121 @@
+"""Material sets on disk (ambientCG names, ``../shared/research/anchors-materials.md`` §2) and
+the trunk as glTF 2.0 binary.
+
+A set folder holds ``NAME_Color.png`` (sRGB), ``NAME_NormalGL.png`` / ``NAME_NormalDX.png``,
+``NAME_Displacement.png`` (16-bit, 0 = deepest), ``NAME_Roughness.png``,
+``NAME_AmbientOcclusion.png`` (linear) and ``NAME.json`` (size, tileable, seed, source photo,
+displacement depth scale, barkgen version).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+
+from barkgen.errors import ImageReadError, InvalidInputError
+from barkgen.io.images import encode_png, read_image
+
+#: the map suffixes of a set, in the order they are listed
+MAP_SUFFIXES = ("Color", "NormalGL", "NormalDX", "Displacement", "Roughness", "AmbientOcclusion")
+
+
+def check_material_name(name: str) -> str:
+    """A set name: letters, digits, ``_`` or ``-``, at most 64 (it becomes file names)."""
+    if not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_-]{0,63}", name):
+        raise InvalidInputError(f"--name must be letters, digits, _ or - (at most 64), not {name!r}")
+    return name
+
+
+def encode_material(material, name: str, **metadata) -> dict[str, bytes]:
+    """Every file of a :class:`~barkgen.material.MaterialSet` as ``{file name: bytes}`` (all
+    encoded before any is written). ``metadata`` goes into ``NAME.json`` (seed, source, ...)."""
+    check_material_name(name)
+    files = {fname: encode_png(pixels) for fname, pixels in material.images(name).items()}
+    meta = material.metadata(name=name, **metadata)
+    meta["files"] = sorted(files)
+    files[f"{name}.json"] = (json.dumps(meta, indent=2) + "\n").encode()
+    return files
+
+
+def find_material(folder: str | os.PathLike) -> tuple[str, dict]:
+    """The set in ``folder``: its name and ``NAME.json`` (the one JSON with a ``size`` and
+    ``displacement_depth_px``)."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise ImageReadError(f"{folder}: not a folder")
+    found = []
+    for path in sorted(folder.glob("*.json")):
+        try:
+            meta = json.loads(path.read_text())
+        except (OSError, ValueError):
+            continue
+        if isinstance(meta, dict) and "displacement_depth_px" in meta and "size" in meta:
+            found.append((path.stem, meta))
+    if not found:
+        raise ImageReadError(f"{folder}: no material set (NAME.json with NAME_Color.png ...) found; "
+                             "make one with `barkgen material` or `barkgen generate --material`")
+    if len(found) > 1:
+        raise ImageReadError(f"{folder}: holds several material sets "
+                             f"({', '.join(n for n, _ in found)}); give a folder with one")
+    return found[0]
+
+
+def read_material(folder: str | os.PathLike):
+    """A :class:`~barkgen.material.MaterialSet` read back from a set folder, and its metadata."""
+    from barkgen.material import MaterialSet, decode_normals
+
+    folder = Path(folder)
+    name, meta = find_material(folder)
+    maps = {suffix: read_image(folder / f"{name}_{suffix}.png")
+            for suffix in ("Color", "NormalGL", "Displacement", "Roughness", "AmbientOcclusion")}
+    shapes = {s: m.shape[:2] for s, m in maps.items()}
+    if len(set(shapes.values())) != 1:
+        listing = ", ".join(f"{s} {v[1]}x{v[0]}" for s, v in shapes.items())
+        raise InvalidInputError(f"{folder}: the maps of {name} differ in size ({listing})")
+    disp = maps["Displacement"]
+    if disp.dtype != np.uint16:
+        raise InvalidInputError(f"{folder}/{name}_Displacement.png must be a 16-bit grey PNG")
+    disp = (disp[..., 0] if disp.ndim == 3 else disp).astype(np.float32) / 65535.0
+    depth = float(meta.get("displacement_depth_px", 0.0))
+    grey = {s: (m[..., 0] if m.ndim == 3 else m).astype(np.float32) / 255.0
+            for s, m in maps.items() if s in ("Roughness", "AmbientOcclusion")}
+    color = maps["Color"]
+    if color.ndim == 2:
+        color = np.repeat(color[..., None], 3, axis=2)
+    material = MaterialSet(
+        color=color[..., :3].astype(np.float32) / (65535.0 if color.dtype == np.uint16 else 255.0),
+        height=disp * depth, normals=decode_normals(maps["NormalGL"]),
+        ao=grey["AmbientOcclusion"], roughness=grey["Roughness"], tile=bool(meta.get("tileable")))
+    return material, meta
+
+
+def encode_glb(mesh, material) -> bytes:
+    """The trunk ``mesh`` (:class:`~barkgen.render.TrunkMesh`) with the set's textures as a
+    glTF 2.0 binary: base colour, normal (OpenGL, as glTF fixes) and one occlusion-roughness-
+    metallic image (R = AO, G = roughness, B = metalness 0) used for both slots."""
+    import trimesh
+    from PIL import Image
+
+    images = material.images("m")
+    orm = np.stack([images["m_AmbientOcclusion.png"], images["m_Roughness.png"],
+                    np.zeros_like(images["m_Roughness.png"])], axis=-1)
+    orm_image = Image.fromarray(orm)
+    pbr = trimesh.visual.material.PBRMaterial(
+        name="bark",
+        baseColorTexture=Image.fromarray(images["m_Color.png"]),
+        normalTexture=Image.fromarray(images["m_NormalGL.png"]),
+        occlusionTexture=orm_image,
+        metallicRoughnessTexture=orm_image,
+        metallicFactor=0.0,
+        roughnessFactor=1.0,
+        doubleSided=False,
+    )
+    # trimesh keeps UVs with v up and flips them for glTF: hand it 1 - v
+    uv = np.column_stack([mesh.uv[:, 0], 1.0 - mesh.uv[:, 1]])
+    tm = trimesh.Trimesh(vertices=mesh.vertices, faces=mesh.faces,
+                         visual=trimesh.visual.TextureVisuals(uv=uv, material=pbr), process=False)
+    return bytes(tm.export(file_type="glb"))

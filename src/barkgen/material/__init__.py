@@ -1,0 +1,53 @@
+"""Material maps from a bark photo: height, normals, ambient occlusion, roughness and albedo
+(wang2003 §3.3-3.4; laitoch2018 §3.3.1; mazzolini2012 §7.1).
+
+Arrays in, arrays out: :func:`make_material` for a photo, :func:`transfer_material` for a
+texture synthesized from it, :class:`HeightEditor` for self-similarity height editing; the
+files (ambientCG names) are written by :func:`barkgen.io.write_material` and the CLI.
+"""
+
+from barkgen.material.editor import HeightEdit, HeightEditor, edits_document, parse_edits
+from barkgen.material.height import HeightConfig, estimate_height
+from barkgen.material.maps import (
+    ambient_occlusion,
+    decode_normals,
+    encode_normals,
+    flip_green,
+    normal_map,
+    roughness_map,
+    to_directx,
+)
+from barkgen.material.materialset import (
+    MaterialOptions,
+    MaterialSet,
+    derived_maps,
+    make_material,
+    transfer_material,
+)
+from barkgen.material.shading import Light, estimate_light, parse_light, remove_shading, shading
+
+__all__ = [
+    "HeightConfig",
+    "HeightEdit",
+    "HeightEditor",
+    "Light",
+    "MaterialOptions",
+    "MaterialSet",
+    "ambient_occlusion",
+    "decode_normals",
+    "derived_maps",
+    "edits_document",
+    "encode_normals",
+    "estimate_height",
+    "estimate_light",
+    "flip_green",
+    "make_material",
+    "normal_map",
+    "parse_edits",
+    "parse_light",
+    "remove_shading",
+    "roughness_map",
+    "shading",
+    "to_directx",
+    "transfer_material",
+]

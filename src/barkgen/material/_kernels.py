@@ -1,0 +1,45 @@
+"""Numba kernels of the material maps."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+
+@njit(cache=True, inline="always")
+def _sample(height: np.ndarray, y: int, x: int, tile: bool) -> float:
+    h, w = height.shape
+    if tile:
+        return height[y % h, x % w]
+    return height[min(max(y, 0), h - 1), min(max(x, 0), w - 1)]
+
+
+@njit(parallel=True, cache=True)
+def horizon_occlusion(height: np.ndarray, directions: np.ndarray, radius: int, tile: bool) -> np.ndarray:
+    """Horizon-based ambient occlusion of a height field (heights in pixels).
+
+    For each pixel and each unit ``direction`` ``(dy, dx)``, the horizon is the steepest
+    elevation ``(h(p + t d) - h(p)) / t`` for ``t = 1..radius``; the pixel's visibility in that
+    direction is ``1 - sin(horizon angle)``, averaged over the directions (Bavoil et al. 2008's
+    horizon-based AO, on a height field).
+    """
+    h, w = height.shape
+    n_dir = directions.shape[0]
+    out = np.empty((h, w), np.float32)
+    for y in prange(h):
+        for x in range(w):
+            h0 = height[y, x]
+            total = 0.0
+            for d in range(n_dir):
+                dy = directions[d, 0]
+                dx = directions[d, 1]
+                best = 0.0
+                for t in range(1, radius + 1):
+                    yy = y + int(round(dy * t))
+                    xx = x + int(round(dx * t))
+                    slope = (_sample(height, yy, xx, tile) - h0) / t
+                    if slope > best:
+                        best = slope
+                total += best / np.sqrt(1.0 + best * best)
+            out[y, x] = 1.0 - total / n_dir
+    return out

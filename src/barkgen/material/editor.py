@@ -1,0 +1,161 @@
+"""Self-similarity-propagated height editing (wang2003 §3.3, after Brooks & Dodgson 2002).
+
+An edit changes the height at one pixel ``p0`` by ``delta``; every other pixel ``p`` of the
+same texton channel (label) changes by ``delta * M(p)``, where the weight mask ``M`` compares
+the circular neighbourhood of ``p`` (diameter ``2 radius + 1``) with that of ``p0`` by the L2
+norm: 1 at identical neighbourhoods, falling linearly to 0 at ``threshold``. Large
+neighbourhoods are compared at a coarser level of the image pyramid (multi-scale
+neighbourhoods, for speed) and the mask is brought back to full size.
+
+Edits replay from JSON: ``{"version": 1, "edits": [{"x": 10, "y": 20, "delta": 1.5,
+"radius": 4}, ...]}`` (pixels of the photo; ``delta`` in pixels of height; optional
+``"threshold"`` per edit).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from barkgen.errors import InvalidInputError
+from barkgen.material.height import luminance
+
+#: the largest neighbourhood radius compared at full resolution; larger ones use a coarser level
+MAX_LEVEL_RADIUS = 4
+#: default threshold of the neighbourhood distance, in units of the luminance's std
+DEFAULT_THRESHOLD = 0.6
+EDITS_VERSION = 1
+
+
+@dataclass(frozen=True)
+class HeightEdit:
+    """One edit: raise (``delta`` > 0) or lower the height at pixel ``(x, y)`` and at every
+    self-similar pixel of its channel, comparing neighbourhoods of ``radius`` px."""
+
+    x: int
+    y: int
+    delta: float
+    radius: int = 4
+    threshold: float = DEFAULT_THRESHOLD
+
+    def __post_init__(self) -> None:
+        if not np.isfinite(self.delta):
+            raise InvalidInputError("an edit's delta must be a finite number")
+        if self.radius < 1 or self.radius > 64:
+            raise InvalidInputError(f"an edit's radius must be 1..64 px, not {self.radius}")
+        if not self.threshold > 0:
+            raise InvalidInputError("an edit's threshold must be > 0")
+
+
+def parse_edits(document: object) -> list[HeightEdit]:
+    """The edits of a JSON document (see module), validated; errors are one line."""
+    if not isinstance(document, Mapping) or document.get("version") != EDITS_VERSION:
+        raise InvalidInputError(f'an edit list must be a JSON object with "version": {EDITS_VERSION}')
+    unknown = set(document) - {"version", "edits"}
+    if unknown:
+        raise InvalidInputError(f"unknown key(s) in the edit list: {', '.join(sorted(unknown))}")
+    items = document.get("edits")
+    if not isinstance(items, list) or not items:
+        raise InvalidInputError('the edit list is empty: "edits" must list at least one edit')
+    edits = []
+    for i, item in enumerate(items):
+        if not isinstance(item, Mapping) or not {"x", "y", "delta"} <= set(item):
+            raise InvalidInputError(f'edit {i}: needs "x", "y" and "delta"')
+        extra = set(item) - {"x", "y", "delta", "radius", "threshold"}
+        if extra:
+            raise InvalidInputError(f"edit {i}: unknown key(s) {', '.join(sorted(extra))}")
+        try:
+            edits.append(HeightEdit(int(item["x"]), int(item["y"]), float(item["delta"]),
+                                    int(item.get("radius", 4)),
+                                    float(item.get("threshold", DEFAULT_THRESHOLD))))
+        except (TypeError, ValueError):
+            raise InvalidInputError(f"edit {i}: x, y, radius must be integers and delta a number") from None
+        except InvalidInputError as exc:
+            raise InvalidInputError(f"edit {i}: {exc}") from None
+    return edits
+
+
+def edits_document(edits: Iterable[HeightEdit]) -> dict:
+    """The JSON document of a list of edits (what :func:`parse_edits` reads)."""
+    return {"version": EDITS_VERSION,
+            "edits": [{"x": e.x, "y": e.y, "delta": e.delta, "radius": e.radius, "threshold": e.threshold}
+                      for e in edits]}
+
+
+def _disc_offsets(radius: int) -> np.ndarray:
+    r = np.arange(-radius, radius + 1)
+    yy, xx = np.meshgrid(r, r, indexing="ij")
+    inside = yy**2 + xx**2 <= radius * radius + radius  # the usual discrete circle
+    return np.stack([yy[inside], xx[inside]], axis=1)
+
+
+class HeightEditor:
+    """Interactive height editing by self-similarity (wang2003 §3.3).
+
+    ``HeightEditor(photo, height, label_map)`` keeps a copy of ``height`` (pixels);
+    :meth:`edit` changes it and records the edit, :attr:`edits` replays anywhere
+    (:func:`edits_document`).
+    """
+
+    def __init__(self, photo: np.ndarray, height: np.ndarray, label_map: np.ndarray | None = None):
+        lum = luminance(photo).astype(np.float32)
+        if lum.shape != np.asarray(height).shape:
+            raise InvalidInputError("the height map and the photo sizes differ")
+        if label_map is not None and np.asarray(label_map).shape != lum.shape:
+            raise InvalidInputError("the label map and the photo sizes differ")
+        std = float(lum.std()) or 1.0
+        self._lum = (lum - lum.mean()) / std
+        self.height = np.array(height, np.float32, copy=True)
+        self.label_map = None if label_map is None else np.asarray(label_map)
+        self.edits: list[HeightEdit] = []
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self._lum.shape
+
+    def mask(self, x: int, y: int, radius: int = 4, threshold: float = DEFAULT_THRESHOLD) -> np.ndarray:
+        """The weight mask ``M`` of pixel ``(x, y)`` ``(h, w)`` float32 in [0, 1]."""
+        h, w = self.shape
+        if not (0 <= x < w and 0 <= y < h):
+            raise InvalidInputError(f"edit at ({x}, {y}) is outside the {w}x{h} image")
+        factor = 1
+        while radius // factor > MAX_LEVEL_RADIUS and min(h, w) // (factor * 2) >= 16:
+            factor *= 2
+        lum = self._lum
+        if factor > 1:
+            lum = cv2.resize(lum, (w // factor, h // factor), interpolation=cv2.INTER_AREA)
+        offsets = _disc_offsets(max(1, radius // factor))
+        ly, lx = min(y // factor, lum.shape[0] - 1), min(x // factor, lum.shape[1] - 1)
+        pad = int(np.abs(offsets).max())
+        padded = np.pad(lum, pad, mode="reflect")
+        ref = padded[ly + pad + offsets[:, 0], lx + pad + offsets[:, 1]]
+        dist = np.zeros(lum.shape, np.float32)
+        for (dy, dx), v in zip(offsets, ref):
+            diff = padded[pad + dy:pad + dy + lum.shape[0], pad + dx:pad + dx + lum.shape[1]] - v
+            dist += diff * diff
+        dist = np.sqrt(dist / len(offsets))
+        weight = np.clip(1.0 - dist / threshold, 0.0, 1.0)
+        if factor > 1:
+            weight = cv2.resize(weight, (w, h), interpolation=cv2.INTER_LINEAR)
+        weight[y, x] = 1.0
+        if self.label_map is not None:
+            weight = weight * (self.label_map == self.label_map[y, x])
+        return weight.astype(np.float32)
+
+    def edit(self, x: int, y: int, delta: float, radius: int = 4,
+             threshold: float = DEFAULT_THRESHOLD) -> np.ndarray:
+        """Change the height by ``delta`` at ``(x, y)`` and, weighted by :meth:`mask`, at every
+        self-similar pixel of its channel; returns the edited height."""
+        edit = HeightEdit(int(x), int(y), float(delta), int(radius), float(threshold))
+        self.height += edit.delta * self.mask(edit.x, edit.y, edit.radius, edit.threshold)
+        self.edits.append(edit)
+        return self.height
+
+    def apply(self, edits: Iterable[HeightEdit]) -> np.ndarray:
+        """Replay a list of edits."""
+        for e in edits:
+            self.edit(e.x, e.y, e.delta, e.radius, e.threshold)
+        return self.height

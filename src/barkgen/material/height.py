@@ -1,0 +1,138 @@
+"""Height of the bark from its colour photo alone (wang2003 §3.3, made automatic).
+
+Wang et al. 2003 build the height field by hand, texton channel by texton channel. barkgen
+starts from an automatic estimate built from what the photo gives, which the self-similarity
+editor (:mod:`barkgen.material.editor`) can then refine:
+
+* **luminance bands** (band-pass differences of Gaussians an octave apart): in bark photos,
+  and even more in the delit photogrammetry scans artists use, the dark is what light does not
+  reach — fissures, furrows, the gaps between plates — so, band by band, dark is low. The band
+  weights :data:`BAND_WEIGHTS` weigh the octaves where this holds (2-16 px); the coarsest band
+  gets a negative weight, which removes large-scale lighting and colour patches (moss,
+  lichen) that are not relief.
+* **texture energy** (local mean of the luminance gradient's magnitude, band by band): bark
+  plates and ridges carry fine cracks and fibre, fissure floors are smooth — the texton idea of
+  wang2003 §3.2 reduced to the one channel that tells high from low; on the plated pine it
+  predicts relief better than luminance does.
+* **the label map** (laitoch2018 §3.5, labels sorted darkest first): a coarse, non-linear cue
+  "fissure labels are low, plate labels are high", smoothed so its steps do not make cliffs
+  (the fit gives it little weight next to the bands: they already carry what it says).
+
+Heights are in pixels: a unit slope is 45°. The weights were chosen by least squares of the
+height's gradient against the gradients integrated from four scanned normal maps
+(``../shared/data/bark_maps``); ``benchmarks/bench_material.py`` reports only leave-one-out
+figures for them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage as ndi
+
+from barkgen.errors import InvalidInputError
+
+#: (octave scale in px, weight) of the luminance bands; luminance in units of its std
+BAND_WEIGHTS: tuple[tuple[float, float], ...] = ((2, 0.2), (4, 0.28), (8, 1.05), (16, -0.02), (32, -0.44))
+#: (octave scale in px, weight) of the texture-energy bands (energy in units of its std)
+ENERGY_WEIGHTS: tuple[tuple[float, float], ...] = ((4, 0.13), (8, -0.03), (16, 1.24))
+#: weight of the label cue (the smoothed label rank in units of its std, like the bands)
+LABEL_WEIGHT = 0.01
+#: overall relief strength (the fit's angular-error-optimal scale)
+STRENGTH = 0.89
+#: blur of the label cue, in px
+LABEL_BLUR = 1.5
+
+
+@dataclass(frozen=True)
+class HeightConfig:
+    """Parameters of :func:`estimate_height`.
+
+    ``bands`` / ``energy_bands``: ``(scale, weight)`` of luminance and texture-energy octaves;
+    ``label_weight``: weight of the label cue; ``strength``: overall scale of the relief (the
+    default is as fitted on scanned bark; 2 doubles the depth).
+    """
+
+    bands: tuple[tuple[float, float], ...] = BAND_WEIGHTS
+    energy_bands: tuple[tuple[float, float], ...] = ENERGY_WEIGHTS
+    label_weight: float = LABEL_WEIGHT
+    strength: float = STRENGTH
+
+    def __post_init__(self) -> None:
+        if not self.bands or any(s <= 0 for s, _ in self.bands + self.energy_bands):
+            raise InvalidInputError("height bands need positive scales")
+        if not np.isfinite(self.strength) or self.strength <= 0:
+            raise InvalidInputError(f"height strength must be > 0, not {self.strength}")
+
+
+def luminance(rgb: np.ndarray) -> np.ndarray:
+    """Rec. 709 luma of an ``(h, w, 3)`` float image (or the image itself when grey)."""
+    rgb = np.asarray(rgb, np.float32)
+    if rgb.ndim == 2:
+        return rgb
+    return rgb[..., :3] @ np.array([0.2126, 0.7152, 0.0722], np.float32)
+
+
+def band(image: np.ndarray, scale: float, *, tile: bool) -> np.ndarray:
+    """The band-pass octave of ``image`` around ``scale`` px: Gaussian(scale/2) - Gaussian(2 scale)."""
+    mode = "wrap" if tile else "reflect"
+    return (ndi.gaussian_filter(image, scale / 2, mode=mode)
+            - ndi.gaussian_filter(image, scale * 2, mode=mode))
+
+
+def texture_energy(lum: np.ndarray, scale: float, *, tile: bool) -> np.ndarray:
+    """Local mean (Gaussian, ``scale / 2``) of the gradient magnitude, in units of its std."""
+    mode = "wrap" if tile else "reflect"
+    if tile:
+        gx = (np.roll(lum, -1, 1) - np.roll(lum, 1, 1)) * 0.5
+        gy = (np.roll(lum, -1, 0) - np.roll(lum, 1, 0)) * 0.5
+    else:
+        gy, gx = np.gradient(lum)
+    energy = ndi.gaussian_filter(np.hypot(gx, gy), scale / 2, mode=mode)
+    return (energy - energy.mean()) / max(float(energy.std()), 1e-9)
+
+
+def height_features(photo: np.ndarray, label_map: np.ndarray | None, config: HeightConfig, *,
+                    tile: bool) -> list[tuple[float, np.ndarray]]:
+    """The weighted cues of :func:`estimate_height` as ``(weight, feature)`` pairs (each feature
+    in units of its own std), so that fitting and estimating use one code path."""
+    lum = luminance(photo).astype(np.float64)
+    std = lum.std()
+    if std < 1e-6:
+        return []
+    lum = (lum - lum.mean()) / std
+    cues = [(w, band(lum, s, tile=tile)) for s, w in config.bands]
+    cues += [(w, band(texture_energy(lum, s, tile=tile), s, tile=tile)) for s, w in config.energy_bands]
+    if label_map is not None:
+        codes = np.asarray(label_map)
+        if codes.shape != lum.shape:
+            raise InvalidInputError(f"label map is {codes.shape[1]}x{codes.shape[0]} px but the "
+                                    f"photo is {lum.shape[1]}x{lum.shape[0]} px")
+        rank = codes.astype(np.float64) / max(int(codes.max()), 1)
+        cue = ndi.gaussian_filter(rank, LABEL_BLUR, mode="wrap" if tile else "reflect")
+        cues.append((config.label_weight, (cue - cue.mean()) / max(float(cue.std()), 1e-6)))
+    return cues
+
+
+def estimate_height(photo: np.ndarray, label_map: np.ndarray | None = None, *,
+                    config: HeightConfig | None = None, tile: bool = False) -> np.ndarray:
+    """Height field ``(h, w)`` float32 in pixels (mean 0) estimated from a photo alone.
+
+    Args:
+        photo: ``(h, w, 3)`` float RGB in [0, 1] (or grey).
+        label_map: optional ``(h, w)`` label codes sorted darkest first (e.g. of
+            :func:`barkgen.labels.color_regions`); dark labels are fissures, hence low.
+        config: :class:`HeightConfig`.
+        tile: the photo wraps (a synthesized tileable texture): filters wrap around.
+    """
+    config = config or HeightConfig()
+    cues = height_features(photo, label_map, config, tile=tile)
+    if not cues:
+        return np.zeros(np.asarray(photo).shape[:2], np.float32)
+    height = np.zeros(cues[0][1].shape)
+    for weight, feature in cues:
+        if weight:
+            height += weight * feature
+    height *= config.strength
+    return (height - height.mean()).astype(np.float32)

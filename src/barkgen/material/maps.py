@@ -1,0 +1,91 @@
+"""Normal, ambient-occlusion and roughness maps from a height field (mazzolini2012 §7.1's future
+work, in the conventions of ``../shared/research/anchors-materials.md`` §2).
+
+Heights are in pixels (a unit slope is 45°). Normals are tangent-space unit vectors
+``(x right, y up, z out)`` — the OpenGL / glTF convention; :func:`to_directx` flips green for
+Unreal and Substance. Every map honours ``tile``: a tileable height gives tileable maps.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from barkgen.material._kernels import horizon_occlusion
+
+#: directions and reach (px) of the horizon-based ambient occlusion
+AO_DIRECTIONS = 8
+AO_RADIUS = 32
+#: roughness model: bark is rough; cavities (occluded) rougher, exposed ridges a little smoother
+ROUGHNESS_BASE = 0.8
+ROUGHNESS_CAVITY = 0.6
+ROUGHNESS_RIDGE = 0.05
+
+
+def _gradient(height: np.ndarray, tile: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Central differences ``(d/dx, d/drow)``; one-sided at the borders unless ``tile``."""
+    h = np.asarray(height, np.float32)
+    if tile:
+        gx = (np.roll(h, -1, 1) - np.roll(h, 1, 1)) * 0.5
+        gy = (np.roll(h, -1, 0) - np.roll(h, 1, 0)) * 0.5
+        return gx, gy
+    gy, gx = np.gradient(h)
+    return gx.astype(np.float32), gy.astype(np.float32)
+
+
+def normal_map(height: np.ndarray, *, strength: float = 1.0, tile: bool = False) -> np.ndarray:
+    """Unit normals ``(h, w, 3)`` float32 of a height field (pixels), OpenGL convention (+Y up:
+    green is high where the surface faces the top of the image)."""
+    gx, gy = _gradient(height, tile)
+    normals = np.empty(gx.shape + (3,), np.float32)
+    normals[..., 0] = -strength * gx
+    normals[..., 1] = strength * gy  # rows run down, +Y runs up
+    normals[..., 2] = 1.0
+    normals /= np.linalg.norm(normals, axis=2, keepdims=True)
+    return normals
+
+
+def to_directx(normals: np.ndarray) -> np.ndarray:
+    """The DirectX convention (+Y down) of OpenGL normals, and back: green flipped."""
+    out = np.array(normals, copy=True)
+    out[..., 1] = -out[..., 1]
+    return out
+
+
+def encode_normals(normals: np.ndarray) -> np.ndarray:
+    """Unit normals -> the usual uint8 RGB ``round((n + 1) * 127.5)``."""
+    n = np.clip(np.asarray(normals, np.float32), -1.0, 1.0)
+    return np.floor((n + 1.0) * 127.5 + 0.5).astype(np.uint8)
+
+
+def flip_green(rgb: np.ndarray) -> np.ndarray:
+    """An encoded normal map in the other convention (OpenGL <-> DirectX): ``255 - green``,
+    every other byte unchanged; decoding it gives exactly the normals with ``y`` negated."""
+    out = np.array(rgb, copy=True)
+    out[..., 1] = 255 - out[..., 1]
+    return out
+
+
+def decode_normals(rgb: np.ndarray) -> np.ndarray:
+    """uint8 (or uint16) RGB normal-map pixels -> unit normals float32."""
+    arr = np.asarray(rgb)
+    scale = 65535.0 if arr.dtype == np.uint16 else 255.0
+    n = arr[..., :3].astype(np.float32) / scale * 2.0 - 1.0
+    return n / np.maximum(np.linalg.norm(n, axis=2, keepdims=True), 1e-6)
+
+
+def ambient_occlusion(height: np.ndarray, *, radius: int = AO_RADIUS, directions: int = AO_DIRECTIONS,
+                      tile: bool = False) -> np.ndarray:
+    """Horizon-based ambient occlusion ``(h, w)`` float32 in [0, 1] (1 = open sky)."""
+    angles = np.arange(directions) * (2 * np.pi / directions)
+    dirs = np.stack([np.sin(angles), np.cos(angles)], axis=1).astype(np.float64)
+    return horizon_occlusion(np.ascontiguousarray(height, dtype=np.float32), dirs, int(radius), bool(tile))
+
+
+def roughness_map(height: np.ndarray, ao: np.ndarray) -> np.ndarray:
+    """Roughness ``(h, w)`` float32 in [0, 1]: bark is rough (:data:`ROUGHNESS_BASE`),
+    crevices rougher (dust, loose fibre: more where occluded), the highest ridges a little
+    smoother (worn)."""
+    h = np.asarray(height, np.float32)
+    z = (h - h.mean()) / max(float(h.std()), 1e-6)
+    rough = ROUGHNESS_BASE + ROUGHNESS_CAVITY * (1.0 - np.asarray(ao, np.float32)) - ROUGHNESS_RIDGE * z
+    return np.clip(rough, 0.0, 1.0).astype(np.float32)

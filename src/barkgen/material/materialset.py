@@ -1,0 +1,173 @@
+"""A whole material set from a photo, or from a synthesized texture and its reference map.
+
+Photo (:func:`make_material`): label map -> estimated height (:mod:`.height`), replayed edits
+(:mod:`.editor`) -> normals, AO, roughness (:mod:`.maps`) -> light matched to the photo and
+albedo ``I / max(N·L, floor)`` (:mod:`.shading`).
+
+Synthesized texture (:func:`transfer_material`): the photo's albedo, height and roughness are
+carried to the output through the synthesis's reference map — the same exemplar pixel for
+every map, so all maps are aligned with the colour by construction — and normals and AO are
+recomputed from the carried height, wrapping when the texture tiles, so they tile too.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from barkgen.errors import InvalidInputError
+from barkgen.material.editor import HeightEdit, HeightEditor
+from barkgen.material.height import HeightConfig, estimate_height
+from barkgen.material.maps import AO_RADIUS, ambient_occlusion, encode_normals, flip_green, normal_map, roughness_map
+from barkgen.material.shading import Light, estimate_light, remove_shading
+
+
+@dataclass(frozen=True)
+class MaterialOptions:
+    """Parameters of :func:`make_material`: ``k`` labels of the colour label map used as the
+    height's structure cue; ``light``: the photo's light (``None``: estimated);
+    ``height``: :class:`~barkgen.material.height.HeightConfig`; ``relief``: multiplies its
+    strength (2 = twice as deep); ``ao_radius``: reach of the occlusion in px; ``tile``: the
+    photo wraps; ``seed``: the label map's k-means."""
+
+    k: int = 3
+    light: Light | None = None
+    height: HeightConfig = field(default_factory=HeightConfig)
+    relief: float = 1.0
+    ao_radius: int = AO_RADIUS
+    tile: bool = False
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        from barkgen.labels.regions import check_k, check_seed
+
+        check_k(self.k)
+        check_seed(self.seed)
+        if not (np.isfinite(self.relief) and 0 < self.relief <= 100):
+            raise InvalidInputError(f"relief must be in (0, 100], not {self.relief:g}")
+        if not 1 <= self.ao_radius <= 256:
+            raise InvalidInputError(f"AO radius must be 1..256 px, not {self.ao_radius}")
+
+
+@dataclass
+class MaterialSet:
+    """Aligned maps of one size: ``color`` (albedo, sRGB float ``(h, w, 3)`` in [0, 1]),
+    ``height`` (pixels, float32), ``normals`` (unit, OpenGL), ``ao`` and ``roughness`` (float32
+    in [0, 1]); ``light`` and ``shading_strength``: the shading removed from the colour
+    (:func:`~barkgen.material.shading.remove_shading`)."""
+
+    color: np.ndarray
+    height: np.ndarray
+    normals: np.ndarray
+    ao: np.ndarray
+    roughness: np.ndarray
+    tile: bool = False
+    light: Light | None = None
+    shading_strength: float | None = None
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.height.shape
+
+    @property
+    def depth(self) -> float:
+        """Displacement depth scale: the height range in pixels (0 -> 1 in the 16-bit map)."""
+        return float(self.height.max() - self.height.min())
+
+    def displacement(self) -> np.ndarray:
+        """Height normalised to [0, 1] (0 = deepest), float64."""
+        h = self.height.astype(np.float64)
+        return (h - h.min()) / self.depth if self.depth > 0 else np.full(h.shape, 0.5)
+
+    def images(self, name: str) -> dict[str, np.ndarray]:
+        """The files of the set, ambientCG names (``NAME_Color.png`` ...) -> pixel arrays:
+        8-bit sRGB colour, 8-bit OpenGL and DirectX normals (differing only in green),
+        16-bit displacement, 8-bit linear roughness and AO."""
+        gl = encode_normals(self.normals)
+        return {
+            f"{name}_Color.png": _to_uint8(self.color),
+            f"{name}_NormalGL.png": gl,
+            f"{name}_NormalDX.png": flip_green(gl),
+            f"{name}_Displacement.png": np.round(self.displacement() * 65535).astype(np.uint16),
+            f"{name}_Roughness.png": _to_uint8(self.roughness),
+            f"{name}_AmbientOcclusion.png": _to_uint8(self.ao),
+        }
+
+    def metadata(self, **extra) -> dict:
+        """The ``NAME.json`` record (size, tileable, depth scale, light; plus ``extra``)."""
+        from barkgen import __version__
+
+        meta = {
+            "size": [int(self.shape[1]), int(self.shape[0])],
+            "tileable": bool(self.tile),
+            "displacement_depth_px": round(self.depth, 4),
+            "displacement_depth": round(self.depth / self.shape[1], 6),
+            "displacement_midlevel": round(float(-self.height.min() / self.depth) if self.depth else 0.5, 4),
+            "normal_convention": {"NormalGL": "OpenGL (+Y up, glTF)", "NormalDX": "DirectX (+Y down)"},
+            "light": None if self.light is None else {
+                "azimuth": self.light.azimuth, "elevation": self.light.elevation,
+                "correlation": None if self.light.correlation is None else round(self.light.correlation, 4),
+                "shading_strength": None if self.shading_strength is None else round(self.shading_strength, 4)},
+            "barkgen_version": __version__,
+        }
+        meta.update(extra)
+        return meta
+
+
+def _to_uint8(image: np.ndarray) -> np.ndarray:
+    return np.floor(np.clip(np.asarray(image, np.float32), 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
+
+
+def derived_maps(height: np.ndarray, *, tile: bool, ao_radius: int = AO_RADIUS) -> tuple[np.ndarray, np.ndarray]:
+    """Normals (OpenGL) and ambient occlusion of a height field."""
+    return normal_map(height, tile=tile), ambient_occlusion(height, radius=ao_radius, tile=tile)
+
+
+def make_material(photo: np.ndarray, options: MaterialOptions | None = None, *,
+                  label_map: np.ndarray | None = None,
+                  edits: Iterable[HeightEdit] = ()) -> MaterialSet:
+    """The material set of a bark photo, from the photo alone (see module).
+
+    Args:
+        photo: ``(h, w[, C])`` photo (uint8, uint16 or float in [0, 1]).
+        options: :class:`MaterialOptions`.
+        label_map: the photo's label codes (darkest label 0), else a colour label map is made.
+        edits: height edits to replay (:class:`~barkgen.material.editor.HeightEdit`).
+    """
+    from barkgen.labels import color_regions
+    from barkgen.labels.regions import check_image, to_codes
+
+    options = options or MaterialOptions()
+    rgb = check_image(photo)
+    if label_map is None:
+        label_map, _ = to_codes(color_regions(rgb, options.k, seed=options.seed))
+    config = dataclasses.replace(options.height, strength=options.height.strength * options.relief)
+    height = estimate_height(rgb, label_map, config=config, tile=options.tile)
+    edits = list(edits)
+    if edits:
+        editor = HeightEditor(rgb, height, label_map)
+        height = editor.apply(edits)
+    normals, ao = derived_maps(height, tile=options.tile, ao_radius=options.ao_radius)
+    light = options.light or estimate_light(rgb, normals)
+    albedo, strength = remove_shading(rgb, normals, light)
+    return MaterialSet(color=albedo, height=height, normals=normals, ao=ao,
+                       roughness=roughness_map(height, ao), tile=options.tile, light=light,
+                       shading_strength=strength)
+
+
+def transfer_material(source: MaterialSet, references: np.ndarray, *, tile: bool,
+                      ao_radius: int = AO_RADIUS) -> MaterialSet:
+    """The material set of a synthesized texture: the source's albedo, height and roughness
+    through the synthesis's reference map ``(H, W, 2)`` (exemplar ``(y, x)``); normals and AO
+    recomputed from the carried height (wrapping when ``tile``)."""
+    from barkgen.synth import apply_references
+
+    refs = np.asarray(references)
+    height = apply_references(refs, source.height)
+    normals, ao = derived_maps(height, tile=tile, ao_radius=ao_radius)
+    return MaterialSet(color=apply_references(refs, source.color), height=height, normals=normals, ao=ao,
+                       roughness=apply_references(refs, source.roughness), tile=tile, light=source.light,
+                       shading_strength=source.shading_strength)

@@ -1,0 +1,170 @@
+"""Light direction of a photo and shading removal, T = I / (N·L) (wang2003 §3.4).
+
+Wang et al. have the user move a light until the rendered height field is lit like the photo.
+barkgen automates that match: the light is the direction (azimuth x elevation grid) whose
+Lambertian rendering ``N·L`` of the estimated normals correlates best with the photo's
+luminance. The correlation is only a few tenths at best on bark photos (most bark textures
+are photographed in diffuse light or delit), so the division is floored (:data:`SHADING_FLOOR`)
+and the estimate is reported with its correlation; ``--light AZ,EL`` overrides it.
+
+Angles: azimuth in degrees counter-clockwise from the image's +x (right) axis, +y up;
+elevation in degrees above the surface (90 = from the viewer).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from barkgen.errors import InvalidInputError
+from barkgen.material.height import luminance
+
+#: the light directions tried by :func:`estimate_light` (degrees)
+AZIMUTHS = tuple(range(0, 360, 15))
+ELEVATIONS = (20.0, 30.0, 45.0, 60.0, 75.0, 90.0)
+#: floor of N·L in the division, so grazing or back-facing pixels do not explode
+SHADING_FLOOR = 0.2
+#: the largest shading strength (exponent of N·L) fitted by :func:`shading_strength`, and the
+#: bisection steps of the fit
+MAX_STRENGTH = 8.0
+STRENGTH_STEPS = 16
+#: pixels sampled to fit the shading strength
+FIT_PIXELS = 262_144
+@dataclass(frozen=True)
+class Light:
+    """A directional light: ``azimuth`` (degrees, counter-clockwise from +x, +y up) and
+    ``elevation`` (degrees above the surface, 0 < el <= 90); ``correlation``: how much of the
+    photo's shading the estimate explains (``None`` when given by the user)."""
+
+    azimuth: float
+    elevation: float
+    correlation: float | None = None
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.azimuth) and np.isfinite(self.elevation)):
+            raise InvalidInputError("light angles must be finite numbers")
+        if not 0.0 < self.elevation <= 90.0:
+            raise InvalidInputError(f"light elevation must be in (0, 90] degrees, not {self.elevation:g}")
+        if not -360.0 <= self.azimuth <= 360.0:
+            raise InvalidInputError(f"light azimuth must be in [-360, 360] degrees, not {self.azimuth:g}")
+
+    @property
+    def vector(self) -> np.ndarray:
+        """Unit vector ``(x right, y up, z out)``."""
+        az, el = np.radians(self.azimuth), np.radians(self.elevation)
+        return np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], np.float32)
+
+
+def parse_light(text: str) -> Light:
+    """``"AZ,EL"`` in degrees -> :class:`Light`, or a one-line error."""
+    parts = text.replace(" ", "").split(",")
+    try:
+        az, el = (float(p) for p in parts)
+    except ValueError:
+        raise InvalidInputError(f"light must be AZ,EL in degrees (e.g. 135,45), not {text!r}") from None
+    return Light(az, el)
+
+
+def estimate_light(photo: np.ndarray, normals: np.ndarray) -> Light:
+    """The light under which the normals, rendered Lambertian, look most like the photo: the
+    grid direction maximising the correlation of ``N·L`` with the luminance (wang2003 §3.4's
+    manual light matching, automated). Closed form per direction from the covariances of the
+    luminance with the three normal components."""
+    lum = luminance(photo).astype(np.float64).ravel()
+    n = np.asarray(normals, np.float64).reshape(-1, 3)
+    if n.shape[0] != lum.size:
+        raise InvalidInputError("normal map and photo sizes differ")
+    lum = lum - lum.mean()
+    n = n - n.mean(axis=0)
+    cov_ln = n.T @ lum / lum.size
+    cov_nn = n.T @ n / lum.size
+    var_l = float(lum @ lum) / lum.size
+    best = Light(0.0, 90.0, 0.0)
+    for el in ELEVATIONS:
+        for az in AZIMUTHS:
+            v = Light(float(az), el).vector.astype(np.float64)
+            var_s = float(v @ cov_nn @ v)
+            if var_s <= 0 or var_l <= 0:
+                continue
+            corr = float(v @ cov_ln) / float(np.sqrt(var_s * var_l))
+            if corr > best.correlation:
+                best = Light(float(az), el, corr)
+            if el == 90.0:
+                break  # every azimuth is the same light
+    return best
+
+
+def shading(normals: np.ndarray, light: Light) -> np.ndarray:
+    """Lambertian ``N·L`` ``(h, w)`` float32 of unit normals (OpenGL convention)."""
+    return np.tensordot(np.asarray(normals, np.float32), light.vector, axes=([2], [0])).astype(np.float32)
+
+
+def srgb_to_linear(c: np.ndarray) -> np.ndarray:
+    c = np.asarray(c, np.float32)
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4).astype(np.float32)
+
+
+def linear_to_srgb(c: np.ndarray) -> np.ndarray:
+    c = np.clip(np.asarray(c, np.float32), 0.0, 1.0)
+    return np.where(c <= 0.0031308, c * 12.92, 1.055 * c ** (1 / 2.4) - 0.055).astype(np.float32)
+
+
+def _divide(linear: np.ndarray, log_shade: np.ndarray, strength: float) -> np.ndarray:
+    relative = np.exp(strength * log_shade).astype(np.float32)
+    return linear / (relative[..., None] if linear.ndim == 3 else relative)
+
+
+def _correlation(a: np.ndarray, b: np.ndarray) -> float:
+    a = a - a.mean()
+    denom = float(np.sqrt((a * a).sum() * (b * b).sum()))
+    return float((a * b).sum()) / denom if denom > 0 else 0.0
+
+
+def shading_strength(linear: np.ndarray, log_shade: np.ndarray) -> float:
+    """How strongly the shading modulates the photo: the exponent ``g`` of the model
+    ``I = albedo * shade ** g`` for which the albedo's luminance is uncorrelated with the
+    shading (the albedo is independent of the lighting), by bisection in ``[0, MAX_STRENGTH]``
+    on a regular subsample of the pixels. It stands for what the estimated depth and the
+    light's unknown intensity against the ambient light leave open (``g = 1`` is wang2003's
+    plain division). 0 when the photo is not brighter where ``N·L`` is larger: nothing to
+    remove. ``linear``: the photo in linear light; ``log_shade``: log of the floored ``N·L``
+    minus its mean."""
+    step = max(1, int(np.sqrt(log_shade.size / FIT_PIXELS)))
+    sub_linear = linear[::step, ::step]
+    sub_log = log_shade[::step, ::step]
+    shade = np.exp(sub_log).ravel()
+    shade -= shade.mean()
+
+    def corr(g: float) -> float:
+        return _correlation(luminance(linear_to_srgb(_divide(sub_linear, sub_log, g))).ravel(), shade)
+
+    if corr(0.0) <= 0.0:
+        return 0.0
+    if corr(MAX_STRENGTH) >= 0.0:
+        return MAX_STRENGTH
+    lo, hi = 0.0, MAX_STRENGTH
+    for _ in range(STRENGTH_STEPS):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if corr(mid) > 0 else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+def remove_shading(photo: np.ndarray, normals: np.ndarray, light: Light, *,
+                   strength: float | None = None, floor: float = SHADING_FLOOR) -> tuple[np.ndarray, float]:
+    """Albedo ``(h, w, 3)`` float32 sRGB in [0, 1] and the shading strength used: the photo
+    divided, in linear light, by ``max(N·L, floor) ** strength`` relative to its geometric mean
+    (wang2003 §3.4's T = I / (N·L), keeping the photo's overall brightness). ``strength``:
+    ``None`` fits it (:func:`shading_strength`), 1 is the paper's division.
+
+    The correlation the fit removes is the one of the albedo's luminance with ``N·L``; on bark photos
+    it is the dark cavities the height model put low that get lightened, as AO-based
+    delighting does (Materialize, AwesomeBump): the AO map puts them back at render time."""
+    if floor <= 0:
+        raise InvalidInputError("the shading floor must be > 0")
+    log_shade = np.log(np.maximum(shading(normals, light), floor))
+    log_shade -= log_shade.mean()
+    linear = srgb_to_linear(photo)
+    if strength is None:
+        strength = shading_strength(linear, log_shade)
+    return linear_to_srgb(_divide(linear, log_shade, strength)), float(strength)

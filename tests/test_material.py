@@ -1,0 +1,373 @@
+"""Material maps (``barkgen.material``), the trunk renderer and mesh (``barkgen.render``), the
+set files (``barkgen.io``) and the ``material`` / ``preview`` / ``export-glb`` commands."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import SHARED
+from test_cli import run
+
+from barkgen.errors import InvalidInputError
+from barkgen.io import encode_glb, encode_material, read_image, read_material, write_bytes_atomic, write_png
+from barkgen.material import (
+    HeightEdit,
+    HeightEditor,
+    Light,
+    MaterialOptions,
+    MaterialSet,
+    ambient_occlusion,
+    decode_normals,
+    edits_document,
+    encode_normals,
+    estimate_height,
+    estimate_light,
+    flip_green,
+    make_material,
+    normal_map,
+    parse_edits,
+    parse_light,
+    remove_shading,
+    shading,
+    to_directx,
+    transfer_material,
+)
+from barkgen.render import TrunkView, render_trunk, trunk_mesh
+
+SET_FILES = {f"bark_{s}.png" for s in ("Color", "NormalGL", "NormalDX", "Displacement", "Roughness",
+                                       "AmbientOcclusion")} | {"bark.json"}
+
+
+def bumps(n: int = 96, period: int = 16) -> np.ndarray:
+    """A height field of round bumps on a grid (pixels), tileable when ``n % period == 0``."""
+    y, x = np.mgrid[0:n, 0:n]
+    return (3.0 * np.cos(2 * np.pi * x / period) * np.cos(2 * np.pi * y / period)).astype(np.float32)
+
+
+def render_lambert(height: np.ndarray, light: Light, albedo: np.ndarray) -> np.ndarray:
+    """A photo of a height field under one light: sRGB of albedo * N·L (linear)."""
+    from barkgen.material.shading import linear_to_srgb
+
+    shade = np.clip(shading(normal_map(height, tile=True), light), 0.05, 1)
+    return linear_to_srgb(albedo[..., None] * shade[..., None] * np.ones(3, np.float32))
+
+
+@pytest.fixture(scope="module")
+def pine128():
+    from conftest import bark_exemplar
+
+    return bark_exemplar("pine_plated_01", 128)
+
+
+@pytest.fixture(scope="module")
+def pine_set(pine128):
+    return make_material(pine128)
+
+
+# ------------------------------------------------------------------ normals, AO, height
+
+
+def test_normals_of_planes_follow_the_opengl_convention():
+    y, x = np.mgrid[0:32, 0:32].astype(np.float32)
+    n = normal_map(0.5 * x)                  # rises to the right: faces left
+    assert np.allclose(n[5, 5], np.array([-0.5, 0, 1]) / np.sqrt(1.25), atol=1e-5)
+    n = normal_map(0.5 * y)                  # rises downwards: faces the top of the image, +Y
+    assert np.allclose(n[5, 5], np.array([0, 0.5, 1]) / np.sqrt(1.25), atol=1e-5)
+    assert np.allclose(to_directx(n)[..., 1], -n[..., 1]) and np.allclose(to_directx(n)[..., ::2], n[..., ::2])
+
+
+def test_gl_and_dx_files_differ_exactly_in_green():
+    n = normal_map(bumps(), tile=True)
+    gl = encode_normals(n)
+    dx = flip_green(gl)
+    assert np.array_equal(gl[..., [0, 2]], dx[..., [0, 2]])
+    assert np.array_equal(dx[..., 1].astype(int), 255 - gl[..., 1].astype(int))
+    assert np.allclose(decode_normals(dx)[..., 1], -decode_normals(gl)[..., 1], atol=1e-6)
+    assert np.degrees(np.arccos(np.clip((decode_normals(gl) * n).sum(2), -1, 1))).max() < 1.0
+
+
+def test_ambient_occlusion_darkens_pits_and_wraps():
+    h = np.zeros((64, 64), np.float32)
+    assert np.allclose(ambient_occlusion(h), 1.0)
+    y, x = np.mgrid[0:64, 0:64]
+    pit = -6.0 * np.exp(-((x - 32) ** 2 + (y - 32) ** 2) / 30.0).astype(np.float32)
+    ao = ambient_occlusion(pit)
+    assert ao[32, 32] < 0.8 and ao[2, 2] > 0.99 and ao.min() >= 0
+    tile = bumps(64)
+    assert np.allclose(ambient_occlusion(np.roll(tile, 9, 1), tile=True),
+                       np.roll(ambient_occlusion(tile, tile=True), 9, 1), atol=1e-6)
+
+
+def test_height_puts_dark_fissures_low_and_wraps_when_tiled():
+    rng = np.random.default_rng(1)
+    y, x = np.mgrid[0:128, 0:128]
+    fissures = (np.sin(2 * np.pi * x / 16) > 0.6).astype(np.float32)   # dark vertical fissures
+    photo = np.clip(0.7 - 0.4 * fissures[..., None] + rng.normal(0, 0.02, (128, 128, 3)), 0, 1)
+    h = estimate_height(photo.astype(np.float32))
+    assert h[:, x[0] % 16 == 4].mean() < h[:, x[0] % 16 == 12].mean() - 0.5  # fissure centre vs plate
+    assert np.allclose(estimate_height(np.roll(photo, 40, 1), tile=True),
+                       np.roll(estimate_height(photo, tile=True), 40, 1), atol=1e-4)
+    assert not estimate_height(np.full((32, 32, 3), 0.5, np.float32)).any()
+
+
+def test_estimated_normals_beat_flat_on_scanned_bark():
+    """Regression guard on two of the four scanned sets at half size (the defaults were fitted
+    on all four, so this is not the leave-one-out figure of the benchmark)."""
+    import cv2
+
+    from conftest import _need_shared
+    from barkgen.labels.regions import check_image
+
+    _need_shared()
+    for name in ("oak_furrowed_moss_01", "pine_plated_01"):
+        photo = cv2.resize(check_image(read_image(SHARED / "data" / "bark" / f"{name}.jpg")), (512, 512),
+                           interpolation=cv2.INTER_AREA)
+        truth = cv2.resize(decode_normals(read_image(SHARED / "data" / "bark_maps" / f"{name}_normal.jpg")),
+                           (512, 512), interpolation=cv2.INTER_AREA)
+        truth /= np.linalg.norm(truth, axis=2, keepdims=True)
+        material = make_material(photo)
+        err = np.degrees(np.arccos(np.clip((material.normals * truth).sum(2), -1, 1))).mean()
+        flat = np.degrees(np.arccos(np.clip(truth[..., 2], -1, 1))).mean()
+        assert err < 0.95 * flat, (name, err, flat)
+
+
+# ------------------------------------------------------------------ editing
+
+
+def test_height_edit_propagates_to_self_similar_pixels_of_its_channel():
+    y, x = np.mgrid[0:96, 0:96]
+    blobs = (((x % 24) - 12) ** 2 + ((y % 24) - 12) ** 2 < 20).astype(np.float32)
+    photo = np.repeat((0.3 + 0.5 * blobs)[..., None], 3, axis=2)
+    editor = HeightEditor(photo, np.zeros((96, 96), np.float32))
+    h = editor.edit(12, 12, 2.0, radius=3)
+    assert h[12, 12] == pytest.approx(2.0)
+    assert h[36, 60] > 1.5 and h[60, 84] > 1.5          # the centres of the other blobs
+    assert abs(h[0, 0]) < 1e-6 and abs(h[24, 6]) < 1e-6   # background, and a blob's edge
+    labels = (x >= 48).astype(np.int32)                    # two channels: left and right halves
+    editor = HeightEditor(photo, np.zeros((96, 96), np.float32), labels)
+    h = editor.edit(12, 12, 2.0, radius=3)
+    assert h[36, 36] > 1.5 and h[36, 60] == 0.0
+    # large neighbourhoods are compared on a coarser level: same behaviour
+    coarse = HeightEditor(photo, np.zeros((96, 96), np.float32)).edit(12, 12, 1.0, radius=12)
+    assert coarse[60, 84] > 0.25 and coarse[60, 84] > 3 * abs(coarse[0, 0])
+
+
+def test_edit_lists_replay_and_reject_bad_documents():
+    photo = np.random.default_rng(0).random((40, 40, 3)).astype(np.float32)
+    editor = HeightEditor(photo, np.zeros((40, 40), np.float32))
+    editor.edit(5, 6, 1.0)
+    editor.edit(30, 20, -0.5, radius=2)
+    doc = json.loads(json.dumps(edits_document(editor.edits)))
+    replay = HeightEditor(photo, np.zeros((40, 40), np.float32)).apply(parse_edits(doc))
+    assert np.array_equal(replay, editor.height)
+    for bad in ({"version": 1, "edits": []}, {"edits": [{"x": 1, "y": 1, "delta": 1}]},
+                {"version": 1, "edits": [{"x": 1, "delta": 1}]},
+                {"version": 1, "edits": [{"x": 1, "y": 1, "delta": "up"}]},
+                {"version": 1, "edits": [{"x": 1, "y": 1, "delta": 1, "colour": 3}]}, [1, 2]):
+        with pytest.raises(InvalidInputError):
+            parse_edits(bad)
+    with pytest.raises(InvalidInputError, match="outside"):
+        editor.edit(40, 3, 1.0)
+    with pytest.raises(InvalidInputError):
+        HeightEdit(1, 1, float("nan"))
+
+
+# ------------------------------------------------------------------ light and shading
+
+
+def test_light_is_recovered_and_shading_removed_on_a_rendered_surface():
+    rng = np.random.default_rng(3)
+    from scipy import ndimage as ndi
+
+    height = ndi.gaussian_filter(rng.normal(0, 1, (160, 160)), 3, mode="wrap")
+    height = (height / height.std() * 2.0).astype(np.float32)
+    paint = ndi.gaussian_filter(rng.normal(0, 1, (160, 160)), 6, mode="wrap")
+    albedo = (0.5 + 0.1 * paint / paint.std()).astype(np.float32)
+    truth = Light(135.0, 45.0)
+    photo = render_lambert(height, truth, albedo)
+    normals = normal_map(height, tile=True)
+    light = estimate_light(photo, normals)
+    assert abs((light.azimuth - 135 + 180) % 360 - 180) <= 15 and abs(light.elevation - 45) <= 15
+    shade = shading(normals, light).ravel()
+    albedo_est, strength = remove_shading(photo, normals, light)
+    lum = lambda img: img @ np.array([0.2126, 0.7152, 0.0722], np.float32)  # noqa: E731
+    before = np.corrcoef(lum(photo).ravel(), shade)[0, 1]
+    after = np.corrcoef(lum(albedo_est).ravel(), shade)[0, 1]
+    assert before > 0.8 and abs(after) < 0.5 * before and 0.5 < strength < 2
+    # the albedo it finds is the one painted
+    assert np.corrcoef(lum(albedo_est).ravel(), albedo.ravel())[0, 1] > 0.8
+
+
+def test_light_angles_are_checked():
+    assert parse_light("45, 30") == Light(45.0, 30.0)
+    for text in ("10,100", "10,0", "x,3", "1,2,3", "1000,20"):
+        with pytest.raises(InvalidInputError):
+            parse_light(text)
+
+
+# ------------------------------------------------------------------ sets, transfer, render, glb
+
+
+def test_material_set_of_a_photo(pine128, pine_set):
+    m = pine_set
+    assert m.color.shape == (128, 128, 3) and m.height.shape == m.ao.shape == m.roughness.shape == (128, 128)
+    assert m.normals.shape == (128, 128, 3) and np.allclose(np.linalg.norm(m.normals, axis=2), 1, atol=1e-5)
+    assert 0 <= m.ao.min() and m.ao.max() <= 1 and 0 <= m.roughness.min() and m.roughness.max() <= 1
+    assert m.depth > 0.5 and m.light is not None
+    # dark (low) places are more occluded than bright (high) ones
+    lum = pine128.astype(np.float32).mean(axis=2)
+    assert m.ao[lum < np.percentile(lum, 20)].mean() < m.ao[lum > np.percentile(lum, 80)].mean()
+    # same input and seed, same maps
+    again = make_material(pine128)
+    assert np.array_equal(again.height, m.height) and np.array_equal(again.color, m.color)
+    fixed = make_material(pine128, MaterialOptions(light=Light(90.0, 60.0)))
+    assert fixed.light == Light(90.0, 60.0)
+
+
+def test_displacement_round_trips_losslessly_in_16_bits(tmp_path, pine_set):
+    files = encode_material(pine_set, "bark", seed=3, source_photo="pine.png")
+    assert set(files) == SET_FILES
+    for name, data in files.items():
+        write_bytes_atomic(tmp_path / name, data)
+    written = read_image(tmp_path / "bark_Displacement.png")
+    assert written.dtype == np.uint16
+    assert np.array_equal(written[..., 0], pine_set.images("bark")["bark_Displacement.png"])
+    back, meta = read_material(tmp_path)
+    assert meta["seed"] == 3 and meta["size"] == [128, 128] and meta["source_photo"] == "pine.png"
+    assert np.abs(back.height - (pine_set.height - pine_set.height.min())).max() <= pine_set.depth / 65535
+    assert back.depth == pytest.approx(pine_set.depth, rel=1e-3)
+
+
+def test_transfer_follows_the_references_and_tiles(pine_set):
+    from barkgen.synth import synthesize
+
+    result = synthesize(pine_set.color, (96, 96), tile=True, seed=1)
+    out = transfer_material(pine_set, result.references, tile=True)
+    ry, rx = result.references[..., 0], result.references[..., 1]
+    assert np.array_equal(out.color, pine_set.color[ry, rx]) and np.array_equal(out.height, pine_set.height[ry, rx])
+    assert np.array_equal(out.roughness, pine_set.roughness[ry, rx])
+    # normals and AO are recomputed on the torus: they tile like the colour
+    shifted = transfer_material(pine_set, np.roll(result.references, 31, axis=1), tile=True)
+    assert np.allclose(shifted.normals, np.roll(out.normals, 31, axis=1), atol=1e-6)
+    assert np.allclose(shifted.ao, np.roll(out.ao, 31, axis=1), atol=1e-6)
+
+
+def test_trunk_render_is_lit_and_relieved(pine_set):
+    left = render_trunk(pine_set, (96, 192), TrunkView(light=Light(180.0, 30.0)))
+    assert left.shape == (96, 192, 3) and left.dtype == np.uint8
+    cols = np.arange(192)
+    trunk_left = left[:, (cols > 40) & (cols < 80)].mean()
+    trunk_right = left[:, (cols > 112) & (cols < 152)].mean()
+    assert trunk_left > 1.3 * trunk_right
+    flat = render_trunk(pine_set, (96, 192), TrunkView(displacement=0.0))
+    deep = render_trunk(pine_set, (96, 192), TrunkView(displacement=8.0))
+    edge = lambda img: (np.abs(img[:, :40].astype(int) - img[:, :1].astype(int)).sum(2) > 3).sum()  # noqa: E731
+    assert edge(deep) != edge(flat) and not np.array_equal(deep, flat)
+    assert np.array_equal(flat[0, 0], deep[0, 0]) and flat[0, 0].mean() < 0.6 * flat[:, 96].mean()
+    with pytest.raises(InvalidInputError):
+        TrunkView(repeat=0.0)
+    with pytest.raises(InvalidInputError):
+        render_trunk(pine_set, (8, 8))
+
+
+def test_glb_loads_back_with_its_textures(tmp_path, pine_set):
+    import pygltflib
+    import trimesh
+
+    mesh = trunk_mesh(pine_set, segments=64)
+    radii = np.hypot(mesh.vertices[:, 0], mesh.vertices[:, 2])
+    assert radii.max() - radii.min() > 1e-4              # the relief is in the geometry
+    path = tmp_path / "trunk.glb"
+    path.write_bytes(encode_glb(mesh, pine_set))
+    gltf = pygltflib.GLTF2().load(str(path))
+    material = gltf.materials[0]
+    pbr = material.pbrMetallicRoughness
+    assert pbr.baseColorTexture is not None and material.normalTexture is not None
+    assert material.occlusionTexture is not None and pbr.metallicRoughnessTexture is not None
+    assert len(gltf.images) >= 3
+    scene = trimesh.load(path)
+    geometry = next(iter(scene.geometry.values()))
+    assert len(geometry.vertices) == len(mesh.vertices)
+    assert geometry.visual.material.baseColorTexture.size == (128, 128)
+
+
+# ------------------------------------------------------------------ CLI
+
+
+@pytest.fixture(scope="module")
+def pine_png(tmp_path_factory, pine128) -> Path:
+    p = tmp_path_factory.mktemp("photo") / "pine.png"
+    write_png(p, pine128)
+    return p
+
+
+def test_cli_material_preview_and_glb(tmp_path, pine_png):
+    edits = tmp_path / "edits.json"
+    edits.write_text(json.dumps({"version": 1, "edits": [{"x": 10, "y": 12, "delta": 1.0, "radius": 3}]}))
+    r = run("material", str(pine_png), "-o", str(tmp_path / "set"), "--light", "120,50",
+            "--edits", str(edits), "--seed", "4", "--relief", "2")
+    assert r.returncode == 0, r.stderr
+    assert {p.name for p in (tmp_path / "set").iterdir()} == SET_FILES
+    meta = json.loads((tmp_path / "set" / "bark.json").read_text())
+    assert meta["size"] == [128, 128] and meta["seed"] == 4 and meta["edits"] == 1
+    assert meta["light"]["azimuth"] == 120 and meta["tileable"] is False and "barkgen_version" in meta
+    assert meta["displacement_depth_px"] > 0 and meta["source_photo"].endswith("pine.png")
+    gl = read_image(tmp_path / "set" / "bark_NormalGL.png")
+    dx = read_image(tmp_path / "set" / "bark_NormalDX.png")
+    assert np.array_equal(gl[..., [0, 2]], dx[..., [0, 2]]) and np.array_equal(255 - gl[..., 1], dx[..., 1])
+    r = run("preview", str(tmp_path / "set"), "-o", str(tmp_path / "p.png"), "--size", "160x120",
+            "--light", "90,40", "--repeat", "3")
+    assert r.returncode == 0, r.stderr
+    assert read_image(tmp_path / "p.png").shape == (120, 160, 3)
+    r = run("export-glb", str(tmp_path / "set"), "-o", str(tmp_path / "t.glb"), "--segments", "32")
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "t.glb").read_bytes()[:4] == b"glTF"
+
+
+def test_cli_generate_material_set_matches_the_texture(tmp_path, pine_png):
+    r = run("generate", str(pine_png), "-o", str(tmp_path / "out"), "--size", "96x80", "--tile",
+            "--material", "--name", "pine", "--quiet")
+    assert r.returncode == 0, r.stderr
+    out = tmp_path / "out"
+    for suffix in ("Color", "NormalGL", "NormalDX", "Displacement", "Roughness", "AmbientOcclusion"):
+        assert read_image(out / f"pine_{suffix}.png").shape[:2] == (80, 96)
+    meta = json.loads((out / "pine.json").read_text())
+    assert meta["tileable"] is True and meta["size"] == [96, 80]
+    report = json.loads((out / "report.json").read_text())
+    assert report["material"] is True and report["relief"] == 1.0 and len(report["light"]) == 2
+    assert "pine_NormalGL.png" in report["files"]
+
+
+@pytest.mark.parametrize("args, message", [
+    (["material", "{bad}", "-o", "{out}"], "not an image"),
+    (["material", "{photo}", "-o", "{out}", "--light", "30,100"], "elevation"),
+    (["material", "{photo}", "-o", "{out}", "--light", "north"], "AZ,EL"),
+    (["material", "{photo}", "-o", "{out}", "--edits", "{empty}"], "empty"),
+    (["material", "{photo}", "-o", "{out}", "--edits", "{outside}"], "outside"),
+    (["material", "{photo}", "-o", "{out}", "--name", "../x"], "--name"),
+    (["material", "{photo}", "-o", "{out}", "--relief", "0"], "relief"),
+    (["preview", "{mismatch}", "-o", "{out}/p.png"], "differ in size"),
+    (["preview", "{empty_dir}", "-o", "{out}/p.png"], "no material set"),
+    (["export-glb", "{mismatch}", "-o", "{out}/t.glb"], "differ in size"),
+])
+def test_cli_material_bad_input(tmp_path, pine_png, pine_set, args, message):
+    bad = tmp_path / "bad.png"
+    bad.write_bytes(b"not a png at all")
+    (tmp_path / "empty.json").write_text('{"version": 1, "edits": []}')
+    (tmp_path / "outside.json").write_text('{"version": 1, "edits": [{"x": 500, "y": 1, "delta": 1}]}')
+    mismatch = tmp_path / "mismatch"
+    files = encode_material(pine_set, "bark")
+    for name, data in files.items():
+        write_bytes_atomic(mismatch / name, data)
+    write_png(mismatch / "bark_Roughness.png", np.zeros((64, 64), np.uint8))
+    (tmp_path / "empty_dir").mkdir()
+    subs = {"bad": bad, "photo": pine_png, "out": tmp_path / "out", "empty": tmp_path / "empty.json",
+            "outside": tmp_path / "outside.json", "mismatch": mismatch, "empty_dir": tmp_path / "empty_dir"}
+    r = run(*[a.format(**{k: str(v) for k, v in subs.items()}) for a in args])
+    assert r.returncode == 2, r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0], r.stderr
+    assert not (tmp_path / "out").exists()
