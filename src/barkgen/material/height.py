@@ -28,8 +28,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
-from scipy import ndimage as ndi
 
 from barkgen.errors import InvalidInputError
 
@@ -74,22 +74,29 @@ def luminance(rgb: np.ndarray) -> np.ndarray:
     return rgb[..., :3] @ np.array([0.2126, 0.7152, 0.0722], np.float32)
 
 
+def blur(image: np.ndarray, sigma: float, *, tile: bool) -> np.ndarray:
+    """Gaussian blur (float32, OpenCV), mirrored at the borders or wrapping when ``tile``."""
+    image = np.asarray(image, np.float32)
+    if not tile:
+        return cv2.GaussianBlur(image, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
+    pad = int(np.ceil(4 * sigma)) + 1  # numpy wraps again when the pad exceeds the image
+    out = cv2.GaussianBlur(np.pad(image, pad, mode="wrap"), (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
+    return out[pad:pad + image.shape[0], pad:pad + image.shape[1]]
+
+
 def band(image: np.ndarray, scale: float, *, tile: bool) -> np.ndarray:
     """The band-pass octave of ``image`` around ``scale`` px: Gaussian(scale/2) - Gaussian(2 scale)."""
-    mode = "wrap" if tile else "reflect"
-    return (ndi.gaussian_filter(image, scale / 2, mode=mode)
-            - ndi.gaussian_filter(image, scale * 2, mode=mode))
+    return blur(image, scale / 2, tile=tile) - blur(image, scale * 2, tile=tile)
 
 
 def texture_energy(lum: np.ndarray, scale: float, *, tile: bool) -> np.ndarray:
     """Local mean (Gaussian, ``scale / 2``) of the gradient magnitude, in units of its std."""
-    mode = "wrap" if tile else "reflect"
     if tile:
         gx = (np.roll(lum, -1, 1) - np.roll(lum, 1, 1)) * 0.5
         gy = (np.roll(lum, -1, 0) - np.roll(lum, 1, 0)) * 0.5
     else:
         gy, gx = np.gradient(lum)
-    energy = ndi.gaussian_filter(np.hypot(gx, gy), scale / 2, mode=mode)
+    energy = blur(np.hypot(gx, gy), scale / 2, tile=tile)
     return (energy - energy.mean()) / max(float(energy.std()), 1e-9)
 
 
@@ -97,8 +104,8 @@ def height_features(photo: np.ndarray, label_map: np.ndarray | None, config: Hei
                     tile: bool) -> list[tuple[float, np.ndarray]]:
     """The weighted cues of :func:`estimate_height` as ``(weight, feature)`` pairs (each feature
     in units of its own std), so that fitting and estimating use one code path."""
-    lum = luminance(photo).astype(np.float64)
-    std = lum.std()
+    lum = luminance(photo).astype(np.float32)
+    std = float(lum.std())
     if std < 1e-6:
         return []
     lum = (lum - lum.mean()) / std
@@ -110,7 +117,7 @@ def height_features(photo: np.ndarray, label_map: np.ndarray | None, config: Hei
             raise InvalidInputError(f"label map is {codes.shape[1]}x{codes.shape[0]} px but the "
                                     f"photo is {lum.shape[1]}x{lum.shape[0]} px")
         rank = codes.astype(np.float64) / max(int(codes.max()), 1)
-        cue = ndi.gaussian_filter(rank, LABEL_BLUR, mode="wrap" if tile else "reflect")
+        cue = blur(rank, LABEL_BLUR, tile=tile)
         cues.append((config.label_weight, (cue - cue.mean()) / max(float(cue.std()), 1e-6)))
     return cues
 
