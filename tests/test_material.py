@@ -18,7 +18,6 @@ from barkgen.material import (
     HeightEditor,
     Light,
     MaterialOptions,
-    MaterialSet,
     ambient_occlusion,
     decode_normals,
     edits_document,
@@ -111,6 +110,9 @@ def test_height_puts_dark_fissures_low_and_wraps_when_tiled():
     assert np.allclose(estimate_height(np.roll(photo, 40, 1), tile=True),
                        np.roll(estimate_height(photo, tile=True), 40, 1), atol=1e-4)
     assert not estimate_height(np.full((32, 32, 3), 0.5, np.float32)).any()
+    # one-pixel-high strips have a height and normals too
+    strip = estimate_height(photo[:1].astype(np.float32))
+    assert strip.shape == (1, 128) and normal_map(strip).shape == (1, 128, 3)
 
 
 def test_estimated_normals_beat_flat_on_scanned_bark():
@@ -237,7 +239,7 @@ def test_displacement_round_trips_losslessly_in_16_bits(tmp_path, pine_set):
     assert np.array_equal(written[..., 0], pine_set.images("bark")["bark_Displacement.png"])
     back, meta = read_material(tmp_path)
     assert meta["seed"] == 3 and meta["size"] == [128, 128] and meta["source_photo"] == "pine.png"
-    assert np.abs(back.height - (pine_set.height - pine_set.height.min())).max() <= pine_set.depth / 65535
+    assert np.abs(back.height - pine_set.height).max() <= pine_set.depth / 65535 + 1e-5
     assert back.depth == pytest.approx(pine_set.depth, rel=1e-3)
 
 
@@ -280,6 +282,9 @@ def test_glb_loads_back_with_its_textures(tmp_path, pine_set):
     mesh = trunk_mesh(pine_set, segments=64)
     radii = np.hypot(mesh.vertices[:, 0], mesh.vertices[:, 2])
     assert radii.max() - radii.min() > 1e-4              # the relief is in the geometry
+    # a repeat that is not whole still closes the seam: its two vertex copies coincide
+    odd = trunk_mesh(pine_set, segments=64, view=TrunkView(repeat=2.5)).vertices.reshape(65, 65, 3)
+    assert np.allclose(odd[:, 0], odd[:, -1], atol=1e-6)
     path = tmp_path / "trunk.glb"
     path.write_bytes(encode_glb(mesh, pine_set))
     gltf = pygltflib.GLTF2().load(str(path))
@@ -287,7 +292,7 @@ def test_glb_loads_back_with_its_textures(tmp_path, pine_set):
     pbr = material.pbrMetallicRoughness
     assert pbr.baseColorTexture is not None and material.normalTexture is not None
     assert material.occlusionTexture is not None and pbr.metallicRoughnessTexture is not None
-    assert len(gltf.images) >= 3
+    assert len(gltf.images) >= 3 and gltf.meshes[0].primitives[0].attributes.NORMAL is not None
     scene = trimesh.load(path)
     geometry = next(iter(scene.geometry.values()))
     assert len(geometry.vertices) == len(mesh.vertices)
@@ -349,6 +354,10 @@ def test_cli_generate_material_set_matches_the_texture(tmp_path, pine_png):
     (["material", "{photo}", "-o", "{out}", "--edits", "{outside}"], "outside"),
     (["material", "{photo}", "-o", "{out}", "--name", "../x"], "--name"),
     (["material", "{photo}", "-o", "{out}", "--relief", "0"], "relief"),
+    (["generate", "{photo}", "-o", "{out}", "--material", "--name", "report"], "--name"),
+    (["generate", "{photo}", "-o", "{out}", "--light", "10,40"], "--material"),
+    (["material", "{photo}", "-o", "{out}", "--edits", "{floaty}"], "integers"),
+    (["preview", "{badjson}", "-o", "{out}/p.png"], "finite number"),
     (["preview", "{mismatch}", "-o", "{out}/p.png"], "differ in size"),
     (["preview", "{empty_dir}", "-o", "{out}/p.png"], "no material set"),
     (["export-glb", "{mismatch}", "-o", "{out}/t.glb"], "differ in size"),
@@ -364,8 +373,16 @@ def test_cli_material_bad_input(tmp_path, pine_png, pine_set, args, message):
         write_bytes_atomic(mismatch / name, data)
     write_png(mismatch / "bark_Roughness.png", np.zeros((64, 64), np.uint8))
     (tmp_path / "empty_dir").mkdir()
+    (tmp_path / "floaty.json").write_text('{"version": 1, "edits": [{"x": 2.5, "y": 1, "delta": 1}]}')
+    badjson = tmp_path / "badjson"
+    for name, data in files.items():
+        write_bytes_atomic(badjson / name, data)
+    meta = json.loads((badjson / "bark.json").read_text())
+    meta["displacement_depth_px"] = "deep"
+    (badjson / "bark.json").write_text(json.dumps(meta))
     subs = {"bad": bad, "photo": pine_png, "out": tmp_path / "out", "empty": tmp_path / "empty.json",
-            "outside": tmp_path / "outside.json", "mismatch": mismatch, "empty_dir": tmp_path / "empty_dir"}
+            "outside": tmp_path / "outside.json", "mismatch": mismatch, "empty_dir": tmp_path / "empty_dir",
+            "floaty": tmp_path / "floaty.json", "badjson": badjson}
     r = run(*[a.format(**{k: str(v) for k, v in subs.items()}) for a in args])
     assert r.returncode == 2, r.stderr
     lines = r.stderr.strip().splitlines()

@@ -152,7 +152,7 @@ NameOption = Annotated[str, typer.Option(
     "--name", help="Material set name: files NAME_Color.png, NAME_NormalGL.png, ..., NAME.json.")]
 ReliefOption = Annotated[float, typer.Option(
     "--relief", help="Relief strength of the estimated height (1 = as fitted on scanned bark; "
-    "2 doubles the depth of height, normals and AO).")]
+    "2 doubles its depth and its slopes; normals and AO follow).")]
 LightOption = Annotated[Optional[str], typer.Option(
     "--light", help="The photo's light AZ,EL in degrees (azimuth counter-clockwise from the "
     "right, elevation above the surface) for shading removal. Default: estimated.")]
@@ -507,6 +507,10 @@ def generate_command(
         raise InvalidInputError(f"--bits must be 8 or 16, not {bits}")
     _check_folder(output_dir, "output")
     _check_material_name(name)
+    if not material and (light is not None or relief != 1.0):
+        raise InvalidInputError("--light and --relief apply to the material set: add --material")
+    if material and name in {"texture", "labels_in", "labels_out", "reference", "preview", "report"}:
+        raise InvalidInputError(f"--name {name!r} would overwrite one of generate's own files; pick another")
     if save_levels is not None:
         _check_folder(save_levels, "--save-levels")
     options = GenerateOptions(size=parse_size(size), k=k, method=method, strategy=strategy,
@@ -538,7 +542,7 @@ def generate_command(
         from barkgen.io import encode_material
 
         material_files = encode_material(result.material, name, seed=seed, source_photo=str(src))
-        clash = sorted(set(material_files) & set(files))
+        clash = sorted(set(material_files) & (set(files) | {"report.json"}))
         if clash:
             raise InvalidInputError(f"--name {name!r} makes {clash[0]}, which is taken; pick another")
         files.update(material_files)

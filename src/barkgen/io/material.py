@@ -47,14 +47,18 @@ def find_material(folder: str | os.PathLike) -> tuple[str, dict]:
     folder = Path(folder)
     if not folder.is_dir():
         raise ImageReadError(f"{folder}: not a folder")
-    found = []
+    found, unreadable = [], []
     for path in sorted(folder.glob("*.json")):
         try:
-            meta = json.loads(path.read_text())
+            meta = json.loads(path.read_text(encoding="utf-8"))
         except (OSError, ValueError):
+            if (folder / f"{path.stem}_Color.png").exists():
+                unreadable.append(path.name)
             continue
         if isinstance(meta, dict) and "displacement_depth_px" in meta and "size" in meta:
             found.append((path.stem, meta))
+    if not found and unreadable:
+        raise ImageReadError(f"{folder}/{unreadable[0]}: unreadable material record (not UTF-8 JSON)")
     if not found:
         raise ImageReadError(f"{folder}: no material set (NAME.json with NAME_Color.png ...) found; "
                              "make one with `barkgen material` or `barkgen generate --material`")
@@ -64,14 +68,33 @@ def find_material(folder: str | os.PathLike) -> tuple[str, dict]:
     return found[0]
 
 
+def _unit(image: np.ndarray) -> np.ndarray:
+    return image.astype(np.float32) / (65535.0 if image.dtype == np.uint16 else 255.0)
+
+
+def _record_number(meta: dict, key: str, where: str, default: float | None = None) -> float:
+    value = meta.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+        raise InvalidInputError(f"{where}: {key!r} must be a finite number, not {value!r}")
+    return float(value)
+
+
 def read_material(folder: str | os.PathLike):
     """A :class:`~barkgen.material.MaterialSet` read back from a set folder, and its metadata."""
     from barkgen.material import MaterialSet, decode_normals
 
     folder = Path(folder)
     name, meta = find_material(folder)
+    where = f"{folder}/{name}.json"
+    depth = _record_number(meta, "displacement_depth_px", where)
+    midlevel = _record_number(meta, "displacement_midlevel", where, 0.5)
+    if depth < 0 or not 0 <= midlevel <= 1:
+        raise InvalidInputError(f"{where}: displacement depth must be >= 0 and midlevel in [0, 1]")
+    tileable = meta.get("tileable", False)
+    if not isinstance(tileable, bool):
+        raise InvalidInputError(f"{where}: 'tileable' must be true or false, not {tileable!r}")
     maps = {suffix: read_image(folder / f"{name}_{suffix}.png")
-            for suffix in ("Color", "NormalGL", "Displacement", "Roughness", "AmbientOcclusion")}
+            for suffix in MAP_SUFFIXES if suffix != "NormalDX"}
     shapes = {s: m.shape[:2] for s, m in maps.items()}
     if len(set(shapes.values())) != 1:
         listing = ", ".join(f"{s} {v[1]}x{v[0]}" for s, v in shapes.items())
@@ -79,17 +102,15 @@ def read_material(folder: str | os.PathLike):
     disp = maps["Displacement"]
     if disp.dtype != np.uint16:
         raise InvalidInputError(f"{folder}/{name}_Displacement.png must be a 16-bit grey PNG")
-    disp = (disp[..., 0] if disp.ndim == 3 else disp).astype(np.float32) / 65535.0
-    depth = float(meta.get("displacement_depth_px", 0.0))
-    grey = {s: (m[..., 0] if m.ndim == 3 else m).astype(np.float32) / 255.0
-            for s, m in maps.items() if s in ("Roughness", "AmbientOcclusion")}
+    if maps["NormalGL"].shape[2] < 3:
+        raise InvalidInputError(f"{folder}/{name}_NormalGL.png must be an RGB normal map")
     color = maps["Color"]
-    if color.ndim == 2:
-        color = np.repeat(color[..., None], 3, axis=2)
+    if color.shape[2] == 1:
+        color = np.repeat(color, 3, axis=2)
     material = MaterialSet(
-        color=color[..., :3].astype(np.float32) / (65535.0 if color.dtype == np.uint16 else 255.0),
-        height=disp * depth, normals=decode_normals(maps["NormalGL"]),
-        ao=grey["AmbientOcclusion"], roughness=grey["Roughness"], tile=bool(meta.get("tileable")))
+        color=_unit(color[..., :3]), height=(_unit(disp[..., 0]) - midlevel) * depth,
+        normals=decode_normals(maps["NormalGL"]), ao=_unit(maps["AmbientOcclusion"][..., 0]),
+        roughness=_unit(maps["Roughness"][..., 0]), tile=tileable)
     return material, meta
 
 
@@ -118,4 +139,4 @@ def encode_glb(mesh, material) -> bytes:
     uv = np.column_stack([mesh.uv[:, 0], 1.0 - mesh.uv[:, 1]])
     tm = trimesh.Trimesh(vertices=mesh.vertices, faces=mesh.faces,
                          visual=trimesh.visual.TextureVisuals(uv=uv, material=pbr), process=False)
-    return bytes(tm.export(file_type="glb"))
+    return bytes(tm.export(file_type="glb", include_normals=True))

@@ -52,7 +52,8 @@ class HeightEdit:
 
 def parse_edits(document: object) -> list[HeightEdit]:
     """The edits of a JSON document (see module), validated; errors are one line."""
-    if not isinstance(document, Mapping) or document.get("version") != EDITS_VERSION:
+    version = document.get("version") if isinstance(document, Mapping) else None
+    if type(version) is not int or version != EDITS_VERSION:
         raise InvalidInputError(f'an edit list must be a JSON object with "version": {EDITS_VERSION}')
     unknown = set(document) - {"version", "edits"}
     if unknown:
@@ -67,12 +68,16 @@ def parse_edits(document: object) -> list[HeightEdit]:
         extra = set(item) - {"x", "y", "delta", "radius", "threshold"}
         if extra:
             raise InvalidInputError(f"edit {i}: unknown key(s) {', '.join(sorted(extra))}")
+        ints = [item[k] for k in ("x", "y", "radius") if k in item]
+        numbers = [item[k] for k in ("delta", "threshold") if k in item]
+        if not all(isinstance(v, int) and not isinstance(v, bool) for v in ints) or not all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) for v in numbers):
+            raise InvalidInputError(f"edit {i}: x, y, radius must be integers and delta, threshold numbers")
+        if max(abs(v) for v in ints) > 2**31:
+            raise InvalidInputError(f"edit {i}: coordinates out of range")
         try:
-            edits.append(HeightEdit(int(item["x"]), int(item["y"]), float(item["delta"]),
-                                    int(item.get("radius", 4)),
+            edits.append(HeightEdit(item["x"], item["y"], float(item["delta"]), item.get("radius", 4),
                                     float(item.get("threshold", DEFAULT_THRESHOLD))))
-        except (TypeError, ValueError):
-            raise InvalidInputError(f"edit {i}: x, y, radius must be integers and delta a number") from None
         except InvalidInputError as exc:
             raise InvalidInputError(f"edit {i}: {exc}") from None
     return edits
@@ -97,10 +102,11 @@ class HeightEditor:
 
     ``HeightEditor(photo, height, label_map)`` keeps a copy of ``height`` (pixels);
     :meth:`edit` changes it and records the edit, :attr:`edits` replays anywhere
-    (:func:`edits_document`).
+    (:func:`edits_document`). ``tile``: the photo wraps, so do neighbourhoods.
     """
 
-    def __init__(self, photo: np.ndarray, height: np.ndarray, label_map: np.ndarray | None = None):
+    def __init__(self, photo: np.ndarray, height: np.ndarray, label_map: np.ndarray | None = None,
+                 *, tile: bool = False):
         lum = luminance(photo).astype(np.float32)
         if lum.shape != np.asarray(height).shape:
             raise InvalidInputError("the height map and the photo sizes differ")
@@ -110,6 +116,7 @@ class HeightEditor:
         self._lum = (lum - lum.mean()) / std
         self.height = np.array(height, np.float32, copy=True)
         self.label_map = None if label_map is None else np.asarray(label_map)
+        self.tile = bool(tile)
         self.edits: list[HeightEdit] = []
 
     @property
@@ -130,7 +137,7 @@ class HeightEditor:
         offsets = _disc_offsets(max(1, radius // factor))
         ly, lx = min(y // factor, lum.shape[0] - 1), min(x // factor, lum.shape[1] - 1)
         pad = int(np.abs(offsets).max())
-        padded = np.pad(lum, pad, mode="reflect")
+        padded = np.pad(lum, pad, mode="wrap" if self.tile else "reflect")
         ref = padded[ly + pad + offsets[:, 0], lx + pad + offsets[:, 1]]
         dist = np.zeros(lum.shape, np.float32)
         for (dy, dx), v in zip(offsets, ref):

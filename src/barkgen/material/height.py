@@ -89,13 +89,24 @@ def band(image: np.ndarray, scale: float, *, tile: bool) -> np.ndarray:
     return blur(image, scale / 2, tile=tile) - blur(image, scale * 2, tile=tile)
 
 
+def gradient(image: np.ndarray, *, tile: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Central differences ``(d/dx, d/drow)`` float32: wrapping when ``tile``, else one-sided at
+    the borders; zero along an axis one pixel long."""
+    img = np.asarray(image, np.float32)
+    grads = []
+    for axis in (1, 0):
+        if img.shape[axis] < 2:
+            grads.append(np.zeros_like(img))
+        elif tile:
+            grads.append((np.roll(img, -1, axis) - np.roll(img, 1, axis)) * np.float32(0.5))
+        else:
+            grads.append(np.gradient(img, axis=axis).astype(np.float32))
+    return grads[0], grads[1]
+
+
 def texture_energy(lum: np.ndarray, scale: float, *, tile: bool) -> np.ndarray:
     """Local mean (Gaussian, ``scale / 2``) of the gradient magnitude, in units of its std."""
-    if tile:
-        gx = (np.roll(lum, -1, 1) - np.roll(lum, 1, 1)) * 0.5
-        gy = (np.roll(lum, -1, 0) - np.roll(lum, 1, 0)) * 0.5
-    else:
-        gy, gx = np.gradient(lum)
+    gx, gy = gradient(lum, tile=tile)
     energy = blur(np.hypot(gx, gy), scale / 2, tile=tile)
     return (energy - energy.mean()) / max(float(energy.std()), 1e-9)
 

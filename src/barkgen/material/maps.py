@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from barkgen.material._kernels import horizon_occlusion
+from barkgen.material.height import gradient
 
 #: directions and reach (px) of the horizon-based ambient occlusion
 AO_DIRECTIONS = 8
@@ -21,21 +22,10 @@ ROUGHNESS_CAVITY = 0.6
 ROUGHNESS_RIDGE = 0.05
 
 
-def _gradient(height: np.ndarray, tile: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Central differences ``(d/dx, d/drow)``; one-sided at the borders unless ``tile``."""
-    h = np.asarray(height, np.float32)
-    if tile:
-        gx = (np.roll(h, -1, 1) - np.roll(h, 1, 1)) * 0.5
-        gy = (np.roll(h, -1, 0) - np.roll(h, 1, 0)) * 0.5
-        return gx, gy
-    gy, gx = np.gradient(h)
-    return gx.astype(np.float32), gy.astype(np.float32)
-
-
 def normal_map(height: np.ndarray, *, strength: float = 1.0, tile: bool = False) -> np.ndarray:
     """Unit normals ``(h, w, 3)`` float32 of a height field (pixels), OpenGL convention (+Y up:
     green is high where the surface faces the top of the image)."""
-    gx, gy = _gradient(height, tile)
+    gx, gy = gradient(height, tile=tile)
     normals = np.empty(gx.shape + (3,), np.float32)
     normals[..., 0] = -strength * gx
     normals[..., 1] = strength * gy  # rows run down, +Y runs up

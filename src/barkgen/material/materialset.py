@@ -2,7 +2,8 @@
 
 Photo (:func:`make_material`): label map -> estimated height (:mod:`.height`), replayed edits
 (:mod:`.editor`) -> normals, AO, roughness (:mod:`.maps`) -> light matched to the photo and
-albedo ``I / max(N·L, floor)`` (:mod:`.shading`).
+albedo ``I / max(N·L, floor) ** g`` relative to its geometric mean, ``g`` fitted
+(:mod:`.shading`).
 
 Synthesized texture (:func:`transfer_material`): the photo's albedo, height and roughness are
 carried to the output through the synthesis's reference map — the same exemplar pixel for
@@ -103,9 +104,9 @@ class MaterialSet:
         meta = {
             "size": [int(self.shape[1]), int(self.shape[0])],
             "tileable": bool(self.tile),
-            "displacement_depth_px": round(self.depth, 4),
+            "displacement_depth_px": round(self.depth, 6),
             "displacement_depth": round(self.depth / self.shape[1], 6),
-            "displacement_midlevel": round(float(-self.height.min() / self.depth) if self.depth else 0.5, 4),
+            "displacement_midlevel": round(float(-self.height.min() / self.depth) if self.depth else 0.5, 8),
             "normal_convention": {"NormalGL": "OpenGL (+Y up, glTF)", "NormalDX": "DirectX (+Y down)"},
             "light": None if self.light is None else {
                 "azimuth": self.light.azimuth, "elevation": self.light.elevation,
@@ -148,7 +149,7 @@ def make_material(photo: np.ndarray, options: MaterialOptions | None = None, *,
     height = estimate_height(rgb, label_map, config=config, tile=options.tile)
     edits = list(edits)
     if edits:
-        editor = HeightEditor(rgb, height, label_map)
+        editor = HeightEditor(rgb, height, label_map, tile=options.tile)
         height = editor.apply(edits)
     normals, ao = derived_maps(height, tile=options.tile, ao_radius=options.ao_radius)
     light = options.light or estimate_light(rgb, normals)

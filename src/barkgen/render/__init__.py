@@ -3,7 +3,7 @@
 
 No GPU, no display: :func:`render_trunk` rasterizes a displaced cylinder row by row in numba;
 :func:`trunk_mesh` builds the displaced cylinder as vertices, faces and UVs, which
-:func:`barkgen.io.write_glb` writes as glTF 2.0 with its textures.
+:func:`barkgen.io.encode_glb` encodes as glTF 2.0 with its textures.
 """
 
 from __future__ import annotations
@@ -21,6 +21,9 @@ from barkgen.render._kernels import render_rows
 DEFAULT_LIGHT = Light(135.0, 35.0)
 #: share of ambient (sky) light, scaled by AO
 AMBIENT = 0.3
+#: limits that keep a preview under ~1 GB and a mesh under ~4 M vertices
+MAX_PREVIEW = 8192
+MAX_SEGMENTS = 2048
 BACKGROUND = np.array([0.010, 0.011, 0.013], np.float32)
 
 
@@ -61,8 +64,8 @@ def render_trunk(material: MaterialSet, size: tuple[int, int] = (1024, 1024),
     returns uint8 sRGB ``(height, width, 3)``."""
     view = view or TrunkView()
     out_h, out_w = (int(s) for s in size)
-    if not (16 <= out_h <= 16384 and 16 <= out_w <= 16384):
-        raise InvalidInputError(f"preview size must be 16..16384 px a side, not {out_w}x{out_h}")
+    if not (16 <= out_h <= MAX_PREVIEW and 16 <= out_w <= MAX_PREVIEW):
+        raise InvalidInputError(f"preview size must be 16..{MAX_PREVIEW} px a side, not {out_w}x{out_h}")
     radius = view.radius * out_w
     tex_w = material.shape[1]
     texel = 2 * np.pi * radius / view.repeat / tex_w  # screen px per texel
@@ -88,10 +91,11 @@ def trunk_mesh(material: MaterialSet, *, segments: int = 256, radius_m: float = 
                view: TrunkView | None = None) -> TrunkMesh:
     """The trunk as a mesh whose vertices carry the relief (displacement baked into the
     geometry; the normal map adds the detail between vertices). ``segments`` around; rings
-    along keep square cells; the trunk is as tall as its circumference."""
+    along keep square cells; the trunk is as tall as its circumference. Of ``view`` only
+    ``repeat`` and ``displacement`` apply (a mesh has no light, and its radius is ``radius_m``)."""
     view = view or TrunkView()
-    if not 8 <= segments <= 4096:
-        raise InvalidInputError(f"segments must be 8..4096, not {segments}")
+    if not 8 <= segments <= MAX_SEGMENTS:
+        raise InvalidInputError(f"segments must be 8..{MAX_SEGMENTS}, not {segments}")
     rings = segments
     tex_h, tex_w = material.shape
     circumference = 2 * np.pi * radius_m
@@ -105,6 +109,7 @@ def trunk_mesh(material: MaterialSet, *, segments: int = 256, radius_m: float = 
     v = i / rings * view.repeat * tex_w / tex_h          # and keeps its aspect along it
     ty = np.floor((v * tex_h) % tex_h).astype(int)
     tx = np.floor((u * tex_w) % tex_w).astype(int)
+    tx[-1] = tx[0]  # the seam's two copies of a vertex take the same relief: no crack
     r = radius_m + (disp[ty[:, None], tx[None, :]] - midlevel) * amplitude
     theta = j / segments * 2 * np.pi
     x = r * np.sin(theta)[None, :]
