@@ -116,3 +116,15 @@ def test_written_files_get_the_usual_permissions(tmp_path, rgb8):
     finally:
         os.umask(old)
     assert (tmp_path / "a.png").stat().st_mode & 0o777 == 0o644
+
+
+def test_write_files_atomic_leaves_the_old_set_on_failure(tmp_path):
+    from barkgen.io import write_files_atomic
+
+    write_files_atomic(tmp_path, {"a.png": b"old a", "b.png": b"old b"})
+    with pytest.raises(TypeError):
+        write_files_atomic(tmp_path, {"a.png": b"new a", "b.png": b"new b", "c.png": None})
+    assert (tmp_path / "a.png").read_bytes() == b"old a" and (tmp_path / "b.png").read_bytes() == b"old b"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.png", "b.png"]
+    write_files_atomic(tmp_path, {"a.png": b"new a", "b.png": b"new b"})
+    assert (tmp_path / "a.png").read_bytes() == b"new a"

@@ -392,13 +392,11 @@ def _level_files(levels: list) -> dict[str, bytes]:
 
 
 def _write_files(folder: Path, files: dict[str, bytes]) -> None:
-    """Write encoded files into ``folder``, each atomically (all are encoded before any is
-    written, so a failure leaves nothing half-done)."""
-    from barkgen.io import write_bytes_atomic
+    """Write encoded files into ``folder`` as one step (:func:`barkgen.io.write_files_atomic`:
+    all are encoded before any is written, all staged before any is renamed into place)."""
+    from barkgen.io import write_files_atomic
 
-    folder.mkdir(parents=True, exist_ok=True)
-    for name, data in files.items():
-        write_bytes_atomic(folder / name, data)
+    write_files_atomic(folder, files)
 
 
 StrategyOption = Annotated[str, typer.Option(

@@ -7,6 +7,7 @@ from barkgen.io.images import (
     read_png_text,
     to_bits,
     write_bytes_atomic,
+    write_files_atomic,
     write_png,
 )
 from barkgen.io.material import MAP_SUFFIXES, check_material_name, encode_glb, encode_material, find_material, read_material
@@ -27,6 +28,7 @@ __all__ = [
     "read_reference",
     "to_bits",
     "write_bytes_atomic",
+    "write_files_atomic",
     "write_png",
     "write_reference",
 ]
