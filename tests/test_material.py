@@ -48,7 +48,7 @@ def bumps(n: int = 96, period: int = 16) -> np.ndarray:
 
 def render_lambert(height: np.ndarray, light: Light, albedo: np.ndarray) -> np.ndarray:
     """A photo of a height field under one light: sRGB of albedo * N·L (linear)."""
-    from barkgen.material.shading import linear_to_srgb
+    from barkgen.color import linear_to_srgb
 
     shade = np.clip(shading(normal_map(height, tile=True), light), 0.05, 1)
     return linear_to_srgb(albedo[..., None] * shade[..., None] * np.ones(3, np.float32))

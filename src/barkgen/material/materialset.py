@@ -24,6 +24,7 @@ from barkgen.material.editor import HeightEdit, HeightEditor
 from barkgen.material.height import HeightConfig, estimate_height
 from barkgen.material.maps import AO_RADIUS, ambient_occlusion, encode_normals, flip_green, normal_map, roughness_map
 from barkgen.material.shading import Light, estimate_light, remove_shading
+from barkgen.synth.solver import as_uint8
 
 
 @dataclass(frozen=True)
@@ -78,6 +79,11 @@ class MaterialSet:
         """Displacement depth scale: the height range in pixels (0 -> 1 in the 16-bit map)."""
         return float(self.height.max() - self.height.min())
 
+    @property
+    def midlevel(self) -> float:
+        """Where height 0 lies in the normalised displacement (0 = deepest, 1 = highest)."""
+        return float(-self.height.min() / self.depth) if self.depth > 0 else 0.5
+
     def displacement(self) -> np.ndarray:
         """Height normalised to [0, 1] (0 = deepest), float64."""
         h = self.height.astype(np.float64)
@@ -89,12 +95,12 @@ class MaterialSet:
         16-bit displacement, 8-bit linear roughness and AO."""
         gl = encode_normals(self.normals)
         return {
-            f"{name}_Color.png": _to_uint8(self.color),
+            f"{name}_Color.png": as_uint8(self.color),
             f"{name}_NormalGL.png": gl,
             f"{name}_NormalDX.png": flip_green(gl),
             f"{name}_Displacement.png": np.round(self.displacement() * 65535).astype(np.uint16),
-            f"{name}_Roughness.png": _to_uint8(self.roughness),
-            f"{name}_AmbientOcclusion.png": _to_uint8(self.ao),
+            f"{name}_Roughness.png": as_uint8(self.roughness),
+            f"{name}_AmbientOcclusion.png": as_uint8(self.ao),
         }
 
     def metadata(self, **extra) -> dict:
@@ -106,7 +112,7 @@ class MaterialSet:
             "tileable": bool(self.tile),
             "displacement_depth_px": round(self.depth, 6),
             "displacement_depth": round(self.depth / self.shape[1], 6),
-            "displacement_midlevel": round(float(-self.height.min() / self.depth) if self.depth else 0.5, 8),
+            "displacement_midlevel": round(self.midlevel, 8),
             "normal_convention": {"NormalGL": "OpenGL (+Y up, glTF)", "NormalDX": "DirectX (+Y down)"},
             "light": None if self.light is None else {
                 "azimuth": self.light.azimuth, "elevation": self.light.elevation,
@@ -116,10 +122,6 @@ class MaterialSet:
         }
         meta.update(extra)
         return meta
-
-
-def _to_uint8(image: np.ndarray) -> np.ndarray:
-    return np.floor(np.clip(np.asarray(image, np.float32), 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
 
 
 def derived_maps(height: np.ndarray, *, tile: bool, ao_radius: int = AO_RADIUS) -> tuple[np.ndarray, np.ndarray]:

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from barkgen.color import linear_to_srgb, srgb_to_linear
 from barkgen.errors import InvalidInputError
 from barkgen.material.height import luminance
 
@@ -98,16 +99,6 @@ def estimate_light(photo: np.ndarray, normals: np.ndarray) -> Light:
 def shading(normals: np.ndarray, light: Light) -> np.ndarray:
     """Lambertian ``N·L`` ``(h, w)`` float32 of unit normals (OpenGL convention)."""
     return np.tensordot(np.asarray(normals, np.float32), light.vector, axes=([2], [0])).astype(np.float32)
-
-
-def srgb_to_linear(c: np.ndarray) -> np.ndarray:
-    c = np.asarray(c, np.float32)
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4).astype(np.float32)
-
-
-def linear_to_srgb(c: np.ndarray) -> np.ndarray:
-    c = np.clip(np.asarray(c, np.float32), 0.0, 1.0)
-    return np.where(c <= 0.0031308, c * 12.92, 1.055 * c ** (1 / 2.4) - 0.055).astype(np.float32)
 
 
 def _divide(linear: np.ndarray, log_shade: np.ndarray, strength: float) -> np.ndarray:

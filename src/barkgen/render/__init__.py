@@ -14,7 +14,8 @@ import numpy as np
 
 from barkgen.errors import InvalidInputError
 from barkgen.material.materialset import MaterialSet
-from barkgen.material.shading import Light, linear_to_srgb, srgb_to_linear
+from barkgen.color import linear_to_srgb, srgb_to_linear
+from barkgen.material.shading import Light
 from barkgen.render._kernels import render_rows
 
 #: a light from the upper left, in front: shows relief without flattening it
@@ -70,8 +71,7 @@ def render_trunk(material: MaterialSet, size: tuple[int, int] = (1024, 1024),
     tex_w = material.shape[1]
     texel = 2 * np.pi * radius / view.repeat / tex_w  # screen px per texel
     amplitude = material.depth * texel * view.displacement
-    midlevel = float(-material.height.min() / material.depth) if material.depth > 0 else 0.5
-    linear = render_rows(_stack_maps(material), out_h, out_w, radius, texel, amplitude, midlevel,
+    linear = render_rows(_stack_maps(material), out_h, out_w, radius, texel, amplitude, material.midlevel,
                          view.light.vector.astype(np.float64), AMBIENT, BACKGROUND)
     return np.floor(linear_to_srgb(linear) * 255 + 0.5).astype(np.uint8)
 
@@ -101,7 +101,6 @@ def trunk_mesh(material: MaterialSet, *, segments: int = 256, radius_m: float = 
     circumference = 2 * np.pi * radius_m
     metres_per_texel = circumference / view.repeat / tex_w
     disp = material.displacement()
-    midlevel = float(-material.height.min() / material.depth) if material.depth > 0 else 0.5
     amplitude = material.depth * metres_per_texel * view.displacement
     j = np.arange(segments + 1)
     i = np.arange(rings + 1)
@@ -110,7 +109,7 @@ def trunk_mesh(material: MaterialSet, *, segments: int = 256, radius_m: float = 
     ty = np.floor((v * tex_h) % tex_h).astype(int)
     tx = np.floor((u * tex_w) % tex_w).astype(int)
     tx[-1] = tx[0]  # the seam's two copies of a vertex take the same relief: no crack
-    r = radius_m + (disp[ty[:, None], tx[None, :]] - midlevel) * amplitude
+    r = radius_m + (disp[ty[:, None], tx[None, :]] - material.midlevel) * amplitude
     theta = j / segments * 2 * np.pi
     x = r * np.sin(theta)[None, :]
     z = r * np.cos(theta)[None, :]
