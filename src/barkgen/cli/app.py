@@ -700,6 +700,139 @@ def apply_reference_command(
     write_png(output, apply_references(refs, image), bits=bits)
 
 
+bilayer_app = typer.Typer(
+    name="bilayer", no_args_is_help=True, add_completion=False, pretty_exceptions_enable=False,
+    rich_markup_mode=None,
+    help="Bi-layer textures (guingo2017): structure + spatially varying noise, synthesized "
+    "window by window without bounds.")
+app.add_typer(bilayer_app, name="bilayer")
+
+TlocOption = Annotated[int, typer.Option(
+    "--tloc", help="Local spectrum window: 2, 4, 8 or 16 px (larger: more goes into the noise; "
+    "see `barkgen bilayer tune`).")]
+NoisesOption = Annotated[int, typer.Option("--k", help="Number of stationary noises (clusters), 1-8.")]
+
+
+def parse_pair(text: str, what: str, kind=float) -> tuple:
+    """``"A,B"`` -> ``(A, B)``; raises :class:`InvalidInputError` with a clear message."""
+    parts = (text or "").split(",")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        return kind(parts[0]), kind(parts[1])
+    except ValueError:
+        raise InvalidInputError(f"invalid {what} {text!r}: expected two numbers A,B") from None
+
+
+def _analysis_options(k: int, tloc: int, masks: str, equalize: bool, border: int, seed: int):
+    from barkgen.bilayer import AnalysisOptions
+
+    return AnalysisOptions(k=k, tloc=tloc, masks=masks, equalize=equalize, border=border, seed=seed)
+
+
+@bilayer_app.command("analyze")
+@user_errors
+def bilayer_analyze_command(
+    photo: Annotated[Optional[Path], typer.Argument(help="Exemplar photo. Default: the bundled sample.")] = None,
+    output: Annotated[Path, typer.Option("-o", "--output", help="Model file (.npz).")] = Path("bark.npz"),
+    k: NoisesOption = 2,
+    tloc: TlocOption = 4,
+    masks: Annotated[str, typer.Option("--masks", help="binary or barycentric.")] = "binary",
+    equalize: Annotated[bool, typer.Option("--equalize", help="Equalise the noise's histogram per "
+                                           "cluster (non-Gaussian noise, §6).")] = False,
+    border: Annotated[int, typer.Option("--border", help="Band (px) along mask borders kept sharp in "
+                                        "the structure (§6); 0: none.")] = 0,
+    seed: SeedOption = 0,
+    preview: Annotated[Optional[Path], typer.Option(
+        "--preview", help="Also write a PNG of P, N, the masks, the spectra and a synthesized sample.")] = None,
+    quiet: QuietOption = False,
+) -> None:
+    """Analyse a photo into a bi-layer model: structure P, masks M_k, noise spectra S_k."""
+    from barkgen.bilayer import analysis_preview, analyze
+    from barkgen.data import sample_exemplar_path
+    from barkgen.io import encode_png, read_image
+    from barkgen.io.bilayer import encode_bilayer_model
+
+    options = _analysis_options(k, tloc, masks, equalize, border, seed)
+    if output.suffix.lower() != ".npz":
+        raise InvalidInputError(f"{output}: the model file must end in .npz")
+    if output.is_dir():
+        raise InvalidInputError(f"{output} is a folder; give a .npz file name")
+    if preview is not None:
+        _check_png_target(preview, "preview")
+    image = read_image(photo if photo is not None else sample_exemplar_path())
+    with _progress(not quiet, "analysing") as progress:
+        model = analyze(image, options, progress=progress)
+    files = {output: encode_bilayer_model(model)}
+    if preview is not None:
+        h, w = model.exemplar.shape[:2]
+        files[preview] = encode_png(analysis_preview(model, model.window(0, 0, 2 * w, h, seed=seed)))
+    for path, data in files.items():  # everything encoded first: a failure writes nothing
+        _write_files(path.parent, {path.name: data})
+    if not quiet:
+        typer.echo(f"wrote {output} (K={k}, T_loc={tloc}, noise std "
+                   f"{float(model.noise_layer.std()):.3f})", err=True)
+
+
+@bilayer_app.command("tune")
+@user_errors
+def bilayer_tune_command(
+    photo: Annotated[Optional[Path], typer.Argument(help="Exemplar photo. Default: the bundled sample.")] = None,
+    output: Annotated[Path, typer.Option("-o", "--output", help="Sheet PNG.")] = Path("tune.png"),
+    k: NoisesOption = 2,
+    seed: SeedOption = 0,
+    quiet: QuietOption = False,
+) -> None:
+    """The T_loc choice sheet (guingo2017 Fig. 14): for T_loc = 2, 4, 8, 16 the structure P,
+    the noise N and a synthesized sample. Pick the largest T_loc that still looks right."""
+    from barkgen.bilayer import AnalysisOptions, tune_sheet
+    from barkgen.data import sample_exemplar_path
+    from barkgen.io import encode_png, read_image
+
+    _check_png_target(output, "output")
+    options = AnalysisOptions(k=k, seed=seed)
+    image = read_image(photo if photo is not None else sample_exemplar_path())
+    with _progress(not quiet, "analysing") as progress:
+        sheet = tune_sheet(image, options, seed=seed, progress=progress)
+    _write_files(output.parent, {output.name: encode_png(sheet)})
+
+
+@bilayer_app.command("synth")
+@user_errors
+def bilayer_synth_command(
+    model_path: Annotated[Path, typer.Argument(metavar="MODEL", help="Model file from `bilayer analyze`.")],
+    output: OutputOption = Path("bilayer.png"),
+    size: Annotated[str, typer.Option("--size", help="Window size WIDTHxHEIGHT.")] = "1024x1024",
+    offset: Annotated[str, typer.Option("--offset", help="Window position X,Y in the unbounded "
+                                        "texture (windows of one seed agree where they overlap).")] = "0,0",
+    rotate: Annotated[float, typer.Option("--rotate", help="Rotate the structure's pieces by up to "
+                                          "DEG_MAX degrees (0-180).")] = 0.0,
+    scale: Annotated[str, typer.Option("--scale", help="Zoom the structure's pieces by MIN,MAX.")] = "1,1",
+    keep_vertical: Annotated[bool, typer.Option("--keep-vertical", help="Rotate pieces only about the "
+                                                "upright (0 or 180 degrees, plus --rotate).")] = False,
+    tile_size: Annotated[Optional[int], typer.Option("--tile-size", help="Wang tile size in px "
+                                                     "(default: a fifth of the exemplar).")] = None,
+    seed: SeedOption = 0,
+    bits: Annotated[int, typer.Option("--bits", help="Bits per channel (8 or 16).")] = 8,
+) -> None:
+    """Synthesize a window of the unbounded bi-layer texture of a model."""
+    from barkgen.bilayer import BilayerModel, Deformation, SynthesisOptions
+    from barkgen.io import encode_png
+
+    out_shape = parse_size(size)
+    x, y = parse_pair(offset, "--offset", int)
+    lo, hi = parse_pair(scale, "--scale")
+    if bits not in (8, 16):
+        raise InvalidInputError(f"--bits must be 8 or 16, not {bits}")
+    _check_png_target(output, "output")
+    options = SynthesisOptions(tile_size=tile_size,
+                               deformation=Deformation(rotate=rotate, scale=(lo, hi), keep_vertical=keep_vertical))
+    model = BilayerModel.load(model_path)
+    image = model.window(x, y, out_shape[1], out_shape[0], seed=seed, options=options)
+    image16 = (image * 65535.0 + 0.5).astype(np.uint16)
+    _write_files(output.parent, {output.name: encode_png(image16, bits=bits)})
+
+
 @app.callback(invoke_without_command=True)
 def _root(
     version: Annotated[bool, typer.Option("--version", help="Print the version and exit.")] = False,

@@ -1,0 +1,184 @@
+"""Numba kernels of the bi-layer model: joint bilateral filtering (analysis) and the
+coordinate-hashed window synthesis (structure tiles + spatially varying noise)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+_M1 = np.uint64(0xBF58476D1CE4E5B9)
+_M2 = np.uint64(0x94D049BB133111EB)
+_GOLD = np.uint64(0x9E3779B97F4A7C15)
+_PY = np.uint64(0xC2B2AE3D27D4EB4F)
+_PS = np.uint64(0x165667B19E3779F9)
+
+
+@njit(cache=True, inline="always")
+def _mix(z):
+    z = (z ^ (z >> np.uint64(30))) * _M1
+    z = (z ^ (z >> np.uint64(27))) * _M2
+    return z ^ (z >> np.uint64(31))
+
+
+@njit(cache=True, inline="always")
+def lattice_hash(i: int, j: int, salt: int, seed: int) -> np.uint64:
+    """A well-mixed 64-bit hash of a lattice point (any sign), a salt and the seed."""
+    z = np.uint64(np.int64(i)) * _GOLD
+    z = _mix(z ^ (np.uint64(np.int64(j)) * _PY))
+    z = _mix(z ^ (np.uint64(np.int64(salt)) * _PS) ^ np.uint64(np.int64(seed)))
+    return z
+
+
+@njit(parallel=True, cache=True)
+def joint_bilateral(image, guide, radius, sigma_space, sigma_range):
+    """One pass of a joint (cross) bilateral filter: ``image`` (H, W, C) averaged over a
+    ``2 radius + 1`` square with Gaussian weights in space and in the distance between the
+    ``guide`` vectors (H, W, D); borders reflect."""
+    h, w, c = image.shape
+    d = guide.shape[2]
+    out = np.empty_like(image)
+    inv_s = -0.5 / (sigma_space * sigma_space)
+    inv_r = -0.5 / (sigma_range * sigma_range)
+    for y in prange(h):
+        acc = np.zeros(c, np.float64)
+        for x in range(w):
+            acc[:] = 0.0
+            total = 0.0
+            for dy in range(-radius, radius + 1):
+                yy = y + dy
+                if yy < 0:
+                    yy = -yy - 1
+                elif yy >= h:
+                    yy = 2 * h - yy - 1
+                yy = min(max(yy, 0), h - 1)
+                for dx in range(-radius, radius + 1):
+                    xx = x + dx
+                    if xx < 0:
+                        xx = -xx - 1
+                    elif xx >= w:
+                        xx = 2 * w - xx - 1
+                    xx = min(max(xx, 0), w - 1)
+                    dist = 0.0
+                    for k in range(d):
+                        diff = guide[y, x, k] - guide[yy, xx, k]
+                        dist += diff * diff
+                    wgt = math.exp(inv_s * (dy * dy + dx * dx) + inv_r * dist)
+                    total += wgt
+                    for k in range(c):
+                        acc[k] += wgt * image[yy, xx, k]
+            for k in range(c):
+                out[y, x, k] = acc[k] / total
+    return out
+
+
+@njit(cache=True, inline="always")
+def _smooth(t):
+    return t * t * (3.0 - 2.0 * t)
+
+
+@njit(parallel=True, cache=True)
+def render_window(y0, x0, out, structure_out, noise_out, tiles, colours, variants, seed,
+                  noise_tiles, cell, bases, means, quantiles, sigmas):
+    """Pixels ``[y0, y0 + H) x [x0, x0 + W)`` of the unbounded bi-layer texture.
+
+    Structure + masks: Wang tiles (Cohen 2003) laid on a lattice of ``tile`` px cells; the
+    colour of each edge and the content variant of each cell are hashes of their lattice
+    coordinates, so neighbouring cells agree on their shared edge and any window gives the
+    same pixels wherever it overlaps another (guingo2017 §4).
+
+    Noise: per cluster ``k`` and PCA channel ``c``, a periodic tile of random-phase noise
+    (phases shared across clusters, §3.2) read at four hashed offsets, one per corner of a
+    lattice of ``cell`` px, with smooth weights normalised to unit energy, so the noise is
+    Gaussian of the same spectrum everywhere but never periodic. Optional per-(k, c)
+    quantile tables equalise its histogram (§6). Colour = mean_k + basis_k @ channels
+    (per-cluster PCA, §6), blended by the synthesized masks (eq. 2, 6).
+
+    ``structure_out`` / ``noise_out`` receive the two layers when they have the window's
+    size (pass ``(1, 1, C)`` arrays to skip them). The noise period must be a power of two.
+    """
+    h, w, _ = out.shape
+    n_tiles, size, _, n_ch = tiles.shape
+    k_noise, n_pc, period, _ = noise_tiles.shape
+    wrap = period - 1
+    n_q = quantiles.shape[2]
+    layers = structure_out.shape[0] == h
+    want_noise = noise_out.shape[0] == h
+    n_masks = n_ch - 3
+    ucol = np.uint64(colours)
+    for r in prange(h):
+        gy = y0 + r
+        ty = gy // size
+        iy = gy - ty * size
+        cy = gy // cell
+        fy = _smooth((gy - cy * cell) / cell)
+        nvals = np.empty((k_noise, n_pc), np.float64)
+        colour = np.empty(3, np.float64)
+        offy = np.empty(4, np.int64)
+        offx = np.empty(4, np.int64)
+        wy = np.empty(4, np.float64)
+        wts = np.empty(4, np.float64)
+        for q in range(4):
+            wy[q] = fy if (q >> 1) else 1.0 - fy
+        idx = np.int64(0)
+        tx_cur = -(1 << 62)
+        cx_cur = -(1 << 62)
+        py = gy & wrap
+        for col in range(w):
+            gx = x0 + col
+            tx = gx // size
+            if tx != tx_cur:  # a new tile: its edge colours and content variant
+                tx_cur = tx
+                north = lattice_hash(ty, tx, 0, seed) % ucol
+                south = lattice_hash(ty + 1, tx, 0, seed) % ucol
+                west = lattice_hash(ty, tx, 1, seed) % ucol
+                east = lattice_hash(ty, tx + 1, 1, seed) % ucol
+                var = lattice_hash(ty, tx, 2, seed) % np.uint64(variants)
+                idx = np.int64((((north * ucol + east) * ucol + south) * ucol + west)
+                               * np.uint64(variants) + var)
+            ix = gx - tx * size
+            cx = gx // cell
+            if cx != cx_cur:  # a new noise cell: the offsets of its four corners
+                cx_cur = cx
+                for q in range(4):
+                    hv = lattice_hash(cy + (q >> 1), cx + (q & 1), 3, seed)
+                    offy[q] = np.int64(hv & np.uint64(wrap))
+                    offx[q] = np.int64((hv >> np.uint64(32)) & np.uint64(wrap))
+            fx = _smooth((gx - cx * cell) / cell)
+            energy = 0.0
+            for q in range(4):
+                wts[q] = wy[q] * (fx if (q & 1) else 1.0 - fx)
+                energy += wts[q] * wts[q]
+            norm = 1.0 / math.sqrt(energy)
+            px = gx & wrap
+            for ch in range(3):
+                colour[ch] = 0.0
+            for k in range(k_noise):
+                m = tiles[idx, iy, ix, 3 + k] if n_masks > 1 else 1.0
+                if m == 0.0:
+                    continue  # binary masks: only the pixel's own noise is computed
+                for c in range(n_pc):
+                    v = 0.0
+                    for q in range(4):
+                        v += wts[q] * noise_tiles[k, c, (py + offy[q]) & wrap, (px + offx[q]) & wrap]
+                    v *= norm
+                    if n_q > 1:  # histogram equalisation: Gaussian quantile -> data quantile
+                        u = 0.5 * (1.0 + math.erf(v / (sigmas[k, c] * 1.4142135623730951)))
+                        pos = u * (n_q - 1)
+                        i0 = min(int(pos), n_q - 2)
+                        t = pos - i0
+                        v = quantiles[k, c, i0] * (1.0 - t) + quantiles[k, c, i0 + 1] * t
+                    nvals[k, c] = v
+                for ch in range(3):
+                    s = means[k, ch]
+                    for c in range(n_pc):
+                        s += bases[k, ch, c] * nvals[k, c]
+                    colour[ch] += m * s
+            for ch in range(3):
+                out[r, col, ch] = tiles[idx, iy, ix, ch] + colour[ch]
+                if want_noise:
+                    noise_out[r, col, ch] = colour[ch]
+            if layers:
+                for ch in range(n_ch):
+                    structure_out[r, col, ch] = tiles[idx, iy, ix, ch]

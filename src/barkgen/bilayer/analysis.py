@@ -1,0 +1,249 @@
+"""Analysis of an exemplar into the bi-layer model (guingo2017 §3.3, §5, §6).
+
+``I = P + N``: the structure ``P`` is ``I`` filtered by a joint bilateral filter guided by the
+local spectra (§5), ``N = I - P``; masks ``M_k`` come from K-means of the local spectra of
+``I`` (§3.3); the global spectra ``S_k`` of the noise, one per cluster and per PCA colour
+channel (§6), from the auto-correlation estimator with missing data (eq. 3-5).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from barkgen.bilayer.spectra import SPECTRUM_SIZE, check_tloc, estimate_spectrum, local_spectra
+from barkgen.errors import InvalidInputError
+
+#: smallest exemplar side the analysis accepts (the global spectra need 16 px windows)
+MIN_SIDE = 32
+#: quantiles kept per cluster and channel for the noise's histogram equalisation (§6)
+N_QUANTILES = 257
+MASK_KINDS = ("binary", "barycentric")
+
+
+@dataclass(frozen=True)
+class AnalysisOptions:
+    """Parameters of the analysis (guingo2017 §5: only ``k`` and ``tloc`` are the user's).
+
+    Attributes:
+        k: number of stationary noises (clusters of local spectra), 1-8.
+        tloc: local spectrum window, one of 2, 4, 8, 16 (``barkgen bilayer tune`` shows them).
+        masks: ``"binary"`` (a pixel belongs to its nearest cluster; sharp noise transitions,
+            the paper's choice for its results) or ``"barycentric"`` (convex weights from the
+            distances to the cluster centres; smooth transitions).
+        spectrum_size: size T of the global spectra (64 in the paper).
+        equalize: store per-cluster, per-channel noise quantiles and equalise the synthesized
+            noise's histogram to them (§6, for non-Gaussian noise).
+        border: width in px of the band along mask borders where ``N`` is forced to 0, so
+            sharp borders stay in ``P`` (§6, Fig. 16); 0 disables it.
+        iterations, radius, sigma_range: the joint bilateral filter (§5: 5 iterations,
+            16 px neighbourhoods, 0.01 between spectra).
+        core: fraction of each cluster, closest to its centre, used to estimate its spectrum
+            (§3.3: 90 %).
+        seed: seed of the K-means initialisation.
+    """
+
+    k: int = 2
+    tloc: int = 4
+    masks: str = "binary"
+    spectrum_size: int = SPECTRUM_SIZE
+    equalize: bool = False
+    border: int = 0
+    iterations: int = 5
+    radius: int = 8
+    sigma_range: float = 0.003
+    core: float = 0.9
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        check_tloc(self.tloc)
+        if not (isinstance(self.k, (int, np.integer)) and 1 <= self.k <= 8):
+            raise InvalidInputError(f"K (number of noises) must be between 1 and 8, not {self.k}")
+        if self.masks not in MASK_KINDS:
+            raise InvalidInputError(f"masks must be one of {', '.join(MASK_KINDS)}, not {self.masks!r}")
+        if self.spectrum_size < 16 or self.spectrum_size % 2:
+            raise InvalidInputError(f"spectrum size must be even and at least 16, not {self.spectrum_size}")
+        if self.border < 0 or self.iterations < 0 or self.radius < 1 or self.sigma_range <= 0:
+            raise InvalidInputError("border and iterations must be >= 0, radius >= 1, sigma_range > 0")
+        if not (0 < self.core <= 1):
+            raise InvalidInputError(f"core must be in (0, 1], not {self.core}")
+        if self.seed < 0:
+            raise InvalidInputError(f"seed must be >= 0, not {self.seed}")
+
+
+def as_rgb(image: np.ndarray) -> np.ndarray:
+    """An ``(H, W)`` or ``(H, W, C)`` image (uint8, uint16 or float in [0, 1]) as float32 RGB."""
+    img = np.asarray(image)
+    if img.ndim == 2:
+        img = img[:, :, None]
+    if img.ndim != 3 or img.shape[2] not in (1, 2, 3, 4):
+        raise InvalidInputError(f"exemplar must be an (H, W) or (H, W, C) image, not shape {img.shape}")
+    if min(img.shape[:2]) < MIN_SIDE:
+        raise InvalidInputError(f"exemplar is {img.shape[1]}x{img.shape[0]} px; the bi-layer analysis "
+                                f"needs at least {MIN_SIDE} px on each side")
+    if img.shape[2] in (2, 4):
+        img = img[:, :, :-1]
+    if img.dtype == np.uint8:
+        f = img.astype(np.float32) / 255.0
+    elif img.dtype == np.uint16:
+        f = img.astype(np.float32) / 65535.0
+    elif img.dtype.kind == "f":
+        f = np.clip(np.nan_to_num(img.astype(np.float32)), 0.0, 1.0)
+    else:
+        raise InvalidInputError(f"exemplar has unsupported dtype {img.dtype}")
+    if f.shape[2] == 1:
+        f = np.repeat(f, 3, axis=2)
+    return np.ascontiguousarray(f)
+
+
+def _reduce(features: np.ndarray, dims: int, rng: np.random.Generator) -> np.ndarray:
+    """Project feature vectors on their first ``dims`` principal axes (distances kept up to
+    the discarded variance), for a cheap bilateral range kernel."""
+    h, w, d = features.shape
+    flat = features.reshape(-1, d)
+    if d <= dims:
+        return np.ascontiguousarray(features)
+    sample = flat[rng.choice(len(flat), min(len(flat), 20000), replace=False)]
+    mean = sample.mean(axis=0)
+    _, _, vt = np.linalg.svd(sample - mean, full_matrices=False)
+    return np.ascontiguousarray(((flat - mean) @ vt[:dims].T).reshape(h, w, dims).astype(np.float32))
+
+
+def extract_structure(image: np.ndarray, spectra: np.ndarray, options: AnalysisOptions,
+                      rng: np.random.Generator) -> np.ndarray:
+    """``P``: the image iterated through a joint bilateral filter whose range kernel compares
+    local spectra (guingo2017 §5): pixels are averaged only with pixels of similar spectral
+    content, so structure borders stay sharp while the noise inside each region is removed."""
+    from barkgen.bilayer._kernels import joint_bilateral
+
+    guide = _reduce(spectra, 8, rng)
+    structure = np.ascontiguousarray(image, dtype=np.float32)
+    for _ in range(options.iterations):
+        structure = joint_bilateral(structure, guide, options.radius, options.radius / 2.0,
+                                    options.sigma_range)
+    return structure
+
+
+def cluster_spectra(spectra: np.ndarray, k: int, kind: str, rng: np.random.Generator):
+    """K-means of the local spectra (guingo2017 §3.3): ``(labels, distances, masks)`` with the
+    distance of every pixel to every centre, and masks binary or convex-barycentric."""
+    from sklearn.cluster import KMeans
+
+    h, w, d = spectra.shape
+    flat = spectra.reshape(-1, d).astype(np.float32)
+    sample = flat[rng.choice(len(flat), min(len(flat), 20000), replace=False)]
+    km = KMeans(n_clusters=k, n_init=4, random_state=int(rng.integers(2**31 - 1))).fit(sample)
+    centres = km.cluster_centers_.astype(np.float32)
+    order = np.argsort(np.linalg.norm(centres, axis=1))  # clusters sorted by power: stable ids
+    centres = centres[order]
+    sq = (flat ** 2).sum(axis=1)[:, None] - 2 * flat @ centres.T + (centres ** 2).sum(axis=1)[None, :]
+    distances = np.sqrt(np.maximum(sq, 0.0)).reshape(h, w, k)
+    labels = distances.argmin(axis=2)
+    if kind == "binary":
+        masks = (labels[:, :, None] == np.arange(k)).astype(np.float32)
+    else:  # convex weights, larger for nearer centres, preserving the order of distances
+        inv = 1.0 / np.maximum(distances, 1e-6) ** 2
+        masks = (inv / inv.sum(axis=2, keepdims=True)).astype(np.float32)
+    return labels, distances, masks
+
+
+def border_band(labels: np.ndarray, width: int) -> np.ndarray:
+    """Pixels within ``width`` px of a border between clusters (guingo2017 §6, Fig. 16)."""
+    import cv2
+
+    edge = np.zeros(labels.shape, bool)
+    edge[:, 1:] |= labels[:, 1:] != labels[:, :-1]
+    edge[:, :-1] |= labels[:, 1:] != labels[:, :-1]
+    edge[1:, :] |= labels[1:, :] != labels[:-1, :]
+    edge[:-1, :] |= labels[1:, :] != labels[:-1, :]
+    if width <= 0 or not edge.any():
+        return np.zeros(labels.shape, bool)
+    dist = cv2.distanceTransform((~edge).astype(np.uint8), cv2.DIST_L2, 3)
+    return dist < width
+
+
+@dataclass
+class NoiseStatistics:
+    """Per-cluster colour noise (guingo2017 §6): ``noise ≈ means[k] + bases[k] @ channels``
+    with independent channels of spectra ``spectra[k, c]``, standard deviations ``sigmas``
+    and optional quantile tables."""
+
+    spectra: np.ndarray  # (K, 3, T, T)
+    bases: np.ndarray  # (K, 3, 3): columns are the PCA axes
+    means: np.ndarray  # (K, 3)
+    sigmas: np.ndarray  # (K, 3)
+    quantiles: np.ndarray  # (K, 3, Q) or (K, 3, 1) when not equalising
+
+
+def noise_statistics(noise: np.ndarray, labels: np.ndarray, distances: np.ndarray,
+                     options: AnalysisOptions, exclude: np.ndarray | None = None) -> NoiseStatistics:
+    """Spectra, PCA colour bases and quantiles of each cluster's noise (§3.3, §6)."""
+    h, w, _ = noise.shape
+    k = options.k
+    t = min(options.spectrum_size, (min(h, w) // 2) * 2)
+    spectra = np.zeros((k, 3, t, t), np.float32)
+    bases = np.tile(np.eye(3, dtype=np.float32), (k, 1, 1))
+    means = np.zeros((k, 3), np.float32)
+    sigmas = np.ones((k, 3), np.float32)
+    n_q = N_QUANTILES if options.equalize else 1
+    quantiles = np.zeros((k, 3, n_q), np.float32)
+    probs = np.linspace(0.0, 1.0, n_q)
+    for c in range(k):
+        member = labels == c
+        if exclude is not None:
+            member &= ~exclude
+        if member.sum() < 16:
+            continue  # an empty cluster: no noise
+        d = distances[:, :, c]
+        core = member & (d <= np.quantile(d[member], options.core))
+        vectors = noise[core].astype(np.float64)
+        means[c] = vectors.mean(axis=0)
+        cov = np.cov((vectors - means[c]).T)
+        evals, evecs = np.linalg.eigh(cov)
+        bases[c] = evecs[:, ::-1]
+        for ch in range(3):
+            projected = (noise - means[c]) @ bases[c][:, ch]
+            spectra[c, ch] = estimate_spectrum(projected, core, t)
+            sigmas[c, ch] = max(float(np.sqrt((spectra[c, ch].astype(np.float64) ** 2).mean())), 1e-6)
+            if options.equalize:
+                quantiles[c, ch] = np.quantile(projected[core], probs)
+    return NoiseStatistics(spectra, bases, means, sigmas, quantiles)
+
+
+def analyze(exemplar: np.ndarray, options: AnalysisOptions | None = None, *,
+            progress: Callable[[int, int], None] | None = None):
+    """Instantiate the bi-layer model from one exemplar (guingo2017 Fig. 4, left).
+
+    Returns a :class:`~barkgen.bilayer.BilayerModel`. The colour is analysed through its
+    luminance (CIELAB L): local spectra, masks and the filter's guide come from it; ``P`` and
+    ``N`` are colour layers (§6).
+    """
+    from barkgen.bilayer.model import BilayerModel
+    from barkgen.color import rgb_to_lab
+
+    options = options or AnalysisOptions()
+    image = as_rgb(exemplar)
+    rng = np.random.default_rng(options.seed)
+    steps = 4
+
+    def step(i: int) -> None:
+        if progress:
+            progress(i, steps)
+
+    luminance = rgb_to_lab(image)[:, :, 0] / 100.0
+    spectra = local_spectra(luminance, options.tloc)
+    step(1)
+    structure = extract_structure(image, spectra, options, rng)
+    step(2)
+    labels, distances, masks = cluster_spectra(spectra, options.k, options.masks, rng)
+    band = border_band(labels, options.border) if options.border else None
+    if band is not None:
+        structure[band] = image[band]
+    noise = image - structure
+    step(3)
+    stats = noise_statistics(noise, labels, distances, options, exclude=band)
+    step(4)
+    return BilayerModel(exemplar=image, structure=structure, masks=masks, labels=labels.astype(np.uint8),
+                        noise=stats, options=options)

@@ -1,0 +1,176 @@
+"""The bi-layer texture model and its on-the-fly synthesis (guingo2017 §4, eq. 6):
+``I' = P' + sum_k M'_k N_k``, any window of an unbounded plane, deterministic in coordinates."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from barkgen.bilayer.analysis import AnalysisOptions, NoiseStatistics, as_rgb
+from barkgen.bilayer.spectra import noise_from_white
+from barkgen.bilayer.tiles import Deformation, build_tiles, default_tile_size
+from barkgen.errors import InvalidInputError
+
+#: side of the periodic noise tiles; the window reads each at four hashed offsets per
+#: ``NOISE_TILE // 2`` px cell, so the noise never repeats
+NOISE_TILE = 256
+#: largest window one call renders (pixels), about 1.6 GB of working arrays
+MAX_WINDOW_PIXELS = 1 << 28
+
+
+@dataclass(frozen=True)
+class SynthesisOptions:
+    """How the structure is tiled (guingo2017 §4).
+
+    Attributes:
+        tile_size: Wang tile side in px (default: about a fifth of the exemplar's side).
+        colours: edge colours per direction (``colours**4`` tiles).
+        variants: exchanged contents per tile.
+        deformation: rotations and zooms of the structure's samples.
+    """
+
+    tile_size: int | None = None
+    colours: int = 3
+    variants: int = 4
+    deformation: Deformation = Deformation()
+
+    def __post_init__(self) -> None:
+        if self.tile_size is not None and (self.tile_size < 8 or self.tile_size % 2):
+            raise InvalidInputError(f"tile size must be even and at least 8, not {self.tile_size}")
+        if not (1 <= self.colours <= 4) or not (1 <= self.variants <= 16):
+            raise InvalidInputError("colours must be 1-4 and variants 1-16")
+
+
+@dataclass
+class _Synthesizer:
+    tiles: np.ndarray
+    noise_tiles: np.ndarray
+    hash_seed: int
+
+
+@dataclass
+class BilayerModel:
+    """A texture as structure + spatially varying Gaussian noise (guingo2017 §4).
+
+    Attributes:
+        exemplar: the analysed image, float32 RGB (H, W, 3).
+        structure: ``P`` (H, W, 3).
+        masks: ``M_k`` (H, W, K), summing to 1.
+        labels: the cluster of each pixel (H, W).
+        noise: per-cluster spectra, PCA colour bases, means, deviations, quantiles.
+        options: the analysis parameters.
+    """
+
+    exemplar: np.ndarray
+    structure: np.ndarray
+    masks: np.ndarray
+    labels: np.ndarray
+    noise: NoiseStatistics
+    options: AnalysisOptions
+    _cache: dict = field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def k(self) -> int:
+        return self.masks.shape[2]
+
+    @property
+    def noise_layer(self) -> np.ndarray:
+        """``N = I - P`` of the exemplar."""
+        return self.exemplar - self.structure
+
+    def _synthesizer(self, seed: int, options: SynthesisOptions) -> _Synthesizer:
+        key = (int(seed), options)
+        if key not in self._cache:
+            if len(self._cache) >= 4:
+                self._cache.pop(next(iter(self._cache)))
+            tiles_seq, noise_seq, hash_seq = np.random.SeedSequence([int(seed), 0xB1]).spawn(3)
+            layers = np.concatenate([self.structure, self.masks], axis=2).astype(np.float32)
+            size = options.tile_size or default_tile_size(self.structure.shape[:2])
+            tiles = build_tiles(layers, np.random.default_rng(tiles_seq), size=size,
+                                colours=options.colours, variants=options.variants,
+                                deformation=options.deformation)
+            rng = np.random.default_rng(noise_seq)
+            spectra = self.noise.spectra
+            period = max(NOISE_TILE, 2 * spectra.shape[2])
+            noise_tiles = np.empty((self.k, 3, period, period), np.float32)
+            for ch in range(3):  # one white noise per channel, shared by the clusters (§3.2)
+                white = rng.standard_normal((period, period))
+                for c in range(self.k):
+                    noise_tiles[c, ch] = noise_from_white(white, spectra[c, ch])
+            hash_seed = int(hash_seq.generate_state(1, np.uint64)[0] >> np.uint64(1))
+            self._cache[key] = _Synthesizer(tiles, noise_tiles, hash_seed)
+        return self._cache[key]
+
+    def window(self, x: int, y: int, width: int, height: int, *, seed: int = 0,
+               options: SynthesisOptions | None = None, layers: bool = False):
+        """Pixels ``[x, x + width) x [y, y + height)`` of the unbounded synthesized texture.
+
+        Deterministic in coordinates: for a given seed and options, overlapping windows agree
+        exactly, whatever their order or size. Returns float32 RGB (height, width, 3) in
+        [0, 1]; with ``layers=True`` a dict with ``texture``, ``structure``, ``masks`` and
+        ``noise`` (the synthesized ``P'``, ``M'_k`` and ``N'``).
+        """
+        from barkgen.bilayer._kernels import render_window
+
+        for name, v in (("x", x), ("y", y), ("width", width), ("height", height), ("seed", seed)):
+            if not isinstance(v, (int, np.integer)) or isinstance(v, bool):
+                raise InvalidInputError(f"window {name} must be an integer, not {v!r}")
+        if width <= 0 or height <= 0:
+            raise InvalidInputError(f"window size must be positive, not {width}x{height}")
+        if width * height > MAX_WINDOW_PIXELS:
+            raise InvalidInputError(f"a {width}x{height} window is too large for one call; "
+                                    f"render it in smaller windows")
+        if seed < 0:
+            raise InvalidInputError(f"seed must be >= 0, not {seed}")
+        if abs(x) > 2**40 or abs(y) > 2**40:
+            raise InvalidInputError("window position out of range (|x|, |y| <= 2**40)")
+        options = options or SynthesisOptions()
+        synth = self._synthesizer(seed, options)
+        n_ch = synth.tiles.shape[3]
+        out = np.empty((height, width, 3), np.float32)
+        structure = np.empty((height, width, n_ch) if layers else (1, 1, n_ch), np.float32)
+        noise = np.empty((height, width, 3) if layers else (1, 1, 3), np.float32)
+        stats = self.noise
+        render_window(int(y), int(x), out, structure, noise, synth.tiles, options.colours,
+                      options.variants, synth.hash_seed, synth.noise_tiles,
+                      synth.noise_tiles.shape[2] // 2, stats.bases.astype(np.float64),
+                      stats.means.astype(np.float64), stats.quantiles.astype(np.float64),
+                      stats.sigmas.astype(np.float64))
+        np.clip(out, 0.0, 1.0, out=out)
+        if not layers:
+            return out
+        return {"texture": out, "structure": structure[:, :, :3], "masks": structure[:, :, 3:],
+                "noise": noise}
+
+    def synthesize(self, shape: tuple[int, int], *, offset: tuple[int, int] = (0, 0), seed: int = 0,
+                   options: SynthesisOptions | None = None) -> np.ndarray:
+        """An ``(height, width)`` texture: the window at ``offset = (x, y)``."""
+        return self.window(offset[0], offset[1], shape[1], shape[0], seed=seed, options=options)
+
+    def save(self, path: str | os.PathLike) -> None:
+        """Write the model as a versioned ``.npz`` (atomically)."""
+        from barkgen.io.bilayer import write_bilayer_model
+
+        write_bilayer_model(path, self)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> BilayerModel:
+        """Read a model written by :meth:`save`; a clear error if it is not one."""
+        from barkgen.io.bilayer import read_bilayer_model
+
+        return read_bilayer_model(path)
+
+
+def single_layer(exemplar: np.ndarray, options: AnalysisOptions | None = None) -> BilayerModel:
+    """The one-layer baseline of guingo2017 Fig. 10: the whole image as structure, no noise,
+    tiled and deformed by the same synthesis (for comparisons)."""
+    image = as_rgb(exemplar)
+    options = options or AnalysisOptions(k=1)
+    t = min(options.spectrum_size, (min(image.shape[:2]) // 2) * 2)
+    stats = NoiseStatistics(spectra=np.zeros((1, 3, t, t), np.float32),
+                            bases=np.eye(3, dtype=np.float32)[None], means=np.zeros((1, 3), np.float32),
+                            sigmas=np.ones((1, 3), np.float32), quantiles=np.zeros((1, 3, 1), np.float32))
+    return BilayerModel(exemplar=image, structure=image.copy(), masks=np.ones(image.shape[:2] + (1,), np.float32),
+                        labels=np.zeros(image.shape[:2], np.uint8), noise=stats, options=options)

@@ -1,0 +1,72 @@
+"""Pictures of the bi-layer analysis: the model's layers and spectra, and the T_loc choice
+sheet of guingo2017 Fig. 14."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from barkgen.bilayer.spectra import TLOC_CHOICES
+
+
+def _u8(image: np.ndarray) -> np.ndarray:
+    return (np.clip(image, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
+
+
+def noise_picture(noise: np.ndarray) -> np.ndarray:
+    """``N`` shown around mid-grey, stretched to +-3 standard deviations."""
+    spread = 3.0 * float(noise.std()) + 1e-6
+    return _u8(0.5 + 0.5 * noise / spread)
+
+
+def mask_picture(masks: np.ndarray) -> np.ndarray:
+    """Masks as colours (one colour per noise, blended by the mask weights)."""
+    from barkgen.labels.preview import label_colours
+
+    colours = label_colours(masks.shape[2]).astype(np.float32)
+    return np.clip(masks @ colours, 0, 255).astype(np.uint8)
+
+
+def spectrum_picture(spectrum: np.ndarray) -> np.ndarray:
+    """A spectrum's log power, zero frequency in the centre."""
+    log = np.log10(np.fft.fftshift(spectrum.astype(np.float64)) ** 2 + 1e-12)
+    hi = log.max()
+    return _u8((log - (hi - 4.0)) / 4.0)  # four decades of dynamic range
+
+
+def analysis_preview(model, synthesized: np.ndarray | None = None) -> np.ndarray:
+    """Exemplar, P, N, masks and every cluster's spectrum (first PCA channel) on one sheet."""
+    from barkgen.labels.preview import contact_sheet
+
+    tiles = [_u8(model.exemplar), _u8(model.structure), noise_picture(model.noise_layer),
+             mask_picture(model.masks)]
+    captions = ["exemplar I", "structure P", "noise N", "masks M_k"]
+    for c in range(model.k):
+        tiles.append(spectrum_picture(model.noise.spectra[c, 0]))
+        captions.append(f"spectrum S_{c + 1}")
+    if synthesized is not None:
+        tiles.append(_u8(synthesized))
+        captions.append("synthesized")
+    return contact_sheet(tiles, captions, columns=4, tile_size=256)
+
+
+def tune_sheet(exemplar: np.ndarray, options=None, *, tlocs=TLOC_CHOICES, seed: int = 0,
+               progress=None) -> np.ndarray:
+    """guingo2017 Fig. 14: for each T_loc a row of P, N and a synthesized sample of twice the
+    exemplar's width (the same seed for all rows), so the user can pick the largest T_loc
+    whose synthesis still looks right."""
+    from barkgen.bilayer.analysis import AnalysisOptions, analyze
+    from barkgen.labels.preview import contact_sheet
+
+    options = options or AnalysisOptions()
+    tiles, captions = [], []
+    for i, tloc in enumerate(tlocs):
+        model = analyze(exemplar, dataclasses.replace(options, tloc=tloc))
+        h, w = model.exemplar.shape[:2]
+        sample = model.window(0, 0, 2 * w, h, seed=seed)
+        tiles += [_u8(model.structure), noise_picture(model.noise_layer), _u8(sample)]
+        captions += [f"T_loc {tloc}: P", f"T_loc {tloc}: N", f"T_loc {tloc}: synthesis"]
+        if progress:
+            progress(i + 1, len(tlocs))
+    return contact_sheet(tiles, captions, columns=3, tile_size=256)

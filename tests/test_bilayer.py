@@ -1,0 +1,303 @@
+"""Bi-layer textures (guingo2017): estimator, analysis, window synthesis, model files, CLI."""
+
+from __future__ import annotations
+
+import json
+import zipfile
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from barkgen.bilayer import (AnalysisOptions, BilayerModel, Deformation, SynthesisOptions, analyze,
+                             estimate_spectrum, local_spectra, single_layer)
+from barkgen.bilayer.spectra import noise_from_white
+from barkgen.cli.app import app
+from barkgen.errors import InvalidInputError
+
+
+def _psd(fy, fx):
+    """A smooth anisotropic power spectrum (variance units per frequency bin) with a floor."""
+    return (0.05 + 4.0 * np.exp(-((fy / 0.04) ** 2 + (fx / 0.15) ** 2))
+            + np.exp(-(((np.abs(fx) - 0.25) / 0.05) ** 2 + (fy / 0.1) ** 2)))
+
+
+def _coloured_noise(rng, n, psd):
+    f = np.fft.fftfreq(n)
+    return np.fft.ifft2(np.sqrt(psd(f[:, None], f[None, :])) * np.fft.fft2(rng.standard_normal((n, n)))).real
+
+
+def _irregular_mask(rng, n, keep):
+    import cv2
+
+    blob = cv2.GaussianBlur(rng.standard_normal((n, n)), (0, 0), 6)
+    return blob > np.quantile(blob, 1 - keep)
+
+
+def _rms_decades(estimate, psd):
+    t = estimate.shape[0]
+    f = np.fft.fftfreq(t)
+    err = np.log10(estimate.astype(float) ** 2) - np.log10(psd(f[:, None], f[None, :]))
+    return float(np.sqrt((err ** 2).mean()))
+
+
+def test_estimator_recovers_a_known_spectrum_through_an_irregular_mask():
+    rng = np.random.default_rng(1)
+    noise = _coloured_noise(rng, 512, _psd)
+    mask = _irregular_mask(rng, 512, 0.7)
+    assert abs(mask.mean() - 0.7) < 0.01
+    err_full = _rms_decades(estimate_spectrum(noise, np.ones_like(mask)), _psd)
+    err_masked = _rms_decades(estimate_spectrum(noise, mask), _psd)
+    assert err_masked <= 0.1, err_masked  # acceptance: within 0.1 decades RMS
+    assert err_full <= 0.1
+    # the data outside the mask is never read: garbage there changes nothing
+    spoiled = np.where(mask, noise, 1e3)
+    assert np.array_equal(estimate_spectrum(spoiled, mask), estimate_spectrum(noise, mask))
+
+
+def test_estimator_rejects_bad_input():
+    with pytest.raises(InvalidInputError):
+        estimate_spectrum(np.zeros((32, 32)), np.ones((32, 32), bool))  # smaller than a window
+    with pytest.raises(InvalidInputError):
+        estimate_spectrum(np.zeros((128, 128)), np.zeros((128, 128), bool))
+
+
+def test_local_spectra_find_the_frequency_of_a_grating():
+    y, x = np.mgrid[0:64, 0:64]
+    grating = 0.4 * np.cos(2 * np.pi * x / 4)  # period 4 px, zero mean (no DC leakage)
+    feats = local_spectra(grating, 8)
+    assert feats.shape == (64, 64, 8 * 5)
+    vec = feats[32, 32].reshape(8, 5)
+    # frequency bins (fy, fx): the grating is at fx = 8 / 4 = 2
+    assert np.unravel_index(np.argmax(vec[:, 1:]), (8, 4)) == (0, 1)
+    assert np.isclose((feats[32, 32] ** 2).sum(), (grating[28:37, 28:37] ** 2).mean(), rtol=0.15)
+    with pytest.raises(InvalidInputError, match="T_loc"):
+        local_spectra(grating, 6)
+
+
+def _composite(seed=0, n=128):
+    """Left: fine grain; right: coarse grain; plus a bright vertical bar as structure."""
+    rng = np.random.default_rng(seed)
+    import cv2
+
+    fine = rng.standard_normal((n, n)) * 0.06
+    coarse = cv2.GaussianBlur(rng.standard_normal((n, n)), (0, 0), 2.5) * 0.25
+    lum = np.where(np.arange(n)[None, :] < n // 2, fine, coarse) + 0.45
+    lum[:, 40:46] += 0.25
+    rgb = np.clip(np.stack([lum, lum * 0.9, lum * 0.7], axis=2), 0, 1)
+    return rgb.astype(np.float32)
+
+
+@pytest.fixture(scope="module")
+def composite_model():
+    return analyze(_composite(), AnalysisOptions(k=3, tloc=8, seed=3))  # fine, coarse, the bar
+
+
+def test_analysis_separates_the_two_noises(composite_model):
+    model = composite_model
+    assert np.allclose(model.structure + model.noise_layer, model.exemplar)
+    assert model.masks.shape == (128, 128, 3)
+    assert np.allclose(model.masks.sum(axis=2), 1)
+    left = model.labels[:, 4:36]  # left of the bar
+    right = model.labels[:, 72:120]
+    a, b = np.bincount(left.ravel(), minlength=3).argmax(), np.bincount(right.ravel(), minlength=3).argmax()
+    assert a != b
+    assert (left == a).mean() > 0.8 and (right == b).mean() > 0.8
+    # the fine cluster's spectrum has more of its power at high frequencies
+    def high_share(s):
+        f = np.abs(np.fft.fftfreq(s.shape[-1]))
+        high = (f[:, None] > 0.25) | (f[None, :] > 0.25)
+        p = s.astype(float) ** 2
+        return p[high].sum() / p.sum()
+    assert high_share(model.noise.spectra[a, 0]) > 2 * high_share(model.noise.spectra[b, 0])
+    # the structure keeps the bar but loses most of the grain
+    assert model.structure[:, 40:46].mean() - model.structure[:, 50:56].mean() > 0.15
+    assert np.abs(np.diff(model.structure[:, 8:30], axis=1)).mean() < 0.6 * np.abs(
+        np.diff(model.exemplar[:, 8:30], axis=1)).mean()
+
+
+def test_windows_agree_wherever_they_overlap(composite_model):
+    model = composite_model
+    a = model.window(0, 0, 200, 160, seed=7)
+    b = model.window(100, 80, 200, 160, seed=7)
+    assert np.array_equal(a[80:, 100:], b[:80, :100])
+    c = model.window(-150, -90, 120, 100, seed=7)
+    d = model.window(-100, -60, 40, 30, seed=7)
+    assert np.array_equal(c[30:60, 50:90], d)
+    assert not np.array_equal(model.window(0, 0, 64, 64, seed=8), a[:64, :64])
+    assert a.dtype == np.float32 and a.min() >= 0 and a.max() <= 1
+
+
+def test_a_large_output_equals_its_windows(composite_model):
+    model = composite_model
+    whole = model.window(0, 0, 2048, 2048, seed=2)
+    pieces = np.empty_like(whole)
+    for i in range(8):
+        for j in range(8):
+            pieces[i * 256:(i + 1) * 256, j * 256:(j + 1) * 256] = model.window(j * 256, i * 256, 256, 256, seed=2)
+    assert np.array_equal(whole, pieces)
+
+
+def test_synthesized_noise_has_the_model_spectrum():
+    """A model whose structure is flat: the window's noise reproduces S_k (eq. 1-2)."""
+    model = single_layer(np.full((256, 256, 3), 0.5, np.float32))
+    f = np.fft.fftfreq(64)
+    spectrum = np.sqrt(1e-3 * _psd(f[:, None], f[None, :])).astype(np.float32)
+    model.noise.spectra[0, 0] = spectrum
+    out = model.window(1000, -3000, 512, 512, seed=1, layers=True)
+    noise = out["noise"][:, :, 0]
+    estimate = estimate_spectrum(noise, np.ones(noise.shape, bool))
+    assert _rms_decades(estimate / np.sqrt(1e-3), _psd) < 0.15
+    assert np.allclose(out["texture"], np.clip(out["structure"] + out["noise"], 0, 1), atol=1e-6)
+
+
+def test_noise_tiles_share_phases_across_clusters():
+    rng = np.random.default_rng(0)
+    white = rng.standard_normal((128, 128))
+    a = noise_from_white(white, np.ones((64, 64), np.float32))
+    b = noise_from_white(white, 2 * np.ones((64, 64), np.float32))
+    assert np.allclose(b, 2 * a, atol=1e-5)  # same phases, different spectra
+    assert abs(a.var() - 1.0) < 0.15
+
+
+def test_deformation_keeps_fine_noise_where_a_single_layer_stretches_it():
+    """guingo2017 Fig. 10: zooming the structure magnifies a single layer's grain, while the
+    bi-layer regenerates its noise at the exemplar's scale."""
+    exemplar = _composite(seed=5, n=160)
+    bilayer = analyze(exemplar, AnalysisOptions(k=2, tloc=8))
+    single = single_layer(exemplar)
+    options = SynthesisOptions(deformation=Deformation(rotate=20, scale=(1.8, 2.0)))
+
+    def fine_energy(img):
+        lum = img.mean(axis=2)
+        return float(np.abs(np.diff(lum, axis=1)).mean())
+
+    target = fine_energy(exemplar)
+    e_bi = fine_energy(bilayer.window(0, 0, 320, 320, seed=1, options=options))
+    e_single = fine_energy(single.window(0, 0, 320, 320, seed=1, options=options))
+    assert abs(np.log(e_bi / target)) < 0.5 * abs(np.log(e_single / target))
+
+
+def test_equalisation_reproduces_a_non_gaussian_noise():
+    rng = np.random.default_rng(2)
+    n = 128
+    grain = rng.exponential(0.05, (n, n)) - 0.05  # skewed: long bright tail
+    exemplar = np.repeat((0.4 + grain)[:, :, None], 3, axis=2).clip(0, 1).astype(np.float32)
+    skews = []
+    for equalize in (False, True):
+        model = analyze(exemplar, AnalysisOptions(k=1, tloc=2, equalize=equalize, sigma_range=0.001))
+        model.structure[:] = 0.4  # all the grain in N, to test the noise alone
+        model = analyze_noise_only(model, exemplar)
+        noise = model.window(0, 0, 256, 256, seed=1, layers=True)["noise"][:, :, 0]
+        z = (noise - noise.mean()) / noise.std()
+        skews.append(float((z ** 3).mean()))
+    ref = (grain - grain.mean()) / grain.std()
+    assert abs(skews[1] - (ref ** 3).mean()) < 0.5 * abs(skews[0] - (ref ** 3).mean())
+
+
+def analyze_noise_only(model, exemplar):
+    """Re-estimate the model's noise statistics with ``P`` set by the caller."""
+    from barkgen.bilayer.analysis import noise_statistics
+
+    distances = np.zeros(model.labels.shape + (model.k,), np.float32)
+    model.noise = noise_statistics(exemplar - model.structure, model.labels.astype(int), distances,
+                                   model.options)
+    return model
+
+
+def test_border_band_keeps_borders_in_the_structure():
+    exemplar = _composite(seed=1)
+    model = analyze(exemplar, AnalysisOptions(k=2, tloc=8, border=3))
+    from barkgen.bilayer.analysis import border_band
+
+    band = border_band(model.labels, 3)
+    assert band.any()
+    assert np.allclose(model.noise_layer[band], 0)
+
+
+def test_models_round_trip_and_bad_files_are_refused(tmp_path, composite_model):
+    path = tmp_path / "m.npz"
+    composite_model.save(path)
+    loaded = BilayerModel.load(path)
+    assert np.array_equal(loaded.window(-30, 40, 90, 70, seed=3), composite_model.window(-30, 40, 90, 70, seed=3))
+    assert loaded.options == composite_model.options
+    # wrong version
+    with zipfile.ZipFile(path) as z:
+        members = {name: z.read(name) for name in z.namelist()}
+    header = json.loads(np.load(path)["header"].item())
+    header["version"] = 99
+    import io
+    buf = io.BytesIO()
+    np.save(buf, np.array(json.dumps(header)))
+    members["header.npy"] = buf.getvalue()
+    bad = tmp_path / "v99.npz"
+    with zipfile.ZipFile(bad, "w") as z:
+        for name, data in members.items():
+            z.writestr(name, data)
+    with pytest.raises(InvalidInputError, match="version 99"):
+        BilayerModel.load(bad)
+    corrupt = tmp_path / "corrupt.npz"
+    corrupt.write_bytes(path.read_bytes()[:1000])
+    with pytest.raises(InvalidInputError, match="not a barkgen bi-layer model"):
+        BilayerModel.load(corrupt)
+
+
+def test_bad_parameters_are_refused(composite_model):
+    for kwargs in ({"tloc": 5}, {"k": 0}, {"masks": "fuzzy"}, {"border": -1}):
+        with pytest.raises(InvalidInputError):
+            AnalysisOptions(**kwargs)
+    for args in ((0, 0, 0, 10), (0, 0, 10, -1), (0, 0, 2.5, 10)):
+        with pytest.raises(InvalidInputError):
+            composite_model.window(*args)
+    with pytest.raises(InvalidInputError):
+        Deformation(rotate=200)
+    with pytest.raises(InvalidInputError):
+        Deformation(scale=(2.0, 1.0))
+    with pytest.raises(InvalidInputError, match="at least"):
+        analyze(np.zeros((20, 20, 3), np.float32))
+
+
+def test_cli_analyze_synth_tune_and_errors(tmp_path):
+    from barkgen.io import read_image, write_png
+
+    photo = tmp_path / "bark.png"
+    write_png(photo, (_composite(seed=2) * 255 + 0.5).astype(np.uint8))
+    runner = CliRunner()
+    model = tmp_path / "m.npz"
+    res = runner.invoke(app, ["bilayer", "analyze", str(photo), "-o", str(model), "--k", "2", "--tloc", "8",
+                              "--preview", str(tmp_path / "p.png"), "-q"])
+    assert res.exit_code == 0, res.output
+    assert read_image(tmp_path / "p.png").shape[2] == 3
+    out = tmp_path / "o.png"
+    res = runner.invoke(app, ["bilayer", "synth", str(model), "-o", str(out), "--size", "300x200",
+                              "--offset", "-40,25", "--rotate", "30", "--scale", "1,1.5", "--keep-vertical",
+                              "--seed", "4", "--bits", "16"])
+    assert res.exit_code == 0, res.output
+    image = read_image(out)
+    assert image.shape == (200, 300, 3) and image.dtype == np.uint16
+    again = tmp_path / "again.png"
+    runner.invoke(app, ["bilayer", "synth", str(model), "-o", str(again), "--size", "300x200", "--offset",
+                        "-40,25", "--rotate", "30", "--scale", "1,1.5", "--keep-vertical", "--seed", "4",
+                        "--bits", "16"])
+    assert again.read_bytes() == out.read_bytes()
+    sheet = tmp_path / "tune.png"
+    res = runner.invoke(app, ["bilayer", "tune", str(photo), "-o", str(sheet), "-q"])
+    assert res.exit_code == 0, res.output
+    assert read_image(sheet).shape[0] > 3 * 128
+
+    garbage = tmp_path / "garbage.npz"
+    garbage.write_bytes(b"not a model")
+    cases = [
+        (["bilayer", "analyze", str(photo), "-o", str(tmp_path / "x.npz"), "--tloc", "3"], "T_loc"),
+        (["bilayer", "analyze", str(photo), "-o", str(tmp_path / "x.npz"), "--k", "0"], "K"),
+        (["bilayer", "synth", str(garbage), "-o", str(tmp_path / "x.png")], "not a barkgen bi-layer model"),
+        (["bilayer", "synth", str(model), "-o", str(tmp_path / "x.png"), "--size", "0x10"], "positive"),
+        (["bilayer", "synth", str(model), "-o", str(tmp_path / "x.png"), "--offset", "a,b"], "--offset"),
+        (["bilayer", "synth", str(model), "-o", str(tmp_path / "x.png"), "--scale", "2,1"], "scale"),
+    ]
+    for args, message in cases:
+        res = runner.invoke(app, args)
+        assert res.exit_code == 2, (args, res.output)
+        assert message in res.output and "Traceback" not in res.output
+        assert len(res.output.strip().splitlines()) == 1
+    assert not (tmp_path / "x.npz").exists() and not (tmp_path / "x.png").exists()
