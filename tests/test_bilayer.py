@@ -271,14 +271,14 @@ def test_cli_analyze_synth_tune_and_errors(tmp_path):
     out = tmp_path / "o.png"
     res = runner.invoke(app, ["bilayer", "synth", str(model), "-o", str(out), "--size", "300x200",
                               "--offset", "-40,25", "--rotate", "30", "--scale", "1,1.5", "--keep-vertical",
-                              "--seed", "4", "--bits", "16"])
+                              "--seed", "4", "--bits", "16", "--warp", "0.3"])
     assert res.exit_code == 0, res.output
     image = read_image(out)
     assert image.shape == (200, 300, 3) and image.dtype == np.uint16
     again = tmp_path / "again.png"
     runner.invoke(app, ["bilayer", "synth", str(model), "-o", str(again), "--size", "300x200", "--offset",
                         "-40,25", "--rotate", "30", "--scale", "1,1.5", "--keep-vertical", "--seed", "4",
-                        "--bits", "16"])
+                        "--bits", "16", "--warp", "0.3"])
     assert again.read_bytes() == out.read_bytes()
     sheet = tmp_path / "tune.png"
     res = runner.invoke(app, ["bilayer", "tune", str(photo), "-o", str(sheet), "-q"])
@@ -294,6 +294,7 @@ def test_cli_analyze_synth_tune_and_errors(tmp_path):
         (["bilayer", "synth", str(model), "-o", str(tmp_path / "x.png"), "--size", "0x10"], "positive"),
         (["bilayer", "synth", str(model), "-o", str(tmp_path / "x.png"), "--offset", "a,b"], "--offset"),
         (["bilayer", "synth", str(model), "-o", str(tmp_path / "x.png"), "--scale", "2,1"], "scale"),
+        (["bilayer", "synth", str(model), "-o", str(tmp_path / "x.png"), "--warp", "2"], "warp"),
     ]
     for args, message in cases:
         res = runner.invoke(app, args)

@@ -80,7 +80,7 @@ def _smooth(t):
 
 @njit(parallel=True, cache=True)
 def render_window(y0, x0, out, structure_out, noise_out, tiles, colours, variants, seed,
-                  noise_tiles, cell, bases, means, quantiles, sigmas):
+                  noise_tiles, cell, bases, means, quantiles, sigmas, warp):
     """Pixels ``[y0, y0 + H) x [x0, x0 + W)`` of the unbounded bi-layer texture.
 
     Structure + masks: Wang tiles (Cohen 2003) laid on a lattice of ``tile`` px cells; the
@@ -107,10 +107,20 @@ def render_window(y0, x0, out, structure_out, noise_out, tiles, colours, variant
     want_noise = noise_out.shape[0] == h
     n_masks = n_ch - 3
     ucol = np.uint64(colours)
+    wcell = 2 * size
+    # everything that depends on the column alone, once per window
+    col_cx = np.empty(w, np.int64)
+    col_fx = np.empty(w, np.float64)
+    col_cxw = np.empty(w, np.int64)
+    col_fxw = np.empty(w, np.float64)
+    for col in range(w):
+        gx = x0 + col
+        col_cx[col] = gx // cell
+        col_fx[col] = _smooth((gx - col_cx[col] * cell) / cell)
+        col_cxw[col] = gx // wcell
+        col_fxw[col] = _smooth((gx - col_cxw[col] * wcell) / wcell)
     for r in prange(h):
         gy = y0 + r
-        ty = gy // size
-        iy = gy - ty * size
         cy = gy // cell
         fy = _smooth((gy - cy * cell) / cell)
         nvals = np.empty((k_noise, n_pc), np.float64)
@@ -123,13 +133,41 @@ def render_window(y0, x0, out, structure_out, noise_out, tiles, colours, variant
             wy[q] = fy if (q >> 1) else 1.0 - fy
         idx = np.int64(0)
         tx_cur = -(1 << 62)
+        ty_cur = -(1 << 62)
         cx_cur = -(1 << 62)
+        wx_cur = -(1 << 62)
         py = gy & wrap
+        cyw = gy // wcell
+        fyw = _smooth((gy - cyw * wcell) / wcell)
+        vy = np.zeros(4, np.float64)
+        vx = np.zeros(4, np.float64)
         for col in range(w):
             gx = x0 + col
-            tx = gx // size
-            if tx != tx_cur:  # a new tile: its edge colours and content variant
+            sy = gy
+            sx = gx
+            if warp > 0:
+                cxw = col_cxw[col]
+                if cxw != wx_cur:  # a new warp cell: its corners' displacements
+                    wx_cur = cxw
+                    for q in range(4):
+                        hv = lattice_hash(cyw + (q >> 1), cxw + (q & 1), 5, seed)
+                        vy[q] = (hv & np.uint64(0xFFFFFFFF)) / 2147483647.5 - 1.0
+                        vx[q] = (hv >> np.uint64(32)) / 2147483647.5 - 1.0
+                fxw = col_fxw[col]
+                dy = 0.0
+                dx = 0.0
+                for q in range(4):
+                    wq = (fyw if (q >> 1) else 1.0 - fyw) * (fxw if (q & 1) else 1.0 - fxw)
+                    dy += wq * vy[q]
+                    dx += wq * vx[q]
+                sy = gy + np.int64(math.floor(warp * dy + 0.5))
+                sx = gx + np.int64(math.floor(warp * dx + 0.5))
+            ty = sy // size
+            iy = sy - ty * size
+            tx = sx // size
+            if tx != tx_cur or ty != ty_cur:  # a new tile: its edge colours and content variant
                 tx_cur = tx
+                ty_cur = ty
                 north = lattice_hash(ty, tx, 0, seed) % ucol
                 south = lattice_hash(ty + 1, tx, 0, seed) % ucol
                 west = lattice_hash(ty, tx, 1, seed) % ucol
@@ -137,15 +175,15 @@ def render_window(y0, x0, out, structure_out, noise_out, tiles, colours, variant
                 var = lattice_hash(ty, tx, 2, seed) % np.uint64(variants)
                 idx = np.int64((((north * ucol + east) * ucol + south) * ucol + west)
                                * np.uint64(variants) + var)
-            ix = gx - tx * size
-            cx = gx // cell
+            ix = sx - tx * size
+            cx = col_cx[col]
             if cx != cx_cur:  # a new noise cell: the offsets of its four corners
                 cx_cur = cx
                 for q in range(4):
                     hv = lattice_hash(cy + (q >> 1), cx + (q & 1), 3, seed)
                     offy[q] = np.int64(hv & np.uint64(wrap))
                     offx[q] = np.int64((hv >> np.uint64(32)) & np.uint64(wrap))
-            fx = _smooth((gx - cx * cell) / cell)
+            fx = col_fx[col]
             energy = 0.0
             for q in range(4):
                 wts[q] = wy[q] * (fx if (q & 1) else 1.0 - fx)

@@ -39,7 +39,11 @@ class AnalysisOptions:
         border: width in px of the band along mask borders where ``N`` is forced to 0, so
             sharp borders stay in ``P`` (§6, Fig. 16); 0 disables it.
         iterations, radius, sigma_range: the joint bilateral filter (§5: 5 iterations,
-            16 px neighbourhoods, 0.01 between spectra).
+            16 px neighbourhoods). ``sigma_range`` is in the units of
+            :func:`~barkgen.bilayer.local_spectra` (a spectrum's norm is the local RMS of the
+            luminance in [0, 1]); the paper's 0.01 is in units it does not give. 0.002 keeps
+            bark's cracks and fissures in ``P`` and leaves the fine grain to ``N``; raise it
+            to move more into the noise.
         core: fraction of each cluster, closest to its centre, used to estimate its spectrum
             (§3.3: 90 %).
         seed: seed of the K-means initialisation.
@@ -53,7 +57,7 @@ class AnalysisOptions:
     border: int = 0
     iterations: int = 5
     radius: int = 8
-    sigma_range: float = 0.003
+    sigma_range: float = 0.002
     core: float = 0.9
     seed: int = 0
 
@@ -205,8 +209,16 @@ def noise_statistics(noise: np.ndarray, labels: np.ndarray, distances: np.ndarra
         bases[c] = evecs[:, ::-1]
         for ch in range(3):
             projected = (noise - means[c]) @ bases[c][:, ch]
-            spectra[c, ch] = estimate_spectrum(projected, core, t)
-            sigmas[c, ch] = max(float(np.sqrt((spectra[c, ch].astype(np.float64) ** 2).mean())), 1e-6)
+            spectrum = estimate_spectrum(projected, core, t).astype(np.float64)
+            # the shape from the core, the energy from the whole cluster: the 10 % left out
+            # are the most unusual pixels (often the strongest grain), and without them the
+            # synthesized noise would be weaker than the photo's
+            energy = float((spectrum ** 2).mean())
+            target = float(projected[member].var())
+            if energy > 0 and target > 0:
+                spectrum *= np.sqrt(target / energy)
+            spectra[c, ch] = spectrum
+            sigmas[c, ch] = max(float(np.sqrt((spectrum ** 2).mean())), 1e-6)
             if options.equalize:
                 quantiles[c, ch] = np.quantile(projected[core], probs)
     return NoiseStatistics(spectra, bases, means, sigmas, quantiles)

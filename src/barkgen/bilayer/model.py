@@ -29,18 +29,23 @@ class SynthesisOptions:
         colours: edge colours per direction (``colours**4`` tiles).
         variants: exchanged contents per tile.
         deformation: rotations and zooms of the structure's samples.
+        warp: turbulence of the structure (Fig. 10): a smooth random displacement of up to
+            ``warp`` tile sizes that bends the straight seams of the tile grid (0: none).
     """
 
     tile_size: int | None = None
     colours: int = 3
     variants: int = 4
     deformation: Deformation = Deformation()
+    warp: float = 0.25
 
     def __post_init__(self) -> None:
         if self.tile_size is not None and (self.tile_size < 8 or self.tile_size % 2):
             raise InvalidInputError(f"tile size must be even and at least 8, not {self.tile_size}")
         if not (1 <= self.colours <= 4) or not (1 <= self.variants <= 16):
             raise InvalidInputError("colours must be 1-4 and variants 1-16")
+        if not (0 <= self.warp <= 1):
+            raise InvalidInputError(f"warp must be between 0 and 1 tile size, not {self.warp}")
 
 
 @dataclass
@@ -137,7 +142,7 @@ class BilayerModel:
                       options.variants, synth.hash_seed, synth.noise_tiles,
                       synth.noise_tiles.shape[2] // 2, stats.bases.astype(np.float64),
                       stats.means.astype(np.float64), stats.quantiles.astype(np.float64),
-                      stats.sigmas.astype(np.float64))
+                      stats.sigmas.astype(np.float64), float(options.warp * synth.tiles.shape[1]))
         np.clip(out, 0.0, 1.0, out=out)
         if not layers:
             return out

@@ -8,9 +8,13 @@ operations as P"). A tile set is built from it once per seed and deformation:
   that colour continue each other. A tile is composed of the four edge triangles of its
   colours.
 - Content exchange (Vanhoey et al. 2013, mono-scale): every tile exists in ``variants``
-  versions whose interiors are different samples of the exemplar; the edge triangles are
-  pasted over the interior along minimum-cost graph cuts (Kwatra et al. 2003, PyMaxflow),
-  so the seams follow the texture. Which version a cell uses is a hash of its position.
+  versions whose interiors are different samples of the exemplar, each chosen, as image
+  quilting chooses its patches, among the samples that agree best with the tile's edge
+  pieces on a ring along its border; the edge pieces are pasted over the interior along
+  minimum-cost graph cuts (Kwatra et al. 2003, PyMaxflow) within a band along the edges, so
+  the exchanged content fills most of the tile and the seams follow the texture. Of twice
+  as many candidates, the ``variants`` with the cheapest seams are kept. Which version a
+  cell uses is a hash of its position.
 - Deformations (guingo2017 §4, Fig. 9-10): every sample (interior or edge) can be rotated by
   up to ``rotate`` degrees (optionally about the vertical only, keeping bark upright: 0° or
   180° plus the jitter) and zoomed by a factor in ``scale``.
@@ -101,23 +105,39 @@ def _matching_samples(sources: list[np.ndarray], frame: np.ndarray, ring: np.nda
                       rng: np.random.Generator) -> list[np.ndarray]:
     """``count`` samples whose content agrees best with ``frame`` on ``ring`` (the edge
     pieces already fixed around a tile), as image quilting chooses its patches (Efros &
-    Freeman 2001): the best matches of each source at least half a tile apart, then a random
-    choice among the ``2 count`` best, for variety."""
+    Freeman 2001), the squared difference taken relative to the candidate's contrast on the
+    ring: the best matches of each source at least half a tile apart, then a random choice
+    among the ``2 count`` best, for variety."""
     import cv2
 
     size = frame.shape[0]
+    step = 2 if size >= 64 else 1  # large tiles are matched at half resolution (4x fewer sums)
     template = np.ascontiguousarray(frame[:, :, :3])
     mask = np.repeat(ring[:, :, None], 3, axis=2).astype(np.float32)
+    if step > 1:
+        small = (size // step, size // step)
+        template = cv2.resize(template, small, interpolation=cv2.INTER_AREA)
+        mask = (cv2.resize(mask, small, interpolation=cv2.INTER_AREA) > 0.5).astype(np.float32)
     found = []
     for index, src in enumerate(sources):
-        cost = cv2.matchTemplate(np.ascontiguousarray(src[:, :, :3]), template, cv2.TM_SQDIFF, mask=mask)
-        cost = np.nan_to_num(cost, nan=np.inf)
-        spacing = max(1, size // 2)
+        image = np.ascontiguousarray(src[:, :, :3])
+        if step > 1:
+            image = cv2.resize(image, (src.shape[1] // step, src.shape[0] // step), interpolation=cv2.INTER_AREA)
+        cost = cv2.matchTemplate(image, template, cv2.TM_SQDIFF, mask=mask)
+        # relative to the candidate's own contrast on the ring: plain squared differences
+        # favour flat samples, and a tile set of flat samples is blurrier than the exemplar
+        total = cv2.matchTemplate(image, mask, cv2.TM_CCORR)
+        total_sq = cv2.matchTemplate(image * image, mask, cv2.TM_CCORR)
+        n = float(mask.sum())
+        contrast = np.maximum(total_sq - total * total / n, 0.0)
+        cost = np.nan_to_num(cost / (contrast + 1e-3 * n), nan=np.inf)
+        spacing = max(1, size // (2 * step))
         for _ in range(2 * count):  # the best matches, each suppressing its neighbourhood
             y, x = np.unravel_index(int(np.argmin(cost)), cost.shape)
             if not np.isfinite(cost[y, x]):
                 break
-            found.append((float(cost[y, x]), index, int(y), int(x)))
+            found.append((float(cost[y, x]), index, min(int(y) * step, src.shape[0] - size),
+                          min(int(x) * step, src.shape[1] - size)))
             cost[max(0, y - spacing + 1):y + spacing, max(0, x - spacing + 1):x + spacing] = np.inf
     found.sort()
     best = found[:2 * count]
@@ -180,7 +200,7 @@ def build_tiles(layers: np.ndarray, rng: np.random.Generator, *, size: int, colo
     y, x = np.mgrid[0:size, 0:size]
     edge_distance = np.minimum.reduce([y, x, size - 1 - y, size - 1 - x])
     ring = edge_distance < size // 4  # where the edge pieces are known before the interior
-    core = edge_distance >= size // 2 - size // 8  # the exchanged content keeps the centre
+    core = edge_distance >= size // 6  # the exchanged content: all but a band along the edges
     n_tiles = colours ** 4 * variants
     tiles = np.empty((n_tiles, size, size, layers.shape[2]), np.float32)
     index = 0
@@ -206,7 +226,9 @@ def build_tiles(layers: np.ndarray, rng: np.random.Generator, *, size: int, colo
                                                     take=strip & triangle)
                             canvas[take] = pieces[name][take]
                             seam += cost
-                        made.append((seam, len(made), canvas))
+                        grad = np.abs(np.diff(canvas[:, :, :3], axis=0)).mean() + np.abs(
+                            np.diff(canvas[:, :, :3], axis=1)).mean()
+                        made.append((seam / (grad + 1e-6), len(made), canvas))  # relative seams
                     made.sort(key=lambda item: item[:2])  # content exchange: the best-fitting ones
                     for _, _, canvas in made[:variants]:
                         tiles[index] = canvas

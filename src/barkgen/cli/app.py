@@ -812,6 +812,8 @@ def bilayer_synth_command(
                                                 "upright (0 or 180 degrees, plus --rotate).")] = False,
     tile_size: Annotated[Optional[int], typer.Option("--tile-size", help="Wang tile size in px "
                                                      "(default: a fifth of the exemplar).")] = None,
+    warp: Annotated[float, typer.Option("--warp", help="Turbulence bending the tile grid, in tile "
+                                        "sizes (0-1; 0: none).")] = 0.25,
     seed: SeedOption = 0,
     bits: Annotated[int, typer.Option("--bits", help="Bits per channel (8 or 16).")] = 8,
 ) -> None:
@@ -825,7 +827,7 @@ def bilayer_synth_command(
     if bits not in (8, 16):
         raise InvalidInputError(f"--bits must be 8 or 16, not {bits}")
     _check_png_target(output, "output")
-    options = SynthesisOptions(tile_size=tile_size,
+    options = SynthesisOptions(tile_size=tile_size, warp=warp,
                                deformation=Deformation(rotate=rotate, scale=(lo, hi), keep_vertical=keep_vertical))
     model = BilayerModel.load(model_path)
     image = model.window(x, y, out_shape[1], out_shape[0], seed=seed, options=options)
