@@ -132,8 +132,10 @@ def render_window(y0, x0, out, structure_out, noise_out, tiles, colours, variant
         for q in range(4):
             wy[q] = fy if (q >> 1) else 1.0 - fy
         idx = np.int64(0)
-        tx_cur = -(1 << 62)
-        ty_cur = -(1 << 62)
+        tx = np.int64(0)
+        ty = np.int64(0)
+        tx_lo = np.int64(-(1 << 62))
+        ty_lo = np.int64(-(1 << 62))
         cx_cur = -(1 << 62)
         wx_cur = -(1 << 62)
         py = gy & wrap
@@ -162,12 +164,18 @@ def render_window(y0, x0, out, structure_out, noise_out, tiles, colours, variant
                     dx += wq * vx[q]
                 sy = gy + np.int64(math.floor(warp * dy + 0.5))
                 sx = gx + np.int64(math.floor(warp * dx + 0.5))
-            ty = sy // size
-            iy = sy - ty * size
-            tx = sx // size
-            if tx != tx_cur or ty != ty_cur:  # a new tile: its edge colours and content variant
-                tx_cur = tx
-                ty_cur = ty
+            moved = False
+            if sy < ty_lo or sy >= ty_lo + size:  # divisions only when the tile changes
+                ty = sy // size
+                ty_lo = ty * size
+                moved = True
+            if sx < tx_lo or sx >= tx_lo + size:
+                tx = sx // size
+                tx_lo = tx * size
+                moved = True
+            iy = sy - ty_lo
+            ix = sx - tx_lo
+            if moved:  # a new tile: its edge colours and content variant
                 north = lattice_hash(ty, tx, 0, seed) % ucol
                 south = lattice_hash(ty + 1, tx, 0, seed) % ucol
                 west = lattice_hash(ty, tx, 1, seed) % ucol
@@ -175,7 +183,6 @@ def render_window(y0, x0, out, structure_out, noise_out, tiles, colours, variant
                 var = lattice_hash(ty, tx, 2, seed) % np.uint64(variants)
                 idx = np.int64((((north * ucol + east) * ucol + south) * ucol + west)
                                * np.uint64(variants) + var)
-            ix = sx - tx * size
             cx = col_cx[col]
             if cx != cx_cur:  # a new noise cell: the offsets of its four corners
                 cx_cur = cx
@@ -214,7 +221,7 @@ def render_window(y0, x0, out, structure_out, noise_out, tiles, colours, variant
                         s += bases[k, ch, c] * nvals[k, c]
                     colour[ch] += m * s
             for ch in range(3):
-                out[r, col, ch] = tiles[idx, iy, ix, ch] + colour[ch]
+                out[r, col, ch] = min(max(tiles[idx, iy, ix, ch] + colour[ch], 0.0), 1.0)
                 if want_noise:
                     noise_out[r, col, ch] = colour[ch]
             if layers:

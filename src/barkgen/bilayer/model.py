@@ -143,7 +143,6 @@ class BilayerModel:
                       synth.noise_tiles.shape[2] // 2, stats.bases.astype(np.float64),
                       stats.means.astype(np.float64), stats.quantiles.astype(np.float64),
                       stats.sigmas.astype(np.float64), float(options.warp * synth.tiles.shape[1]))
-        np.clip(out, 0.0, 1.0, out=out)
         if not layers:
             return out
         return {"texture": out, "structure": structure[:, :, :3], "masks": structure[:, :, 3:],
