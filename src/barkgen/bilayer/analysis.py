@@ -69,8 +69,9 @@ class AnalysisOptions:
             raise InvalidInputError(f"masks must be one of {', '.join(MASK_KINDS)}, not {self.masks!r}")
         if self.spectrum_size < 16 or self.spectrum_size % 2:
             raise InvalidInputError(f"spectrum size must be even and at least 16, not {self.spectrum_size}")
-        if self.border < 0 or self.iterations < 0 or self.radius < 1 or self.sigma_range <= 0:
-            raise InvalidInputError("border and iterations must be >= 0, radius >= 1, sigma_range > 0")
+        if self.border < 0 or self.iterations < 0 or self.radius < 1 or not (0 < self.sigma_range <= 1):
+            raise InvalidInputError("border and iterations must be >= 0, radius >= 1, "
+                                    "the range sigma in (0, 1]")
         if not (0 < self.core <= 1):
             raise InvalidInputError(f"core must be in (0, 1], not {self.core}")
         if self.seed < 0:

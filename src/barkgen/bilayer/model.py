@@ -98,7 +98,7 @@ class BilayerModel:
                                 deformation=options.deformation)
             rng = np.random.default_rng(noise_seq)
             spectra = self.noise.spectra
-            period = max(NOISE_TILE, 2 * spectra.shape[2])
+            period = max(NOISE_TILE, 1 << (2 * spectra.shape[2] - 1).bit_length())  # a power of two
             noise_tiles = np.empty((self.k, 3, period, period), np.float32)
             for ch in range(3):  # one white noise per channel, shared by the clusters (§3.2)
                 white = rng.standard_normal((period, period))

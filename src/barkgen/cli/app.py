@@ -296,6 +296,8 @@ def labels_command(
     edges: Annotated[bool, typer.Option(
         "--edges", help="Add a label for the region edges (k + 1 labels).")] = False,
     edge_width: Annotated[int, typer.Option("--edge-width", help="Width of the edge band, px.")] = 3,
+    sigma: Annotated[float, typer.Option("--sigma", help="Range sigma of the structure filter "
+                                         "(larger: more of the grain goes into the noise).")] = 0.002,
     seed: SeedOption = 0,
     preview: Annotated[Optional[Path], typer.Option(
         "--preview", help="Also write the photo with the label regions tinted and outlined.")] = None,
@@ -724,10 +726,11 @@ def parse_pair(text: str, what: str, kind=float) -> tuple:
         raise InvalidInputError(f"invalid {what} {text!r}: expected two numbers A,B") from None
 
 
-def _analysis_options(k: int, tloc: int, masks: str, equalize: bool, border: int, seed: int):
+def _analysis_options(k: int, tloc: int, masks: str, equalize: bool, border: int, sigma: float, seed: int):
     from barkgen.bilayer import AnalysisOptions
 
-    return AnalysisOptions(k=k, tloc=tloc, masks=masks, equalize=equalize, border=border, seed=seed)
+    return AnalysisOptions(k=k, tloc=tloc, masks=masks, equalize=equalize, border=border,
+                           sigma_range=sigma, seed=seed)
 
 
 @bilayer_app.command("analyze")
@@ -742,6 +745,8 @@ def bilayer_analyze_command(
                                            "cluster (non-Gaussian noise, §6).")] = False,
     border: Annotated[int, typer.Option("--border", help="Band (px) along mask borders kept sharp in "
                                         "the structure (§6); 0: none.")] = 0,
+    sigma: Annotated[float, typer.Option("--sigma", help="Range sigma of the structure filter "
+                                         "(larger: more of the grain goes into the noise).")] = 0.002,
     seed: SeedOption = 0,
     preview: Annotated[Optional[Path], typer.Option(
         "--preview", help="Also write a PNG of P, N, the masks, the spectra and a synthesized sample.")] = None,
@@ -753,7 +758,7 @@ def bilayer_analyze_command(
     from barkgen.io import encode_png, read_image
     from barkgen.io.bilayer import encode_bilayer_model
 
-    options = _analysis_options(k, tloc, masks, equalize, border, seed)
+    options = _analysis_options(k, tloc, masks, equalize, border, sigma, seed)
     if output.suffix.lower() != ".npz":
         raise InvalidInputError(f"{output}: the model file must end in .npz")
     if output.is_dir():
