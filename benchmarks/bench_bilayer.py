@@ -46,6 +46,7 @@ from barkgen.data import sample_exemplar_path  # noqa: E402
 from barkgen.io import write_png  # noqa: E402
 from barkgen.labels.preview import contact_sheet  # noqa: E402
 from barkgen.synth import synthesize  # noqa: E402
+from barkgen.synth.solver import as_uint8 as _u8  # noqa: E402
 
 STOCHASTIC = ("fir_scaly_01", "lichen_covered_01", "furrowed_fine_01", "willow_furrowed_01")
 DEFORM = SynthesisOptions(deformation=Deformation(rotate=30, scale=(1.0, 1.6)))
@@ -149,10 +150,6 @@ def bench_estimator() -> dict:
         out[f"{keep:.1f}"] = {"barkgen": ours, "literal": literal}
         print(f"  {keep:4.0%}   {ours:7.3f}   {literal:7.3f}")
     return out
-
-
-def _u8(img: np.ndarray) -> np.ndarray:
-    return (np.clip(img, 0, 1) * 255 + 0.5).astype(np.uint8) if img.dtype != np.uint8 else img
 
 
 def bench_quality(stems, sheets: Path | None) -> dict:

@@ -31,6 +31,16 @@ def lattice_hash(i: int, j: int, salt: int, seed: int) -> np.uint64:
     return z
 
 
+@njit(cache=True, inline="always")
+def _reflect(i, n):
+    """Index ``i`` reflected into ``[0, n)`` (edge pixel repeated, as OpenCV's BORDER_REFLECT)."""
+    if i < 0:
+        i = -i - 1
+    elif i >= n:
+        i = 2 * n - i - 1
+    return min(max(i, 0), n - 1)
+
+
 @njit(parallel=True, cache=True)
 def joint_bilateral(image, guide, radius, sigma_space, sigma_range):
     """One pass of a joint (cross) bilateral filter: ``image`` (H, W, C) averaged over a
@@ -47,19 +57,9 @@ def joint_bilateral(image, guide, radius, sigma_space, sigma_range):
             acc[:] = 0.0
             total = 0.0
             for dy in range(-radius, radius + 1):
-                yy = y + dy
-                if yy < 0:
-                    yy = -yy - 1
-                elif yy >= h:
-                    yy = 2 * h - yy - 1
-                yy = min(max(yy, 0), h - 1)
+                yy = _reflect(y + dy, h)
                 for dx in range(-radius, radius + 1):
-                    xx = x + dx
-                    if xx < 0:
-                        xx = -xx - 1
-                    elif xx >= w:
-                        xx = 2 * w - xx - 1
-                    xx = min(max(xx, 0), w - 1)
+                    xx = _reflect(x + dx, w)
                     dist = 0.0
                     for k in range(d):
                         diff = guide[y, x, k] - guide[yy, xx, k]

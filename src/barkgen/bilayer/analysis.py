@@ -80,27 +80,9 @@ class AnalysisOptions:
 
 def as_rgb(image: np.ndarray) -> np.ndarray:
     """An ``(H, W)`` or ``(H, W, C)`` image (uint8, uint16 or float in [0, 1]) as float32 RGB."""
-    img = np.asarray(image)
-    if img.ndim == 2:
-        img = img[:, :, None]
-    if img.ndim != 3 or img.shape[2] not in (1, 2, 3, 4):
-        raise InvalidInputError(f"exemplar must be an (H, W) or (H, W, C) image, not shape {img.shape}")
-    if min(img.shape[:2]) < MIN_SIDE:
-        raise InvalidInputError(f"exemplar is {img.shape[1]}x{img.shape[0]} px; the bi-layer analysis "
-                                f"needs at least {MIN_SIDE} px on each side")
-    if img.shape[2] in (2, 4):
-        img = img[:, :, :-1]
-    if img.dtype == np.uint8:
-        f = img.astype(np.float32) / 255.0
-    elif img.dtype == np.uint16:
-        f = img.astype(np.float32) / 65535.0
-    elif img.dtype.kind == "f":
-        f = np.clip(np.nan_to_num(img.astype(np.float32)), 0.0, 1.0)
-    else:
-        raise InvalidInputError(f"exemplar has unsupported dtype {img.dtype}")
-    if f.shape[2] == 1:
-        f = np.repeat(f, 3, axis=2)
-    return np.ascontiguousarray(f)
+    from barkgen.labels.regions import check_image
+
+    return check_image(image, min_side=MIN_SIDE, what="exemplar", purpose="the bi-layer analysis needs")
 
 
 def _reduce(features: np.ndarray, dims: int, rng: np.random.Generator) -> np.ndarray:

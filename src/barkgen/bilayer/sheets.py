@@ -8,10 +8,7 @@ import dataclasses
 import numpy as np
 
 from barkgen.bilayer.spectra import TLOC_CHOICES
-
-
-def _u8(image: np.ndarray) -> np.ndarray:
-    return (np.clip(image, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
+from barkgen.synth.solver import as_uint8 as _u8
 
 
 def noise_picture(noise: np.ndarray) -> np.ndarray:

@@ -772,7 +772,7 @@ def bilayer_analyze_command(
     if preview is not None:
         h, w = model.exemplar.shape[:2]
         files[preview] = encode_png(analysis_preview(model, model.window(0, 0, 2 * w, h, seed=seed)))
-    for path, data in files.items():  # everything encoded first: a failure writes nothing
+    for path, data in files.items():  # everything is encoded before anything is written
         _write_files(path.parent, {path.name: data})
     if not quiet:
         typer.echo(f"wrote {output} (K={k}, T_loc={tloc}, noise std "

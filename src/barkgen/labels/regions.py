@@ -31,17 +31,19 @@ DENOISE_STRENGTH = 10.0
 KMEANS_SAMPLES = 60_000
 
 
-def check_image(image: np.ndarray) -> np.ndarray:
+def check_image(image: np.ndarray, *, min_side: int = MIN_SIDE, what: str = "photo",
+                purpose: str = "label maps need") -> np.ndarray:
     """An ``(h, w)`` or ``(h, w, C)`` photo (uint8, uint16 or float in [0, 1]) as float32 RGB in
-    [0, 1]; alpha is dropped, grey is repeated to three channels."""
+    [0, 1]; alpha is dropped, grey is repeated to three channels. ``what`` and ``purpose``
+    word the errors (e.g. "exemplar", "the bi-layer analysis needs")."""
     img = np.asarray(image)
     if img.ndim == 2:
         img = img[:, :, None]
     if img.ndim != 3 or img.shape[2] not in (1, 2, 3, 4):
-        raise InvalidInputError(f"photo must be an (H, W) or (H, W, C) image, not shape {img.shape}")
-    if min(img.shape[:2]) < MIN_SIDE:
-        raise InvalidInputError(f"photo is {img.shape[1]}x{img.shape[0]} px; label maps need at "
-                                f"least {MIN_SIDE} px on each side")
+        raise InvalidInputError(f"{what} must be an (H, W) or (H, W, C) image, not shape {img.shape}")
+    if min(img.shape[:2]) < min_side:
+        raise InvalidInputError(f"{what} is {img.shape[1]}x{img.shape[0]} px; {purpose} at "
+                                f"least {min_side} px on each side")
     if img.shape[2] in (2, 4):
         img = img[:, :, :-1]
     if img.dtype == np.uint8:
@@ -51,7 +53,7 @@ def check_image(image: np.ndarray) -> np.ndarray:
     elif img.dtype.kind == "f":
         f = np.clip(np.nan_to_num(img.astype(np.float32)), 0.0, 1.0)
     else:
-        raise InvalidInputError(f"photo has unsupported dtype {img.dtype}")
+        raise InvalidInputError(f"{what} has unsupported dtype {img.dtype}")
     if f.shape[2] == 1:
         f = np.repeat(f, 3, axis=2)
     return np.ascontiguousarray(f)
