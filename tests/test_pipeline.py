@@ -48,7 +48,7 @@ def test_generate_api_outputs_and_report(fir128):
     report = result.report
     assert report["size"] == [160, 96] and report["seed"] == 2 and report["k"] == 3
     assert report["strategy"] == "engine" and report["extras"] == ["height"]
-    assert set(report["timings_s"]) == {"labels_in", "labels_out", "texture", "total"}
+    assert set(report["timings_s"]) == {"analysis", "labels_out", "texture", "total"}
     fin, fout = report["label_fractions_in"], report["label_fractions_out"]
     assert set(fin) == set(fout) and abs(sum(fout.values()) - 1) < 1e-3
     sheet = preview_sheet(fir128, result)

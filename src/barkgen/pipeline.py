@@ -24,11 +24,12 @@ from barkgen.synth.solver import ProgressCallback, parse_output_shape
 
 if TYPE_CHECKING:
     from barkgen.material import Light, MaterialSet
+    from barkgen.synth import AnalysisCache
 
 LABEL_METHODS = ("color", "texton")
 
 #: share of the progress bar of each stage
-_STAGES = {"labels": (0.0, 0.1), "label_map": (0.1, 0.35), "texture": (0.35, 1.0)}
+_STAGES = {"analysis": (0.0, 0.5), "label_map": (0.5, 0.65), "texture": (0.65, 1.0)}
 
 
 @dataclass(frozen=True)
@@ -115,6 +116,80 @@ def _fractions(label_map: np.ndarray, values: np.ndarray) -> dict[str, float]:
     return {str(int(v)): round(float(np.mean(label_map == v)), 4) for v in values}
 
 
+#: seed of the photo's own analysis (the k-means of its label map): the photo's labels belong to
+#: the photo, not to a variant, so every seed's output of one photo shares one analysis
+ANALYSIS_SEED = 0
+
+
+@dataclass
+class PhotoAnalysis:
+    """What :func:`generate` needs from a photo whatever the seed (laitoch2018 Figure 1.2's
+    per-photo steps): the input label map, the k-coherence analyses of the label-map and
+    texture solvers (mazzolini2012 §4.1.2, in an :class:`~barkgen.synth.AnalysisCache`), and
+    with ``material`` the photo's own :class:`~barkgen.material.MaterialSet`. Made once by
+    :func:`analyze_photo`, it serves any number of seeds (:mod:`barkgen.batch` ships it to its
+    workers); ``seconds`` is what it cost."""
+
+    labels_in: np.ndarray
+    cache: AnalysisCache
+    material: MaterialSet | None = None
+    options: GenerateOptions | None = None
+    seconds: float = 0.0
+
+
+def _analysis_key(options: GenerateOptions) -> tuple:
+    """The options a :class:`PhotoAnalysis` depends on."""
+    light = None if options.light is None else (options.light.azimuth, options.light.elevation)
+    return (options.k, options.method, options.material, light, options.relief)
+
+
+def analyze_photo(
+    photo: np.ndarray,
+    options: GenerateOptions | None = None,
+    *,
+    extra: Mapping[str, np.ndarray] | None = None,
+    labels_in: np.ndarray | None = None,
+    progress: ProgressCallback | None = None,
+) -> PhotoAnalysis:
+    """The per-photo part of :func:`generate`: the input label map (``options.k`` labels by
+    ``options.method``, laitoch2018 §3.5, unless ``labels_in`` is given), the exemplar analyses
+    of the output-label-map and texture-by-numbers solvers for outputs of ``options.size``, and
+    with ``options.material`` the photo's material set (wang2003 §3.3-3.4). The seed plays no
+    part: give the result to :func:`generate` for every seed."""
+    from barkgen.labels import color_regions, texton_regions
+    from barkgen.shapes import analyse_label_map
+    from barkgen.synth import AnalysisCache, analyse_texture_by_numbers
+    from barkgen.synth.tbn import TBN_CONFIG
+
+    options = options or GenerateOptions()
+    t0 = time.perf_counter()
+    if labels_in is None:
+        regions = color_regions if options.method == "color" else texton_regions
+        labels_in = regions(photo, options.k, seed=ANALYSIS_SEED)
+    labels_in = np.asarray(labels_in)
+    if labels_in.shape[:2] != np.asarray(photo).shape[:2]:
+        raise InvalidInputError(
+            f"the label map is {labels_in.shape[1]}x{labels_in.shape[0]} px but the photo is "
+            f"{photo.shape[1]}x{photo.shape[0]} px; they must match")
+    if progress:
+        progress(1, 4)
+    cache = AnalysisCache()
+    if options.strategy == "engine":
+        analyse_label_map(labels_in, options.size, cache)
+    if progress:
+        progress(2, 4)
+    analyse_texture_by_numbers(photo, labels_in, options.size, cache,
+                               feature_weight=options.feature_weight, extra=extra,
+                               config=dataclasses.replace(TBN_CONFIG, threads=options.threads))
+    if progress:
+        progress(3, 4)
+    material = _photo_material(photo, labels_in, options) if options.material else None
+    if progress:
+        progress(4, 4)
+    return PhotoAnalysis(labels_in=labels_in, cache=cache, material=material, options=options,
+                         seconds=time.perf_counter() - t0)
+
+
 def generate(
     photo: np.ndarray,
     options: GenerateOptions | None = None,
@@ -123,6 +198,7 @@ def generate(
     labels_in: np.ndarray | None = None,
     resume: np.ndarray | tuple[int, np.ndarray] | None = None,
     progress: ProgressCallback | None = None,
+    analysis: PhotoAnalysis | None = None,
 ) -> GenerateResult:
     """Turn a bark photo into new bark of ``options.size`` (laitoch2018 Figure 1.2).
 
@@ -136,32 +212,35 @@ def generate(
         resume: an edited level of the output label map to continue from
             (:func:`barkgen.shapes.synthesize_label_map`).
         progress: optional ``progress(done, total)`` callback over the whole run.
+        analysis: the photo's :class:`PhotoAnalysis` from :func:`analyze_photo` with the same
+            photo, extras and options (the seed aside), to skip the per-photo work; the result
+            is the same bytes as without it.
     """
-    from barkgen.labels import color_regions, texton_regions
     from barkgen.shapes import synthesize_label_map
     from barkgen.synth import texture_by_numbers
     from barkgen.synth.tbn import TBN_CONFIG
 
     options = options or GenerateOptions()
     timings: dict[str, float] = {}
-    t0 = time.perf_counter()
-    if labels_in is None:
-        regions = color_regions if options.method == "color" else texton_regions
-        labels_in = regions(photo, options.k, seed=options.seed)
-    labels_in = np.asarray(labels_in)
-    if labels_in.shape[:2] != np.asarray(photo).shape[:2]:
-        raise InvalidInputError(
-            f"the label map is {labels_in.shape[1]}x{labels_in.shape[0]} px but the photo is "
-            f"{photo.shape[1]}x{photo.shape[0]} px; they must match")
-    stage = _stage_progress(progress, "labels")
-    if stage:
-        stage(1, 1)
+    if analysis is None:
+        analysis = analyze_photo(photo, options, extra=extra, labels_in=labels_in,
+                                 progress=_stage_progress(progress, "analysis"))
+    else:
+        if labels_in is not None:
+            raise InvalidInputError("give the label map to analyze_photo, not with an analysis")
+        if analysis.options is not None and _analysis_key(analysis.options) != _analysis_key(options):
+            raise InvalidInputError("the photo analysis was made with other options (k, method, "
+                                    "material, light, relief); analyse the photo again")
+        if analysis.labels_in.shape[:2] != np.asarray(photo).shape[:2]:
+            raise InvalidInputError("the photo analysis belongs to a photo of another size")
+    labels_in = analysis.labels_in
     t1 = time.perf_counter()
-    timings["labels_in"] = t1 - t0
+    timings["analysis"] = analysis.seconds
 
     label_result = synthesize_label_map(
         labels_in, options.size, strategy=options.strategy, tile=options.tile, seed=options.seed,
-        rotations=options.rotations, resume=resume, progress=_stage_progress(progress, "label_map"))
+        rotations=options.rotations, resume=resume, progress=_stage_progress(progress, "label_map"),
+        cache=analysis.cache)
     t2 = time.perf_counter()
     timings["labels_out"] = t2 - t1
 
@@ -172,14 +251,21 @@ def generate(
     result = texture_by_numbers(
         photo, labels_in, label_result.label_map, label_weight=options.label_weight,
         feature_weight=options.feature_weight, init=init, tile=options.tile, seed=options.seed,
-        extra=extra, config=config, progress=_stage_progress(progress, "texture"))
+        extra=extra, config=config, progress=_stage_progress(progress, "texture"),
+        cache=analysis.cache)
     t3 = time.perf_counter()
     timings["texture"] = t3 - t2
     material = None
     if options.material:
-        material = _material(photo, labels_in, result.references, options)
+        from barkgen.material import transfer_material
+
+        source = analysis.material
+        if source is None:
+            source = _photo_material(photo, labels_in, options)
+        material = transfer_material(source, result.references, tile=options.tile)
         timings["material"] = time.perf_counter() - t3
-    timings["total"] = time.perf_counter() - t0
+    # the analysis' own cost counts whether it ran here or was shared
+    timings["total"] = analysis.seconds + time.perf_counter() - t1
 
     values = np.unique(labels_in)
     report = {
@@ -211,16 +297,14 @@ def generate(
                           material=material)
 
 
-def _material(photo: np.ndarray, labels_in: np.ndarray, references: np.ndarray,
-              options: GenerateOptions):
-    """The photo's material set carried to the output through the texture's references."""
+def _photo_material(photo: np.ndarray, labels_in: np.ndarray, options: GenerateOptions):
+    """The photo's own material set, its label map as the height's structure cue."""
     from barkgen.labels.regions import to_codes
-    from barkgen.material import MaterialOptions, make_material, transfer_material
+    from barkgen.material import MaterialOptions, make_material
 
-    source = make_material(photo, MaterialOptions(k=options.k, light=options.light, seed=options.seed,
-                                                  relief=options.relief),
-                           label_map=to_codes(labels_in)[0])
-    return transfer_material(source, references, tile=options.tile)
+    return make_material(photo, MaterialOptions(k=options.k, light=options.light, seed=ANALYSIS_SEED,
+                                                relief=options.relief),
+                         label_map=to_codes(labels_in)[0])
 
 
 def preview_sheet(photo: np.ndarray, result: GenerateResult, tile_size: int = 320) -> np.ndarray:

@@ -15,6 +15,7 @@ import numpy as np
 import typer
 
 from barkgen.errors import BarkgenError, InvalidInputError
+from barkgen.synth.solver import parse_size
 
 F = TypeVar("F", bound=Callable[..., None])
 
@@ -27,7 +28,6 @@ app = typer.Typer(
     rich_markup_mode=None,
 )
 
-_SIZE_RE = re.compile(r"^\s*(-?\d+)\s*[xX×]\s*(-?\d+)\s*$")
 _MEM_RE = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*([kKmMgGtT]?)i?[bB]?\s*$")
 
 
@@ -64,17 +64,6 @@ def user_errors(func: F) -> F:
             raise _fail(f"internal error: {type(exc).__name__}: {exc}", 1) from None
 
     return wrapper  # type: ignore[return-value]
-
-
-def parse_size(text: str) -> tuple[int, int]:
-    """``"WxH"`` -> ``(height, width)``; raises :class:`InvalidInputError` with a clear message."""
-    m = _SIZE_RE.match(text or "")
-    if not m:
-        raise InvalidInputError(f"invalid size {text!r}: expected WIDTHxHEIGHT, e.g. 1024x1024")
-    w, h = int(m.group(1)), int(m.group(2))
-    if w <= 0 or h <= 0:
-        raise InvalidInputError(f"invalid size {text!r}: width and height must be positive")
-    return h, w
 
 
 def parse_memory(text: str) -> int:
@@ -496,12 +485,9 @@ def generate_command(
     (laitoch2018 Figure 1.2). Writes texture.png, labels_in.png, labels_out.png, reference.png,
     report.json and preview.png (+ NAME.png per --extra, + the material set with --material)
     into the output folder."""
-    import json
-
-    from barkgen import __version__
     from barkgen.data import sample_exemplar_path
-    from barkgen.io import encode_png, encode_reference, read_image
-    from barkgen.pipeline import GenerateOptions, generate, preview_sheet
+    from barkgen.io import GENERATE_FILES, encode_generate, read_image
+    from barkgen.pipeline import GenerateOptions, generate
 
     if bits not in (None, 8, 16):
         raise InvalidInputError(f"--bits must be 8 or 16, not {bits}")
@@ -509,7 +495,7 @@ def generate_command(
     _check_material_name(name)
     if not material and (light is not None or relief != 1.0):
         raise InvalidInputError("--light and --relief apply to the material set: add --material")
-    if material and name in {"texture", "labels_in", "labels_out", "reference", "preview", "report"}:
+    if material and name in GENERATE_FILES:
         raise InvalidInputError(f"--name {name!r} would overwrite one of generate's own files; pick another")
     if save_levels is not None:
         _check_folder(save_levels, "--save-levels")
@@ -518,8 +504,7 @@ def generate_command(
                               max_memory=parse_memory(max_memory), material=material,
                               light=_light(light), relief=relief)
     extra_paths = parse_extras(extra)
-    reserved = {"texture", "labels_in", "labels_out", "reference", "preview", "report"}
-    clash = sorted(set(extra_paths) & reserved)
+    clash = sorted(set(extra_paths) & set(GENERATE_FILES))
     if clash:
         raise InvalidInputError(f"--extra name {clash[0]!r} is taken by an output file; pick another")
     src = photo if photo is not None else sample_exemplar_path()
@@ -530,24 +515,7 @@ def generate_command(
     with _progress(not quiet, "generating") as progress:
         result = generate(image, options, extra=extras, labels_in=label_map, resume=edited,
                           progress=progress)
-        sheet = preview_sheet(image, result)
-    report = {"barkgen": __version__, "photo": str(src), **result.report}
-    files = {"texture.png": encode_png(result.texture, bits=bits),
-             "labels_in.png": encode_png(result.labels_in),
-             "labels_out.png": encode_png(result.labels_out),
-             "reference.png": encode_reference(result.references, image.shape[:2]),
-             "preview.png": encode_png(sheet)}
-    files.update({f"{extra_name}.png": encode_png(arr) for extra_name, arr in result.extras.items()})
-    if result.material is not None:
-        from barkgen.io import encode_material
-
-        material_files = encode_material(result.material, name, seed=seed, source_photo=str(src))
-        clash = sorted(set(material_files) & (set(files) | {"report.json"}))
-        if clash:
-            raise InvalidInputError(f"--name {name!r} makes {clash[0]}, which is taken; pick another")
-        files.update(material_files)
-    report["files"] = sorted(files) + ["report.json"]
-    files["report.json"] = (json.dumps(report, indent=2) + "\n").encode()
+        files = encode_generate(image, result, str(src), name=name, bits=bits)
     _write_files(output_dir, files)
     if save_levels is not None:
         _write_files(save_levels, _level_files(result.label_levels))
@@ -700,6 +668,47 @@ def apply_reference_command(
             f"{map_path} is {image.shape[1]}x{image.shape[0]} px but the reference map was made for "
             f"a {ex_shape[1]}x{ex_shape[0]} exemplar")
     write_png(output, apply_references(refs, image), bits=bits)
+
+
+@app.command("batch")
+@user_errors
+def batch_command(
+    spec_path: Annotated[Path, typer.Argument(
+        metavar="SPEC.yaml", help="Batch spec: exemplars (path, seeds or count + seed_base) and "
+        "generate's options (size, tile, k, method, material, ...).")],
+    output_dir: Annotated[Path, typer.Option("-o", "--output", help="Output folder: OUTDIR/<name>/<seed>/.")],
+    scheduler: Annotated[Optional[str], typer.Option(
+        "--scheduler", help="Address of a running Dask scheduler (tcp://HOST:PORT). "
+        "Default: a local cluster on this machine.")] = None,
+    workers: Annotated[Optional[int], typer.Option(
+        "--workers", help="Worker processes of the local cluster (default: one per core).")] = None,
+    threads: Annotated[Optional[int], typer.Option(
+        "--threads", help="Threads per variant (default: cores / workers locally, all cores of a "
+        "worker with --scheduler).")] = None,
+    quiet: QuietOption = False,
+) -> None:
+    """Generate many unique barks on Dask: every seed of every exemplar in SPEC, each photo
+    analysed once and shared with the workers. A re-run makes only what is missing or failed
+    (OUTDIR/manifest.sqlite)."""
+    from barkgen.batch import load_spec, run_batch
+
+    spec = load_spec(spec_path, threads=threads)
+    _check_folder(output_dir, "output")
+    say = (lambda message: None) if quiet else (lambda message: typer.echo(message, err=True))
+    try:
+        with _progress(not quiet, "variants") as progress:
+            report = run_batch(spec, output_dir, scheduler=scheduler, workers=workers, threads=threads,
+                               progress=progress, log=say)
+    except KeyboardInterrupt:
+        raise _fail(f"interrupted; what finished is in {output_dir} (see manifest.sqlite): run the same "
+                    "command again to make the rest", 130) from None
+    if report.made or report.failed:
+        say(f"made {report.made} variant(s) in {report.seconds:.1f} s"
+            f"{f', {report.skipped} were already done' if report.skipped else ''} -> {output_dir}")
+    if report.failed:
+        for name, seed, error in report.failed[:5]:
+            print(f"barkgen: error: {name} seed {seed}: {error}", file=sys.stderr)
+        raise _fail(f"{len(report.failed)} variant(s) failed (run again to retry them)", 1)
 
 
 bilayer_app = typer.Typer(

@@ -1,5 +1,11 @@
 """Image and reference-map input/output: the only place where barkgen touches image files."""
 
+from barkgen.io.generate import (
+    GENERATE_FILES,
+    encode_generate,
+    remove_staging,
+    write_folder_atomic,
+)
 from barkgen.io.images import (
     AlphaDroppedWarning,
     encode_png,
@@ -15,6 +21,10 @@ from barkgen.io.references import encode_reference, read_reference, write_refere
 
 __all__ = [
     "AlphaDroppedWarning",
+    "GENERATE_FILES",
+    "encode_generate",
+    "remove_staging",
+    "write_folder_atomic",
     "MAP_SUFFIXES",
     "check_material_name",
     "encode_glb",

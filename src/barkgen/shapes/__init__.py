@@ -33,7 +33,7 @@ from barkgen.shapes.patches import (
     shape_dissimilarity,
 )
 from barkgen.synth.guide import label_pyramid
-from barkgen.synth.solver import ProgressCallback, parse_output_shape
+from barkgen.synth.solver import AnalysisCache, ProgressCallback, parse_output_shape
 
 STRATEGIES = ("engine", "layered")
 
@@ -42,6 +42,7 @@ __all__ = [
     "ROTATIONS",
     "STRATEGIES",
     "ShapeConfig",
+    "analyse_label_map",
     "label_dissimilarity",
     "automatic_layer_order",
     "label_map_levels",
@@ -125,6 +126,7 @@ def synthesize_label_map(
     resume: tuple[int, np.ndarray] | np.ndarray | None = None,
     config: ShapeConfig | None = None,
     progress: ProgressCallback | None = None,
+    cache: AnalysisCache | None = None,
 ) -> LabelMapResult:
     """Synthesize a new label map of ``size`` (``(height, width)`` or an int) from the
     exemplar's ``label_map`` (laitoch2018 §3.6; Figure 1.2's "output label map").
@@ -144,6 +146,8 @@ def synthesize_label_map(
             the exemplar's labels.
         config: parameters of the layered strategy.
         progress: optional ``progress(done, total)`` callback.
+        cache: an :class:`~barkgen.synth.AnalysisCache` holding (or to keep) the engine
+            strategy's exemplar analysis (:func:`analyse_label_map`).
     """
     if strategy not in STRATEGIES:
         raise InvalidInputError(f"strategy must be one of {', '.join(STRATEGIES)}, not {strategy!r}")
@@ -168,7 +172,7 @@ def synthesize_label_map(
 
         out, references = synthesize_codes(codes, palette.size, out_shape, tile=tile,
                                            seed=int(seed), start=start, on_level=on_level,
-                                           progress=progress)
+                                           progress=progress, cache=cache)
     else:
         from barkgen.shapes.layered import synthesize_layers
 
@@ -195,3 +199,12 @@ def synthesize_label_map(
                           layer_order=order_values, references=references,
                           resumed_level=None if start is None else start[0],
                           timings={"label_map": time.perf_counter() - t0})
+
+
+def analyse_label_map(label_map: np.ndarray, size, cache: AnalysisCache) -> AnalysisCache:
+    """Run the engine strategy's exemplar analysis for outputs of ``size`` into ``cache``, so
+    that every :func:`synthesize_label_map` of this label map and size (any seed) skips it."""
+    from barkgen.shapes.engine import analyse_codes
+
+    codes, palette = to_codes(label_map)
+    return analyse_codes(codes, palette.size, parse_output_shape(size), cache)

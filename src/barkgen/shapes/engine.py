@@ -30,7 +30,7 @@ from barkgen.pyramid import count_levels, gaussian_pyramid, level_shape
 from barkgen.synth.config import SynthesisConfig
 from barkgen.synth.guide import label_pyramid
 from barkgen.synth.initialization import smart_initialization
-from barkgen.synth.solver import LabelBalance, ProgressCallback, solve
+from barkgen.synth.solver import AnalysisCache, LabelBalance, ProgressCallback, solve
 from barkgen.synth.tbn import guide_channels
 
 #: the solver for label maps: the pyramid stops where label regions still exist (as for
@@ -75,18 +75,20 @@ def synthesize_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int
                      on_level: Callable[[int, np.ndarray], None] | None = None,
                      progress: ProgressCallback | None = None,
                      config: SynthesisConfig | None = None,
-                     balance_weight: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+                     balance_weight: float | None = None,
+                     cache: AnalysisCache | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Synthesize label codes ``(H, W)`` from the exemplar's ``codes`` with the core solver;
     returns them and their reference map ``(H, W, 2)`` (exemplar ``(y, x)`` per pixel).
 
     ``start``: ``(level, codes)`` of an edited level: its reference map is made by the smart
     initialisation of texture-by-numbers (coherent exemplar pieces whose labels match the edit,
     laitoch2018 §3.4.2) and the solver continues from that level. ``on_level(level, codes)``
-    receives each level's result.
+    receives each level's result. ``cache``: an :class:`AnalysisCache` holding (or to keep) the
+    exemplar's k-coherence analysis (:func:`analyse_codes`).
     """
     config = config or LABEL_ENGINE_CONFIG
     n_levels = engine_levels(codes.shape, out_shape, config)
-    features, _ = guide_channels(codes, codes[:1, :1], n_labels, 1.0)
+    features = _features(codes, n_labels)
     ex = codes.astype(np.uint8)[:, :, None]
     rng = np.random.default_rng([int(seed), 1])
     if start is not None:
@@ -108,5 +110,20 @@ def synthesize_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int
             on_level(int(name[5:-7]), image.astype(np.int32))
 
     result = solve(ex, {}, features, out_shape, n_levels=n_levels, config=config, seed=seed,
-                   tile=tile, progress=progress, debug=debug, start=resume, balance=balance)
+                   tile=tile, progress=progress, debug=debug, start=resume, balance=balance,
+                   cache=cache)
     return result.image[:, :, 0].astype(np.int32), result.references
+
+
+def _features(codes: np.ndarray, n_labels: int) -> np.ndarray:
+    """What the engine matches: the soft one-hot label channels."""
+    return guide_channels(codes, codes[:1, :1], n_labels, 1.0)[0]
+
+
+def analyse_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int], cache: AnalysisCache,
+                  config: SynthesisConfig | None = None) -> AnalysisCache:
+    """The k-coherence analysis that :func:`synthesize_codes` needs for outputs of
+    ``out_shape``, run into ``cache`` ahead of any synthesis."""
+    config = config or LABEL_ENGINE_CONFIG
+    cache.analyse(_features(codes, n_labels), engine_levels(codes.shape, out_shape, config), config)
+    return cache

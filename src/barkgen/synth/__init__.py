@@ -2,6 +2,7 @@
 
 from barkgen.synth.config import SynthesisConfig
 from barkgen.synth.solver import (
+    AnalysisCache,
     LevelAnalysis,
     SynthesisResult,
     analyse_exemplar,
@@ -10,13 +11,15 @@ from barkgen.synth.solver import (
     matching_features,
     synthesize,
 )
-from barkgen.synth.tbn import texture_by_numbers
+from barkgen.synth.tbn import analyse_texture_by_numbers, texture_by_numbers
 
 __all__ = [
+    "AnalysisCache",
     "LevelAnalysis",
     "SynthesisConfig",
     "SynthesisResult",
     "analyse_exemplar",
+    "analyse_texture_by_numbers",
     "apply_references",
     "estimate_memory",
     "matching_features",

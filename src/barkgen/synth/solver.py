@@ -17,6 +17,8 @@ E-step, extra channels), with these additions:
 
 from __future__ import annotations
 
+import hashlib
+import re
 import sys
 import time
 from collections.abc import Callable, Mapping
@@ -123,6 +125,20 @@ def parse_output_shape(size: int | tuple[int, int]) -> tuple[int, int]:
     return shape
 
 
+_SIZE_RE = re.compile(r"^\s*(-?\d+)\s*[xX×]\s*(-?\d+)\s*$")
+
+
+def parse_size(text: str) -> tuple[int, int]:
+    """``"WxH"`` -> ``(height, width)``; raises :class:`InvalidInputError` with a clear message."""
+    m = _SIZE_RE.match(text if isinstance(text, str) else "")
+    if not m:
+        raise InvalidInputError(f"invalid size {text!r}: expected WIDTHxHEIGHT, e.g. 1024x1024")
+    w, h = int(m.group(1)), int(m.group(2))
+    if w <= 0 or h <= 0:
+        raise InvalidInputError(f"invalid size {text!r}: width and height must be positive")
+    return h, w
+
+
 def matching_features(exemplar: np.ndarray, extras: Mapping[str, np.ndarray] | None,
                       extra_weight: float) -> np.ndarray:
     """Per-pixel features used for matching: CIELAB (L in 0..100) or L alone for grey images,
@@ -189,6 +205,56 @@ def analyse_exemplar(features: np.ndarray, n_levels: int, config: SynthesisConfi
         if progress:
             progress()
     return levels  # type: ignore[return-value]
+
+
+class AnalysisCache:
+    """Exemplar analyses (:func:`analyse_exemplar`) kept for reuse.
+
+    The k-coherence analysis phase (mazzolini2012 §4.1.2) depends on the exemplar alone, not on
+    the seed, so one analysis serves every variant synthesized from one photo. Entries are keyed
+    by what the analysis depends on (the matching features' bytes, the pyramid depth and the
+    config's analysis fields), so a cache can never hand back the analysis of other inputs: a
+    changed photo, label map or option is a miss and is analysed afresh. Plain data, so it can
+    be pickled and shipped to other processes (:mod:`barkgen.batch`).
+    """
+
+    def __init__(self) -> None:
+        self._entries: dict[str, list[LevelAnalysis]] = {}
+
+    @staticmethod
+    def key(features: np.ndarray, n_levels: int, config: SynthesisConfig) -> str:
+        digest = hashlib.blake2b(digest_size=20)
+        digest.update(repr((features.shape, features.dtype.str, int(n_levels), config.k,
+                            config.pca_components, config.schedule_coarsest, config.schedule_middle,
+                            config.schedule_finest)).encode())
+        digest.update(memoryview(np.ascontiguousarray(features)).cast("B"))
+        return digest.hexdigest()
+
+    def analyse(self, features: np.ndarray, n_levels: int, config: SynthesisConfig,
+                progress: Callable[[], None] | None = None) -> list[LevelAnalysis]:
+        """:func:`analyse_exemplar`, computed on the first call for these inputs only."""
+        key = self.key(features, n_levels, config)
+        levels = self._entries.get(key)
+        if levels is None:
+            levels = self._entries[key] = analyse_exemplar(features, n_levels, config, progress)
+        elif progress is not None:
+            for _ in range(n_levels):
+                progress()
+        return levels
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes held by the cached arrays."""
+        total = 0
+        for levels in self._entries.values():
+            for la in levels:
+                total += la.features.nbytes + la.coords_y.nbytes + la.coords_x.nbytes + la.ksets.nbytes
+                total += sum(w.nbytes for w in la.kernel_weights.values())
+                total += sum(p.features.nbytes for p in la.projections.values())
+        return total
 
 
 # --------------------------------------------------------------------------------------------
@@ -430,14 +496,16 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
           progress: ProgressCallback | None = None,
           debug: DebugCallback | None = None,
           start: tuple[int, np.ndarray] | None = None,
-          balance: LabelBalance | None = None) -> SynthesisResult:
+          balance: LabelBalance | None = None,
+          cache: AnalysisCache | None = None) -> SynthesisResult:
     """The coarse-to-fine discrete solver shared by :func:`synthesize` and texture-by-numbers.
 
     ``ex`` ``(h, w, C)`` and ``extras`` are resolved through the final references; ``features``
     ``(h, w, F)`` float32 are what is matched. Inputs must already be validated. ``start``:
     ``(level, references)`` resumes at that level from a given reference map (flat indices
     into the level's exemplar) instead of starting at the coarsest level. ``balance`` adds the
-    label-area term of :class:`LabelBalance` to the occurrence cost.
+    label-area term of :class:`LabelBalance` to the occurrence cost. ``cache``: an
+    :class:`AnalysisCache` that supplies (or keeps) the exemplar's analysis.
     """
     _set_threads(config)
     from barkgen.synth import _kernels as K
@@ -453,7 +521,8 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
             progress(done, total)
 
     t0 = time.perf_counter()
-    levels = analyse_exemplar(features, n_levels, config, progress=tick)
+    cache = cache if cache is not None else AnalysisCache()
+    levels = cache.analyse(features, n_levels, config, progress=tick)
     t1 = time.perf_counter()
 
     no_labels = np.zeros(1, np.int32)

@@ -31,6 +31,7 @@ from barkgen.synth.config import SynthesisConfig
 from barkgen.synth.guide import boundary_distance, encode_label_maps, label_pyramid, level_guide
 from barkgen.synth.initialization import random_initialization, smart_initialization
 from barkgen.synth.solver import (
+    AnalysisCache,
     DebugCallback,
     Guidance,
     ProgressCallback,
@@ -150,6 +151,7 @@ def texture_by_numbers(
     config: SynthesisConfig | None = None,
     progress: ProgressCallback | None = None,
     debug: DebugCallback | None = None,
+    cache: AnalysisCache | None = None,
 ) -> SynthesisResult:
     """Synthesize a texture that follows ``target_labels`` from ``exemplar`` and its labels.
 
@@ -173,6 +175,8 @@ def texture_by_numbers(
         progress: optional ``progress(done, total)`` callback.
         debug: optional ``debug(name, image)`` callback receiving the pyramid levels, label maps,
             the initialisation and each level's result as uint8 images.
+        cache: an :class:`~barkgen.synth.solver.AnalysisCache` holding (or to keep) the
+            exemplar's k-coherence analysis, e.g. from :func:`analyse_texture_by_numbers`.
 
     Returns:
         :class:`~barkgen.synth.SynthesisResult` (image, references, extras).
@@ -198,14 +202,10 @@ def texture_by_numbers(
     n_feat = (3 if ex.shape[2] == 3 else 1) + 1 + sum(e.shape[2] for e in extras.values())
     check_memory(ex, extras, out_shape, n_feat, config, guided=True)
 
-    feats = matching_features(ex, extras, config.extra_weight)
-    n_colour = 3 if ex.shape[2] == 3 else 1
-    colour_variance = float(feats[:, :, :n_colour].reshape(-1, n_colour).var(axis=0).sum())
-    fdm = feature_distance_channel(labels.exemplar, colour_variance, feature_weight)
+    feats, colour_variance = _matching_features(ex, extras, labels.exemplar, feature_weight, config)
     # a pixel whose soft label differs completely costs label_weight x the colour variance
     guide_a, guide_b = guide_channels(labels.exemplar, labels.target, labels.n_labels,
                                       np.sqrt(label_weight * colour_variance / 2.0))
-    feats = np.ascontiguousarray(np.concatenate([feats, fdm], axis=2), dtype=np.float32)
 
     n_levels = count_levels(ex.shape[:2], out_shape, config.coarsest_exemplar)
     pyr_a = label_pyramid(labels.exemplar, labels.n_labels, n_levels)
@@ -233,7 +233,41 @@ def texture_by_numbers(
     guidance = Guidance(levels=guides, exemplar_guides=gaussian_pyramid(guide_a, n_levels),
                         target_guides=gaussian_pyramid(guide_b, n_levels), initial_references=initial)
     result = solve(ex, extras, feats, out_shape, n_levels=n_levels, config=config, seed=seed,
-                   tile=tile, guidance=guidance, progress=progress, debug=debug, start=start)
+                   tile=tile, guidance=guidance, progress=progress, debug=debug, start=start,
+                   cache=cache)
     if np.asarray(exemplar).ndim == 2:
         result.image = result.image[:, :, 0]
     return result
+
+
+def _matching_features(ex: np.ndarray, extras: Mapping[str, np.ndarray], exemplar_codes: np.ndarray,
+                       feature_weight: float, config: SynthesisConfig) -> tuple[np.ndarray, float]:
+    """What texture-by-numbers matches in the exemplar: colour (+ extras) and the
+    feature-distance channel; returns them and the exemplar's colour variance."""
+    feats = matching_features(ex, extras, config.extra_weight)
+    n_colour = 3 if ex.shape[2] == 3 else 1
+    colour_variance = float(feats[:, :, :n_colour].reshape(-1, n_colour).var(axis=0).sum())
+    fdm = feature_distance_channel(exemplar_codes, colour_variance, feature_weight)
+    return np.ascontiguousarray(np.concatenate([feats, fdm], axis=2), dtype=np.float32), colour_variance
+
+
+def analyse_texture_by_numbers(
+    exemplar: np.ndarray,
+    exemplar_labels: np.ndarray,
+    size,
+    cache: AnalysisCache,
+    *,
+    feature_weight: float = 8.0,
+    extra: Mapping[str, np.ndarray] | None = None,
+    config: SynthesisConfig | None = None,
+) -> AnalysisCache:
+    """Run the k-coherence analysis phase (mazzolini2012 §4.1.2) that
+    :func:`texture_by_numbers` needs for outputs of ``size`` into ``cache``, ahead of any
+    synthesis. Every later call with the same exemplar, labels, extras, ``feature_weight``,
+    config and output pyramid depth then skips it, whatever its seed or target label map."""
+    config = config or TBN_CONFIG
+    ex, out_shape, extras = validate_inputs(exemplar, size, 0, extra)
+    labels = encode_label_maps(exemplar_labels, exemplar_labels, ex.shape[:2])
+    feats, _ = _matching_features(ex, extras, labels.exemplar, feature_weight, config)
+    cache.analyse(feats, count_levels(ex.shape[:2], out_shape, config.coarsest_exemplar), config)
+    return cache

@@ -1,0 +1,229 @@
+"""Running a batch on Dask's distributed scheduler (an embedded LocalCluster by default, any
+Dask cluster when given its address).
+
+Task graph per exemplar: the photo is scattered to every worker; one task analyses it
+(:func:`barkgen.pipeline.analyze_photo`: label map, k-coherence sets, material source), once;
+one task per seed synthesizes a variant from that shared analysis and returns its encoded files
+(:func:`barkgen.io.encode_generate`). The client writes each variant's folder atomically
+(:func:`barkgen.io.write_folder_atomic`) and records it in the manifest, so workers need no
+access to the output folder and a worker killed mid-task leaves nothing behind: Dask reruns its
+task elsewhere.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from barkgen.batch.manifest import MANIFEST_NAME, Manifest
+from barkgen.batch.spec import BatchSpec, ExemplarJob
+from barkgen.errors import InvalidInputError
+
+
+@dataclass
+class VariantOutput:
+    """What a variant task sends back: its files, the seconds it computed, where, and what
+    the shared analysis it used had cost."""
+
+    files: dict[str, bytes]
+    seconds: float
+    worker: str
+    analysis_seconds: float
+
+
+@dataclass
+class BatchReport:
+    """The outcome of :func:`run_batch`: variants in the spec, already done before (skipped),
+    made now, failed now (``(exemplar, seed, error)``); wall-clock seconds; seconds computed
+    inside variant tasks and inside analysis tasks; the workers and the dashboard address."""
+
+    total: int
+    skipped: int = 0
+    made: int = 0
+    failed: list[tuple[str, int, str]] = field(default_factory=list)
+    seconds: float = 0.0
+    variant_seconds: list[float] = field(default_factory=list)
+    analysis_seconds: dict[str, float] = field(default_factory=dict)
+    workers: int = 0
+    dashboard: str | None = None
+
+
+def _analyse_task(photo, labels, options):
+    """Worker side: the photo's analysis (:func:`barkgen.pipeline.analyze_photo`)."""
+    from barkgen.pipeline import analyze_photo
+
+    return analyze_photo(photo, options, labels_in=labels)
+
+
+def _variant_task(photo, analysis, options, source: str, material_name: str, bits: int | None):
+    """Worker side: one variant from the shared analysis, encoded exactly as
+    ``barkgen generate`` encodes it."""
+    from barkgen.io import encode_generate
+    from barkgen.pipeline import generate
+
+    t0 = time.perf_counter()
+    result = generate(photo, options, analysis=analysis)
+    files = encode_generate(photo, result, source, name=material_name, bits=bits)
+    try:
+        from distributed import get_worker
+
+        worker = get_worker().address
+    except ValueError:
+        worker = "local"
+    return VariantOutput(files=files, seconds=time.perf_counter() - t0, worker=worker,
+                         analysis_seconds=analysis.seconds)
+
+
+def _one_line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    return f"{type(exc).__name__}: {text}"[:500]
+
+
+def _client(scheduler: str | None, workers: int | None, threads: int):
+    """A Dask client: to ``scheduler``, or to a new LocalCluster of ``workers`` single-task
+    processes whose numba/OpenMP pools have ``threads`` threads each."""
+    import dask
+    from distributed import Client, LocalCluster
+
+    if scheduler is not None:
+        try:
+            return Client(scheduler, timeout="20s"), None
+        except (OSError, TimeoutError) as exc:
+            raise InvalidInputError(f"cannot reach the Dask scheduler at {scheduler}: {_one_line(exc)}") from None
+    environ = {"NUMBA_NUM_THREADS": threads, "OMP_NUM_THREADS": threads}
+    with dask.config.set({f"distributed.nanny.pre-spawn-environ.{k}": v for k, v in environ.items()}):
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                               dashboard_address=":0", silence_logs=logging.CRITICAL)
+    return Client(cluster), cluster
+
+
+def run_batch(
+    spec: BatchSpec,
+    output_dir: str | Path,
+    *,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    threads: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
+    log: Callable[[str], None] | None = None,
+) -> BatchReport:
+    """Make every variant of ``spec`` that ``output_dir`` does not hold yet.
+
+    Args:
+        spec: a validated :class:`BatchSpec` (:func:`barkgen.batch.load_spec`).
+        output_dir: variants go to ``output_dir/<exemplar>/<seed>/`` with the files of
+            ``barkgen generate``; ``output_dir/manifest.sqlite`` records their states.
+        scheduler: address of a running Dask scheduler (``tcp://host:8786``); None starts a
+            LocalCluster on this machine.
+        workers: LocalCluster worker processes (default: one per core).
+        threads: numba/faiss threads per variant (default: cores / workers on a LocalCluster,
+            all cores of the worker with ``scheduler``).
+        progress: ``progress(done, total)`` over the variants to make.
+        log: receives one-line messages (dashboard address, what is skipped).
+    """
+    from barkgen.io import read_image, remove_staging, write_folder_atomic
+
+    say = log or (lambda message: None)
+    cores = os.cpu_count() or 1
+    if workers is not None and not 1 <= workers <= 1024:
+        raise InvalidInputError(f"workers must be 1..1024, not {workers}")
+    if threads is not None and not 1 <= threads <= 1024:
+        raise InvalidInputError(f"threads must be 1..1024, not {threads}")
+    if scheduler is not None and workers is not None:
+        raise InvalidInputError("--workers sizes the local cluster; with --scheduler the cluster's own "
+                                "workers are used")
+    if scheduler is None:
+        workers = workers or cores
+        threads = threads or max(1, cores // workers)
+    output_dir = Path(output_dir)
+    t0 = time.perf_counter()
+    report = BatchReport(total=spec.n_variants)
+    with Manifest(output_dir / MANIFEST_NAME) as manifest:
+        todo: list[tuple[ExemplarJob, list[int]]] = []
+        for job in spec.exemplars:
+            fingerprint = job.fingerprint()
+            seeds = [s for s in job.seeds
+                     if not manifest.is_done(job.name, s, fingerprint, output_dir / job.name / str(s))]
+            report.skipped += len(job.seeds) - len(seeds)
+            if seeds:
+                todo.append((dataclasses.replace(job, options=dataclasses.replace(job.options, threads=threads)),
+                             seeds))
+        n_todo = sum(len(seeds) for _, seeds in todo)
+        if not n_todo:
+            say(f"nothing to do: all {report.total} variants are already in {output_dir}")
+            report.seconds = time.perf_counter() - t0
+            return report
+        if report.skipped:
+            say(f"{report.skipped} of {report.total} variants already done; making the other {n_todo}")
+        # every photo is read (and so checked) before any work starts
+        inputs = {job.name: (read_image(job.path), None if job.labels is None else read_image(job.labels))
+                  for job, _ in todo}
+        for job, _ in todo:
+            remove_staging(output_dir / job.name)
+        client, cluster = _client(scheduler, workers, threads or 1)
+        try:
+            report.workers = len(client.scheduler_info(n_workers=-1)["workers"])
+            report.dashboard = client.dashboard_link
+            say(f"Dask dashboard: {report.dashboard} ({report.workers} workers)")
+            _run(client, todo, inputs, output_dir, manifest, report, n_todo, progress,
+                 write_folder_atomic)
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+        for job, _ in todo:
+            remove_staging(output_dir / job.name)
+    report.seconds = time.perf_counter() - t0
+    return report
+
+
+def _run(client, todo, inputs, output_dir: Path, manifest: Manifest, report: BatchReport,
+         n_todo: int, progress, write_folder) -> None:
+    from distributed import as_completed
+
+    futures = {}
+    remaining: dict[str, int] = {}
+    shared: dict[str, list] = {}
+    for job, seeds in todo:
+        photo, labels = inputs[job.name]
+        # a copy on every worker: losing one worker loses no input
+        photo_f = client.scatter(photo, broadcast=True, hash=False)
+        analysis_f = client.submit(_analyse_task, photo_f, labels, job.options, pure=False,
+                                   key=f"barkgen-analyse-{job.name}-{os.urandom(4).hex()}")
+        shared[job.name] = [photo_f, analysis_f]
+        remaining[job.name] = len(seeds)
+        fingerprint = job.fingerprint()
+        for seed in seeds:
+            future = client.submit(_variant_task, photo_f, analysis_f, job.options_for(seed), str(job.path),
+                                   job.material_name, job.bits, pure=False,
+                                   key=f"barkgen-variant-{job.name}-{seed}-{os.urandom(4).hex()}")
+            futures[future] = (job, seed, fingerprint)
+            manifest.mark(job.name, seed, fingerprint, "running")
+    done = 0
+    for future in as_completed(list(futures)):
+        job, seed, fingerprint = futures.pop(future)
+        if future.status == "finished":
+            out: VariantOutput = future.result()
+            write_folder(output_dir / job.name / str(seed), out.files)
+            manifest.mark(job.name, seed, fingerprint, "done", seconds=out.seconds, worker=out.worker)
+            report.made += 1
+            report.variant_seconds.append(out.seconds)
+            report.analysis_seconds[job.name] = out.analysis_seconds
+        else:
+            error = _one_line(future.exception())
+            manifest.mark(job.name, seed, fingerprint, "failed", error=error)
+            report.failed.append((job.name, seed, error))
+        future.release()
+        remaining[job.name] -= 1
+        if remaining[job.name] == 0:  # the exemplar's shared data is no longer needed
+            photo_f, analysis_f = shared.pop(job.name)
+            analysis_f.release()
+            photo_f.release()
+        done += 1
+        if progress:
+            progress(done, n_todo)

@@ -1,0 +1,249 @@
+"""Batch specifications: which photos, which seeds, which options (``barkgen batch SPEC.yaml``).
+
+A spec is a YAML (or JSON) mapping::
+
+    size: 512x512          # every pipeline option of barkgen generate, for all exemplars ...
+    tile: true
+    k: 3
+    material: false
+    exemplars:
+      - {name: oak, path: photos/oak.jpg, seeds: [0, 1, 2]}
+      - {name: pine, path: photos/pine.jpg, count: 8, seed_base: 100, k: 4}   # ... or one
+
+Relative paths are relative to the spec file. Everything is checked here, before any work
+starts, and every problem is one :class:`~barkgen.errors.InvalidInputError` line that says
+where it is.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import json
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+from barkgen.errors import BarkgenError, InvalidInputError
+from barkgen.pipeline import GenerateOptions
+from barkgen.synth.solver import parse_size
+
+#: pipeline options a spec may set at the top level or per exemplar, as GenerateOptions fields
+OPTION_KEYS = ("size", "k", "method", "strategy", "rotations", "tile", "material", "relief", "light",
+               "label_weight", "feature_weight", "bits", "material_name")
+#: keys of an exemplar entry besides the options
+EXEMPLAR_KEYS = ("name", "path", "library", "labels", "seeds", "count", "seed_base")
+#: top-level keys besides the options
+TOP_KEYS = ("exemplars",)
+
+_NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,63}$")
+#: most variants one exemplar entry may ask for
+MAX_VARIANTS = 100_000
+
+
+@dataclass(frozen=True)
+class ExemplarJob:
+    """One exemplar of a batch: its output ``name`` (the folder under OUTDIR), the photo, an
+    optional label map of it, the seeds of its variants, its :class:`GenerateOptions` (the
+    seed field aside), the material set's file ``material_name`` and the texture's ``bits``."""
+
+    name: str
+    path: Path
+    seeds: tuple[int, ...]
+    options: GenerateOptions
+    labels: Path | None = None
+    bits: int | None = None
+    material_name: str = "bark"
+
+    def options_for(self, seed: int) -> GenerateOptions:
+        return dataclasses.replace(self.options, seed=seed)
+
+    def fingerprint(self) -> str:
+        """What a finished variant was made with (the seed aside): a variant recorded with
+        another fingerprint is made again."""
+        opts = dataclasses.asdict(self.options)
+        opts.pop("seed")
+        opts.pop("threads")
+        opts.pop("max_memory")
+        return json.dumps({"path": str(self.path), "labels": None if self.labels is None else str(self.labels),
+                           "bits": self.bits, "material_name": self.material_name, **opts},
+                          sort_keys=True, default=str)
+
+
+@dataclass(frozen=True)
+class BatchSpec:
+    """A validated batch: its exemplars (in spec order) and the spec file's folder."""
+
+    exemplars: tuple[ExemplarJob, ...]
+    root: Path
+
+    @property
+    def n_variants(self) -> int:
+        return sum(len(ex.seeds) for ex in self.exemplars)
+
+
+def _suggest(key: str, allowed) -> str:
+    close = difflib.get_close_matches(key, list(allowed), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def _check_keys(where: str, mapping: dict, allowed) -> None:
+    for key in mapping:
+        if not isinstance(key, str) or key not in allowed:
+            raise InvalidInputError(f"{where}: unknown key {key!r}{_suggest(str(key), allowed)}; "
+                                    f"allowed: {', '.join(allowed)}")
+
+
+def _int(where: str, key: str, value, minimum: int = 0) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+        raise InvalidInputError(f"{where}: {key} must be an integer >= {minimum}, not {value!r}")
+    return value
+
+
+def _options(where: str, values: dict, threads: int | None) -> tuple[GenerateOptions, int | None, str]:
+    """GenerateOptions from a spec's option keys (errors say where)."""
+    from barkgen.io import GENERATE_FILES, check_material_name
+    from barkgen.material import parse_light
+
+    kwargs = {}
+    try:
+        for key, value in values.items():
+            if key == "size":
+                if isinstance(value, int) and not isinstance(value, bool):
+                    value = f"{value}x{value}"
+                kwargs["size"] = parse_size(value)
+            elif key in ("tile", "material"):
+                if not isinstance(value, bool):
+                    raise InvalidInputError(f"{key} must be true or false, not {value!r}")
+                kwargs[key] = value
+            elif key in ("k",):
+                kwargs[key] = _int(where, key, value, 1)
+            elif key == "light":
+                kwargs[key] = parse_light(str(value))
+            elif key in ("relief", "label_weight", "feature_weight"):
+                if isinstance(value, bool) or not isinstance(value, (int, float)):
+                    raise InvalidInputError(f"{key} must be a number, not {value!r}")
+                kwargs[key] = float(value)
+            elif key in ("method", "strategy", "rotations"):
+                kwargs[key] = str(value)
+        bits = values.get("bits")
+        if bits is not None and (isinstance(bits, bool) or bits not in (8, 16)):
+            raise InvalidInputError(f"bits must be 8 or 16, not {bits!r}")
+        name = values.get("material_name", "bark")
+        check_material_name(str(name))
+        if name in GENERATE_FILES:
+            raise InvalidInputError(f"material_name {name!r} would overwrite one of generate's own files")
+        if not values.get("material", False) and ("light" in values or "relief" in values):
+            raise InvalidInputError("light and relief apply to the material set: set material: true")
+        return GenerateOptions(threads=threads, **kwargs), bits, str(name)
+    except BarkgenError as exc:
+        message = str(exc)
+        if message.startswith(where):
+            raise
+        raise InvalidInputError(f"{where}: {message}") from None
+
+
+def _seeds(where: str, entry: dict) -> tuple[int, ...]:
+    if "seeds" in entry:
+        if "count" in entry or "seed_base" in entry:
+            raise InvalidInputError(f"{where}: give seeds, or count (and seed_base), not both")
+        seeds = entry["seeds"]
+        if isinstance(seeds, int) and not isinstance(seeds, bool):
+            seeds = [seeds]
+        if not isinstance(seeds, list) or not seeds:
+            raise InvalidInputError(f"{where}: seeds must be a non-empty list of integers, not {seeds!r}")
+        seeds = [_int(where, "each seed", s) for s in seeds]
+        dup = sorted({s for s in seeds if seeds.count(s) > 1})
+        if dup:
+            raise InvalidInputError(f"{where}: seed {dup[0]} is listed twice (two variants would "
+                                    "write the same folder)")
+        return tuple(seeds)
+    if "count" not in entry:
+        raise InvalidInputError(f"{where}: say which variants to make: seeds: [0, 1, ...] or count: N "
+                                "(with seed_base: S, default 0)")
+    count = _int(where, "count", entry["count"], 1)
+    if count > MAX_VARIANTS:
+        raise InvalidInputError(f"{where}: count {count} is more than {MAX_VARIANTS}")
+    base = _int(where, "seed_base", entry.get("seed_base", 0))
+    return tuple(range(base, base + count))
+
+
+def _path(root: Path, where: str, key: str, value) -> Path:
+    if not isinstance(value, str) or not value.strip():
+        raise InvalidInputError(f"{where}: {key} must be a file path, not {value!r}")
+    path = Path(value).expanduser()
+    path = path if path.is_absolute() else root / path
+    if not path.is_file():
+        raise InvalidInputError(f"{where}: {key} {value!r} not found ({path})")
+    return path
+
+
+def parse_spec(document, root: str | Path = ".", *, threads: int | None = None) -> BatchSpec:
+    """Validate a spec mapping (as loaded from YAML); relative paths are relative to ``root``.
+
+    ``threads``: numba/faiss threads of each variant (None: all cores of its worker).
+
+    Raises:
+        InvalidInputError: one line naming the entry and the key at fault: unknown keys,
+            missing photos, bad sizes or options, duplicate output names or seeds.
+    """
+    root = Path(root)
+    if not isinstance(document, dict):
+        raise InvalidInputError("spec: expected a mapping with an 'exemplars' list, not "
+                                f"{type(document).__name__}")
+    _check_keys("spec", document, TOP_KEYS + OPTION_KEYS)
+    entries = document.get("exemplars")
+    if not isinstance(entries, list) or not entries:
+        raise InvalidInputError("spec: 'exemplars' must be a non-empty list of "
+                                "{name, path, seeds | count} entries")
+    shared = {key: value for key, value in document.items() if key in OPTION_KEYS}
+    _options("spec", shared, threads)  # top-level options are checked once, on their own
+    jobs: list[ExemplarJob] = []
+    names: dict[str, int] = {}
+    for i, entry in enumerate(entries):
+        where = f"spec: exemplars[{i}]"
+        if not isinstance(entry, dict):
+            raise InvalidInputError(f"{where}: expected a mapping such as {{name: oak, path: oak.jpg, "
+                                    f"seeds: [0, 1]}}, not {entry!r}")
+        _check_keys(where, entry, EXEMPLAR_KEYS + OPTION_KEYS)
+        if "library" in entry:
+            raise InvalidInputError(f"{where}: library ids need barkgen's exemplar library, which "
+                                    "this version does not have yet; give the photo as path:")
+        if "path" not in entry:
+            raise InvalidInputError(f"{where}: path (the bark photo) is missing")
+        path = _path(root, where, "path", entry["path"])
+        name = entry.get("name", path.stem)
+        if not isinstance(name, str) or not _NAME_RE.match(name) or name in (".", ".."):
+            raise InvalidInputError(f"{where}: name {name!r} must be a folder name of letters, digits, "
+                                    "'.', '_' or '-' (at most 64, not starting with a dot)")
+        where = f"spec: exemplars[{i}] ({name})"
+        if name.lower() in names:
+            raise InvalidInputError(f"{where}: the name {name!r} is also exemplars[{names[name.lower()]}]'s; "
+                                    "each exemplar needs its own output folder")
+        names[name.lower()] = i
+        labels = _path(root, where, "labels", entry["labels"]) if "labels" in entry else None
+        options, bits, material_name = _options(
+            where, {**shared, **{k: v for k, v in entry.items() if k in OPTION_KEYS}}, threads)
+        jobs.append(ExemplarJob(name=name, path=path, seeds=_seeds(where, entry), options=options,
+                                labels=labels, bits=bits, material_name=material_name))
+    return BatchSpec(exemplars=tuple(jobs), root=root)
+
+
+def load_spec(path: str | Path, *, threads: int | None = None) -> BatchSpec:
+    """Read and validate a spec file (YAML or JSON); see :func:`parse_spec`."""
+    import yaml
+
+    path = Path(path)
+    if not path.is_file():
+        raise InvalidInputError(f"spec {str(path)!r} not found")
+    try:
+        text = path.read_text(encoding="utf-8")
+        document = yaml.safe_load(text)
+    except UnicodeDecodeError:
+        raise InvalidInputError(f"spec {str(path)!r} is not a text file") from None
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        problem = getattr(exc, "problem", None) or "not valid YAML"
+        raise InvalidInputError(f"spec {str(path)!r}: {problem}{at}") from None
+    return parse_spec(document, path.resolve().parent, threads=threads)
