@@ -1,0 +1,272 @@
+"""Batch generation on Dask (``barkgen.batch``, ``barkgen batch``): a whole spec on the default
+LocalCluster, re-runs that do only what is missing, a worker killed mid-run, an interrupted
+client, an external scheduler with two workers, byte-identity with ``barkgen generate``, and
+bad specs refused before any work starts."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_cli import run
+
+from barkgen.io import read_image, write_png
+
+#: images of a variant folder (report.json aside)
+IMAGES = ("texture.png", "labels_in.png", "labels_out.png", "reference.png", "preview.png")
+SEEDS = list(range(8))
+
+
+@pytest.fixture(scope="module")
+def photos(tmp_path_factory) -> Path:
+    """Two bark photos (fir, pine) as 512 px PNGs in a folder with a spec beside them."""
+    from conftest import bark_exemplar
+
+    folder = tmp_path_factory.mktemp("forest")
+    (folder / "photos").mkdir()
+    for name, stem in (("fir", "fir_scaly_01"), ("pine", "pine_plated_01")):
+        write_png(folder / "photos" / f"{name}.png", bark_exemplar(stem, 512))
+    return folder
+
+
+def write_spec(folder: Path, size: str, name: str = "spec.yaml", **extra) -> Path:
+    doc = {"size": size, "tile": True, "k": 3, "material": False,
+           "exemplars": [{"name": "fir", "path": "photos/fir.png", "seeds": SEEDS},
+                         {"name": "pine", "path": "photos/pine.png", "count": 8, "seed_base": 100}]}
+    doc.update(extra)
+    path = folder / name
+    path.write_text(json.dumps(doc))  # JSON is YAML
+    return path
+
+
+def variant_folders(out: Path) -> list[Path]:
+    return sorted(p for p in out.glob("*/*") if p.is_dir())
+
+
+def check_complete(out: Path, shape: tuple[int, int]) -> None:
+    """Every variant present exactly once, complete, valid images; no staging left anywhere."""
+    folders = variant_folders(out)
+    expected = [out / "fir" / str(s) for s in SEEDS] + [out / "pine" / str(100 + s) for s in SEEDS]
+    assert folders == sorted(expected)
+    leftovers = [p for p in out.rglob("*") if p.name.startswith(".")]
+    assert leftovers == []
+    for folder in folders:
+        report = json.loads((folder / "report.json").read_text())
+        assert sorted(report["files"]) == sorted(p.name for p in folder.iterdir())
+        assert report["seed"] == int(folder.name)
+        texture = read_image(folder / "texture.png")
+        assert texture.shape == shape + (3,) and texture.std() > 5
+    with sqlite3.connect(out / "manifest.sqlite") as db:
+        states = db.execute("SELECT state, COUNT(*) FROM variants GROUP BY state").fetchall()
+    assert states == [("done", 16)]
+
+
+def start_batch(spec: Path, out: Path, *args: str, env: dict | None = None) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "barkgen", "batch", str(spec), "-o", str(out), *args],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env={**os.environ, **(env or {})})
+
+
+def wait_done(out: Path, count: int, proc: subprocess.Popen, timeout: float = 300) -> None:
+    """Wait until the manifest records ``count`` finished variants."""
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        assert proc.poll() is None, proc.communicate()
+        try:
+            with sqlite3.connect(out / "manifest.sqlite", timeout=5) as db:
+                n = db.execute("SELECT COUNT(*) FROM variants WHERE state = 'done'").fetchone()[0]
+            if n >= count:
+                return
+        except sqlite3.OperationalError:  # not created yet
+            pass
+        time.sleep(0.2)
+    raise AssertionError("the batch made no progress")
+
+
+def test_forest_on_default_local_cluster_then_rerun_does_nothing(photos):
+    spec = write_spec(photos, "512x512")
+    out = photos / "out512"
+    result = run("batch", str(spec), "-o", str(out))
+    assert result.returncode == 0, result.stderr
+    assert "Dask dashboard: http" in result.stderr and "made 16 variant(s)" in result.stderr
+    check_complete(out, (512, 512))
+    # every seed its own bark
+    textures = [read_image(out / "fir" / str(s) / "texture.png").astype(np.int16) for s in (0, 1)]
+    assert np.mean(textures[0] != textures[1]) > 0.5
+
+    again = run("batch", str(spec), "-o", str(out))
+    assert again.returncode == 0, again.stderr
+    assert "nothing to do: all 16 variants are already in" in again.stderr
+    assert "dashboard" not in again.stderr
+
+
+@pytest.fixture(scope="module")
+def local_small(photos) -> Path:
+    """A small batch made on the LocalCluster through the Python API (the reference run)."""
+    from barkgen.batch import load_spec, run_batch
+
+    spec = write_spec(photos, "160x128", name="small.yaml")
+    out = photos / "local"
+    report = run_batch(load_spec(spec), out, workers=2)
+    assert report.made == 16 and not report.failed and report.workers == 2
+    assert set(report.analysis_seconds) == {"fir", "pine"}
+    return out
+
+
+def test_same_files_as_generate(photos, local_small):
+    gen = photos / "gen"
+    result = run("generate", str(photos / "photos" / "pine.png"), "-o", str(gen), "--size", "160x128",
+                 "--tile", "--k", "3", "--seed", "103", "--quiet")
+    assert result.returncode == 0, result.stderr
+    batch = local_small / "pine" / "103"
+    assert sorted(p.name for p in gen.iterdir()) == sorted(p.name for p in batch.iterdir())
+    for name in IMAGES:
+        assert (gen / name).read_bytes() == (batch / name).read_bytes(), name
+    a, b = (json.loads((d / "report.json").read_text()) for d in (gen, batch))
+    for report in (a, b):
+        report.pop("timings_s"), report.pop("photo")
+    assert a == b
+
+
+def test_worker_killed_mid_run_still_completes(photos, local_small):
+    import psutil
+
+    spec = write_spec(photos, "160x128", name="small.yaml")
+    out = photos / "killed"
+    proc = start_batch(spec, out, "--workers", "2")
+    try:
+        wait_done(out, 1, proc)
+        children = [c for c in psutil.Process(proc.pid).children(recursive=True)
+                    if "spawn_main" in " ".join(c.cmdline())]
+        assert len(children) >= 2  # the worker processes of the local cluster
+        victim = children[0]
+        victim.send_signal(signal.SIGKILL)
+        victim.wait(10)
+        stdout, stderr = proc.communicate(timeout=600)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, stderr
+    check_complete(out, (128, 160))
+    for folder in variant_folders(out):  # the same results as the undisturbed run
+        ref = local_small / folder.parent.name / folder.name
+        assert (folder / "texture.png").read_bytes() == (ref / "texture.png").read_bytes()
+
+
+def test_interrupted_client_then_rerun_makes_only_the_rest(photos, local_small):
+    spec = write_spec(photos, "160x128", name="small.yaml")
+    out = photos / "interrupted"
+    proc = start_batch(spec, out, "--workers", "2")
+    try:
+        wait_done(out, 2, proc)
+        proc.send_signal(signal.SIGINT)
+        _, stderr = proc.communicate(timeout=120)
+    finally:
+        proc.kill()
+    assert proc.returncode == 130, stderr
+    assert "interrupted" in stderr and "Traceback" not in stderr
+    finished = variant_folders(out)
+    assert 2 <= len(finished) < 16
+    assert [p for p in out.rglob("*") if p.name.startswith(".")] == []
+    stamps = {p: (p / "report.json").stat().st_mtime_ns for p in finished}
+    for folder in finished:  # whatever was written is whole
+        assert sorted(json.loads((folder / "report.json").read_text())["files"]) == \
+            sorted(p.name for p in folder.iterdir())
+
+    again = run("batch", str(spec), "-o", str(out), "--workers", "2")
+    assert again.returncode == 0, again.stderr
+    done_before = len(finished)
+    assert f"{done_before} of 16 variants already done; making the other {16 - done_before}" in again.stderr
+    check_complete(out, (128, 160))
+    assert {p: (p / "report.json").stat().st_mtime_ns for p in finished} == stamps
+
+
+def test_external_scheduler_two_workers_same_results(photos, local_small, tmp_path):
+    scheduler_file = tmp_path / "scheduler.json"
+    env = {**os.environ, "NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+    procs = [subprocess.Popen([sys.executable, "-m", "dask", "scheduler", "--host", "127.0.0.1",
+                               "--port", "0", "--no-dashboard", "--scheduler-file", str(scheduler_file)],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)]
+    try:
+        deadline = time.time() + 60
+        while not scheduler_file.exists() and time.time() < deadline:
+            time.sleep(0.2)
+        address = json.loads(scheduler_file.read_text())["address"]
+        assert address.startswith("tcp://127.0.0.1:")
+        for _ in range(2):
+            procs.append(subprocess.Popen(
+                [sys.executable, "-m", "dask", "worker", address, "--nthreads", "1", "--nworkers", "1",
+                 "--no-dashboard", "--host", "127.0.0.1"],
+                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env))
+        spec = write_spec(photos, "160x128", name="small.yaml")
+        out = tmp_path / "external"
+        result = run("batch", str(spec), "-o", str(out), "--scheduler", address, "--threads", "1")
+        assert result.returncode == 0, result.stderr
+        check_complete(out, (128, 160))
+        with sqlite3.connect(out / "manifest.sqlite") as db:
+            used = {w for (w,) in db.execute("SELECT DISTINCT worker FROM variants")}
+        assert len(used) == 2  # both workers took variants
+        for folder in variant_folders(out):
+            ref = local_small / folder.parent.name / folder.name
+            for name in IMAGES:
+                assert (folder / name).read_bytes() == (ref / name).read_bytes(), (folder, name)
+    finally:
+        for p in procs:
+            p.terminate()
+        for p in procs:
+            try:
+                p.wait(20)
+            except subprocess.TimeoutExpired:
+                p.kill()
+
+
+BAD_SPECS = [
+    ({"sizes": "64x64"}, "unknown key 'sizes' (did you mean 'size'?)"),
+    ({"exemplars": [{"name": "fir", "path": "photos/fir.png", "seed": [1]}]}, "unknown key 'seed'"),
+    ({"exemplars": [{"name": "fir", "path": "photos/nope.png", "seeds": [1]}]}, "'photos/nope.png' not found"),
+    ({"size": "0x0"}, "width and height must be positive"),
+    ({"size": "abc"}, "invalid size 'abc'"),
+    ({"exemplars": [{"name": "fir", "path": "photos/fir.png", "seeds": [1]},
+                    {"name": "fir", "path": "photos/pine.png", "seeds": [2]}]}, "also exemplars[0]'s"),
+    ({"exemplars": [{"name": "fir", "path": "photos/fir.png", "seeds": [1, 2, 1]}]}, "seed 1 is listed twice"),
+    ({"exemplars": [{"name": "fir", "path": "photos/fir.png", "seeds": [1], "count": 3}]}, "not both"),
+    ({"exemplars": [{"name": "fir", "path": "photos/fir.png"}]}, "seeds: [0, 1, ...] or count: N"),
+    ({"exemplars": [{"name": "pine", "library": 7, "count": 8}]}, "exemplar library"),
+    ({"exemplars": [{"name": "../up", "path": "photos/fir.png", "seeds": [1]}]}, "must be a folder name"),
+    ({"exemplars": []}, "non-empty list"),
+    ({"k": 99}, "spec: k"),
+    ({"tile": "yes"}, "tile must be true or false"),
+    ({"exemplars": [{"name": "fir", "path": "photos/fir.png", "seeds": [-1]}]}, "each seed must be an integer >= 0"),
+]
+
+
+@pytest.mark.parametrize("change,message", BAD_SPECS)
+def test_bad_spec_one_line_before_any_work(photos, tmp_path, change, message):
+    doc = {"size": "64x64", "exemplars": [{"name": "fir", "path": "photos/fir.png", "seeds": [0]}]}
+    doc.update(change)
+    spec = photos / f"bad-{abs(hash(message))}.yaml"
+    spec.write_text(json.dumps(doc))
+    out = tmp_path / "out"
+    result = run("batch", str(spec), "-o", str(out))
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("barkgen: error: spec"), result.stderr
+    assert message in lines[0]
+    assert not out.exists()
+
+
+def test_bad_yaml_and_missing_spec(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("size: 64x64\nexemplars: [{name: a, path: b\n")
+    for spec, message in ((bad, "at line"), (tmp_path / "none.yaml", "not found")):
+        result = run("batch", str(spec), "-o", str(tmp_path / "out"))
+        assert result.returncode == 2 and message in result.stderr
+        assert len(result.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "out").exists()
