@@ -63,6 +63,50 @@ def test_generate_is_deterministic(fir128):
     assert not np.array_equal(a.texture, c.texture)
 
 
+def test_shared_photo_analysis_gives_the_same_bytes_and_skips_the_analysis(fir128, monkeypatch):
+    import barkgen.synth.solver as solver
+    from barkgen.pipeline import analyze_photo
+
+    options = GenerateOptions(size=(96, 80), k=3, tile=True, material=True)
+    analysis = analyze_photo(fir128, options)
+    assert len(analysis.cache) == 2  # the label-map engine's and texture-by-numbers' analyses
+    assert analysis.material is not None and analysis.seconds > 0
+    fresh = [generate(fir128, GenerateOptions(size=(96, 80), k=3, tile=True, material=True, seed=s))
+             for s in (1, 2)]
+    calls = []
+    monkeypatch.setattr(solver, "analyse_exemplar",
+                        lambda *a, **k: calls.append(1) or pytest.fail("analysed again"))
+    for seed, ref in zip((1, 2), fresh):
+        shared = generate(fir128, GenerateOptions(size=(96, 80), k=3, tile=True, material=True, seed=seed),
+                          analysis=analysis)
+        assert np.array_equal(shared.texture, ref.texture)
+        assert np.array_equal(shared.labels_out, ref.labels_out)
+        assert np.array_equal(shared.material.height, ref.material.height)
+        assert shared.report["timings_s"]["analysis"] == round(analysis.seconds, 3)
+    assert not calls
+    assert not np.array_equal(fresh[0].texture, fresh[1].texture)
+    with pytest.raises(InvalidInputError, match="other options"):
+        generate(fir128, GenerateOptions(size=(96, 80), k=4, tile=True, material=True), analysis=analysis)
+    with pytest.raises(InvalidInputError, match="not with an analysis"):
+        generate(fir128, options, analysis=analysis, labels_in=analysis.labels_in)
+
+
+def test_analysis_cache_is_keyed_by_content():
+    from barkgen.synth import AnalysisCache, SynthesisConfig
+
+    rng = np.random.default_rng(0)
+    feats = rng.random((40, 48, 3), dtype=np.float32)
+    cache, config = AnalysisCache(), SynthesisConfig()
+    first = cache.analyse(feats, 2, config)
+    assert cache.analyse(feats.copy(), 2, config) is first and len(cache) == 1
+    changed = feats.copy()
+    changed[5, 5, 0] += 1.0
+    assert cache.analyse(changed, 2, config) is not first
+    assert cache.analyse(feats, 3, config) is not first
+    assert cache.analyse(feats, 2, SynthesisConfig(k=4)) is not first
+    assert len(cache) == 4 and cache.nbytes > feats.nbytes
+
+
 @pytest.mark.parametrize("name", ["pine_plated_01", "birch_smooth_lenticels_01"])
 def test_generate_quality_against_plain_synthesis(texeval, name):
     """Measured quality (small version of benchmarks/bench_generate.py): the result follows its

@@ -4,7 +4,7 @@ Dask cluster (:func:`run_batch`), each photo analysed once and shared with the w
 variant written atomically and recorded in a manifest that a re-run resumes from."""
 
 from barkgen.batch.manifest import MANIFEST_NAME, Manifest
-from barkgen.batch.runner import BatchReport, run_batch
+from barkgen.batch.runner import BatchReport, local_cluster, run_batch
 from barkgen.batch.spec import BatchSpec, ExemplarJob, load_spec, parse_spec
 
 __all__ = [
@@ -14,6 +14,7 @@ __all__ = [
     "ExemplarJob",
     "Manifest",
     "load_spec",
+    "local_cluster",
     "parse_spec",
     "run_batch",
 ]

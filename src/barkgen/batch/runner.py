@@ -84,21 +84,33 @@ def _one_line(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {text}"[:500]
 
 
-def _client(scheduler: str | None, workers: int | None, threads: int):
-    """A Dask client: to ``scheduler``, or to a new LocalCluster of ``workers`` single-task
-    processes whose numba/OpenMP pools have ``threads`` threads each."""
+def local_cluster(workers: int | None = None, threads: int | None = None):
+    """A Dask LocalCluster for batches: ``workers`` processes (default: one per core), one task
+    at a time each, with numba/OpenMP pools of ``threads`` threads (default: cores / workers),
+    a dashboard on a free port, and barkgen imported as each worker starts
+    (:mod:`barkgen.batch.preload`)."""
     import dask
-    from distributed import Client, LocalCluster
+    from distributed import LocalCluster
+
+    workers = workers or os.cpu_count() or 1
+    threads = threads or max(1, (os.cpu_count() or 1) // workers)
+    environ = {"NUMBA_NUM_THREADS": threads, "OMP_NUM_THREADS": threads}
+    with dask.config.set({f"distributed.nanny.pre-spawn-environ.{k}": v for k, v in environ.items()}):
+        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                            dashboard_address=":0", silence_logs=logging.CRITICAL,
+                            preload=["barkgen.batch.preload"])
+
+
+def _client(scheduler: str | None, workers: int | None, threads: int | None):
+    """A Dask client of ``scheduler``, or of a new :func:`local_cluster` (returned too, to close)."""
+    from distributed import Client
 
     if scheduler is not None:
         try:
             return Client(scheduler, timeout="20s"), None
         except (OSError, TimeoutError) as exc:
             raise InvalidInputError(f"cannot reach the Dask scheduler at {scheduler}: {_one_line(exc)}") from None
-    environ = {"NUMBA_NUM_THREADS": threads, "OMP_NUM_THREADS": threads}
-    with dask.config.set({f"distributed.nanny.pre-spawn-environ.{k}": v for k, v in environ.items()}):
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=":0", silence_logs=logging.CRITICAL)
+    cluster = local_cluster(workers, threads)
     return Client(cluster), cluster
 
 
@@ -111,6 +123,7 @@ def run_batch(
     threads: int | None = None,
     progress: Callable[[int, int], None] | None = None,
     log: Callable[[str], None] | None = None,
+    client=None,
 ) -> BatchReport:
     """Make every variant of ``spec`` that ``output_dir`` does not hold yet.
 
@@ -125,6 +138,8 @@ def run_batch(
             all cores of the worker with ``scheduler``).
         progress: ``progress(done, total)`` over the variants to make.
         log: receives one-line messages (dashboard address, what is skipped).
+        client: an existing ``distributed.Client`` to run on (left open), instead of
+            ``scheduler`` / a new LocalCluster.
     """
     from barkgen.io import read_image, remove_staging, write_folder_atomic
 
@@ -134,10 +149,10 @@ def run_batch(
         raise InvalidInputError(f"workers must be 1..1024, not {workers}")
     if threads is not None and not 1 <= threads <= 1024:
         raise InvalidInputError(f"threads must be 1..1024, not {threads}")
-    if scheduler is not None and workers is not None:
+    if (scheduler is not None or client is not None) and workers is not None:
         raise InvalidInputError("--workers sizes the local cluster; with --scheduler the cluster's own "
                                 "workers are used")
-    if scheduler is None:
+    if scheduler is None and client is None:
         workers = workers or cores
         threads = threads or max(1, cores // workers)
     output_dir = Path(output_dir)
@@ -165,7 +180,9 @@ def run_batch(
                   for job, _ in todo}
         for job, _ in todo:
             remove_staging(output_dir / job.name)
-        client, cluster = _client(scheduler, workers, threads or 1)
+        own = client is None
+        if own:
+            client, cluster = _client(scheduler, workers, threads)
         try:
             report.workers = len(client.scheduler_info(n_workers=-1)["workers"])
             report.dashboard = client.dashboard_link
@@ -173,9 +190,10 @@ def run_batch(
             _run(client, todo, inputs, output_dir, manifest, report, n_todo, progress,
                  write_folder_atomic)
         finally:
-            client.close()
-            if cluster is not None:
-                cluster.close()
+            if own:
+                client.close()
+                if cluster is not None:
+                    cluster.close()
         for job, _ in todo:
             remove_staging(output_dir / job.name)
     report.seconds = time.perf_counter() - t0
