@@ -270,3 +270,20 @@ def test_bad_yaml_and_missing_spec(tmp_path):
         assert result.returncode == 2 and message in result.stderr
         assert len(result.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "out").exists()
+
+
+def test_bad_photo_or_unreachable_scheduler_one_line_nothing_written(photos, tmp_path):
+    (tmp_path / "photos").mkdir()
+    (tmp_path / "photos" / "fir.png").write_bytes(b"not a png at all")
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(json.dumps({"size": "64x64", "exemplars": [
+        {"name": "fir", "path": "photos/fir.png", "seeds": [0]}]}))
+    out = tmp_path / "out"
+    result = run("batch", str(spec), "-o", str(out))
+    assert result.returncode == 2 and "exemplar 'fir'" in result.stderr, result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1 and not out.exists()
+
+    good = write_spec(photos, "64x64", name="tiny.yaml")
+    result = run("batch", str(good), "-o", str(out), "--scheduler", "tcp://127.0.0.1:9")
+    assert result.returncode == 2 and "cannot reach the Dask scheduler" in result.stderr, result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1 and not out.exists()

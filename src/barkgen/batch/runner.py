@@ -141,7 +141,7 @@ def run_batch(
         client: an existing ``distributed.Client`` to run on (left open), instead of
             ``scheduler`` / a new LocalCluster.
     """
-    from barkgen.io import read_image, remove_staging, write_folder_atomic
+    from barkgen.io import remove_staging, write_folder_atomic
 
     say = log or (lambda message: None)
     cores = os.cpu_count() or 1
@@ -158,46 +158,70 @@ def run_batch(
     output_dir = Path(output_dir)
     t0 = time.perf_counter()
     report = BatchReport(total=spec.n_variants)
-    with Manifest(output_dir / MANIFEST_NAME) as manifest:
-        todo: list[tuple[ExemplarJob, list[int]]] = []
+    todo: list[tuple[ExemplarJob, list[int]]] = []
+    manifest_path = output_dir / MANIFEST_NAME
+    done_before = Manifest(manifest_path) if manifest_path.is_file() else None
+    try:
         for job in spec.exemplars:
             fingerprint = job.fingerprint()
-            seeds = [s for s in job.seeds
-                     if not manifest.is_done(job.name, s, fingerprint, output_dir / job.name / str(s))]
+            seeds = [s for s in job.seeds if done_before is None or not done_before.is_done(
+                job.name, s, fingerprint, output_dir / job.name / str(s))]
             report.skipped += len(job.seeds) - len(seeds)
             if seeds:
                 todo.append((dataclasses.replace(job, options=dataclasses.replace(job.options, threads=threads)),
                              seeds))
-        n_todo = sum(len(seeds) for _, seeds in todo)
-        if not n_todo:
-            say(f"nothing to do: all {report.total} variants are already in {output_dir}")
-            report.seconds = time.perf_counter() - t0
-            return report
-        if report.skipped:
-            say(f"{report.skipped} of {report.total} variants already done; making the other {n_todo}")
-        # every photo is read (and so checked) before any work starts
-        inputs = {job.name: (read_image(job.path), None if job.labels is None else read_image(job.labels))
-                  for job, _ in todo}
-        for job, _ in todo:
-            remove_staging(output_dir / job.name)
-        own = client is None
-        if own:
-            client, cluster = _client(scheduler, workers, threads)
-        try:
+    finally:
+        if done_before is not None:
+            done_before.close()
+    n_todo = sum(len(seeds) for _, seeds in todo)
+    if not n_todo:
+        say(f"nothing to do: all {report.total} variants are already in {output_dir}")
+        report.seconds = time.perf_counter() - t0
+        return report
+    # every photo is read and checked before any work starts (or any file is written)
+    inputs = {job.name: _read_inputs(job) for job, _ in todo}
+    if report.skipped:
+        say(f"{report.skipped} of {report.total} variants already done; making the other {n_todo}")
+    own = client is None
+    cluster = None
+    if own:  # connected (or started) before anything is written
+        client, cluster = _client(scheduler, workers, threads)
+    try:
+        with Manifest(manifest_path) as manifest:
+            for job, _ in todo:
+                remove_staging(output_dir / job.name)
             report.workers = len(client.scheduler_info(n_workers=-1)["workers"])
             report.dashboard = client.dashboard_link
             say(f"Dask dashboard: {report.dashboard} ({report.workers} workers)")
             _run(client, todo, inputs, output_dir, manifest, report, n_todo, progress,
                  write_folder_atomic)
-        finally:
-            if own:
-                client.close()
-                if cluster is not None:
-                    cluster.close()
-        for job, _ in todo:
-            remove_staging(output_dir / job.name)
+            for job, _ in todo:
+                remove_staging(output_dir / job.name)
+    finally:
+        if own:
+            client.close()
+            if cluster is not None:
+                cluster.close()
     report.seconds = time.perf_counter() - t0
     return report
+
+
+def _read_inputs(job: ExemplarJob):
+    """A job's photo (and label map), read and checked as the pipeline will check them."""
+    from barkgen.errors import BarkgenError
+    from barkgen.io import read_image
+    from barkgen.labels.regions import check_image
+
+    try:
+        photo = read_image(job.path)
+        check_image(photo)
+        labels = None if job.labels is None else read_image(job.labels)
+        if labels is not None and labels.shape[:2] != photo.shape[:2]:
+            raise InvalidInputError(f"the label map is {labels.shape[1]}x{labels.shape[0]} px but the "
+                                    f"photo is {photo.shape[1]}x{photo.shape[0]} px")
+    except BarkgenError as exc:
+        raise InvalidInputError(f"exemplar {job.name!r}: {exc}") from None
+    return photo, labels
 
 
 def _run(client, todo, inputs, output_dir: Path, manifest: Manifest, report: BatchReport,
