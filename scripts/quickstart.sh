@@ -11,6 +11,7 @@ if ! "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check -e . 
   cat "$log" >&2; rm -f "$log"; echo "barkgen: installing dependencies failed" >&2; exit 1
 fi
 rm -f "$log"
+"$VENV/bin/python" -m barkgen.web.assets || true  # three.js for `barkgen serve`'s 3D trunk
 "$VENV/bin/barkgen" generate -o out --size 1024x1024 --tile --seed 0 --material --name bark "$@"
 "$VENV/bin/barkgen" preview out -o out/trunk_preview.png
 "$VENV/bin/python" - <<'PY'

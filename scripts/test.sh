@@ -10,4 +10,12 @@ if ! "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check -e ".
   cat "$log" >&2; rm -f "$log"; echo "barkgen: installing dependencies failed" >&2; exit 1
 fi
 rm -f "$log"
+# the web app's three.js (npm registry, integrity-checked) and, for its browser tests, Debian's
+# Chromium (Playwright drives it; no browser download)
+"$VENV/bin/python" -m barkgen.web.assets || true
+if [ ! -x /usr/bin/chromium ] && command -v apt-get >/dev/null && [ "$(id -u)" = 0 ]; then
+  echo "barkgen: installing Debian's chromium for the browser tests" >&2
+  { apt-get install -y -q chromium || { apt-get update -q && apt-get install -y -q chromium; }; } \
+    >/tmp/barkgen-apt.log 2>&1 || echo "barkgen: warning: chromium did not install (see /tmp/barkgen-apt.log)" >&2
+fi
 exec "$VENV/bin/python" -m pytest "$@"

@@ -14,6 +14,10 @@ class ImageReadError(BarkgenError):
     """An input file is missing, empty, truncated or not an image."""
 
 
+class ImageTooLargeError(ImageReadError):
+    """An input image has more pixels (or bytes) than the limit it is read under."""
+
+
 class InvalidInputError(BarkgenError):
     """A parameter or an input array is out of range or inconsistent."""
 

@@ -858,3 +858,126 @@ def _root(
 
         typer.echo(f"barkgen {__version__}")
         raise typer.Exit()
+
+
+library_app = typer.Typer(
+    name="library", no_args_is_help=True, add_completion=False, pretty_exceptions_enable=False,
+    rich_markup_mode=None,
+    help="The exemplar library: bark photos by species, their analyses and generated results "
+    "(SQLite + files; --library PATH or $BARKGEN_LIBRARY, default in your data folder).")
+app.add_typer(library_app, name="library")
+
+LibraryOption = Annotated[Optional[Path], typer.Option(
+    "--library", help="Library folder (default: $BARKGEN_LIBRARY, else barkgen/library in your "
+    "user data folder).")]
+
+
+def _open_library(path: Path | None):
+    from barkgen.library import Library
+
+    return Library(path)
+
+
+@library_app.command("add")
+@user_errors
+def library_add_command(
+    photo: Annotated[Path, typer.Argument(help="Bark photo (PNG, JPEG, TIFF, WebP).")],
+    name: Annotated[Optional[str], typer.Option("--name", help="Display name (default: the file name).")] = None,
+    species: Annotated[Optional[str], typer.Option("--species", help="Tree species, e.g. oak.")] = None,
+    bark_type: Annotated[Optional[str], typer.Option("--bark-type", help="e.g. furrowed, plated, scaly.")] = None,
+    licence: Annotated[Optional[str], typer.Option("--licence", help="Licence of the photo, e.g. CC0.")] = None,
+    source: Annotated[Optional[str], typer.Option("--source", help="Where the photo comes from.")] = None,
+    library: LibraryOption = None,
+) -> None:
+    """Add a bark photo to the library and print its id (the same photo twice gives one entry)."""
+    from barkgen.io import read_image_bytes
+
+    lib = _open_library(library)
+    before = {e.id for e in lib.exemplars()}
+    exemplar = lib.add_exemplar(read_image_bytes(photo), name or photo.stem, species=species,
+                                bark_type=bark_type, licence=licence, source=source or str(photo))
+    note = "" if exemplar.id not in before else " (already in the library)"
+    typer.echo(f"{exemplar.id}\t{exemplar.name}{note}")
+
+
+@library_app.command("list")
+@user_errors
+def library_list_command(library: LibraryOption = None) -> None:
+    """List the exemplars: id, name, species, bark type, size, results, licence."""
+    lib = _open_library(library)
+    counts: dict[int, int] = {}
+    for result in lib.results():
+        counts[result.exemplar_id] = counts.get(result.exemplar_id, 0) + 1
+    rows = [("id", "name", "species", "type", "size", "results", "licence")]
+    rows += [(str(e.id), e.name, e.species or "-", e.bark_type or "-", f"{e.width}x{e.height}",
+              str(counts.get(e.id, 0)), e.licence or "-") for e in lib.exemplars()]
+    widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
+    for row in rows:
+        typer.echo("  ".join(cell.ljust(width) for cell, width in zip(row, widths)).rstrip())
+    typer.echo(f"library: {lib.path}", err=True)
+
+
+@library_app.command("show")
+@user_errors
+def library_show_command(
+    exemplar_id: Annotated[int, typer.Argument(metavar="ID", help="Exemplar id (see `barkgen library list`).")],
+    library: LibraryOption = None,
+) -> None:
+    """Show one exemplar and its results."""
+    import json
+
+    lib = _open_library(library)
+    exemplar = lib.exemplar(exemplar_id)
+    results = [{"id": r.id, "created": r.created, "params": r.params, "files": sorted(r.files),
+                "timings_s": r.timings} for r in lib.results(exemplar_id)]
+    typer.echo(json.dumps({**exemplar.to_dict(), "results": results}, indent=2))
+
+
+@library_app.command("rm")
+@user_errors
+def library_rm_command(
+    exemplar_id: Annotated[int, typer.Argument(metavar="ID", help="Exemplar id to remove.")],
+    library: LibraryOption = None,
+) -> None:
+    """Remove an exemplar with its analyses and results."""
+    lib = _open_library(library)
+    name = lib.exemplar(exemplar_id).name
+    lib.remove_exemplar(exemplar_id)
+    typer.echo(f"removed {exemplar_id}\t{name}")
+
+
+@app.command("serve")
+@user_errors
+def serve_command(
+    host: Annotated[str, typer.Option("--host", help="Address to listen on (127.0.0.1: this "
+                                      "machine only; 0.0.0.0 opens it to your network).")] = "127.0.0.1",
+    port: Annotated[int, typer.Option("--port", help="Port to listen on.")] = 8000,
+    library: LibraryOption = None,
+    max_upload_mb: Annotated[int, typer.Option("--max-upload-mb", help="Largest upload in MB.")] = 25,
+    max_upload_mp: Annotated[float, typer.Option("--max-upload-mp", help="Largest upload in megapixels.")] = 50,
+) -> None:
+    """Run the web app: pick or upload bark, generate with one click, paint labels, see it on a
+    trunk, download the material set."""
+    import socket
+
+    from barkgen.web import WebLimits, serve
+
+    if not 0 < port < 65536:
+        raise InvalidInputError(f"--port must be 1-65535, not {port}")
+    if max_upload_mb <= 0 or max_upload_mp <= 0:
+        raise InvalidInputError("upload limits must be > 0")
+    lib = _open_library(library)
+    try:  # a clear line instead of uvicorn's traceback when the port is taken
+        with socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET) as probe:
+            probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            probe.bind((host, port))
+    except OSError as exc:
+        raise InvalidInputError(f"cannot listen on {host}:{port} ({exc.strerror or exc}); "
+                                "try another --port") from None
+    limits = WebLimits(max_upload_bytes=max_upload_mb * 1024**2,
+                       max_upload_pixels=int(max_upload_mp * 1e6))
+
+    def ready(url: str) -> None:
+        typer.echo(f"barkgen is running at {url}  (library: {lib.path}; Ctrl-C stops it)", err=True)
+
+    serve(lib, host=host, port=port, limits=limits, on_ready=ready)

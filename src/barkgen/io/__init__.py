@@ -8,8 +8,10 @@ from barkgen.io.generate import (
 )
 from barkgen.io.images import (
     AlphaDroppedWarning,
+    decode_image,
     encode_png,
     read_image,
+    read_image_bytes,
     read_png_text,
     to_bits,
     write_bytes_atomic,
@@ -31,9 +33,11 @@ __all__ = [
     "encode_material",
     "find_material",
     "read_material",
+    "decode_image",
     "encode_png",
     "encode_reference",
     "read_image",
+    "read_image_bytes",
     "read_png_text",
     "read_reference",
     "to_bits",

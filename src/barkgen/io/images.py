@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from barkgen.errors import ImageReadError, InvalidInputError
+from barkgen.errors import ImageReadError, ImageTooLargeError, InvalidInputError
 
 _TIFF_MAGIC = (b"II*\x00", b"MM\x00*")
 _PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -42,7 +42,13 @@ def _check_file(path: Path) -> bytes:
     return data
 
 
-def _normalise(arr: np.ndarray, path: Path, has_alpha: bool) -> np.ndarray:
+def read_image_bytes(path: str | os.PathLike) -> bytes:
+    """The bytes of an image file, not decoded (with :func:`read_image`'s one-line errors for a
+    missing, empty or unreadable file); :func:`decode_image` decodes them."""
+    return _check_file(Path(path))
+
+
+def _normalise(arr: np.ndarray, path, has_alpha: bool) -> np.ndarray:
     """Bring a decoded array to (H, W, 1|3) uint8/uint16, dropping alpha."""
     if arr.dtype.kind == "f":
         arr = np.round(np.clip(arr, 0.0, 1.0) * 65535.0).astype(np.uint16)
@@ -77,7 +83,47 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     one-line message for a missing, empty, truncated or unreadable file.
     """
     path = Path(path)
-    data = _check_file(path)
+    return decode_image(_check_file(path), path)
+
+
+def _image_size(data: bytes, name) -> tuple[int, int]:
+    """``(width, height)`` from the image's header, without decoding its pixels."""
+    if data[:4] in _TIFF_MAGIC:
+        import tifffile
+
+        try:
+            with tifffile.TiffFile(io.BytesIO(data)) as tif:
+                shape = tif.pages[0].shape
+        except Exception as exc:  # tifffile raises many types for corrupt files
+            raise ImageReadError(f"{name}: not a readable TIFF image ({exc})") from None
+        if len(shape) == 3 and shape[0] in (1, 3, 4) and shape[2] not in (1, 2, 3, 4):
+            return int(shape[2]), int(shape[1])
+        return int(shape[1]), int(shape[0])
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(io.BytesIO(data)) as im:
+            return im.size
+    except UnidentifiedImageError:
+        raise ImageReadError(f"{name}: not an image (unrecognised format)") from None
+    except (OSError, SyntaxError, ValueError) as exc:
+        raise ImageReadError(f"{name}: truncated or corrupt image ({exc})") from None
+
+
+def decode_image(data: bytes, name: str | os.PathLike = "image", *,
+                 max_pixels: int | None = None) -> np.ndarray:
+    """Decode the bytes of an image file (what :func:`read_image` reads) into an ``(H, W, C)``
+    uint8/uint16 array; ``name`` is what error messages call it. The content decides the
+    format, never a file name. ``max_pixels``: refuse larger images with
+    :class:`ImageTooLargeError`, read from the header before any pixel is decoded."""
+    path = name
+    if not data:
+        raise ImageReadError(f"{name}: file is empty (0 bytes)")
+    if max_pixels is not None:
+        width, height = _image_size(data, name)
+        if width * height > max_pixels:
+            raise ImageTooLargeError(f"{name}: {width}x{height} px is {width * height / 1e6:.1f} "
+                                     f"megapixels, more than the limit of {max_pixels / 1e6:g}")
     if data[:4] in _TIFF_MAGIC:
         import tifffile
 

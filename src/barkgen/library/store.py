@@ -1,0 +1,63 @@
+"""Content-addressed files of the exemplar library: each file is stored once, under the SHA-256
+of its bytes, in ``objects/ab/cdef...`` of the library folder, and written atomically (a
+temporary file renamed into place), so a killed process never leaves a half-written object
+under a real name."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import tempfile
+from pathlib import Path
+
+
+def content_hash(data: bytes) -> str:
+    """The SHA-256 hex digest that names ``data`` in the store."""
+    return hashlib.sha256(data).hexdigest()
+
+
+class ObjectStore:
+    """Files by content hash under ``root``."""
+
+    def __init__(self, root: str | os.PathLike) -> None:
+        self.root = Path(root)
+
+    def path(self, digest: str) -> Path:
+        if len(digest) != 64 or any(c not in "0123456789abcdef" for c in digest):
+            raise ValueError(f"not a content hash: {digest!r}")
+        return self.root / digest[:2] / digest[2:]
+
+    def put(self, data: bytes) -> str:
+        """Store ``data`` (once) and return its hash."""
+        digest = content_hash(data)
+        target = self.path(digest)
+        if target.exists():
+            return digest
+        target.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=".tmp-")
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(data)
+                fh.flush()
+                os.fsync(fh.fileno())
+            os.replace(tmp, target)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+        return digest
+
+    def get(self, digest: str) -> bytes:
+        return self.path(digest).read_bytes()
+
+    def exists(self, digest: str) -> bool:
+        return self.path(digest).exists()
+
+    def remove(self, digest: str) -> None:
+        self.path(digest).unlink(missing_ok=True)
+
+    def digests(self) -> set[str]:
+        """Every stored hash (temporary files left by a killed writer are not objects)."""
+        if not self.root.is_dir():
+            return set()
+        return {sub.name + path.name for sub in self.root.iterdir() if sub.is_dir()
+                for path in sub.iterdir() if not path.name.startswith(".tmp-")}

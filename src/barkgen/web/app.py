@@ -1,0 +1,427 @@
+"""The web app (FastAPI): the exemplar library as pages, one-click generation with progress,
+the result with its maps on a WebGL trunk, a label painter to steer the large-scale pattern
+(laitoch2018 §1) and the material set as a zip.
+
+The pages (``static/*.html``, plain JavaScript) drive the JSON API below, which scripts can use
+too (README, "Web app"). The app adds no algorithm: it calls :mod:`barkgen.library`,
+:func:`barkgen.pipeline.generate` (in :mod:`.jobs`' worker process) and :mod:`barkgen.io`.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import base64
+import binascii
+import io
+import json
+import re
+import secrets
+import zipfile
+from contextlib import asynccontextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from fastapi import FastAPI, File, Form, HTTPException, Request, UploadFile
+from fastapi.concurrency import run_in_threadpool
+from fastapi.responses import FileResponse, JSONResponse, Response, StreamingResponse
+from fastapi.staticfiles import StaticFiles
+from pydantic import BaseModel, Field
+
+from barkgen.errors import BarkgenError, ImageTooLargeError
+from barkgen.library import Library, NotFoundError
+from barkgen.web.jobs import FINISHED, JobManager
+
+STATIC = Path(__file__).parent / "static"
+#: label maps of the photos are made the way `barkgen generate` makes them
+LABEL_METHOD = "color"
+
+
+@dataclass(frozen=True)
+class WebLimits:
+    """Upload and job limits (defaults: 25 MB and 50 megapixels per upload; outputs up to
+    4096 px a side)."""
+
+    max_upload_bytes: int = 25 * 1024**2
+    max_upload_pixels: int = 50_000_000
+    max_output_side: int = 4096
+
+
+class ResumeRequest(BaseModel):
+    result_id: int
+    level: int = Field(ge=0)
+    labels: str  # data:image/png;base64,...
+
+
+class JobRequest(BaseModel):
+    exemplar_id: int
+    size: str = "512x512"
+    seed: int | None = None
+    k: int = 3
+    tile: bool = True
+    material: bool = True
+    resume: ResumeRequest | None = None
+
+
+def _bad(status: int, detail: str) -> HTTPException:
+    return HTTPException(status_code=status, detail=detail)
+
+
+def _png(data: bytes) -> Response:
+    return Response(data, media_type="image/png", headers={"Cache-Control": "max-age=3600"})
+
+
+_MEDIA = {".png": "image/png", ".jpg": "image/jpeg", ".json": "application/json"}
+
+
+def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: bool = True) -> FastAPI:
+    """The app on ``library``. ``run_jobs=False`` queues jobs without running them (tests)."""
+    from barkgen.io import decode_image, encode_png
+    from barkgen.labels import label_colour_map
+    from barkgen.labels.preview import label_colours
+    from barkgen.pipeline import ANALYSIS_SEED, GenerateOptions
+    from barkgen.synth.solver import parse_size
+
+    limits = limits or WebLimits()
+    jobs = JobManager(library)
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI):
+        if run_jobs:
+            jobs.start()
+        yield
+        jobs.stop()
+
+    app = FastAPI(title="barkgen", lifespan=lifespan,
+                  description="Bark textures from one photo: library, jobs, results.")
+    app.state.library = library
+    app.state.jobs = jobs
+    app.mount("/static", StaticFiles(directory=STATIC), name="static")
+
+    @app.middleware("http")
+    async def upload_size(request: Request, call_next):
+        """Refuse an upload whose declared length is over the limit before reading it."""
+        length = request.headers.get("content-length", "")
+        if (request.method == "POST" and length.isdigit()
+                and int(length) > limits.max_upload_bytes + 1024**2):
+            return JSONResponse({"detail": f"the upload is larger than the limit of "
+                                           f"{limits.max_upload_bytes // 1024**2} MB"}, status_code=413)
+        return await call_next(request)
+
+    @app.exception_handler(NotFoundError)
+    async def not_found(request: Request, exc: NotFoundError):
+        return JSONResponse({"detail": str(exc)}, status_code=404)
+
+    @app.exception_handler(ImageTooLargeError)
+    async def too_large(request: Request, exc: ImageTooLargeError):
+        return JSONResponse({"detail": str(exc)}, status_code=413)
+
+    @app.exception_handler(BarkgenError)
+    async def bad_input(request: Request, exc: BarkgenError):
+        return JSONResponse({"detail": str(exc)}, status_code=400)
+
+    # -- pages ------------------------------------------------------------------------------
+    @app.get("/", include_in_schema=False)
+    def index_page():
+        return FileResponse(STATIC / "index.html")
+
+    @app.get("/exemplars/{exemplar_id}", include_in_schema=False)
+    def exemplar_page(exemplar_id: int):
+        library.exemplar(exemplar_id)
+        return FileResponse(STATIC / "exemplar.html")
+
+    @app.get("/results/{result_id}", include_in_schema=False)
+    def result_page(result_id: int):
+        library.result(result_id)
+        return FileResponse(STATIC / "result.html")
+
+    # -- exemplars --------------------------------------------------------------------------
+    def exemplar_json(exemplar) -> dict:
+        return {**exemplar.to_dict(), "photo_url": f"/api/exemplars/{exemplar.id}/photo",
+                "thumbnail_url": f"/api/exemplars/{exemplar.id}/thumbnail.jpg"}
+
+    def result_summary(result) -> dict:
+        return {"id": result.id, "exemplar_id": result.exemplar_id, "created": result.created,
+                "params": result.params, "thumbnail_url": f"/api/results/{result.id}/files/thumbnail.jpg"}
+
+    @app.get("/api/exemplars")
+    def list_exemplars():
+        return [exemplar_json(e) for e in library.exemplars()]
+
+    @app.post("/api/exemplars", status_code=201)
+    async def add_exemplar(request: Request, file: UploadFile = File(...), name: str | None = Form(None),
+                           species: str | None = Form(None), licence: str | None = Form(None)):
+        data = await file.read(limits.max_upload_bytes + 1)
+        if len(data) > limits.max_upload_bytes:
+            raise _bad(413, f"the upload is larger than the limit of {limits.max_upload_bytes // 1024**2} MB")
+        # the client's file name is only a default display name: it never touches the filesystem
+        display = (name or Path(file.filename or "").stem or "uploaded bark").strip()[:200]
+        exemplar = await run_in_threadpool(
+            library.add_exemplar, data, display, species=species or None, licence=licence or None,
+            source="uploaded", max_pixels=limits.max_upload_pixels)
+        return {"id": exemplar.id}
+
+    @app.get("/api/exemplars/{exemplar_id}")
+    def get_exemplar(exemplar_id: int):
+        exemplar = library.exemplar(exemplar_id)
+        return {**exemplar_json(exemplar),
+                "results": [result_summary(r) for r in library.results(exemplar_id)]}
+
+    @app.delete("/api/exemplars/{exemplar_id}")
+    def remove_exemplar(exemplar_id: int):
+        library.remove_exemplar(exemplar_id)
+        return {"removed": exemplar_id}
+
+    @app.get("/api/exemplars/{exemplar_id}/photo")
+    def exemplar_photo(exemplar_id: int):
+        cached = library.analysis(exemplar_id, "display", {"format": "png8"})
+        if cached is None:
+            from barkgen.synth.solver import as_uint8
+
+            cached = encode_png(as_uint8(library.photo(exemplar_id)))
+            library.put_analysis(exemplar_id, "display", {"format": "png8"}, cached)
+        return _png(cached)
+
+    def thumbnail(exemplar_id: int) -> bytes:
+        cached = library.analysis(exemplar_id, "thumbnail", {"size": 320})
+        if cached is not None:
+            return cached
+        from PIL import Image
+
+        from barkgen.synth.solver import as_uint8
+
+        image = Image.fromarray(as_uint8(library.photo(exemplar_id)).squeeze())
+        image.thumbnail((320, 320))
+        buffer = io.BytesIO()
+        image.convert("RGB").save(buffer, "JPEG", quality=88)
+        library.put_analysis(exemplar_id, "thumbnail", {"size": 320}, buffer.getvalue())
+        return buffer.getvalue()
+
+    @app.get("/api/exemplars/{exemplar_id}/thumbnail.jpg")
+    def exemplar_thumbnail(exemplar_id: int):
+        return Response(thumbnail(exemplar_id), media_type="image/jpeg",
+                        headers={"Cache-Control": "max-age=3600"})
+
+    def labels_in(exemplar_id: int, k: int) -> bytes:
+        """The photo's input label map (grey values, as ``barkgen generate`` makes it), cached
+        in the library's analyses."""
+        params = {"k": k, "method": LABEL_METHOD, "seed": ANALYSIS_SEED}
+        cached = library.analysis(exemplar_id, "labels_in", params)
+        if cached is not None:
+            return cached
+        from barkgen.labels import color_regions
+
+        data = encode_png(color_regions(library.photo(exemplar_id), k, seed=ANALYSIS_SEED))
+        library.put_analysis(exemplar_id, "labels_in", params, data)
+        return data
+
+    @app.get("/api/exemplars/{exemplar_id}/labels.png")
+    def exemplar_labels(exemplar_id: int, k: int = 3):
+        if not 2 <= k <= 8:
+            raise _bad(400, "k must be between 2 and 8")
+        library.exemplar(exemplar_id)
+        grey = decode_image(labels_in(exemplar_id, k), "labels")
+        return _png(encode_png(label_colour_map(grey[..., 0])))
+
+    # -- jobs -------------------------------------------------------------------------------
+    def check_size(text: str) -> tuple[int, int]:
+        height, width = parse_size(text)
+        if max(width, height) > limits.max_output_side:
+            raise _bad(400, f"size {text} is larger than this server's limit of "
+                            f"{limits.max_output_side} px a side")
+        return height, width
+
+    def painted_level(request: ResumeRequest, exemplar_id: int, params: dict) -> tuple[int, np.ndarray]:
+        """The painted level as a label map of the parent result's label values."""
+        parent = library.result(request.result_id)
+        if parent.exemplar_id != exemplar_id:
+            raise _bad(400, f"result {parent.id} belongs to exemplar {parent.exemplar_id}, not {exemplar_id}")
+        if [params["size"][0], params["size"][1], params["k"]] != [*parent.params["size"], parent.params["k"]]:
+            raise _bad(400, "continuing a result keeps its size and k")
+        level_name = f"level_{request.level}.png"
+        if level_name not in parent.files:
+            raise _bad(400, f"result {parent.id} has no label-map level {request.level}")
+        match = re.fullmatch(r"data:image/png;base64,([A-Za-z0-9+/=\s]+)", request.labels)
+        if not match:
+            raise _bad(400, "the painted labels must be a PNG data URL (data:image/png;base64,...)")
+        try:
+            data = base64.b64decode(match.group(1), validate=False)
+        except (binascii.Error, ValueError):
+            raise _bad(400, "the painted labels are not valid base64") from None
+        painted = decode_image(data, "the painted labels", max_pixels=limits.max_upload_pixels)
+        level = decode_image(library.result_file(parent.id, level_name), "level")[..., 0]
+        if painted.shape[:2] != level.shape:
+            raise _bad(400, f"the painted labels are {painted.shape[1]}x{painted.shape[0]} px but level "
+                            f"{request.level} is {level.shape[1]}x{level.shape[0]} px")
+        values = np.unique(decode_image(library.result_file(parent.id, "labels_in.png"), "labels"))
+        if painted.dtype != np.uint8:
+            raise _bad(400, "the painted labels must be an 8-bit PNG")
+        rgb = np.broadcast_to(painted, painted.shape[:2] + (3,))
+        codes = np.full(rgb.shape[:2], -1, np.int64)
+        for index, colour in enumerate(label_colours(values.size)):
+            codes[(rgb == colour).all(-1)] = index
+        off = codes < 0
+        if off.any():
+            y, x = np.argwhere(off)[0]
+            raise _bad(400, f"the painted pixel at x={x}, y={y} has colour {tuple(int(c) for c in rgb[y, x])}, "
+                            "which is no label's colour; paint with the palette only")
+        return request.level, values[codes].astype(level.dtype)
+
+    @app.post("/api/jobs", status_code=201)
+    async def submit_job(request: JobRequest):
+        exemplar = library.exemplar(request.exemplar_id)
+        height, width = check_size(request.size)
+        seed = request.seed if request.seed is not None else secrets.randbelow(100_000)
+        options = GenerateOptions(size=(height, width), k=request.k, tile=request.tile, seed=seed,
+                                  material=request.material, method=LABEL_METHOD)
+        params = {"size": [width, height], "k": options.k, "tile": options.tile, "seed": seed,
+                  "material": options.material, "resumed_from": None}
+        resume = None
+        if request.resume is not None:
+            resume = await run_in_threadpool(painted_level, request.resume, exemplar.id, params)
+            params["resumed_from"] = {"result_id": request.resume.result_id, "level": resume[0]}
+        grey = await run_in_threadpool(labels_in, exemplar.id, options.k)
+        spec = {"photo": library.photo_bytes(exemplar.id), "photo_hash": exemplar.image_hash,
+                "source": exemplar.name, "set_name": f"bark{exemplar.id}_seed{seed}",
+                "options": {"size": (height, width), "k": options.k, "tile": options.tile,
+                            "seed": seed, "material": options.material, "method": LABEL_METHOD},
+                "labels_in": grey, "resume": resume}
+        job = jobs.submit(exemplar.id, params, spec,
+                          parent_id=request.resume.result_id if request.resume else None)
+        return {"id": job.id}
+
+    @app.get("/api/jobs")
+    def list_jobs():
+        return jobs.list()
+
+    def job_or_404(job_id: str) -> dict:
+        snapshot = jobs.snapshot(job_id)
+        if snapshot is None:
+            raise _bad(404, f"no job {job_id}")
+        return snapshot
+
+    @app.get("/api/jobs/{job_id}")
+    def get_job(job_id: str):
+        return job_or_404(job_id)
+
+    @app.delete("/api/jobs/{job_id}")
+    def cancel_job(job_id: str):
+        job_or_404(job_id)
+        return jobs.cancel(job_id)
+
+    @app.get("/api/jobs/{job_id}/events")
+    async def job_events(job_id: str, request: Request):
+        """Server-sent events: the job's JSON on every change, until it is finished."""
+        snapshot = job_or_404(job_id)
+
+        async def stream():
+            current = snapshot
+            while True:
+                yield f"data: {json.dumps(current)}\n\n"
+                if current["state"] in FINISHED or await request.is_disconnected():
+                    return
+                current = await run_in_threadpool(jobs.wait, job_id, current["version"], 10.0)
+                if current is None:
+                    return
+
+        return StreamingResponse(stream(), media_type="text/event-stream",
+                                 headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
+
+    # -- results ----------------------------------------------------------------------------
+    def result_json(result) -> dict:
+        base = f"/api/results/{result.id}"
+        files = {name: f"{base}/files/{name}" for name in result.files}
+        material_name = next((n[:-len("_Color.png")] for n in result.files if n.endswith("_Color.png")), None)
+        maps = None
+        depth = None
+        if material_name is not None:
+            from barkgen.io import MAP_SUFFIXES
+
+            maps = {suffix: files[f"{material_name}_{suffix}.png"] for suffix in MAP_SUFFIXES}
+            meta = json.loads(library.result_file(result.id, f"{material_name}.json"))
+            depth = meta.get("displacement_depth_px")
+        from PIL import Image
+
+        levels, sizes = [], []
+        for name in sorted(result.files):
+            m = re.fullmatch(r"level_(\d+)\.png", name)
+            if m:
+                levels.append(int(m.group(1)))
+                with Image.open(io.BytesIO(library.result_file(result.id, name))) as header:
+                    sizes.append(header.size)
+        values = np.unique(decode_image(library.result_file(result.id, "labels_in.png"), "labels"))
+        return {**result_summary(result), "timings": result.timings, "parent_id": result.parent_id,
+                "files": files, "labels_in_url": f"{base}/labels/labels_in.png",
+                "labels_out_url": f"{base}/labels/labels_out.png", "maps": maps,
+                "displacement_depth_px": depth,
+                "levels": [{"level": n, "width": w, "height": h, "url": f"{base}/labels/level_{n}.png"}
+                           for n, (w, h) in sorted(zip(levels, sizes))],
+                "palette": label_colours(values.size).tolist(),
+                "download_url": f"{base}/download"}
+
+    @app.get("/api/results")
+    def list_results():
+        return [result_summary(r) for r in library.results()]
+
+    @app.get("/api/results/{result_id}")
+    def get_result(result_id: int):
+        return result_json(library.result(result_id))
+
+    @app.delete("/api/results/{result_id}")
+    def remove_result(result_id: int):
+        library.remove_result(result_id)
+        return {"removed": result_id}
+
+    @app.get("/api/results/{result_id}/files/{name}")
+    def result_file(result_id: int, name: str):
+        data = library.result_file(result_id, name)  # a name of the result's own list, or 404
+        return Response(data, media_type=_MEDIA.get(Path(name).suffix, "application/octet-stream"),
+                        headers={"Cache-Control": "max-age=3600"})
+
+    @app.get("/api/results/{result_id}/labels/{name}")
+    def result_labels(result_id: int, name: str):
+        """A label map of the result (``labels_in.png``, ``labels_out.png``, ``level_N.png``)
+        in the label colours (those of ``palette``)."""
+        if not re.fullmatch(r"labels_in\.png|labels_out\.png|level_\d+\.png", name):
+            raise _bad(404, f"no label map {name!r}")
+        values = np.unique(decode_image(library.result_file(result_id, "labels_in.png"), "labels"))
+        grey = decode_image(library.result_file(result_id, name), name)[..., 0]
+        return _png(encode_png(label_colour_map(grey, values)))
+
+    @app.get("/api/results/{result_id}/download")
+    def download(result_id: int):
+        """The result as a zip: the material set (ambientCG names) when it has one, the texture,
+        its label maps, reference map, contact sheet and report."""
+        result = library.result(result_id)
+        buffer = io.BytesIO()
+        with zipfile.ZipFile(buffer, "w", zipfile.ZIP_STORED) as archive:
+            for name in sorted(result.files):
+                if name.startswith("level_") or name == "thumbnail.jpg":
+                    continue
+                archive.writestr(name, library.result_file(result_id, name))
+        return Response(buffer.getvalue(), media_type="application/zip", headers={
+            "Content-Disposition": f'attachment; filename="barkgen_result_{result_id}.zip"'})
+
+    return app
+
+
+def serve(library: Library, host: str = "127.0.0.1", port: int = 8000, *,
+          limits: WebLimits | None = None, on_ready=None) -> None:
+    """Run the app with uvicorn until interrupted. ``on_ready(url)`` is called once it listens."""
+    import uvicorn
+
+    app = create_app(library, limits=limits)
+    config = uvicorn.Config(app, host=host, port=port, log_level="warning")
+    server = uvicorn.Server(config)
+
+    if on_ready is not None:
+        original = server.startup
+
+        async def startup(sockets=None):
+            await original(sockets=sockets)
+            if server.started:
+                shown = "127.0.0.1" if host in ("0.0.0.0", "") else host
+                on_ready(f"http://{shown}:{port}/")
+
+        server.startup = startup
+    asyncio.run(server.serve())

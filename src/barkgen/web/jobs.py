@@ -1,0 +1,242 @@
+"""The web app's job queue: generate requests run one at a time (both cores go to the solver),
+in order, in a worker process (:mod:`.worker`); each finished job becomes a library result.
+
+A job is ``queued`` (with its position), ``running`` (with its progress), then ``done`` (with
+its result id), ``failed`` (with a one-line error) or ``cancelled``. Jobs live in the server's
+memory, so a page reload finds its job again; their results live in the library, so they
+outlive the server. Cancelling a running job ends the worker process at once; the next job
+starts a new one.
+"""
+
+from __future__ import annotations
+
+import itertools
+import multiprocessing
+import secrets
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass, field
+
+from barkgen.library import Library
+from barkgen.web.worker import JobSpec, worker_main
+
+STATES = ("queued", "running", "done", "failed", "cancelled")
+FINISHED = ("done", "failed", "cancelled")
+#: finished jobs kept in memory (their results stay in the library)
+JOBS_KEPT = 500
+
+
+@dataclass
+class Job:
+    """One generate request and where it stands."""
+
+    id: str
+    exemplar_id: int
+    params: dict
+    spec: JobSpec | None
+    parent_id: int | None = None
+    state: str = "queued"
+    progress: float = 0.0
+    result_id: int | None = None
+    error: str | None = None
+    created: float = field(default_factory=time.time)
+    order: int = 0
+    version: int = 0  # bumped on every change (event streams watch it)
+
+
+class JobManager:
+    """A queue of jobs served by one worker process at a time (``start()`` / ``stop()``)."""
+
+    def __init__(self, library: Library) -> None:
+        self.library = library
+        self._jobs: dict[str, Job] = {}
+        self._queue: deque[str] = deque()
+        self._lock = threading.Condition()
+        self._counter = itertools.count(1)
+        self._cancel: set[str] = set()
+        self._stopping = False
+        self._thread: threading.Thread | None = None
+        self._process = None
+        self._conn = None
+
+    # -- public ---------------------------------------------------------------------------
+    def start(self) -> None:
+        if self._thread is None:
+            self._stopping = False
+            self._thread = threading.Thread(target=self._run, name="barkgen-jobs", daemon=True)
+            self._thread.start()
+
+    def stop(self) -> None:
+        with self._lock:
+            self._stopping = True
+            self._lock.notify_all()
+        if self._thread is not None:
+            self._thread.join(timeout=10)
+            self._thread = None
+        self._end_worker()
+
+    def submit(self, exemplar_id: int, params: dict, spec_without_id: dict,
+               parent_id: int | None = None) -> Job:
+        """Queue a job; ``spec_without_id``: the :class:`JobSpec` fields but ``job_id``."""
+        job_id = secrets.token_hex(8)
+        job = Job(id=job_id, exemplar_id=exemplar_id, params=params,
+                  spec=JobSpec(job_id=job_id, **spec_without_id), parent_id=parent_id,
+                  order=next(self._counter))
+        with self._lock:
+            self._jobs[job_id] = job
+            self._queue.append(job_id)
+            self._forget_old()
+            self._lock.notify_all()
+        return job
+
+    def get(self, job_id: str) -> Job | None:
+        with self._lock:
+            return self._jobs.get(job_id)
+
+    def snapshot(self, job_id: str) -> dict | None:
+        """The job as the API shows it (or None)."""
+        with self._lock:
+            job = self._jobs.get(job_id)
+            return None if job is None else self._describe(job)
+
+    def list(self) -> list[dict]:
+        """Queued and running jobs first (in queue order), then finished ones, newest first."""
+        with self._lock:
+            jobs = sorted(self._jobs.values(),
+                          key=lambda j: (j.state in FINISHED, j.order if j.state not in FINISHED else -j.order))
+            return [self._describe(j) for j in jobs]
+
+    def cancel(self, job_id: str) -> dict | None:
+        """Cancel a queued or running job (a finished one stays as it is)."""
+        with self._lock:
+            job = self._jobs.get(job_id)
+            if job is None:
+                return None
+            if job.state == "queued":
+                self._queue.remove(job_id)
+                self._set(job, state="cancelled", spec=None)
+            elif job.state == "running":
+                self._cancel.add(job_id)
+                self._lock.notify_all()
+            return self._describe(job)
+
+    def wait(self, job_id: str, version: int, timeout: float) -> dict | None:
+        """The job once its version differs from ``version`` (or after ``timeout``)."""
+        deadline = time.monotonic() + timeout
+        with self._lock:
+            while True:
+                job = self._jobs.get(job_id)
+                if job is None or job.version != version:
+                    return None if job is None else self._describe(job)
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    return self._describe(job)
+                self._lock.wait(left)
+
+    # -- internals (call with the lock held) ------------------------------------------------
+    def _describe(self, job: Job) -> dict:
+        position = self._queue.index(job.id) + (1 if self._running() else 0) if job.state == "queued" else 0
+        return {"id": job.id, "number": job.order, "state": job.state, "progress": round(job.progress, 4),
+                "queue_position": position, "result_id": job.result_id, "error": job.error,
+                "exemplar_id": job.exemplar_id, "params": job.params, "version": job.version}
+
+    def _running(self) -> bool:
+        return any(j.state == "running" for j in self._jobs.values())
+
+    def _set(self, job: Job, **changes) -> None:
+        for key, value in changes.items():
+            setattr(job, key, value)
+        job.version += 1
+        # a move in the queue changes the others' positions: wake every watcher
+        for other in self._jobs.values():
+            if other is not job and other.state == "queued" and "state" in changes:
+                other.version += 1
+        self._lock.notify_all()
+
+    def _forget_old(self) -> None:
+        finished = [j for j in self._jobs.values() if j.state in FINISHED]
+        for job in sorted(finished, key=lambda j: j.order)[:max(0, len(finished) - JOBS_KEPT)]:
+            del self._jobs[job.id]
+
+    # -- the dispatcher thread --------------------------------------------------------------
+    def _run(self) -> None:
+        while True:
+            with self._lock:
+                while not self._queue and not self._stopping:
+                    self._lock.wait()
+                if self._stopping:
+                    return
+                job = self._jobs[self._queue.popleft()]
+                self._set(job, state="running", progress=0.0)
+                spec = job.spec
+            self._execute(job, spec)
+
+    def _ensure_worker(self) -> None:
+        if self._process is not None and self._process.is_alive():
+            return
+        context = multiprocessing.get_context("spawn")
+        parent, child = context.Pipe()
+        self._process = context.Process(target=worker_main, args=(child,), daemon=True,
+                                        name="barkgen-worker")
+        self._process.start()
+        child.close()
+        self._conn = parent
+
+    def _end_worker(self) -> None:
+        if self._process is not None:
+            self._process.kill()
+            self._process.join(timeout=10)
+        if self._conn is not None:
+            self._conn.close()
+        self._process = self._conn = None
+
+    def _finish(self, job: Job, **changes) -> None:
+        with self._lock:
+            self._cancel.discard(job.id)
+            self._set(job, spec=None, **changes)
+
+    def _execute(self, job: Job, spec: JobSpec) -> None:
+        try:
+            self._ensure_worker()
+            self._conn.send(spec)
+        except (OSError, EOFError) as exc:
+            self._end_worker()
+            self._finish(job, state="failed", error=f"could not start the worker process ({exc})")
+            return
+        while True:
+            with self._lock:
+                cancelled = job.id in self._cancel or self._stopping
+            if cancelled:
+                self._end_worker()
+                self._finish(job, state="cancelled")
+                return
+            try:
+                ready = self._conn.poll(0.1)
+                message = self._conn.recv() if ready else None
+            except (EOFError, OSError):
+                code = self._process.exitcode if self._process is not None else None
+                self._end_worker()
+                self._finish(job, state="failed",
+                             error=f"the worker process ended (exit code {code}; out of memory?)")
+                return
+            if message is None:
+                continue
+            kind = message[0]
+            if kind == "progress":
+                with self._lock:
+                    self._set(job, progress=float(message[2]))
+            elif kind == "failed":
+                self._finish(job, state="failed", error=message[2])
+                return
+            elif kind == "done":
+                files, report = message[2], message[3]
+                try:
+                    result = self.library.add_result(job.exemplar_id, job.params, job.params["seed"],
+                                                     files, report.get("timings_s", {}),
+                                                     parent_id=job.parent_id)
+                except Exception as exc:  # the library folder went away, disk full, ...
+                    self._finish(job, state="failed", error=f"could not store the result ({exc})")
+                    return
+                self._finish(job, state="done", progress=1.0, result_id=result.id)
+                return

@@ -1,0 +1,118 @@
+"""The process that runs the web app's jobs: :func:`barkgen.pipeline.generate` on a library
+photo, its files encoded as ``barkgen generate`` writes them.
+
+It lives in its own process so that the server stays responsive while the solvers keep both
+cores busy, and so that cancelling a running job is immediate (the process is ended and a new
+one started). It keeps the last few :class:`~barkgen.pipeline.PhotoAnalysis` so that another
+seed of the same photo skips the per-photo analysis (same bytes either way).
+"""
+
+from __future__ import annotations
+
+import time
+import traceback
+from collections import OrderedDict
+from dataclasses import dataclass
+
+import numpy as np
+
+#: photo analyses kept in the worker (each is tens of MB for a 1024 px photo)
+ANALYSES_KEPT = 3
+#: at most one progress message per this many seconds
+PROGRESS_INTERVAL_S = 0.1
+
+
+@dataclass(frozen=True)
+class JobSpec:
+    """What the worker needs for one job (picklable; made by the server)."""
+
+    job_id: str
+    photo: bytes
+    photo_hash: str
+    source: str
+    options: dict
+    set_name: str
+    labels_in: bytes | None = None
+    resume: tuple[int, np.ndarray] | None = None
+
+
+def encode_result(photo: np.ndarray, result, spec: JobSpec) -> dict[str, bytes]:
+    """Every file of a job's result: those of ``barkgen generate`` (:func:`barkgen.io.encode_generate`,
+    with the material set named ``spec.set_name``), every level of the output label map as
+    ``level_N.png`` and a ``thumbnail.jpg`` of the texture."""
+    import io
+
+    from PIL import Image
+
+    from barkgen.io import encode_generate, encode_png
+    from barkgen.synth.solver import as_uint8
+
+    files = encode_generate(photo, result, spec.source, name=spec.set_name)
+    files.update({f"level_{i}.png": encode_png(level)
+                  for i, level in enumerate(result.label_levels) if level is not None})
+    thumb = Image.fromarray(as_uint8(result.texture).squeeze())
+    thumb.thumbnail((320, 320))
+    buffer = io.BytesIO()
+    thumb.convert("RGB").save(buffer, "JPEG", quality=88)
+    files["thumbnail.jpg"] = buffer.getvalue()
+    return files
+
+
+def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
+    """Run one job, reporting through ``send(message)``: ``("progress", id, fraction)``, then
+    ``("done", id, files, report)`` or ``("failed", id, message)``."""
+    from barkgen.errors import BarkgenError
+    from barkgen.io import decode_image
+    from barkgen.pipeline import GenerateOptions, analyze_photo, generate
+
+    last = [0.0]
+
+    def progress(done: int, total: int) -> None:
+        now = time.monotonic()
+        if now - last[0] >= PROGRESS_INTERVAL_S or done >= total:
+            last[0] = now
+            send(("progress", spec.job_id, done / max(total, 1)))
+
+    try:
+        photo = decode_image(spec.photo, spec.source)
+        options = GenerateOptions(**spec.options)
+        labels_in = decode_image(spec.labels_in, "labels") if spec.labels_in is not None else None
+        key = (spec.photo_hash, options.k, options.method, options.strategy, options.material,
+               options.size, options.relief)
+        analysis = analyses.get(key)
+        if analysis is None:
+            # generate() given an analysis reports from the end of its analysis stage on
+            analysis = analyze_photo(photo, options, labels_in=labels_in,
+                                     progress=lambda done, total: progress(done, 2 * total))
+            analyses[key] = analysis
+            while len(analyses) > ANALYSES_KEPT:
+                analyses.popitem(last=False)
+        else:
+            analyses.move_to_end(key)
+        result = generate(photo, options, analysis=analysis, resume=spec.resume, progress=progress)
+        files = encode_result(photo, result, spec)
+    except BarkgenError as exc:
+        send(("failed", spec.job_id, str(exc)))
+        return
+    except MemoryError:
+        send(("failed", spec.job_id, "out of memory: try a smaller size"))
+        return
+    except Exception as exc:  # a bug: report it in one line, keep the worker alive
+        traceback.print_exc()
+        send(("failed", spec.job_id, f"internal error ({type(exc).__name__}: {exc})"))
+        return
+    send(("done", spec.job_id, files, result.report))
+
+
+def worker_main(conn) -> None:
+    """The worker process: run the jobs received on ``conn`` one after the other until it is
+    closed (or the process is ended)."""
+    analyses: OrderedDict = OrderedDict()
+    while True:
+        try:
+            spec = conn.recv()
+        except (EOFError, OSError):
+            return
+        if spec is None:
+            return
+        run_job(spec, analyses, conn.send)

@@ -1,0 +1,150 @@
+"""The exemplar library: SQLite schema and migrations, content-addressed files, the sample on
+first use, analyses and results, removal, and its command line."""
+
+from __future__ import annotations
+
+import json
+import sqlite3
+
+import numpy as np
+import pytest
+
+from barkgen.cli import main
+from barkgen.errors import ImageReadError, ImageTooLargeError, InvalidInputError
+from barkgen.io import encode_png
+from barkgen.library import SCHEMA_VERSION, Library, LibraryError, NotFoundError
+from barkgen.library.store import content_hash
+
+
+def _png(value: int = 90, size: int = 40) -> bytes:
+    rng = np.random.default_rng(value)
+    return encode_png(rng.integers(0, 255, (size, size, 3), dtype=np.uint8))
+
+
+def run(argv, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(argv)
+    out, err = capsys.readouterr()
+    return exit_info.value.code, out, err
+
+
+def test_schema_sample_and_exemplars(tmp_path):
+    lib = Library(tmp_path / "lib")
+    with sqlite3.connect(lib.db_path) as conn:
+        assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION
+        tables = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+    assert {"exemplars", "analyses", "results", "result_files", "settings"} <= tables
+    # the bundled sample is there from the first use, and only once
+    (sample,) = lib.exemplars()
+    assert sample.species == "pine" and sample.licence == "MIT" and (sample.width, sample.height) == (1024, 1024)
+    assert lib.store.get(sample.image_hash)[:3] == b"\xff\xd8\xff"
+    data = _png()
+    oak = lib.add_exemplar(data, "oak", species="oak", bark_type="furrowed", licence="CC0")
+    assert oak.image_hash == content_hash(data) and lib.store.path(oak.image_hash).read_bytes() == data
+    assert lib.add_exemplar(data, "oak again").id == oak.id  # same bytes, same exemplar
+    assert [e.name for e in Library(lib.path).exemplars()] == [sample.name, "oak"]
+    assert lib.photo(oak.id).shape == (40, 40, 3)
+    # removing the sample is the user's choice: it does not come back
+    lib.remove_exemplar(sample.id)
+    assert [e.name for e in Library(lib.path).exemplars()] == ["oak"]
+    assert not lib.store.exists(sample.image_hash)
+
+
+def test_bad_input_and_newer_schema(tmp_path):
+    lib = Library(tmp_path / "lib", add_sample=False)
+    with pytest.raises(ImageReadError):
+        lib.add_exemplar(b"not an image", "x")
+    with pytest.raises(ImageTooLargeError):
+        lib.add_exemplar(_png(size=100), "x", max_pixels=5000)
+    with pytest.raises(InvalidInputError):
+        lib.add_exemplar(_png(), "  ")
+    assert lib.exemplars() == [] and lib.store.digests() == set()
+    with pytest.raises(NotFoundError):
+        lib.exemplar(7)
+    with pytest.raises(NotFoundError):
+        lib.result(7)
+    with sqlite3.connect(lib.db_path) as conn:
+        conn.execute(f"PRAGMA user_version = {SCHEMA_VERSION + 1}")
+    with pytest.raises(LibraryError, match="newer barkgen"):
+        Library(lib.path)
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(LibraryError, match="folder"):
+        Library(tmp_path / "file")
+    (tmp_path / "junk").mkdir()
+    (tmp_path / "junk" / "library.sqlite").write_bytes(b"this is not sqlite" * 100)
+    with pytest.raises(LibraryError, match="not a barkgen library"):
+        Library(tmp_path / "junk")
+
+
+def test_analyses_results_and_removal(tmp_path):
+    lib = Library(tmp_path / "lib", add_sample=False)
+    a = lib.add_exemplar(_png(1), "a")
+    b = lib.add_exemplar(_png(2), "b")
+    assert lib.analysis(a.id, "labels_in", {"k": 3}) is None
+    lib.put_analysis(a.id, "labels_in", {"k": 3, "method": "color"}, b"labels-k3")
+    assert lib.analysis(a.id, "labels_in", {"method": "color", "k": 3}) == b"labels-k3"  # key order free
+    assert lib.analysis(a.id, "labels_in", {"method": "color", "k": 4}) is None
+    shared = b"the same bytes in two results"
+    r1 = lib.add_result(a.id, {"size": [64, 64], "seed": 1}, 1, {"texture.png": b"t1", "x.json": shared},
+                        {"total": 1.5})
+    r2 = lib.add_result(a.id, {"size": [64, 64], "seed": 2}, 2, {"texture.png": b"t2", "x.json": shared},
+                        parent_id=r1.id)
+    r3 = lib.add_result(b.id, {"seed": 3}, 3, {"texture.png": b"t3"})
+    assert [r.id for r in lib.results()] == [r3.id, r2.id, r1.id]
+    assert [r.id for r in lib.results(a.id)] == [r2.id, r1.id]
+    assert lib.result(r2.id).parent_id == r1.id and lib.result(r1.id).timings == {"total": 1.5}
+    assert lib.result_file(r1.id, "texture.png") == b"t1"
+    with pytest.raises(NotFoundError):
+        lib.result_file(r1.id, "../library.sqlite")
+    # a file two results share stays until neither needs it
+    lib.remove_result(r1.id)
+    assert lib.result(r2.id).parent_id is None
+    assert lib.store.exists(content_hash(shared)) and not lib.store.exists(content_hash(b"t1"))
+    lib.remove_exemplar(a.id)
+    assert [r.id for r in lib.results()] == [r3.id]
+    assert not lib.store.exists(content_hash(shared)) and not lib.store.exists(content_hash(b"labels-k3"))
+    assert lib.store.digests() == {b.image_hash, content_hash(b"t3")}
+
+
+def test_library_cli(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("BARKGEN_LIBRARY", str(tmp_path / "envlib"))
+    photo = tmp_path / "old oak.png"
+    photo.write_bytes(_png(5))
+    code, out, err = run(["library", "add", str(photo), "--species", "oak", "--licence", "CC0"], capsys)
+    assert code in (0, None), err
+    exemplar_id = int(out.split("\t")[0])
+    assert "old oak" in out
+    code, out, _ = run(["library", "add", str(photo)], capsys)
+    assert "already in the library" in out
+    code, out, err = run(["library", "list"], capsys)
+    assert "Sample pine bark" in out and "old oak" in out and "oak" in out and "envlib" in err
+    code, out, _ = run(["library", "show", str(exemplar_id)], capsys)
+    shown = json.loads(out)
+    assert shown["species"] == "oak" and shown["licence"] == "CC0" and shown["results"] == []
+    # --library wins over the environment
+    code, out, _ = run(["library", "list", "--library", str(tmp_path / "other")], capsys)
+    assert "old oak" not in out
+    code, out, _ = run(["library", "rm", str(exemplar_id)], capsys)
+    assert "removed" in out
+    # bad input: one line, exit 2, no traceback
+    for argv in (["library", "show", "99"], ["library", "rm", "99"],
+                 ["library", "add", str(tmp_path / "missing.png")],
+                 ["library", "list", "--library", str(photo)]):
+        code, out, err = run(argv, capsys)
+        assert code == 2 and err.startswith("barkgen: error:") and err.count("\n") == 1, (argv, err)
+    (tmp_path / "text.jpg").write_text("not a photo")
+    code, _, err = run(["library", "add", str(tmp_path / "text.jpg")], capsys)
+    assert code == 2 and "not an image" in err
+
+
+def test_serve_refuses_a_taken_port(tmp_path, capsys):
+    import socket
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        code, _, err = run(["serve", "--port", str(port), "--library", str(tmp_path / "lib")], capsys)
+    assert code == 2 and "cannot listen" in err and err.count("\n") == 1
+    code, _, err = run(["serve", "--port", "0", "--library", str(tmp_path / "lib")], capsys)
+    assert code == 2 and "--port" in err

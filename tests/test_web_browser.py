@@ -1,0 +1,228 @@
+"""The web app in a real browser: Debian's Chromium driven by Playwright against `barkgen serve`
+on loopback. Upload a shared bark photo, generate 512², watch the progress move and the result
+appear, see the 3D trunk draw, paint a stroke on the label map and continue, download the zip.
+
+Chromium comes from Debian's package (``scripts/test.sh`` installs it); Playwright never downloads
+a browser. Without /usr/bin/chromium the test is skipped, except under CI, where it fails.
+Screenshots go to ``$BARKGEN_SHOTS`` when it is set."""
+
+from __future__ import annotations
+
+import io
+import os
+import re
+import socket
+import subprocess
+import sys
+import time
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import BARK, _need_shared
+
+CHROMIUM = Path("/usr/bin/chromium")
+CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
+                 "--disable-quic", "--no-first-run", "--disable-background-networking",
+                 "--disable-component-update", "--disable-sync"]
+SHOTS = os.environ.get("BARKGEN_SHOTS")
+
+
+def _free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    """`barkgen serve` on a new library, as a user starts it; yields its address."""
+    port = _free_port()
+    library = tmp_path_factory.mktemp("weblib")
+    log = open(tmp_path_factory.mktemp("weblog") / "serve.log", "w+")
+    process = subprocess.Popen([sys.executable, "-m", "barkgen", "serve", "--port", str(port),
+                                "--library", str(library)], stdout=log, stderr=subprocess.STDOUT)
+    url = f"http://127.0.0.1:{port}/"
+    deadline = time.monotonic() + 60
+    while True:
+        log.seek(0)
+        if "barkgen is running at" in log.read():
+            break
+        if process.poll() is not None or time.monotonic() > deadline:
+            log.seek(0)
+            process.kill()
+            pytest.fail(f"barkgen serve did not start:\n{log.read()}")
+        time.sleep(0.2)
+    log.seek(0)
+    assert f"running at {url}" in log.read()
+    yield url
+    process.terminate()
+    process.wait(timeout=30)
+
+
+@pytest.fixture(scope="module")
+def browser():
+    if not CHROMIUM.exists():
+        if os.environ.get("CI"):
+            pytest.fail("the browser tests need Debian's chromium (/usr/bin/chromium); scripts/test.sh installs it")
+        pytest.skip("needs Debian's chromium at /usr/bin/chromium (apt-get install chromium)")
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as playwright:
+        chromium = playwright.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
+        yield chromium
+        chromium.close()
+
+
+def _shot(page, name: str, **kwargs) -> None:
+    if SHOTS:
+        Path(SHOTS).mkdir(parents=True, exist_ok=True)
+        page.screenshot(path=str(Path(SHOTS) / f"{name}.png"), **kwargs)
+
+
+def _follow_job(page, timeout_s: float = 240) -> list[float]:
+    """The job panel's progress values seen until the page moves to a result."""
+    seen = []
+    start = page.url.split("?")[0]
+    deadline = time.monotonic() + timeout_s
+    progress = page.get_by_test_id("job-progress")
+    while page.url.split("?")[0] == start or "/results/" not in page.url:
+        try:  # the page's own address and progress, read together (it may be navigating)
+            where, value = progress.evaluate("el => [location.href, el.value]", timeout=2000)
+            if where.split("?")[0] == start:
+                seen.append(float(value))
+        except Exception:
+            pass
+        try:
+            state = page.get_by_test_id("job-state").first.text_content(timeout=2000) or ""
+        except Exception:
+            state = ""
+        if state.startswith("failed"):
+            pytest.fail(f"job {state}")
+        assert time.monotonic() < deadline, f"no result after {timeout_s} s; progress seen {seen[-5:]}"
+        page.wait_for_timeout(150)
+    return seen
+
+
+def _canvas_pixels(page, testid: str) -> np.ndarray:
+    from PIL import Image
+
+    png = page.get_by_test_id(testid).screenshot()
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=np.float32)
+
+
+def test_upload_generate_view_paint_continue_download(server, browser, tmp_path):
+    _need_shared()
+    photo = BARK / "oak_furrowed_moss_01.jpg"
+    page = browser.new_page(viewport={"width": 1400, "height": 1000})
+    errors = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    page.goto(server)
+    # the bundled sample is in the library from the first start
+    page.get_by_test_id("exemplar-card").first.wait_for()
+    _shot(page, "1_library")
+
+    # upload a shared photo: the app moves to its page
+    page.get_by_test_id("upload-file").set_input_files(str(photo))
+    page.get_by_test_id("upload-name").fill("oak in the browser")
+    page.get_by_test_id("upload-submit").click()
+    page.wait_for_url(re.compile(r"/exemplars/\d+"))
+    page.get_by_test_id("exemplar-photo").wait_for()
+    page.wait_for_function("() => { const i = document.querySelector('[data-testid=labels-in]');"
+                           " return i && i.complete && i.naturalWidth > 0; }", timeout=60_000)
+    page.get_by_test_id("param-size").select_option("512x512")
+    page.get_by_test_id("param-seed").fill("3")
+    assert page.get_by_test_id("param-material").is_checked()
+    _shot(page, "2_exemplar")
+
+    # generate: the progress moves, then the result page shows the texture
+    page.get_by_test_id("generate").click()
+    seen = _follow_job(page)
+    assert any(0 < value < 1 for value in seen), f"progress never moved between 0 and 1: {seen}"
+    assert seen == sorted(seen), "progress went backwards"
+    first_result = page.url
+    page.wait_for_function("() => { const i = document.querySelector('[data-testid=result-texture]');"
+                           " return i && i.complete && i.naturalWidth === 512; }", timeout=30_000)
+
+    # the 3D trunk draws (WebGL through SwiftShader): its pixels are not blank
+    page.wait_for_selector("[data-testid=trunk-canvas][data-ready='1']", timeout=60_000)
+    page.wait_for_timeout(500)
+    trunk = _canvas_pixels(page, "trunk-canvas")
+    assert trunk.std() > 10, f"the trunk canvas looks blank (std {trunk.std():.1f})"
+    assert np.unique(trunk.reshape(-1, 3).astype(np.uint8), axis=0).shape[0] > 500
+    # the light slider changes the picture
+    page.get_by_test_id("light-azimuth").evaluate(
+        "el => { el.value = 220; el.dispatchEvent(new Event('input', {bubbles: true})); }")
+    page.wait_for_timeout(500)
+    relit = _canvas_pixels(page, "trunk-canvas")
+    assert np.abs(relit - trunk).mean() > 1.0, "moving the light changed nothing"
+    _shot(page, "3_result", full_page=True)
+
+    # download the material set: ambientCG names inside
+    with page.expect_download() as download_info:
+        page.get_by_test_id("download").click()
+    archive = tmp_path / "set.zip"
+    download_info.value.save_as(archive)
+    names = zipfile.ZipFile(archive).namelist()
+    for suffix in ("Color", "NormalGL", "NormalDX", "Displacement", "Roughness", "AmbientOcclusion"):
+        assert any(n.endswith(f"_{suffix}.png") for n in names), (suffix, names)
+    assert "texture.png" in names and "report.json" in names
+
+    # paint one stroke of label 0 across the chosen level, then continue synthesis from it
+    canvas = page.get_by_test_id("paint-canvas")
+    canvas.scroll_into_view_if_needed()
+    page.get_by_test_id("paint-swatch").first.click()
+    page.get_by_test_id("paint-radius").fill("4")
+    before = canvas.evaluate("c => c.toDataURL()")
+    box = canvas.bounding_box()
+    page.mouse.move(box["x"] + box["width"] * 0.2, box["y"] + box["height"] * 0.5)
+    page.mouse.down()
+    for step in range(1, 21):
+        page.mouse.move(box["x"] + box["width"] * (0.2 + 0.03 * step), box["y"] + box["height"] * 0.5)
+    page.mouse.up()
+    assert canvas.evaluate("c => c.toDataURL()") != before, "the stroke did not paint"
+    _shot(page, "4_painted", full_page=True)
+    page.get_by_test_id("paint-continue").click()
+    _follow_job(page)
+    page.wait_for_url(lambda url: "/results/" in url and url.split("?")[0] != first_result.split("?")[0])
+    page.wait_for_function("() => { const i = document.querySelector('[data-testid=result-texture]');"
+                           " return i && i.complete && i.naturalWidth === 512; }", timeout=30_000)
+    _shot(page, "5_continued", full_page=True)
+
+    # the continued result starts from the painted level and differs from the first
+    first_id = int(re.search(r"/results/(\d+)", first_result).group(1))
+    second_id = int(re.search(r"/results/(\d+)", page.url).group(1))
+    second = page.request.get(f"{server}api/results/{second_id}").json()
+    assert second["params"]["resumed_from"]["result_id"] == first_id
+    texture_a = page.request.get(f"{server}api/results/{first_id}/files/texture.png").body()
+    texture_b = page.request.get(f"{server}api/results/{second_id}/files/texture.png").body()
+    assert texture_a != texture_b
+    labels_a = page.request.get(f"{server}api/results/{first_id}/files/labels_out.png").body()
+    labels_b = page.request.get(f"{server}api/results/{second_id}/files/labels_out.png").body()
+    assert labels_a != labels_b
+    assert not errors, f"JavaScript errors: {errors}"
+    page.close()
+
+
+def test_reload_finds_the_job_and_cancel(server, browser):
+    """A page reload reconnects to its job; cancel stops it."""
+    page = browser.new_page()
+    page.goto(server)
+    page.get_by_test_id("exemplar-card").first.click()
+    page.wait_for_url(re.compile(r"/exemplars/\d+"))
+    page.get_by_test_id("param-size").select_option("1024x1024")
+    page.get_by_test_id("generate").click()
+    page.wait_for_url(re.compile(r"[?&]job="))
+    job_url = page.url
+    page.reload()
+    assert page.url == job_url
+    page.get_by_test_id("job-state").wait_for()
+    page.wait_for_function("() => /queued|running/.test(document.querySelector('[data-testid=job-state]').textContent)")
+    page.get_by_test_id("job-cancel").click()
+    page.wait_for_function("() => /cancelled/.test(document.querySelector('[data-testid=job-state]').textContent)",
+                           timeout=30_000)
+    job_id = re.search(r"job=([0-9a-f]+)", job_url).group(1)
+    assert page.request.get(f"{server}api/jobs/{job_id}").json()["state"] == "cancelled"
+    page.close()
