@@ -17,6 +17,13 @@ EVAL = SHARED / "eval"
 sys.path.insert(0, str(REPO / "benchmarks"))
 
 
+def pytest_configure(config) -> None:
+    """Tests (and the CLIs they start) never touch the user's own exemplar library."""
+    import tempfile
+
+    os.environ["BARKGEN_LIBRARY"] = str(Path(tempfile.mkdtemp(prefix="barkgen-test-library-")) / "lib")
+
+
 def _need_shared() -> None:
     if not (BARK.is_dir() and (EVAL / "texeval.py").is_file()):
         pytest.skip(f"needs the team's shared folder with data/bark and eval/texeval.py at {SHARED} "

@@ -238,7 +238,7 @@ BAD_SPECS = [
     ({"exemplars": [{"name": "fir", "path": "photos/fir.png", "seeds": [1, 2, 1]}]}, "seed 1 is listed twice"),
     ({"exemplars": [{"name": "fir", "path": "photos/fir.png", "seeds": [1], "count": 3}]}, "not both"),
     ({"exemplars": [{"name": "fir", "path": "photos/fir.png"}]}, "seeds: [0, 1, ...] or count: N"),
-    ({"exemplars": [{"name": "pine", "library": 7, "count": 8}]}, "exemplar library"),
+    ({"exemplars": [{"name": "pine", "library": 7, "count": 8}]}, "no exemplar 7 in the library"),
     ({"exemplars": [{"name": "../up", "path": "photos/fir.png", "seeds": [1]}]}, "must be a folder name"),
     ({"exemplars": []}, "non-empty list"),
     ({"k": 99}, "spec: k"),

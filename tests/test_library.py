@@ -148,3 +148,23 @@ def test_serve_refuses_a_taken_port(tmp_path, capsys):
     assert code == 2 and "cannot listen" in err and err.count("\n") == 1
     code, _, err = run(["serve", "--port", "0", "--library", str(tmp_path / "lib")], capsys)
     assert code == 2 and "--port" in err
+
+
+def test_batch_spec_takes_library_ids(tmp_path):
+    from barkgen.batch import parse_spec
+
+    lib = Library(tmp_path / "lib")
+    oak = lib.add_exemplar(_png(8), "Old oak / north side", species="oak")
+    spec = parse_spec({"size": "64x64", "exemplars": [{"library": oak.id, "count": 2},
+                                                      {"library": 1, "name": "sample", "seeds": [5]}]},
+                      tmp_path, library=lib)
+    first, second = spec.exemplars
+    assert first.name == "Old-oak-north-side" and first.seeds == (0, 1)
+    assert first.path.read_bytes() == lib.photo_bytes(oak.id)
+    assert first.source_name == f"library:{oak.id} (Old oak / north side)"
+    assert second.name == "sample" and second.path == lib.store.path(lib.exemplar(1).image_hash)
+    for entry, message in (({"library": 99, "count": 1}, "no exemplar 99"),
+                           ({"library": "oak", "count": 1}, "exemplar id"),
+                           ({"library": oak.id, "path": "x.jpg", "count": 1}, "not both")):
+        with pytest.raises(InvalidInputError, match=message):
+            parse_spec({"exemplars": [entry]}, tmp_path, library=lib.path)

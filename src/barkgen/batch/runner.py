@@ -241,7 +241,7 @@ def _run(client, todo, inputs, output_dir: Path, manifest: Manifest, report: Bat
         remaining[job.name] = len(seeds)
         fingerprint = job.fingerprint()
         for seed in seeds:
-            future = client.submit(_variant_task, photo_f, analysis_f, job.options_for(seed), str(job.path),
+            future = client.submit(_variant_task, photo_f, analysis_f, job.options_for(seed), job.source_name,
                                    job.material_name, job.bits, pure=False,
                                    key=f"barkgen-variant-{job.name}-{seed}-{os.urandom(4).hex()}")
             futures[future] = (job, seed, fingerprint)

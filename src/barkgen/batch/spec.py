@@ -9,6 +9,7 @@ A spec is a YAML (or JSON) mapping::
     exemplars:
       - {name: oak, path: photos/oak.jpg, seeds: [0, 1, 2]}
       - {name: pine, path: photos/pine.jpg, count: 8, seed_base: 100, k: 4}   # ... or one
+      - {library: 3, count: 4}   # a photo of the exemplar library (barkgen library list)
 
 Relative paths are relative to the spec file. Everything is checked here, before any work
 starts, and every problem is one :class:`~barkgen.errors.InvalidInputError` line that says
@@ -54,6 +55,12 @@ class ExemplarJob:
     labels: Path | None = None
     bits: int | None = None
     material_name: str = "bark"
+    source: str | None = None
+
+    @property
+    def source_name(self) -> str:
+        """What the reports call the photo: its path, or ``library:ID (name)``."""
+        return self.source or str(self.path)
 
     def options_for(self, seed: int) -> GenerateOptions:
         return dataclasses.replace(self.options, seed=seed)
@@ -178,10 +185,34 @@ def _path(root: Path, where: str, key: str, value) -> Path:
     return path
 
 
-def parse_spec(document, root: str | Path = ".", *, threads: int | None = None) -> BatchSpec:
+def _library_photo(where: str, entry: dict, library) -> tuple[Path, str, str]:
+    """``library: ID`` -> the exemplar's stored photo, its default output name and source."""
+    from barkgen.library import Library, NotFoundError
+
+    if "path" in entry:
+        raise InvalidInputError(f"{where}: give the photo as path: or library:, not both")
+    exemplar_id = entry["library"]
+    if isinstance(exemplar_id, bool) or not isinstance(exemplar_id, int):
+        raise InvalidInputError(f"{where}: library must be an exemplar id (barkgen library list), "
+                                f"not {exemplar_id!r}")
+    if library is None or isinstance(library, (str, Path)):
+        library = Library(library)
+    try:
+        exemplar = library.exemplar(exemplar_id)
+    except NotFoundError:
+        raise InvalidInputError(f"{where}: no exemplar {exemplar_id} in the library at {library.path} "
+                                "(see barkgen library list)") from None
+    name = re.sub(r"[^A-Za-z0-9._-]+", "-", exemplar.name).strip("-.")[:64] or f"library-{exemplar.id}"
+    return library.store.path(exemplar.image_hash), name, f"library:{exemplar.id} ({exemplar.name})"
+
+
+def parse_spec(document, root: str | Path = ".", *, threads: int | None = None,
+               library=None) -> BatchSpec:
     """Validate a spec mapping (as loaded from YAML); relative paths are relative to ``root``.
 
     ``threads``: numba/faiss threads of each variant (None: all cores of its worker).
+    ``library``: the :class:`~barkgen.library.Library` (or its folder) that ``library: ID``
+    entries name (None: the default library).
 
     Raises:
         InvalidInputError: one line naming the entry and the key at fault: unknown keys,
@@ -206,13 +237,15 @@ def parse_spec(document, root: str | Path = ".", *, threads: int | None = None) 
             raise InvalidInputError(f"{where}: expected a mapping such as {{name: oak, path: oak.jpg, "
                                     f"seeds: [0, 1]}}, not {entry!r}")
         _check_keys(where, entry, EXEMPLAR_KEYS + OPTION_KEYS)
+        source = None
         if "library" in entry:
-            raise InvalidInputError(f"{where}: library ids need barkgen's exemplar library, which "
-                                    "this version does not have yet; give the photo as path:")
-        if "path" not in entry:
-            raise InvalidInputError(f"{where}: path (the bark photo) is missing")
-        path = _path(root, where, "path", entry["path"])
-        name = entry.get("name", path.stem)
+            path, default_name, source = _library_photo(where, entry, library)
+        elif "path" not in entry:
+            raise InvalidInputError(f"{where}: path (the bark photo) or library (an exemplar id) is missing")
+        else:
+            path = _path(root, where, "path", entry["path"])
+            default_name = path.stem
+        name = entry.get("name", default_name)
         if not isinstance(name, str) or not _NAME_RE.match(name) or name in (".", ".."):
             raise InvalidInputError(f"{where}: name {name!r} must be a folder name of letters, digits, "
                                     "'.', '_' or '-' (at most 64, not starting with a dot)")
@@ -225,11 +258,11 @@ def parse_spec(document, root: str | Path = ".", *, threads: int | None = None) 
         options, bits, material_name = _options(
             where, {**shared, **{k: v for k, v in entry.items() if k in OPTION_KEYS}}, threads)
         jobs.append(ExemplarJob(name=name, path=path, seeds=_seeds(where, entry), options=options,
-                                labels=labels, bits=bits, material_name=material_name))
+                                labels=labels, bits=bits, material_name=material_name, source=source))
     return BatchSpec(exemplars=tuple(jobs), root=root)
 
 
-def load_spec(path: str | Path, *, threads: int | None = None) -> BatchSpec:
+def load_spec(path: str | Path, *, threads: int | None = None, library=None) -> BatchSpec:
     """Read and validate a spec file (YAML or JSON); see :func:`parse_spec`."""
     import yaml
 
@@ -246,4 +279,4 @@ def load_spec(path: str | Path, *, threads: int | None = None) -> BatchSpec:
         at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
         problem = getattr(exc, "problem", None) or "not valid YAML"
         raise InvalidInputError(f"spec {str(path)!r}: {problem}{at}") from None
-    return parse_spec(document, path.resolve().parent, threads=threads)
+    return parse_spec(document, path.resolve().parent, threads=threads, library=library)

@@ -137,6 +137,9 @@ MaxMemoryOption = Annotated[str, typer.Option(
     "--max-memory", help="Refuse jobs estimated to need more memory than this.")]
 ThreadsOption = Annotated[Optional[int], typer.Option("--threads", min=1, help="Worker threads.")]
 QuietOption = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")]
+LibraryOption = Annotated[Optional[Path], typer.Option(
+    "--library", help="Library folder (default: $BARKGEN_LIBRARY, else barkgen/library in your "
+    "user data folder).")]
 NameOption = Annotated[str, typer.Option(
     "--name", help="Material set name: files NAME_Color.png, NAME_NormalGL.png, ..., NAME.json.")]
 ReliefOption = Annotated[float, typer.Option(
@@ -686,13 +689,14 @@ def batch_command(
         "--threads", help="Threads per variant (default: cores / workers locally, all cores of a "
         "worker with --scheduler).")] = None,
     quiet: QuietOption = False,
+    library: LibraryOption = None,
 ) -> None:
     """Generate many unique barks on Dask: every seed of every exemplar in SPEC, each photo
     analysed once and shared with the workers. A re-run makes only what is missing or failed
     (OUTDIR/manifest.sqlite)."""
     from barkgen.batch import load_spec, run_batch
 
-    spec = load_spec(spec_path, threads=threads)
+    spec = load_spec(spec_path, threads=threads, library=library)
     _check_folder(output_dir, "output")
     say = (lambda message: None) if quiet else (lambda message: typer.echo(message, err=True))
     try:
@@ -866,10 +870,6 @@ library_app = typer.Typer(
     help="The exemplar library: bark photos by species, their analyses and generated results "
     "(SQLite + files; --library PATH or $BARKGEN_LIBRARY, default in your data folder).")
 app.add_typer(library_app, name="library")
-
-LibraryOption = Annotated[Optional[Path], typer.Option(
-    "--library", help="Library folder (default: $BARKGEN_LIBRARY, else barkgen/library in your "
-    "user data folder).")]
 
 
 def _open_library(path: Path | None):

@@ -41,6 +41,8 @@ class Job:
     result_id: int | None = None
     error: str | None = None
     created: float = field(default_factory=time.time)
+    started: float | None = None
+    finished: float | None = None
     order: int = 0
     version: int = 0  # bumped on every change (event streams watch it)
 
@@ -115,7 +117,7 @@ class JobManager:
                 return None
             if job.state == "queued":
                 self._queue.remove(job_id)
-                self._set(job, state="cancelled", spec=None)
+                self._set(job, state="cancelled", spec=None, finished=time.time())
             elif job.state == "running":
                 self._cancel.add(job_id)
                 self._lock.notify_all()
@@ -139,7 +141,8 @@ class JobManager:
         position = self._queue.index(job.id) + (1 if self._running() else 0) if job.state == "queued" else 0
         return {"id": job.id, "number": job.order, "state": job.state, "progress": round(job.progress, 4),
                 "queue_position": position, "result_id": job.result_id, "error": job.error,
-                "exemplar_id": job.exemplar_id, "params": job.params, "version": job.version}
+                "exemplar_id": job.exemplar_id, "params": job.params, "version": job.version,
+                "created": job.created, "started": job.started, "finished": job.finished}
 
     def _running(self) -> bool:
         return any(j.state == "running" for j in self._jobs.values())
@@ -168,7 +171,7 @@ class JobManager:
                 if self._stopping:
                     return
                 job = self._jobs[self._queue.popleft()]
-                self._set(job, state="running", progress=0.0)
+                self._set(job, state="running", progress=0.0, started=time.time())
                 spec = job.spec
             self._execute(job, spec)
 
@@ -194,7 +197,7 @@ class JobManager:
     def _finish(self, job: Job, **changes) -> None:
         with self._lock:
             self._cancel.discard(job.id)
-            self._set(job, spec=None, **changes)
+            self._set(job, spec=None, finished=time.time(), **changes)
 
     def _execute(self, job: Job, spec: JobSpec) -> None:
         try:
