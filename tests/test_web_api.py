@@ -75,17 +75,73 @@ def test_upload_limits_and_content_checks(client, library, tmp_path):
     assert all(p.name == "library.sqlite" or p.name.startswith("library.sqlite-")
                or len(p.parent.name + p.name) == 64 for p in written), written
     assert not (tmp_path / "evil.png").exists()
+    # a tiny file of a huge image (a decompression bomb): 413, nothing decoded
+    from PIL import Image
+
+    bomb = io.BytesIO()
+    Image.new("L", (20000, 20000)).save(bomb, "PNG")
+    r = client.post("/api/exemplars", files={"file": ("bomb.png", bomb.getvalue())})
+    assert r.status_code == 413, r.text
+    # a body with no declared length (chunked) is cut off at the limit, multipart or JSON
+    boundary = "barkgenboundary"
+
+    def chunked_upload():
+        yield (f"--{boundary}\r\nContent-Disposition: form-data; name=\"file\"; filename=\"x.png\"\r\n"
+               "Content-Type: image/png\r\n\r\n").encode()
+        for _ in range(64):  # 4 MB, twice the limit
+            yield bytes(64 * 1024)
+        yield f"\r\n--{boundary}--\r\n".encode()
+
+    r = client.post("/api/exemplars", content=chunked_upload(),
+                    headers={"content-type": f"multipart/form-data; boundary={boundary}"})
+    assert r.status_code == 413 and "2 MB" in r.json()["detail"]
+    r = client.post("/api/jobs", content=(b" " * 65536 for _ in range(64)),
+                    headers={"content-type": "application/json"})
+    assert r.status_code == 413
     # only the exemplars that were accepted are listed (the sample and this one)
     assert len(client.get("/api/exemplars").json()) == 2
+    r = client.post("/api/exemplars", files={"file": ("a.png", _photo_png())}, data={"species": "x" * 600})
+    assert r.status_code == 400 and "species" in r.json()["detail"]
+
+
+def test_hosts_and_cross_site_requests_are_refused(library):
+    app = create_app(library, hosts=["127.0.0.1", "localhost"], run_jobs=False)
+    with TestClient(app, base_url="http://127.0.0.1:8000") as client:
+        assert client.get("/api/exemplars").status_code == 200
+        # DNS rebinding: a page of evil.example that resolves to this machine
+        r = client.get("/api/exemplars", headers={"host": "evil.example"})
+        assert r.status_code == 400 and "unknown host" in r.json()["detail"]
+        # another site's page posting here (no preflight for a form upload)
+        r = client.post("/api/exemplars", files={"file": ("a.png", _photo_png())},
+                        headers={"origin": "http://evil.example"})
+        assert r.status_code == 403
+        r = client.delete("/api/exemplars/1", headers={"origin": "http://localhost:9999"})
+        assert r.status_code == 403 and client.get("/api/exemplars/1").status_code == 200
+        # the app's own pages may
+        r = client.post("/api/exemplars", files={"file": ("a.png", _photo_png())},
+                        headers={"origin": "http://127.0.0.1:8000"})
+        assert r.status_code == 201
+        # seeds beyond 64 bits are refused at once; the queue is bounded
+        r = client.post("/api/jobs", json={"exemplar_id": 1, **SMALL, "seed": 2**64})
+        assert r.status_code == 422
+        from barkgen.web.jobs import MAX_QUEUED
+
+        codes = [client.post("/api/jobs", json={"exemplar_id": 1, **SMALL, "seed": i}).status_code
+                 for i in range(MAX_QUEUED + 1)]
+        assert codes == [201] * MAX_QUEUED + [429]
 
 
 def test_unknown_ids_are_404(client):
     for path in ("/api/exemplars/999", "/api/exemplars/999/photo", "/api/exemplars/999/labels.png",
                  "/api/results/999", "/api/results/999/download", "/api/results/999/files/texture.png",
-                 "/api/jobs/nope", "/api/jobs/nope/events", "/exemplars/999", "/results/999"):
+                 "/api/jobs/nope", "/api/jobs/nope/events"):
         r = client.get(path)
         assert r.status_code == 404, path
         assert r.json()["detail"]
+    # the pages themselves load and say so (from the API's 404)
+    for path in ("/exemplars/999", "/results/abc"):
+        r = client.get(path)
+        assert r.status_code == 200 and r.headers["content-type"].startswith("text/html")
     assert client.delete("/api/jobs/nope").status_code == 404
     r = client.post("/api/jobs", json={"exemplar_id": 999, **SMALL})
     assert r.status_code == 404
@@ -112,9 +168,11 @@ def test_five_jobs_at_once_complete_in_order(client, library):
     for t in threads:
         t.join()
     assert not errors and all(ids)
-    # the queue shows positions while they wait
-    queued = [j for j in client.get("/api/jobs").json() if j["state"] == "queued"]
-    assert [j["queue_position"] for j in queued] == sorted(j["queue_position"] for j in queued)
+    # the queue shows, for each waiting job, how many are ahead of it (the running one too)
+    listed = client.get("/api/jobs").json()
+    waiting = [j for j in listed if j["state"] == "queued"]
+    running = sum(j["state"] == "running" for j in listed)
+    assert [j["queue_position"] for j in waiting] == list(range(running, running + len(waiting)))
     jobs = [_wait(client, job_id) for job_id in ids]
     assert [j["state"] for j in jobs] == ["done"] * 5, [j["error"] for j in jobs]
     # the server's submission numbers give the order: results were made in that order
@@ -138,7 +196,7 @@ def test_events_cancel_and_restart_keeps_results(library):
         exemplar_id = client.post("/api/exemplars", files={"file": ("a.png", _photo_png(seed=3))}).json()["id"]
         done_id = client.post("/api/jobs", json={"exemplar_id": exemplar_id, **SMALL, "seed": 1}).json()["id"]
         # a long job behind it, and one behind that which is cancelled while queued
-        long_id = client.post("/api/jobs", json={"exemplar_id": exemplar_id, **SMALL, "size": "1024x1024",
+        long_id = client.post("/api/jobs", json={"exemplar_id": exemplar_id, **SMALL, "size": "2048x2048",
                                                  "seed": 2}).json()["id"]
         queued_id = client.post("/api/jobs", json={"exemplar_id": exemplar_id, **SMALL, "seed": 3}).json()["id"]
         assert client.get(f"/api/jobs/{queued_id}").json()["queue_position"] >= 1
@@ -165,7 +223,16 @@ def test_events_cancel_and_restart_keeps_results(library):
                                                               "seed": 4}).json()["id"])
         assert after["state"] == "done"
         before_restart = {r["id"] for r in client.get("/api/results").json()}
-    assert len(before_restart) == 2
+        assert len(before_restart) == 2
+        # removing a photo cancels its jobs
+        running_id = client.post("/api/jobs", json={"exemplar_id": exemplar_id, **SMALL, "size": "2048x2048",
+                                                    "seed": 5}).json()["id"]
+        other = client.post("/api/exemplars", files={"file": ("b.png", _photo_png(seed=4))}).json()["id"]
+        doomed = client.post("/api/jobs", json={"exemplar_id": other, **SMALL, "seed": 6}).json()["id"]
+        assert client.delete(f"/api/exemplars/{other}").status_code == 200
+        assert client.get(f"/api/jobs/{doomed}").json()["state"] == "cancelled"
+        client.delete(f"/api/jobs/{running_id}")
+        assert _wait(client, running_id, timeout=30)["state"] == "cancelled"
     # a new server on the same library lists the same results, with their files
     with TestClient(create_app(Library(library.path))) as client:
         assert {r["id"] for r in client.get("/api/results").json()} == before_restart
@@ -217,3 +284,53 @@ def test_painted_labels_are_checked_then_continued(client):
     block = np.s_[16:48, 16:48]  # the painted block at full size (level 1 is half size)
     before, after = np.mean(parent[block] == values[0]), np.mean(labels[block] == values[0])
     assert after > 0.6 and after > before + 0.3, (before, after)
+
+
+def test_ctrl_c_stops_the_server_with_a_job_and_its_event_stream_open(tmp_path):
+    """`barkgen serve` stops at once on Ctrl-C even while a page follows a running job."""
+    import signal
+    import socket
+    import subprocess
+    import sys
+
+    import httpx
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    log = tmp_path / "serve.log"
+    with open(log, "w") as out:
+        process = subprocess.Popen([sys.executable, "-m", "barkgen", "serve", "--port", str(port),
+                                    "--library", str(tmp_path / "lib")], stdout=out, stderr=subprocess.STDOUT)
+    try:
+        base = f"http://127.0.0.1:{port}"
+        deadline = time.monotonic() + 60
+        while "running at" not in log.read_text():
+            assert process.poll() is None and time.monotonic() < deadline, log.read_text()
+            time.sleep(0.1)
+        job = httpx.post(f"{base}/api/jobs", json={"exemplar_id": 1, "size": "2048x2048", "seed": 1}).json()
+        lines: list[str] = []
+
+        def follow() -> None:
+            try:
+                with httpx.stream("GET", f"{base}/api/jobs/{job['id']}/events", timeout=None) as stream:
+                    for line in stream.iter_lines():
+                        lines.append(line)
+            except httpx.HTTPError:
+                pass
+
+        reader = threading.Thread(target=follow, daemon=True)
+        reader.start()
+        while not any('"running"' in line for line in lines):
+            assert time.monotonic() < deadline, lines
+            time.sleep(0.1)
+        process.send_signal(signal.SIGINT)
+        started = time.monotonic()
+        process.wait(timeout=20)
+        assert time.monotonic() - started < 10
+        # the worker process went with it
+        out = subprocess.run(["pgrep", "-f", f"barkgen serve --port {port}"], capture_output=True, text=True)
+        assert out.stdout.strip() == ""
+    finally:
+        if process.poll() is None:
+            process.kill()

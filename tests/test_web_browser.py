@@ -53,13 +53,22 @@ def server(tmp_path_factory):
         if process.poll() is not None or time.monotonic() > deadline:
             log.seek(0)
             process.kill()
-            pytest.fail(f"barkgen serve did not start:\n{log.read()}")
+            output = log.read()
+            log.close()
+            pytest.fail(f"barkgen serve did not start:\n{output}")
         time.sleep(0.2)
     log.seek(0)
     assert f"running at {url}" in log.read()
     yield url
     process.terminate()
-    process.wait(timeout=30)
+    try:
+        process.wait(timeout=30)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        process.wait()
+        pytest.fail("barkgen serve did not stop within 30 s of SIGTERM")
+    finally:
+        log.close()
 
 
 @pytest.fixture(scope="module")

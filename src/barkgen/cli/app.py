@@ -977,7 +977,12 @@ def serve_command(
     limits = WebLimits(max_upload_bytes=max_upload_mb * 1024**2,
                        max_upload_pixels=int(max_upload_mp * 1e6))
 
+    from barkgen.web.app import is_loopback
+
     def ready(url: str) -> None:
         typer.echo(f"barkgen is running at {url}  (library: {lib.path}; Ctrl-C stops it)", err=True)
+        if not is_loopback(host):
+            typer.echo(f"barkgen: warning: listening on {host}: anyone who can reach this machine "
+                       "can use this server and its library (there is no login)", err=True)
 
     serve(lib, host=host, port=port, limits=limits, on_ready=ready)

@@ -102,8 +102,12 @@ def _image_size(data: bytes, name) -> tuple[int, int]:
     from PIL import Image, UnidentifiedImageError
 
     try:
-        with Image.open(io.BytesIO(data)) as im:
-            return im.size
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            with Image.open(io.BytesIO(data)) as im:
+                return im.size
+    except Image.DecompressionBombError as exc:  # over twice Pillow's own limit
+        raise ImageTooLargeError(f"{name}: image too large ({exc})") from None
     except UnidentifiedImageError:
         raise ImageReadError(f"{name}: not an image (unrecognised format)") from None
     except (OSError, SyntaxError, ValueError) as exc:
@@ -162,10 +166,10 @@ def decode_image(data: bytes, name: str | os.PathLike = "image", *,
                 arr = np.asarray(im.convert("RGB"))
     except UnidentifiedImageError:
         raise ImageReadError(f"{path}: not an image (unrecognised format)") from None
+    except Image.DecompressionBombError as exc:
+        raise ImageTooLargeError(f"{path}: image too large ({exc})") from None
     except (OSError, SyntaxError, ValueError) as exc:
         raise ImageReadError(f"{path}: truncated or corrupt image ({exc})") from None
-    except Image.DecompressionBombError as exc:
-        raise ImageReadError(f"{path}: image too large ({exc})") from None
 
     if arr is None:
         import cv2

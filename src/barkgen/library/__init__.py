@@ -190,21 +190,22 @@ class Library:
         try:
             with closing(self._connect()) as conn:
                 conn.execute("PRAGMA journal_mode = WAL")
-                version = conn.execute("PRAGMA user_version").fetchone()[0]
-                if version > SCHEMA_VERSION:
-                    raise LibraryError(f"{self.db_path}: made by a newer barkgen (schema {version}, "
-                                       f"this one knows {SCHEMA_VERSION}); upgrade barkgen")
-                for target in range(version + 1, SCHEMA_VERSION + 1):
-                    conn.execute("BEGIN IMMEDIATE")
-                    try:
+                # read under the write lock: two processes opening a new library migrate once
+                conn.execute("BEGIN IMMEDIATE")
+                try:
+                    version = conn.execute("PRAGMA user_version").fetchone()[0]
+                    if version > SCHEMA_VERSION:
+                        raise LibraryError(f"{self.db_path}: made by a newer barkgen (schema {version}, "
+                                           f"this one knows {SCHEMA_VERSION}); upgrade barkgen")
+                    for target in range(version + 1, SCHEMA_VERSION + 1):
                         for statement in _MIGRATIONS[target].split(";"):
                             if statement.strip():
                                 conn.execute(statement)
                         conn.execute(f"PRAGMA user_version = {target}")
-                    except BaseException:
-                        conn.execute("ROLLBACK")
-                        raise
-                    conn.execute("COMMIT")
+                except BaseException:
+                    conn.execute("ROLLBACK")
+                    raise
+                conn.execute("COMMIT")
         except sqlite3.DatabaseError as exc:
             raise LibraryError(f"{self.db_path}: not a barkgen library database ({exc})") from None
 
@@ -215,10 +216,13 @@ class Library:
             return
         from barkgen.data import sample_exemplar_path
 
-        self.add_exemplar(sample_exemplar_path().read_bytes(), name=SAMPLE_NAME, species="pine",
-                          bark_type="plated", licence="MIT",
-                          source="barkgen's bundled sample (npm @dgreenheck/ez-tree 1.1.0, texturecan.com 588)")
-        with self._transaction() as conn:
+        with self._transaction() as conn:  # check and add under one write lock
+            if conn.execute("SELECT 1 FROM settings WHERE key = 'sample_added'").fetchone():
+                return
+            self._insert_exemplar(conn, sample_exemplar_path().read_bytes(), name=SAMPLE_NAME,
+                                  species="pine", bark_type="plated", licence="MIT",
+                                  source="barkgen's bundled sample (npm @dgreenheck/ez-tree 1.1.0, "
+                                  "texturecan.com 588)")
             conn.execute("INSERT OR REPLACE INTO settings VALUES ('sample_added', ?)", (_now(),))
 
     # -- exemplars ------------------------------------------------------------------------
@@ -233,20 +237,30 @@ class Library:
         name = (name or "").strip()
         if not name or len(name) > 200:
             raise InvalidInputError("an exemplar needs a name of 1 to 200 characters")
+        for what, value in (("species", species), ("bark type", bark_type), ("licence", licence),
+                            ("source", source)):
+            if value is not None and len(value) > 500:
+                raise InvalidInputError(f"the {what} must be at most 500 characters")
         image = decode_image(data, name, max_pixels=max_pixels)
-        digest = content_hash(data)
-        existing = self._read("SELECT id FROM exemplars WHERE image_hash = ?", (digest,))
-        if existing:
-            return self.exemplar(existing[0]["id"])
-        self.store.put(data)
         with self._transaction() as conn:
-            cur = conn.execute(
-                "INSERT INTO exemplars (name, species, bark_type, licence, source, image_hash, "
-                "width, height, created) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                (name, species, bark_type, licence, source, digest, image.shape[1], image.shape[0],
-                 _now()))
-            new_id = cur.lastrowid
-        return self.exemplar(new_id)
+            exemplar_id = self._insert_exemplar(conn, data, name, species=species, bark_type=bark_type,
+                                                licence=licence, source=source, shape=image.shape)
+        return self.exemplar(exemplar_id)
+
+    def _insert_exemplar(self, conn, data: bytes, name: str, *, species=None, bark_type=None,
+                         licence=None, source=None, shape=None) -> int:
+        """Store the photo and insert its row (or find the row of the same bytes), under the
+        caller's write lock."""
+        if shape is None:
+            from barkgen.io import decode_image
+
+            shape = decode_image(data, name).shape
+        digest = self.store.put(data)
+        conn.execute(
+            "INSERT OR IGNORE INTO exemplars (name, species, bark_type, licence, source, image_hash, "
+            "width, height, created) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            (name, species, bark_type, licence, source, digest, shape[1], shape[0], _now()))
+        return conn.execute("SELECT id FROM exemplars WHERE image_hash = ?", (digest,)).fetchone()[0]
 
     def exemplars(self) -> list[Exemplar]:
         """Every exemplar, oldest first."""
@@ -271,14 +285,10 @@ class Library:
 
     def remove_exemplar(self, exemplar_id: int) -> None:
         """Remove an exemplar with its analyses and results (and files nothing else uses)."""
-        exemplar = self.exemplar(exemplar_id)
-        args = (int(exemplar_id),)
-        candidates = {exemplar.image_hash} | {r[0] for r in self._read(
-            "SELECT file_hash FROM analyses WHERE exemplar_id = ? UNION SELECT f.file_hash FROM "
-            "result_files f JOIN results r ON r.id = f.result_id WHERE r.exemplar_id = ?", args * 2)}
+        self.exemplar(exemplar_id)
         with self._transaction() as conn:
-            conn.execute("DELETE FROM exemplars WHERE id = ?", args)
-        self._remove_unused(candidates)
+            conn.execute("DELETE FROM exemplars WHERE id = ?", (int(exemplar_id),))
+            self._sweep(conn)
 
     # -- analyses -------------------------------------------------------------------------
     def analysis(self, exemplar_id: int, kind: str, params: Mapping) -> bytes | None:
@@ -292,8 +302,8 @@ class Library:
     def put_analysis(self, exemplar_id: int, kind: str, params: Mapping, data: bytes) -> None:
         """Cache an analysis file of an exemplar (replacing one with the same kind and params)."""
         self.exemplar(exemplar_id)
-        digest = self.store.put(data)
         with self._transaction() as conn:
+            digest = self.store.put(data)
             conn.execute("INSERT OR REPLACE INTO analyses (exemplar_id, kind, params, file_hash, "
                          "created) VALUES (?, ?, ?, ?, ?)",
                          (int(exemplar_id), kind, canonical_params(params), digest, _now()))
@@ -304,8 +314,14 @@ class Library:
         """Record a generated result and store its files (all stored before the row exists,
         so a listed result always has every file)."""
         self.exemplar(exemplar_id)
-        hashes = {name: self.store.put(data) for name, data in files.items()}
         with self._transaction() as conn:
+            # files are stored under the write lock, so no removal can take one of them
+            # between its store and this row (a rolled-back insert leaves them to the next
+            # removal's sweep)
+            hashes = {name: self.store.put(data) for name, data in files.items()}
+            if parent_id is not None and not conn.execute("SELECT 1 FROM results WHERE id = ?",
+                                                          (parent_id,)).fetchone():
+                parent_id = None  # the parent was removed meanwhile
             cur = conn.execute(
                 "INSERT INTO results (exemplar_id, params, seed, timings, parent_id, created) "
                 "VALUES (?, ?, ?, ?, ?, ?)",
@@ -347,20 +363,20 @@ class Library:
         return self.store.get(digest)
 
     def remove_result(self, result_id: int) -> None:
-        candidates = set(self.result(result_id).files.values())
+        self.result(result_id)
         with self._transaction() as conn:
             conn.execute("DELETE FROM results WHERE id = ?", (int(result_id),))
-        self._remove_unused(candidates)
+            self._sweep(conn)
 
     # -- housekeeping ---------------------------------------------------------------------
-    def _remove_unused(self, candidates: set[str]) -> int:
-        """Remove those of ``candidates`` (files of removed rows) that no row refers to any
-        more; returns how many. Only files of removed rows are looked at, so a file another
-        process has just stored for a row it is about to insert is never taken."""
-        used = {r[0] for r in self._read(
+    def _sweep(self, conn) -> int:
+        """Remove stored files no row refers to; returns how many. Runs under the caller's
+        write lock, and every writer stores its files under that lock too, so a file stored
+        for a row being inserted is never taken."""
+        used = {r[0] for r in conn.execute(
             "SELECT image_hash FROM exemplars UNION SELECT file_hash FROM analyses "
             "UNION SELECT file_hash FROM result_files")}
-        unused = candidates - used
+        unused = self.store.digests() - used
         for digest in unused:
             self.store.remove(digest)
         return len(unused)

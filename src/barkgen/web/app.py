@@ -13,9 +13,11 @@ import asyncio
 import base64
 import binascii
 import io
+import ipaddress
 import json
 import re
 import secrets
+import threading
 import zipfile
 from contextlib import asynccontextmanager
 from dataclasses import dataclass
@@ -30,11 +32,14 @@ from pydantic import BaseModel, Field
 
 from barkgen.errors import BarkgenError, ImageTooLargeError
 from barkgen.library import Library, NotFoundError
-from barkgen.web.jobs import FINISHED, JobManager
+from barkgen.web.jobs import FINISHED, JobManager, QueueFullError
 
 STATIC = Path(__file__).parent / "static"
 #: label maps of the photos are made the way `barkgen generate` makes them
 LABEL_METHOD = "color"
+#: the photo as pages show it, and its thumbnail: at most this many px a side
+DISPLAY_SIDE = 2048
+THUMBNAIL_SIDE = 320
 
 
 @dataclass(frozen=True)
@@ -56,11 +61,82 @@ class ResumeRequest(BaseModel):
 class JobRequest(BaseModel):
     exemplar_id: int
     size: str = "512x512"
-    seed: int | None = None
+    seed: int | None = Field(default=None, ge=0, lt=2**63)
     k: int = 3
     tile: bool = True
     material: bool = True
     resume: ResumeRequest | None = None
+
+
+class BodyTooLarge(HTTPException):
+    """A request body over the limit (raised while it arrives, answered 413)."""
+
+
+class BodyLimit:
+    """ASGI middleware: a request body may hold at most ``limit`` bytes, whether its length is
+    declared (refused before it is read) or not (chunked: refused as soon as it goes over), so
+    no upload fills memory or disk past the limit."""
+
+    def __init__(self, app, limit: int, detail: str) -> None:
+        self.app, self.limit, self.detail = app, limit, detail
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http":
+            return await self.app(scope, receive, send)
+        length = dict(scope["headers"]).get(b"content-length", b"")
+        if length.isdigit() and int(length) > self.limit:
+            return await JSONResponse({"detail": self.detail}, status_code=413)(scope, receive, send)
+        received = 0
+
+        async def limited():
+            nonlocal received
+            message = await receive()
+            if message["type"] == "http.request":
+                received += len(message.get("body", b""))
+                if received > self.limit:
+                    raise BodyTooLarge(413, self.detail)
+            return message
+
+        return await self.app(scope, limited, send)
+
+
+class SameOrigin:
+    """ASGI middleware against cross-site requests and DNS rebinding: the ``Host`` header must
+    be one of ``hosts`` (when given), and a request that changes anything (not GET/HEAD) from
+    a browser must come from the app's own origin."""
+
+    def __init__(self, app, hosts: list[str] | None) -> None:
+        self.app, self.hosts = app, hosts
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http":
+            return await self.app(scope, receive, send)
+        headers = dict(scope["headers"])
+        host = headers.get(b"host", b"").decode("latin-1")
+        name = host.rsplit(":", 1)[0] if not host.endswith("]") else host
+        if self.hosts is not None and name.strip("[]") not in self.hosts:
+            return await JSONResponse({"detail": f"unknown host {host!r}"}, status_code=400)(scope, receive, send)
+        origin = headers.get(b"origin")
+        if scope["method"] not in ("GET", "HEAD") and origin is not None:
+            if origin.decode("latin-1").split("://", 1)[-1] != host:
+                return await JSONResponse({"detail": "cross-site requests are not allowed"},
+                                          status_code=403)(scope, receive, send)
+        return await self.app(scope, receive, send)
+
+
+def allowed_hosts(host: str) -> list[str] | None:
+    """The Host names a server bound to ``host`` answers: loopback names, plus ``host``
+    itself; None (any) when it listens on every address."""
+    if host in ("0.0.0.0", "::", ""):
+        return None
+    return sorted({"127.0.0.1", "localhost", "::1", host.strip("[]")})
+
+
+def is_loopback(host: str) -> bool:
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:
+        return host == "localhost"
 
 
 def _bad(status: int, detail: str) -> HTTPException:
@@ -74,8 +150,11 @@ def _png(data: bytes) -> Response:
 _MEDIA = {".png": "image/png", ".jpg": "image/jpeg", ".json": "application/json"}
 
 
-def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: bool = True) -> FastAPI:
-    """The app on ``library``. ``run_jobs=False`` queues jobs without running them (tests)."""
+def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: bool = True,
+               hosts: list[str] | None = None) -> FastAPI:
+    """The app on ``library``. ``run_jobs=False`` queues jobs without running them (tests);
+    ``hosts``: the Host names it answers (None: any; :func:`serve` passes
+    :func:`allowed_hosts`)."""
     from barkgen.io import decode_image, encode_png
     from barkgen.labels import label_colour_map
     from barkgen.labels.preview import label_colours
@@ -98,15 +177,11 @@ def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: b
     app.state.jobs = jobs
     app.mount("/static", StaticFiles(directory=STATIC), name="static")
 
-    @app.middleware("http")
-    async def upload_size(request: Request, call_next):
-        """Refuse an upload whose declared length is over the limit before reading it."""
-        length = request.headers.get("content-length", "")
-        if (request.method == "POST" and length.isdigit()
-                and int(length) > limits.max_upload_bytes + 1024**2):
-            return JSONResponse({"detail": f"the upload is larger than the limit of "
-                                           f"{limits.max_upload_bytes // 1024**2} MB"}, status_code=413)
-        return await call_next(request)
+    # a painted level arrives as base64 in JSON: a third larger than its PNG
+    body_limit = limits.max_upload_bytes * 4 // 3 + 1024**2
+    app.add_middleware(BodyLimit, limit=body_limit,
+                       detail=f"the upload is larger than the limit of {limits.max_upload_bytes // 1024**2} MB")
+    app.add_middleware(SameOrigin, hosts=hosts)
 
     @app.exception_handler(NotFoundError)
     async def not_found(request: Request, exc: NotFoundError):
@@ -115,6 +190,10 @@ def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: b
     @app.exception_handler(ImageTooLargeError)
     async def too_large(request: Request, exc: ImageTooLargeError):
         return JSONResponse({"detail": str(exc)}, status_code=413)
+
+    @app.exception_handler(QueueFullError)
+    async def queue_full(request: Request, exc: QueueFullError):
+        return JSONResponse({"detail": str(exc)}, status_code=429)
 
     @app.exception_handler(BarkgenError)
     async def bad_input(request: Request, exc: BarkgenError):
@@ -125,14 +204,13 @@ def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: b
     def index_page():
         return FileResponse(STATIC / "index.html")
 
+    # the pages load their data from the API and say themselves when an id is unknown
     @app.get("/exemplars/{exemplar_id}", include_in_schema=False)
-    def exemplar_page(exemplar_id: int):
-        library.exemplar(exemplar_id)
+    def exemplar_page(exemplar_id: str):
         return FileResponse(STATIC / "exemplar.html")
 
     @app.get("/results/{result_id}", include_in_schema=False)
-    def result_page(result_id: int):
-        library.result(result_id)
+    def result_page(result_id: str):
         return FileResponse(STATIC / "result.html")
 
     # -- exemplars --------------------------------------------------------------------------
@@ -169,21 +247,20 @@ def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: b
 
     @app.delete("/api/exemplars/{exemplar_id}")
     def remove_exemplar(exemplar_id: int):
+        library.exemplar(exemplar_id)
+        jobs.cancel_exemplar(exemplar_id)
         library.remove_exemplar(exemplar_id)
         return {"removed": exemplar_id}
 
     @app.get("/api/exemplars/{exemplar_id}/photo")
     def exemplar_photo(exemplar_id: int):
-        cached = library.analysis(exemplar_id, "display", {"format": "png8"})
-        if cached is None:
-            from barkgen.synth.solver import as_uint8
+        return Response(preview_jpeg(exemplar_id, DISPLAY_SIDE), media_type="image/jpeg",
+                        headers={"Cache-Control": "max-age=3600"})
 
-            cached = encode_png(as_uint8(library.photo(exemplar_id)))
-            library.put_analysis(exemplar_id, "display", {"format": "png8"}, cached)
-        return _png(cached)
-
-    def thumbnail(exemplar_id: int) -> bytes:
-        cached = library.analysis(exemplar_id, "thumbnail", {"size": 320})
+    def preview_jpeg(exemplar_id: int, side: int) -> bytes:
+        """The photo at most ``side`` px a side as a JPEG, cached in the library's analyses."""
+        key = {"side": side, "format": "jpeg"}
+        cached = library.analysis(exemplar_id, "preview", key)
         if cached is not None:
             return cached
         from PIL import Image
@@ -191,29 +268,37 @@ def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: b
         from barkgen.synth.solver import as_uint8
 
         image = Image.fromarray(as_uint8(library.photo(exemplar_id)).squeeze())
-        image.thumbnail((320, 320))
+        image.thumbnail((side, side))
         buffer = io.BytesIO()
-        image.convert("RGB").save(buffer, "JPEG", quality=88)
-        library.put_analysis(exemplar_id, "thumbnail", {"size": 320}, buffer.getvalue())
+        image.convert("RGB").save(buffer, "JPEG", quality=90)
+        library.put_analysis(exemplar_id, "preview", key, buffer.getvalue())
         return buffer.getvalue()
 
     @app.get("/api/exemplars/{exemplar_id}/thumbnail.jpg")
     def exemplar_thumbnail(exemplar_id: int):
-        return Response(thumbnail(exemplar_id), media_type="image/jpeg",
+        return Response(preview_jpeg(exemplar_id, THUMBNAIL_SIDE), media_type="image/jpeg",
                         headers={"Cache-Control": "max-age=3600"})
+
+    label_locks: dict[tuple[int, int], threading.Lock] = {}
+    label_locks_guard = threading.Lock()
+
+    def labels_key(k: int) -> dict:
+        return {"k": k, "method": LABEL_METHOD, "seed": ANALYSIS_SEED}
 
     def labels_in(exemplar_id: int, k: int) -> bytes:
         """The photo's input label map (grey values, as ``barkgen generate`` makes it), cached
-        in the library's analyses."""
-        params = {"k": k, "method": LABEL_METHOD, "seed": ANALYSIS_SEED}
-        cached = library.analysis(exemplar_id, "labels_in", params)
-        if cached is not None:
-            return cached
-        from barkgen.labels import color_regions
+        in the library's analyses (made once however many pages ask at the same time)."""
+        with label_locks_guard:
+            lock = label_locks.setdefault((exemplar_id, k), threading.Lock())
+        with lock:
+            cached = library.analysis(exemplar_id, "labels_in", labels_key(k))
+            if cached is not None:
+                return cached
+            from barkgen.labels import color_regions
 
-        data = encode_png(color_regions(library.photo(exemplar_id), k, seed=ANALYSIS_SEED))
-        library.put_analysis(exemplar_id, "labels_in", params, data)
-        return data
+            data = encode_png(color_regions(library.photo(exemplar_id), k, seed=ANALYSIS_SEED))
+            library.put_analysis(exemplar_id, "labels_in", labels_key(k), data)
+            return data
 
     @app.get("/api/exemplars/{exemplar_id}/labels.png")
     def exemplar_labels(exemplar_id: int, k: int = 3):
@@ -280,14 +365,15 @@ def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: b
         if request.resume is not None:
             resume = await run_in_threadpool(painted_level, request.resume, exemplar.id, params)
             params["resumed_from"] = {"result_id": request.resume.result_id, "level": resume[0]}
-        grey = await run_in_threadpool(labels_in, exemplar.id, options.k)
-        spec = {"photo": library.photo_bytes(exemplar.id), "photo_hash": exemplar.image_hash,
-                "source": exemplar.name, "set_name": f"bark{exemplar.id}_seed{seed}",
+        # the photo's label map when a page has made it already (else the worker makes it)
+        grey = library.analysis(exemplar.id, "labels_in", labels_key(options.k))
+        spec = {"source": exemplar.name, "set_name": f"bark{exemplar.id}_seed{seed}",
                 "options": {"size": (height, width), "k": options.k, "tile": options.tile,
                             "seed": seed, "material": options.material, "method": LABEL_METHOD},
                 "labels_in": grey, "resume": resume}
         job = jobs.submit(exemplar.id, params, spec,
-                          parent_id=request.resume.result_id if request.resume else None)
+                          parent_id=request.resume.result_id if request.resume else None,
+                          labels_key=labels_key(options.k) if grey is None else None)
         return {"id": job.id}
 
     @app.get("/api/jobs")
@@ -315,14 +401,20 @@ def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: b
         snapshot = job_or_404(job_id)
 
         async def stream():
-            current = snapshot
-            while True:
-                yield f"data: {json.dumps(current)}\n\n"
-                if current["state"] in FINISHED or await request.is_disconnected():
+            current, sent_at = snapshot, asyncio.get_running_loop().time()
+            yield f"data: {json.dumps(current)}\n\n"
+            while current["state"] not in FINISHED:
+                # poll without holding a thread: any number of pages may watch
+                await asyncio.sleep(0.1)
+                if jobs.stopping or await request.is_disconnected():
                     return
-                current = await run_in_threadpool(jobs.wait, job_id, current["version"], 10.0)
-                if current is None:
+                latest = jobs.snapshot(job_id)
+                if latest is None:
                     return
+                now = asyncio.get_running_loop().time()
+                if latest["version"] != current["version"] or now - sent_at > 10:  # or keep-alive
+                    current, sent_at = latest, now
+                    yield f"data: {json.dumps(current)}\n\n"
 
         return StreamingResponse(stream(), media_type="text/event-stream",
                                  headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
@@ -410,8 +502,9 @@ def serve(library: Library, host: str = "127.0.0.1", port: int = 8000, *,
     """Run the app with uvicorn until interrupted. ``on_ready(url)`` is called once it listens."""
     import uvicorn
 
-    app = create_app(library, limits=limits)
-    config = uvicorn.Config(app, host=host, port=port, log_level="warning")
+    app = create_app(library, limits=limits, hosts=allowed_hosts(host))
+    # open event streams must not hold a Ctrl-C: they are cut after 2 s
+    config = uvicorn.Config(app, host=host, port=port, log_level="warning", timeout_graceful_shutdown=2)
     server = uvicorn.Server(config)
 
     if on_ready is not None:
@@ -420,7 +513,8 @@ def serve(library: Library, host: str = "127.0.0.1", port: int = 8000, *,
         async def startup(sockets=None):
             await original(sockets=sockets)
             if server.started:
-                shown = "127.0.0.1" if host in ("0.0.0.0", "") else host
+                shown = "127.0.0.1" if host in ("0.0.0.0", "::", "") else host
+                shown = f"[{shown}]" if ":" in shown else shown
                 on_ready(f"http://{shown}:{port}/")
 
         server.startup = startup

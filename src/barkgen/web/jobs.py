@@ -18,13 +18,20 @@ import time
 from collections import deque
 from dataclasses import dataclass, field
 
-from barkgen.library import Library
+from barkgen.errors import BarkgenError
+from barkgen.library import Library, NotFoundError
 from barkgen.web.worker import JobSpec, worker_main
 
 STATES = ("queued", "running", "done", "failed", "cancelled")
 FINISHED = ("done", "failed", "cancelled")
 #: finished jobs kept in memory (their results stay in the library)
 JOBS_KEPT = 500
+#: most jobs waiting at once (more are refused: the queue holds requests, not photos)
+MAX_QUEUED = 20
+
+
+class QueueFullError(BarkgenError):
+    """The job queue is full."""
 
 
 @dataclass
@@ -34,8 +41,9 @@ class Job:
     id: str
     exemplar_id: int
     params: dict
-    spec: JobSpec | None
+    spec: dict | None  # the JobSpec fields but the photo and job id (read when the job starts)
     parent_id: int | None = None
+    labels_key: dict | None = None  # cache the result's labels_in.png under this analysis key
     state: str = "queued"
     progress: float = 0.0
     result_id: int | None = None
@@ -78,14 +86,23 @@ class JobManager:
             self._thread = None
         self._end_worker()
 
-    def submit(self, exemplar_id: int, params: dict, spec_without_id: dict,
-               parent_id: int | None = None) -> Job:
-        """Queue a job; ``spec_without_id``: the :class:`JobSpec` fields but ``job_id``."""
+    @property
+    def stopping(self) -> bool:
+        return self._stopping
+
+    def submit(self, exemplar_id: int, params: dict, spec: dict, parent_id: int | None = None,
+               labels_key: dict | None = None) -> Job:
+        """Queue a job; ``spec``: the :class:`JobSpec` fields but ``job_id``, ``photo`` and
+        ``photo_hash`` (the photo is read from the library when the job starts). Raises
+        :class:`QueueFullError` when :data:`MAX_QUEUED` jobs are waiting. ``labels_key``: the
+        analysis key under which the result's input label map is kept for the next jobs."""
         job_id = secrets.token_hex(8)
-        job = Job(id=job_id, exemplar_id=exemplar_id, params=params,
-                  spec=JobSpec(job_id=job_id, **spec_without_id), parent_id=parent_id,
-                  order=next(self._counter))
+        job = Job(id=job_id, exemplar_id=exemplar_id, params=params, spec=spec, parent_id=parent_id,
+                  labels_key=labels_key, order=next(self._counter))
         with self._lock:
+            if len(self._queue) >= MAX_QUEUED:
+                raise QueueFullError(f"the queue is full ({MAX_QUEUED} jobs waiting); try again when "
+                                     "some are done")
             self._jobs[job_id] = job
             self._queue.append(job_id)
             self._forget_old()
@@ -123,18 +140,13 @@ class JobManager:
                 self._lock.notify_all()
             return self._describe(job)
 
-    def wait(self, job_id: str, version: int, timeout: float) -> dict | None:
-        """The job once its version differs from ``version`` (or after ``timeout``)."""
-        deadline = time.monotonic() + timeout
+    def cancel_exemplar(self, exemplar_id: int) -> None:
+        """Cancel every queued or running job of an exemplar (it is being removed)."""
         with self._lock:
-            while True:
-                job = self._jobs.get(job_id)
-                if job is None or job.version != version:
-                    return None if job is None else self._describe(job)
-                left = deadline - time.monotonic()
-                if left <= 0:
-                    return self._describe(job)
-                self._lock.wait(left)
+            ids = [j.id for j in self._jobs.values()
+                   if j.exemplar_id == exemplar_id and j.state not in FINISHED]
+        for job_id in ids:
+            self.cancel(job_id)
 
     # -- internals (call with the lock held) ------------------------------------------------
     def _describe(self, job: Job) -> dict:
@@ -172,12 +184,20 @@ class JobManager:
                     return
                 job = self._jobs[self._queue.popleft()]
                 self._set(job, state="running", progress=0.0, started=time.time())
-                spec = job.spec
+                fields = job.spec
+            try:
+                exemplar = self.library.exemplar(job.exemplar_id)
+                spec = JobSpec(job_id=job.id, photo=self.library.photo_bytes(exemplar.id),
+                               photo_hash=exemplar.image_hash, **fields)
+            except (NotFoundError, OSError) as exc:
+                self._finish(job, state="failed", error=f"the photo is gone ({exc})")
+                continue
             self._execute(job, spec)
 
     def _ensure_worker(self) -> None:
         if self._process is not None and self._process.is_alive():
             return
+        self._end_worker()  # a worker that died between jobs: reap it, close its pipe
         context = multiprocessing.get_context("spawn")
         parent, child = context.Pipe()
         self._process = context.Process(target=worker_main, args=(child,), daemon=True,
@@ -218,6 +238,8 @@ class JobManager:
                 ready = self._conn.poll(0.1)
                 message = self._conn.recv() if ready else None
             except (EOFError, OSError):
+                if self._process is not None:
+                    self._process.join(timeout=5)
                 code = self._process.exitcode if self._process is not None else None
                 self._end_worker()
                 self._finish(job, state="failed",
@@ -238,8 +260,14 @@ class JobManager:
                     result = self.library.add_result(job.exemplar_id, job.params, job.params["seed"],
                                                      files, report.get("timings_s", {}),
                                                      parent_id=job.parent_id)
-                except Exception as exc:  # the library folder went away, disk full, ...
+                except Exception as exc:  # the exemplar was removed, disk full, ...
                     self._finish(job, state="failed", error=f"could not store the result ({exc})")
                     return
+                if job.labels_key is not None and "labels_in.png" in files:
+                    try:  # the next jobs of this photo and k skip its label map
+                        self.library.put_analysis(job.exemplar_id, "labels_in", job.labels_key,
+                                                  files["labels_in.png"])
+                    except Exception:  # noqa: BLE001 - only a cache
+                        pass
                 self._finish(job, state="done", progress=1.0, result_id=result.id)
                 return

@@ -101,7 +101,10 @@ def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
         traceback.print_exc()
         send(("failed", spec.job_id, f"internal error ({type(exc).__name__}: {exc})"))
         return
-    send(("done", spec.job_id, files, result.report))
+    try:
+        send(("done", spec.job_id, files, result.report))
+    except (OSError, ValueError, TypeError) as exc:  # a pipe error, a report that does not pickle
+        send(("failed", spec.job_id, f"could not send the result ({exc})"))
 
 
 def worker_main(conn) -> None:

@@ -132,16 +132,20 @@ async function refreshJobs() {
 }
 
 function startJobsStrip() {
+  // one polling loop at a time: a tick of an older loop (hidden then shown again while it
+  // was fetching) ends instead of scheduling another
   let timer = null;
-  const tick = async () => {
+  let loop = 0;
+  const tick = async (mine) => {
     await refreshJobs();
-    timer = setTimeout(tick, JOBS_REFRESH_MS);
+    if (mine === loop && !document.hidden) timer = setTimeout(() => tick(mine), JOBS_REFRESH_MS);
   };
   document.addEventListener("visibilitychange", () => {
     clearTimeout(timer);
-    if (!document.hidden) tick();
+    loop += 1;
+    if (!document.hidden) tick(loop);
   });
-  tick();
+  tick(loop);
 }
 
 // ---------------------------------------------------------------------------

@@ -19,9 +19,10 @@ export function describeJob(job) {
   const pct = Math.round((Number(job.progress) || 0) * 100);
   switch (job.state) {
     case "queued": {
-      // queue_position counts from 0 (= next to run); people count from 1.
-      const pos = Number.isInteger(job.queue_position) ? job.queue_position + 1 : null;
-      return pos ? `queued — position ${pos}` : "queued";
+      // queue_position: how many jobs are ahead of this one (the running one included)
+      const ahead = Number.isInteger(job.queue_position) ? job.queue_position : 0;
+      if (ahead <= 0) return "queued — starting…";
+      return `queued — ${ahead} job${ahead === 1 ? "" : "s"} ahead`;
     }
     case "running":
       return `running ${pct} %`;

@@ -23,7 +23,10 @@ function lightDirection(azimuthDeg, elevationDeg) {
 /** Load a texture; resolves null for a missing URL. */
 function loadTexture(loader, url, colour) {
   if (!url) return Promise.resolve(null);
-  return loader.loadAsync(url).then((texture) => {
+  return loader.loadAsync(url).catch(() => {
+    // the loader rejects with a DOM Event: turn it into a readable error
+    throw new Error(`could not load ${url}`);
+  }).then((texture) => {
     texture.wrapS = THREE.RepeatWrapping;
     texture.wrapT = THREE.RepeatWrapping;
     texture.colorSpace = colour ? THREE.SRGBColorSpace : THREE.NoColorSpace;
@@ -75,8 +78,12 @@ export async function initTrunk({ canvas, result, controls, onStatus }) {
   const colourUrl = (maps && maps.Color) || (result.files && result.files["texture.png"]);
   if (!colourUrl) throw new Error("This result has no texture to show.");
   const loader = new THREE.TextureLoader();
+  const colourLoaded = loadTexture(loader, colourUrl, true).catch((err) => {
+    renderer.dispose(); // free the WebGL context: the page will not use it
+    throw err;
+  });
   const [colour, normal, displacement, ao, roughness] = await Promise.all([
-    loadTexture(loader, colourUrl, true),
+    colourLoaded,
     loadTexture(loader, maps && maps.NormalGL).catch(() => null),
     loadTexture(loader, maps && maps.Displacement).catch(() => null),
     loadTexture(loader, maps && maps.AmbientOcclusion).catch(() => null),
