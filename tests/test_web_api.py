@@ -6,6 +6,7 @@ from __future__ import annotations
 import base64
 import io
 import json
+import re
 import threading
 import time
 import zipfile
@@ -71,6 +72,10 @@ def test_upload_limits_and_content_checks(client, library, tmp_path):
     assert r.status_code == 201
     exemplar = client.get(f"/api/exemplars/{r.json()['id']}").json()
     assert exemplar["name"] == "evil" and exemplar["source"] == "uploaded"
+    # the same photo again: its entry, and the answer says so
+    again = client.post("/api/exemplars", files={"file": ("other.png", _photo_png())}, data={"name": "x"})
+    assert again.status_code == 200 and again.json() == {"id": r.json()["id"], "existing": True}
+    assert r.json()["existing"] is False
     written = [p for p in library.path.rglob("*") if p.is_file()]
     assert all(p.name == "library.sqlite" or p.name.startswith("library.sqlite-")
                or len(p.parent.name + p.name) == 64 for p in written), written
@@ -100,7 +105,7 @@ def test_upload_limits_and_content_checks(client, library, tmp_path):
     assert r.status_code == 413
     # only the exemplars that were accepted are listed (the sample and this one)
     assert len(client.get("/api/exemplars").json()) == 2
-    r = client.post("/api/exemplars", files={"file": ("a.png", _photo_png())}, data={"species": "x" * 600})
+    r = client.post("/api/exemplars", files={"file": ("a.png", _photo_png(seed=9))}, data={"species": "x" * 600})
     assert r.status_code == 400 and "species" in r.json()["detail"]
 
 
@@ -237,8 +242,12 @@ def test_events_cancel_and_restart_keeps_results(library):
     with TestClient(create_app(Library(library.path))) as client:
         assert {r["id"] for r in client.get("/api/results").json()} == before_restart
         for result_id in before_restart:
-            archive = zipfile.ZipFile(io.BytesIO(client.get(f"/api/results/{result_id}/download").content))
-            assert "texture.png" in archive.namelist() and "report.json" in archive.namelist()
+            download = client.get(f"/api/results/{result_id}/download")
+            assert re.search(r'filename="barkgen_a_seed\d+_96x96\.zip"', download.headers["content-disposition"])
+            archive = zipfile.ZipFile(io.BytesIO(download.content))
+            assert {"texture.png", "report.json", "README.txt"} <= set(archive.namelist())
+            assert "level_0.png" not in archive.namelist()
+            assert "reference.png" in archive.read("README.txt").decode()
 
 
 def test_painted_labels_are_checked_then_continued(client):

@@ -893,10 +893,11 @@ def library_add_command(
     from barkgen.io import read_image_bytes
 
     lib = _open_library(library)
-    before = {e.id for e in lib.exemplars()}
-    exemplar = lib.add_exemplar(read_image_bytes(photo), name or photo.stem, species=species,
-                                bark_type=bark_type, licence=licence, source=source or str(photo))
-    note = "" if exemplar.id not in before else " (already in the library)"
+    data = read_image_bytes(photo)
+    existing = lib.find_exemplar(data)
+    exemplar = existing or lib.add_exemplar(data, name or photo.stem, species=species, bark_type=bark_type,
+                                            licence=licence, source=source or str(photo))
+    note = "" if existing is None else " (already in the library)"
     typer.echo(f"{exemplar.id}\t{exemplar.name}{note}")
 
 

@@ -262,6 +262,11 @@ class Library:
             (name, species, bark_type, licence, source, digest, shape[1], shape[0], _now()))
         return conn.execute("SELECT id FROM exemplars WHERE image_hash = ?", (digest,)).fetchone()[0]
 
+    def find_exemplar(self, data: bytes) -> Exemplar | None:
+        """The exemplar of exactly these image-file bytes, if the library has it."""
+        rows = self._read("SELECT * FROM exemplars WHERE image_hash = ?", (content_hash(data),))
+        return Exemplar(**dict(rows[0])) if rows else None
+
     def exemplars(self) -> list[Exemplar]:
         """Every exemplar, oldest first."""
         return [Exemplar(**dict(row)) for row in self._read("SELECT * FROM exemplars ORDER BY id")]

@@ -18,6 +18,7 @@ import json
 import re
 import secrets
 import threading
+import warnings
 import zipfile
 from contextlib import asynccontextmanager
 from dataclasses import dataclass
@@ -155,7 +156,7 @@ def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: b
     """The app on ``library``. ``run_jobs=False`` queues jobs without running them (tests);
     ``hosts``: the Host names it answers (None: any; :func:`serve` passes
     :func:`allowed_hosts`)."""
-    from barkgen.io import decode_image, encode_png
+    from barkgen.io import AlphaDroppedWarning, decode_image, encode_png
     from barkgen.labels import label_colour_map
     from barkgen.labels.preview import label_colours
     from barkgen.pipeline import ANALYSIS_SEED, GenerateOptions
@@ -234,10 +235,13 @@ def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: b
             raise _bad(413, f"the upload is larger than the limit of {limits.max_upload_bytes // 1024**2} MB")
         # the client's file name is only a default display name: it never touches the filesystem
         display = (name or Path(file.filename or "").stem or "uploaded bark").strip()[:200]
+        existing = library.find_exemplar(data)
+        if existing is not None:  # the same photo again: its entry (the page says so)
+            return JSONResponse({"id": existing.id, "existing": True}, status_code=200)
         exemplar = await run_in_threadpool(
             library.add_exemplar, data, display, species=species or None, licence=licence or None,
             source="uploaded", max_pixels=limits.max_upload_pixels)
-        return {"id": exemplar.id}
+        return {"id": exemplar.id, "existing": False}
 
     @app.get("/api/exemplars/{exemplar_id}")
     def get_exemplar(exemplar_id: int):
@@ -333,7 +337,9 @@ def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: b
             data = base64.b64decode(match.group(1), validate=False)
         except (binascii.Error, ValueError):
             raise _bad(400, "the painted labels are not valid base64") from None
-        painted = decode_image(data, "the painted labels", max_pixels=limits.max_upload_pixels)
+        with warnings.catch_warnings():  # a canvas PNG has alpha, which says nothing here
+            warnings.simplefilter("ignore", AlphaDroppedWarning)
+            painted = decode_image(data, "the painted labels", max_pixels=limits.max_upload_pixels)
         level = decode_image(library.result_file(parent.id, level_name), "level")[..., 0]
         if painted.shape[:2] != level.shape:
             raise _bad(400, f"the painted labels are {painted.shape[1]}x{painted.shape[0]} px but level "
@@ -485,16 +491,50 @@ def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: b
         """The result as a zip: the material set (ambientCG names) when it has one, the texture,
         its label maps, reference map, contact sheet and report."""
         result = library.result(result_id)
+        exemplar = library.exemplar(result.exemplar_id)
+        names = [n for n in sorted(result.files) if not n.startswith("level_") and n != "thumbnail.jpg"]
         buffer = io.BytesIO()
         with zipfile.ZipFile(buffer, "w", zipfile.ZIP_STORED) as archive:
-            for name in sorted(result.files):
-                if name.startswith("level_") or name == "thumbnail.jpg":
-                    continue
+            for name in names:
                 archive.writestr(name, library.result_file(result_id, name))
+            archive.writestr("README.txt", _zip_readme(exemplar.name, result, names))
+        slug = re.sub(r"[^A-Za-z0-9]+", "-", exemplar.name).strip("-").lower()[:40] or "bark"
+        width, height = result.params["size"]
+        filename = f"barkgen_{slug}_seed{result.params['seed']}_{width}x{height}.zip"
         return Response(buffer.getvalue(), media_type="application/zip", headers={
-            "Content-Disposition": f'attachment; filename="barkgen_result_{result_id}.zip"'})
+            "Content-Disposition": f'attachment; filename="{filename}"'})
 
     return app
+
+
+_FILE_NOTES = {
+    "_Color.png": "base colour (sRGB), shading removed",
+    "_NormalGL.png": "normal map, OpenGL convention (Y up: Blender, Unity, three.js)",
+    "_NormalDX.png": "normal map, DirectX convention (Y down: Unreal, Substance)",
+    "_Displacement.png": "height, 16-bit, 0 = deepest (depth in the .json)",
+    "_Roughness.png": "roughness (linear)",
+    "_AmbientOcclusion.png": "ambient occlusion (linear)",
+    ".json": "the material set's record: size, tileable, seed, source photo, displacement depth",
+    "texture.png": "the new bark, as synthesized (before shading removal)",
+    "labels_in.png": "the photo's label map (one grey value per region type)",
+    "labels_out.png": "the new bark's label map (same grey values)",
+    "reference.png": "16-bit: for each output pixel, the photo pixel (x, y) it copies "
+                     "(barkgen apply-reference re-applies it to any map of the photo)",
+    "preview.png": "contact sheet: photo, labels in, labels out, result",
+    "report.json": "parameters, seed, label areas and timings of the run",
+}
+
+
+def _zip_readme(photo: str, result, names: list[str]) -> str:
+    """What each file of a downloaded result is."""
+    width, height = result.params["size"]
+    lines = [f"barkgen result {result.id}: {width}x{height} px from \"{photo}\", seed {result.params['seed']}"
+             f"{', tileable' if result.params.get('tile') else ''}.", ""]
+    for name in names:
+        note = next((text for key, text in _FILE_NOTES.items() if name == key or
+                     (key.startswith(("_", ".")) and name.endswith(key) and name != "report.json")), "")
+        lines.append(f"{name:40s} {note}".rstrip())
+    return "\n".join(lines) + "\n"
 
 
 def serve(library: Library, host: str = "127.0.0.1", port: int = 8000, *,

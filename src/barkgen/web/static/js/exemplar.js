@@ -203,7 +203,18 @@ async function main() {
   setupForm();
   setupLabels();
   try {
-    renderExemplar(await api.getExemplar(exemplarId));
+    const exemplar = await api.getExemplar(exemplarId);
+    renderExemplar(exemplar);
+    // an upload of a photo the library already had lands here: say so
+    const query = new URLSearchParams(location.search);
+    if (query.get("existing") === "1") {
+      const notice = $("exemplar-notice");
+      notice.textContent = `This photo was already in your library as “${exemplar.name}”, so here it is (with its earlier results).`;
+      notice.hidden = false;
+      query.delete("existing");
+      const rest = query.toString();
+      history.replaceState(null, "", location.pathname + (rest ? `?${rest}` : ""));
+    }
   } catch (err) {
     showError($("page-error"), err.status === 404 ? "This bark photo does not exist (any more)." : err.message);
     $("results-status").textContent = "";

@@ -93,8 +93,8 @@ function setupUpload() {
         progress.value = fraction;
         status.textContent = fraction < 1 ? `Uploading… ${Math.round(fraction * 100)} %` : "Checking the photo…";
       });
-      status.textContent = "Uploaded — opening…";
-      location.assign(`/exemplars/${answer.id}`);
+      status.textContent = answer.existing ? "Already in the library — opening it…" : "Uploaded — opening…";
+      location.assign(`/exemplars/${answer.id}${answer.existing ? "?existing=1" : ""}`);
     } catch (err) {
       showError(errorBox, err.message);
       status.textContent = "";

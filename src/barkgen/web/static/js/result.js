@@ -139,6 +139,7 @@ function trunkControls() {
     elevation: $("light-elevation"),
     displacement: $("displacement"),
     repeat: $("repeat"),
+    reset: $("trunk-reset"),
   };
 }
 

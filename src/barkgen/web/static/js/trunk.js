@@ -61,6 +61,10 @@ export async function initTrunk({ canvas, result, controls, onStatus }) {
   orbit.enableDamping = false; // render on demand: no inertia animation
   orbit.minDistance = 1.6;
   orbit.maxDistance = 14;
+  // keep the view on the bark: no looking down into the open tube
+  orbit.minPolarAngle = Math.PI / 2 - 0.6;
+  orbit.maxPolarAngle = Math.PI / 2 + 0.6;
+  const home = { position: camera.position.clone(), target: orbit.target.clone() };
   orbit.update();
 
   const sun = new THREE.DirectionalLight(0xffffff, 3.0);
@@ -149,9 +153,17 @@ export async function initTrunk({ canvas, result, controls, onStatus }) {
     apply();
     requestRender();
   };
-  for (const input of Object.values(controls)) {
+  for (const input of [controls.azimuth, controls.elevation, controls.displacement, controls.repeat]) {
     input.addEventListener("input", onInput);
     input.addEventListener("change", onInput);
+  }
+  if (controls.reset) {
+    controls.reset.addEventListener("click", () => {
+      camera.position.copy(home.position);
+      orbit.target.copy(home.target);
+      orbit.update();
+      requestRender();
+    });
   }
   const observer = new ResizeObserver(() => {
     resize();
