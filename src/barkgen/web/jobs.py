@@ -192,7 +192,11 @@ class JobManager:
             except (NotFoundError, OSError) as exc:
                 self._finish(job, state="failed", error=f"the photo is gone ({exc})")
                 continue
-            self._execute(job, spec)
+            try:
+                self._execute(job, spec)
+            except Exception as exc:  # noqa: BLE001 - a bug must not stop the queue
+                self._end_worker()
+                self._finish(job, state="failed", error=f"internal error ({type(exc).__name__}: {exc})")
 
     def _ensure_worker(self) -> None:
         if self._process is not None and self._process.is_alive():
