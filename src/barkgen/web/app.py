@@ -455,7 +455,28 @@ def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: b
                 "levels": [{"level": n, "width": w, "height": h, "url": f"{base}/labels/level_{n}.png"}
                            for n, (w, h) in sorted(zip(levels, sizes))],
                 "palette": label_colours(values.size).tolist(),
+                "label_looks": label_looks(result.exemplar_id, result.id, values),
                 "download_url": f"{base}/download"}
+
+    def label_looks(exemplar_id: int, result_id: int, values: np.ndarray) -> list[dict]:
+        """What each label is in the photo: its mean colour and its share of the photo (the
+        legend of the label colours), cached in the library's analyses."""
+        key = {"values": [int(v) for v in values], "method": LABEL_METHOD}
+        cached = library.analysis(exemplar_id, "label_looks", key)
+        if cached is not None:
+            return json.loads(cached)
+        from barkgen.synth.solver import as_uint8
+
+        photo = as_uint8(library.photo(exemplar_id)).astype(np.float64)
+        photo = np.broadcast_to(photo, photo.shape[:2] + (3,))
+        grey = decode_image(library.result_file(result_id, "labels_in.png"), "labels")[..., 0]
+        looks = []
+        for value in values:
+            inside = grey == value
+            mean = photo[inside].mean(axis=0) if inside.any() else np.zeros(3)
+            looks.append({"colour": [int(round(c)) for c in mean], "share": round(float(inside.mean()), 4)})
+        library.put_analysis(exemplar_id, "label_looks", key, json.dumps(looks).encode())
+        return looks
 
     @app.get("/api/results")
     def list_results():

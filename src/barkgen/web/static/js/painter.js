@@ -63,6 +63,7 @@ export class LabelPainter {
   /** Fill the controls from a result object and load the default level. */
   async setResult(result) {
     this.palette = (result.palette || []).map((c) => c.slice(0, 3).map(Number));
+    this.looks = result.label_looks || null;
     this.levels = [...(result.levels || [])].sort((a, b) => a.level - b.level);
     this.wrap = Boolean(result.params && result.params.tile);
     this.paletteIndex = new Map(this.palette.map((c, i) => [rgbKey(...c), i]));
@@ -111,8 +112,12 @@ export class LabelPainter {
         button.dataset.testid = "paint-swatch";
         button.dataset.index = String(i);
         button.style.backgroundColor = cssColour(colour);
-        button.title = `Label ${i + 1} (key ${i + 1})`;
-        button.setAttribute("aria-label", `Label ${i + 1}, colour ${cssColour(colour)}`);
+        // the label's average colour in the photo as a stripe: what this label *is*
+        const look = this.looks && this.looks[i];
+        const share = look ? ` — ${Math.round(look.share * 100)} % of the photo` : "";
+        if (look) button.style.boxShadow = `inset 0 -12px 0 ${cssColour(look.colour)}`;
+        button.title = `Label ${i + 1}${share} (key ${i + 1}); the bottom stripe is its average colour in the photo`;
+        button.setAttribute("aria-label", `Label ${i + 1}${share}`);
         button.textContent = String(i + 1);
         // Dark or light digit, whichever reads better on the colour.
         const luma = 0.299 * colour[0] + 0.587 * colour[1] + 0.114 * colour[2];
