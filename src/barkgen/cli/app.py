@@ -986,4 +986,8 @@ def serve_command(
             typer.echo(f"barkgen: warning: listening on {host}: anyone who can reach this machine "
                        "can use this server and its library (there is no login)", err=True)
 
-    serve(lib, host=host, port=port, limits=limits, on_ready=ready)
+    try:
+        serve(lib, host=host, port=port, limits=limits, on_ready=ready)
+    except KeyboardInterrupt:  # Ctrl-C is how a server is stopped: not an error
+        pass
+    typer.echo("barkgen: server stopped", err=True)
