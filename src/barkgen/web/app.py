@@ -176,6 +176,8 @@ def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: b
                   description="Bark textures from one photo: library, jobs, results.")
     app.state.library = library
     app.state.jobs = jobs
+    #: set by :func:`serve`: true once the server is asked to stop (event streams end then)
+    app.state.should_exit = lambda: False
     app.mount("/static", StaticFiles(directory=STATIC), name="static")
 
     # a painted level arrives as base64 in JSON: a third larger than its PNG
@@ -412,7 +414,7 @@ def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: b
             while current["state"] not in FINISHED:
                 # poll without holding a thread: any number of pages may watch
                 await asyncio.sleep(0.1)
-                if jobs.stopping or await request.is_disconnected():
+                if jobs.stopping or app.state.should_exit() or await request.is_disconnected():
                     return
                 latest = jobs.snapshot(job_id)
                 if latest is None:
@@ -567,6 +569,7 @@ def serve(library: Library, host: str = "127.0.0.1", port: int = 8000, *,
     # open event streams must not hold a Ctrl-C: they are cut after 2 s
     config = uvicorn.Config(app, host=host, port=port, log_level="warning", timeout_graceful_shutdown=2)
     server = uvicorn.Server(config)
+    app.state.should_exit = lambda: server.should_exit
 
     if on_ready is not None:
         original = server.startup
