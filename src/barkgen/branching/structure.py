@@ -132,6 +132,12 @@ class Structure:
                                             f"branch {ref} (0..{len(self.branches[ref].points) - 1})")
 
 
+def junction_radius(parent_thickness: float, child_thickness: float, step: float) -> float:
+    """Around a furcation a child may touch its parent: within the two thicknesses plus one
+    step of the furcation point (growth allows it there; intersection counts ignore it)."""
+    return parent_thickness + child_thickness + step
+
+
 def _is_number(v: object) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and bool(np.isfinite(v))
 

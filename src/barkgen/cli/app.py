@@ -991,3 +991,192 @@ def serve_command(
     except KeyboardInterrupt:  # Ctrl-C is how a server is stopped: not an error
         pass
     typer.echo("barkgen: server stopped", err=True)
+
+
+branches_app = typer.Typer(
+    name="branches", no_args_is_help=True, add_completion=False, pretty_exceptions_enable=False,
+    rich_markup_mode=None,
+    help="Branching structures (cracks, fissures, dried mud; sibbing2010): extract a network "
+    "from an image, grow new ones, render them from fragments of the image, compare statistics.")
+app.add_typer(branches_app, name="branches")
+
+
+def _check_json_target(path: Path, what: str) -> None:
+    if path.suffix.lower() != ".json":
+        raise InvalidInputError(f"{what} {str(path)!r} must be a .json file")
+    if path.exists() and path.is_dir():
+        raise InvalidInputError(f"{what} {str(path)!r} is a directory")
+
+
+def _write_outputs(files: dict[Path, bytes]) -> None:
+    """Write every encoded output, each folder as one step (nothing is written before all are
+    encoded)."""
+    by_folder: dict[Path, dict[str, bytes]] = {}
+    for path, data in files.items():
+        by_folder.setdefault(path.parent, {})[path.name] = data
+    for folder, group in by_folder.items():
+        _write_files(folder, group)
+
+
+def _grey_unit(image: np.ndarray) -> np.ndarray:
+    """An image as a float32 ``(H, W)`` map in [0, 1] (colour averaged)."""
+    scale = 65535.0 if image.dtype == np.uint16 else 255.0
+    grey = image.astype(np.float32) / scale
+    return grey.mean(axis=2) if grey.ndim == 3 else grey
+
+
+@branches_app.command("extract")
+@user_errors
+def branches_extract_command(
+    image_path: Annotated[Path, typer.Argument(metavar="IMAGE", help="Image with cracks or fissures.")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="Structure JSON.")] = Path("source.json"),
+    labels: Annotated[Optional[Path], typer.Option(
+        "--labels", help="A label map of the image (e.g. from `barkgen labels`); its darkest label "
+        "in the image is taken as the fissures.")] = None,
+    step: Annotated[Optional[float], typer.Option(
+        "--step", help="Resampling step h in pixels (default: from the crack width).")] = None,
+    preview: Annotated[Optional[Path], typer.Option(
+        "--preview", help="Also write a PNG of the structure drawn over the image.")] = None,
+    quiet: QuietOption = False,
+) -> None:
+    """Extract the crack network of an image as a structure (skeleton graph with thickness)."""
+    from barkgen.branching.extract import extract_structure, overlay_structure
+    from barkgen.io import encode_png, read_image
+    from barkgen.io.branches import encode_structure
+
+    _check_json_target(output, "output")
+    if preview is not None:
+        _check_png_target(preview, "preview")
+    if step is not None and not 0.25 <= step <= 64:
+        raise InvalidInputError(f"--step must be in [0.25, 64] pixels, got {step}")
+    image = read_image(image_path)
+    label_map = read_image(labels) if labels is not None else None
+    if label_map is not None and label_map.shape[:2] != image.shape[:2]:
+        raise InvalidInputError(f"{labels}: the label map is {label_map.shape[1]}x{label_map.shape[0]} "
+                                f"but the image is {image.shape[1]}x{image.shape[0]}")
+    structure = extract_structure(image, label_map, step=step)
+    files = {output: encode_structure(structure)}
+    if preview is not None:
+        files[preview] = encode_png(overlay_structure(image, structure))
+    _write_outputs(files)
+    if not quiet:
+        typer.echo(f"wrote {output}: {len(structure.branches)} branches, "
+                   f"{structure.total_length():.0f} px, {structure.junctions()} junctions, "
+                   f"step {structure.step:g} px", err=True)
+
+
+@branches_app.command("grow")
+@user_errors
+def branches_grow_command(
+    source_path: Annotated[Path, typer.Argument(metavar="SRC.json", help="Source structure.")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="Grown structure JSON.")] = Path("grown.json"),
+    size: Annotated[str, typer.Option("--size", help="Output size WIDTHxHEIGHT.")] = "1024x1024",
+    guide: Annotated[Optional[Path], typer.Option(
+        "--guide", help="Guide map of the output size: branches are drawn to dark values "
+        "(a dark valley along a path), roots start where it is dark.")] = None,
+    length: Annotated[Optional[float], typer.Option(
+        "--length", help="Total branch length to grow in px (default: the source's length per "
+        "pixel times the output area).")] = None,
+    levels: Annotated[int, typer.Option("--levels", help="Maximum branch generations.")] = 64,
+    seed: SeedOption = 0,
+    quiet: QuietOption = False,
+) -> None:
+    """Grow a new structure with the source's bending, furcation and merge statistics."""
+    from barkgen.branching.grow import GrowOptions, grow_structure
+    from barkgen.branching.model import fit_model
+    from barkgen.io import read_image
+    from barkgen.io.branches import encode_structure, read_structure
+
+    _check_json_target(output, "output")
+    h, w = parse_size(size)
+    options = GrowOptions(total_length=length, max_levels=levels).validate()
+    source = read_structure(source_path)
+    guide_map = None
+    if guide is not None:
+        guide_map = _grey_unit(read_image(guide))
+        if guide_map.shape != (h, w):
+            raise InvalidInputError(f"{guide}: the guide map is {guide_map.shape[1]}x{guide_map.shape[0]} "
+                                    f"but --size is {w}x{h}; they must be the same size")
+    model = fit_model(source)
+    with _progress(not quiet, "growing") as progress:
+        grown = grow_structure(model, (w, h), seed=seed, guide=guide_map, options=options, progress=progress)
+    _write_outputs({output: encode_structure(grown)})
+    if not quiet:
+        typer.echo(f"wrote {output}: {len(grown.branches)} branches, {grown.total_length():.0f} px, "
+                   f"{grown.junctions()} junctions", err=True)
+
+
+@branches_app.command("render")
+@user_errors
+def branches_render_command(
+    image_path: Annotated[Path, typer.Argument(metavar="IMAGE", help="The source image.")],
+    source_path: Annotated[Path, typer.Argument(metavar="SRC.json", help="Its structure.")],
+    target_path: Annotated[Path, typer.Argument(metavar="DST.json", help="The structure to render.")],
+    output: OutputOption = Path("branches.png"),
+    labels_out: Annotated[Optional[Path], typer.Option(
+        "--labels-out", help="Also write the fissure label map of the output (white cracks on "
+        "black) for texture-by-numbers.")] = None,
+    seed: SeedOption = 0,
+    quiet: QuietOption = False,
+) -> None:
+    """Render a structure from fragments of the source image; the core engine fills the gaps."""
+    from barkgen.branching.render import render_branches
+    from barkgen.io import encode_png, read_image
+    from barkgen.io.branches import read_structure
+
+    _check_png_target(output, "output")
+    if labels_out is not None:
+        _check_png_target(labels_out, "--labels-out")
+    image = read_image(image_path)
+    source = read_structure(source_path)
+    target = read_structure(target_path)
+    if (source.width, source.height) != (image.shape[1], image.shape[0]):
+        raise InvalidInputError(f"{source_path} belongs to a {source.width}x{source.height} image but "
+                                f"{image_path} is {image.shape[1]}x{image.shape[0]}")
+    with _progress(not quiet, "rendering") as progress:
+        result = render_branches(image, source, target, seed=seed, progress=progress)
+    files = {output: encode_png(result.image)}
+    if labels_out is not None:
+        files[labels_out] = encode_png(result.labels)
+    _write_outputs(files)
+
+
+@branches_app.command("stats")
+@user_errors
+def branches_stats_command(
+    source_path: Annotated[Path, typer.Argument(metavar="SRC.json", help="Source structure.")],
+    target_path: Annotated[Path, typer.Argument(metavar="DST.json", help="Grown structure.")],
+    plot: Annotated[Optional[Path], typer.Option(
+        "--plot", help="Histogram plot PNG (default: DST_stats.png beside DST.json).")] = None,
+) -> None:
+    """Angle and thickness histograms of two structures side by side (sibbing2010 Fig. 7)."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from barkgen.branching.stats import compare_structures, comparison_plot
+    from barkgen.io import encode_png
+    from barkgen.io.branches import read_structure
+
+    plot = plot if plot is not None else target_path.with_name(f"{target_path.stem}_stats.png")
+    _check_png_target(plot, "--plot")
+    cmp = compare_structures(read_structure(source_path), read_structure(target_path))
+    console = Console()
+    for title, edges, src, dst, fmt in (
+            ("turning angle (degrees)", np.degrees(cmp.angle_edges), cmp.source_angles, cmp.target_angles, "{:+.1f}"),
+            ("thickness (px)", cmp.thickness_edges, cmp.source_thickness, cmp.target_thickness, "{:.2f}")):
+        table = Table(title=title, title_justify="left")
+        table.add_column("bin")
+        table.add_column("source", justify="right")
+        table.add_column("target", justify="right")
+        table.add_column("source | target", no_wrap=True)
+        for i in range(len(src)):
+            bar = "#" * int(round(src[i] * 60))
+            bar2 = "#" * int(round(dst[i] * 60))
+            table.add_row(f"{fmt.format(edges[i])} .. {fmt.format(edges[i + 1])}", f"{src[i]:.3f}",
+                          f"{dst[i]:.3f}", f"{bar:<20.20}|{bar2:<20.20}")
+        console.print(table)
+    console.print(f"L1 angle {cmp.angle_l1:.3f}   L1 thickness {cmp.thickness_l1:.3f}   "
+                  f"junctions per Mpx {cmp.source_junction_density:.0f} -> {cmp.target_junction_density:.0f}   "
+                  f"length per px {cmp.source_length_density:.4f} -> {cmp.target_length_density:.4f}   "
+                  f"intersections {cmp.target_intersections}", highlight=False)
+    _write_outputs({plot: encode_png(comparison_plot(cmp))})

@@ -1,0 +1,287 @@
+"""Numba kernels of structure growth: the local space-colonisation update (sibbing2010 §4.4)."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def commit_points(dist, near_branch, near_vertex, near_tangent, points, first, branch, radius):  # pragma: no cover - compiled
+    """Lower ``dist`` (distance to the nearest committed branch surface, i.e. distance to a
+    vertex minus its thickness) within ``radius`` of each vertex ``points[first:]`` (rows x,
+    y, thickness) of ``branch``, and remember which branch and vertex is nearest and the
+    branch's direction there. Only the ``3 rho`` vicinity is touched (§4.4)."""
+    h, w = dist.shape
+    n = points.shape[0]
+    r2 = radius * radius
+    for i in range(first, n):
+        x, y, r = points[i, 0], points[i, 1], points[i, 2]
+        a = max(i - 1, 0)
+        c = min(i + 1, n - 1)
+        tangent = np.arctan2(points[c, 1] - points[a, 1], points[c, 0] - points[a, 0])
+        x0 = max(int(np.floor(x - radius)), 0)
+        x1 = min(int(np.ceil(x + radius)), w - 1)
+        y0 = max(int(np.floor(y - radius)), 0)
+        y1 = min(int(np.ceil(y + radius)), h - 1)
+        for yy in range(y0, y1 + 1):
+            dy2 = (yy - y) ** 2
+            for xx in range(x0, x1 + 1):
+                e2 = (xx - x) ** 2 + dy2
+                if e2 > r2:
+                    continue
+                bound = dist[yy, xx] + r
+                if bound > 0 and e2 >= bound * bound:
+                    continue
+                d = np.sqrt(e2) - r
+                if d < dist[yy, xx]:
+                    dist[yy, xx] = d
+                    near_branch[yy, xx] = branch
+                    near_vertex[yy, xx] = i
+                    near_tangent[yy, xx] = tangent
+
+
+@njit(cache=True)
+def sample_nearest(arr, xs, ys, outside, out, inside):  # pragma: no cover - compiled
+    """Nearest-pixel lookup of ``arr`` at float positions (any shape, flattened); positions
+    outside the image get ``outside``."""
+    h, w = arr.shape
+    fx = xs.ravel()
+    fy = ys.ravel()
+    o = out.ravel()
+    ins = inside.ravel()
+    for i in range(fx.shape[0]):
+        xi = int(np.floor(fx[i] + 0.5))
+        yi = int(np.floor(fy[i] + 0.5))
+        if 0 <= xi < w and 0 <= yi < h:
+            o[i] = arr[yi, xi]
+            ins[i] = True
+        else:
+            o[i] = outside
+            ins[i] = False
+
+
+@njit(cache=True)
+def _lookup(arr, x, y, outside):  # pragma: no cover - compiled
+    h, w = arr.shape
+    xi = int(np.floor(x + 0.5))
+    yi = int(np.floor(y + 0.5))
+    if 0 <= xi < w and 0 <= yi < h:
+        return arr[yi, xi], True
+    return outside, False
+
+
+@njit(cache=True)
+def extension_candidates(qual, hist_a, hist_r, ha, hr, history_start, branch_end, angles, thickness,
+                         k, m, a_edges, r_edges, a_counts, r_counts, a_target, r_target, n_t, omega_g,
+                         x0, y0, theta, step, dist, near_branch, branch, parent, sx, sy, exempt,
+                         rho, guide, use_guide, eps, c_best, uniforms, join_rate, join_pdf, near_tangent,
+                         cand, qstar, lens, ang, thk, xs, ys, heads, first_hit, first_out, q2, decision):  # pragma: no cover - compiled
+    """One extension step of sibbing2010 §4.2-4.4 for the ``T = len(cand)`` best histories.
+
+    Bending quality of every history against the branch's last ``len(ha)`` elements; the ``T``
+    best are kept (ties by index); for each: its continuation (up to ``m`` elements, fewer where
+    the source branch ends), the histogram-matched score ``Q*``, the vertices it would add, the
+    first vertex touching a committed branch (a child may touch its parent only within
+    ``exempt`` of its start) and the first leaving the image, and ``Q** = Q* / (D + eps)`` with
+    ``D`` the maximum density (times the guide) along its chord up to three times its length.
+
+    Then the choice, with the three ``uniforms``: one of the ``c_best`` best by ``Q*`` with
+    probability proportional to it (the paper); if that one would cross a branch it ends on it
+    (a merge) with probability ``join_rate`` times the likelihood of its incidence angle in the
+    source (``join_pdf``, 6 bins over 0-90 degrees), else it is rejected and the choice is made
+    among the free candidates by ``Q**``. ``decision`` gets ``(code, t, j)``: code 0 = no
+    candidate, 1 = grow by candidate ``t`` (``j`` vertices inside the image), 2 = candidate
+    ``t`` ends the branch, 3 = merge: candidate ``t`` up to its vertex ``j``.
+    """
+    n_hist = hist_a.shape[0]
+    width = hist_a.shape[1]
+    q = ha.shape[0]
+    off = width - q
+    for i in range(n_hist):
+        sa = 0.0
+        sr = 0.0
+        for j in range(q):
+            da = hist_a[i, off + j] - ha[j]
+            dr = hist_r[i, off + j] - hr[j]
+            sa += da * da
+            sr += dr * dr
+        qual[i] = (1.0 / (np.sqrt(sa) + 1.0) + 1.0) * (1.0 / (np.sqrt(sr) + 1.0) + 1.0)
+    t_count = cand.shape[0]
+    # the T best (stable: the lower index wins a tie)
+    for t in range(t_count):
+        cand[t] = -1
+        qstar[t] = -1.0
+    for i in range(n_hist):
+        v = qual[i]
+        if v <= qstar[t_count - 1]:
+            continue
+        p = t_count - 1
+        while p > 0 and qstar[p - 1] < v:
+            qstar[p] = qstar[p - 1]
+            cand[p] = cand[p - 1]
+            p -= 1
+        qstar[p] = v
+        cand[p] = i
+    bins = a_counts.shape[0]
+    n_now = max(n_t, 1.0)
+    before = 0.0
+    for b in range(bins):
+        before += (a_target[b] - a_counts[b] / n_now) ** 2 + (r_target[b] - r_counts[b] / n_now) ** 2
+    before /= bins
+    add_a = np.zeros(bins)
+    add_r = np.zeros(bins)
+    for t in range(t_count):
+        c = cand[t]
+        if c < 0:
+            lens[t] = 0
+            qstar[t] = 0.0
+            q2[t] = 0.0
+            first_hit[t] = -1
+            first_out[t] = -1
+            continue
+        c0 = history_start[c] + k + 1
+        n_el = min(max(branch_end[c] - c0, 0), m)
+        lens[t] = n_el
+        add_a[:] = 0.0
+        add_r[:] = 0.0
+        for j in range(m):
+            if j < n_el:
+                ang[t, j] = angles[c0 + j]
+                thk[t, j] = thickness[c0 + j]
+                ba = min(max(np.searchsorted(a_edges, ang[t, j], side="right") - 1, 0), bins - 1)
+                br = min(max(np.searchsorted(r_edges, thk[t, j], side="right") - 1, 0), bins - 1)
+                add_a[ba] += 1.0
+                add_r[br] += 1.0
+            else:
+                ang[t, j] = 0.0
+                thk[t, j] = 0.0
+        total = max(n_t + n_el, 1.0)
+        after = 0.0
+        for b in range(bins):
+            after += (a_target[b] - (a_counts[b] + add_a[b]) / total) ** 2
+            after += (r_target[b] - (r_counts[b] + add_r[b]) / total) ** 2
+        gain = (before - after / bins) * omega_g * n_now / m
+        qstar[t] *= np.exp(min(max(gain, -50.0), 50.0))
+        # geometry, collisions and the border
+        hx = x0
+        hy = y0
+        hd = theta
+        first_hit[t] = -1
+        first_out[t] = -1
+        for j in range(n_el):
+            hd += ang[t, j]
+            hx += step * np.cos(hd)
+            hy += step * np.sin(hd)
+            xs[t, j] = hx
+            ys[t, j] = hy
+            heads[t, j] = hd
+            d, inside = _lookup(dist, hx, hy, np.float32(1e6))
+            if not inside:
+                if first_out[t] < 0:
+                    first_out[t] = j
+                continue
+            if first_hit[t] >= 0 or first_out[t] >= 0:
+                continue
+            nb, _ = _lookup(near_branch, hx, hy, np.int32(-1))
+            if nb == branch:
+                continue
+            if nb == parent and np.sqrt((hx - sx) ** 2 + (hy - sy) ** 2) <= exempt:
+                continue
+            if d < thk[t, j] + 0.75 * step:
+                first_hit[t] = j
+        # density along the chord (or the current heading for an ending candidate)
+        if n_el > 0:
+            chord = np.arctan2(ys[t, n_el - 1] - y0, xs[t, n_el - 1] - x0)
+        else:
+            chord = theta
+        reach = 3.0 * step * max(n_el, 1)
+        dens = 0.0
+        g = 0.0
+        for s in range(8):
+            tt = reach * (0.25 + 0.75 * s / 7.0)
+            px = x0 + np.cos(chord) * tt
+            py = y0 + np.sin(chord) * tt
+            d, inside = _lookup(dist, px, py, np.float32(1e6))
+            if inside:
+                dd = max(d, 0.0)
+                dens = max(dens, np.exp(-dd * dd / (rho * rho)))
+            if use_guide:
+                gv, _ = _lookup(guide, px, py, np.float32(1.0))
+                g = max(g, gv)
+        if use_guide:
+            q2[t] = qstar[t] / ((dens + eps) * (g + eps))
+        else:
+            q2[t] = qstar[t] / (dens + eps)
+    # the choice
+    decision[0] = 0
+    pick = _draw_best(qstar, cand, first_hit, False, c_best, uniforms[0])
+    if pick < 0:
+        return
+    if first_hit[pick] >= 0:
+        j = first_hit[pick]
+        tan, ok = _lookup(near_tangent, xs[pick, j], ys[pick, j], np.float32(0.0))
+        inc = abs(np.angle(np.exp(1j * (heads[pick, j] - tan))))
+        inc = min(inc, np.pi - inc)
+        like = 1.0
+        if join_pdf.shape[0] > 0:
+            like = max(join_pdf[min(int(inc / (np.pi / 2) * join_pdf.shape[0]), join_pdf.shape[0] - 1)], 0.1)
+        if ok and uniforms[1] < join_rate * like:
+            decision[0] = 3
+            decision[1] = pick
+            decision[2] = j
+            return
+    pick = _draw_best(q2, cand, first_hit, True, c_best, uniforms[2])
+    if pick < 0:
+        return
+    if lens[pick] == 0:
+        decision[0] = 2
+        decision[1] = pick
+        return
+    decision[0] = 1
+    decision[1] = pick
+    decision[2] = lens[pick] if first_out[pick] < 0 else first_out[pick]
+
+
+@njit(cache=True)
+def _draw_best(score, cand, first_hit, free_only, c_best, u):  # pragma: no cover - compiled
+    """Index of one of the ``c_best`` highest scores (ties: lower index), drawn with
+    probability proportional to the score; -1 when there is none."""
+    n = score.shape[0]
+    best = np.full(c_best, -1, np.int64)
+    for i in range(n):
+        if cand[i] < 0 or (free_only and first_hit[i] >= 0):
+            continue
+        v = score[i]
+        p = c_best - 1
+        if best[p] >= 0 and score[best[p]] >= v:
+            continue
+        while p > 0 and (best[p - 1] < 0 or score[best[p - 1]] < v):
+            best[p] = best[p - 1]
+            p -= 1
+        best[p] = i
+    total = 0.0
+    for p in range(c_best):
+        if best[p] >= 0:
+            total += max(score[best[p]], 0.0)
+    if best[0] < 0:
+        return -1
+    if total <= 0:
+        return best[0]
+    target = u * total
+    acc = 0.0
+    for p in range(c_best):
+        if best[p] >= 0:
+            acc += max(score[best[p]], 0.0)
+            if target < acc:
+                return best[p]
+    return best[0]
+
+
+@njit(cache=True)
+def add_counts(counts, edges, values):  # pragma: no cover - compiled
+    """Histogram counts of ``values`` on ``edges`` (outside values in the end bins)."""
+    bins = counts.shape[0]
+    for v in values:
+        b = min(max(np.searchsorted(edges, v, side="right") - 1, 0), bins - 1)
+        counts[b] += 1.0

@@ -1,0 +1,503 @@
+"""Growing new branching structures from a learned model (sibbing2010 §4.2-4.5, + merges).
+
+Growth follows the paper: a branch is extended ``m`` elements at a time by the continuation of
+one of the ``c`` best-matching source histories (quality ``Q``, histogram-matched ``Q*``,
+density-scaled ``Q** = Q* / (D + eps)``; intersecting extensions get ``Q = 0``); when a branch
+is complete, ``d`` furcation points are picked where the linear classifier scores highest and
+the children are grown in breadth-first order; roots are added at the emptiest point until a
+stopping rule holds (total length, levels, or no empty space left).
+
+Beyond the paper: an extension that would cross an existing branch may instead *end on it*
+(a merge), with the source's merge rate and incidence angles, and a branch whose source
+continuation ended on another branch reaches forward to join the nearest one. That is how
+dried mud and reticulate bark close their cells.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from barkgen.branching import _grow_kernels as K
+from barkgen.branching.model import BranchModel, _wrap, furcation_base, furcation_scores, quality, vertex_angles
+from barkgen.branching.structure import Branch, Structure, junction_radius
+from barkgen.errors import InvalidInputError
+
+EPSILON = 1e-3  # 1 / eps = 10^3 bounds the density scaling (§4.4)
+TOP = 16        # candidates kept after the bending quality, before histogram and density terms
+
+
+@dataclass(frozen=True)
+class GrowOptions:
+    """Stopping rules and space-colonisation parameters of :func:`grow_structure`."""
+
+    total_length: float | None = None  # pixels; default: the source's length per pixel x area
+    max_levels: int = 64               # branch generations below a root
+    rho: float | None = None           # density spread; default: learned from the source
+    fill: float = 2.0                  # stop adding roots when no pixel is farther than fill*rho
+    max_branches: int = 20000
+
+    def validate(self) -> "GrowOptions":
+        if self.total_length is not None and not 0 < self.total_length <= 1e8:
+            raise InvalidInputError(f"total length must be in (0, 1e8] pixels, got {self.total_length}")
+        if not 0 <= self.max_levels <= 1000:
+            raise InvalidInputError(f"levels must be in 0..1000, got {self.max_levels}")
+        if self.rho is not None and not 0.5 <= self.rho <= 1000:
+            raise InvalidInputError(f"rho must be in [0.5, 1000] pixels, got {self.rho}")
+        return self
+
+
+class _Tip:
+    """The growing end of a branch: its vertices and its element history in buffers."""
+
+    def __init__(self, capacity: int, start: np.ndarray, heading: float):
+        self.xyr = np.empty((capacity + 2, 3))
+        self.xyr[0] = start
+        self.n = 1
+        self.hist = np.empty((capacity + 2, 2))
+        self.n_hist = 0
+        self.theta = float(heading)
+
+    def points(self) -> np.ndarray:
+        return self.xyr[:self.n].copy()
+
+
+class _Grower:
+    def __init__(self, model: BranchModel, size: tuple[int, int], guide: np.ndarray | None,
+                 options: GrowOptions, rng: np.random.Generator):
+        self.model, self.rng, self.options = model, rng, options
+        self.o = model.options
+        self.w, self.h = size
+        self.step = model.step
+        self.rho = float(options.rho or model.rho)
+        self.radius = min(3.0 * self.rho, 32.0)  # the 3 rho vicinity; D < 0.02 beyond 32 px
+        self.reach = max(3 * self.rho, self.o.m * self.step, float(np.median(model.branch_length)))
+        self.dist = np.full((self.h, self.w), 1e6, np.float32)
+        self.near_branch = np.full((self.h, self.w), -1, np.int32)
+        self.near_vertex = np.full((self.h, self.w), -1, np.int32)
+        self.guide = guide
+        self.branches: list[Branch] = []
+        self.levels: list[int] = []
+        self.a_counts = np.zeros(self.o.bins)
+        self.r_counts = np.zeros(self.o.bins)
+        self.n_t = 0
+        self.length = 0.0
+        self.n_merges = 0
+        self.n_roots = 0
+        self._tip_n = 0
+        self.target = (options.total_length if options.total_length is not None
+                       else model.length_density * self.w * self.h)
+        self.r_max = float(model.thickness.max()) if len(model.thickness) else 1.0
+        k = self.o.k
+        self.hist_a = model.angles[model.history_start[:, None] + np.arange(k + 1)[None, :]]
+        self.hist_r = model.thickness[model.history_start[:, None] + np.arange(k + 1)[None, :]]
+        self.children_per_pixel = model.children_per_branch.sum() / max(model.meta["source_length"], 1e-9)
+        self._quality = np.empty(len(self.hist_a))
+        t, m = min(TOP, len(self.hist_a)), self.o.m
+        self._elements = np.empty((t, m, 2))  # the candidates' continuations (angle, thickness)
+        self._bufs = (np.empty(t, np.int64), np.empty(t), np.empty(t, np.int64), self._elements[:, :, 0],
+                      self._elements[:, :, 1], np.empty((t, m)), np.empty((t, m)), np.empty((t, m)),
+                      np.empty(t, np.int64), np.empty(t, np.int64), np.empty(t))
+        self._guide = guide if guide is not None else np.zeros((1, 1), np.float32)
+        self._decision = np.zeros(3, np.int64)
+        self.near_tangent = np.zeros((self.h, self.w), np.float32)
+        self.join_pdf = None
+        if len(model.join_angles):
+            hist, _ = np.histogram(model.join_angles, bins=6, range=(0, np.pi / 2))
+            self.join_pdf = hist / hist.max()
+        self._join_pdf = self.join_pdf if self.join_pdf is not None else np.zeros(0)
+
+    # -- the density map ------------------------------------------------------------------
+    def commit(self, b: int, first: int) -> None:
+        p = self.branches[b].points
+        if first < len(p):
+            K.commit_points(self.dist, self.near_branch, self.near_vertex, self.near_tangent,
+                            np.ascontiguousarray(p), first, b, self.radius)
+
+    def sample(self, arr: np.ndarray, x: np.ndarray, y: np.ndarray, outside):
+        x = np.ascontiguousarray(x, np.float64)
+        y = np.ascontiguousarray(y, np.float64)
+        out = np.empty(x.shape, arr.dtype)
+        inside = np.empty(x.shape, np.bool_)
+        K.sample_nearest(arr, x, y, outside, out, inside)
+        return out, inside
+
+    # -- one branch -----------------------------------------------------------------------
+    def grow_branch(self, start: np.ndarray, heading: float, first_elements: np.ndarray,
+                    parent: int | None, parent_vertex: int | None, level: int) -> int | None:
+        """Grow one branch from ``start`` (x, y, thickness); returns its index or None."""
+        b = len(self.branches)
+        branch = Branch(np.asarray([start], np.float64), parent, parent_vertex)
+        self.branches.append(branch)
+        self.levels.append(level)
+        # the branch's length and ending are those of a source branch of its kind (root or
+        # child): the Markov chain alone under-represents short branches, which have few or no
+        # complete histories
+        same_kind = np.flatnonzero(self.model.branch_is_root == (parent is None))
+        if len(same_kind) == 0:
+            same_kind = np.arange(len(self.model.branch_length))
+        pick = int(same_kind[self.rng.integers(len(same_kind))])
+        wanted = float(self.model.branch_length[pick])
+        wants_join = bool(self.model.branch_joined[pick])
+        limit = min(int(4 * (self.w + self.h) / self.step), int(np.ceil(wanted / self.step)) + 1)
+        tip = _Tip(limit + self.o.m + 8 + int(np.ceil(self.reach / self.step)),
+                   np.asarray(start, np.float64), heading)
+        exempt = junction_radius(float(self.branches[parent].points[parent_vertex, 2]) if parent is not None
+                                 else 0.0, float(start[2]), self.step)
+        lag = int(np.ceil((2 * self.r_max + 2.0) / self.step)) + 1
+        committed = 0
+        ended = False
+        # the initial segment: copied elements (a root's or the furcation's child start)
+        if len(first_elements):
+            ok, hit = self._append(tip, first_elements, start, exempt, b)
+            if hit is not None:
+                ended = True
+                if self._accept_join(hit[1], hit[2], hit[3]):
+                    self._snap(tip, hit[1], hit[2], branch)
+            elif not ok:
+                ended = True
+        while not ended and tip.n < limit:
+            self._tip_n = tip.n
+            choice = self._choose(tip, start, exempt, b)
+            if choice is None:
+                break
+            kind, payload = choice
+            if kind == "end":
+                if payload and self.rng.random() < self.merge_rate():
+                    self._reach(tip, start, exempt, b, branch)
+                break
+            if kind == "join":
+                elements, xs, ys, heads, j = payload
+                self._push(tip, elements, xs, ys, heads, j)
+                self._snap(tip, xs[j], ys[j], branch)
+                break
+            elements, xs, ys, heads, n_in, ends, source_joined = payload
+            self._push(tip, elements, xs, ys, heads, n_in)
+            if n_in < len(elements):  # left the image
+                break
+            if ends:
+                if source_joined and self.rng.random() < self.merge_rate():
+                    self._reach(tip, start, exempt, b, branch)
+                break
+            if tip.n - lag > committed:
+                branch.points = tip.points()
+                self.commit(b, committed)
+                committed = tip.n - lag
+        else:
+            if not ended and tip.n >= limit and wants_join and self.rng.random() < self.merge_rate():
+                self._reach(tip, start, exempt, b, branch)
+        self._tip_n = 0
+        branch.points = tip.points()
+        if tip.n < 2 or (parent is not None and branch.joins is None and branch.length() < exempt):
+            # a child that never left its parent's side is not a branch
+            self.n_merges -= branch.joins is not None
+            self.branches.pop()
+            self.levels.pop()
+            return None
+        self.commit(b, max(committed, 0))
+        self.length += branch.length()
+        return b
+
+    def _push(self, tip: "_Tip", elements, xs, ys, heads, n: int) -> None:
+        """Append the first ``n`` of the element rows with their vertices."""
+        if n <= 0:
+            return
+        tip.xyr[tip.n:tip.n + n, 0] = xs[:n]
+        tip.xyr[tip.n:tip.n + n, 1] = ys[:n]
+        tip.xyr[tip.n:tip.n + n, 2] = elements[:n, 1]
+        tip.n += n
+        tip.hist[tip.n_hist:tip.n_hist + n] = elements[:n]
+        tip.n_hist += n
+        tip.theta = float(heads[n - 1])
+        self._count(elements[:n])
+
+    def _geometry(self, x0, y0, theta, ang: np.ndarray):
+        """Vertices after appending the element rows ``ang`` (T, L) from heading ``theta``."""
+        headings = theta + np.cumsum(ang, axis=-1)
+        xs = x0 + self.step * np.cumsum(np.cos(headings), axis=-1)
+        ys = y0 + self.step * np.cumsum(np.sin(headings), axis=-1)
+        return xs, ys, headings
+
+    def _hits(self, xs, ys, rs, start, exempt, b):
+        """First index of each row whose vertex touches a committed branch (-1: none), and the
+        first index that leaves the image (-1: none)."""
+        d, inside = self.sample(self.dist, xs, ys, np.float32(1e6))
+        nb, _ = self.sample(self.near_branch, xs, ys, np.int32(-1))
+        # a child may touch its parent only around the furcation it starts from
+        parent = self.branches[b].parent
+        far = (np.hypot(xs - start[0], ys - start[1]) > exempt) | (nb != (-2 if parent is None else parent))
+        touch = (d < rs + 0.75 * self.step) & far & inside & (nb != b)
+        first_hit = np.where(touch.any(axis=-1), touch.argmax(axis=-1), -1)
+        out = ~inside
+        first_out = np.where(out.any(axis=-1), out.argmax(axis=-1), -1)
+        return first_hit, first_out
+
+    def _append(self, tip: "_Tip", elements, start, exempt, b):
+        """Append element rows (L, 2) outside the Markov step (a copied initial segment); stops
+        at the image border and at a collision. Returns (keep growing, hit) where hit =
+        (index, x, y, heading) of the collision."""
+        x0, y0 = tip.xyr[tip.n - 1, 0], tip.xyr[tip.n - 1, 1]
+        xs, ys, headings = self._geometry(x0, y0, tip.theta, elements[:, 0])
+        n = len(elements)
+        hit = None
+        first_hit, first_out = self._hits(xs[None], ys[None], elements[None, :, 1], start, exempt, b)
+        if first_hit[0] >= 0 and (first_out[0] < 0 or first_hit[0] < first_out[0]):
+            n = int(first_hit[0])
+            hit = (n, xs[n], ys[n], headings[n])
+        keep = hit is None
+        if 0 <= first_out[0] < n:
+            n, hit, keep = int(first_out[0]), None, False
+        self._push(tip, elements, xs, ys, headings, n)
+        return keep and n > 0, hit
+
+    def _count(self, elements: np.ndarray) -> None:
+        m = self.model
+        K.add_counts(self.a_counts, m.angle_edges, elements[:, 0])
+        K.add_counts(self.r_counts, m.thickness_edges, elements[:, 1])
+        self.n_t += len(elements)
+
+    def _choose(self, tip: "_Tip", start, exempt, b):
+        """One extension step of §4.2-4.4 (the kernel scores and chooses): returns
+        ("grow", (elements, xs, ys, heads, n_in)), ("end", source_branch_joined),
+        ("join", (elements, hit)) or None (no candidate)."""
+        model, o = self.model, self.o
+        bufs = self._bufs
+        parent = self.branches[b].parent
+        q = min(tip.n_hist, o.k + 1)
+        hist = tip.hist[tip.n_hist - q:tip.n_hist]
+        x0, y0 = float(tip.xyr[tip.n - 1, 0]), float(tip.xyr[tip.n - 1, 1])
+        K.extension_candidates(
+            self._quality, self.hist_a, self.hist_r, hist[:, 0], hist[:, 1], model.history_start, model.branch_end,
+            model.angles, model.thickness, o.k, o.m, model.angle_edges, model.thickness_edges,
+            self.a_counts, self.r_counts, model.angle_hist, model.thickness_hist, float(self.n_t),
+            float(o.omega_g), x0, y0, tip.theta, self.step, self.dist, self.near_branch, b,
+            -2 if parent is None else parent, float(start[0]), float(start[1]), float(exempt),
+            self.rho, self._guide, self.guide is not None, EPSILON, o.c, self.rng.random(3),
+            self.merge_rate(), self._join_pdf, self.near_tangent, *bufs, self._decision)
+        code, t, j = self._decision
+        cand, _, lens = bufs[:3]
+        xs, ys, heads = bufs[5:8]
+        if code == 0:
+            return None
+        if code == 3:
+            return "join", (self._elements[t, :j], xs[t], ys[t], heads[t], int(j))
+        if code == 2:
+            return "end", bool(model.end_joins[cand[t]])
+        # a continuation cut short by the end of its source branch ends the branch too
+        ends = bool(lens[t] < o.m)
+        return "grow", (self._elements[t, :lens[t]], xs[t], ys[t], heads[t], int(j),
+                        ends, ends and bool(model.end_joins[cand[t]]))
+
+    def _draw(self, scores: np.ndarray) -> int:
+        c = np.cumsum(np.maximum(scores, 0.0))
+        if c[-1] <= 0:
+            return 0
+        return int(min(np.searchsorted(c, self.rng.random() * c[-1], side="right"), len(c) - 1))
+
+    def merge_rate(self) -> float:
+        """Probability that a branch running into another ends on it: 1 while the structure has
+        fewer merges per grown length than the source, else the source's share of branch ends
+        that are merges (so the merge density tracks the source's, as §4.2's histogram
+        matching makes the angles track it)."""
+        model = self.model
+        if model.merges_per_length <= 0:
+            return 0.0
+        if self.n_merges < model.merges_per_length * self.length_so_far():
+            return 1.0
+        return model.join_rate
+
+    def length_so_far(self) -> float:
+        return self.length + self.step * max(self._tip_n - 1, 0)
+
+    def _accept_join(self, x: float, y: float, heading: float) -> bool:
+        """Merge where an initial segment runs into a branch: with the source's merge rate
+        times the likelihood of the incidence angle (as the kernel decides for extensions)."""
+        if self.model.join_rate <= 0:
+            return False
+        nb, _ = self.sample(self.near_branch, np.array([x]), np.array([y]), np.int32(-1))
+        tan, _ = self.sample(self.near_tangent, np.array([x]), np.array([y]), np.float32(0))
+        if nb[0] < 0:
+            return False
+        inc = abs(float(_wrap(heading - float(tan[0]))))
+        inc = min(inc, np.pi - inc)
+        like = 1.0
+        if self.join_pdf is not None:
+            like = max(float(self.join_pdf[min(int(inc / (np.pi / 2) * 6), 5)]), 0.1)
+        return self.rng.random() < self.merge_rate() * like
+
+    def _snap(self, tip: "_Tip", hx, hy, branch: Branch) -> None:
+        """End the branch on the committed vertex nearest to ``(hx, hy)`` (a merge)."""
+        nb, _ = self.sample(self.near_branch, np.array([hx]), np.array([hy]), np.int32(-1))
+        nv, _ = self.sample(self.near_vertex, np.array([hx]), np.array([hy]), np.int32(-1))
+        if nb[0] < 0:
+            return
+        x, y, _ = self.branches[int(nb[0])].points[int(nv[0])]
+        tip.xyr[tip.n] = (x, y, tip.xyr[tip.n - 1, 2])
+        tip.n += 1
+        branch.joins, branch.join_vertex = int(nb[0]), int(nv[0])
+        self.n_merges += 1
+
+    def _reach(self, tip: "_Tip", start, exempt, b, branch) -> None:
+        """A branch whose source ended on another branch goes on straight until it meets one
+        (within the source's median branch length, at least 3 rho and m steps) and ends on it."""
+        n = int(np.ceil(self.reach / self.step))
+        x0, y0, r = tip.xyr[tip.n - 1]
+        t = self.step * np.arange(1, n + 1)
+        xs = x0 + np.cos(tip.theta) * t
+        ys = y0 + np.sin(tip.theta) * t
+        first_hit, first_out = self._hits(xs[None], ys[None], np.full((1, n), r), start, exempt, b)
+        j = int(first_hit[0])
+        if j < 0 or (0 <= first_out[0] < j):
+            return
+        tip.xyr[tip.n:tip.n + j] = np.stack([xs[:j], ys[:j], np.full(j, r)], axis=1)
+        tip.n += j
+        self._snap(tip, xs[j], ys[j], branch)
+
+    # -- furcations and roots ---------------------------------------------------------------
+    def furcate(self, b: int) -> list[tuple[int, int]]:
+        """Pick furcation points on a finished branch (§4.3): ``d`` is drawn around the sum of
+        the classifier's (Platt-scaled) furcation probabilities along the branch, and the ``d``
+        vertices with the highest margin are taken, each blocking its neighbourhood."""
+        model, k = self.model, self.o.k
+        branch = self.branches[b]
+        p = branch.points
+        n = len(p)
+        if model.svm_w is None or n < 2 * k + 3 or len(model.furcations.branch_angle) == 0:
+            return []
+        marks = np.zeros(n, bool)
+        block = max(k, int(np.ceil(2 * self.r_max / self.step)) + 1)
+        allowed = np.ones(n, bool)
+        allowed[:k] = False
+        allowed[n - k:] = False
+        if branch.joins is not None:
+            allowed[n - block:] = False
+        base = furcation_base(model, p)
+        s = furcation_scores(model, base, marks)
+        a, c = model.platt
+        expected = float((1.0 / (1.0 + np.exp(-(a * s[allowed] + c)))).sum())
+        d = int(self.rng.poisson(expected))
+        chosen = []
+        for _ in range(d):
+            if not allowed.any():
+                break
+            s = np.where(allowed, furcation_scores(model, base, marks), -np.inf)
+            v = int(np.argmax(s))
+            chosen.append((b, v))
+            marks[v] = True
+            allowed[max(v - block, 0): v + block + 1] = False
+        return chosen
+
+    def child(self, b: int, v: int, level: int) -> int | None:
+        """Start a child branch at vertex ``v`` of branch ``b`` with the non-causal model."""
+        model, k = self.model, self.o.k
+        fur = model.furcations
+        p = self.branches[b].points
+        va = vertex_angles(p)
+        idx = np.clip(np.arange(v - k, v + k + 1), 0, len(p) - 1)
+        qual = quality(va[idx], fur.nb_angles) * quality(p[idx, 2], fur.nb_thickness)
+        order = np.argsort(-qual, kind="stable")[: self.o.c]
+        f = int(order[self._draw(qual[order])])
+        a = p[max(v - 1, 0), :2]
+        c = p[min(v + 1, len(p) - 1), :2]
+        tangent = np.arctan2(c[1] - a[1], c[0] - a[0])
+        heading = float(tangent + fur.branch_angle[f])
+        first = fur.child_first[f]
+        n = min(int(fur.child_len[f]), self.o.m)
+        elements = (np.stack([model.angles[first:first + n], model.thickness[first:first + n]], axis=1)
+                    if first >= 0 and n else np.zeros((0, 2)))
+        # first edge: the branching angle itself, then the child's own elements
+        lead = np.array([[0.0, float(fur.child_thickness[f])]])
+        start = np.array([p[v, 0], p[v, 1], float(fur.child_thickness[f])])
+        return self.grow_branch(start, heading, np.concatenate([lead, elements]), b, v, level)
+
+    def root(self) -> int | None:
+        """A new root at the emptiest of some random points, weighted by the guide (§4.5)."""
+        model = self.model
+        n = 256
+        xs = self.rng.uniform(0, self.w - 1, n)
+        ys = self.rng.uniform(0, self.h - 1, n)
+        d, _ = self.sample(self.dist, xs, ys, np.float32(0))
+        score = np.minimum(d.astype(np.float64), 1e4)
+        if self.guide is not None:
+            g, _ = self.sample(self.guide, xs, ys, np.float32(1))
+            score = (score + 1.0) * (1.0 - g.astype(np.float64) + EPSILON)
+        i = int(np.argmax(score))
+        if d[i] < self.options.fill * self.rho:
+            return None
+        r = int(self.rng.integers(len(model.root_first)))
+        first = model.root_first[r]
+        end = model.element_end[first]
+        n_el = min(end - first, self.o.k + 1)
+        elements = np.stack([model.angles[first:first + n_el], model.thickness[first:first + n_el]], axis=1)
+        lead = np.array([[0.0, float(model.root_thickness[r])]])
+        start = np.array([xs[i], ys[i], float(model.root_thickness[r])])
+        return self.grow_branch(start, float(model.root_heading[r]), np.concatenate([lead, elements]),
+                                None, None, 0)
+
+    def run(self, progress=None) -> None:
+        """Grow until the stopping rules hold. Children are grown breadth first; a new root
+        starts at the emptiest point whenever the structure has fewer separate networks per
+        grown length than the source (or nothing is left to grow), so the networks spread
+        over the whole output instead of one tree filling it from a corner; while below that
+        rate, roots and children take turns."""
+        queue: deque[tuple[int, int, int]] = deque()
+        failures = 0
+        roots_open = True
+        last_was_root = False
+        while self.length < self.target and len(self.branches) < self.options.max_branches:
+            want_root = (roots_open and self.n_roots < self.model.roots_per_length * self.length + 1
+                         and not (last_was_root and queue))  # roots and children take turns
+            last_was_root = want_root or not queue
+            if want_root or not queue:
+                b = self.root()
+                if b is None:
+                    failures += 1
+                    if failures > 20:
+                        if not queue:
+                            break
+                        roots_open = False
+                    continue
+                failures = 0
+                self.n_roots += 1
+                queue.extend((b, v, 1) for _, v in self.furcate(b))
+            else:
+                parent, v, level = queue.popleft()
+                if level > self.options.max_levels:
+                    continue
+                c = self.child(parent, v, level)
+                if c is not None:
+                    queue.extend((c, w, level + 1) for _, w in self.furcate(c))
+            if progress:
+                progress(min(self.length, self.target), self.target)
+
+
+def grow_structure(model: BranchModel, size: tuple[int, int], *, seed: int = 0,
+                   guide: np.ndarray | None = None, options: GrowOptions | None = None,
+                   progress=None) -> Structure:
+    """Grow a new structure of ``size = (width, height)`` pixels from ``model``.
+
+    Args:
+        model: statistics of a source structure (:func:`~barkgen.branching.model.fit_model`).
+        size: output size in pixels, ``(width, height)``.
+        seed: seeds the one ``numpy.random.Generator`` behind every random choice.
+        guide: optional ``(height, width)`` map in [0, 1] (sibbing2010 §4.5): branches are drawn
+            to low values (a dark valley along a path), roots start where it is low.
+        options: stopping rules and the density spread.
+        progress: optional ``progress(done, total)`` callback (length grown so far).
+    """
+    options = (options or GrowOptions()).validate()
+    w, h = int(size[0]), int(size[1])
+    if not (8 <= w <= 16384 and 8 <= h <= 16384):
+        raise InvalidInputError(f"size must be between 8x8 and 16384x16384, got {w}x{h}")
+    if guide is not None:
+        guide = np.asarray(guide, np.float32)
+        if guide.shape != (h, w):
+            raise InvalidInputError(f"guide map is {guide.shape[1]}x{guide.shape[0]} but the output "
+                                    f"is {w}x{h}; they must be the same size")
+    grower = _Grower(model, (w, h), guide, options, np.random.default_rng(seed))
+    grower.run(progress)
+    if not grower.branches:
+        raise InvalidInputError("growth produced no branch (the output is too small for the model)")
+    return Structure(model.step, (w, h), grower.branches)

@@ -1,0 +1,362 @@
+"""The statistical structure model of sibbing2010 §4, learned from a source structure.
+
+- Bending (§4.2): a Markov model on sequences of (turning angle, thickness) elements. Every
+  window of ``k + 1`` elements of a source branch is a candidate history; the ``m`` elements
+  that follow it are its continuation.
+- Histogram targets (§4.2): the source's angle and thickness histograms (``B = 16`` bins
+  between the source's minimum and maximum).
+- Furcations (§4.3): a linear SVM on the non-causal neighbourhood of every source vertex
+  (``2k + 1`` angles and thicknesses plus the index distances ``n-`` and ``n+`` to the
+  previous and next furcation), the number of children per branch, and for every source
+  furcation its neighbourhood, branching angle and the child's first elements.
+- Merges (beyond the paper): how often a branch ends on another branch, and at what angle.
+
+Element ``j`` of a branch with vertices ``x_0..x_{n-1}`` is ``(alpha_j, r_{j+1})``: the turn
+at vertex ``j`` (``1 <= j <= n-2``) and the thickness of the vertex it leads to, so appending
+an element to a growing branch means: turn, step ``h``, set the new vertex's thickness.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from barkgen.branching.structure import Branch, Structure, resample_polyline, turning_angles
+from barkgen.errors import InvalidInputError
+
+
+@dataclass(frozen=True)
+class ModelOptions:
+    """Parameters of the model (defaults: sibbing2010 §4.2-4.3)."""
+
+    k: int = 3          # order of the Markov process (k = 3 in all the paper's experiments)
+    m: int = 4          # elements appended per step (typical feature size / h)
+    c: int = 2          # candidates to choose from (variability)
+    omega_g: float = 50.0  # weight of the histogram matching
+    bins: int = 16      # histogram bins (B)
+
+    def validate(self) -> "ModelOptions":
+        if not 1 <= self.k <= 16:
+            raise InvalidInputError(f"k must be in 1..16, got {self.k}")
+        if not 1 <= self.m <= 64:
+            raise InvalidInputError(f"m must be in 1..64, got {self.m}")
+        if not 1 <= self.c <= 64:
+            raise InvalidInputError(f"c must be in 1..64, got {self.c}")
+        if not 0 <= self.omega_g <= 1e4:
+            raise InvalidInputError(f"omega_g must be in [0, 1e4], got {self.omega_g}")
+        if not 2 <= self.bins <= 256:
+            raise InvalidInputError(f"bins must be in 2..256, got {self.bins}")
+        return self
+
+
+@dataclass
+class Furcations:
+    """Source furcations: the parent's neighbourhood, the branching angle, the child's start."""
+
+    nb_angles: np.ndarray       # (F, 2k+1)
+    nb_thickness: np.ndarray    # (F, 2k+1)
+    branch_angle: np.ndarray    # (F,) child's first heading minus the parent's tangent
+    child_thickness: np.ndarray  # (F,) thickness of the child's first vertex
+    child_first: np.ndarray     # (F,) index of the child's first element in the flat arrays (-1: none)
+    child_len: np.ndarray       # (F,) number of the child's elements
+
+
+@dataclass
+class BranchModel:
+    """Everything growth needs, learned from one source structure by :func:`fit_model`."""
+
+    options: ModelOptions
+    step: float
+    angles: np.ndarray          # flat element arrays of all branches
+    thickness: np.ndarray
+    element_end: np.ndarray     # per element: one past the last element of its branch
+    history_start: np.ndarray   # (N,) first element of each candidate history (k+1 elements)
+    branch_end: np.ndarray      # (N,) one past the last element of the candidate's branch
+    end_joins: np.ndarray       # (N,) that branch ended on another branch
+    angle_edges: np.ndarray
+    thickness_edges: np.ndarray
+    angle_hist: np.ndarray      # normalised source histograms
+    thickness_hist: np.ndarray
+    svm_w: np.ndarray | None    # furcation classifier on standardised features
+    svm_b: float
+    platt: tuple[float, float]  # furcation probability = sigmoid(a * margin + b)
+    feat_mean: np.ndarray
+    feat_scale: np.ndarray
+    children_per_branch: np.ndarray
+    furcations: Furcations
+    root_heading: np.ndarray    # absolute first heading of each source branch with elements
+    root_first: np.ndarray      # its first element index
+    root_thickness: np.ndarray  # thickness of its first vertex
+    join_rate: float            # share of branch ends that end on another branch
+    branch_length: np.ndarray   # (B,) arc length of every source branch
+    branch_is_root: np.ndarray  # (B,) it starts no furcation
+    branch_joined: np.ndarray   # (B,) it ends on another branch
+    roots_per_length: float     # separate networks (roots) per pixel of skeleton length
+    merges_per_length: float    # merges per pixel of skeleton length
+    join_angles: np.ndarray     # incidence angles (radians in [0, pi/2]) of the source's merges
+    length_density: float       # skeleton length per pixel of the source
+    junction_density: float     # furcations + merges per pixel
+    rho: float                  # space-colonisation spread (pixels)
+    meta: dict = field(default_factory=dict)
+
+
+def _elements(branch: Branch) -> tuple[np.ndarray, np.ndarray]:
+    p = branch.points
+    if len(p) < 3:
+        return np.zeros(0), np.zeros(0)
+    return turning_angles(p[:, :2]), p[2:, 2].copy()
+
+
+def _neighbourhoods(angles: np.ndarray, thickness: np.ndarray, k: int) -> np.ndarray:
+    """The 2k+1 angles and 2k+1 thicknesses around every vertex (edge-replicated)."""
+    n = len(angles)
+    idx = np.clip(np.arange(n)[:, None] + np.arange(-k, k + 1)[None, :], 0, n - 1)
+    return np.concatenate([angles[idx], thickness[idx]], axis=1)
+
+
+def _furcation_distances(furcation_at: np.ndarray) -> np.ndarray:
+    """``n-`` and ``n+`` of every vertex: index distances to the previous and next furcation
+    (or the branch's ends), as two columns."""
+    n = len(furcation_at)
+    i = np.arange(n)
+    marks = np.flatnonzero(furcation_at)
+    prev_marks = np.concatenate([[0], marks])
+    next_marks = np.concatenate([marks, [n - 1]])
+    n_minus = i - prev_marks[np.maximum(np.searchsorted(prev_marks, i, side="left") - 1, 0)]
+    n_plus = next_marks[np.minimum(np.searchsorted(next_marks, i, side="right"), len(next_marks) - 1)] - i
+    n_plus = np.where(n_plus < 0, n - 1 - i, n_plus)
+    return np.stack([n_minus, n_plus], axis=1).astype(np.float64)
+
+
+def _vertex_features(angles: np.ndarray, thickness: np.ndarray, k: int,
+                     furcation_at: np.ndarray) -> np.ndarray:
+    """Non-causal features of every vertex of one branch (§4.3): 2k+1 angles, 2k+1
+    thicknesses (edge-replicated), and index distances to the previous and next furcation or
+    branch end; ``angles`` and ``thickness`` are per vertex (angle 0 at the two ends)."""
+    return np.concatenate([_neighbourhoods(angles, thickness, k), _furcation_distances(furcation_at)], axis=1)
+
+
+def vertex_angles(points: np.ndarray) -> np.ndarray:
+    """Turning angle per vertex (0 at both ends)."""
+    out = np.zeros(len(points))
+    if len(points) >= 3:
+        out[1:-1] = turning_angles(points[:, :2])
+    return out
+
+
+def _tangent(points: np.ndarray, i: int) -> float:
+    a = points[max(i - 1, 0), :2]
+    b = points[min(i + 1, len(points) - 1), :2]
+    return float(np.arctan2(b[1] - a[1], b[0] - a[0]))
+
+
+def _wrap(a):
+    return np.angle(np.exp(1j * np.asarray(a, np.float64)))
+
+
+def fit_model(source: Structure, options: ModelOptions | None = None) -> BranchModel:
+    """Learn the bending, furcation and merge statistics of ``source`` (sibbing2010 §4.2-4.3).
+
+    The source is resampled at its own ``step`` first (§4.1), so hand-made structures with
+    uneven vertex spacing are accepted.
+    """
+    options = (options or ModelOptions()).validate()
+    k = options.k
+    source.validate("source structure")
+    h = float(source.step)
+    branches = [Branch(resample_polyline(b.points, h), b.parent, None, b.joins, None)
+                for b in source.branches]
+    # vertex indices of links move with the resampling: map them by arc length
+    for b_new, b_old in zip(branches, source.branches):
+        if b_old.parent is not None:
+            b_new.parent_vertex = _remap_vertex(source.branches[b_old.parent], b_old.parent_vertex, h)
+        if b_old.joins is not None:
+            b_new.join_vertex = _remap_vertex(source.branches[b_old.joins], b_old.join_vertex, h)
+
+    angles, thick, starts, ends, joined, element_end = [], [], [], [], [], []
+    offset = 0
+    first_index = []
+    for b in branches:
+        a, r = _elements(b)
+        first_index.append(offset if len(a) else -1)
+        n = len(a)
+        for s in range(0, n - k):  # history s..s+k, continuation from s+k+1 (may be empty)
+            starts.append(offset + s)
+            ends.append(offset + n)
+            joined.append(b.joins is not None)
+        angles.append(a)
+        thick.append(r)
+        element_end.append(np.full(n, offset + n, int))
+        offset += n
+    if not starts:
+        raise InvalidInputError(
+            f"source structure: no branch is long enough to learn from (need at least {k + 3} "
+            f"vertices at step {h:g} px; the longest has {max(len(b.points) for b in branches)})")
+    flat_a = np.concatenate(angles)
+    flat_r = np.concatenate(thick)
+
+    all_r = np.concatenate([b.thickness for b in branches])
+    a_lo, a_hi = float(flat_a.min()), float(flat_a.max())
+    r_lo, r_hi = float(all_r.min()), float(all_r.max())
+    if a_hi - a_lo < 1e-6:
+        a_lo, a_hi = a_lo - 0.1, a_hi + 0.1
+    if r_hi - r_lo < 1e-6:
+        r_lo, r_hi = r_lo * 0.9, r_hi * 1.1 + 1e-3
+    a_edges = np.linspace(a_lo, a_hi, options.bins + 1)
+    r_edges = np.linspace(r_lo, r_hi, options.bins + 1)
+    a_hist = histogram(flat_a, a_edges)
+    r_hist = histogram(flat_r, r_edges)
+
+    # furcations
+    children = np.zeros(len(branches), int)
+    furcation_at = [np.zeros(len(b.points), bool) for b in branches]
+    fur_rows = []
+    for ci, b in enumerate(branches):
+        if b.parent is None:
+            continue
+        children[b.parent] += 1
+        parent = branches[b.parent]
+        v = int(b.parent_vertex)
+        furcation_at[b.parent][v] = True
+        fur_rows.append((b.parent, v, ci))
+    feats, labels = [], []
+    for bi, b in enumerate(branches):
+        va = vertex_angles(b.points)
+        feats.append(_vertex_features(va, b.thickness, k, furcation_at[bi]))
+        labels.append(furcation_at[bi])
+    feats = np.concatenate(feats)
+    labels = np.concatenate(labels)
+    feat_mean = feats.mean(axis=0)
+    feat_scale = feats.std(axis=0) + 1e-6
+    svm_w, svm_b, platt = None, 0.0, (0.0, 0.0)
+    if labels.any() and not labels.all():
+        from sklearn.linear_model import LogisticRegression
+        from sklearn.svm import LinearSVC
+
+        standard = (feats - feat_mean) / feat_scale
+        clf = LinearSVC(C=1.0, class_weight="balanced", max_iter=5000, random_state=0)
+        clf.fit(standard, labels)
+        svm_w, svm_b = clf.coef_[0].copy(), float(clf.intercept_[0])
+        # Platt scaling of the margin into a probability on the true class balance: summed
+        # over a branch it is the expected number of furcations, which gives d (§4.3)
+        margin = (standard @ svm_w + svm_b)[:, None]
+        lr = LogisticRegression(C=100.0).fit(margin, labels)
+        platt = (float(lr.coef_[0, 0]), float(lr.intercept_[0]))
+
+    nb_a, nb_r, b_ang, c_thick, c_first, c_len = [], [], [], [], [], []
+    for pi, v, ci in fur_rows:
+        parent = branches[pi]
+        va = vertex_angles(parent.points)
+        idx = np.clip(np.arange(v - k, v + k + 1), 0, len(va) - 1)
+        nb_a.append(va[idx])
+        nb_r.append(parent.thickness[idx])
+        child = branches[ci]
+        d = child.points[1, :2] - child.points[0, :2]
+        b_ang.append(float(_wrap(np.arctan2(d[1], d[0]) - _tangent(parent.points, v))))
+        c_thick.append(float(child.points[0, 2]))
+        c_first.append(first_index[ci])
+        c_len.append(max(len(child.points) - 2, 0))
+    furcations = Furcations(
+        np.asarray(nb_a).reshape(-1, 2 * k + 1), np.asarray(nb_r).reshape(-1, 2 * k + 1),
+        np.asarray(b_ang, float), np.asarray(c_thick, float), np.asarray(c_first, int),
+        np.asarray(c_len, int))
+
+    roots = [i for i, b in enumerate(branches) if first_index[i] >= 0]
+    root_heading = np.array([np.arctan2(*(branches[i].points[1, 1::-1] - branches[i].points[0, 1::-1]))
+                             for i in roots])
+    root_first = np.array([first_index[i] for i in roots], int)
+    root_thickness = np.array([branches[i].points[0, 2] for i in roots])
+
+    join_angles = []
+    for b in branches:
+        if b.joins is None:
+            continue
+        target = branches[b.joins]
+        d = b.points[-1, :2] - b.points[-2, :2]
+        inc = abs(_wrap(np.arctan2(d[1], d[0]) - _tangent(target.points, int(b.join_vertex))))
+        join_angles.append(min(inc, np.pi - inc))
+    free_ends = _free_ends(branches, source.width, source.height)
+    n_joins = sum(b.joins is not None for b in branches)
+    join_rate = n_joins / max(n_joins + free_ends, 1)
+
+    area = float(source.width * source.height)
+    length = float(sum(b.length() for b in branches))
+    junctions = sum((b.parent is not None) + (b.joins is not None) for b in branches)
+    rho = _spread(branches, source.width, source.height)
+    return BranchModel(
+        options, h, flat_a, flat_r, np.concatenate(element_end), np.asarray(starts, int), np.asarray(ends, int),
+        np.asarray(joined, bool), a_edges, r_edges, a_hist, r_hist, svm_w, svm_b, platt, feat_mean,
+        feat_scale, children, furcations, root_heading, root_first, root_thickness,
+        float(join_rate), np.array([b.length() for b in branches]),
+        np.array([b.parent is None for b in branches]), np.array([b.joins is not None for b in branches]),
+        sum(b.parent is None for b in branches) / max(length, 1e-9),
+        n_joins / max(length, 1e-9), np.asarray(join_angles, float), length / area, junctions / area, rho,
+        meta={"source_length": length, "branches": len(branches), "vertices": int(sum(len(b.points) for b in branches)),
+              "furcations": len(fur_rows), "merges": n_joins})
+
+
+def _remap_vertex(branch: Branch, vertex: int, step: float) -> int:
+    seg = np.hypot(*np.diff(branch.xy, axis=0).T)
+    s = float(np.concatenate([[0.0], np.cumsum(seg)])[vertex])
+    n = len(resample_polyline(branch.points, step))
+    return int(min(round(s / step), n - 1))
+
+
+def _free_ends(branches: list[Branch], width: int, height: int, margin: float = 3.0) -> int:
+    """Branch ends that neither join another branch nor leave the image (they stop freely)."""
+    count = 0
+    for b in branches:
+        if b.joins is not None:
+            continue
+        x, y = b.points[-1, :2]
+        if margin <= x <= width - 1 - margin and margin <= y <= height - 1 - margin:
+            count += 1
+    return count
+
+
+def _spread(branches: list[Branch], width: int, height: int) -> float:
+    """Space-colonisation ``rho`` (§4.4): half the median distance from a pixel to the nearest
+    branch of the source, i.e. how close branches come to each other in the example."""
+    import cv2
+
+    canvas = np.full((height, width), 255, np.uint8)
+    for b in branches:
+        pts = np.round(b.xy).astype(np.int32)
+        cv2.polylines(canvas, [pts], False, 0, 1)
+    dist = cv2.distanceTransform(canvas, cv2.DIST_L2, 5)
+    return float(max(np.median(dist[canvas > 0]) * 0.5, 1.5))
+
+
+def histogram(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """Normalised histogram; values outside the edges count in the end bins."""
+    b = len(edges) - 1
+    if len(values) == 0:
+        return np.zeros(b)
+    idx = np.clip(np.searchsorted(edges, values, side="right") - 1, 0, b - 1)
+    counts = np.bincount(idx, minlength=b).astype(np.float64)
+    return counts / counts.sum()
+
+
+def quality(history: np.ndarray, candidates: np.ndarray) -> np.ndarray:
+    """``dist(X, Y) = 1 / (||X - Y|| + 1) + 1`` of sibbing2010 §4.2, one row per candidate."""
+    return 1.0 / (np.linalg.norm(candidates - history[None, :], axis=1) + 1.0) + 1.0
+
+
+def furcation_base(model: BranchModel, points: np.ndarray) -> np.ndarray:
+    """The part of every vertex's classifier margin that does not depend on where the other
+    furcations are (the neighbourhood's angles and thicknesses)."""
+    if model.svm_w is None:
+        return np.full(len(points), -np.inf)
+    n = 2 * (2 * model.options.k + 1)
+    f = _neighbourhoods(vertex_angles(points), points[:, 2], model.options.k)
+    return ((f - model.feat_mean[:n]) / model.feat_scale[:n]) @ model.svm_w[:n] + model.svm_b
+
+
+def furcation_scores(model: BranchModel, base: np.ndarray, furcation_at: np.ndarray) -> np.ndarray:
+    """Signed distance of every vertex of a branch to the furcation classifier's hyperplane
+    (§4.3), given :func:`furcation_base` and the furcations chosen so far."""
+    if model.svm_w is None:
+        return base
+    f = _furcation_distances(furcation_at)
+    return base + ((f - model.feat_mean[-2:]) / model.feat_scale[-2:]) @ model.svm_w[-2:]

@@ -1,0 +1,188 @@
+"""Branching structures (sibbing2010 §4): structure files, the statistical model, growth with
+merges, guidance, and the `barkgen branches` commands' bad-input handling."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import SHARED, _need_shared
+
+from barkgen.branching import Branch, Structure
+from barkgen.branching.extract import extract_structure
+from barkgen.branching.grow import GrowOptions, grow_structure
+from barkgen.branching.model import fit_model
+from barkgen.branching.stats import compare_structures, comparison_plot, self_intersections
+from barkgen.errors import InvalidInputError
+from barkgen.io import read_image, write_png
+from barkgen.io.branches import encode_structure, read_structure
+
+DATA = SHARED / "data"
+
+
+def run(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "barkgen", *args], capture_output=True, text=True, timeout=600)
+
+
+@pytest.fixture(scope="module")
+def mud_source() -> Structure:
+    _need_shared()
+    return extract_structure(read_image(DATA / "branching" / "dried_mud_02.jpg"))
+
+
+@pytest.fixture(scope="module")
+def mud_grown(mud_source) -> Structure:
+    return grow_structure(fit_model(mud_source), (512, 512), seed=3)
+
+
+def test_structure_file_round_trip(tmp_path, mud_source):
+    path = tmp_path / "src.json"
+    path.write_bytes(encode_structure(mud_source))
+    back = read_structure(path)
+    assert back.size == mud_source.size and back.step == mud_source.step
+    assert len(back.branches) == len(mud_source.branches)
+    for a, b in zip(back.branches, mud_source.branches):
+        assert (a.parent, a.parent_vertex, a.joins, a.join_vertex) == (b.parent, b.parent_vertex, b.joins, b.join_vertex)
+        np.testing.assert_allclose(a.points, b.points, atol=1e-3)
+    data = json.loads(path.read_text())
+    assert data["version"] == 1 and data["size"] == [512, 512]
+
+
+@pytest.mark.parametrize("text, message", [
+    ("{", "malformed JSON"),
+    ("", "empty"),
+    ('{"version": 1, "step": 2, "size": [64, 64], "branches": []}', "empty (no branches)"),
+    ('{"version": 2, "step": 2, "size": [64, 64], "branches": []}', "version must be 1"),
+    ('{"version": 1, "step": 2, "size": [64, 64], "branches": [{"parent": 3, "parent_vertex": 0, '
+     '"points": [[1, 1, 1], [5, 5, 1]]}]}', "parent 3 is not another branch"),
+    ('{"version": 1, "step": 2, "size": [64, 64], "branches": [{"parent": null, "parent_vertex": null, '
+     '"points": [[1, 1, 1]]}]}', "at least two"),
+])
+def test_bad_structure_files_are_one_clear_line(tmp_path, text, message):
+    path = tmp_path / "bad.json"
+    path.write_text(text)
+    with pytest.raises(InvalidInputError, match=message.replace("(", r"\(").replace(")", r"\)")):
+        read_structure(path)
+
+
+def test_grown_structure_matches_the_source_statistics(mud_source, mud_grown):
+    """sibbing2010 Fig. 7 as numbers: angle and thickness histograms (B = 16) within L1 0.3, no
+    crossings except recorded merges, junctions per area within 30 % for this merging network,
+    and about the source's skeleton length per pixel."""
+    mud_grown.validate()
+    cmp = compare_structures(mud_source, mud_grown)
+    assert cmp.angle_l1 <= 0.3 and cmp.thickness_l1 <= 0.3, cmp.as_dict()
+    assert self_intersections(mud_grown) == 0
+    assert sum(b.joins is not None for b in mud_grown.branches) > 0.2 * sum(
+        b.joins is not None for b in mud_source.branches) * 1.0  # 512² output, same area as source
+    ratio = cmp.target_junction_density / cmp.source_junction_density
+    assert 0.7 <= ratio <= 1.3, cmp.as_dict()
+    assert cmp.target_length_density == pytest.approx(cmp.source_length_density, rel=0.15)
+    plot = comparison_plot(cmp)
+    assert plot.shape == (360, 960, 3) and plot.std() > 10
+
+
+def test_the_model_beats_a_random_walk(mud_source, mud_grown):
+    """A walk with Gaussian turns of the source's spread and a constant thickness: the Markov
+    model with histogram matching must be closer to the source's histograms."""
+    rng = np.random.default_rng(0)
+    from barkgen.branching.stats import structure_values
+
+    angles, thickness = structure_values(mud_source)
+    branches = []
+    for _ in range(200):
+        th = rng.uniform(-np.pi, np.pi)
+        xy = [rng.uniform(0, 511, 2)]
+        for _ in range(20):
+            th += rng.normal(0, angles.std())
+            xy.append(xy[-1] + mud_source.step * np.array([np.cos(th), np.sin(th)]))
+        pts = np.column_stack([np.asarray(xy), np.full(len(xy), thickness.mean())])
+        branches.append(Branch(pts))
+    walk = Structure(mud_source.step, (512, 512), branches)
+    cmp_model = compare_structures(mud_source, mud_grown)
+    cmp_walk = compare_structures(mud_source, walk)
+    assert cmp_model.angle_l1 < cmp_walk.angle_l1
+    assert cmp_model.thickness_l1 < cmp_walk.thickness_l1
+
+
+def test_growth_is_reproducible_from_the_seed(mud_source):
+    model = fit_model(mud_source)
+    a = encode_structure(grow_structure(model, (256, 192), seed=5))
+    b = encode_structure(grow_structure(model, (256, 192), seed=5))
+    c = encode_structure(grow_structure(model, (256, 192), seed=6))
+    assert a == b and a != c
+    assert json.loads(a)["size"] == [256, 192]
+
+
+def test_a_guide_map_draws_the_branches_into_its_valley(mud_source):
+    """sibbing2010 §4.5: G = 1 except a smooth dark valley; the branches follow it."""
+    w, h = 384, 256
+    x = np.arange(w)[None, :].repeat(h, 0)
+    guide = 1.0 - np.exp(-((x - w / 2) ** 2) / (2 * 24.0 ** 2))
+    valley = np.abs(x - w / 2) < 48
+    model = fit_model(mud_source)
+    grown = grow_structure(model, (w, h), seed=1, guide=guide.astype(np.float32),
+                           options=GrowOptions(total_length=model.length_density * w * h * 0.3))
+    pts = np.concatenate([b.xy for b in grown.branches])
+    inside = valley[np.clip(pts[:, 1].round().astype(int), 0, h - 1), np.clip(pts[:, 0].round().astype(int), 0, w - 1)]
+    assert inside.mean() > 2 * valley.mean(), inside.mean()
+    with pytest.raises(InvalidInputError, match="same size"):
+        grow_structure(model, (w, h), guide=guide[:, :-1])
+
+
+def test_growth_stops_at_the_requested_length(mud_source):
+    grown = grow_structure(fit_model(mud_source), (512, 512), seed=0, options=GrowOptions(total_length=800))
+    assert 800 <= grown.total_length() < 800 + 400
+
+
+def test_branches_cli_bad_input_is_one_line_and_writes_nothing(tmp_path, mud_source):
+    src = tmp_path / "src.json"
+    src.write_bytes(encode_structure(mud_source))
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"version": 1, "step": 2, "size": [64, 64], "branches": [')
+    empty = tmp_path / "empty.json"
+    empty.write_text('{"version": 1, "step": 2, "size": [64, 64], "branches": []}')
+    flat = tmp_path / "flat.png"
+    write_png(flat, np.full((128, 128, 3), 128, np.uint8))
+    small_guide = tmp_path / "guide.png"
+    write_png(small_guide, np.zeros((64, 64), np.uint8))
+    out = tmp_path / "out.json"
+    cases = [
+        (("branches", "grow", str(bad), "-o", str(out), "--quiet"), "malformed JSON"),
+        (("branches", "grow", str(empty), "-o", str(out), "--quiet"), "empty"),
+        (("branches", "grow", str(src), "-o", str(out), "--size", "128x128", "--guide", str(small_guide),
+          "--quiet"), "same size"),
+        (("branches", "grow", str(src), "-o", str(out), "--size", "0x128"), "positive"),
+        (("branches", "extract", str(flat), "-o", str(out), "--quiet"), "no cracks"),
+        (("branches", "stats", str(src), str(bad)), "malformed JSON"),
+        (("branches", "grow", str(tmp_path / "missing.json"), "-o", str(out)), "no such file"),
+    ]
+    for args, message in cases:
+        r = run(*args)
+        assert r.returncode == 2, (args, r.stderr)
+        lines = r.stderr.strip().splitlines()
+        assert len(lines) == 1 and message in lines[0], (args, r.stderr)
+        assert "Traceback" not in r.stderr
+        assert not out.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["src.json", "bad.json", "empty.json", "flat.png",
+                                                                 "guide.png"])
+
+
+def test_branches_cli_extract_grow_stats(tmp_path):
+    _need_shared()
+    image = DATA / "branching" / "mud_crackle_gray_01.png"
+    src, dst, preview = tmp_path / "src.json", tmp_path / "dst.json", tmp_path / "preview.png"
+    r = run("branches", "extract", str(image), "-o", str(src), "--preview", str(preview), "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert read_image(preview).shape == (512, 512, 3)
+    r = run("branches", "grow", str(src), "-o", str(dst), "--size", "320x256", "--seed", "2", "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert read_structure(dst).size == (320, 256)
+    r = run("branches", "stats", str(src), str(dst))
+    assert r.returncode == 0, r.stderr
+    assert "L1 angle" in r.stdout and "thickness" in r.stdout
+    assert read_image(tmp_path / "dst_stats.png").shape == (360, 960, 3)
