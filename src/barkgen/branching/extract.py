@@ -834,11 +834,11 @@ def overlay_structure(image: np.ndarray, structure: Structure) -> np.ndarray:
     import cv2
 
     rgb = _check_image(image)
-    base = (rgb * 0.55 * 255).astype(np.uint8)
+    base = (rgb * 0.7 * 255).astype(np.uint8)
     h, w = base.shape[:2]
     cols = _palette(len(structure.branches))
     band = np.zeros_like(base)
-    line = max(1, int(round(min(h, w) / 400)))
+    line = max(1, int(round(min(h, w) / 512)))
     for i, b in enumerate(structure.branches):
         col = tuple(int(v) for v in cols[i])
         p = b.points
@@ -847,12 +847,12 @@ def overlay_structure(image: np.ndarray, structure: Structure) -> np.ndarray:
             a = (int(round(p[j, 0] * 16)), int(round(p[j, 1] * 16)))
             c = (int(round(p[j + 1, 0] * 16)), int(round(p[j + 1, 1] * 16)))
             cv2.line(band, a, c, col, max(1, int(round(2 * rad))), cv2.LINE_AA, 4)
-    out = cv2.addWeighted(base, 1.0, band, 0.3, 0)
+    out = cv2.addWeighted(base, 1.0, band, 0.25, 0)
     for i, b in enumerate(structure.branches):
         col = tuple(int(v) for v in cols[i])
         pts = np.round(b.xy * 16).astype(np.int32).reshape(-1, 1, 2)
-        cv2.polylines(out, [pts], False, col, line + 1, cv2.LINE_AA, 4)
-    dot = line + 2
+        cv2.polylines(out, [pts], False, col, line, cv2.LINE_AA, 4)
+    dot = line + 1
     for b in structure.branches:
         if b.parent is not None:
             x, y = structure.branches[b.parent].xy[b.parent_vertex]
