@@ -72,6 +72,37 @@ def _lookup(arr, x, y, outside):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
+def _contact(dist, near_branch, x, y, r, step, branch, parent, sx, sy, exempt):  # pragma: no cover - compiled
+    """(inside the image, touches a committed branch) for a new vertex of thickness ``r``: the
+    vertices of one branch are ``step`` apart, so bodies closer than ``r + 0.75 step`` touch;
+    a branch never touches itself and a child may touch its parent within ``exempt`` of the
+    furcation it starts from (sx, sy)."""
+    d, inside = _lookup(dist, x, y, np.float32(1e6))
+    if not inside:
+        return False, False
+    nb, _ = _lookup(near_branch, x, y, np.int32(-1))
+    if nb == branch:
+        return True, False
+    if nb == parent and np.sqrt((x - sx) ** 2 + (y - sy) ** 2) <= exempt:
+        return True, False
+    return True, d < r + 0.75 * step
+
+
+@njit(cache=True)
+def first_contacts(dist, near_branch, xs, ys, rs, step, branch, parent, sx, sy, exempt):  # pragma: no cover - compiled
+    """(first vertex touching a committed branch, first vertex outside the image) along one
+    path of vertices; -1 where there is none. See :func:`_contact`."""
+    first_hit = -1
+    for j in range(xs.shape[0]):
+        inside, touch = _contact(dist, near_branch, xs[j], ys[j], rs[j], step, branch, parent, sx, sy, exempt)
+        if not inside:
+            return first_hit, j
+        if touch and first_hit < 0:
+            first_hit = j
+    return first_hit, -1
+
+
+@njit(cache=True)
 def extension_candidates(qual, hist_a, hist_r, ha, hr, history_start, branch_end, angles, thickness,
                          k, m, a_edges, r_edges, a_counts, r_counts, a_target, r_target, n_t, omega_g,
                          x0, y0, theta, step, dist, near_branch, branch, parent, sx, sy, exempt,
@@ -176,19 +207,12 @@ def extension_candidates(qual, hist_a, hist_r, ha, hr, history_start, branch_end
             xs[t, j] = hx
             ys[t, j] = hy
             heads[t, j] = hd
-            d, inside = _lookup(dist, hx, hy, np.float32(1e6))
+            inside, touch = _contact(dist, near_branch, hx, hy, thk[t, j], step, branch, parent, sx, sy, exempt)
             if not inside:
                 if first_out[t] < 0:
                     first_out[t] = j
                 continue
-            if first_hit[t] >= 0 or first_out[t] >= 0:
-                continue
-            nb, _ = _lookup(near_branch, hx, hy, np.int32(-1))
-            if nb == branch:
-                continue
-            if nb == parent and np.sqrt((hx - sx) ** 2 + (hy - sy) ** 2) <= exempt:
-                continue
-            if d < thk[t, j] + 0.75 * step:
+            if first_hit[t] < 0 and first_out[t] < 0 and touch:
                 first_hit[t] = j
         # density along the chord (or the current heading for an ending candidate)
         if n_el > 0:

@@ -220,19 +220,14 @@ class _Grower:
         ys = y0 + self.step * np.cumsum(np.sin(headings), axis=-1)
         return xs, ys, headings
 
-    def _hits(self, xs, ys, rs, start, exempt, b):
-        """First index of each row whose vertex touches a committed branch (-1: none), and the
-        first index that leaves the image (-1: none)."""
-        d, inside = self.sample(self.dist, xs, ys, np.float32(1e6))
-        nb, _ = self.sample(self.near_branch, xs, ys, np.int32(-1))
-        # a child may touch its parent only around the furcation it starts from
+    def _hits(self, xs, ys, rs, start, exempt, b) -> tuple[int, int]:
+        """First vertex of the path that touches a committed branch and first that leaves the
+        image (-1: none)."""
         parent = self.branches[b].parent
-        far = (np.hypot(xs - start[0], ys - start[1]) > exempt) | (nb != (-2 if parent is None else parent))
-        touch = (d < rs + 0.75 * self.step) & far & inside & (nb != b)
-        first_hit = np.where(touch.any(axis=-1), touch.argmax(axis=-1), -1)
-        out = ~inside
-        first_out = np.where(out.any(axis=-1), out.argmax(axis=-1), -1)
-        return first_hit, first_out
+        return K.first_contacts(self.dist, self.near_branch, np.ascontiguousarray(xs, np.float64),
+                                np.ascontiguousarray(ys, np.float64), np.ascontiguousarray(rs, np.float64),
+                                self.step, b, -2 if parent is None else parent, float(start[0]),
+                                float(start[1]), float(exempt))
 
     def _append(self, tip: "_Tip", elements, start, exempt, b):
         """Append element rows (L, 2) outside the Markov step (a copied initial segment); stops
@@ -242,13 +237,13 @@ class _Grower:
         xs, ys, headings = self._geometry(x0, y0, tip.theta, elements[:, 0])
         n = len(elements)
         hit = None
-        first_hit, first_out = self._hits(xs[None], ys[None], elements[None, :, 1], start, exempt, b)
-        if first_hit[0] >= 0 and (first_out[0] < 0 or first_hit[0] < first_out[0]):
-            n = int(first_hit[0])
+        first_hit, first_out = self._hits(xs, ys, elements[:, 1], start, exempt, b)
+        if first_hit >= 0:
+            n = first_hit
             hit = (n, xs[n], ys[n], headings[n])
         keep = hit is None
-        if 0 <= first_out[0] < n:
-            n, hit, keep = int(first_out[0]), None, False
+        if 0 <= first_out < n:
+            n, hit, keep = first_out, None, False
         self._push(tip, elements, xs, ys, headings, n)
         return keep and n > 0, hit
 
@@ -347,9 +342,8 @@ class _Grower:
         t = self.step * np.arange(1, n + 1)
         xs = x0 + np.cos(tip.theta) * t
         ys = y0 + np.sin(tip.theta) * t
-        first_hit, first_out = self._hits(xs[None], ys[None], np.full((1, n), r), start, exempt, b)
-        j = int(first_hit[0])
-        if j < 0 or (0 <= first_out[0] < j):
+        j, _ = self._hits(xs, ys, np.full(n, r), start, exempt, b)
+        if j < 0:
             return
         tip.xyr[tip.n:tip.n + j] = np.stack([xs[:j], ys[:j], np.full(j, r)], axis=1)
         tip.n += j
@@ -364,13 +358,13 @@ class _Grower:
         branch = self.branches[b]
         p = branch.points
         n = len(p)
-        if model.svm_w is None or n < 2 * k + 3 or len(model.furcations.branch_angle) == 0:
+        if model.svm_w is None or n < 3 or len(model.furcations.branch_angle) == 0:
             return []
         marks = np.zeros(n, bool)
         block = max(k, int(np.ceil(2 * self.r_max / self.step)) + 1)
         allowed = np.ones(n, bool)
-        allowed[:k] = False
-        allowed[n - k:] = False
+        allowed[:1] = False  # the branch's own ends: its furcation and its end point
+        allowed[n - 1:] = False
         if branch.joins is not None:
             allowed[n - block:] = False
         base = furcation_base(model, p)
