@@ -176,9 +176,14 @@ def test_branches_cli_extract_grow_stats(tmp_path):
     _need_shared()
     image = DATA / "branching" / "mud_crackle_gray_01.png"
     src, dst, preview = tmp_path / "src.json", tmp_path / "dst.json", tmp_path / "preview.png"
-    r = run("branches", "extract", str(image), "-o", str(src), "--preview", str(preview), "--quiet")
+    fissures = tmp_path / "fissures.png"
+    r = run("branches", "extract", str(image), "-o", str(src), "--preview", str(preview), "--labels-out",
+            str(fissures), "--quiet")
     assert r.returncode == 0, r.stderr
     assert read_image(preview).shape == (512, 512, 3)
+    labels = read_image(fissures)
+    assert labels.shape[:2] == (512, 512) and set(np.unique(labels)) == {0, 255}
+    assert 0.02 < (labels > 0).mean() < 0.3
     r = run("branches", "grow", str(src), "-o", str(dst), "--size", "320x256", "--seed", "2", "--quiet")
     assert r.returncode == 0, r.stderr
     assert read_structure(dst).size == (320, 256)

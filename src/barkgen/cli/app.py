@@ -1037,6 +1037,9 @@ def branches_extract_command(
         "--step", help="Resampling step h in pixels (default: from the crack width).")] = None,
     preview: Annotated[Optional[Path], typer.Option(
         "--preview", help="Also write a PNG of the structure drawn over the image.")] = None,
+    labels_out: Annotated[Optional[Path], typer.Option(
+        "--labels-out", help="Also write the image's fissure label map (white cracks on black), "
+        "the exemplar labels for texture-by-numbers with a rendered --labels-out as target.")] = None,
     quiet: QuietOption = False,
 ) -> None:
     """Extract the crack network of an image as a structure (skeleton graph with thickness)."""
@@ -1047,6 +1050,8 @@ def branches_extract_command(
     _check_json_target(output, "output")
     if preview is not None:
         _check_png_target(preview, "preview")
+    if labels_out is not None:
+        _check_png_target(labels_out, "--labels-out")
     if step is not None and not 0.25 <= step <= 64:
         raise InvalidInputError(f"--step must be in [0.25, 64] pixels, got {step}")
     image = read_image(image_path)
@@ -1058,6 +1063,10 @@ def branches_extract_command(
     files = {output: encode_structure(structure)}
     if preview is not None:
         files[preview] = encode_png(overlay_structure(image, structure))
+    if labels_out is not None:
+        from barkgen.branching import rasterize
+
+        files[labels_out] = encode_png(rasterize(structure).astype(np.uint8) * 255)
     _write_outputs(files)
     if not quiet:
         typer.echo(f"wrote {output}: {len(structure.branches)} branches, "
