@@ -1,5 +1,20 @@
-"""Branching structures (sibbing2010): extract crack networks, grow new ones, render them."""
+"""Branching structures (sibbing2010): extract crack networks, grow new ones, render them.
 
+- :mod:`~barkgen.branching.structure`: the data model (polylines with thickness, furcations,
+  merges) and its JSON form (§3, §4.1);
+- :mod:`~barkgen.branching.extract`: the crack network of an image, automatically;
+- :mod:`~barkgen.branching.model` and :mod:`~barkgen.branching.grow`: the statistical model and
+  growth (§4) with merges;
+- :mod:`~barkgen.branching.render`: fragment-based image synthesis (§5) with the gaps filled by
+  the core engine;
+- :mod:`~barkgen.branching.stats`: the Fig. 7 evaluation as numbers and a plot.
+"""
+
+from barkgen.branching.extract import crack_mask, extract_structure, overlay_structure
+from barkgen.branching.grow import GrowOptions, grow_structure
+from barkgen.branching.model import BranchModel, ModelOptions, fit_model
+from barkgen.branching.render import RenderOptions, RenderResult, render_branches
+from barkgen.branching.stats import StructureComparison, compare_structures, comparison_plot, self_intersections
 from barkgen.branching.structure import (
     STRUCTURE_VERSION,
     Branch,
@@ -12,8 +27,23 @@ from barkgen.branching.structure import (
 __all__ = [
     "STRUCTURE_VERSION",
     "Branch",
+    "BranchModel",
+    "GrowOptions",
+    "ModelOptions",
+    "RenderOptions",
+    "RenderResult",
     "Structure",
+    "StructureComparison",
+    "compare_structures",
+    "comparison_plot",
+    "crack_mask",
+    "extract_structure",
+    "fit_model",
+    "grow_structure",
+    "overlay_structure",
     "rasterize",
+    "render_branches",
     "resample_polyline",
+    "self_intersections",
     "turning_angles",
 ]

@@ -148,45 +148,49 @@ class _Grower:
                                  else 0.0, float(start[2]), self.step)
         lag = int(np.ceil((2 * self.r_max + 2.0) / self.step)) + 1
         committed = 0
-        ended = False
+        # how the branch ends: "free" (its source branch ended, no candidate, its length),
+        # "joins" (on another branch), "merge" (it ended on one), "border" (left the image)
+        end = None
         # the initial segment: copied elements (a root's or the furcation's child start)
         if len(first_elements):
             ok, hit = self._append(tip, first_elements, start, exempt, b)
             if hit is not None:
-                ended = True
+                end = "hit"
                 if self._accept_join(hit[1], hit[2], hit[3]):
                     self._snap(tip, hit[1], hit[2], branch)
+                    end = "merge"
             elif not ok:
-                ended = True
-        while not ended and tip.n < limit:
+                end = "border"
+        while end is None and tip.n < limit:
             self._tip_n = tip.n
             choice = self._choose(tip, start, exempt, b)
             if choice is None:
-                break
-            kind, payload = choice
-            if kind == "end":
-                if payload and self.rng.random() < self.merge_rate():
-                    self._reach(tip, start, exempt, b, branch)
-                break
-            if kind == "join":
-                elements, xs, ys, heads, j = payload
+                end = "free"
+            elif choice[0] == "end":
+                end = "joins" if choice[1] else "free"
+            elif choice[0] == "join":
+                elements, xs, ys, heads, j = choice[1]
                 self._push(tip, elements, xs, ys, heads, j)
                 self._snap(tip, xs[j], ys[j], branch)
-                break
-            elements, xs, ys, heads, n_in, ends, source_joined = payload
-            self._push(tip, elements, xs, ys, heads, n_in)
-            if n_in < len(elements):  # left the image
-                break
-            if ends:
-                if source_joined and self.rng.random() < self.merge_rate():
-                    self._reach(tip, start, exempt, b, branch)
-                break
-            if tip.n - lag > committed:
-                branch.points = tip.points()
-                self.commit(b, committed)
-                committed = tip.n - lag
-        else:
-            if not ended and tip.n >= limit and wants_join and self.rng.random() < self.merge_rate():
+                end = "merge"
+            else:
+                elements, xs, ys, heads, n_in, ends, source_joined = choice[1]
+                self._push(tip, elements, xs, ys, heads, n_in)
+                if n_in < len(elements):
+                    end = "border"
+                elif ends:
+                    end = "joins" if source_joined else "free"
+                elif tip.n - lag > committed:
+                    branch.points = tip.points()
+                    self.commit(b, committed)
+                    committed = tip.n - lag
+        if end is None:  # reached the length of its source branch
+            end = "joins" if wants_join else "free"
+        # a branch that stops in the open reaches forward to end on a branch: always when its
+        # source branch did, else while the structure has fewer merges than the source's rate
+        if end in ("joins", "free") and tip.n >= 2:
+            rate = self.merge_rate()
+            if self.rng.random() < (rate if end == "joins" else rate * (rate >= 1.0)):
                 self._reach(tip, start, exempt, b, branch)
         self._tip_n = 0
         branch.points = tip.points()

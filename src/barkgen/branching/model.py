@@ -92,7 +92,7 @@ class BranchModel:
     branch_length: np.ndarray   # (B,) arc length of every source branch
     branch_is_root: np.ndarray  # (B,) it starts no furcation
     branch_joined: np.ndarray   # (B,) it ends on another branch
-    roots_per_length: float     # separate networks (roots) per pixel of skeleton length
+    roots_per_length: float     # separate networks per pixel of skeleton length
     merges_per_length: float    # merges per pixel of skeleton length
     join_angles: np.ndarray     # incidence angles (radians in [0, pi/2]) of the source's merges
     length_density: float       # skeleton length per pixel of the source
@@ -290,10 +290,27 @@ def fit_model(source: Structure, options: ModelOptions | None = None) -> BranchM
         feat_scale, children, furcations, root_heading, root_first, root_thickness,
         float(join_rate), np.array([b.length() for b in branches]),
         np.array([b.parent is None for b in branches]), np.array([b.joins is not None for b in branches]),
-        sum(b.parent is None for b in branches) / max(length, 1e-9),
+        _networks(branches) / max(length, 1e-9),
         n_joins / max(length, 1e-9), np.asarray(join_angles, float), length / area, junctions / area, rho,
         meta={"source_length": length, "branches": len(branches), "vertices": int(sum(len(b.points) for b in branches)),
               "furcations": len(fur_rows), "merges": n_joins})
+
+
+def _networks(branches: list[Branch]) -> int:
+    """Number of connected networks (branches linked by furcations or merges)."""
+    root = list(range(len(branches)))
+
+    def find(i: int) -> int:
+        while root[i] != i:
+            root[i] = root[root[i]]
+            i = root[i]
+        return i
+
+    for i, b in enumerate(branches):
+        for j in (b.parent, b.joins):
+            if j is not None:
+                root[find(i)] = find(j)
+    return len({find(i) for i in range(len(branches))})
 
 
 def _remap_vertex(branch: Branch, vertex: int, step: float) -> int:
