@@ -1,26 +1,229 @@
-"""Numba kernels of the fragment composition (sibbing2010 §5.3): per-pixel distances to a
-fragment's skeleton and the harmonic colour offset of the photometric correction."""
+"""Numba kernels of the fragment-based synthesis (sibbing2010 §5.2-5.3): colour costs of the
+candidates, the smooth displacement field, source sampling, the graph-cut set-up and the
+harmonic colour offset of the photometric correction."""
 
 from __future__ import annotations
 
 import numba as nb
 import numpy as np
 
+#: the photometric correction works on log(value + LOG_BIAS): a gain, not an offset, so that a
+#: dark crack keeps its depth when the background around it is lifted or lowered
+LOG_BIAS = 8.0
+#: seam differences are clipped to +-LOG_CLIP (log units) before they are interpolated: the
+#: correction is for the colour shift between fragments, not for the pixel noise of the texture
+#: (whose outliers, a dark speck on one side of the seam, would otherwise tint the fragment)
+LOG_CLIP = 0.5
+
+
+@nb.njit(inline="always")
+def _window_mean(values, fixed, i, j, r, acc):
+    """Mean of ``values`` over the fixed pixels within ``r`` of ``(i, j)`` into ``acc``."""
+    h, w, c = values.shape
+    acc[:] = 0.0
+    n = 0
+    for ii in range(max(i - r, 0), min(i + r + 1, h)):
+        for jj in range(max(j - r, 0), min(j + r + 1, w)):
+            if fixed[ii, jj]:
+                for ch in range(c):
+                    acc[ch] += values[ii, jj, ch]
+                n += 1
+    for ch in range(c):
+        acc[ch] /= max(n, 1)
+
 
 @nb.njit(cache=True)
-def crack_distance(xs, ys, px, py, pt, ok):
-    """Signed distance of the points ``(xs, ys)`` (two float arrays of one 2-D shape) to the
-    edge of a crack.
+def harmonic_offset(inside, fixed, boundary, tol, max_iter, smooth):
+    """Harmonic interpolation of a colour offset (Poisson photometric correction, §5.3).
 
-    The crack is the polyline ``(px, py)`` with half-width ``pt`` per vertex (interpolated
-    along each segment); only segments whose both ends have ``ok`` count. Returns
-    ``distance to the skeleton - local half-width`` as float32 (<= 0 inside the crack);
-    +inf where no segment counts.
+    ``inside`` (h, w) bool marks the unknown pixels; a neighbour outside the region with
+    ``fixed`` holds the Dirichlet value ``boundary`` (h, w, C): the seam difference where the
+    pixel has old content, 0 where it has none (no colour shift where the fragment touches
+    nothing placed before), averaged over the fixed pixels of the ``smooth`` square window
+    around it and clipped to +-``LOG_CLIP``. A neighbour that is not fixed (a crack edge, where
+    old and new are expected to differ) and pixels outside the box are not neighbours (Neumann).
+    Solved by successive over-relaxation from the mean of the fixed values next to the region.
+    Returns the (h, w, C) offset of the region's pixels (0 elsewhere).
     """
-    h, w = xs.shape
-    out = np.full((h, w), np.inf, np.float32)
-    n = px.shape[0]
-    for s in range(n - 1):
+    h, w, c = boundary.shape
+    off = np.zeros((h, w, c), np.float32)
+    index = np.full((h, w), -1, np.int64)
+    n = 0
+    for i in range(h):
+        for j in range(w):
+            if inside[i, j]:
+                index[i, j] = n
+                n += 1
+    if n == 0:
+        return off
+    # per unknown: its unknown neighbours, its count of neighbours, the sum of its fixed ones
+    nbr = np.full((n, 4), -1, np.int64)
+    cnt = np.zeros(n, np.int64)
+    fsum = np.zeros((n, c), np.float64)
+    ys = np.empty(n, np.int64)
+    xs = np.empty(n, np.int64)
+    mean = np.zeros(c, np.float64)
+    acc = np.zeros(c, np.float64)
+    n_fixed = 0
+    for i in range(h):
+        for j in range(w):
+            t = index[i, j]
+            if t < 0:
+                continue
+            ys[t] = i
+            xs[t] = j
+            u = 0
+            for k in range(4):
+                ii = i + (1 if k == 0 else (-1 if k == 1 else 0))
+                jj = j + (1 if k == 2 else (-1 if k == 3 else 0))
+                if ii < 0 or ii >= h or jj < 0 or jj >= w:
+                    continue
+                if inside[ii, jj]:
+                    nbr[t, u] = index[ii, jj]
+                    u += 1
+                    cnt[t] += 1
+                elif fixed[ii, jj]:
+                    cnt[t] += 1
+                    n_fixed += 1
+                    _window_mean(boundary, fixed, ii, jj, smooth // 2, acc)
+                    for ch in range(c):
+                        v = min(max(acc[ch], -LOG_CLIP), LOG_CLIP)
+                        fsum[t, ch] += v
+                        mean[ch] += v
+    if n_fixed == 0:
+        return off
+    val = np.empty((n, c), np.float64)
+    for t in range(n):
+        for ch in range(c):
+            val[t, ch] = mean[ch] / n_fixed
+    # over-relaxation factor for a region of this size (optimal for a square of side sqrt(n))
+    side = max(np.sqrt(n), 2.0)
+    omega = 2.0 / (1.0 + np.sin(np.pi / (side + 1.0)))
+    inv = np.zeros(n)
+    for t in range(n):
+        if cnt[t] > 0:
+            inv[t] = omega / cnt[t]
+    for _ in range(max_iter):
+        change = 0.0
+        for t in range(n):
+            if cnt[t] == 0:
+                continue
+            f = inv[t]
+            for ch in range(c):
+                s = fsum[t, ch]
+                for k in range(4):
+                    q = nbr[t, k]
+                    if q < 0:
+                        break
+                    s += val[q, ch]
+                delta = f * s - omega * val[t, ch]
+                val[t, ch] += delta
+                if abs(delta) > change:
+                    change = abs(delta)
+        if change < tol:
+            break
+    for t in range(n):
+        for ch in range(c):
+            off[ys[t], xs[t], ch] = val[t, ch]
+    return off
+
+
+@nb.njit(cache=True)
+def source_map(x0, y0, h, w, cx, cy, zx, zy, rc, rs, field):
+    """Source coordinates of the ``h x w`` box at ``(x0, y0)``: the target pixel ``x`` reads
+    the source at ``z + R^T (x - c + d(x))`` (R = rotation ``(rc, rs)``, d the complex
+    displacement ``field``); two float32 maps for ``cv2.remap``."""
+    mapx = np.empty((h, w), np.float32)
+    mapy = np.empty((h, w), np.float32)
+    for i in range(h):
+        for j in range(w):
+            d = field[i, j]
+            ux = x0 + j - cx + d.real
+            uy = y0 + i - cy + d.imag
+            mapx[i, j] = zx + rc * ux + rs * uy
+            mapy[i, j] = zy - rs * ux + rc * uy
+    return mapx, mapy
+
+
+@nb.njit(cache=True)
+def own_distance(x0, y0, h, w, px, py, pt, ok):
+    """Distance of each pixel of the ``h x w`` box at ``(x0, y0)`` to the polyline ``(px, py)``
+    (segments whose both ends have ``ok``) and the half-width ``pt`` interpolated at the nearest
+    point (+inf and 0 where no segment counts)."""
+    dist = np.full((h, w), np.inf)
+    thick = np.zeros((h, w))
+    for s in range(px.shape[0] - 1):
+        if not (ok[s] and ok[s + 1]):
+            continue
+        ax = px[s]
+        ay = py[s]
+        dx = px[s + 1] - ax
+        dy = py[s + 1] - ay
+        ll = max(dx * dx + dy * dy, 1e-12)
+        ta = pt[s]
+        tb = pt[s + 1]
+        for i in range(h):
+            y = y0 + i
+            for j in range(w):
+                x = x0 + j
+                u = min(max(((x - ax) * dx + (y - ay) * dy) / ll, 0.0), 1.0)
+                ex = ax + u * dx - x
+                ey = ay + u * dy - y
+                d = ex * ex + ey * ey
+                if d < dist[i, j]:
+                    dist[i, j] = d
+                    thick[i, j] = ta + u * (tb - ta)
+    return np.sqrt(dist), thick
+
+
+@nb.njit(cache=True)
+def sample_nearest(src, mapx, mapy, tdist, tthick, spx, spy, spt, sok, margin):
+    """``src`` (H, W, C) float32 read at the nearest pixel of each map position (clamped).
+
+    On the fragment's own crack (pixels within the local half-width ``tthick`` + ``margin`` of
+    the target skeleton, ``tdist`` away from it) the pixel is instead the one of the 3 x 3
+    around the map position whose distance to the source polyline ``sp*`` is closest to the
+    target pixel's distance to its skeleton (ties to the nearest): the crack's dark core lands
+    on the target skeleton, not up to a pixel beside it as plain rounding (of the target's
+    raster and of the map) would put it.
+    """
+    h, w = mapx.shape
+    hs, ws, c = src.shape
+    out = np.empty((h, w, c), np.float32)
+    for i in range(h):
+        for j in range(w):
+            mx = mapx[i, j]
+            my = mapy[i, j]
+            x = min(max(int(np.floor(mx + 0.5)), 0), ws - 1)
+            y = min(max(int(np.floor(my + 0.5)), 0), hs - 1)
+            dt = tdist[i, j]
+            if dt <= tthick[i, j] + margin:
+                best = np.inf
+                bx = x
+                by = y
+                for dy in range(-1, 2):
+                    for dx in range(-1, 2):
+                        cx = min(max(x + dx, 0), ws - 1)
+                        cy = min(max(y + dy, 0), hs - 1)
+                        ds, _ = _poly_nearest(cx, cy, spx, spy, spt, sok)
+                        e = (ds - dt) * (ds - dt) + 0.25 * ((cx - mx) * (cx - mx) + (cy - my) * (cy - my))
+                        if e < best:
+                            best = e
+                            bx = cx
+                            by = cy
+                x = bx
+                y = by
+            for ch in range(c):
+                out[i, j, ch] = src[y, x, ch]
+    return out
+
+
+@nb.njit(inline="always")
+def _poly_nearest(x, y, px, py, pt, ok):
+    """Distance of ``(x, y)`` to the polyline and the half-width interpolated there."""
+    best = np.inf
+    thick = 0.0
+    for s in range(px.shape[0] - 1):
         if not (ok[s] and ok[s + 1]):
             continue
         ax = px[s]
@@ -28,97 +231,466 @@ def crack_distance(xs, ys, px, py, pt, ok):
         dx = px[s + 1] - ax
         dy = py[s + 1] - ay
         ll = dx * dx + dy * dy
-        ta = pt[s]
-        tb = pt[s + 1]
-        for i in range(h):
-            for j in range(w):
-                x = xs[i, j]
-                y = ys[i, j]
-                u = 0.0
-                if ll > 1e-12:
-                    u = ((x - ax) * dx + (y - ay) * dy) / ll
-                    if u < 0.0:
-                        u = 0.0
-                    elif u > 1.0:
-                        u = 1.0
-                ex = ax + u * dx - x
-                ey = ay + u * dy - y
-                d = np.sqrt(ex * ex + ey * ey) - (ta + u * (tb - ta))
-                if d < out[i, j]:
-                    out[i, j] = d
+        u = 0.0
+        if ll > 1e-12:
+            u = ((x - ax) * dx + (y - ay) * dy) / ll
+            u = min(max(u, 0.0), 1.0)
+        ex = ax + u * dx - x
+        ey = ay + u * dy - y
+        d = np.sqrt(ex * ex + ey * ey)
+        if d < best:
+            best = d
+            thick = pt[s] + u * (pt[s + 1] - pt[s])
+    return best, thick
+
+
+@nb.njit(inline="always")
+def _poly_distance(x, y, px, py, pt, ok):
+    best = np.inf
+    for s in range(px.shape[0] - 1):
+        if not (ok[s] and ok[s + 1]):
+            continue
+        ax = px[s]
+        ay = py[s]
+        dx = px[s + 1] - ax
+        dy = py[s + 1] - ay
+        ll = dx * dx + dy * dy
+        u = 0.0
+        if ll > 1e-12:
+            u = ((x - ax) * dx + (y - ay) * dy) / ll
+            u = min(max(u, 0.0), 1.0)
+        ex = ax + u * dx - x
+        ey = ay + u * dy - y
+        d = np.sqrt(ex * ex + ey * ey) - (pt[s] + u * (pt[s + 1] - pt[s]))
+        if d < best:
+            best = d
+    return best
+
+
+@nb.njit(cache=True)
+def seam_setup(x0, y0, new, mapx, mapy, canvas, content, coverage, tgt_cracks, src_cracks, cx, cy, radius,
+               clear, tdist, tthick, spx, spy, spt, sok, own_margin, other_margin, eps):
+    """Constraints and weights of the graph cut of one fragment (§5.3).
+
+    Per pixel of the box at ``(x0, y0)``: ``take`` (forced to the new fragment: its own crack,
+    within ``own_margin`` of its edge, ``tdist - tthick`` away, empty canvas, the cleared centre of a
+    junction within ``clear`` px), ``keep`` (forced to the old content: outside the disk, its
+    rim, other cracks of the target, source cracks that are not the fragment's own polyline
+    ``sp*``), the graph-cut weights of the edges to the right and down neighbours (the colour
+    difference new/old at both ends, 0 where nothing is placed, + ``eps``), the Poisson
+    boundary values (log ratio old / new where there is old content, else 0), whether they hold, and
+    the number of taken and of free pixels.
+    """
+    h, w, c = new.shape
+    take = np.zeros((h, w), np.bool_)
+    keep = np.zeros((h, w), np.bool_)
+    diff = np.zeros((h, w), np.float64)
+    boundary = np.zeros((h, w, c), np.float32)
+    fixed = np.ones((h, w), np.bool_)
+    hs, ws = src_cracks.shape
+    r2 = radius * radius
+    rim = (radius - 1.0) * (radius - 1.0)
+    for i in range(h):
+        y = y0 + i
+        for j in range(w):
+            x = x0 + j
+            has = content[y, x]
+            dd = (x - cx) * (x - cx) + (y - cy) * (y - cy)
+            disk = dd <= r2
+            sx = min(max(int(np.floor(mapx[i, j] + 0.5)), 0), ws - 1)
+            sy = min(max(int(np.floor(mapy[i, j] + 0.5)), 0), hs - 1)
+            foreign = False
+            if src_cracks[sy, sx]:
+                foreign = _poly_distance(mapx[i, j], mapy[i, j], spx, spy, spt, sok) > other_margin + 1
+            t_own = tdist[i, j] - tthick[i, j]
+            other = tgt_cracks[y, x] and t_own > other_margin + 1
+            tk = disk and (t_own <= own_margin or (not has and not foreign))
+            if disk and not tk and clear > 0 and dd <= clear * clear and not foreign and not other:
+                tk = True
+            take[i, j] = tk
+            keep[i, j] = has and not tk and ((not disk) or dd > rim or other or foreign)
+            # the seam difference does not hold across the edge of another crack (old and new
+            # differ by design) nor on cracks that only the fill has painted so far (lighter
+            # than the photo's: they would lift the new crack)
+            fixed[i, j] = not (has and (other or foreign or (tgt_cracks[y, x] and not coverage[y, x])))
+            if has:
+                s = 0.0
+                for ch in range(c):
+                    e = canvas[y, x, ch] - new[i, j, ch]
+                    boundary[i, j, ch] = np.log((canvas[y, x, ch] + LOG_BIAS) / (new[i, j, ch] + LOG_BIAS))
+                    s += e * e
+                diff[i, j] = np.sqrt(s)
+    # graph-cut edge weights (Kwatra et al. 2003): |new - old| at both ends, + eps
+    right = np.full((h, w), eps)
+    down = np.full((h, w), eps)
+    n_take = 0
+    n_free = 0
+    for i in range(h):
+        for j in range(w):
+            if j + 1 < w:
+                right[i, j] += diff[i, j] + diff[i, j + 1]
+            if i + 1 < h:
+                down[i, j] += diff[i, j] + diff[i + 1, j]
+            if take[i, j]:
+                n_take += 1
+            elif not keep[i, j]:
+                n_free += 1
+    return take, keep, right, down, boundary, fixed, n_take, n_free
+
+
+@nb.njit(cache=True)
+def blend(x0, y0, newmask, new, fixed, boundary, canvas, content, coverage, fragment_map, index, tol,
+          max_iter, smooth):
+    """Poisson photometric correction of the new pixels (harmonic offset of the log values, see
+    :func:`harmonic_offset`: a smooth gain) and their write into the canvas."""
+    off = harmonic_offset(newmask, fixed, boundary, tol, max_iter, smooth)
+    h, w, c = new.shape
+    for i in range(h):
+        for j in range(w):
+            if newmask[i, j]:
+                for ch in range(c):
+                    canvas[y0 + i, x0 + j, ch] = (new[i, j, ch] + LOG_BIAS) * np.exp(off[i, j, ch]) - LOG_BIAS
+                content[y0 + i, x0 + j] = True
+                coverage[y0 + i, x0 + j] = True
+                fragment_map[y0 + i, x0 + j] = index
+
+
+@nb.njit(cache=True)
+def warp_field(green, m, half, qx, qy, vx, vy, i0, i1, j0, j1):
+    """The smooth displacement of one fragment (§5.3) on rows ``i0:i1``, columns ``j0:j1`` of
+    its ``(2 half + 1)^2`` box (complex128).
+
+    ``green = (L^T L + eps I)^-1`` of the ``m x m`` grid scaled onto the box; the field on the
+    grid nodes is the minimiser of ``d^T (L^T L + eps I) d`` that interpolates the vectors
+    ``(vx, vy)`` at the points ``(qx, qy)`` (box pixel coordinates, bilinear constraints):
+    ``d = G B^T (B G B^T)^-1 v``; it is read at the pixels bilinearly.
+    """
+    k = qx.shape[0]
+    h = i1 - i0
+    w = j1 - j0
+    out = np.zeros((h, w), np.complex128)
+    if k == 0:
+        return out
+    n = m * m
+    scale = (m - 1) / (2.0 * half)
+    idx = np.empty((k, 4), np.int64)
+    wt = np.empty((k, 4), np.float64)
+    for l in range(k):
+        gx = min(max(qx[l] * scale, 0.0), m - 1 - 1e-9)
+        gy = min(max(qy[l] * scale, 0.0), m - 1 - 1e-9)
+        x0 = int(np.floor(gx))
+        y0 = int(np.floor(gy))
+        fx = gx - x0
+        fy = gy - y0
+        idx[l, 0] = y0 * m + x0
+        idx[l, 1] = y0 * m + x0 + 1
+        idx[l, 2] = (y0 + 1) * m + x0
+        idx[l, 3] = (y0 + 1) * m + x0 + 1
+        wt[l, 0] = (1 - fx) * (1 - fy)
+        wt[l, 1] = fx * (1 - fy)
+        wt[l, 2] = (1 - fx) * fy
+        wt[l, 3] = fx * fy
+    gbt = np.zeros((n, k))
+    for l in range(k):
+        for c in range(4):
+            col = idx[l, c]
+            a = wt[l, c]
+            for r in range(n):
+                gbt[r, l] += a * green[r, col]
+    bgbt = np.zeros((k, k))
+    for l in range(k):
+        for c in range(4):
+            row = idx[l, c]
+            a = wt[l, c]
+            for l2 in range(k):
+                bgbt[l, l2] += a * gbt[row, l2]
+    tr = 0.0
+    for l in range(k):
+        tr += bgbt[l, l]
+    for l in range(k):
+        bgbt[l, l] += 1e-9 * tr / k
+    rhs = np.empty((k, 2))
+    for l in range(k):
+        rhs[l, 0] = vx[l]
+        rhs[l, 1] = vy[l]
+    lam = np.linalg.solve(bgbt, rhs)
+    nodes = gbt @ lam
+    for i in range(h):
+        gy = min((i0 + i) * scale, m - 1 - 1e-9)
+        y0 = int(np.floor(gy))
+        fy = gy - y0
+        for j in range(w):
+            gx = min((j0 + j) * scale, m - 1 - 1e-9)
+            x0 = int(np.floor(gx))
+            fx = gx - x0
+            a = y0 * m + x0
+            b = (y0 + 1) * m + x0
+            dx = ((1 - fx) * (1 - fy) * nodes[a, 0] + fx * (1 - fy) * nodes[a + 1, 0]
+                  + (1 - fx) * fy * nodes[b, 0] + fx * fy * nodes[b + 1, 0])
+            dy = ((1 - fx) * (1 - fy) * nodes[a, 1] + fx * (1 - fy) * nodes[a + 1, 1]
+                  + (1 - fx) * fy * nodes[b, 1] + fx * fy * nodes[b + 1, 1])
+            out[i, j] = complex(dx, dy)
     return out
 
 
 @nb.njit(cache=True)
-def harmonic_offset(inside, boundary, tol, max_iter):
-    """Harmonic interpolation of a colour offset (Poisson photometric correction, §5.3).
+def colour_costs(src, canvas, content, coverage, tgt_cracks, tx, ty, ox, oy, zx, zy, rc, rs):
+    """Colour consistency of candidate placements (§5.2): mean over the probe pixels
+    ``(tx, ty)`` of the canvas that hold content of the squared colour difference to the source
+    pixel each candidate (centre ``(zx, zy)``, rotation ``(rc, rs)``) puts there; the probes
+    are at offsets ``(ox, oy)`` from the target centre (nearest pixels, rigid placement).
+    Probes on cracks that only the fill has painted do not count (its cracks are fainter than
+    the photo's: they would favour fragments with faint cracks)."""
+    hs, ws, c = src.shape
+    h, w = content.shape
+    m = zx.shape[0]
+    out = np.zeros(m)
+    for a in range(m):
+        s = 0.0
+        cnt = 0
+        for p in range(tx.shape[0]):
+            x = tx[p]
+            y = ty[p]
+            if x < 0 or y < 0 or x >= w or y >= h or not content[y, x]:
+                continue
+            if tgt_cracks[y, x] and not coverage[y, x]:
+                continue
+            sx = zx[a] + rc[a] * ox[p] + rs[a] * oy[p]
+            sy = zy[a] - rs[a] * ox[p] + rc[a] * oy[p]
+            ix = min(max(int(np.floor(sx + 0.5)), 0), ws - 1)
+            iy = min(max(int(np.floor(sy + 0.5)), 0), hs - 1)
+            for ch in range(c):
+                e = src[iy, ix, ch] - canvas[y, x, ch]
+                s += e * e
+            cnt += 1
+        out[a] = s / cnt if cnt > 0 else 0.0
+    return out
 
-    ``inside`` (h, w) bool marks the unknown pixels; ``boundary`` (h, w, C) float32 holds the
-    fixed offsets of every other pixel (the seam difference old - new where the pixel has old
-    content, 0 where it has none). Pixels outside the box are not neighbours (Neumann at the
-    canvas edge). Solved by successive over-relaxation from the mean of the boundary values
-    next to the region; returns the (h, w, C) offset, equal to ``boundary`` outside.
-    """
-    h, w, c = boundary.shape
-    off = boundary.copy()
-    ys = np.empty(h * w, np.int64)
-    xs = np.empty(h * w, np.int64)
+
+@nb.njit(cache=True, fastmath=True)
+def shape_costs(pre, pim, mu, border, qre, qim, nu, weight, omega_s, limit, margin):
+    """Shape cost S of eq. 1 for every source fragment row (positions ``pre + i pim``,
+    half-widths ``mu``) against one target fragment (``q``, ``nu``, per-sample ``weight``),
+    after the closed-form rotation about the centres (2-D Procrustes: the argument of
+    ``z = sum w conj(p) q``, clamped to +-``limit`` radians). Rows whose centre is nearer than
+    ``margin`` to the photo border cost +inf. Returns the costs and ``z`` (real, imaginary)."""
+    n, k = pre.shape
+    cost = np.empty(n)
+    zre = np.empty(n)
+    zim = np.empty(n)
+    qq = 0.0
+    for l in range(k):
+        qq += weight[l] * (qre[l] * qre[l] + qim[l] * qim[l])
+    for r in range(n):
+        a = 0.0
+        b = 0.0
+        pp = 0.0
+        tt = 0.0
+        for l in range(k):
+            wl = weight[l]
+            x = pre[r, l]
+            y = pim[r, l]
+            # conj(p) q = (x q_re + y q_im) + i (x q_im - y q_re)
+            a += wl * (x * qre[l] + y * qim[l])
+            b += wl * (x * qim[l] - y * qre[l])
+            pp += wl * (x * x + y * y)
+            d = mu[r, l] - nu[l]
+            tt += wl * d * d
+        zre[r] = a
+        zim[r] = b
+        mag = np.sqrt(a * a + b * b)
+        if limit < np.pi and mag > 0.0:
+            excess = abs(np.arctan2(b, a)) - limit
+            if excess > 0.0:
+                mag *= np.cos(min(excess, np.pi))
+        c = max(pp + qq - 2.0 * mag, 0.0) + omega_s * tt
+        cost[r] = c if border[r] >= margin else np.inf
+    return cost, zre, zim
+
+
+@nb.njit(cache=True)
+def arc_sample(s, px, py, pt, t0x, t0y, t1x, t1y, start_connected, end_connected, t):
+    """A branch at arc positions ``t``: ``x, y, half-width, on-branch`` (beyond an end it goes on
+    along the end tangent ``t0`` / ``t1``, half-width 0 at a free end, the end's where the end is
+    connected)."""
+    n = t.shape[0]
+    x = np.interp(t, s, px)
+    y = np.interp(t, s, py)
+    th = np.interp(t, s, pt)
+    real = np.ones(n, np.bool_)
+    length = s[-1]
+    last = s.shape[0] - 1
+    for i in range(n):
+        if t[i] < 0.0:
+            x[i] = px[0] + t[i] * t0x
+            y[i] = py[0] + t[i] * t0y
+            if not start_connected:
+                th[i] = 0.0
+            real[i] = False
+        elif t[i] > length:
+            x[i] = px[last] + (t[i] - length) * t1x
+            y[i] = py[last] + (t[i] - length) * t1y
+            if not end_connected:
+                th[i] = 0.0
+            real[i] = False
+    return x, y, th, real
+
+
+@nb.njit(cache=True)
+def fragment_centres(s, pt, t0, r_before, lam, factor, rmin, rmax):
+    """Arc positions of fragment centres along a branch (§5.1): from ``t0`` (or one spacing
+    after a fragment of radius ``r_before`` at ``t0`` when it is > 0), ``lam (s_i + s_{i+1})``
+    apart with ``s = clip(factor x half-width, rmin, rmax)``, the last at the end when the one
+    before leaves the tail uncovered."""
+    length = s[-1]
+    out = np.empty(int(length / (2 * lam * rmin)) + 4)
     n = 0
+    t = t0
+    if r_before > 0.0:
+        r = r_before
+    else:
+        r = min(max(factor * np.interp(t, s, pt), rmin), rmax)
+        out[n] = t
+        n += 1
+    while True:
+        nxt = t + 2 * lam * r
+        for _ in range(2):
+            rn = min(max(factor * np.interp(min(nxt, length), s, pt), rmin), rmax)
+            nxt = t + lam * (r + rn)
+        if nxt >= length:
+            if length - t > 0.5 * lam * r or n == 0:
+                out[n] = length
+                n += 1
+            break
+        t = nxt
+        r = min(max(factor * np.interp(t, s, pt), rmin), rmax)
+        if n >= out.shape[0]:
+            break
+        out[n] = t
+        n += 1
+    return out[:n]
+
+
+@nb.njit(cache=True)
+def compose_setup(src, mapx, mapy, given, use_given, x0, y0, canvas, content, coverage, tgt_cracks,
+                  src_cracks, cx, cy, radius, clear, tpx, tpy, tpt, tok, spx, spy, spt, sok,
+                  own_margin, other_margin, eps):
+    """Everything of one fragment's composition before the graph cut: the distances to its
+    target skeleton ``tp*`` (:func:`own_distance`), its pixels (``given``, or read by
+    :func:`sample_nearest`) and the graph-cut set-up of :func:`seam_setup` with its terminal
+    capacities."""
+    h, w = mapx.shape
+    tdist, tthick = own_distance(x0, y0, h, w, tpx, tpy, tpt, tok)
+    if use_given:
+        new = given
+    else:
+        new = sample_nearest(src, mapx, mapy, tdist, tthick, spx, spy, spt, sok, own_margin)
+    take, keep, right, down, boundary, fixed, n_take, n_free = seam_setup(
+        x0, y0, new, mapx, mapy, canvas, content, coverage, tgt_cracks, src_cracks, cx, cy, radius,
+        clear, tdist, tthick, spx, spy, spt, sok, own_margin, other_margin, eps)
+    # terminal capacities of the graph cut: "take" tied to the source (new), "keep" to the sink
+    src_caps = np.zeros((h, w))
+    sink_caps = np.zeros((h, w))
     for i in range(h):
         for j in range(w):
-            if inside[i, j]:
-                ys[n] = i
-                xs[n] = j
-                n += 1
-    if n == 0:
-        return off
-    # start from the mean of the fixed values that touch the region
-    mean = np.zeros(c, np.float64)
+            if take[i, j]:
+                src_caps[i, j] = 1e9
+            elif keep[i, j]:
+                sink_caps[i, j] = 1e9
+    return new, take, keep, src_caps, sink_caps, right, down, boundary, fixed, n_take, n_free
+
+
+@nb.njit(cache=True)
+def select_candidates(pre, pim, mu, border, qre, qim, nu, weight, omega_s, limit, margin, m,
+                      src, canvas, content, coverage, tgt_cracks, cx, cy, radius, ring_re, ring_im,
+                      cre, cim, omega_c):
+    """§5.2 for one target fragment: the ``m`` source rows (forward rows, then reversed ones,
+    of ``n`` fragments) of lowest shape cost S (:func:`shape_costs`), their rotation (clamped
+    to ``limit``) and their total cost ``S + omega_c C`` (:func:`colour_costs` on the probe
+    rings ``radius x ring`` around the target centre ``(cx, cy)``; ``omega_c`` already holds the
+    colour normalisation). Returns rows, totals and rotations (re, im); no
+    rows when no source fragment is farther than ``margin`` from the border."""
+    cost, zre, zim = shape_costs(pre, pim, mu, border, qre, qim, nu, weight, omega_s, limit, margin)
+    n_rows = cost.shape[0]
+    n = n_rows // 2
+    m = min(m, n_rows)
+    best = np.full(m, np.inf)
+    rows = np.full(m, -1, np.int64)
+    for r in range(n_rows):
+        c = cost[r]
+        if c < best[m - 1]:
+            k = m - 1
+            while k > 0 and best[k - 1] > c:
+                best[k] = best[k - 1]
+                rows[k] = rows[k - 1]
+                k -= 1
+            best[k] = c
+            rows[k] = r
     cnt = 0
-    for t in range(n):
-        i = ys[t]
-        j = xs[t]
-        for k in range(4):
-            ii = i + (1 if k == 0 else (-1 if k == 1 else 0))
-            jj = j + (1 if k == 2 else (-1 if k == 3 else 0))
-            if 0 <= ii < h and 0 <= jj < w and not inside[ii, jj]:
-                for ch in range(c):
-                    mean[ch] += boundary[ii, jj, ch]
-                cnt += 1
-    for ch in range(c):
-        mean[ch] = mean[ch] / cnt if cnt > 0 else 0.0
-    for t in range(n):
-        for ch in range(c):
-            off[ys[t], xs[t], ch] = mean[ch]
-    # over-relaxation factor for a region of this size (optimal for a square of side sqrt(n))
-    side = max(np.sqrt(n), 2.0)
-    omega = 2.0 / (1.0 + np.sin(np.pi / (side + 1.0)))
-    for _ in range(max_iter):
-        change = 0.0
-        for t in range(n):
-            i = ys[t]
-            j = xs[t]
-            for ch in range(c):
-                s = 0.0
-                m = 0
-                if i + 1 < h:
-                    s += off[i + 1, j, ch]
-                    m += 1
-                if i > 0:
-                    s += off[i - 1, j, ch]
-                    m += 1
-                if j + 1 < w:
-                    s += off[i, j + 1, ch]
-                    m += 1
-                if j > 0:
-                    s += off[i, j - 1, ch]
-                    m += 1
-                if m == 0:
-                    continue
-                delta = omega * (s / m - off[i, j, ch])
-                off[i, j, ch] += delta
-                if abs(delta) > change:
-                    change = abs(delta)
-        if change < tol:
-            break
-    return off
+    for k in range(m):
+        if rows[k] >= 0:
+            cnt += 1
+    rows = rows[:cnt]
+    best = best[:cnt]
+    rc = np.empty(cnt)
+    rs = np.empty(cnt)
+    zx = np.empty(cnt)
+    zy = np.empty(cnt)
+    for k in range(cnt):
+        r = rows[k]
+        ang = np.arctan2(zim[r], zre[r]) if (zre[r] != 0.0 or zim[r] != 0.0) else 0.0
+        ang = min(max(ang, -limit), limit)
+        rc[k] = np.cos(ang)
+        rs[k] = np.sin(ang)
+        zx[k] = cre[r % n]
+        zy[k] = cim[r % n]
+    ox = radius * ring_re
+    oy = radius * ring_im
+    tx = np.empty(ox.shape[0], np.int64)
+    ty = np.empty(ox.shape[0], np.int64)
+    for p in range(ox.shape[0]):
+        tx[p] = int(np.floor(cx + ox[p] + 0.5))
+        ty[p] = int(np.floor(cy + oy[p] + 0.5))
+    colour = colour_costs(src, canvas, content, coverage, tgt_cracks, tx, ty, ox, oy, zx, zy, rc, rs)
+    total = best + omega_c * colour
+    return rows, total, rc, rs
+
+
+@nb.njit(cache=True)
+def fragment_maps(green, m, cx, cy, radius, w_out, h_out, gre, gim, greal, fre, fim, freal, zx, zy, rc, rs):
+    """Where one target fragment reads the source (§5.3): the box around the fragment centre
+    ``(cx, cy)`` (clipped to the ``w_out x h_out`` canvas), the smooth displacement that moves
+    the rotated source samples ``f`` onto the target samples ``g`` (both relative to their
+    centres; only samples on both branches are constraints, :func:`warp_field`) and the source
+    coordinates of every box pixel (:func:`source_map`). Returns ``x0, y0, mapx, mapy``
+    (empty maps when the box misses the canvas)."""
+    half = int(np.ceil(radius)) + 1
+    icx = int(np.floor(cx + 0.5))
+    icy = int(np.floor(cy + 0.5))
+    x0 = max(icx - half, 0)
+    x1 = min(icx + half + 1, w_out)
+    y0 = max(icy - half, 0)
+    y1 = min(icy + half + 1, h_out)
+    if x0 >= x1 or y0 >= y1:
+        return x0, y0, np.zeros((0, 0), np.float32), np.zeros((0, 0), np.float32)
+    k = 0
+    for l in range(gre.shape[0]):
+        if greal[l] and freal[l]:
+            k += 1
+    qx = np.empty(k)
+    qy = np.empty(k)
+    vx = np.empty(k)
+    vy = np.empty(k)
+    k = 0
+    for l in range(gre.shape[0]):
+        if greal[l] and freal[l]:
+            # box pixel coordinates of the target sample; rotated source sample minus it
+            qx[k] = gre[l] + cx - (icx - half)
+            qy[k] = gim[l] + cy - (icy - half)
+            vx[k] = rc * fre[l] - rs * fim[l] - gre[l]
+            vy[k] = rs * fre[l] + rc * fim[l] - gim[l]
+            k += 1
+    field = warp_field(green, m, half, qx, qy, vx, vy, y0 - icy + half, y1 - icy + half,
+                       x0 - icx + half, x1 - icx + half)
+    mapx, mapy = source_map(x0, y0, y1 - y0, x1 - x0, cx, cy, zx, zy, rc, rs, field)
+    return x0, y0, mapx, mapy

@@ -20,18 +20,26 @@ photo and the *source* structure drawn on it:
 3. **Branch synthesis (§5.2).** Target fragments are filled in structure order (parents before
    children, a child's junction fragment first). For each one, the closed-form 2-D rigid
    alignment (rotation about the centres, forward or reversed along the skeleton) to every
-   source fragment and the shape cost ``S`` of eq. 1 are computed at once with numpy; the best
-   ``shortlist`` get the colour cost ``C`` (squared colour difference to the content already in
-   the disk); one of the ``candidates`` best ``S + omega_c C`` is drawn with a probability
-   inversely proportional to its cost.
+   source fragment and the shape cost ``S`` of eq. 1 are computed in one pass (numba); the
+   ``shortlist`` best get the colour cost ``C`` (squared colour difference to the content
+   already in the disk); one of the ``candidates`` best ``S + omega_c C`` is drawn with a
+   probability inversely proportional to its cost.
 4. **Composition (§5.3).** The rotated source fragment is warped by the smooth displacement
    field that minimises the squared discrete Laplacian while moving its skeleton samples
-   exactly onto the target's; a graph cut (PyMaxflow) finds the seam with the content already
-   there (the new fragment's own crack is forced in, the disk rim, other cracks of the target
-   and source cracks that are not the fragment's own are forced out); the colour difference
-   along the seam is interpolated harmonically over the new pixels (Poisson photometric
-   correction; zero offset where the new pixels touch no previous content). A junction
-   fragment first clears the parent's pixels in its disk (Fig. 6).
+   exactly onto the target's (closed form on a grid scaled to the fragment, :class:`_Warp`);
+   source pixels are copied verbatim (nearest), and on the fragment's own crack the copied
+   pixel is chosen so that the crack's dark core lands on the target skeleton. A graph cut
+   (PyMaxflow, Kwatra et al. 2003 costs) finds the seam with the content already there: the
+   fragment's own crack is forced in; the disk rim, other cracks of the target and source
+   cracks that are not the fragment's own are forced out (no pseudo-branches). The colour
+   difference along the seam is interpolated harmonically over the new pixels (Poisson
+   photometric correction, [PGB03]) with zero offset where the new pixels touch no previous
+   content (the paper's constraint against colour drift). Beyond the paper, the correction
+   is a smooth *gain* (it works on log values) so a dark crack keeps its depth, the seam
+   difference is averaged over 5 x 5 pixels (a colour shift, not the texture's pixel noise),
+   and it is not imposed across the edge of another crack or on cracks only the fill has
+   painted, where old and new differ by design. A junction fragment first clears the
+   parent's pixels in its disk (Fig. 6).
 
 Everything random comes from one ``numpy.random.Generator`` seeded by ``seed``.
 """
@@ -45,6 +53,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from barkgen.branching import _render_kernels as K
 from barkgen.branching.structure import Structure, rasterize
 from barkgen.errors import InvalidInputError
 from barkgen.synth.config import SynthesisConfig
@@ -62,6 +71,11 @@ OWN_MARGIN = 1.5
 OTHER_MARGIN = 2
 #: a junction fragment clears (takes unconditionally) this fraction of its radius (Fig. 6)
 JUNCTION_CLEAR = 0.6
+#: the photometric correction's iterations stop when no log value changes by more than this
+POISSON_TOL = 0.002
+#: the seam differences are averaged over this many pixels (square window) before they are
+#: interpolated: the correction is for colour shifts, not for the texture's pixel noise
+SEAM_SMOOTH = 5
 #: colour-consistency probes: rings at these fractions of the radius, this many per ring
 RING_RADII = (0.45, 0.7, 0.95)
 RING_SAMPLES = 24
@@ -78,15 +92,27 @@ class RenderOptions:
             otherwise give fragments too small to carry any texture.
         omega_s: weight of the half-width term of the shape cost (eq. 1).
         omega_c: weight of the colour cost. ``C`` is the mean squared colour difference to the
-            content already in the disk, in units of the source image's colour variance and
-            multiplied by ``r^2`` (so it scales with the fragment like ``S``); the default
-            makes a fragment whose colours differ like two random pixels of the photo cost
-            as much as a skeleton misfit of about a fifth of the radius per sample.
+            content already in the disk, in units of the source image's colour variance (so
+            ``omega_c`` does not depend on the photo's contrast) and multiplied by ``r^2`` (so it
+            scales with the fragment like ``S``, as the paper's sum over the overlap does). With
+            the default, a fragment whose colours differ like two random pixels of the photo
+            costs as much as a skeleton misfit of a quarter of the radius at every sample; on
+            cracked earth and dried mud the best shapes fit within ~0.1 radius, so the colour
+            term decides among the ``shortlist`` best shapes.
         candidates: ``c``, how many of the best fragments the random choice is among.
         samples: ``k``, skeleton samples per fragment shape.
         shortlist: best fragments by shape that get the (costlier) colour test.
         source_density: source fragments are this many times denser than target ones along
             the source skeleton (more candidates; the paper uses 1).
+        max_rotation: largest rotation (degrees) of a source fragment; 180 = any (the paper).
+            Photos lit from one side look wrong rotated far; 0 copies without rotation.
+        interpolation: how the rotated, warped source is read: ``"nearest"`` copies source
+            pixels verbatim (as sharp as the photo, the texture stays pixel-exact between the
+            1-px steps of the warp), ``"cubic"`` interpolates (smoother cracks, slightly
+            softer texture).
+        fill_label_weight: ``label_weight`` of the texture-by-numbers fill (its default 20):
+            lower gives larger coherent pieces of background but lets more crack texture into
+            it.
         fill_config: solver configuration of the texture-by-numbers fill (default: the core
             engine's texture-by-numbers defaults).
     """
@@ -103,6 +129,7 @@ class RenderOptions:
     source_density: float = 2.0
     max_rotation: float = 180.0
     interpolation: str = "nearest"
+    fill_label_weight: float = 20.0
     fill_config: SynthesisConfig | None = None
 
     def __post_init__(self) -> None:
@@ -111,7 +138,8 @@ class RenderOptions:
 
         for name, lo, hi in (("lambda_spacing", 0.2, 1.0), ("radius_factor", 0.5, 20.0),
                              ("omega_s", 0.0, 1e6), ("omega_c", 0.0, 1e6),
-                             ("source_density", 1.0, 8.0), ("max_rotation", 0.0, 180.0)):
+                             ("source_density", 1.0, 8.0), ("max_rotation", 0.0, 180.0),
+                             ("fill_label_weight", 0.0, 1e4)):
             v = getattr(self, name)
             if not isinstance(v, (int, float)) or isinstance(v, bool) or not lo <= v <= hi:
                 bad(name, f"a number in [{lo}, {hi}]")
@@ -123,6 +151,10 @@ class RenderOptions:
             v = getattr(self, name)
             if not isinstance(v, int) or isinstance(v, bool) or not lo <= v <= hi:
                 bad(name, f"an integer in [{lo}, {hi}]")
+        # plain floats from here on (the numba kernels see one signature)
+        for name in ("lambda_spacing", "radius_factor", "omega_s", "omega_c", "source_density",
+                     "max_rotation", "fill_label_weight", "min_radius", "max_radius"):
+            object.__setattr__(self, name, float(getattr(self, name)))
         if self.interpolation not in ("nearest", "cubic"):
             bad("interpolation", "'nearest' or 'cubic'")
         if self.fill_config is not None and not isinstance(self.fill_config, SynthesisConfig):
@@ -134,7 +166,8 @@ class RenderResult:
     """What :func:`render_branches` returns.
 
     Attributes:
-        image: the output, uint8, ``(H, W, 3)`` or ``(H, W)`` like the input photo.
+        image: the output, uint8, with the input photo's shape convention (``(H, W, 3)``,
+            ``(H, W, 1)`` or ``(H, W)``).
         labels: uint8 fissure map of the output: 255 on the rasterized target structure.
         coverage: bool, where fragments were placed.
         fragment_map: int32, index of the target fragment that wrote each pixel (-1: fill).
@@ -169,7 +202,8 @@ class _Arc:
         self.s = self.vertex_arc[keep]
         self.p = pts[keep]
         self.length = float(self.s[-1])
-        self.start_connected, self.end_connected = start_connected, end_connected
+        self.px, self.py, self.pt = (np.ascontiguousarray(self.p[:, c]) for c in range(3))
+        self.start_connected, self.end_connected = bool(start_connected), bool(end_connected)
         if len(self.s) >= 2:
             t0 = self.p[1, :2] - self.p[0, :2]
             t1 = self.p[-1, :2] - self.p[-2, :2]
@@ -180,59 +214,33 @@ class _Arc:
 
     def at(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """``x, y, half-width, real`` at arc positions ``t`` (real: on the branch itself)."""
-        t = np.atleast_1d(np.asarray(t, np.float64))
-        x = np.interp(t, self.s, self.p[:, 0])
-        y = np.interp(t, self.s, self.p[:, 1])
-        th = np.interp(t, self.s, self.p[:, 2])
-        before, after = t < 0, t > self.length
-        x = np.where(before, self.p[0, 0] + t * self.t0[0], x)
-        y = np.where(before, self.p[0, 1] + t * self.t0[1], y)
-        x = np.where(after, self.p[-1, 0] + (t - self.length) * self.t1[0], x)
-        y = np.where(after, self.p[-1, 1] + (t - self.length) * self.t1[1], y)
-        if not self.start_connected:
-            th = np.where(before, 0.0, th)
-        if not self.end_connected:
-            th = np.where(after, 0.0, th)
-        return x, y, th, ~(before | after)
+        return K.arc_sample(self.s, self.px, self.py, self.pt, self.t0[0], self.t0[1], self.t1[0],
+                            self.t1[1], self.start_connected, self.end_connected,
+                            np.atleast_1d(np.asarray(t, np.float64)))
 
 
 def _radius(arc: _Arc, t: float, opts: RenderOptions) -> float:
     th = float(np.interp(t, arc.s, arc.p[:, 2]))
-    return float(np.clip(opts.radius_factor * th, opts.min_radius, opts.max_radius))
+    return min(max(opts.radius_factor * th, opts.min_radius), opts.max_radius)
 
 
 def _centres(arc: _Arc, t0: float, r_before: float | None, opts: RenderOptions,
-             density: float = 1.0) -> list[float]:
+             density: float = 1.0) -> np.ndarray:
     """Arc positions of fragment centres from ``t0`` (or one spacing after a fragment of radius
     ``r_before`` at ``t0``) to the end: ``lambda (s_i + s_{i+1}) / density`` apart, the last
     one at the end when the previous one leaves the tail uncovered."""
-    lam = opts.lambda_spacing / density
-    out: list[float] = []
-    if r_before is None:
-        t, r = t0, _radius(arc, t0, opts)
-        out.append(t)
-    else:
-        t, r = t0, r_before
-    length = arc.length
-    while True:
-        nxt = t + 2 * lam * r
-        for _ in range(2):
-            nxt = t + lam * (r + _radius(arc, min(nxt, length), opts))
-        if nxt >= length:
-            if length - t > 0.5 * lam * r or not out:
-                out.append(length)
-            break
-        t, r = nxt, _radius(arc, nxt, opts)
-        out.append(t)
-    return out
+    return K.fragment_centres(arc.s, arc.pt, float(t0), float(r_before or 0.0),
+                              opts.lambda_spacing / density, float(opts.radius_factor),
+                              float(opts.min_radius), float(opts.max_radius))
 
 
 @dataclass
 class _Fragment:
     """A fragment's shape: centre, radius, samples (complex positions relative to the centre,
     half-widths, on-branch flags) and the number of leading samples that may be reversed
-    (all of them for a regular fragment, the parent window of a junction); ``own`` is the
-    fragment's own crack as a polyline (x, y, half-width, valid) in image coordinates."""
+    (all of them for a regular fragment, the parent window of a junction); ``own_cols`` is the
+    fragment's own crack as a polyline (x, y, half-width, valid columns) in image coordinates;
+    ``weight`` (target fragments) weighs the samples in the shape cost."""
 
     centre: complex
     radius: float
@@ -240,16 +248,31 @@ class _Fragment:
     thick: np.ndarray
     real: np.ndarray
     split: int
-    own: np.ndarray
+    own_cols: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
     junction: bool = False
+    weight: np.ndarray | None = None
+    visible: bool = True
+
+    def __post_init__(self) -> None:
+        self.pos_re, self.pos_im = np.ascontiguousarray(self.pos.real), np.ascontiguousarray(self.pos.imag)
 
 
-def _regular(arc: _Arc, t: float, r: float, k: int) -> _Fragment:
-    x, y, th, real = arc.at(t + r * np.linspace(-1.0, 1.0, k))
-    cx, cy, _, _ = arc.at(t)
-    c = complex(cx[0], cy[0])
-    own = np.stack([x, y, th, real.astype(np.float64)], axis=1)
-    return _Fragment(c, r, (x + 1j * y) - c, th, real, k, own)
+def _regulars(arc: _Arc, ts: np.ndarray, opts: RenderOptions) -> list[_Fragment]:
+    """Regular fragments centred at arc positions ``ts`` (their radii from the half-width)."""
+    if len(ts) == 0:
+        return []
+    k = opts.samples
+    t = np.asarray(ts, np.float64)
+    r = np.clip(opts.radius_factor * np.interp(t, arc.s, arc.p[:, 2]), opts.min_radius, opts.max_radius)
+    offsets = r[:, None] * np.linspace(-1.0, 1.0, k)[None]
+    x, y, th, real = arc.at(np.concatenate([t, (t[:, None] + offsets).ravel()]))
+    n = len(t)
+    cx, cy = x[:n], y[:n]
+    x, y, th, real = (v[n:].reshape(n, k) for v in (x, y, th, real))
+    centre = cx + 1j * cy
+    pos = (x + 1j * y) - centre[:, None]
+    return [_Fragment(complex(centre[i]), float(r[i]), pos[i], th[i], real[i], k,
+                      (x[i], y[i], th[i], real[i])) for i in range(n)]
 
 
 def _junction(parent: _Arc, vertex: int, child: _Arc, child_reversed: bool, k: int,
@@ -258,19 +281,18 @@ def _junction(parent: _Arc, vertex: int, child: _Arc, child_reversed: bool, k: i
     samples along the child going away from the junction (the child's end when reversed)."""
     a = float(parent.vertex_arc[vertex])
     r = max(_radius(parent, a, opts), _radius(child, child.length if child_reversed else 0.0, opts))
-    px, py, pth, preal = parent.at(a + r * np.linspace(-1.0, 1.0, k))
-    cx, cy, _, _ = parent.at(a)
-    c = complex(cx[0], cy[0])
+    px, py, pth, preal = parent.at(np.concatenate([[a], a + r * np.linspace(-1.0, 1.0, k)]))
+    cx, cy = px[0], py[0]
+    px, py, pth, preal = px[1:], py[1:], pth[1:], preal[1:]
     steps = r * np.arange(1, k + 1) / k
     qx, qy, qth, qreal = child.at(child.length - steps if child_reversed else steps)
+    c = complex(cx, cy)
     pos = np.concatenate([px + 1j * py, qx + 1j * qy]) - c
-    thick = np.concatenate([pth, qth])
-    real = np.concatenate([preal, qreal])
-    start = np.array([[cx[0], cy[0], qth[0], 1.0]])
-    sep = np.array([[cx[0], cy[0], 0.0, 0.0]])
-    own = np.concatenate([np.stack([px, py, pth, preal.astype(np.float64)], axis=1), sep, start,
-                          np.stack([qx, qy, qth, qreal.astype(np.float64)], axis=1)])
-    return _Fragment(c, r, pos, thick, real, k, own, junction=True)
+    # own crack: the parent window, a break, then the child from the junction point
+    own = (np.concatenate([px, [cx, cx], qx]), np.concatenate([py, [cy, cy], qy]),
+           np.concatenate([pth, [0.0, qth[0]], qth]), np.concatenate([preal, [False, True], qreal]))
+    return _Fragment(c, r, pos, np.concatenate([pth, qth]), np.concatenate([preal, qreal]), k, own,
+                     junction=True)
 
 
 def _arcs(structure: Structure) -> list[_Arc]:
@@ -310,12 +332,15 @@ class _Bank:
         m = self.pos.shape[1]
         rev = np.concatenate([np.arange(split)[::-1], np.arange(split, m)])
         self.orders = (np.arange(m), rev)
+        # per orientation: sample positions and on-branch flags, rows in that order
+        self.oriented = tuple(np.ascontiguousarray(self.pos[:, o]) for o in self.orders)
+        self.oriented_real = tuple(np.ascontiguousarray(self.real[:, o]) for o in self.orders)
         # both orientations stacked (forward rows first) for the vectorised fit
         pos = np.concatenate([self.pos[:, o] for o in self.orders])
-        self.conj_pos = np.ascontiguousarray(np.conj(pos))
-        self.sq = np.ascontiguousarray(np.abs(pos) ** 2)
+        self.pre, self.pim = np.ascontiguousarray(pos.real), np.ascontiguousarray(pos.imag)
+        self.cre, self.cim = np.ascontiguousarray(self.centre.real), np.ascontiguousarray(self.centre.imag)
         self.thick_all = np.ascontiguousarray(np.concatenate([self.thick[:, o] for o in self.orders]))
-        self.thick2 = self.thick_all ** 2
+        self.border = np.zeros(self.n)  # set by _source_banks: distance of the centre to the border
 
 
 def _source_banks(source: Structure, width: int, height: int, opts: RenderOptions) -> tuple[_Bank, _Bank]:
@@ -331,10 +356,8 @@ def _source_banks(source: Structure, width: int, height: int, opts: RenderOption
     for arc in arcs:
         if arc.length <= 0:
             continue
-        for t in _centres(arc, 0.0, None, opts, opts.source_density):
-            f = _regular(arc, t, _radius(arc, t, opts), k)
-            if inside(f):
-                regular.append(f)
+        regular.extend(f for f in _regulars(arc, _centres(arc, 0.0, None, opts, opts.source_density), opts)
+                       if inside(f))
     for i, b in enumerate(source.branches):
         for ref, vertex, rev in ((b.parent, b.parent_vertex, False), (b.joins, b.join_vertex, True)):
             if ref is None or arcs[i].length <= 0 or arcs[ref].length <= 0:
@@ -342,7 +365,14 @@ def _source_banks(source: Structure, width: int, height: int, opts: RenderOption
             f = _junction(arcs[ref], vertex, arcs[i], rev, k, opts)
             if inside(f):
                 junction.append(f)
-    return _Bank(regular), _Bank(junction)
+    banks = _Bank(regular), _Bank(junction)
+    for bank in banks:
+        if bank.n:
+            c = bank.centre
+            border = np.minimum(np.minimum(c.real, width - 1 - c.real),
+                                np.minimum(c.imag, height - 1 - c.imag))
+            bank.border = np.concatenate([border, border])  # both orientations
+    return banks
 
 
 def _target_plan(target: Structure, opts: RenderOptions, with_junctions: bool) -> list[_Fragment]:
@@ -362,10 +392,27 @@ def _target_plan(target: Structure, opts: RenderOptions, with_junctions: bool) -
             ts = _centres(arc, 0.0, j.radius, opts)
         else:
             ts = _centres(arc, 0.0, None, opts)
-        plan.extend(_regular(arc, t, _radius(arc, t, opts), k) for t in ts)
+        plan.extend(_regulars(arc, ts, opts))
         if b.joins is not None and with_junctions and arcs[b.joins].length > 0:
             merges.append(_junction(arcs[b.joins], b.join_vertex, arc, True, k, opts))
-    return plan + merges
+    # samples outside the canvas do not count in the shape cost (where the crack goes there is
+    # invisible)
+    w, h = target.size
+    everything = plan + merges
+    for size in {len(g.pos) for g in everything}:
+        group = [g for g in everything if len(g.pos) == size]
+        x = np.stack([g.pos_re for g in group]) + np.array([g.centre.real for g in group])[:, None]
+        y = np.stack([g.pos_im for g in group]) + np.array([g.centre.imag for g in group])[:, None]
+        weight = ((x >= -2) & (x <= w + 1) & (y >= -2) & (y <= h + 1)).astype(np.float64)
+        weight[weight.sum(axis=1) < 2] = 1.0
+        r = np.array([g.radius for g in group])
+        cx = np.array([g.centre.real for g in group])
+        cy = np.array([g.centre.imag for g in group])
+        # the disk must meet the canvas
+        visible = (cx + r >= 0) & (cx - r <= w - 1) & (cy + r >= 0) & (cy - r <= h - 1)
+        for g, wt, vis in zip(group, weight, visible):
+            g.weight, g.visible = wt, bool(vis)
+    return everything
 
 
 # ----------------------------------------------------------------------------------------------
@@ -394,42 +441,15 @@ class _Warp:
         adj = sp.csr_matrix((np.ones(len(r)), (r, c)), shape=(n, n))
         lap = sp.diags(np.asarray(adj.sum(axis=1)).ravel()) - adj
         a = (lap.T @ lap + WARP_EPS * sp.identity(n)).tocsc()
-        self.green = spla.splu(a).solve(np.eye(n))
-        self._interp: dict[int, np.ndarray] = {}
+        self.green = np.ascontiguousarray(spla.splu(a).solve(np.eye(n)))
 
-    def weights(self, gx: np.ndarray, gy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Node indices and bilinear weights (``(n, 4)`` each) of grid points ``(gx, gy)``."""
-        m = self.m
-        gx = np.clip(gx, 0.0, m - 1 - 1e-9)
-        gy = np.clip(gy, 0.0, m - 1 - 1e-9)
-        x0, y0 = np.floor(gx).astype(np.int64), np.floor(gy).astype(np.int64)
-        fx, fy = gx - x0, gy - y0
-        idx = np.stack([y0 * m + x0, y0 * m + x0 + 1, (y0 + 1) * m + x0, (y0 + 1) * m + x0 + 1], 1)
-        w = np.stack([(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy], 1)
-        return idx, w
-
-    def solve(self, half: int, points: np.ndarray, vectors: np.ndarray) -> np.ndarray:
-        """The field on the pixels of a ``(2 half + 1)^2`` box, as a complex array, given
-        constraint ``points`` (complex, relative to the box centre) and ``vectors``."""
-        size = 2 * half + 1
-        if len(points) == 0:
-            return np.zeros((size, size), np.complex128)
-        scale = (self.m - 1) / (2.0 * half)
-        idx, w = self.weights((points.real + half) * scale, (points.imag + half) * scale)
-        gbt = (self.green[:, idx] * w[None]).sum(axis=2)                   # G B^T, (n, k)
-        bgbt = (gbt[idx] * w[:, :, None]).sum(axis=1)                     # B G B^T, (k, k)
-        bgbt += np.eye(len(points)) * (1e-9 * np.trace(bgbt) / len(points))
-        nodes = gbt @ np.linalg.solve(bgbt, vectors)
-        interp = self._interp.get(half)
-        if interp is None:
-            g = np.arange(size) * scale
-            g0 = np.minimum(np.floor(g).astype(np.int64), self.m - 2)
-            f = g - g0
-            interp = np.zeros((size, self.m))
-            interp[np.arange(size), g0] = 1 - f
-            interp[np.arange(size), g0 + 1] += f
-            self._interp[half] = interp
-        return interp @ nodes.reshape(self.m, self.m) @ interp.T
+    def field(self, half: int, points: np.ndarray, vectors: np.ndarray, rows: slice,
+              cols: slice) -> np.ndarray:
+        """The field (complex) on ``rows, cols`` of a ``(2 half + 1)^2`` box, given constraint
+        ``points`` (complex box pixel coordinates) and ``vectors`` (complex)."""
+        return K.warp_field(self.green, self.m, half, points.real.copy(), points.imag.copy(),
+                            vectors.real.copy(), vectors.imag.copy(), rows.start, rows.stop,
+                            cols.start, cols.stop)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -437,8 +457,10 @@ class _Warp:
 
 
 def _check_inputs(image: object, source: object, target: object) -> tuple[np.ndarray, bool]:
-    if not isinstance(image, np.ndarray) or image.dtype != np.uint8:
-        raise InvalidInputError("the source image must be a uint8 array")
+    if not isinstance(image, np.ndarray) or image.dtype not in (np.uint8, np.uint16):
+        raise InvalidInputError("the source image must be a uint8 (or uint16) array")
+    if image.dtype == np.uint16:  # rendered in 8 bits
+        image = ((image.astype(np.uint32) + 128) // 257).astype(np.uint8)
     grey = image.ndim == 2
     if not (grey or (image.ndim == 3 and image.shape[2] in (1, 3))):
         raise InvalidInputError(f"the source image must be (H, W) or (H, W, 3), not shape {image.shape}")
@@ -475,9 +497,9 @@ def _check_inputs(image: object, source: object, target: object) -> tuple[np.nda
 
 
 class _Renderer:
-    def __init__(self, img: np.ndarray, source: Structure, target: Structure, canvas: np.ndarray,
-                 content: np.ndarray, opts: RenderOptions, rng: np.random.Generator,
-                 regular: _Bank, junction: _Bank):
+    def __init__(self, img: np.ndarray, src_raster: np.ndarray, tgt_raster: np.ndarray,
+                 canvas: np.ndarray, content: np.ndarray, opts: RenderOptions,
+                 rng: np.random.Generator, regular: _Bank, junction: _Bank):
         import cv2
 
         self.opts, self.rng = opts, rng
@@ -487,171 +509,88 @@ class _Renderer:
         self.h, self.w = canvas.shape[:2]
         self.var = max(float(self.src.reshape(-1, self.src.shape[2]).var(axis=0).sum()), 1.0)
         kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * OTHER_MARGIN + 1,) * 2)
-        self.src_cracks = cv2.dilate(rasterize(source).astype(np.uint8), kernel).astype(bool)
-        self.tgt_raster = rasterize(target)
-        self.tgt_cracks = cv2.dilate(self.tgt_raster.astype(np.uint8), kernel).astype(bool)
+        self.src_cracks = cv2.dilate(src_raster.astype(np.uint8), kernel).astype(bool)
+        self.tgt_cracks = cv2.dilate(tgt_raster.astype(np.uint8), kernel).astype(bool)
         self.regular, self.junction = regular, junction
         self.warp = _Warp()
         ang = np.arange(RING_SAMPLES) * (2 * np.pi / RING_SAMPLES)
-        self.ring = np.concatenate([f * np.exp(1j * (ang + 0.5 * i * 2 * np.pi / RING_SAMPLES))
-                                    for i, f in enumerate(RING_RADII)])
+        ring = np.concatenate([f * np.exp(1j * (ang + 0.5 * i * 2 * np.pi / RING_SAMPLES))
+                               for i, f in enumerate(RING_RADII)])
+        self.ring_re, self.ring_im = np.ascontiguousarray(ring.real), np.ascontiguousarray(ring.imag)
+        self.eps = 1e-3 * math.sqrt(self.var)
+        self._no_pixels = np.zeros((1, 1, self.src.shape[2]), np.float32)
         self.coverage = np.zeros((self.h, self.w), bool)
         self.fragment_map = np.full((self.h, self.w), -1, np.int32)
 
     # -- §5.2: choose a source fragment -------------------------------------------------------
 
-    def _shape_costs(self, bank: _Bank, g: _Fragment, weight: np.ndarray):
-        """Shape cost S (eq. 1) and rotation of every source fragment, forward and reversed:
-        arrays ``(n, 2)``. The rotation about the centres is the closed-form least-squares one
-        (2-D Procrustes: the argument of ``sum conj(p_l) q_l``), clamped to
-        ``max_rotation``."""
-        wq = weight * g.pos
-        qq = float((weight * np.abs(g.pos) ** 2).sum())
-        wnu = weight * g.thick
-        nn = float((wnu * g.thick).sum())
-        z = bank.conj_pos @ wq                                  # (2n,)
-        mag = np.abs(z)
-        limit = math.radians(self.opts.max_rotation)
-        if limit >= math.pi:
-            rot = np.where(mag > 1e-12, z / np.maximum(mag, 1e-12), 1.0)
-            fit = mag
-        else:
-            ang = np.clip(np.angle(z), -limit, limit)
-            rot = np.exp(1j * ang)
-            fit = (z * np.conj(rot)).real
-        residual = bank.sq @ weight + qq - 2 * fit
-        thick = bank.thick2 @ weight - 2 * (bank.thick_all @ wnu) + nn
-        cost = (np.maximum(residual, 0.0) + self.opts.omega_s * np.maximum(thick, 0.0)).reshape(2, -1).T
-        # the box sampled around a source centre must stay inside the photo
-        margin = g.radius + 2
-        c = bank.centre
-        ok = ((c.real >= margin) & (c.real <= self.sw - 1 - margin)
-              & (c.imag >= margin) & (c.imag <= self.sh - 1 - margin))
-        if ok.any():
-            cost[~ok] = np.inf
-        return cost, rot.reshape(2, -1).T
-
-    def _colour_costs(self, bank: _Bank, g: _Fragment, idx: np.ndarray, rot: np.ndarray) -> np.ndarray:
-        """Colour cost C: mean squared difference between the rigidly placed candidates and the
-        content already under the probe rings, / colour variance x r^2."""
-        t = g.centre + g.radius * self.ring
-        tx, ty = np.rint(t.real).astype(np.int64), np.rint(t.imag).astype(np.int64)
-        ok = (tx >= 0) & (tx < self.w) & (ty >= 0) & (ty < self.h)
-        tx, ty = tx[ok], ty[ok]
-        has = self.content[ty, tx]
-        if not has.any():
-            return np.zeros(len(idx))
-        old = self.canvas[ty[has], tx[has]]
-        s = bank.centre[idx, None] + np.conj(rot[:, None]) * (g.radius * self.ring[ok][has])[None]
-        sx = np.clip(np.rint(s.real).astype(np.int64), 0, self.sw - 1)
-        sy = np.clip(np.rint(s.imag).astype(np.int64), 0, self.sh - 1)
-        new = self.src[sy, sx]
-        return ((new - old[None]) ** 2).sum(axis=2).mean(axis=1) / self.var * g.radius ** 2
-
     def choose(self, g: _Fragment) -> tuple[_Bank, int, int, complex] | None:
         bank = self.junction if (g.junction and self.junction.n) else self.regular
         if g.junction and bank is self.regular:
             return None  # no junction in the source: the child's own fragments make the joint
-        # samples outside the canvas do not count (where the crack continues is invisible)
-        p = g.pos + g.centre
-        weight = ((p.real >= -2) & (p.real <= self.w + 1) & (p.imag >= -2) & (p.imag <= self.h + 1)).astype(float)
-        if weight.sum() < 2:
-            weight[:] = 1.0
-        cost, rots = self._shape_costs(bank, g, weight)
-        flat = cost.ravel()
-        m = min(self.opts.shortlist, flat.size)
-        short = np.argpartition(flat, m - 1)[:m] if m < flat.size else np.arange(flat.size)
-        short = short[np.isfinite(flat[short])]
-        i, o = np.divmod(short, 2)
-        rot = rots[i, o]
-        total = flat[short] + self.opts.omega_c * self._colour_costs(bank, g, i, rot)
+        args = (bank.pre, bank.pim, bank.thick_all, bank.border, g.pos_re, g.pos_im, g.thick, g.weight,
+                float(self.opts.omega_s), math.radians(self.opts.max_rotation))
+        rest = (self.opts.shortlist, self.src, self.canvas, self.content, self.coverage, self.tgt_cracks,
+                g.centre.real, g.centre.imag, g.radius, self.ring_re, self.ring_im, bank.cre, bank.cim,
+                self.opts.omega_c * g.radius ** 2 / self.var)
+        rows, total, rc, rs = K.select_candidates(*args, g.radius + 2, *rest)
+        if len(rows) == 0:  # no source fragment fits this radius inside the photo: allow them all
+            rows, total, rc, rs = K.select_candidates(*args, -np.inf, *rest)
+        if len(rows) == 0 or not np.isfinite(total).all():
+            return None
+        # rows come sorted by S; the c best by S + omega_c C, drawn with probability ~ 1 / cost
         order = np.argsort(total, kind="stable")[: self.opts.candidates]
-        inv = 1.0 / (total[order] + 1e-6 * (1.0 + total[order].min()))
-        pick = order[self.rng.choice(len(order), p=inv / inv.sum())]
-        return bank, int(i[pick]), int(o[pick]), complex(rot[pick])
+        inv = 1.0 / (total[order] + 1e-6 * (1.0 + float(total[order[0]])))
+        u = self.rng.random() * float(inv.sum())
+        pick = order[min(int(np.searchsorted(np.cumsum(inv), u, side="right")), len(order) - 1)]
+        o, i = divmod(int(rows[pick]), bank.n)
+        return bank, i, o, complex(rc[pick], rs[pick])
 
     # -- §5.3: compose it ---------------------------------------------------------------------
 
-    def place(self, j: int, g: _Fragment, bank: _Bank, i: int, o: int, rot: complex) -> None:
+    def place(self, j: int, g: _Fragment, bank: _Bank, i: int, o: int, rot: complex) -> bool:
+        """Compose source fragment ``i`` (orientation ``o``, rotation ``rot``) into target
+        fragment ``j``; False when it adds no pixel."""
         import cv2
         import maxflow
 
-        from barkgen.branching import _render_kernels as K
-
         f = bank.frags[i]
-        order = bank.orders[o]
-        half = int(math.ceil(g.radius)) + 1
-        icx, icy = int(round(g.centre.real)), int(round(g.centre.imag))
-        x0, x1 = max(icx - half, 0), min(icx + half + 1, self.w)
-        y0, y1 = max(icy - half, 0), min(icy + half + 1, self.h)
-        if x0 >= x1 or y0 >= y1:
-            return
-        # smooth displacement making the rotated source samples land on the target's
-        pairs = g.real & f.real[order]
-        q = g.pos[pairs]
-        d = rot * f.pos[order][pairs] - q
-        shift = g.centre - complex(icx, icy)
-        field = self.warp.solve(half, q + shift, d)[y0 - icy + half:y1 - icy + half,
-                                                    x0 - icx + half:x1 - icx + half]
-        yy, xx = np.mgrid[y0:y1, x0:x1]
-        rel = (xx + 1j * yy) - g.centre
-        srcpos = f.centre + np.conj(rot) * (rel + field)
-        mapx = srcpos.real.astype(np.float32)
-        mapy = srcpos.imag.astype(np.float32)
-        interp = cv2.INTER_NEAREST if self.opts.interpolation == "nearest" else cv2.INTER_CUBIC
-        new = cv2.remap(self.src, mapx, mapy, interp, borderMode=cv2.BORDER_REFLECT_101)
-        new = new.reshape(mapx.shape + (self.src.shape[2],))
-        old = self.canvas[y0:y1, x0:x1]
-        has = self.content[y0:y1, x0:x1]
-
-        # graph-cut constraints
-        dist = np.abs(rel)
-        disk = dist <= g.radius
-        go = g.own
-        tgt_own = K.crack_distance(xx.astype(np.float64), yy.astype(np.float64), go[:, 0], go[:, 1],
-                                   go[:, 2], go[:, 3] > 0)
-        so = f.own
-        src_own = K.crack_distance(srcpos.real, srcpos.imag, so[:, 0], so[:, 1], so[:, 2], so[:, 3] > 0)
-        sx = np.clip(np.rint(mapx).astype(np.int64), 0, self.sw - 1)
-        sy = np.clip(np.rint(mapy).astype(np.int64), 0, self.sh - 1)
-        foreign = self.src_cracks[sy, sx] & (src_own > OTHER_MARGIN + 1)
-        other = self.tgt_cracks[y0:y1, x0:x1] & (tgt_own > OTHER_MARGIN + 1)
-        own = disk & (tgt_own <= OWN_MARGIN)
-        take = own | (disk & ~has & ~foreign)
-        if g.junction:
-            take |= (dist <= JUNCTION_CLEAR * g.radius) & ~foreign & ~other
-        keep = has & ~take & ((dist > g.radius - 1) | other | foreign)
-        if not take.any():
-            return
-        free = ~(take | keep)
-        if free.any():
-            diff = np.sqrt(((new - old) ** 2).sum(axis=2)) * has
-            right = np.zeros_like(diff)
-            right[:, :-1] = diff[:, :-1] + diff[:, 1:]
-            down = np.zeros_like(diff)
-            down[:-1] = diff[:-1] + diff[1:]
-            eps = 1e-3 * np.sqrt(self.var)
+        fpos = bank.oriented[o][i]
+        freal = bank.oriented_real[o][i]
+        x0, y0, mapx, mapy = K.fragment_maps(
+            self.warp.green, self.warp.m, g.centre.real, g.centre.imag, g.radius, self.w, self.h,
+            g.pos_re, g.pos_im, g.real, fpos.real, fpos.imag, freal, f.centre.real, f.centre.imag,
+            rot.real, rot.imag)
+        if mapx.size == 0:
+            return False
+        if self.opts.interpolation == "nearest":
+            given = self._no_pixels
+        else:
+            given = cv2.remap(self.src, mapx, mapy, cv2.INTER_CUBIC, borderMode=cv2.BORDER_REFLECT_101)
+            given = np.clip(given.reshape(mapx.shape + (self.src.shape[2],)), 0.0, 255.0)
+        new, take, keep, src_caps, sink_caps, right, down, boundary, fixed, n_take, n_free = K.compose_setup(
+            self.src, mapx, mapy, given, self.opts.interpolation != "nearest", x0, y0, self.canvas,
+            self.content, self.coverage, self.tgt_cracks, self.src_cracks, g.centre.real, g.centre.imag,
+            g.radius, JUNCTION_CLEAR * g.radius if g.junction else 0.0, *g.own_cols, *f.own_cols,
+            OWN_MARGIN, float(OTHER_MARGIN), self.eps)
+        if n_take == 0:
+            return False
+        if n_free:
             graph = maxflow.Graph[float]()
-            nodes = graph.add_grid_nodes(diff.shape)
-            graph.add_grid_edges(nodes, weights=right + eps, structure=_RIGHT, symmetric=True)
-            graph.add_grid_edges(nodes, weights=down + eps, structure=_DOWN, symmetric=True)
-            big = 1e9
-            graph.add_grid_tedges(nodes, np.where(take, big, 0.0), np.where(keep, big, 0.0))
+            nodes = graph.add_grid_nodes(right.shape)
+            graph.add_grid_edges(nodes, weights=right, structure=_RIGHT, symmetric=True)
+            graph.add_grid_edges(nodes, weights=down, structure=_DOWN, symmetric=True)
+            graph.add_grid_tedges(nodes, src_caps, sink_caps)
             graph.maxflow()
-            newmask = ~graph.get_grid_segments(nodes)
-            newmask &= disk | take
+            newmask = ~graph.get_grid_segments(nodes) & ~keep
         else:
             newmask = take
         # Poisson photometric correction: harmonic offset, seam difference on the boundary,
         # zero where the new pixels touch nothing placed before
-        boundary = np.where(has[:, :, None], old - new, 0.0).astype(np.float32)
-        offset = K.harmonic_offset(newmask, boundary, np.float32(0.05), 4 * half + 20)
-        out = new + offset
-        region = self.canvas[y0:y1, x0:x1]
-        region[newmask] = out[newmask]
-        self.content[y0:y1, x0:x1] |= newmask
-        self.coverage[y0:y1, x0:x1] |= newmask
-        self.fragment_map[y0:y1, x0:x1][newmask] = j
+        K.blend(x0, y0, newmask, new, fixed, boundary, self.canvas, self.content, self.coverage,
+                self.fragment_map, j, np.float32(POISSON_TOL), 4 * int(math.ceil(g.radius)) + 24,
+                SEAM_SMOOTH)
+        return True
 
 
 _RIGHT = np.array([[0, 0, 0], [0, 0, 1], [0, 0, 0]])
@@ -672,7 +611,8 @@ def render_branches(
     structure (sibbing2010 §5; see the module docstring).
 
     Args:
-        image: the source photo, uint8 ``(H, W, 3)`` or grey ``(H, W)``.
+        image: the source photo, uint8 ``(H, W, 3)``, ``(H, W, 1)`` or grey ``(H, W)`` (uint16 is
+            taken down to 8 bits).
         source: the structure on ``image`` (its size must be the image's).
         target: the structure to render; its size is the output size ``(width, height)``.
         seed: seeds the fill and the one ``numpy.random.Generator`` of the fragment choices.
@@ -686,6 +626,7 @@ def render_branches(
     Raises:
         InvalidInputError: a bad image, an empty or invalid structure, a source structure that
             does not fit the image or has no usable fragment, bad options.
+        MemoryBudgetError: the fill's estimated memory exceeds its configured budget.
     """
     t_start = time.perf_counter()
     opts = options if options is not None else RenderOptions()
@@ -703,6 +644,7 @@ def render_branches(
                                 f">= {opts.min_radius:g} px")
     plan = _target_plan(target, opts, junction.n > 0)
     labels = rasterize(target)
+    src_raster = rasterize(source)
 
     fill_total = 0
 
@@ -717,8 +659,9 @@ def render_branches(
     if fill:
         from barkgen.synth import texture_by_numbers
 
-        res = texture_by_numbers(img, rasterize(source).astype(np.uint8) * 255,
+        res = texture_by_numbers(img, src_raster.astype(np.uint8) * 255,
                                  labels.astype(np.uint8) * 255, seed=int(seed),
+                                 label_weight=float(opts.fill_label_weight),
                                  config=opts.fill_config, progress=fill_progress)
         canvas = res.image.reshape(th, tw, -1).astype(np.float32)
         content = np.ones((th, tw), bool)
@@ -729,16 +672,11 @@ def render_branches(
 
     t0 = time.perf_counter()
     rng = np.random.default_rng(int(seed))
-    r = _Renderer(img, source, target, canvas, content, opts, rng, regular, junction)
+    r = _Renderer(img, src_raster, labels, canvas, content, opts, rng, regular, junction)
     placed = 0
     for j, g in enumerate(plan):
-        p = g.pos + g.centre
-        if (p.real.max() < -g.radius or p.real.min() > tw + g.radius
-                or p.imag.max() < -g.radius or p.imag.min() > th + g.radius):
-            continue
-        pick = r.choose(g)
-        if pick is not None:
-            r.place(j, g, *pick)
+        pick = r.choose(g) if g.visible else None
+        if pick is not None and r.place(j, g, *pick):
             placed += 1
         if progress is not None:
             progress(fill_total + j + 1, fill_total + len(plan))
