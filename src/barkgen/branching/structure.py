@@ -200,11 +200,19 @@ def rasterize(structure: Structure, shape: tuple[int, int] | None = None, *, sca
 
     h, w = shape if shape is not None else (structure.height, structure.width)
     canvas = np.zeros((h, w), np.uint8)
+    ends, widths = [], []
     for b in structure.branches:
         p = b.points
-        for i in range(len(p) - 1):
-            r = max((p[i, 2] + p[i + 1, 2]) / 2 * scale, min_radius)
-            a = (int(round(p[i, 0] * 16)), int(round(p[i, 1] * 16)))
-            c = (int(round(p[i + 1, 0] * 16)), int(round(p[i + 1, 1] * 16)))
-            cv2.line(canvas, a, c, 1, thickness=max(1, int(round(2 * r))), lineType=cv2.LINE_8, shift=4)
+        if len(p) < 2:
+            continue
+        fixed = np.round(p[:, :2] * 16).astype(np.int32)  # 4 fractional bits (cv2 shift=4)
+        ends.append(np.stack([fixed[:-1], fixed[1:]], axis=1))
+        r = np.maximum((p[:-1, 2] + p[1:, 2]) / 2 * scale, min_radius)
+        widths.append(np.maximum(1, np.round(2 * r)).astype(np.int64))
+    if ends:
+        segments = np.concatenate(ends)
+        width = np.concatenate(widths)
+        for t in np.unique(width):  # one call per line width
+            cv2.polylines(canvas, list(segments[width == t]), False, 1, thickness=int(t),
+                          lineType=cv2.LINE_8, shift=4)
     return canvas.astype(bool)
