@@ -102,6 +102,11 @@ class _Grower:
                       np.empty(t, np.int64), np.empty(t, np.int64), np.empty(t))
         self._guide = guide if guide is not None else np.zeros((1, 1), np.float32)
         self._decision = np.zeros(3, np.int64)
+        everything = np.arange(len(model.branch_length))
+        self._roots = np.flatnonzero(model.branch_is_root)
+        self._children = np.flatnonzero(~model.branch_is_root)
+        self._roots = self._roots if len(self._roots) else everything
+        self._children = self._children if len(self._children) else everything
         self.near_tangent = np.zeros((self.h, self.w), np.float32)
         self.join_pdf = None
         if len(model.join_angles):
@@ -135,9 +140,7 @@ class _Grower:
         # the branch's length and ending are those of a source branch of its kind (root or
         # child): the Markov chain alone under-represents short branches, which have few or no
         # complete histories
-        same_kind = np.flatnonzero(self.model.branch_is_root == (parent is None))
-        if len(same_kind) == 0:
-            same_kind = np.arange(len(self.model.branch_length))
+        same_kind = self._roots if parent is None else self._children
         pick = int(same_kind[self.rng.integers(len(same_kind))])
         wanted = float(self.model.branch_length[pick])
         wants_join = bool(self.model.branch_joined[pick])

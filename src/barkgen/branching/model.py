@@ -119,8 +119,14 @@ def _furcation_distances(furcation_at: np.ndarray) -> np.ndarray:
     """``n-`` and ``n+`` of every vertex: index distances to the previous and next furcation
     (or the branch's ends), as two columns."""
     n = len(furcation_at)
-    i = np.arange(n)
+    i = np.arange(n, dtype=np.float64)
     marks = np.flatnonzero(furcation_at)
+    if len(marks) == 0:
+        out = np.empty((n, 2))
+        out[:, 0] = i
+        out[:, 1] = n - 1 - i
+        return out
+    i = np.arange(n)
     prev_marks = np.concatenate([[0], marks])
     next_marks = np.concatenate([marks, [n - 1]])
     n_minus = i - prev_marks[np.maximum(np.searchsorted(prev_marks, i, side="left") - 1, 0)]
