@@ -105,6 +105,8 @@ def run_image(path: Path, size: int, seeds: list[int], render: bool, sheets: Pat
         "grow_s": statistics.median(times),
         "angle_l1": statistics.median(c.angle_l1 for c in cmps),
         "thickness_l1": statistics.median(c.thickness_l1 for c in cmps),
+        "heading_l1": statistics.median(c.heading_l1 for c in cmps),
+        "walk_heading_l1": statistics.median(c.heading_l1 for c in walks),
         "walk_angle_l1": statistics.median(c.angle_l1 for c in walks),
         "walk_thickness_l1": statistics.median(c.thickness_l1 for c in walks),
         "crossings": max(c.target_intersections for c in cmps),
@@ -167,7 +169,8 @@ def main() -> None:
               + (f"  render {r['render_s']:5.2f}s coherence {r['coherence_ratio']:.2f}x sharpness "
                  f"{r['sharpness_ratio']:.2f}x crack lum {r['crack_lum_ratio']:.2f}" if args.render else ""),
               flush=True)
-    keys = ["grow_s", "angle_l1", "thickness_l1", "walk_angle_l1", "walk_thickness_l1", "junction_ratio"]
+    keys = ["grow_s", "angle_l1", "thickness_l1", "heading_l1", "walk_angle_l1", "walk_thickness_l1",
+            "walk_heading_l1", "junction_ratio"]
     if args.render:
         keys += ["render_s", "coherence_ratio", "sharpness_ratio", "crack_lum_ratio"]
     print("\n| image | " + " | ".join(keys) + " |")

@@ -104,7 +104,8 @@ def first_contacts(dist, near_branch, xs, ys, rs, step, branch, parent, sx, sy, 
 
 @njit(cache=True)
 def extension_candidates(qual, hist_a, hist_r, ha, hr, history_start, branch_end, angles, thickness,
-                         k, m, a_edges, r_edges, a_counts, r_counts, a_target, r_target, n_t, omega_g,
+                         k, m, a_edges, r_edges, a_counts, r_counts, a_target, r_target, h_counts, h_target,
+                         n_t, omega_g,
                          x0, y0, theta, step, dist, near_branch, branch, parent, sx, sy, exempt,
                          rho, guide, use_guide, eps, c_best, uniforms, join_rate, join_pdf, near_tangent,
                          cand, qstar, lens, ang, thk, xs, ys, heads, first_hit, first_out, q2, decision):  # pragma: no cover - compiled
@@ -159,9 +160,11 @@ def extension_candidates(qual, hist_a, hist_r, ha, hr, history_start, branch_end
     before = 0.0
     for b in range(bins):
         before += (a_target[b] - a_counts[b] / n_now) ** 2 + (r_target[b] - r_counts[b] / n_now) ** 2
+        before += (h_target[b] - h_counts[b] / n_now) ** 2
     before /= bins
     add_a = np.zeros(bins)
     add_r = np.zeros(bins)
+    add_h = np.zeros(bins)
     for t in range(t_count):
         c = cand[t]
         if c < 0:
@@ -176,14 +179,18 @@ def extension_candidates(qual, hist_a, hist_r, ha, hr, history_start, branch_end
         lens[t] = n_el
         add_a[:] = 0.0
         add_r[:] = 0.0
+        add_h[:] = 0.0
+        hd = theta
         for j in range(m):
             if j < n_el:
                 ang[t, j] = angles[c0 + j]
                 thk[t, j] = thickness[c0 + j]
                 ba = min(max(np.searchsorted(a_edges, ang[t, j], side="right") - 1, 0), bins - 1)
                 br = min(max(np.searchsorted(r_edges, thk[t, j], side="right") - 1, 0), bins - 1)
+                hd += ang[t, j]
                 add_a[ba] += 1.0
                 add_r[br] += 1.0
+                add_h[heading_bin(hd, bins)] += 1.0
             else:
                 ang[t, j] = 0.0
                 thk[t, j] = 0.0
@@ -192,6 +199,7 @@ def extension_candidates(qual, hist_a, hist_r, ha, hr, history_start, branch_end
         for b in range(bins):
             after += (a_target[b] - (a_counts[b] + add_a[b]) / total) ** 2
             after += (r_target[b] - (r_counts[b] + add_r[b]) / total) ** 2
+            after += (h_target[b] - (h_counts[b] + add_h[b]) / total) ** 2
         gain = (before - after / bins) * omega_g * n_now / m
         qstar[t] *= np.exp(min(max(gain, -50.0), 50.0))
         # geometry, collisions and the border
@@ -300,6 +308,19 @@ def _draw_best(score, cand, first_hit, free_only, c_best, u):  # pragma: no cove
             if target < acc:
                 return best[p]
     return best[0]
+
+
+@njit(cache=True)
+def heading_bin(heading, bins):  # pragma: no cover - compiled
+    """Bin of an edge direction as an axis (modulo 180 degrees) among ``bins`` equal bins."""
+    a = heading % np.pi
+    return min(int(a / np.pi * bins), bins - 1)
+
+
+@njit(cache=True)
+def add_heading_counts(counts, headings):  # pragma: no cover - compiled
+    for h in headings:
+        counts[heading_bin(h, counts.shape[0])] += 1.0
 
 
 @njit(cache=True)

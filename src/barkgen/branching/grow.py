@@ -82,6 +82,7 @@ class _Grower:
         self.levels: list[int] = []
         self.a_counts = np.zeros(self.o.bins)
         self.r_counts = np.zeros(self.o.bins)
+        self.h_counts = np.zeros(self.o.bins)
         self.n_t = 0
         self.length = 0.0
         self.n_merges = 0
@@ -218,7 +219,7 @@ class _Grower:
         tip.hist[tip.n_hist:tip.n_hist + n] = elements[:n]
         tip.n_hist += n
         tip.theta = float(heads[n - 1])
-        self._count(elements[:n])
+        self._count(elements[:n], heads[:n])
 
     def _geometry(self, x0, y0, theta, ang: np.ndarray):
         """Vertices after appending the element rows ``ang`` (T, L) from heading ``theta``."""
@@ -254,10 +255,11 @@ class _Grower:
         self._push(tip, elements, xs, ys, headings, n)
         return keep and n > 0, hit
 
-    def _count(self, elements: np.ndarray) -> None:
+    def _count(self, elements: np.ndarray, headings: np.ndarray) -> None:
         m = self.model
         K.add_counts(self.a_counts, m.angle_edges, elements[:, 0])
         K.add_counts(self.r_counts, m.thickness_edges, elements[:, 1])
+        K.add_heading_counts(self.h_counts, np.ascontiguousarray(headings, np.float64))
         self.n_t += len(elements)
 
     def _choose(self, tip: "_Tip", start, exempt, b):
@@ -273,7 +275,8 @@ class _Grower:
         K.extension_candidates(
             self._quality, self.hist_a, self.hist_r, hist[:, 0], hist[:, 1], model.history_start, model.branch_end,
             model.angles, model.thickness, o.k, o.m, model.angle_edges, model.thickness_edges,
-            self.a_counts, self.r_counts, model.angle_hist, model.thickness_hist, float(self.n_t),
+            self.a_counts, self.r_counts, model.angle_hist, model.thickness_hist, self.h_counts,
+            model.heading_hist, float(self.n_t),
             float(o.omega_g), x0, y0, tip.theta, self.step, self.dist, self.near_branch, b,
             -2 if parent is None else parent, float(start[0]), float(start[1]), float(exempt),
             self.rho, self._guide, self.guide is not None, EPSILON, o.c, self.rng.random(3),

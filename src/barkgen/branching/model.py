@@ -78,6 +78,7 @@ class BranchModel:
     thickness_edges: np.ndarray
     angle_hist: np.ndarray      # normalised source histograms
     thickness_hist: np.ndarray
+    heading_hist: np.ndarray    # edge directions as axes (0-180 degrees): bark fissures run upright
     svm_w: np.ndarray | None    # furcation classifier on standardised features
     svm_b: float
     platt: tuple[float, float]  # furcation probability = sigmoid(a * margin + b)
@@ -213,6 +214,10 @@ def fit_model(source: Structure, options: ModelOptions | None = None) -> BranchM
     r_edges = np.linspace(r_lo, r_hi, options.bins + 1)
     a_hist = histogram(flat_a, a_edges)
     r_hist = histogram(flat_r, r_edges)
+    # directions of the edges that elements lead to (the paper's model is rotation invariant;
+    # matching this histogram too keeps upright bark fissures upright)
+    headings = np.concatenate([np.arctan2(*np.diff(b.xy, axis=0)[1:, ::-1].T) for b in branches if len(b.points) >= 3])
+    h_hist = histogram(np.mod(headings, np.pi), np.linspace(0, np.pi, options.bins + 1))
 
     # furcations
     children = np.zeros(len(branches), int)
@@ -292,7 +297,7 @@ def fit_model(source: Structure, options: ModelOptions | None = None) -> BranchM
     rho = _spread(branches, source.width, source.height)
     return BranchModel(
         options, h, flat_a, flat_r, np.concatenate(element_end), np.asarray(starts, int), np.asarray(ends, int),
-        np.asarray(joined, bool), a_edges, r_edges, a_hist, r_hist, svm_w, svm_b, platt, feat_mean,
+        np.asarray(joined, bool), a_edges, r_edges, a_hist, r_hist, h_hist, svm_w, svm_b, platt, feat_mean,
         feat_scale, children, furcations, root_heading, root_first, root_thickness,
         float(join_rate), np.array([b.length() for b in branches]),
         np.array([b.parent is None for b in branches]), np.array([b.joins is not None for b in branches]),

@@ -26,6 +26,12 @@ def structure_values(structure: Structure, step: float | None = None) -> tuple[n
     return a, np.concatenate(thickness)
 
 
+def _headings(structure: Structure) -> np.ndarray:
+    """Directions of every edge as axes in [0, pi)."""
+    parts = [np.arctan2(*np.diff(b.xy, axis=0)[:, ::-1].T) for b in structure.branches]
+    return np.mod(np.concatenate(parts), np.pi) if parts else np.zeros(0)
+
+
 def self_intersections(structure: Structure) -> int:
     """Crossings of two branches that are not a furcation or a merge of the structure: places
     where the skeletons of different branches touch away from their recorded junctions."""
@@ -72,6 +78,7 @@ class StructureComparison:
     target_thickness: np.ndarray
     angle_l1: float
     thickness_l1: float
+    heading_l1: float               # edge directions as axes, 16 bins over 0-180 degrees
     source_junction_density: float  # furcations + merges per megapixel
     target_junction_density: float
     source_length_density: float    # skeleton pixels per pixel
@@ -79,7 +86,7 @@ class StructureComparison:
     target_intersections: int
 
     def as_dict(self) -> dict:
-        return {"angle_l1": self.angle_l1, "thickness_l1": self.thickness_l1,
+        return {"angle_l1": self.angle_l1, "thickness_l1": self.thickness_l1, "heading_l1": self.heading_l1,
                 "source_junctions_per_mpx": self.source_junction_density,
                 "target_junctions_per_mpx": self.target_junction_density,
                 "source_length_per_px": self.source_length_density,
@@ -100,11 +107,13 @@ def compare_structures(source: Structure, target: Structure, bins: int = 16) -> 
     r_edges = np.linspace(lo, hi, bins + 1)
     hs_a, ht_a = histogram(sa, a_edges), histogram(ta, a_edges)
     hs_r, ht_r = histogram(sr, r_edges), histogram(tr, r_edges)
+    h_edges = np.linspace(0, np.pi, bins + 1)
+    heading_l1 = float(np.abs(histogram(_headings(source), h_edges) - histogram(_headings(target), h_edges)).sum())
     s_area = source.width * source.height / 1e6
     t_area = target.width * target.height / 1e6
     return StructureComparison(
         a_edges, r_edges, hs_a, ht_a, hs_r, ht_r,
-        float(np.abs(hs_a - ht_a).sum()), float(np.abs(hs_r - ht_r).sum()),
+        float(np.abs(hs_a - ht_a).sum()), float(np.abs(hs_r - ht_r).sum()), heading_l1,
         source.junctions() / s_area, target.junctions() / t_area,
         source.total_length() / (s_area * 1e6), target.total_length() / (t_area * 1e6),
         self_intersections(target))

@@ -1185,6 +1185,7 @@ def branches_stats_command(
                           f"{dst[i]:.3f}", f"{bar:<20.20}|{bar2:<20.20}")
         console.print(table)
     console.print(f"L1 angle {cmp.angle_l1:.3f}   L1 thickness {cmp.thickness_l1:.3f}   "
+                  f"L1 direction {cmp.heading_l1:.3f}   "
                   f"junctions per Mpx {cmp.source_junction_density:.0f} -> {cmp.target_junction_density:.0f}   "
                   f"length per px {cmp.source_length_density:.4f} -> {cmp.target_length_density:.4f}   "
                   f"intersections {cmp.target_intersections}", highlight=False)
