@@ -263,9 +263,11 @@ class _Grower:
         self.n_t += len(elements)
 
     def _choose(self, tip: "_Tip", start, exempt, b):
-        """One extension step of §4.2-4.4 (the kernel scores and chooses): returns
-        ("grow", (elements, xs, ys, heads, n_in)), ("end", source_branch_joined),
-        ("join", (elements, hit)) or None (no candidate)."""
+        """One extension step of §4.2-4.4 (the kernel scores and chooses). Returns None (no
+        candidate), ("end", source_branch_joined), ("join", (elements, xs, ys, heads, j)): add
+        the first ``j`` elements and end on the branch met at vertex ``j``, or ("grow",
+        (elements, xs, ys, heads, n_in, ends, source_joined)): add the first ``n_in`` (the rest
+        left the image); ``ends`` when the source branch ended within the continuation."""
         model, o = self.model, self.o
         bufs = self._bufs
         parent = self.branches[b].parent
