@@ -219,6 +219,24 @@ def sample_nearest(src, mapx, mapy, tdist, tthick, spx, spy, spt, sok, margin):
 
 
 @nb.njit(inline="always")
+def _segment_projection(x, y, px, py, s):
+    """Distance of ``(x, y)`` to segment ``s`` of the polyline and the position ``u`` in [0, 1]
+    of its nearest point along the segment."""
+    ax = px[s]
+    ay = py[s]
+    dx = px[s + 1] - ax
+    dy = py[s + 1] - ay
+    ll = dx * dx + dy * dy
+    u = 0.0
+    if ll > 1e-12:
+        u = ((x - ax) * dx + (y - ay) * dy) / ll
+        u = min(max(u, 0.0), 1.0)
+    ex = ax + u * dx - x
+    ey = ay + u * dy - y
+    return np.sqrt(ex * ex + ey * ey), u
+
+
+@nb.njit(inline="always")
 def _poly_nearest(x, y, px, py, pt, ok):
     """Distance of ``(x, y)`` to the polyline and the half-width interpolated there."""
     best = np.inf
@@ -226,18 +244,7 @@ def _poly_nearest(x, y, px, py, pt, ok):
     for s in range(px.shape[0] - 1):
         if not (ok[s] and ok[s + 1]):
             continue
-        ax = px[s]
-        ay = py[s]
-        dx = px[s + 1] - ax
-        dy = py[s + 1] - ay
-        ll = dx * dx + dy * dy
-        u = 0.0
-        if ll > 1e-12:
-            u = ((x - ax) * dx + (y - ay) * dy) / ll
-            u = min(max(u, 0.0), 1.0)
-        ex = ax + u * dx - x
-        ey = ay + u * dy - y
-        d = np.sqrt(ex * ex + ey * ey)
+        d, u = _segment_projection(x, y, px, py, s)
         if d < best:
             best = d
             thick = pt[s] + u * (pt[s + 1] - pt[s])
@@ -246,22 +253,13 @@ def _poly_nearest(x, y, px, py, pt, ok):
 
 @nb.njit(inline="always")
 def _poly_distance(x, y, px, py, pt, ok):
+    """Distance of ``(x, y)`` to the polyline's body (distance minus the half-width)."""
     best = np.inf
     for s in range(px.shape[0] - 1):
         if not (ok[s] and ok[s + 1]):
             continue
-        ax = px[s]
-        ay = py[s]
-        dx = px[s + 1] - ax
-        dy = py[s + 1] - ay
-        ll = dx * dx + dy * dy
-        u = 0.0
-        if ll > 1e-12:
-            u = ((x - ax) * dx + (y - ay) * dy) / ll
-            u = min(max(u, 0.0), 1.0)
-        ex = ax + u * dx - x
-        ey = ay + u * dy - y
-        d = np.sqrt(ex * ex + ey * ey) - (pt[s] + u * (pt[s + 1] - pt[s]))
+        d, u = _segment_projection(x, y, px, py, s)
+        d -= pt[s] + u * (pt[s + 1] - pt[s])
         if d < best:
             best = d
     return best

@@ -69,30 +69,14 @@ STEP_RANGE = (2.0, 8.0)
 
 
 def _check_image(image: np.ndarray, what: str = "image") -> np.ndarray:
-    """An ``(H, W)`` / ``(H, W, C)`` uint8, uint16 or float [0, 1] image as float32 RGB in [0, 1]."""
+    """An ``(H, W)`` / ``(H, W, C)`` uint8, uint16, float [0, 1] or boolean image as float32 RGB
+    in [0, 1] (:func:`barkgen.labels.regions.check_image`, which words the errors)."""
+    from barkgen.labels.regions import check_image
+
     img = np.asarray(image)
-    if img.ndim == 2:
-        img = img[:, :, None]
-    if img.ndim != 3 or img.shape[2] not in (1, 2, 3, 4):
-        raise InvalidInputError(f"{what} must be an (H, W) or (H, W, C) image, not shape {img.shape}")
-    if min(img.shape[:2]) < MIN_SIDE:
-        raise InvalidInputError(f"{what} is {img.shape[1]}x{img.shape[0]} px; crack extraction needs "
-                                f"at least {MIN_SIDE} px on each side")
-    if img.shape[2] in (2, 4):
-        img = img[:, :, :-1]
-    if img.dtype == np.uint8:
-        f = img.astype(np.float32) / 255.0
-    elif img.dtype == np.uint16:
-        f = img.astype(np.float32) / 65535.0
-    elif img.dtype.kind == "f":
-        f = np.clip(np.nan_to_num(img.astype(np.float32)), 0.0, 1.0)
-    elif img.dtype == np.bool_:
-        f = img.astype(np.float32)
-    else:
-        raise InvalidInputError(f"{what} has unsupported dtype {img.dtype} (use uint8, uint16 or float)")
-    if f.shape[2] == 1:
-        f = np.repeat(f, 3, axis=2)
-    return np.ascontiguousarray(f)
+    if img.dtype == np.bool_:
+        img = img.astype(np.float32)
+    return check_image(img, min_side=MIN_SIDE, what=what, purpose="crack extraction needs")
 
 
 def _luminance(image: np.ndarray) -> np.ndarray:

@@ -79,7 +79,6 @@ class _Grower:
         self.near_vertex = np.full((self.h, self.w), -1, np.int32)
         self.guide = guide
         self.branches: list[Branch] = []
-        self.levels: list[int] = []
         self.a_counts = np.zeros(self.o.bins)
         self.r_counts = np.zeros(self.o.bins)
         self.h_counts = np.zeros(self.o.bins)
@@ -132,12 +131,11 @@ class _Grower:
 
     # -- one branch -----------------------------------------------------------------------
     def grow_branch(self, start: np.ndarray, heading: float, first_elements: np.ndarray,
-                    parent: int | None, parent_vertex: int | None, level: int) -> int | None:
+                    parent: int | None, parent_vertex: int | None) -> int | None:
         """Grow one branch from ``start`` (x, y, thickness); returns its index or None."""
         b = len(self.branches)
         branch = Branch(np.asarray([start], np.float64), parent, parent_vertex)
         self.branches.append(branch)
-        self.levels.append(level)
         # the branch's length and ending are those of a source branch of its kind (root or
         # child): the Markov chain alone under-represents short branches, which have few or no
         # complete histories
@@ -202,7 +200,6 @@ class _Grower:
             # a child that never left its parent's side is not a branch
             self.n_merges -= branch.joins is not None
             self.branches.pop()
-            self.levels.pop()
             return None
         self.commit(b, max(committed, 0))
         self.length += branch.length()
@@ -395,7 +392,7 @@ class _Grower:
             allowed[max(v - block, 0): v + block + 1] = False
         return chosen
 
-    def child(self, b: int, v: int, level: int) -> int | None:
+    def child(self, b: int, v: int) -> int | None:
         """Start a child branch at vertex ``v`` of branch ``b`` with the non-causal model."""
         model, k = self.model, self.o.k
         fur = model.furcations
@@ -416,7 +413,7 @@ class _Grower:
         # first edge: the branching angle itself, then the child's own elements
         lead = np.array([[0.0, float(fur.child_thickness[f])]])
         start = np.array([p[v, 0], p[v, 1], float(fur.child_thickness[f])])
-        return self.grow_branch(start, heading, np.concatenate([lead, elements]), b, v, level)
+        return self.grow_branch(start, heading, np.concatenate([lead, elements]), b, v)
 
     def root(self) -> int | None:
         """A new root at the emptiest of some random points, weighted by the guide (§4.5)."""
@@ -440,7 +437,7 @@ class _Grower:
         lead = np.array([[0.0, float(model.root_thickness[r])]])
         start = np.array([xs[i], ys[i], float(model.root_thickness[r])])
         return self.grow_branch(start, float(model.root_heading[r]), np.concatenate([lead, elements]),
-                                None, None, 0)
+                                None, None)
 
     def run(self, progress=None) -> None:
         """Grow until the stopping rules hold. Children are grown breadth first; a new root
@@ -472,7 +469,7 @@ class _Grower:
                 parent, v, level = queue.popleft()
                 if level > self.options.max_levels:
                     continue
-                c = self.child(parent, v, level)
+                c = self.child(parent, v)
                 if c is not None:
                     queue.extend((c, w, level + 1) for _, w in self.furcate(c))
             if progress:
