@@ -109,6 +109,41 @@ def test_the_model_beats_a_random_walk(mud_source, mud_grown):
     assert cmp_model.thickness_l1 < cmp_walk.thickness_l1
 
 
+def test_growth_scores_furcations_with_the_fitted_classifier(mud_source):
+    """The growth kernels' furcation margins, with chosen furcations, equal the classifier's
+    margin on the features it was trained on (§4.3), and the greedy choice blocks neighbours."""
+    from barkgen.branching import _grow_kernels as K
+    from barkgen.branching.model import _vertex_features, vertex_angles
+
+    model = fit_model(mud_source)
+    k = model.options.k
+    branch = max(mud_source.branches, key=lambda b: len(b.points))
+    p = np.ascontiguousarray(branch.points)
+    n = len(p)
+    allowed = np.ones(n, bool)
+    base, expected = K.furcation_margins(p, k, model.feat_mean, model.feat_scale, model.svm_w, model.svm_b,
+                                         *model.platt, allowed)
+    a, c = model.platt
+
+    def margin(marks):
+        feats = _vertex_features(vertex_angles(p), p[:, 2], k, marks)
+        return ((feats - model.feat_mean) / model.feat_scale) @ model.svm_w + model.svm_b
+
+    no_marks = margin(np.zeros(n, bool))
+    np.testing.assert_allclose(expected, (1 / (1 + np.exp(-(a * no_marks + c)))).sum(), rtol=1e-9)
+    chosen = K.pick_furcations(base, allowed.copy(), 3, 4, model.feat_mean[-2:], model.feat_scale[-2:],
+                               model.svm_w[-2:])
+    assert len(chosen) == 3 and np.all(np.diff(np.sort(chosen)) > 4)
+    # each choice is the vertex of highest margin given the earlier ones (the n-/n+ terms
+    # count from them), away from their blocked neighbourhoods
+    for i in range(3):
+        blocked = np.zeros(n, bool)
+        for v in chosen[:i]:
+            blocked[max(v - 4, 0):v + 5] = True
+        scores = margin(np.isin(np.arange(n), chosen[:i]))
+        assert chosen[i] == int(np.argmax(np.where(blocked, -np.inf, scores)))
+
+
 def test_growth_is_reproducible_from_the_seed(mud_source):
     model = fit_model(mud_source)
     a = encode_structure(grow_structure(model, (256, 192), seed=5))

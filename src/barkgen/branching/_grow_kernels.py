@@ -330,3 +330,115 @@ def add_counts(counts, edges, values):  # pragma: no cover - compiled
     for v in values:
         b = min(max(np.searchsorted(edges, v, side="right") - 1, 0), bins - 1)
         counts[b] += 1.0
+
+
+@njit(cache=True)
+def add_element_counts(a_counts, a_edges, r_counts, r_edges, h_counts, elements, headings):  # pragma: no cover - compiled
+    """The three histograms of §4.2 (angle, thickness, edge direction) after appending
+    ``elements`` (rows of angle, thickness) along ``headings``."""
+    add_counts(a_counts, a_edges, elements[:, 0])
+    add_counts(r_counts, r_edges, elements[:, 1])
+    add_heading_counts(h_counts, headings)
+
+
+@njit(cache=True)
+def polyline_length(points):  # pragma: no cover - compiled
+    total = 0.0
+    for i in range(1, points.shape[0]):
+        total += np.hypot(points[i, 0] - points[i - 1, 0], points[i, 1] - points[i - 1, 1])
+    return total
+
+
+@njit(cache=True)
+def vertex_turns(points):  # pragma: no cover - compiled
+    """Turning angle at every vertex of a polyline (0 at both ends), in (-pi, pi]."""
+    n = points.shape[0]
+    va = np.zeros(n)
+    for i in range(1, n - 1):
+        h0 = np.arctan2(points[i, 1] - points[i - 1, 1], points[i, 0] - points[i - 1, 0])
+        h1 = np.arctan2(points[i + 1, 1] - points[i, 1], points[i + 1, 0] - points[i, 0])
+        d = h1 - h0
+        va[i] = np.arctan2(np.sin(d), np.cos(d))
+    return va
+
+
+@njit(cache=True)
+def furcation_margins(points, k, feat_mean, feat_scale, svm_w, svm_b, platt_a, platt_b, allowed):  # pragma: no cover - compiled
+    """The furcation classifier's margin at every vertex of a branch from its non-causal
+    neighbourhood (§4.3: the 2k+1 turning angles and thicknesses around it, edge-replicated),
+    without the furcation-distance terms, and the expected number of furcations: the sum of
+    the Platt-scaled probabilities over the ``allowed`` vertices with no furcation chosen yet
+    (``n-``, ``n+`` = the distances to the branch's ends)."""
+    n = points.shape[0]
+    va = vertex_turns(points)
+    width = 2 * k + 1
+    base = np.empty(n)
+    expected = 0.0
+    for i in range(n):
+        s = svm_b
+        for j in range(width):
+            q = min(max(i - k + j, 0), n - 1)
+            s += (va[q] - feat_mean[j]) / feat_scale[j] * svm_w[j]
+            s += (points[q, 2] - feat_mean[width + j]) / feat_scale[width + j] * svm_w[width + j]
+        base[i] = s
+        if allowed[i]:
+            s += ((i - feat_mean[2 * width]) / feat_scale[2 * width] * svm_w[2 * width]
+                  + (n - 1 - i - feat_mean[2 * width + 1]) / feat_scale[2 * width + 1] * svm_w[2 * width + 1])
+            expected += 1.0 / (1.0 + np.exp(-(platt_a * s + platt_b)))
+    return base, expected
+
+
+@njit(cache=True)
+def child_qualities(points, v, k, nb_angles, nb_thickness):  # pragma: no cover - compiled
+    """Bending quality (§4.2's dist, angles times thicknesses) of every source furcation's
+    non-causal neighbourhood against the 2k+1 vertices around vertex ``v`` of a branch."""
+    n = points.shape[0]
+    va = vertex_turns(points)
+    width = 2 * k + 1
+    out = np.empty(nb_angles.shape[0])
+    for f in range(nb_angles.shape[0]):
+        da = 0.0
+        dr = 0.0
+        for j in range(width):
+            q = min(max(v - k + j, 0), n - 1)
+            da += (nb_angles[f, j] - va[q]) ** 2
+            dr += (nb_thickness[f, j] - points[q, 2]) ** 2
+        out[f] = (1.0 / (np.sqrt(da) + 1.0) + 1.0) * (1.0 / (np.sqrt(dr) + 1.0) + 1.0)
+    return out
+
+
+@njit(cache=True)
+def pick_furcations(base, allowed, d, block, feat_mean, feat_scale, svm_w):  # pragma: no cover - compiled
+    """Greedy choice of ``d`` furcation vertices (§4.3): the allowed vertex of highest margin,
+    whose margin includes the index distances ``n-``, ``n+`` to the nearest chosen furcation
+    (or branch end) on either side; each choice blocks ``block`` vertices around it.
+    ``feat_mean``, ``feat_scale``, ``svm_w`` are the classifier's last two (distance) terms."""
+    n = base.shape[0]
+    marks = np.zeros(n, np.bool_)
+    chosen = np.empty(d, np.int64)
+    n_chosen = 0
+    nxt = np.empty(n, np.int64)
+    for _ in range(d):
+        following = n - 1  # the nearest chosen furcation after each vertex, or the end
+        for i in range(n - 1, -1, -1):
+            nxt[i] = following
+            if marks[i]:
+                following = i
+        best, v = -np.inf, -1
+        prev = 0  # the nearest one before, or the start
+        for i in range(n):
+            if allowed[i]:
+                s = (base[i] + (i - prev - feat_mean[0]) / feat_scale[0] * svm_w[0]
+                     + (nxt[i] - i - feat_mean[1]) / feat_scale[1] * svm_w[1])
+                if s > best:
+                    best, v = s, i
+            if marks[i]:
+                prev = i
+        if v < 0:
+            break
+        chosen[n_chosen] = v
+        n_chosen += 1
+        marks[v] = True
+        for i in range(max(v - block, 0), min(v + block + 1, n)):
+            allowed[i] = False
+    return chosen[:n_chosen]

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from barkgen.branching import _grow_kernels as K
-from barkgen.branching.model import BranchModel, _wrap, furcation_base, furcation_scores, quality, vertex_angles
+from barkgen.branching.model import BranchModel, _wrap
 from barkgen.branching.structure import Branch, Structure, junction_radius
 from barkgen.errors import InvalidInputError
 
@@ -196,13 +196,14 @@ class _Grower:
                 self._reach(tip, start, exempt, b, branch)
         self._tip_n = 0
         branch.points = tip.points()
-        if tip.n < 2 or (parent is not None and branch.joins is None and branch.length() < exempt):
+        length = K.polyline_length(branch.points)
+        if tip.n < 2 or (parent is not None and branch.joins is None and length < exempt):
             # a child that never left its parent's side is not a branch
             self.n_merges -= branch.joins is not None
             self.branches.pop()
             return None
         self.commit(b, max(committed, 0))
-        self.length += branch.length()
+        self.length += length
         return b
 
     def _push(self, tip: "_Tip", elements, xs, ys, heads, n: int) -> None:
@@ -254,9 +255,8 @@ class _Grower:
 
     def _count(self, elements: np.ndarray, headings: np.ndarray) -> None:
         m = self.model
-        K.add_counts(self.a_counts, m.angle_edges, elements[:, 0])
-        K.add_counts(self.r_counts, m.thickness_edges, elements[:, 1])
-        K.add_heading_counts(self.h_counts, np.ascontiguousarray(headings, np.float64))
+        K.add_element_counts(self.a_counts, m.angle_edges, self.r_counts, m.thickness_edges, self.h_counts,
+                             elements, np.ascontiguousarray(headings, np.float64))
         self.n_t += len(elements)
 
     def _choose(self, tip: "_Tip", start, exempt, b):
@@ -369,37 +369,28 @@ class _Grower:
         n = len(p)
         if model.svm_w is None or n < 3 or len(model.furcations.branch_angle) == 0:
             return []
-        marks = np.zeros(n, bool)
         block = max(k, int(np.ceil(2 * self.r_max / self.step)) + 1)
         allowed = np.ones(n, bool)
         allowed[:1] = False  # the branch's own ends: its furcation and its end point
         allowed[n - 1:] = False
         if branch.joins is not None:
             allowed[n - block:] = False
-        base = furcation_base(model, p)
-        s = furcation_scores(model, base, marks)
         a, c = model.platt
-        expected = float((1.0 / (1.0 + np.exp(-(a * s[allowed] + c)))).sum())
+        base, expected = K.furcation_margins(p, k, model.feat_mean, model.feat_scale, model.svm_w, model.svm_b,
+                                             a, c, allowed)
         d = int(self.rng.poisson(expected))
-        chosen = []
-        for _ in range(d):
-            if not allowed.any():
-                break
-            s = np.where(allowed, furcation_scores(model, base, marks), -np.inf)
-            v = int(np.argmax(s))
-            chosen.append((b, v))
-            marks[v] = True
-            allowed[max(v - block, 0): v + block + 1] = False
-        return chosen
+        if d == 0:
+            return []
+        chosen = K.pick_furcations(base, allowed, d, block, model.feat_mean[-2:], model.feat_scale[-2:],
+                                   model.svm_w[-2:])
+        return [(b, int(v)) for v in chosen]
 
     def child(self, b: int, v: int) -> int | None:
         """Start a child branch at vertex ``v`` of branch ``b`` with the non-causal model."""
         model, k = self.model, self.o.k
         fur = model.furcations
         p = self.branches[b].points
-        va = vertex_angles(p)
-        idx = np.clip(np.arange(v - k, v + k + 1), 0, len(p) - 1)
-        qual = quality(va[idx], fur.nb_angles) * quality(p[idx, 2], fur.nb_thickness)
+        qual = K.child_qualities(p, v, k, fur.nb_angles, fur.nb_thickness)
         order = np.argsort(-qual, kind="stable")[: self.o.c]
         f = int(order[self._draw(qual[order])])
         a = p[max(v - 1, 0), :2]

@@ -364,27 +364,3 @@ def histogram(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
     idx = np.clip(np.searchsorted(edges, values, side="right") - 1, 0, b - 1)
     counts = np.bincount(idx, minlength=b).astype(np.float64)
     return counts / counts.sum()
-
-
-def quality(history: np.ndarray, candidates: np.ndarray) -> np.ndarray:
-    """``dist(X, Y) = 1 / (||X - Y|| + 1) + 1`` of sibbing2010 §4.2, one row per candidate."""
-    return 1.0 / (np.linalg.norm(candidates - history[None, :], axis=1) + 1.0) + 1.0
-
-
-def furcation_base(model: BranchModel, points: np.ndarray) -> np.ndarray:
-    """The part of every vertex's classifier margin that does not depend on where the other
-    furcations are (the neighbourhood's angles and thicknesses)."""
-    if model.svm_w is None:
-        return np.full(len(points), -np.inf)
-    n = 2 * (2 * model.options.k + 1)
-    f = _neighbourhoods(vertex_angles(points), points[:, 2], model.options.k)
-    return ((f - model.feat_mean[:n]) / model.feat_scale[:n]) @ model.svm_w[:n] + model.svm_b
-
-
-def furcation_scores(model: BranchModel, base: np.ndarray, furcation_at: np.ndarray) -> np.ndarray:
-    """Signed distance of every vertex of a branch to the furcation classifier's hyperplane
-    (§4.3), given :func:`furcation_base` and the furcations chosen so far."""
-    if model.svm_w is None:
-        return base
-    f = _furcation_distances(furcation_at)
-    return base + ((f - model.feat_mean[-2:]) / model.feat_scale[-2:]) @ model.svm_w[-2:]
