@@ -3,6 +3,7 @@ model's growth and the fragment-based rendering, on the four crack images of
 ``../shared/data/branching`` and three fissured barks.
 
     .venv/bin/python benchmarks/bench_branching.py [--size 1024] [--seeds 3] [--render]
+                                                   [--render-repeats 3] [--images STEM ...]
                                                    [--sheets DIR] [--json F]
 
 Per image, in one process: extraction time; growth of ``--size``² structures (median time
@@ -11,10 +12,11 @@ distance (0 = equal, 2 = disjoint) of the angle and thickness histograms (B = 16
 range) for the model and for a no-model baseline (a random walk with Gaussian turns of the
 source's spread and the source's mean thickness, the same total length); crossings not
 recorded as a merge; junctions (furcations + merges) per megapixel, source vs grown.
-With ``--render``: the render of the first seed's structure at ``--size``² (time), texeval
-coherence and sharpness against the core engine's plain synthesis of the same image at the
-same size, and crack continuity: mean luminance along the grown skeleton in the render over
-mean luminance along the source skeleton in the image.
+With ``--render``: the render of the first seed's structure at ``--size``² (median time of
+``--render-repeats`` renders), texeval coherence and sharpness against the core engine's
+plain synthesis of the same image at the same size, and crack continuity: mean luminance
+along the grown skeleton in the render over mean luminance along the source skeleton in the
+image.
 """
 
 from __future__ import annotations
@@ -79,7 +81,8 @@ def skeleton_luminance(image: np.ndarray, structure) -> float:
     return float(lum[mask > 0].mean())
 
 
-def run_image(path: Path, size: int, seeds: list[int], render: bool, sheets: Path | None, texeval) -> dict:
+def run_image(path: Path, size: int, seeds: list[int], render: bool, sheets: Path | None, texeval,
+              render_repeats: int = 3) -> dict:
     from barkgen.branching.extract import extract_structure, overlay_structure
     from barkgen.branching.grow import grow_structure
     from barkgen.branching.model import fit_model
@@ -125,9 +128,12 @@ def run_image(path: Path, size: int, seeds: list[int], render: bool, sheets: Pat
         from barkgen.synth import synthesize
 
         rgb = image if image.shape[2] == 3 else np.repeat(image, 3, axis=2)
-        t0 = time.perf_counter()
-        result = render_branches(image, source, grown[0], seed=seeds[0])
-        row["render_s"] = time.perf_counter() - t0
+        render_times = []
+        for _ in range(render_repeats):  # the same render: the median of the times
+            t0 = time.perf_counter()
+            result = render_branches(image, source, grown[0], seed=seeds[0])
+            render_times.append(time.perf_counter() - t0)
+        row["render_s"] = statistics.median(render_times)
         plain = synthesize(image, (size, size), seed=seeds[0]).image
         out = result.image if result.image.shape[2] == 3 else np.repeat(result.image, 3, axis=2)
         plain3 = plain if plain.shape[2] == 3 else np.repeat(plain, 3, axis=2)
@@ -152,6 +158,8 @@ def main() -> None:
     parser.add_argument("--render", action="store_true")
     parser.add_argument("--sheets", type=Path)
     parser.add_argument("--json", type=Path)
+    parser.add_argument("--render-repeats", type=int, default=3, help="renders timed per image (median)")
+    parser.add_argument("--images", nargs="*", help="only these image stems")
     args = parser.parse_args()
     texeval = None
     if args.render:
@@ -159,7 +167,10 @@ def main() -> None:
         import texeval
     rows = []
     for path in IMAGES:
-        rows.append(run_image(path, args.size, list(range(args.seeds)), args.render, args.sheets, texeval))
+        if args.images and path.stem not in args.images:
+            continue
+        rows.append(run_image(path, args.size, list(range(args.seeds)), args.render, args.sheets, texeval,
+                              args.render_repeats))
         r = rows[-1]
         print(f"{r['image']:26s} extract {r['extract_s']:5.2f}s  grow {r['grow_s']:5.2f}s  "
               f"L1 angle {r['angle_l1']:.3f} (walk {r['walk_angle_l1']:.3f})  "

@@ -190,6 +190,20 @@ def sample_nearest(src, mapx, mapy, tdist, tthick, spx, spy, spt, sok, margin):
     h, w = mapx.shape
     hs, ws, c = src.shape
     out = np.empty((h, w, c), np.float32)
+    # the source pixels' distances to the polyline, computed once each (neighbouring target
+    # pixels share most of their 3 x 3 candidates): a lazy table over the map's bounding box
+    lo_x, lo_y, hi_x, hi_y = ws, hs, -1, -1
+    for i in range(h):
+        for j in range(w):
+            x = min(max(int(np.floor(mapx[i, j] + 0.5)), 0), ws - 1)
+            y = min(max(int(np.floor(mapy[i, j] + 0.5)), 0), hs - 1)
+            lo_x = min(lo_x, x)
+            hi_x = max(hi_x, x)
+            lo_y = min(lo_y, y)
+            hi_y = max(hi_y, y)
+    lo_x = max(lo_x - 1, 0)
+    lo_y = max(lo_y - 1, 0)
+    table = np.full((max(hi_y + 2 - lo_y, 1), max(hi_x + 2 - lo_x, 1)), -1.0)
     for i in range(h):
         for j in range(w):
             mx = mapx[i, j]
@@ -205,7 +219,10 @@ def sample_nearest(src, mapx, mapy, tdist, tthick, spx, spy, spt, sok, margin):
                     for dx in range(-1, 2):
                         cx = min(max(x + dx, 0), ws - 1)
                         cy = min(max(y + dy, 0), hs - 1)
-                        ds, _ = _poly_nearest(cx, cy, spx, spy, spt, sok)
+                        ds = table[cy - lo_y, cx - lo_x]
+                        if ds < 0.0:
+                            ds, _ = _poly_nearest(cx, cy, spx, spy, spt, sok)
+                            table[cy - lo_y, cx - lo_x] = ds
                         e = (ds - dt) * (ds - dt) + 0.25 * ((cx - mx) * (cx - mx) + (cy - my) * (cy - my))
                         if e < best:
                             best = e
@@ -465,7 +482,7 @@ def colour_costs(src, canvas, content, coverage, tgt_cracks, tx, ty, ox, oy, zx,
     return out
 
 
-@nb.njit(cache=True, fastmath=True)
+@nb.njit(cache=True, fastmath=True, parallel=True)
 def shape_costs(pre, pim, mu, border, qre, qim, nu, weight, omega_s, limit, margin):
     """Shape cost S of eq. 1 for every source fragment row (positions ``pre + i pim``,
     half-widths ``mu``) against one target fragment (``q``, ``nu``, per-sample ``weight``),
@@ -479,7 +496,9 @@ def shape_costs(pre, pim, mu, border, qre, qim, nu, weight, omega_s, limit, marg
     qq = 0.0
     for l in range(k):
         qq += weight[l] * (qre[l] * qre[l] + qim[l] * qim[l])
-    for r in range(n):
+    cos_limit = np.cos(min(limit, np.pi))
+    sin_limit = np.sin(min(limit, np.pi))
+    for r in nb.prange(n):
         a = 0.0
         b = 0.0
         pp = 0.0
@@ -497,10 +516,9 @@ def shape_costs(pre, pim, mu, border, qre, qim, nu, weight, omega_s, limit, marg
         zre[r] = a
         zim[r] = b
         mag = np.sqrt(a * a + b * b)
-        if limit < np.pi and mag > 0.0:
-            excess = abs(np.arctan2(b, a)) - limit
-            if excess > 0.0:
-                mag *= np.cos(min(excess, np.pi))
+        if limit < np.pi and a < mag * cos_limit:
+            # the angle |arg z| exceeds the limit: mag cos(|arg z| - limit), without trigonometry
+            mag = a * cos_limit + abs(b) * sin_limit
         c = max(pp + qq - 2.0 * mag, 0.0) + omega_s * tt
         cost[r] = c if border[r] >= margin else np.inf
     return cost, zre, zim
@@ -575,8 +593,8 @@ def compose_setup(src, mapx, mapy, given, use_given, x0, y0, canvas, content, co
                   own_margin, other_margin, eps):
     """Everything of one fragment's composition before the graph cut: the distances to its
     target skeleton ``tp*`` (:func:`own_distance`), its pixels (``given``, or read by
-    :func:`sample_nearest`) and the graph-cut set-up of :func:`seam_setup` with its terminal
-    capacities."""
+    :func:`sample_nearest`), the set-up of :func:`seam_setup` and the cut's graph on the free
+    pixels (:func:`seam_graph`)."""
     h, w = mapx.shape
     tdist, tthick = own_distance(x0, y0, h, w, tpx, tpy, tpt, tok)
     if use_given:
@@ -586,16 +604,57 @@ def compose_setup(src, mapx, mapy, given, use_given, x0, y0, canvas, content, co
     take, keep, right, down, boundary, fixed, n_take, n_free = seam_setup(
         x0, y0, new, mapx, mapy, canvas, content, coverage, tgt_cracks, src_cracks, cx, cy, radius,
         clear, tdist, tthick, spx, spy, spt, sok, own_margin, other_margin, eps)
-    # terminal capacities of the graph cut: "take" tied to the source (new), "keep" to the sink
-    src_caps = np.zeros((h, w))
-    sink_caps = np.zeros((h, w))
+    free, ei, ej, cap, src_caps, sink_caps = seam_graph(take, keep, right, down, n_free)
+    return new, take, free, ei, ej, cap, src_caps, sink_caps, boundary, fixed, n_take
+
+
+@nb.njit(cache=True)
+def seam_graph(take, keep, right, down, n_free):
+    """The graph cut of one fragment reduced to its free pixels (neither ``take`` nor
+    ``keep``): their flat indices, the edges between two free pixels (node pairs and
+    capacity, the same both ways) and each node's terminal capacities, the summed weights of
+    its edges to pixels tied to the new fragment (source) or to the old content (sink). The
+    minimum cut is that of the whole grid with the tied pixels as terminals."""
+    h, w = take.shape
+    node = np.full((h, w), -1, np.int64)
+    free = np.empty(n_free, np.int64)
+    n = 0
     for i in range(h):
         for j in range(w):
-            if take[i, j]:
-                src_caps[i, j] = 1e9
-            elif keep[i, j]:
-                sink_caps[i, j] = 1e9
-    return new, take, keep, src_caps, sink_caps, right, down, boundary, fixed, n_take, n_free
+            if not take[i, j] and not keep[i, j]:
+                node[i, j] = n
+                free[n] = i * w + j
+                n += 1
+    src_caps = np.zeros(n)
+    sink_caps = np.zeros(n)
+    ei = np.empty(2 * n, np.int64)
+    ej = np.empty(2 * n, np.int64)
+    cap = np.empty(2 * n)
+    m = 0
+    for i in range(h):
+        for j in range(w):
+            for d in range(2):  # the edge to the right, then the one down
+                i2 = i + d
+                j2 = j + 1 - d
+                if i2 >= h or j2 >= w:
+                    continue
+                c = right[i, j] if d == 0 else down[i, j]
+                a = node[i, j]
+                b = node[i2, j2]
+                if a >= 0 and b >= 0:
+                    ei[m] = a
+                    ej[m] = b
+                    cap[m] = c
+                    m += 1
+                elif a >= 0 or b >= 0:
+                    u = a if a >= 0 else b
+                    other_i = i2 if a >= 0 else i
+                    other_j = j2 if a >= 0 else j
+                    if take[other_i, other_j]:
+                        src_caps[u] += c
+                    else:
+                        sink_caps[u] += c
+    return free, ei[:m], ej[:m], cap[:m], src_caps, sink_caps
 
 
 @nb.njit(cache=True)

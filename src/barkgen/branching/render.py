@@ -568,33 +568,29 @@ class _Renderer:
         else:
             given = cv2.remap(self.src, mapx, mapy, cv2.INTER_CUBIC, borderMode=cv2.BORDER_REFLECT_101)
             given = np.clip(given.reshape(mapx.shape + (self.src.shape[2],)), 0.0, 255.0)
-        new, take, keep, src_caps, sink_caps, right, down, boundary, fixed, n_take, n_free = K.compose_setup(
+        new, take, free, ei, ej, cap, src_caps, sink_caps, boundary, fixed, n_take = K.compose_setup(
             self.src, mapx, mapy, given, self.opts.interpolation != "nearest", x0, y0, self.canvas,
             self.content, self.coverage, self.tgt_cracks, self.src_cracks, g.centre.real, g.centre.imag,
             g.radius, JUNCTION_CLEAR * g.radius if g.junction else 0.0, *g.own_cols, *f.own_cols,
             OWN_MARGIN, float(OTHER_MARGIN), self.eps)
         if n_take == 0:
             return False
-        if n_free:
-            graph = maxflow.Graph[float]()
-            nodes = graph.add_grid_nodes(right.shape)
-            graph.add_grid_edges(nodes, weights=right, structure=_RIGHT, symmetric=True)
-            graph.add_grid_edges(nodes, weights=down, structure=_DOWN, symmetric=True)
+        newmask = take
+        if len(free):
+            # the seam (Kwatra et al. 2003) through the pixels the constraints leave free
+            graph = maxflow.Graph[float](len(free), len(cap))
+            nodes = graph.add_nodes(len(free))
+            graph.add_edges(nodes[ei], nodes[ej], cap, cap)
             graph.add_grid_tedges(nodes, src_caps, sink_caps)
             graph.maxflow()
-            newmask = ~graph.get_grid_segments(nodes) & ~keep
-        else:
-            newmask = take
+            newmask = take.copy()
+            newmask.flat[free] = ~graph.get_grid_segments(nodes)
         # Poisson photometric correction: harmonic offset, seam difference on the boundary,
         # zero where the new pixels touch nothing placed before
         K.blend(x0, y0, newmask, new, fixed, boundary, self.canvas, self.content, self.coverage,
                 self.fragment_map, j, np.float32(POISSON_TOL), 4 * int(math.ceil(g.radius)) + 24,
                 SEAM_SMOOTH)
         return True
-
-
-_RIGHT = np.array([[0, 0, 0], [0, 0, 1], [0, 0, 0]])
-_DOWN = np.array([[0, 0, 0], [0, 0, 0], [0, 1, 0]])
 
 
 def render_branches(
