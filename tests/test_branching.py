@@ -86,6 +86,17 @@ def test_grown_structure_matches_the_source_statistics(mud_source, mud_grown):
     assert plot.shape == (360, 960, 3) and plot.std() > 10
 
 
+@pytest.mark.parametrize("photo, seed", [("fissured_gray_01.png", 5), ("oak_furrowed_moss_01.jpg", 1)])
+def test_thick_fissures_do_not_cross_other_branches(photo, seed):
+    """Two crossings these seeds used to grow: a thick fissure (half-width ~6 px) over a thin
+    one (the growing branch's own fresh body hid the other branch in the contact map), and a
+    child running back along its parent just outside the junction."""
+    _need_shared()
+    source = extract_structure(read_image(DATA / "bark" / photo))
+    grown = grow_structure(fit_model(source), (1024, 1024), seed=seed)
+    assert self_intersections(grown) == 0
+
+
 def test_the_model_beats_a_random_walk(mud_source, mud_grown):
     """A walk with Gaussian turns of the source's spread and a constant thickness: the Markov
     model with histogram matching must be closer to the source's histograms."""

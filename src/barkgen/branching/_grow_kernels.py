@@ -7,15 +7,15 @@ from numba import njit
 
 
 @njit(cache=True)
-def commit_points(dist, near_branch, near_vertex, near_tangent, points, first, branch, radius):  # pragma: no cover - compiled
+def commit_points(dist, near_branch, near_vertex, near_tangent, points, first, last, branch, radius):  # pragma: no cover - compiled
     """Lower ``dist`` (distance to the nearest committed branch surface, i.e. distance to a
-    vertex minus its thickness) within ``radius`` of each vertex ``points[first:]`` (rows x,
-    y, thickness) of ``branch``, and remember which branch and vertex is nearest and the
+    vertex minus its thickness) within ``radius`` of each vertex ``points[first:last]`` (rows
+    x, y, thickness) of ``branch``, and remember which branch and vertex is nearest and the
     branch's direction there. Only the ``3 rho`` vicinity is touched (§4.4)."""
     h, w = dist.shape
     n = points.shape[0]
     r2 = radius * radius
-    for i in range(first, n):
+    for i in range(first, min(last, n)):
         x, y, r = points[i, 0], points[i, 1], points[i, 2]
         a = max(i - 1, 0)
         c = min(i + 1, n - 1)
@@ -39,6 +39,32 @@ def commit_points(dist, near_branch, near_vertex, near_tangent, points, first, b
                     near_branch[yy, xx] = branch
                     near_vertex[yy, xx] = i
                     near_tangent[yy, xx] = tangent
+
+
+@njit(cache=True)
+def commit_density(density, points, first, last, radius):  # pragma: no cover - compiled
+    """Lower the density map's distance to the nearest branch surface within ``radius`` of
+    each vertex ``points[first:last]`` (as :func:`commit_points`, the distance alone)."""
+    h, w = density.shape
+    r2 = radius * radius
+    for i in range(first, min(last, points.shape[0])):
+        x, y, r = points[i, 0], points[i, 1], points[i, 2]
+        x0 = max(int(np.floor(x - radius)), 0)
+        x1 = min(int(np.ceil(x + radius)), w - 1)
+        y0 = max(int(np.floor(y - radius)), 0)
+        y1 = min(int(np.ceil(y + radius)), h - 1)
+        for yy in range(y0, y1 + 1):
+            dy2 = (yy - y) ** 2
+            for xx in range(x0, x1 + 1):
+                e2 = (xx - x) ** 2 + dy2
+                if e2 > r2:
+                    continue
+                bound = density[yy, xx] + r
+                if bound > 0 and e2 >= bound * bound:
+                    continue
+                d = np.sqrt(e2) - r
+                if d < density[yy, xx]:
+                    density[yy, xx] = d
 
 
 @njit(cache=True)
@@ -106,7 +132,7 @@ def first_contacts(dist, near_branch, xs, ys, rs, step, branch, parent, sx, sy, 
 def extension_candidates(qual, hist_a, hist_r, ha, hr, history_start, branch_end, angles, thickness,
                          k, m, a_edges, r_edges, a_counts, r_counts, a_target, r_target, h_counts, h_target,
                          n_t, omega_g,
-                         x0, y0, theta, step, dist, near_branch, branch, parent, sx, sy, exempt,
+                         x0, y0, theta, step, dist, near_branch, density, branch, parent, sx, sy, exempt,
                          rho, guide, use_guide, eps, c_best, uniforms, join_rate, join_pdf, near_tangent,
                          cand, qstar, lens, ang, thk, xs, ys, heads, first_hit, first_out, q2, decision):  # pragma: no cover - compiled
     """One extension step of sibbing2010 §4.2-4.4 for the ``T = len(cand)`` best histories.
@@ -115,8 +141,10 @@ def extension_candidates(qual, hist_a, hist_r, ha, hr, history_start, branch_end
     best are kept (ties by index); for each: its continuation (up to ``m`` elements, fewer where
     the source branch ends), the histogram-matched score ``Q*``, the vertices it would add, the
     first vertex touching a committed branch (a child may touch its parent only within
-    ``exempt`` of its start) and the first leaving the image, and ``Q** = Q* / (D + eps)`` with
-    ``D`` the maximum density (times the guide) along its chord up to three times its length.
+    ``exempt`` of its start; ``dist``, ``near_branch``: the contact maps) and the first leaving
+    the image, and ``Q** = Q* / (D + eps)`` with ``D`` the maximum density (from ``density``,
+    the distance to everything grown so far, times the guide) along its chord up to three
+    times its length.
 
     Then the choice, with the three ``uniforms``: one of the ``c_best`` best by ``Q*`` with
     probability proportional to it (the paper); if that one would cross a branch it ends on it
@@ -234,7 +262,7 @@ def extension_candidates(qual, hist_a, hist_r, ha, hr, history_start, branch_end
             tt = reach * (0.25 + 0.75 * s / 7.0)
             px = x0 + np.cos(chord) * tt
             py = y0 + np.sin(chord) * tt
-            d, inside = _lookup(dist, px, py, np.float32(1e6))
+            d, inside = _lookup(density, px, py, np.float32(1e6))
             if inside:
                 dd = max(d, 0.0)
                 dens = max(dens, np.exp(-dd * dd / (rho * rho)))

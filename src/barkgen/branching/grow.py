@@ -74,7 +74,10 @@ class _Grower:
         self.rho = float(options.rho or model.rho)
         self.radius = min(3.0 * self.rho, 32.0)  # the 3 rho vicinity; D < 0.02 beyond 32 px
         self.reach = max(3 * self.rho, self.o.m * self.step, float(np.median(model.branch_length)))
+        # contact maps (committed branch bodies, the growing branch's last vertices left out)
+        # and the density map (distance to everything grown so far, §4.4)
         self.dist = np.full((self.h, self.w), 1e6, np.float32)
+        self.density = np.full((self.h, self.w), 1e6, np.float32)
         self.near_branch = np.full((self.h, self.w), -1, np.int32)
         self.near_vertex = np.full((self.h, self.w), -1, np.int32)
         self.guide = guide
@@ -115,11 +118,18 @@ class _Grower:
         self._join_pdf = self.join_pdf if self.join_pdf is not None else np.zeros(0)
 
     # -- the density map ------------------------------------------------------------------
-    def commit(self, b: int, first: int) -> None:
+    def commit(self, b: int, first: int, last: int | None = None) -> None:
+        """Enter vertices ``first:last`` of branch ``b`` into the contact maps."""
         p = self.branches[b].points
-        if first < len(p):
+        last = len(p) if last is None else min(last, len(p))
+        if first < last:
             K.commit_points(self.dist, self.near_branch, self.near_vertex, self.near_tangent,
-                            np.ascontiguousarray(p), first, b, self.radius)
+                            np.ascontiguousarray(p), first, last, b, self.radius)
+
+    def commit_density(self, points: np.ndarray, first: int) -> None:
+        """Enter vertices ``first:`` into the density map."""
+        if first < len(points):
+            K.commit_density(self.density, np.ascontiguousarray(points), first, len(points), self.radius)
 
     def sample(self, arr: np.ndarray, x: np.ndarray, y: np.ndarray, outside):
         x = np.ascontiguousarray(x, np.float64)
@@ -150,6 +160,7 @@ class _Grower:
                                  else 0.0, float(start[2]), self.step)
         lag = int(np.ceil((2 * self.r_max + 2.0) / self.step)) + 1
         committed = 0
+        density_done = 0
         # how the branch ends: "free" (its source branch ended, no candidate, its length),
         # "joins" (on another branch), "merge" (it ended on one), "border" (left the image)
         end = None
@@ -183,9 +194,14 @@ class _Grower:
                 elif ends:
                     end = "joins" if source_joined else "free"
                 elif tip.n - lag > committed:
+                    # the last ``lag`` vertices stay out of the contact maps (a thick branch's
+                    # own body would hide the branches it is about to cross); the density map
+                    # has them all
                     branch.points = tip.points()
-                    self.commit(b, committed)
+                    self.commit(b, committed, tip.n - lag)
+                    self.commit_density(branch.points, density_done)
                     committed = tip.n - lag
+                    density_done = tip.n
         if end is None:  # reached the length of its source branch
             end = "joins" if wants_join else "free"
         # a branch that stops in the open reaches forward to end on a branch: always when its
@@ -197,12 +213,16 @@ class _Grower:
         self._tip_n = 0
         branch.points = tip.points()
         length = K.polyline_length(branch.points)
-        if tip.n < 2 or (parent is not None and branch.joins is None and length < exempt):
-            # a child that never left its parent's side is not a branch
+        # a child that never left its parent's side (no vertex beyond the junction radius of
+        # its furcation, where it may touch the parent) is not a branch
+        hugs_parent = (parent is not None and branch.joins is None and committed == 0
+                       and length < exempt)
+        if tip.n < 2 or hugs_parent:
             self.n_merges -= branch.joins is not None
             self.branches.pop()
             return None
         self.commit(b, max(committed, 0))
+        self.commit_density(branch.points, density_done)
         self.length += length
         return b
 
@@ -276,7 +296,7 @@ class _Grower:
             model.angles, model.thickness, o.k, o.m, model.angle_edges, model.thickness_edges,
             self.a_counts, self.r_counts, model.angle_hist, model.thickness_hist, self.h_counts,
             model.heading_hist, float(self.n_t),
-            float(o.omega_g), x0, y0, tip.theta, self.step, self.dist, self.near_branch, b,
+            float(o.omega_g), x0, y0, tip.theta, self.step, self.dist, self.near_branch, self.density, b,
             -2 if parent is None else parent, float(start[0]), float(start[1]), float(exempt),
             self.rho, self._guide, self.guide is not None, EPSILON, o.c, self.rng.random(3),
             self.merge_rate(), self._join_pdf, self.near_tangent, *bufs, self._decision)
@@ -412,7 +432,7 @@ class _Grower:
         n = 256
         xs = self.rng.uniform(0, self.w - 1, n)
         ys = self.rng.uniform(0, self.h - 1, n)
-        d, _ = self.sample(self.dist, xs, ys, np.float32(0))
+        d, _ = self.sample(self.density, xs, ys, np.float32(0))
         score = np.minimum(d.astype(np.float64), 1e4)
         if self.guide is not None:
             g, _ = self.sample(self.guide, xs, ys, np.float32(1))
