@@ -88,9 +88,9 @@ def test_grown_structure_matches_the_source_statistics(mud_source, mud_grown):
 
 @pytest.mark.parametrize("photo, seed", [("fissured_gray_01.png", 5), ("oak_furrowed_moss_01.jpg", 1)])
 def test_thick_fissures_do_not_cross_other_branches(photo, seed):
-    """Two crossings these seeds used to grow: a thick fissure (half-width ~6 px) over a thin
-    one (the growing branch's own fresh body hid the other branch in the contact map), and a
-    child running back along its parent just outside the junction."""
+    """Seeds that grew a crossing while the growing branch's own fresh vertices were in the
+    contact map: a thick fissure's body (half-width ~6 px) hid the thin branch it crossed, a
+    child ran back along its parent past the junction."""
     _need_shared()
     source = extract_structure(read_image(DATA / "bark" / photo))
     grown = grow_structure(fit_model(source), (1024, 1024), seed=seed)

@@ -267,3 +267,55 @@ def test_procrustes_finds_the_rotation_and_the_reversal():
     border, _, _ = K.shape_costs(rows_re, rows_im, mu, np.full(2, 5.0), q.real.copy(), q.imag.copy(),
                                  np.full(k, 2.0), np.ones(k), 2.0, math.pi, 10.0)
     assert np.isinf(border).all()
+
+
+def test_seam_cut_on_the_free_pixels_equals_the_cut_of_the_whole_grid():
+    """§5.3's graph cut reduced to the pixels the constraints leave free (tied pixels folded
+    into terminal capacities) separates them exactly as the cut of the whole box with the
+    tied pixels as hard terminals."""
+    import maxflow
+
+    rng = np.random.default_rng(4)
+    for _ in range(20):
+        h, w = rng.integers(6, 24, 2)
+        yy, xx = np.mgrid[:h, :w]
+        take = np.hypot(yy - h / 2, xx - w / 2) < rng.uniform(1.5, 3.5)  # a core tied to the new
+        keep = (yy == 0) | (xx == 0) | (yy == h - 1) | (xx == w - 1)     # a rim tied to the old
+        keep &= ~take
+        right = rng.uniform(0.01, 5.0, (h, w))
+        down = rng.uniform(0.01, 5.0, (h, w))
+        n_free = int((~take & ~keep).sum())
+        free, ei, ej, cap, src_caps, sink_caps = K.seam_graph(take, keep, right, down, n_free)
+        g = maxflow.Graph[float]()
+        nodes = g.add_nodes(len(free))
+        g.add_edges(nodes[ei], nodes[ej], cap, cap)
+        g.add_grid_tedges(nodes, src_caps, sink_caps)
+        flow = g.maxflow()
+        reduced = take.copy()
+        reduced.flat[free] = ~g.get_grid_segments(nodes)
+
+        full = maxflow.Graph[float]()
+        grid = full.add_grid_nodes((h, w))
+        full.add_grid_edges(grid, weights=right, structure=np.array([[0, 0, 0], [0, 0, 1], [0, 0, 0]]),
+                            symmetric=True)
+        full.add_grid_edges(grid, weights=down, structure=np.array([[0, 0, 0], [0, 0, 0], [0, 1, 0]]),
+                            symmetric=True)
+        full.add_grid_tedges(grid, np.where(take, 1e9, 0.0), np.where(keep, 1e9, 0.0))
+        full_flow = full.maxflow()
+        whole = ~full.get_grid_segments(grid) & ~keep
+        # the same minimum cut: the whole grid's also cuts every edge between a pixel tied to
+        # the new fragment and one tied to the old content
+        between = (np.where((take[:, :-1] & keep[:, 1:]) | (keep[:, :-1] & take[:, 1:]), right[:, :-1], 0).sum()
+                   + np.where((take[:-1] & keep[1:]) | (keep[:-1] & take[1:]), down[:-1], 0).sum())
+        assert math.isclose(flow + between, full_flow, rel_tol=1e-9)
+        assert np.array_equal(reduced, whole)  # random real weights: one minimum cut
+
+
+def test_fragment_choice_draws_among_the_c_best_with_probability_inverse_to_the_cost():
+    """§5.2: one of the ``c`` cheapest candidates, drawn with probability ~ 1 / cost."""
+    total = np.array([4.0, 1.0, 2.0, 8.0])
+    picks = np.array([K.draw_candidate(total, 2, u) for u in np.linspace(0.0, 1.0, 3001)[:-1]])
+    assert set(picks) == {1, 2}
+    assert abs((picks == 1).mean() - 2 / 3) < 0.01
+    assert K.draw_candidate(np.array([1.0, np.inf]), 2, 0.5) == -1
+    assert K.draw_candidate(np.zeros(0), 2, 0.5) == -1

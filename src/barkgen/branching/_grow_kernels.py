@@ -1,4 +1,5 @@
-"""Numba kernels of structure growth: the local space-colonisation update (sibbing2010 §4.4)."""
+"""Numba kernels of structure growth (sibbing2010 §4.2-4.4): the contact and density maps
+(local space-colonisation updates), the extension step, the furcation classifier's choices."""
 
 from __future__ import annotations
 

@@ -525,6 +525,49 @@ def shape_costs(pre, pim, mu, border, qre, qim, nu, weight, omega_s, limit, marg
 
 
 @nb.njit(cache=True)
+def arc_setup(points):
+    """A polyline's arc-length parametrisation: the arc position of every vertex, the
+    vertices that start a segment longer than 1e-9 (and the first) as ``s, x, y, half-width``,
+    and the unit tangents at both ends (``(1, 0)`` for a single vertex)."""
+    n = points.shape[0]
+    vertex_arc = np.zeros(n)
+    keep = np.ones(n, np.bool_)
+    for i in range(1, n):
+        seg = np.hypot(points[i, 0] - points[i - 1, 0], points[i, 1] - points[i - 1, 1])
+        vertex_arc[i] = vertex_arc[i - 1] + seg
+        keep[i] = seg > 1e-9
+    m = 0
+    for i in range(n):
+        m += keep[i]
+    s = np.empty(m)
+    px = np.empty(m)
+    py = np.empty(m)
+    pt = np.empty(m)
+    m = 0
+    for i in range(n):
+        if keep[i]:
+            s[m] = vertex_arc[i]
+            px[m] = points[i, 0]
+            py[m] = points[i, 1]
+            pt[m] = points[i, 2]
+            m += 1
+    t0 = np.array([1.0, 0.0])
+    t1 = np.array([1.0, 0.0])
+    if m >= 2:
+        dx = px[1] - px[0]
+        dy = py[1] - py[0]
+        d = np.hypot(dx, dy)
+        t0[0] = dx / d
+        t0[1] = dy / d
+        dx = px[m - 1] - px[m - 2]
+        dy = py[m - 1] - py[m - 2]
+        d = np.hypot(dx, dy)
+        t1[0] = dx / d
+        t1[1] = dy / d
+    return vertex_arc, s, px, py, pt, t0, t1
+
+
+@nb.njit(cache=True)
 def arc_sample(s, px, py, pt, t0x, t0y, t1x, t1y, start_connected, end_connected, t):
     """A branch at arc positions ``t``: ``x, y, half-width, on-branch`` (beyond an end it goes on
     along the end tangent ``t0`` / ``t1``, half-width 0 at a free end, the end's where the end is
@@ -585,6 +628,53 @@ def fragment_centres(s, pt, t0, r_before, lam, factor, rmin, rmax):
         out[n] = t
         n += 1
     return out[:n]
+
+
+@nb.njit(cache=True)
+def regular_samples(s, px, py, pt, t0x, t0y, t1x, t1y, start_connected, end_connected, t, k, factor, rmin,
+                    rmax):
+    """Regular fragments (§5.1) centred at arc positions ``t`` of one branch: their radii
+    (``factor`` x the half-width, clamped to ``[rmin, rmax]``), centres and ``k`` skeleton
+    samples at arc offsets ``-r .. r`` (:func:`arc_sample`). Returns ``r, cx, cy`` (n,) and
+    ``x, y, half-width, on-branch`` (n, k)."""
+    n = t.shape[0]
+    r = np.empty(n)
+    q = np.empty(n * (k + 1))
+    for i in range(n):
+        r[i] = min(max(factor * np.interp(t[i], s, pt), rmin), rmax)
+        q[i] = t[i]
+        for j in range(k):
+            q[n + i * k + j] = t[i] + r[i] * (-1.0 + 2.0 * j / (k - 1))
+    x, y, th, real = arc_sample(s, px, py, pt, t0x, t0y, t1x, t1y, start_connected, end_connected, q)
+    return (r, x[:n].copy(), y[:n].copy(), x[n:].reshape(n, k), y[n:].reshape(n, k), th[n:].reshape(n, k),
+            real[n:].reshape(n, k))
+
+
+@nb.njit(cache=True)
+def junction_samples(ps, ppx, ppy, ppt, pt0x, pt0y, pt1x, pt1y, psc, pec, a,
+                     cs, cpx, cpy, cpt, ct0x, ct0y, ct1x, ct1y, csc, cec, child_reversed, k, factor, rmin,
+                     rmax):
+    """A junction fragment (§5.1) at arc position ``a`` of a parent branch (``p*``): its radius
+    (the larger of the parent's and the child's regular radius there), centre, the ``k``
+    parent samples at offsets ``-r .. r`` and ``k`` samples along the child (``c*``) going
+    away from the junction (from the child's end when ``child_reversed``). Returns
+    ``r, cx, cy`` and the parent's and the child's ``x, y, half-width, on-branch``."""
+    c_len = cs[-1]
+    rp = min(max(factor * np.interp(a, ps, ppt), rmin), rmax)
+    rc = min(max(factor * np.interp(c_len if child_reversed else 0.0, cs, cpt), rmin), rmax)
+    r = max(rp, rc)
+    q = np.empty(k + 1)
+    q[0] = a
+    for j in range(k):
+        q[j + 1] = a + r * (-1.0 + 2.0 * j / (k - 1))
+    px, py, pth, preal = arc_sample(ps, ppx, ppy, ppt, pt0x, pt0y, pt1x, pt1y, psc, pec, q)
+    steps = np.empty(k)
+    for j in range(k):
+        steps[j] = r * (j + 1) / k
+        if child_reversed:
+            steps[j] = c_len - steps[j]
+    qx, qy, qth, qreal = arc_sample(cs, cpx, cpy, cpt, ct0x, ct0y, ct1x, ct1y, csc, cec, steps)
+    return r, px[0], py[0], px[1:], py[1:], pth[1:], preal[1:], qx, qy, qth, qreal
 
 
 @nb.njit(cache=True)
@@ -711,6 +801,38 @@ def select_candidates(pre, pim, mu, border, qre, qim, nu, weight, omega_s, limit
     colour = colour_costs(src, canvas, content, coverage, tgt_cracks, tx, ty, ox, oy, zx, zy, rc, rs)
     total = best + omega_c * colour
     return rows, total, rc, rs
+
+
+@nb.njit(cache=True)
+def draw_candidate(total, c, u):
+    """§5.2's random choice among the ``c`` lowest ``total`` costs (ties: the lower index),
+    with probability proportional to ``1 / cost`` (regularised by 1e-6 of the best cost + 1),
+    from the uniform number ``u``. Returns the index into ``total``; -1 when it is empty or
+    holds a non-finite cost."""
+    n = total.shape[0]
+    if n == 0:
+        return -1
+    for i in range(n):
+        if not np.isfinite(total[i]):
+            return -1
+    order = np.arange(n)
+    for i in range(1, n):  # stable insertion sort (n <= shortlist)
+        j = i
+        while j > 0 and total[order[j - 1]] > total[order[j]]:
+            order[j - 1], order[j] = order[j], order[j - 1]
+            j -= 1
+    c = min(c, n)
+    reg = 1e-6 * (1.0 + total[order[0]])
+    acc = np.empty(c)
+    s = 0.0
+    for i in range(c):
+        s += 1.0 / (total[order[i]] + reg)
+        acc[i] = s
+    target = u * s
+    for i in range(c):
+        if acc[i] > target:
+            return order[i]
+    return order[c - 1]
 
 
 @nb.njit(cache=True)

@@ -213,8 +213,8 @@ class _Grower:
         self._tip_n = 0
         branch.points = tip.points()
         length = K.polyline_length(branch.points)
-        # a child that never left its parent's side (no vertex beyond the junction radius of
-        # its furcation, where it may touch the parent) is not a branch
+        # a child that never left its parent's side (shorter than the junction radius of its
+        # furcation, within which it may touch the parent) is not a branch
         hugs_parent = (parent is not None and branch.joins is None and committed == 0
                        and length < exempt)
         if tip.n < 2 or hugs_parent:

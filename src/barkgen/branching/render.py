@@ -195,33 +195,10 @@ class _Arc:
     with half-width 0 at a free end and the end's half-width where the end is connected."""
 
     def __init__(self, points: np.ndarray, start_connected: bool, end_connected: bool):
-        pts = np.asarray(points, np.float64)
-        seg = np.hypot(*np.diff(pts[:, :2], axis=0).T)
-        self.vertex_arc = np.concatenate([[0.0], np.cumsum(seg)])
-        keep = np.concatenate([[True], seg > 1e-9])
-        self.s = self.vertex_arc[keep]
-        self.p = pts[keep]
+        self.vertex_arc, self.s, self.px, self.py, self.pt, self.t0, self.t1 = K.arc_setup(
+            np.ascontiguousarray(points, np.float64))
         self.length = float(self.s[-1])
-        self.px, self.py, self.pt = (np.ascontiguousarray(self.p[:, c]) for c in range(3))
         self.start_connected, self.end_connected = bool(start_connected), bool(end_connected)
-        if len(self.s) >= 2:
-            t0 = self.p[1, :2] - self.p[0, :2]
-            t1 = self.p[-1, :2] - self.p[-2, :2]
-            self.t0 = t0 / np.hypot(*t0)
-            self.t1 = t1 / np.hypot(*t1)
-        else:
-            self.t0 = self.t1 = np.array([1.0, 0.0])
-
-    def at(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """``x, y, half-width, real`` at arc positions ``t`` (real: on the branch itself)."""
-        return K.arc_sample(self.s, self.px, self.py, self.pt, self.t0[0], self.t0[1], self.t1[0],
-                            self.t1[1], self.start_connected, self.end_connected,
-                            np.atleast_1d(np.asarray(t, np.float64)))
-
-
-def _radius(arc: _Arc, t: float, opts: RenderOptions) -> float:
-    th = float(np.interp(t, arc.s, arc.p[:, 2]))
-    return min(max(opts.radius_factor * th, opts.min_radius), opts.max_radius)
 
 
 def _centres(arc: _Arc, t0: float, r_before: float | None, opts: RenderOptions,
@@ -262,13 +239,11 @@ def _regulars(arc: _Arc, ts: np.ndarray, opts: RenderOptions) -> list[_Fragment]
     if len(ts) == 0:
         return []
     k = opts.samples
-    t = np.asarray(ts, np.float64)
-    r = np.clip(opts.radius_factor * np.interp(t, arc.s, arc.p[:, 2]), opts.min_radius, opts.max_radius)
-    offsets = r[:, None] * np.linspace(-1.0, 1.0, k)[None]
-    x, y, th, real = arc.at(np.concatenate([t, (t[:, None] + offsets).ravel()]))
-    n = len(t)
-    cx, cy = x[:n], y[:n]
-    x, y, th, real = (v[n:].reshape(n, k) for v in (x, y, th, real))
+    r, cx, cy, x, y, th, real = K.regular_samples(
+        arc.s, arc.px, arc.py, arc.pt, arc.t0[0], arc.t0[1], arc.t1[0], arc.t1[1], arc.start_connected,
+        arc.end_connected, np.asarray(ts, np.float64), k, float(opts.radius_factor), float(opts.min_radius),
+        float(opts.max_radius))
+    n = len(r)
     centre = cx + 1j * cy
     pos = (x + 1j * y) - centre[:, None]
     return [_Fragment(complex(centre[i]), float(r[i]), pos[i], th[i], real[i], k,
@@ -279,13 +254,12 @@ def _junction(parent: _Arc, vertex: int, child: _Arc, child_reversed: bool, k: i
               opts: RenderOptions) -> _Fragment:
     """A junction fragment at vertex ``vertex`` of ``parent``: the parent window and ``k``
     samples along the child going away from the junction (the child's end when reversed)."""
-    a = float(parent.vertex_arc[vertex])
-    r = max(_radius(parent, a, opts), _radius(child, child.length if child_reversed else 0.0, opts))
-    px, py, pth, preal = parent.at(np.concatenate([[a], a + r * np.linspace(-1.0, 1.0, k)]))
-    cx, cy = px[0], py[0]
-    px, py, pth, preal = px[1:], py[1:], pth[1:], preal[1:]
-    steps = r * np.arange(1, k + 1) / k
-    qx, qy, qth, qreal = child.at(child.length - steps if child_reversed else steps)
+    r, cx, cy, px, py, pth, preal, qx, qy, qth, qreal = K.junction_samples(
+        parent.s, parent.px, parent.py, parent.pt, parent.t0[0], parent.t0[1], parent.t1[0], parent.t1[1],
+        parent.start_connected, parent.end_connected, float(parent.vertex_arc[vertex]),
+        child.s, child.px, child.py, child.pt, child.t0[0], child.t0[1], child.t1[0], child.t1[1],
+        child.start_connected, child.end_connected, bool(child_reversed), k, float(opts.radius_factor),
+        float(opts.min_radius), float(opts.max_radius))
     c = complex(cx, cy)
     pos = np.concatenate([px + 1j * py, qx + 1j * qy]) - c
     # own crack: the parent window, a break, then the child from the junction point
@@ -536,13 +510,10 @@ class _Renderer:
         rows, total, rc, rs = K.select_candidates(*args, g.radius + 2, *rest)
         if len(rows) == 0:  # no source fragment fits this radius inside the photo: allow them all
             rows, total, rc, rs = K.select_candidates(*args, -np.inf, *rest)
-        if len(rows) == 0 or not np.isfinite(total).all():
-            return None
         # rows come sorted by S; the c best by S + omega_c C, drawn with probability ~ 1 / cost
-        order = np.argsort(total, kind="stable")[: self.opts.candidates]
-        inv = 1.0 / (total[order] + 1e-6 * (1.0 + float(total[order[0]])))
-        u = self.rng.random() * float(inv.sum())
-        pick = order[min(int(np.searchsorted(np.cumsum(inv), u, side="right")), len(order) - 1)]
+        pick = K.draw_candidate(total, self.opts.candidates, self.rng.random()) if len(rows) else -1
+        if pick < 0:
+            return None
         o, i = divmod(int(rows[pick]), bank.n)
         return bank, i, o, complex(rc[pick], rs[pick])
 
