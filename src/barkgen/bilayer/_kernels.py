@@ -113,12 +113,14 @@ def render_window(y0, x0, out, structure_out, noise_out, tiles, colours, variant
     col_fx = np.empty(w, np.float64)
     col_cxw = np.empty(w, np.int64)
     col_fxw = np.empty(w, np.float64)
+    col_nx = np.empty(w, np.float64)  # 1 / sqrt of the column part of the weights' energy
     for col in range(w):
         gx = x0 + col
         col_cx[col] = gx // cell
         col_fx[col] = _smooth((gx - col_cx[col] * cell) / cell)
         col_cxw[col] = gx // wcell
         col_fxw[col] = _smooth((gx - col_cxw[col] * wcell) / wcell)
+        col_nx[col] = 1.0 / math.sqrt(col_fx[col] ** 2 + (1.0 - col_fx[col]) ** 2)
     for r in prange(h):
         gy = y0 + r
         cy = gy // cell
@@ -131,6 +133,10 @@ def render_window(y0, x0, out, structure_out, noise_out, tiles, colours, variant
         wts = np.empty(4, np.float64)
         for q in range(4):
             wy[q] = fy if (q >> 1) else 1.0 - fy
+        # the weights are separable: their energy is (row part) x (column part)
+        ny = 1.0 / math.sqrt(fy * fy + (1.0 - fy) * (1.0 - fy))
+        ty_idx = np.empty(4, np.int64)
+        tx_idx = np.empty(4, np.int64)
         idx = np.int64(0)
         tx = np.int64(0)
         ty = np.int64(0)
@@ -191,12 +197,12 @@ def render_window(y0, x0, out, structure_out, noise_out, tiles, colours, variant
                     offy[q] = np.int64(hv & np.uint64(wrap))
                     offx[q] = np.int64((hv >> np.uint64(32)) & np.uint64(wrap))
             fx = col_fx[col]
-            energy = 0.0
-            for q in range(4):
-                wts[q] = wy[q] * (fx if (q & 1) else 1.0 - fx)
-                energy += wts[q] * wts[q]
-            norm = 1.0 / math.sqrt(energy)
+            norm = ny * col_nx[col]
             px = gx & wrap
+            for q in range(4):  # unit-energy weights and the taps, shared by every noise
+                wts[q] = wy[q] * (fx if (q & 1) else 1.0 - fx) * norm
+                ty_idx[q] = (py + offy[q]) & wrap
+                tx_idx[q] = (px + offx[q]) & wrap
             for ch in range(3):
                 colour[ch] = 0.0
             for k in range(k_noise):
@@ -206,8 +212,7 @@ def render_window(y0, x0, out, structure_out, noise_out, tiles, colours, variant
                 for c in range(n_pc):
                     v = 0.0
                     for q in range(4):
-                        v += wts[q] * noise_tiles[k, c, (py + offy[q]) & wrap, (px + offx[q]) & wrap]
-                    v *= norm
+                        v += wts[q] * noise_tiles[k, c, ty_idx[q], tx_idx[q]]
                     if n_q > 1:  # histogram equalisation: Gaussian quantile -> data quantile
                         u = 0.5 * (1.0 + math.erf(v / (sigmas[k, c] * 1.4142135623730951)))
                         pos = u * (n_q - 1)
