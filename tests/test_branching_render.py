@@ -319,3 +319,24 @@ def test_fragment_choice_draws_among_the_c_best_with_probability_inverse_to_the_
     assert abs((picks == 1).mean() - 2 / 3) < 0.01
     assert K.draw_candidate(np.array([1.0, np.inf]), 2, 0.5) == -1
     assert K.draw_candidate(np.zeros(0), 2, 0.5) == -1
+
+
+def test_shape_cost_rotation_is_clamped_to_the_limit():
+    """The closed-form rigid fit (§5.2) of a fragment that is the target turned by ``theta``:
+    free rotation fits it exactly; clamped to ``limit`` the fit is the one at the limit,
+    ``|p|^2 + |q|^2 - 2 |z| cos(theta - limit)`` (the kernel avoids trigonometry per row)."""
+    k = 9
+    q = (np.linspace(-8, 8, k) + 1j * np.sin(np.linspace(0, 3, k))).astype(np.complex128)
+    thetas = np.radians([0.0, 15.0, 40.0, 90.0, 170.0, -60.0])
+    p = np.stack([q * np.exp(-1j * t) for t in thetas])  # rotated back by theta fits q
+    mu = np.ones((len(thetas), k))
+    weight = np.ones(k)
+    qq = float((np.abs(q) ** 2).sum())
+    for limit in (np.radians(20.0), np.pi):
+        cost, zre, zim = K.shape_costs(np.ascontiguousarray(p.real), np.ascontiguousarray(p.imag), mu,
+                                       np.full(len(thetas), 100.0), np.ascontiguousarray(q.real),
+                                       np.ascontiguousarray(q.imag), np.ones(k), weight, 2.0, limit, 0.0)
+        for t, c in zip(thetas, cost):
+            fit = np.cos(max(abs(t) - limit, 0.0)) if limit < np.pi else 1.0
+            assert math.isclose(c, max(2 * qq - 2 * qq * fit, 0.0), rel_tol=1e-6, abs_tol=1e-6)
+        np.testing.assert_allclose(np.angle(zre + 1j * zim), thetas, atol=1e-9)
