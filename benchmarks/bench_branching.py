@@ -11,7 +11,8 @@ over ``--seeds`` seeds, after a warm-up); the paper's Fig. 7 evaluation as numbe
 distance (0 = equal, 2 = disjoint) of the angle and thickness histograms (B = 16, source's
 range) for the model and for a no-model baseline (a random walk with Gaussian turns of the
 source's spread and the source's mean thickness, the same total length); crossings not
-recorded as a merge; junctions (furcations + merges) per megapixel, source vs grown.
+recorded as a merge; junctions (furcations + merges) and free ends (branch ends connected to
+nothing, away from the border) per megapixel, source vs grown.
 With ``--render``: the render of the first seed's structure at ``--size``² (median time of
 ``--render-repeats`` renders), the core engine's plain synthesis of the same image at the
 same size (timed in the same process: how fast the machine was), texeval coherence and
@@ -114,6 +115,8 @@ def run_image(path: Path, size: int, seeds: list[int], render: bool, sheets: Pat
         "walk_angle_l1": statistics.median(c.angle_l1 for c in walks),
         "walk_thickness_l1": statistics.median(c.thickness_l1 for c in walks),
         "crossings": max(c.target_intersections for c in cmps),
+        "free_ends_src": cmps[0].source_free_end_density,
+        "free_ends_out": statistics.median(c.target_free_end_density for c in cmps),
         "junctions_src": cmps[0].source_junction_density,
         "junctions_out": statistics.median(c.target_junction_density for c in cmps),
         "merges_src": sum(b.joins is not None for b in source.branches) / (source.width * source.height / 1e6),
@@ -179,7 +182,8 @@ def main() -> None:
               f"L1 angle {r['angle_l1']:.3f} (walk {r['walk_angle_l1']:.3f})  "
               f"L1 thickness {r['thickness_l1']:.3f} (walk {r['walk_thickness_l1']:.3f})  "
               f"crossings {r['crossings']}  junctions/Mpx {r['junctions_src']:.0f} -> {r['junctions_out']:.0f} "
-              f"({r['junction_ratio']:.2f}x)  merges/Mpx {r['merges_src']:.0f} -> {r['merges_out']:.0f}"
+              f"({r['junction_ratio']:.2f}x)  merges/Mpx {r['merges_src']:.0f} -> {r['merges_out']:.0f}  "
+              f"free ends/Mpx {r['free_ends_src']:.0f} -> {r['free_ends_out']:.0f}"
               + (f"  render {r['render_s']:5.2f}s (plain synthesis {r['plain_s']:4.2f}s) coherence {r['coherence_ratio']:.2f}x sharpness "
                  f"{r['sharpness_ratio']:.2f}x crack lum {r['crack_lum_ratio']:.2f}" if args.render else ""),
               flush=True)

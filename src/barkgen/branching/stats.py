@@ -84,6 +84,8 @@ class StructureComparison:
     source_length_density: float    # skeleton pixels per pixel
     target_length_density: float
     target_intersections: int
+    source_free_end_density: float = 0.0  # branch ends connected to nothing, per megapixel
+    target_free_end_density: float = 0.0
 
     def as_dict(self) -> dict:
         return {"angle_l1": self.angle_l1, "thickness_l1": self.thickness_l1, "heading_l1": self.heading_l1,
@@ -91,7 +93,9 @@ class StructureComparison:
                 "target_junctions_per_mpx": self.target_junction_density,
                 "source_length_per_px": self.source_length_density,
                 "target_length_per_px": self.target_length_density,
-                "target_intersections": self.target_intersections}
+                "target_intersections": self.target_intersections,
+                "source_free_ends_per_mpx": self.source_free_end_density,
+                "target_free_ends_per_mpx": self.target_free_end_density}
 
 
 def compare_structures(source: Structure, target: Structure, bins: int = 16) -> StructureComparison:
@@ -116,7 +120,7 @@ def compare_structures(source: Structure, target: Structure, bins: int = 16) -> 
         float(np.abs(hs_a - ht_a).sum()), float(np.abs(hs_r - ht_r).sum()), heading_l1,
         source.junctions() / s_area, target.junctions() / t_area,
         source.total_length() / (s_area * 1e6), target.total_length() / (t_area * 1e6),
-        self_intersections(target))
+        self_intersections(target), source.free_ends() / s_area, target.free_ends() / t_area)
 
 
 def comparison_plot(cmp: StructureComparison, width: int = 960, height: int = 360) -> np.ndarray:

@@ -70,6 +70,18 @@ class Structure:
         """Number of furcations plus merges (branch ends on another branch)."""
         return int(sum((b.parent is not None) + (b.joins is not None) for b in self.branches))
 
+    def free_ends(self, margin: float = 3.0) -> int:
+        """Branch ends connected to nothing: starts without a parent and ends without a merge,
+        farther than ``margin`` px from the image border (where a crack just leaves the image).
+        Closed cells, as in dried mud, have few."""
+        w, h = self.width, self.height
+
+        def inside(p: np.ndarray) -> bool:
+            return margin < p[0] < w - 1 - margin and margin < p[1] < h - 1 - margin
+
+        return int(sum((b.parent is None and inside(b.points[0])) + (b.joins is None and inside(b.points[-1]))
+                       for b in self.branches if len(b.points)))
+
     def to_dict(self) -> dict:
         """The JSON form of the issue: version, step, size and branches."""
         out = []

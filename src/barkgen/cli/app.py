@@ -1187,6 +1187,7 @@ def branches_stats_command(
     console.print(f"L1 angle {cmp.angle_l1:.3f}   L1 thickness {cmp.thickness_l1:.3f}   "
                   f"L1 direction {cmp.heading_l1:.3f}   "
                   f"junctions per Mpx {cmp.source_junction_density:.0f} -> {cmp.target_junction_density:.0f}   "
+                  f"free ends per Mpx {cmp.source_free_end_density:.0f} -> {cmp.target_free_end_density:.0f}   "
                   f"length per px {cmp.source_length_density:.4f} -> {cmp.target_length_density:.4f}   "
                   f"intersections {cmp.target_intersections}", highlight=False)
     _write_outputs({plot: encode_png(comparison_plot(cmp))})
