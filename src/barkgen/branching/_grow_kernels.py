@@ -130,6 +130,30 @@ def first_contacts(dist, near_branch, xs, ys, rs, step, branch, parent, sx, sy, 
 
 
 @njit(cache=True)
+def path_contacts(x0, y0, theta, step, elements, dist, near_branch, branch, parent, sx, sy, exempt):  # pragma: no cover - compiled
+    """The vertices of element rows (angle, thickness) appended from ``(x0, y0)`` at heading
+    ``theta`` (``step`` apart), their headings, and the first vertex touching a committed
+    branch and the first leaving the image (-1: none; :func:`first_contacts`)."""
+    n = elements.shape[0]
+    xs = np.empty(n)
+    ys = np.empty(n)
+    heads = np.empty(n)
+    hd = theta
+    hx = x0
+    hy = y0
+    for j in range(n):
+        hd += elements[j, 0]
+        hx += step * np.cos(hd)
+        hy += step * np.sin(hd)
+        xs[j] = hx
+        ys[j] = hy
+        heads[j] = hd
+    first_hit, first_out = first_contacts(dist, near_branch, xs, ys, elements[:, 1].copy(), step, branch, parent,
+                                          sx, sy, exempt)
+    return xs, ys, heads, first_hit, first_out
+
+
+@njit(cache=True)
 def extension_candidates(qual, hist_a, hist_r, ha, hr, history_start, branch_end, angles, thickness,
                          k, m, a_edges, r_edges, a_counts, r_counts, a_target, r_target, h_counts, h_target,
                          n_t, omega_g,
@@ -368,6 +392,21 @@ def add_element_counts(a_counts, a_edges, r_counts, r_edges, h_counts, elements,
     add_counts(a_counts, a_edges, elements[:, 0])
     add_counts(r_counts, r_edges, elements[:, 1])
     add_heading_counts(h_counts, headings)
+
+
+@njit(cache=True)
+def push_elements(xyr, hist, n_v, n_h, elements, xs, ys, heads, n, a_counts, a_edges, r_counts, r_edges,
+                  h_counts):  # pragma: no cover - compiled
+    """Append the first ``n`` element rows (angle, thickness) and their vertices ``xs, ys``
+    to a growing branch's buffers (``xyr`` from row ``n_v``, ``hist`` from row ``n_h``) and
+    count them in the three histograms of §4.2."""
+    for j in range(n):
+        xyr[n_v + j, 0] = xs[j]
+        xyr[n_v + j, 1] = ys[j]
+        xyr[n_v + j, 2] = elements[j, 1]
+        hist[n_h + j, 0] = elements[j, 0]
+        hist[n_h + j, 1] = elements[j, 1]
+    add_element_counts(a_counts, a_edges, r_counts, r_edges, h_counts, elements[:n], heads[:n])
 
 
 @njit(cache=True)

@@ -230,40 +230,25 @@ class _Grower:
         """Append the first ``n`` of the element rows with their vertices."""
         if n <= 0:
             return
-        tip.xyr[tip.n:tip.n + n, 0] = xs[:n]
-        tip.xyr[tip.n:tip.n + n, 1] = ys[:n]
-        tip.xyr[tip.n:tip.n + n, 2] = elements[:n, 1]
+        m = self.model
+        K.push_elements(tip.xyr, tip.hist, tip.n, tip.n_hist, elements, xs, ys, heads, n, self.a_counts,
+                        m.angle_edges, self.r_counts, m.thickness_edges, self.h_counts)
         tip.n += n
-        tip.hist[tip.n_hist:tip.n_hist + n] = elements[:n]
         tip.n_hist += n
         tip.theta = float(heads[n - 1])
-        self._count(elements[:n], heads[:n])
-
-    def _geometry(self, x0, y0, theta, ang: np.ndarray):
-        """Vertices after appending the element rows ``ang`` (T, L) from heading ``theta``."""
-        headings = theta + np.cumsum(ang, axis=-1)
-        xs = x0 + self.step * np.cumsum(np.cos(headings), axis=-1)
-        ys = y0 + self.step * np.cumsum(np.sin(headings), axis=-1)
-        return xs, ys, headings
-
-    def _hits(self, xs, ys, rs, start, exempt, b) -> tuple[int, int]:
-        """First vertex of the path that touches a committed branch and first that leaves the
-        image (-1: none)."""
-        parent = self.branches[b].parent
-        return K.first_contacts(self.dist, self.near_branch, np.ascontiguousarray(xs, np.float64),
-                                np.ascontiguousarray(ys, np.float64), np.ascontiguousarray(rs, np.float64),
-                                self.step, b, -2 if parent is None else parent, float(start[0]),
-                                float(start[1]), float(exempt))
+        self.n_t += n
 
     def _append(self, tip: "_Tip", elements, start, exempt, b):
         """Append element rows (L, 2) outside the Markov step (a copied initial segment); stops
         at the image border and at a collision. Returns (keep growing, hit) where hit =
         (index, x, y, heading) of the collision."""
-        x0, y0 = tip.xyr[tip.n - 1, 0], tip.xyr[tip.n - 1, 1]
-        xs, ys, headings = self._geometry(x0, y0, tip.theta, elements[:, 0])
+        parent = self.branches[b].parent
+        xs, ys, headings, first_hit, first_out = K.path_contacts(
+            float(tip.xyr[tip.n - 1, 0]), float(tip.xyr[tip.n - 1, 1]), tip.theta, self.step,
+            np.ascontiguousarray(elements, np.float64), self.dist, self.near_branch, b,
+            -2 if parent is None else parent, float(start[0]), float(start[1]), float(exempt))
         n = len(elements)
         hit = None
-        first_hit, first_out = self._hits(xs, ys, elements[:, 1], start, exempt, b)
         if first_hit >= 0:
             n = first_hit
             hit = (n, xs[n], ys[n], headings[n])
@@ -272,12 +257,6 @@ class _Grower:
             n, hit, keep = first_out, None, False
         self._push(tip, elements, xs, ys, headings, n)
         return keep and n > 0, hit
-
-    def _count(self, elements: np.ndarray, headings: np.ndarray) -> None:
-        m = self.model
-        K.add_element_counts(self.a_counts, m.angle_edges, self.r_counts, m.thickness_edges, self.h_counts,
-                             elements, np.ascontiguousarray(headings, np.float64))
-        self.n_t += len(elements)
 
     def _choose(self, tip: "_Tip", start, exempt, b):
         """One extension step of §4.2-4.4 (the kernel scores and chooses). Returns None (no
@@ -368,13 +347,17 @@ class _Grower:
         (within the source's median branch length, at least 3 rho and m steps) and ends on it."""
         n = int(np.ceil(self.reach / self.step))
         x0, y0, r = tip.xyr[tip.n - 1]
-        t = self.step * np.arange(1, n + 1)
-        xs = x0 + np.cos(tip.theta) * t
-        ys = y0 + np.sin(tip.theta) * t
-        j, _ = self._hits(xs, ys, np.full(n, r), start, exempt, b)
+        straight = np.zeros((n, 2))
+        straight[:, 1] = r
+        parent = self.branches[b].parent
+        xs, ys, _, j, _ = K.path_contacts(float(x0), float(y0), tip.theta, self.step, straight, self.dist,
+                                          self.near_branch, b, -2 if parent is None else parent,
+                                          float(start[0]), float(start[1]), float(exempt))
         if j < 0:
             return
-        tip.xyr[tip.n:tip.n + j] = np.stack([xs[:j], ys[:j], np.full(j, r)], axis=1)
+        tip.xyr[tip.n:tip.n + j, 0] = xs[:j]
+        tip.xyr[tip.n:tip.n + j, 1] = ys[:j]
+        tip.xyr[tip.n:tip.n + j, 2] = r
         tip.n += j
         self._snap(tip, xs[j], ys[j], branch)
 
