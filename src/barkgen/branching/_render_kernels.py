@@ -526,9 +526,9 @@ def shape_costs(pre, pim, mu, border, qre, qim, nu, weight, omega_s, limit, marg
 
 @nb.njit(cache=True)
 def arc_setup(points):
-    """A polyline's arc-length parametrisation: the arc position of every vertex, the
-    vertices that start a segment longer than 1e-9 (and the first) as ``s, x, y, half-width``,
-    and the unit tangents at both ends (``(1, 0)`` for a single vertex)."""
+    """A polyline's arc-length parametrisation: the arc position of every vertex; the first
+    vertex and every vertex more than 1e-9 px from the one before as ``s, x, y, half-width``;
+    the unit tangents at both ends (``(1, 0)`` for a single vertex)."""
     n = points.shape[0]
     vertex_arc = np.zeros(n)
     keep = np.ones(n, np.bool_)
