@@ -8,11 +8,12 @@ from numba import njit
 
 
 @njit(cache=True)
-def commit_points(dist, near_branch, near_vertex, near_tangent, points, first, last, branch, radius):  # pragma: no cover - compiled
+def commit_points(dist, near_branch, near_vertex, near_tangent, points, first, last, branch, radius,
+                  track=True):  # pragma: no cover - compiled
     """Lower ``dist`` (distance to the nearest committed branch surface, i.e. distance to a
     vertex minus its thickness) within ``radius`` of each vertex ``points[first:last]`` (rows
-    x, y, thickness) of ``branch``, and remember which branch and vertex is nearest and the
-    branch's direction there. Only the ``3 rho`` vicinity is touched (§4.4)."""
+    x, y, thickness) of ``branch``, and (with ``track``) remember which branch and vertex is
+    nearest and the branch's direction there. Only the ``3 rho`` vicinity is touched (§4.4)."""
     h, w = dist.shape
     n = points.shape[0]
     r2 = radius * radius
@@ -37,35 +38,10 @@ def commit_points(dist, near_branch, near_vertex, near_tangent, points, first, l
                 d = np.sqrt(e2) - r
                 if d < dist[yy, xx]:
                     dist[yy, xx] = d
-                    near_branch[yy, xx] = branch
-                    near_vertex[yy, xx] = i
-                    near_tangent[yy, xx] = tangent
-
-
-@njit(cache=True)
-def commit_density(density, points, first, last, radius):  # pragma: no cover - compiled
-    """Lower the density map's distance to the nearest branch surface within ``radius`` of
-    each vertex ``points[first:last]`` (as :func:`commit_points`, the distance alone)."""
-    h, w = density.shape
-    r2 = radius * radius
-    for i in range(first, min(last, points.shape[0])):
-        x, y, r = points[i, 0], points[i, 1], points[i, 2]
-        x0 = max(int(np.floor(x - radius)), 0)
-        x1 = min(int(np.ceil(x + radius)), w - 1)
-        y0 = max(int(np.floor(y - radius)), 0)
-        y1 = min(int(np.ceil(y + radius)), h - 1)
-        for yy in range(y0, y1 + 1):
-            dy2 = (yy - y) ** 2
-            for xx in range(x0, x1 + 1):
-                e2 = (xx - x) ** 2 + dy2
-                if e2 > r2:
-                    continue
-                bound = density[yy, xx] + r
-                if bound > 0 and e2 >= bound * bound:
-                    continue
-                d = np.sqrt(e2) - r
-                if d < density[yy, xx]:
-                    density[yy, xx] = d
+                    if track:
+                        near_branch[yy, xx] = branch
+                        near_vertex[yy, xx] = i
+                        near_tangent[yy, xx] = tangent
 
 
 @njit(cache=True)

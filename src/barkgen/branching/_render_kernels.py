@@ -370,6 +370,21 @@ def blend(x0, y0, newmask, new, fixed, boundary, canvas, content, coverage, frag
                 fragment_map[y0 + i, x0 + j] = index
 
 
+@nb.njit(inline="always")
+def _apply_constraints(idx, wt, mat):
+    """``B @ mat`` for the bilinear constraint matrix ``B`` (row ``l``: weights ``wt[l]`` on
+    the grid nodes ``idx[l]``), as ``(k, mat.shape[1])``."""
+    k = idx.shape[0]
+    out = np.zeros((k, mat.shape[1]))
+    for l in range(k):
+        for c in range(4):
+            row = idx[l, c]
+            a = wt[l, c]
+            for j in range(mat.shape[1]):
+                out[l, j] += a * mat[row, j]
+    return out
+
+
 @nb.njit(cache=True)
 def warp_field(green, m, half, qx, qy, vx, vy, i0, i1, j0, j1):
     """The smooth displacement of one fragment (§5.3) on rows ``i0:i1``, columns ``j0:j1`` of
@@ -386,7 +401,6 @@ def warp_field(green, m, half, qx, qy, vx, vy, i0, i1, j0, j1):
     out = np.zeros((h, w), np.complex128)
     if k == 0:
         return out
-    n = m * m
     scale = (m - 1) / (2.0 * half)
     idx = np.empty((k, 4), np.int64)
     wt = np.empty((k, 4), np.float64)
@@ -405,20 +419,8 @@ def warp_field(green, m, half, qx, qy, vx, vy, i0, i1, j0, j1):
         wt[l, 1] = fx * (1 - fy)
         wt[l, 2] = (1 - fx) * fy
         wt[l, 3] = fx * fy
-    gbt = np.zeros((n, k))
-    for l in range(k):
-        for c in range(4):
-            col = idx[l, c]
-            a = wt[l, c]
-            for r in range(n):
-                gbt[r, l] += a * green[r, col]
-    bgbt = np.zeros((k, k))
-    for l in range(k):
-        for c in range(4):
-            row = idx[l, c]
-            a = wt[l, c]
-            for l2 in range(k):
-                bgbt[l, l2] += a * gbt[row, l2]
+    gbt = np.ascontiguousarray(_apply_constraints(idx, wt, green.T).T)  # G B^T
+    bgbt = _apply_constraints(idx, wt, gbt)  # B G B^T
     tr = 0.0
     for l in range(k):
         tr += bgbt[l, l]

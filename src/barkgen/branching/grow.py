@@ -129,7 +129,8 @@ class _Grower:
     def commit_density(self, points: np.ndarray, first: int) -> None:
         """Enter vertices ``first:`` into the density map."""
         if first < len(points):
-            K.commit_density(self.density, np.ascontiguousarray(points), first, len(points), self.radius)
+            K.commit_points(self.density, self.near_branch, self.near_vertex, self.near_tangent,
+                            np.ascontiguousarray(points), first, len(points), -1, self.radius, False)
 
     def sample(self, arr: np.ndarray, x: np.ndarray, y: np.ndarray, outside):
         x = np.ascontiguousarray(x, np.float64)
