@@ -47,7 +47,7 @@ def test_generate_api_outputs_and_report(fir128):
     assert np.mean(result.labels_in[ry, rx] == result.labels_out) > 0.95
     report = result.report
     assert report["size"] == [160, 96] and report["seed"] == 2 and report["k"] == 3
-    assert report["strategy"] == "engine" and report["extras"] == ["height"]
+    assert report["strategy"] == "joint" and report["extras"] == ["height"]
     assert set(report["timings_s"]) == {"analysis", "labels_out", "texture", "total"}
     fin, fout = report["label_fractions_in"], report["label_fractions_out"]
     assert set(fin) == set(fout) and abs(sum(fout.values()) - 1) < 1e-3
@@ -189,12 +189,28 @@ def test_shapes_cli_layered_with_order_and_levels(tmp_path, fir128):
     assert (tmp_path / "lv" / "level_1.png").exists()
 
 
+def test_shapes_cli_joint_strategy_with_the_photo(tmp_path, fir128, fir_png):
+    from barkgen.labels import color_regions
+
+    labels = color_regions(fir128, 3, seed=0)
+    write_png(tmp_path / "a.png", labels)
+    r = run("shapes", str(tmp_path / "a.png"), "-o", str(tmp_path / "b.png"), "--size", "96x64",
+            "--strategy", "joint", "--photo", str(fir_png), "-q")
+    assert r.returncode == 0, r.stderr
+    b = read_image(tmp_path / "b.png")
+    assert b.shape == (64, 96, 1) and set(np.unique(b)) <= set(np.unique(labels))
+
+
 def _bad_generate(tmp: Path, photo: Path) -> dict[str, list[str]]:
     write_png(tmp / "wrong_size.png", np.zeros((50, 50), np.uint8))
     write_png(tmp / "level_1.png", np.zeros((30, 30), np.uint8))  # level 1 of 64x64 is 32x32
     write_png(tmp / "unknown.png", np.full((32, 32), 77, np.uint8))
     (tmp / "not_an_image.png").write_text("hello")
+    two = np.zeros((64, 64), np.uint8)
+    two[:, 32:] = 255
+    write_png(tmp / "labels64.png", two)
     base = [str(photo), "-o", str(tmp / "out"), "--size", "64x64"]
+    shapes = ["shapes", str(tmp / "labels64.png"), "-o", str(tmp / "out" / "b.png"), "--size", "64x64"]
     return {
         "edited level of no level's size": ["generate", *base, "--resume", str(tmp / "wrong_size.png")],
         "edited level of the wrong level's size": ["generate", *base, "--resume", str(tmp / "level_1.png")],
@@ -208,13 +224,17 @@ def _bad_generate(tmp: Path, photo: Path) -> dict[str, list[str]]:
         "output is a file": ["generate", str(photo), "-o", str(tmp / "not_an_image.png"), "--size", "64x64"],
         "shapes: bad layer order": ["shapes", str(photo), "-o", str(tmp / "out" / "b.png"),
                                     "--layer-order", "a,b"],
+        "shapes: joint without its photo": [*shapes, "--strategy", "joint"],
+        "shapes: photo of another size": [*shapes, "--strategy", "joint", "--photo", str(photo)],
+        "shapes: photo without the joint strategy": [*shapes, "--photo", str(photo)],
     }
 
 
 BAD_CASES = ["edited level of no level's size", "edited level of the wrong level's size",
              "edited level with unknown labels", "edited level not an image", "bad size", "bad k",
              "bad strategy", "extra name taken", "missing photo", "output is a file",
-             "shapes: bad layer order"]
+             "shapes: bad layer order", "shapes: joint without its photo",
+             "shapes: photo of another size", "shapes: photo without the joint strategy"]
 
 
 @pytest.mark.parametrize("case", BAD_CASES)

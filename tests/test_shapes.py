@@ -1,5 +1,5 @@
 """Output label maps (laitoch2018 §3.6): the shape similarity measure, binary and layered shape
-synthesis, the engine strategy, tiling, pyramid levels and resuming from an edited level."""
+synthesis, the engine and joint strategies, tiling, pyramid levels and resuming from an edited level."""
 
 from __future__ import annotations
 
@@ -43,13 +43,17 @@ def _fractions(label_map: np.ndarray, values: np.ndarray) -> np.ndarray:
 
 
 @pytest.fixture(scope="module")
-def fir_labels():
+def fir_photo():
     from conftest import bark_exemplar
 
+    return bark_exemplar("fir_scaly_01", 256)
+
+
+@pytest.fixture(scope="module")
+def fir_labels(fir_photo):
     from barkgen.labels import color_regions
 
-    img = bark_exemplar("fir_scaly_01", 256)
-    return {k: color_regions(img, k, seed=0) for k in (2, 3, 5)}
+    return {k: color_regions(fir_photo, k, seed=0) for k in (2, 3, 5)}
 
 
 # --------------------------------------------------------------------------------------------
@@ -136,6 +140,51 @@ def test_engine_strategy_keeps_areas_and_shapes(fir_labels, k):
     assert _mean_dissimilarity(labels, out) <= 1.5 * _halves_dissimilarity(labels)
 
 
+@pytest.mark.parametrize("k", [2, 3, 5])
+def test_joint_strategy_keeps_areas_and_shapes(fir_photo, fir_labels, k):
+    labels = fir_labels[k]
+    values = np.unique(labels)
+    result = synthesize_label_map(labels, (256, 320), strategy="joint", photo=fir_photo, seed=1)
+    out = result.label_map
+    assert out.shape == (256, 320) and set(np.unique(out)) <= set(values)
+    # the map is the exemplar's labels at its references
+    assert np.array_equal(out, labels[result.references[..., 0], result.references[..., 1]])
+    assert np.abs(_fractions(out, values) - _fractions(labels, values)).max() < 0.03
+    assert _mean_dissimilarity(labels, out) <= 1.5 * _halves_dissimilarity(labels)
+
+
+def test_joint_strategy_pieces_fit_in_the_photo(fir_photo, fir_labels):
+    """What the joint strategy is for: the photo resolved through its references has fewer
+    colour seams than through the label-only engine's (whose pieces only fit in labels)."""
+    from barkgen.color import rgb_to_lab
+
+    labels = fir_labels[3]
+    lab = rgb_to_lab(fir_photo.astype(np.float32) / 255.0)
+
+    def seam_energy(refs):
+        # colour jump between output neighbours, beyond the jump between the same exemplar
+        # pixels' own neighbours (0 inside a verbatim piece)
+        ry, rx = refs[..., 0], refs[..., 1]
+        out = lab[ry, rx]
+        right = np.linalg.norm(out[:, 1:] - out[:, :-1], axis=-1)
+        inside = np.linalg.norm(lab[ry[:, :-1], np.minimum(rx[:, :-1] + 1, lab.shape[1] - 1)]
+                                - out[:, :-1], axis=-1)
+        return float(np.mean(np.abs(right - inside)))
+
+    for seed in (0, 1):
+        joint = synthesize_label_map(labels, 256, strategy="joint", photo=fir_photo, seed=seed)
+        engine = synthesize_label_map(labels, 256, strategy="engine", seed=seed)
+        assert seam_energy(joint.references) < 0.8 * seam_energy(engine.references)
+
+
+def test_joint_strategy_needs_its_photo(fir_photo, fir_labels):
+    labels = fir_labels[3]
+    with pytest.raises(InvalidInputError, match="give the photo"):
+        synthesize_label_map(labels, 64, strategy="joint")
+    with pytest.raises(InvalidInputError, match="same size"):
+        synthesize_label_map(labels, 64, strategy="joint", photo=fir_photo[:100])
+
+
 def test_layered_strategy_keeps_areas_on_a_photo(fir_labels):
     labels = fir_labels[3]
     values = np.unique(labels)
@@ -144,8 +193,8 @@ def test_layered_strategy_keeps_areas_on_a_photo(fir_labels):
     assert np.abs(_fractions(result.label_map, values) - _fractions(labels, values)).max() < 0.03
 
 
-@pytest.mark.parametrize("strategy", ["engine", "layered"])
-def test_tileable_label_maps_wrap(fir_labels, strategy):
+@pytest.mark.parametrize("strategy", ["engine", "joint", "layered"])
+def test_tileable_label_maps_wrap(fir_photo, fir_labels, strategy):
     labels = fir_labels[3]
 
     def seam_excess(m):
@@ -155,18 +204,22 @@ def test_tileable_label_maps_wrap(fir_labels, strategy):
         cols = np.mean(m[:, 1:] != m[:, :-1], axis=0).max()
         return max(np.mean(m[0, :] != m[-1, :]) / rows, np.mean(m[:, 0] != m[:, -1]) / cols)
 
-    tiled = synthesize_label_map(labels, (192, 192), strategy=strategy, tile=True, seed=2).label_map
-    plain = synthesize_label_map(labels, (192, 192), strategy=strategy, tile=False, seed=2).label_map
+    photo = fir_photo if strategy == "joint" else None
+    tiled = synthesize_label_map(labels, (192, 192), strategy=strategy, tile=True, seed=2,
+                                 photo=photo).label_map
+    plain = synthesize_label_map(labels, (192, 192), strategy=strategy, tile=False, seed=2,
+                                 photo=photo).label_map
     assert seam_excess(tiled) <= 1.0
     assert seam_excess(plain) > 1.2  # the test can fail: an untileable map has a seam
 
 
-@pytest.mark.parametrize("strategy", ["engine", "layered"])
-def test_same_seed_same_map(fir_labels, strategy):
+@pytest.mark.parametrize("strategy", ["engine", "joint", "layered"])
+def test_same_seed_same_map(fir_photo, fir_labels, strategy):
     labels = fir_labels[3]
-    a = synthesize_label_map(labels, 128, strategy=strategy, seed=4).label_map
-    b = synthesize_label_map(labels, 128, strategy=strategy, seed=4).label_map
-    c = synthesize_label_map(labels, 128, strategy=strategy, seed=5).label_map
+    photo = fir_photo if strategy == "joint" else None
+    a = synthesize_label_map(labels, 128, strategy=strategy, seed=4, photo=photo).label_map
+    b = synthesize_label_map(labels, 128, strategy=strategy, seed=4, photo=photo).label_map
+    c = synthesize_label_map(labels, 128, strategy=strategy, seed=5, photo=photo).label_map
     assert np.array_equal(a, b) and not np.array_equal(a, c)
 
 
@@ -174,12 +227,13 @@ def test_same_seed_same_map(fir_labels, strategy):
 # levels and resuming from an edit
 
 
-@pytest.mark.parametrize("strategy", ["engine", "layered"])
-def test_levels_and_resume_from_an_edited_level(fir_labels, strategy):
+@pytest.mark.parametrize("strategy", ["engine", "joint", "layered"])
+def test_levels_and_resume_from_an_edited_level(fir_photo, fir_labels, strategy):
     labels = fir_labels[3]
     values = np.unique(labels)
     size = (256, 256)
-    result = synthesize_label_map(labels, size, strategy=strategy, seed=0)
+    photo = fir_photo if strategy == "joint" else None
+    result = synthesize_label_map(labels, size, strategy=strategy, seed=0, photo=photo)
     shapes = label_map_levels(labels.shape, size, strategy)
     assert [lvl.shape for lvl in result.levels] == shapes
     assert result.resumed_level is None
@@ -191,7 +245,7 @@ def test_levels_and_resume_from_an_edited_level(fir_labels, strategy):
     first, second = values[np.argsort(_fractions(labels, values))[::-1][:2]]
     edited[h // 4: 3 * h // 4, w // 8: 3 * w // 8] = first
     edited[h // 4: 3 * h // 4, 5 * w // 8: 7 * w // 8] = second
-    resumed = synthesize_label_map(labels, size, strategy=strategy, seed=0, resume=edited)
+    resumed = synthesize_label_map(labels, size, strategy=strategy, seed=0, resume=edited, photo=photo)
     assert resumed.resumed_level == level
     assert all(lvl is None for lvl in resumed.levels[level + 1:])
     out = resumed.label_map

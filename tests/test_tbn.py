@@ -163,6 +163,7 @@ def test_debug_receives_levels_initialization_and_results(case):
     ({"feature_weight": float("nan")}, "feature_weight"),
     ({"init": np.zeros((64, 64), np.int32)}, "reference map must be"),
     ({"init": np.full((64, 64, 2), 40, np.int32)}, "outside the exemplar"),
+    ({"init_level": -1}, "init_level"),
 ])
 def test_bad_parameters_are_refused(case, kwargs, message):
     ex, a, b = case
@@ -188,6 +189,17 @@ def test_start_from_a_reference_map(case):
     assert np.mean(source_labels(result, a) == b) >= np.mean(source_labels(smart, a) == b) - 0.005
     kept = np.mean(np.all(result.references == refs, axis=-1))
     assert kept > 1.5 * np.mean(np.all(smart.references == refs, axis=-1)) and kept > 0.1
+    # taken up at the finest level of a deeper pyramid, the references are refined, not
+    # rebuilt from two levels up: more of them survive
+    import dataclasses
+
+    from barkgen.synth.tbn import TBN_CONFIG
+
+    deep = dataclasses.replace(TBN_CONFIG, coarsest_exemplar=8)
+    kept_at = {level: np.mean(np.all(texture_by_numbers(
+        ex, a, b, init=refs.astype(np.int32), init_level=level, seed=0, config=deep).references == refs,
+        axis=-1)) for level in (0, 2)}
+    assert kept_at[0] > kept_at[2] + 0.1, kept_at
 
 
 def test_label_map_of_another_size_is_refused(case):

@@ -394,8 +394,9 @@ def _write_files(folder: Path, files: dict[str, bytes]) -> None:
 
 
 StrategyOption = Annotated[str, typer.Option(
-    "--strategy", help="Output label maps: engine (the core engine on one-hot label channels; "
-    "default) or layered (Rosenberger et al.'s layered shape synthesis, laitoch2018 §3.6).")]
+    "--strategy", help="Output label maps: joint (the core engine on one-hot label channels and "
+    "the photo's colours; generate's default, shapes needs --photo), engine (label channels alone; "
+    "shapes' default) or layered (Rosenberger et al.'s layered shape synthesis, laitoch2018 §3.6).")]
 RotationsOption = Annotated[str, typer.Option(
     "--rotations", help="Layered strategy: boundary patches may turn none, vertical (180°) or "
     "all (90° steps).")]
@@ -414,6 +415,9 @@ def shapes_command(
     output: OutputOption,
     size: Annotated[str, typer.Option("--size", help="Output size WIDTHxHEIGHT.")] = "1024x1024",
     strategy: StrategyOption = "engine",
+    photo: Annotated[Optional[Path], typer.Option(
+        "--photo", help="The photo the label map belongs to (the joint strategy matches its "
+        "colours too).")] = None,
     rotations: RotationsOption = "vertical",
     layer_order: Annotated[Optional[str], typer.Option(
         "--layer-order", help="Layered strategy: grey values bottom layer first, e.g. "
@@ -439,12 +443,15 @@ def shapes_command(
         except ValueError:
             raise InvalidInputError(
                 f"invalid --layer-order {layer_order!r}: expected grey values such as 255,0,128") from None
+    if photo is not None and strategy != "joint":
+        raise InvalidInputError("--photo is for --strategy joint")
     label_map = read_image(labels)
+    photo_image = read_image(photo) if photo is not None else None
     edited = _read_resume(resume) if resume is not None else None
     with _progress(not quiet, "label map") as progress:
         result = synthesize_label_map(label_map, out_shape, strategy=strategy, tile=tile,
                                       seed=seed, rotations=rotations, layer_order=order,
-                                      resume=edited, progress=progress)
+                                      resume=edited, progress=progress, photo=photo_image)
     files = {output.name: encode_png(result.label_map)}
     _write_files(output.parent, files)
     if save_levels is not None:
@@ -466,7 +473,7 @@ def generate_command(
         "--method", help="Input label map: color (laitoch2018 §3.5) or texton (wang2003 §3.2).")] = "color",
     labels: Annotated[Optional[Path], typer.Option(
         "--labels", help="Use this label map of the photo instead of making one.")] = None,
-    strategy: StrategyOption = "engine",
+    strategy: StrategyOption = "joint",
     rotations: RotationsOption = "vertical",
     tile: TileOption = False,
     seed: SeedOption = 0,

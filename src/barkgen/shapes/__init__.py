@@ -1,11 +1,14 @@
 """Output label maps: new label maps of any size that look like the exemplar's (laitoch2018
 §3.6, Rosenberger et al. 2009).
 
-Two strategies:
+Three strategies:
 
 * ``"engine"`` (default): the core k-coherence engine synthesizes the label map itself from
   soft one-hot label channels (:mod:`barkgen.shapes.engine`); every label keeps its area and its
   boundary shapes, for any number of labels.
+* ``"joint"`` (the default of :mod:`barkgen.pipeline`): the same engine matching the photo's
+  colours along the label channels, so the label map's pieces also fit together in the photo;
+  it needs the photo (``photo=``).
 * ``"layered"``: the thesis' method, layered binary shape synthesis by boundary-patch matching
   and shape adjustment (:mod:`barkgen.shapes.binary`, :mod:`barkgen.shapes.layered`), with an
   automatic layer order.
@@ -35,7 +38,7 @@ from barkgen.shapes.patches import (
 from barkgen.synth.guide import label_pyramid
 from barkgen.synth.solver import AnalysisCache, ProgressCallback, parse_output_shape
 
-STRATEGIES = ("engine", "layered")
+STRATEGIES = ("engine", "joint", "layered")
 
 __all__ = [
     "LabelMapResult",
@@ -56,8 +59,8 @@ class LabelMapResult:
     """A synthesized label map (``(H, W)``, grey values of the exemplar's palette), every
     pyramid level's map (``levels[l]`` for level ``l``, 0 = finest; levels above a resumed one
     are None), the strategy, the layer order (layered strategy, bottom label value first), the
-    reference map ``(H, W, 2)`` of the exemplar label pixels the map copies (engine strategy),
-    the level resumed from (or None) and timings in seconds."""
+    reference map ``(H, W, 2)`` of the exemplar label pixels the map copies (engine and joint
+    strategies), the level resumed from (or None) and timings in seconds."""
 
     label_map: np.ndarray
     levels: list
@@ -72,10 +75,10 @@ def label_map_levels(exemplar_shape: tuple[int, int], size, strategy: str = "eng
                      config: ShapeConfig | None = None) -> list[tuple[int, int]]:
     """The ``(height, width)`` of every pyramid level of an output label map, finest first."""
     out_shape = parse_output_shape(size)
-    if strategy == "engine":
+    if strategy in ("engine", "joint"):
         from barkgen.shapes.engine import engine_levels
 
-        n = engine_levels(tuple(exemplar_shape), out_shape)
+        n = engine_levels(tuple(exemplar_shape), out_shape, joint=strategy == "joint")
     else:
         n = count_levels(tuple(exemplar_shape), out_shape, (config or ShapeConfig()).coarsest_exemplar)
     return [level_shape(out_shape, lvl) for lvl in range(n)]
@@ -127,6 +130,7 @@ def synthesize_label_map(
     config: ShapeConfig | None = None,
     progress: ProgressCallback | None = None,
     cache: AnalysisCache | None = None,
+    photo: np.ndarray | None = None,
 ) -> LabelMapResult:
     """Synthesize a new label map of ``size`` (``(height, width)`` or an int) from the
     exemplar's ``label_map`` (laitoch2018 §3.6; Figure 1.2's "output label map").
@@ -134,8 +138,9 @@ def synthesize_label_map(
     Args:
         label_map: ``(h, w)`` grey label map (every distinct value is a label, at most 64).
         size: output ``(height, width)``.
-        strategy: ``"engine"`` (default; the core engine on one-hot label channels) or
-            ``"layered"`` (Rosenberger et al.'s layered shape synthesis).
+        strategy: ``"engine"`` (default; the core engine on one-hot label channels),
+            ``"joint"`` (the engine matching ``photo``'s colours too) or ``"layered"``
+            (Rosenberger et al.'s layered shape synthesis).
         tile: the output label map wraps around (toroidal), so the texture made from it can tile.
         seed: seeds every random choice.
         rotations: boundary patches may match turned ``"none"``, ``"vertical"`` (180°, the
@@ -148,6 +153,7 @@ def synthesize_label_map(
         progress: optional ``progress(done, total)`` callback.
         cache: an :class:`~barkgen.synth.AnalysisCache` holding (or to keep) the engine
             strategy's exemplar analysis (:func:`analyse_label_map`).
+        photo: the photo ``label_map`` labels (same height and width; the joint strategy).
     """
     if strategy not in STRATEGIES:
         raise InvalidInputError(f"strategy must be one of {', '.join(STRATEGIES)}, not {strategy!r}")
@@ -155,6 +161,7 @@ def synthesize_label_map(
     check_seed(seed)
     out_shape = parse_output_shape(size)
     codes, palette = to_codes(label_map)
+    photo = _check_photo(photo, codes.shape, strategy)
     config = config or ShapeConfig()
     shapes = label_map_levels(codes.shape, out_shape, strategy, config)
     start = _resume_codes(resume, palette, shapes) if resume is not None else None
@@ -167,12 +174,12 @@ def synthesize_label_map(
         on_level(*start)
     t0 = time.perf_counter()
     order_values = references = None
-    if strategy == "engine":
+    if strategy in ("engine", "joint"):
         from barkgen.shapes.engine import synthesize_codes
 
         out, references = synthesize_codes(codes, palette.size, out_shape, tile=tile,
                                            seed=int(seed), start=start, on_level=on_level,
-                                           progress=progress, cache=cache)
+                                           progress=progress, cache=cache, photo=photo)
     else:
         from barkgen.shapes.layered import synthesize_layers
 
@@ -201,10 +208,27 @@ def synthesize_label_map(
                           timings={"label_map": time.perf_counter() - t0})
 
 
-def analyse_label_map(label_map: np.ndarray, size, cache: AnalysisCache) -> AnalysisCache:
-    """Run the engine strategy's exemplar analysis for outputs of ``size`` into ``cache``, so
-    that every :func:`synthesize_label_map` of this label map and size (any seed) skips it."""
+def _check_photo(photo: np.ndarray | None, shape: tuple[int, int], strategy: str) -> np.ndarray | None:
+    """The joint strategy's photo (None for the others), checked against the label map."""
+    if strategy != "joint":
+        return None
+    if photo is None:
+        raise InvalidInputError("the joint strategy matches the photo's colours too: give the photo "
+                                "the label map belongs to")
+    photo = np.asarray(photo)
+    if photo.ndim not in (2, 3) or photo.shape[:2] != tuple(shape):
+        raise InvalidInputError(f"the photo ({'x'.join(str(v) for v in photo.shape[1::-1])} px) and "
+                                f"the label map ({shape[1]}x{shape[0]} px) must have the same size")
+    return photo
+
+
+def analyse_label_map(label_map: np.ndarray, size, cache: AnalysisCache, *,
+                      photo: np.ndarray | None = None) -> AnalysisCache:
+    """Run the engine strategy's (with ``photo``, the joint strategy's) exemplar analysis for
+    outputs of ``size`` into ``cache``, so that every :func:`synthesize_label_map` of this label
+    map and size (any seed) skips it."""
     from barkgen.shapes.engine import analyse_codes
 
     codes, palette = to_codes(label_map)
-    return analyse_codes(codes, palette.size, parse_output_shape(size), cache)
+    photo = None if photo is None else _check_photo(photo, codes.shape, "joint")
+    return analyse_codes(codes, palette.size, parse_output_shape(size), cache, photo=photo)

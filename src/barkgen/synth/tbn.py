@@ -52,8 +52,8 @@ INITIALIZATIONS = ("smart", "random")
 TBN_CONFIG = SynthesisConfig(coarsest_exemplar=32, schedule_coarsest=((9, 3), (7, 2), (5, 2)),
                              schedule_middle=((7, 1), (5, 1)), pca_components=6)
 
-#: a reference map given as ``init`` is taken up at this pyramid level (0 = finest): its
-#: coarser structure is kept, the solver refines the finer levels
+#: a reference map given as ``init`` is taken up at this pyramid level (0 = finest) unless
+#: ``init_level`` says otherwise: its coarser structure is kept, the solver refines the finer levels
 REFERENCE_START_LEVEL = 2
 
 #: px of Gaussian blur of the label indicators that make the guide channels
@@ -145,6 +145,7 @@ def texture_by_numbers(
     label_weight: float = 20.0,
     feature_weight: float = 8.0,
     init: str | np.ndarray = "smart",
+    init_level: int = REFERENCE_START_LEVEL,
     tile: bool = False,
     seed: int = 0,
     extra: Mapping[str, np.ndarray] | None = None,
@@ -168,6 +169,9 @@ def texture_by_numbers(
             reference map (exemplar ``(y, x)`` per output pixel) to start from, e.g. the
             references of a label map synthesized from ``exemplar_labels``
             (:class:`barkgen.shapes.LabelMapResult`), whose labels then already match.
+        init_level: the pyramid level (0 = finest) a reference map ``init`` is taken up at;
+            the solver refines it there and below (the coarsest level when the pyramid is
+            shorter).
         tile: make the output wrap seamlessly (the target label map is read as a torus too).
         seed: seeds the one ``numpy.random.Generator`` behind every random choice.
         extra: named maps aligned with the exemplar (height, ...), synthesized along.
@@ -187,6 +191,8 @@ def texture_by_numbers(
         MemoryBudgetError: the estimated memory exceeds ``config.max_memory``.
     """
     config = config or TBN_CONFIG
+    if not isinstance(init_level, (int, np.integer)) or init_level < 0:
+        raise InvalidInputError(f"init_level must be a pyramid level >= 0, not {init_level!r}")
     if isinstance(init, str) and init not in INITIALIZATIONS:
         raise InvalidInputError(f"init must be one of {', '.join(INITIALIZATIONS)} or a reference "
                                 f"map, not {init!r}")
@@ -222,7 +228,7 @@ def texture_by_numbers(
 
     start = None
     if not isinstance(init, str):
-        level = min(REFERENCE_START_LEVEL, n_levels - 1)
+        level = min(int(init_level), n_levels - 1)
         start = (level, _level_references(init, out_shape, ex.shape[:2], level))
         initial = random_initialization  # not used: the solver starts from ``start``
     elif init == "smart":
