@@ -68,8 +68,8 @@ INIT_BLOCK = 8
 JOINT_CONFIG = SynthesisConfig()
 #: joint strategy: the label channels' total variance, in units of the photo's colour variance
 JOINT_LABEL_WEIGHT = 1.0
-#: joint strategy: weight of the label-area term (64 let areas oscillate by 30+ points on three
-#: of the ten bark photos; 8-16 left oak 3-5 points off; 32 keeps 39 of the benchmark's 40 label
+#: joint strategy: weight of the label-area term (64 let areas swing by 18-44 points on birch,
+#: lichen and peeling; 8-16 left oak 3-5 points off; 32 keeps 39 of the benchmark's 40 label
 #: maps within 3 points, lichen k = 5 swung 14; a cap on the term gave oak 5-14 points)
 JOINT_BALANCE_WEIGHT = 32.0
 
