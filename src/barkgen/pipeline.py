@@ -250,7 +250,7 @@ def generate(
     label_result = synthesize_label_map(
         labels_in, options.size, strategy=options.strategy, tile=options.tile, seed=options.seed,
         rotations=options.rotations, resume=resume, progress=_stage_progress(progress, "label_map"),
-        cache=analysis.cache, photo=photo if options.strategy == "joint" else None)
+        cache=analysis.cache, photo=photo)
     t2 = time.perf_counter()
     timings["labels_out"] = t2 - t1
 

@@ -239,15 +239,22 @@ class _Grower:
         tip.theta = float(heads[n - 1])
         self.n_t += n
 
+    def _path(self, x0, y0, theta, elements, start, exempt, b):
+        """The vertices and headings of element rows (angle, thickness) appended to branch
+        ``b`` from ``(x0, y0)`` at heading ``theta``, and its first contact with a committed
+        branch and first vertex outside the image (-1: none; ``K.path_contacts``)."""
+        parent = self.branches[b].parent
+        return K.path_contacts(float(x0), float(y0), float(theta), self.step,
+                               np.ascontiguousarray(elements, np.float64), self.dist, self.near_branch, b,
+                               -2 if parent is None else parent, float(start[0]), float(start[1]),
+                               float(exempt))
+
     def _append(self, tip: "_Tip", elements, start, exempt, b):
         """Append element rows (L, 2) outside the Markov step (a copied initial segment); stops
         at the image border and at a collision. Returns (keep growing, hit) where hit =
         (index, x, y, heading) of the collision."""
-        parent = self.branches[b].parent
-        xs, ys, headings, first_hit, first_out = K.path_contacts(
-            float(tip.xyr[tip.n - 1, 0]), float(tip.xyr[tip.n - 1, 1]), tip.theta, self.step,
-            np.ascontiguousarray(elements, np.float64), self.dist, self.near_branch, b,
-            -2 if parent is None else parent, float(start[0]), float(start[1]), float(exempt))
+        xs, ys, headings, first_hit, first_out = self._path(
+            tip.xyr[tip.n - 1, 0], tip.xyr[tip.n - 1, 1], tip.theta, elements, start, exempt, b)
         n = len(elements)
         hit = None
         if first_hit >= 0:
@@ -350,10 +357,7 @@ class _Grower:
         x0, y0, r = tip.xyr[tip.n - 1]
         straight = np.zeros((n, 2))
         straight[:, 1] = r
-        parent = self.branches[b].parent
-        xs, ys, _, j, _ = K.path_contacts(float(x0), float(y0), tip.theta, self.step, straight, self.dist,
-                                          self.near_branch, b, -2 if parent is None else parent,
-                                          float(start[0]), float(start[1]), float(exempt))
+        xs, ys, _, j, _ = self._path(x0, y0, tip.theta, straight, start, exempt, b)
         if j < 0:
             return
         tip.xyr[tip.n:tip.n + j, 0] = xs[:j]

@@ -153,7 +153,8 @@ def synthesize_label_map(
         progress: optional ``progress(done, total)`` callback.
         cache: an :class:`~barkgen.synth.AnalysisCache` holding (or to keep) the engine
             strategy's exemplar analysis (:func:`analyse_label_map`).
-        photo: the photo ``label_map`` labels (same height and width; the joint strategy).
+        photo: the photo ``label_map`` labels (same height and width); the joint strategy
+            needs it, the others do not use it.
     """
     if strategy not in STRATEGIES:
         raise InvalidInputError(f"strategy must be one of {', '.join(STRATEGIES)}, not {strategy!r}")

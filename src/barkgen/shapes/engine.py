@@ -125,9 +125,8 @@ def synthesize_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int
     exemplar's k-coherence analysis (:func:`analyse_codes`).
     """
     joint = photo is not None
-    config = config or (JOINT_CONFIG if joint else LABEL_ENGINE_CONFIG)
+    features, config = _solver_inputs(codes, n_labels, photo, config)
     n_levels = engine_levels(codes.shape, out_shape, config)
-    features = joint_features(codes, n_labels, photo) if joint else _features(codes, n_labels)
     ex = codes.astype(np.uint8)[:, :, None]
     rng = np.random.default_rng([int(seed), 1])
     guidance = None
@@ -255,8 +254,15 @@ def analyse_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int], 
     """The k-coherence analysis that :func:`synthesize_codes` needs for outputs of
     ``out_shape`` (with ``photo``: the joint strategy's), run into ``cache`` ahead of any
     synthesis."""
-    joint = photo is not None
-    config = config or (JOINT_CONFIG if joint else LABEL_ENGINE_CONFIG)
-    features = joint_features(codes, n_labels, photo) if joint else _features(codes, n_labels)
+    features, config = _solver_inputs(codes, n_labels, photo, config)
     cache.analyse(features, engine_levels(codes.shape, out_shape, config), config)
     return cache
+
+
+def _solver_inputs(codes: np.ndarray, n_labels: int, photo: np.ndarray | None,
+                   config: SynthesisConfig | None) -> tuple[np.ndarray, SynthesisConfig]:
+    """What the solver matches and its configuration: the engine's (no ``photo``) or the joint
+    strategy's, unless ``config`` is given."""
+    if photo is None:
+        return _features(codes, n_labels), config or LABEL_ENGINE_CONFIG
+    return joint_features(codes, n_labels, photo), config or JOINT_CONFIG
