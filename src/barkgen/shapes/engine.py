@@ -68,10 +68,19 @@ INIT_BLOCK = 8
 JOINT_CONFIG = SynthesisConfig()
 #: joint strategy: the label channels' total variance, in units of the photo's colour variance
 JOINT_LABEL_WEIGHT = 1.0
-#: joint strategy: weight of the label-area term (64 let areas swing by 18-44 points on birch,
-#: lichen and peeling; 8-16 left oak 3-5 points off; 32 keeps 39 of the benchmark's 40 label
-#: maps within 3 points, lichen k = 5 swung 14; a cap on the term gave oak 5-14 points)
-JOINT_BALANCE_WEIGHT = 32.0
+#: joint strategy: weight of the label-area term below the chosen start (32 from the coarsest
+#: level, the previous default, moved whole regions and cost oak 1.2-2.3x plain synthesis'
+#: coherence; 16 below a chosen start holds willow's areas within 2.5 points)
+JOINT_BALANCE_WEIGHT = 16.0
+#: joint strategy: coarse starts tried (each a run of the coarsest levels with its own seed)
+JOINT_CANDIDATES = 8
+#: joint strategy: levels run below the coarsest before the candidates are compared (their
+#: areas hardly move after that: oak's moved by at most 0.6 points from level 3 to level 0)
+JOINT_SELECT_DEPTH = 3
+#: weights of the label-area error and of the seams in :func:`start_score` (one percentage
+#: point of area weighs as two of coverage and half a point of seams)
+START_AREA_WEIGHT = 2.0
+START_SEAM_WEIGHT = 4.0
 
 
 def engine_levels(exemplar_shape: tuple[int, int], out_shape: tuple[int, int],
@@ -116,7 +125,8 @@ def synthesize_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int
 
     ``photo``: the photo the codes label (same height and width); given, the joint strategy
     matches its colour along the labels (:func:`joint_features`), with :data:`JOINT_CONFIG`,
-    a random start like plain synthesis and :data:`JOINT_BALANCE_WEIGHT`.
+    starting from the best of several free coarse runs (:func:`_choose_coarse_start`), with
+    :data:`JOINT_BALANCE_WEIGHT` below it.
 
     ``start``: ``(level, codes)`` of an edited level: its reference map is made by the smart
     initialisation of texture-by-numbers (coherent exemplar pieces whose labels match the edit,
@@ -141,16 +151,23 @@ def synthesize_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int
                                  exemplar_levels=ex_levels)
         balance = None
     else:
-        level = n_levels - 1
-        # (joint: the photo's colours tie the pieces together, the random start of plain
-        # synthesis is best; labels alone need the patchwork to keep small regions)
-        resume = None if joint else (level, block_initialization(
-            level_shape(codes.shape, level), level_shape(out_shape, level), INIT_BLOCK, rng))
+        shares = label_shares(codes, n_labels, n_levels)
+        fractions = np.bincount(codes.ravel(), minlength=n_labels) / codes.size
         if balance_weight is None:
             balance_weight = JOINT_BALANCE_WEIGHT if joint else BALANCE_WEIGHT
-        balance = LabelBalance(shares=label_shares(codes, n_labels, n_levels),
-                               fractions=np.bincount(codes.ravel(), minlength=n_labels) / codes.size,
-                               weight=balance_weight)
+        balance = LabelBalance(shares=shares, fractions=fractions, weight=balance_weight)
+        if joint:
+            cache = cache if cache is not None else AnalysisCache()
+            resume, coarse_levels = _choose_coarse_start(ex, features, out_shape, n_levels, config,
+                                                         shares, fractions, tile=tile, rng=rng,
+                                                         cache=cache)
+            for lvl, image in coarse_levels if on_level is not None else ():
+                on_level(lvl, image)
+        else:
+            # labels alone need the patchwork start to keep small regions
+            level = n_levels - 1
+            resume = (level, block_initialization(level_shape(codes.shape, level),
+                                                  level_shape(out_shape, level), INIT_BLOCK, rng))
 
     def debug(name: str, image: np.ndarray) -> None:
         if on_level is not None and name.endswith("_result"):
@@ -160,6 +177,60 @@ def synthesize_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int
                    tile=tile, guidance=guidance, progress=progress, debug=debug, start=resume,
                    balance=balance, cache=cache)
     return result.image[:, :, 0].astype(np.int32), result.references
+
+
+def start_score(references: np.ndarray, exemplar_width: int, shares: np.ndarray,
+                fractions: np.ndarray) -> float:
+    """How far a level's references ``(h, w)`` (flat indices into an exemplar level of
+    ``exemplar_width`` columns) are from a good start, the sum of:
+
+    * the largest label-area error, as a fraction;
+    * the share of the level's exemplar pixels that no output pixel references (of those an
+      output this size could reference): regions missing here stay missing below (on lichen,
+      the candidate covering 91 % of the level ended with texeval completeness 1.20, those
+      covering 81-86 % with 1.8-2.6);
+    * :data:`START_SEAM_WEIGHT` x the share of neighbouring output pixels whose references are
+      not neighbours in the exemplar (seams): on oak, candidates with 3.5 % seams ended with
+      texture coherence 0.44-0.46, those with 5.6 % with 0.62-0.69.
+    """
+    flat = references.ravel()
+    area_error = float(np.abs(shares[flat].mean(axis=0) - fractions).max())
+    coverage = np.unique(flat).size / min(shares.shape[0], flat.size)
+    ry, rx = np.divmod(references, exemplar_width)
+    across = ((ry[:, 1:] != ry[:, :-1]) | (rx[:, 1:] != rx[:, :-1] + 1)).mean()
+    down = ((ry[1:] != ry[:-1] + 1) | (rx[1:] != rx[:-1])).mean()
+    return START_AREA_WEIGHT * area_error + (1.0 - coverage) + START_SEAM_WEIGHT * float(across + down) / 2.0
+
+
+def _choose_coarse_start(ex: np.ndarray, features: np.ndarray, out_shape: tuple[int, int],
+                         n_levels: int, config: SynthesisConfig, shares: list[np.ndarray],
+                         fractions: np.ndarray, *, tile: bool, rng: np.random.Generator,
+                         cache: AnalysisCache) -> tuple[tuple[int, np.ndarray] | None, list]:
+    """The joint strategy's start: :data:`JOINT_CANDIDATES` free runs (no area term) of the
+    coarsest levels down to :data:`JOINT_SELECT_DEPTH` below the coarsest, each from its own
+    seed; the one with the lowest :func:`start_score` is where the full solve resumes. Label
+    areas are settled at those levels, and a free run that lands close to the exemplar's areas
+    needs no area term to move whole regions (which costs coherence) to get there. Returns
+    ``(level, references)`` (``None`` when the pyramid is too short to choose) and the chosen
+    run's level results, coarsest first, as ``(level, codes)``."""
+    level = n_levels - 1 - JOINT_SELECT_DEPTH
+    if level < 1:
+        return None, []
+    best = None
+    for candidate_seed in rng.integers(0, 2**31, size=JOINT_CANDIDATES):
+        results: list = []
+
+        def keep(name: str, image: np.ndarray) -> None:
+            if name.endswith("_result"):
+                results.append((int(name[5:-7]), image.astype(np.int32)))
+
+        run = solve(ex, {}, features, out_shape, n_levels=n_levels, config=config,
+                    seed=int(candidate_seed), tile=tile, debug=keep, cache=cache, stop_level=level)
+        references = run.references[..., 0] * run.exemplar_shape[1] + run.references[..., 1]
+        score = start_score(references, run.exemplar_shape[1], shares[level], fractions)
+        if best is None or score < best[0]:
+            best = (score, references.astype(np.int32), results[:-1])
+    return (level, best[1]), best[2]
 
 
 #: weight of an edit's guide, as texture-by-numbers' label weight (a pixel whose soft label

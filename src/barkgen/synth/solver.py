@@ -497,7 +497,7 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
           debug: DebugCallback | None = None,
           start: tuple[int, np.ndarray] | None = None,
           balance: LabelBalance | None = None,
-          cache: AnalysisCache | None = None) -> SynthesisResult:
+          cache: AnalysisCache | None = None, stop_level: int = 0) -> SynthesisResult:
     """The coarse-to-fine discrete solver shared by :func:`synthesize` and texture-by-numbers.
 
     ``ex`` ``(h, w, C)`` and ``extras`` are resolved through the final references; ``features``
@@ -505,8 +505,12 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
     ``(level, references)`` resumes at that level from a given reference map (flat indices
     into the level's exemplar) instead of starting at the coarsest level. ``balance`` adds the
     label-area term of :class:`LabelBalance` to the occurrence cost. ``cache``: an
-    :class:`AnalysisCache` that supplies (or keeps) the exemplar's analysis.
+    :class:`AnalysisCache` that supplies (or keeps) the exemplar's analysis. ``stop_level`` > 0
+    stops after that level: the result's ``references`` and ``exemplar_shape`` are then that
+    level's, its ``image`` the level shown in the exemplar's colours, and it has no extras.
     """
+    if not 0 <= stop_level < n_levels:
+        raise InvalidInputError(f"stop_level must be in 0..{n_levels - 1}")
     _set_threads(config)
     from barkgen.synth import _kernels as K
 
@@ -531,7 +535,7 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
     no_guide_ex = np.zeros((1, 0), np.float32)
     no_guide_out = np.zeros((1, 1, 0), np.float32)
     refs = None
-    for lvl in reversed(range(n_levels)):
+    for lvl in reversed(range(stop_level, n_levels)):
         la = levels[lvl]
         shape = level_shape(out_shape, lvl)
         lg = guidance.levels[lvl] if guidance is not None else None
@@ -629,6 +633,12 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
         if debug is not None:
             debug(f"level{lvl}_result", _level_image(ex, refs, lvl))
     t2 = time.perf_counter()
+    if stop_level > 0:
+        la = levels[stop_level]
+        references = np.stack([la.coords_y[refs], la.coords_x[refs]], axis=-1).astype(np.int32)
+        return SynthesisResult(image=_level_image(ex, refs, stop_level), references=references,
+                               exemplar_shape=(la.height, la.width), seed=int(seed), tile=bool(tile),
+                               timings={"analysis": t1 - t0, "synthesis": t2 - t1})
 
     h, w = ex.shape[:2]
     image = ex.reshape(h * w, ex.shape[2])[refs].reshape(out_shape + (ex.shape[2],))
