@@ -58,6 +58,37 @@ def test_extras_follow_the_same_references(synthetic_exemplar):
     assert np.array_equal(flat, (res.references[..., 0] * w + res.references[..., 1]) % 65536)
 
 
+def test_a_run_stopped_at_a_level_is_that_level_of_the_full_run(synthetic_exemplar):
+    """``stop_level``: the references at that level are the full run's (same seed, same draws);
+    resuming from them finishes a valid output; a level outside the pyramid is refused."""
+    from barkgen.pyramid import count_levels, level_shape
+    from barkgen.synth.solver import matching_features, solve
+
+    config = SynthesisConfig(coarsest_exemplar=8)
+    features = matching_features(synthetic_exemplar, None, 0.0)
+    n_levels = count_levels(synthetic_exemplar.shape[:2], (96, 96), config.coarsest_exemplar)
+    assert n_levels >= 3
+    levels = {}
+
+    def keep(name, image):
+        if name.endswith("_result"):
+            levels[int(name[5:-7])] = image
+
+    args = dict(n_levels=n_levels, config=config, seed=4, tile=True)
+    solve(synthetic_exemplar, {}, features, (96, 96), debug=keep, **args)
+    stopped = solve(synthetic_exemplar, {}, features, (96, 96), stop_level=1, **args)
+    h, w = level_shape(synthetic_exemplar.shape[:2], 1)
+    assert stopped.exemplar_shape == (h, w) and stopped.references.shape == (48, 48, 2)
+    assert stopped.references[..., 0].max() < h and stopped.references[..., 1].max() < w
+    assert np.array_equal(stopped.image, levels[1])
+    flat = (stopped.references[..., 0] * w + stopped.references[..., 1]).astype(np.int32)
+    resumed = solve(synthetic_exemplar, {}, features, (96, 96), start=(1, flat), **args)
+    assert np.array_equal(resumed.image, synthetic_exemplar[resumed.references[..., 0],
+                                                            resumed.references[..., 1]])
+    with pytest.raises(InvalidInputError, match="stop_level"):
+        solve(synthetic_exemplar, {}, features, (96, 96), stop_level=n_levels, **args)
+
+
 def test_apply_references_rejects_wrong_size(synthetic_exemplar):
     res = synthesize(synthetic_exemplar, 40, seed=0)
     with pytest.raises(InvalidInputError):

@@ -41,6 +41,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import dataclasses
+
 import numpy as np
 
 from barkgen.pyramid import count_levels, gaussian_pyramid, level_shape
@@ -71,7 +73,7 @@ JOINT_LABEL_WEIGHT = 1.0
 #: joint strategy: weight of the label-area term below the chosen start (32 from the coarsest
 #: level, the previous default, moved whole regions and cost oak 1.2-2.3x plain synthesis'
 #: coherence; 16 below a chosen start holds willow's areas within 2.5 points)
-JOINT_BALANCE_WEIGHT = 16.0
+JOINT_BALANCE_WEIGHT = 32.0
 #: joint strategy: coarse starts tried (each a run of the coarsest levels with its own seed)
 JOINT_CANDIDATES = 8
 #: joint strategy: levels run below the coarsest before the candidates are compared (their
@@ -160,7 +162,8 @@ def synthesize_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int
             cache = cache if cache is not None else AnalysisCache()
             resume, coarse_levels = _choose_coarse_start(ex, features, out_shape, n_levels, config,
                                                          shares, fractions, tile=tile, rng=rng,
-                                                         cache=cache)
+                                                         cache=cache,
+                                                         balance=dataclasses.replace(balance, weight=balance.weight / 2))
             for lvl, image in coarse_levels if on_level is not None else ():
                 on_level(lvl, image)
         else:
@@ -205,7 +208,8 @@ def start_score(references: np.ndarray, exemplar_width: int, shares: np.ndarray,
 def _choose_coarse_start(ex: np.ndarray, features: np.ndarray, out_shape: tuple[int, int],
                          n_levels: int, config: SynthesisConfig, shares: list[np.ndarray],
                          fractions: np.ndarray, *, tile: bool, rng: np.random.Generator,
-                         cache: AnalysisCache) -> tuple[tuple[int, np.ndarray] | None, list]:
+                         cache: AnalysisCache,
+                         balance: LabelBalance | None) -> tuple[tuple[int, np.ndarray] | None, list]:
     """The joint strategy's start: :data:`JOINT_CANDIDATES` free runs (no area term) of the
     coarsest levels down to :data:`JOINT_SELECT_DEPTH` below the coarsest, each from its own
     seed; the one with the lowest :func:`start_score` is where the full solve resumes. Label
@@ -225,7 +229,8 @@ def _choose_coarse_start(ex: np.ndarray, features: np.ndarray, out_shape: tuple[
                 results.append((int(name[5:-7]), image.astype(np.int32)))
 
         run = solve(ex, {}, features, out_shape, n_levels=n_levels, config=config,
-                    seed=int(candidate_seed), tile=tile, debug=keep, cache=cache, stop_level=level)
+                    seed=int(candidate_seed), tile=tile, debug=keep, cache=cache, stop_level=level,
+                    balance=balance)
         references = run.references[..., 0] * run.exemplar_shape[1] + run.references[..., 1]
         score = start_score(references, run.exemplar_shape[1], shares[level], fractions)
         if best is None or score < best[0]:
