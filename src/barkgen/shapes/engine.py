@@ -70,14 +70,20 @@ INIT_BLOCK = 8
 JOINT_CONFIG = SynthesisConfig()
 #: joint strategy: the label channels' total variance, in units of the photo's colour variance
 JOINT_LABEL_WEIGHT = 1.0
-#: joint strategy: weight of the label-area term below the chosen start (32 from the coarsest
-#: level, the previous default, moved whole regions and cost oak 1.2-2.3x plain synthesis'
-#: coherence; 16 below a chosen start holds willow's areas within 2.5 points)
+#: joint strategy: weight of the label-area term (:class:`~barkgen.synth.solver.LabelBalance`)
+#: from the chosen start down; the candidate starts run with :data:`JOINT_CANDIDATE_BALANCE` of
+#: it. (32 at every level of a single run, the previous default, moved whole regions at the
+#: coarse levels and cost oak 1.2-2.3x plain synthesis' coherence; free candidates and 16 from
+#: the start left willow's 512 px label maps 3.6-6.2 points off.)
 JOINT_BALANCE_WEIGHT = 32.0
+#: joint strategy: share of :data:`JOINT_BALANCE_WEIGHT` the candidate starts run with (on oak,
+#: texture coherence 1.28x plain with the full weight, 1.24x with half)
+JOINT_CANDIDATE_BALANCE = 0.5
 #: joint strategy: coarse starts tried (each a run of the coarsest levels with its own seed)
 JOINT_CANDIDATES = 8
-#: joint strategy: levels run below the coarsest before the candidates are compared (their
-#: areas hardly move after that: oak's moved by at most 0.6 points from level 3 to level 0)
+#: joint strategy: levels run below the coarsest before the candidates are compared (label
+#: areas are settled there: without an area term, oak's moved by at most 0.6 points from
+#: level 3 of 7 to level 0)
 JOINT_SELECT_DEPTH = 3
 #: weights of the label-area error and of the seams in :func:`start_score` (one percentage
 #: point of area weighs as two of coverage and half a point of seams)
@@ -161,9 +167,7 @@ def synthesize_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int
         if joint:
             cache = cache if cache is not None else AnalysisCache()
             resume, coarse_levels = _choose_coarse_start(ex, features, out_shape, n_levels, config,
-                                                         shares, fractions, tile=tile, rng=rng,
-                                                         cache=cache,
-                                                         balance=dataclasses.replace(balance, weight=balance.weight / 2))
+                                                         balance, tile=tile, rng=rng, cache=cache)
             for lvl, image in coarse_levels if on_level is not None else ():
                 on_level(lvl, image)
         else:
@@ -187,11 +191,11 @@ def start_score(references: np.ndarray, exemplar_width: int, shares: np.ndarray,
     """How far a level's references ``(h, w)`` (flat indices into an exemplar level of
     ``exemplar_width`` columns) are from a good start, the sum of:
 
-    * the largest label-area error, as a fraction;
+    * :data:`START_AREA_WEIGHT` x the largest label-area error, as a fraction;
     * the share of the level's exemplar pixels that no output pixel references (of those an
       output this size could reference): regions missing here stay missing below (on lichen,
-      the candidate covering 91 % of the level ended with texeval completeness 1.20, those
-      covering 81-86 % with 1.8-2.6);
+      two levels below the coarsest, the candidate covering 91 % of the level ended with
+      texeval completeness 1.20, those covering 81-86 % with 1.8-2.6);
     * :data:`START_SEAM_WEIGHT` x the share of neighbouring output pixels whose references are
       not neighbours in the exemplar (seams): on oak, candidates with 3.5 % seams ended with
       texture coherence 0.44-0.46, those with 5.6 % with 0.62-0.69.
@@ -202,24 +206,27 @@ def start_score(references: np.ndarray, exemplar_width: int, shares: np.ndarray,
     ry, rx = np.divmod(references, exemplar_width)
     across = ((ry[:, 1:] != ry[:, :-1]) | (rx[:, 1:] != rx[:, :-1] + 1)).mean()
     down = ((ry[1:] != ry[:-1] + 1) | (rx[1:] != rx[:-1])).mean()
-    return START_AREA_WEIGHT * area_error + (1.0 - coverage) + START_SEAM_WEIGHT * float(across + down) / 2.0
+    seams = float(across + down) / 2.0
+    return START_AREA_WEIGHT * area_error + (1.0 - coverage) + START_SEAM_WEIGHT * seams
 
 
 def _choose_coarse_start(ex: np.ndarray, features: np.ndarray, out_shape: tuple[int, int],
-                         n_levels: int, config: SynthesisConfig, shares: list[np.ndarray],
-                         fractions: np.ndarray, *, tile: bool, rng: np.random.Generator,
-                         cache: AnalysisCache,
-                         balance: LabelBalance | None) -> tuple[tuple[int, np.ndarray] | None, list]:
-    """The joint strategy's start: :data:`JOINT_CANDIDATES` free runs (no area term) of the
-    coarsest levels down to :data:`JOINT_SELECT_DEPTH` below the coarsest, each from its own
-    seed; the one with the lowest :func:`start_score` is where the full solve resumes. Label
-    areas are settled at those levels, and a free run that lands close to the exemplar's areas
-    needs no area term to move whole regions (which costs coherence) to get there. Returns
-    ``(level, references)`` (``None`` when the pyramid is too short to choose) and the chosen
-    run's level results, coarsest first, as ``(level, codes)``."""
+                         n_levels: int, config: SynthesisConfig, balance: LabelBalance, *,
+                         tile: bool, rng: np.random.Generator,
+                         cache: AnalysisCache) -> tuple[tuple[int, np.ndarray] | None, list]:
+    """The joint strategy's start: :data:`JOINT_CANDIDATES` runs of the coarsest levels down to
+    :data:`JOINT_SELECT_DEPTH` below the coarsest, each from its own seed and with
+    :data:`JOINT_CANDIDATE_BALANCE` of the area term; the one with the lowest
+    :func:`start_score` is where the full solve resumes. Label areas and the large-scale layout
+    are settled at those levels; a run that gets close to the exemplar's areas with a gentle
+    area term has not had to move whole regions (which costs coherence) to get there, and the
+    score also prefers few seams and a well-covered exemplar. Returns ``(level, references)``
+    (``None`` when the pyramid is too short to choose) and the chosen run's results of the
+    levels above it, coarsest first, as ``(level, codes)``."""
     level = n_levels - 1 - JOINT_SELECT_DEPTH
     if level < 1:
         return None, []
+    gentle = dataclasses.replace(balance, weight=balance.weight * JOINT_CANDIDATE_BALANCE)
     best = None
     for candidate_seed in rng.integers(0, 2**31, size=JOINT_CANDIDATES):
         results: list = []
@@ -230,9 +237,10 @@ def _choose_coarse_start(ex: np.ndarray, features: np.ndarray, out_shape: tuple[
 
         run = solve(ex, {}, features, out_shape, n_levels=n_levels, config=config,
                     seed=int(candidate_seed), tile=tile, debug=keep, cache=cache, stop_level=level,
-                    balance=balance)
+                    balance=gentle)
         references = run.references[..., 0] * run.exemplar_shape[1] + run.references[..., 1]
-        score = start_score(references, run.exemplar_shape[1], shares[level], fractions)
+        score = start_score(references, run.exemplar_shape[1], balance.shares[level],
+                            balance.fractions)
         if best is None or score < best[0]:
             best = (score, references.astype(np.int32), results[:-1])
     return (level, best[1]), best[2]
