@@ -21,10 +21,13 @@ from: each exemplar pixel's features are its CIELAB colour and its soft label ch
 solved with plain synthesis' own configuration, so the output label map is the label map of a
 synthesis of the photo. Its pieces then fit together in the photo's colours as well as in their
 labels, and texture-by-numbers started from its references (:mod:`barkgen.pipeline`) has
-coherent photo pieces to refine instead of label-exact ones that may not fit in colour. On the
-ten bark photos (1024x1024, medians over three seeds), texture coherence is within 1.25x plain
-synthesis' on nine (oak 1.60x); with the label-only engine, whose large uniform label regions
-give the solver nothing to choose by, six (lichen 1.67x, oak 1.55x, peeling 1.47x, fir 1.26x).
+coherent photo pieces to refine instead of label-exact ones that may not fit in colour. Its
+start is the best of several runs of the coarse levels (:func:`start_score`), so that the area
+term seldom has to move whole regions. On the ten bark photos (1024x1024, medians over three
+seeds), texture coherence is within 1.25x plain synthesis' on all ten (oak 1.24x; 1.60x with a
+single run and the full area term from the coarsest level); with the label-only engine, whose
+large uniform label regions give the solver nothing to choose by, on six (lichen 1.67x, oak
+1.55x, peeling 1.47x, fir 1.26x).
 
 An edited level is resumed as texture-by-numbers of the label map on the edit (laitoch2018 §1:
 the artist sets the large-scale layout, barkgen the detail): the edit, brought to full size with
