@@ -42,9 +42,8 @@ the whole level's layout instead of about 50 %), while the boundaries take exemp
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import dataclasses
+from collections.abc import Callable
 
 import numpy as np
 
@@ -136,8 +135,8 @@ def synthesize_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int
 
     ``photo``: the photo the codes label (same height and width); given, the joint strategy
     matches its colour along the labels (:func:`joint_features`), with :data:`JOINT_CONFIG`,
-    starting from the best of several free coarse runs (:func:`_choose_coarse_start`), with
-    :data:`JOINT_BALANCE_WEIGHT` below it.
+    starting from the best of several runs of the coarse levels (:func:`_choose_coarse_start`),
+    with :data:`JOINT_BALANCE_WEIGHT` from there down.
 
     ``start``: ``(level, codes)`` of an edited level: its reference map is made by the smart
     initialisation of texture-by-numbers (coherent exemplar pieces whose labels match the edit,
