@@ -25,19 +25,22 @@ class SynthesisOptions:
     """How the structure is tiled (guingo2017 §4).
 
     Attributes:
-        tile_size: Wang tile side in px (default: about a fifth of the exemplar's side).
+        tile_size: Wang tile side in px (default: about a quarter of the exemplar's side).
         colours: edge colours per direction (``colours**4`` tiles).
         variants: exchanged contents per tile.
         deformation: rotations and zooms of the structure's samples.
         warp: turbulence of the structure (Fig. 10): a smooth random displacement of up to
-            ``warp`` tile sizes that bends the straight seams of the tile grid (0: none).
+            ``warp`` tile sizes that bends the straight seams of the tile grid (0: none). It
+            also bends each tile's content, so that no large piece of the output is a
+            pixel-exact copy of the exemplar (texeval's largest copy on four barks, default tile
+            size: 0.038-0.043 of the exemplar at 0.1, 0.050-0.056 at 0).
     """
 
     tile_size: int | None = None
     colours: int = 3
     variants: int = 4
     deformation: Deformation = Deformation()
-    warp: float = 0.25
+    warp: float = 0.1
 
     def __post_init__(self) -> None:
         if self.tile_size is not None and (self.tile_size < 8 or self.tile_size % 2):

@@ -288,8 +288,6 @@ def labels_command(
     edges: Annotated[bool, typer.Option(
         "--edges", help="Add a label for the region edges (k + 1 labels).")] = False,
     edge_width: Annotated[int, typer.Option("--edge-width", help="Width of the edge band, px.")] = 3,
-    sigma: Annotated[float, typer.Option("--sigma", help="Range sigma of the structure filter "
-                                         "(larger: more of the grain goes into the noise).")] = 0.002,
     seed: SeedOption = 0,
     preview: Annotated[Optional[Path], typer.Option(
         "--preview", help="Also write the photo with the label regions tinted and outlined.")] = None,
@@ -766,7 +764,7 @@ def bilayer_analyze_command(
     border: Annotated[int, typer.Option("--border", help="Band (px) along mask borders kept sharp in "
                                         "the structure (§6); 0: none.")] = 0,
     sigma: Annotated[float, typer.Option("--sigma", help="Range sigma of the structure filter "
-                                         "(larger: more of the grain goes into the noise).")] = 0.002,
+                                         "(larger: more of the grain goes into the noise).")] = 0.001,
     seed: SeedOption = 0,
     preview: Annotated[Optional[Path], typer.Option(
         "--preview", help="Also write a PNG of P, N, the masks, the spectra and a synthesized sample.")] = None,
@@ -836,9 +834,9 @@ def bilayer_synth_command(
     keep_vertical: Annotated[bool, typer.Option("--keep-vertical", help="Rotate pieces only about the "
                                                 "upright (0 or 180 degrees, plus --rotate).")] = False,
     tile_size: Annotated[Optional[int], typer.Option("--tile-size", help="Wang tile size in px "
-                                                     "(default: a fifth of the exemplar).")] = None,
+                                                     "(default: a quarter of the exemplar).")] = None,
     warp: Annotated[float, typer.Option("--warp", help="Turbulence bending the tile grid, in tile "
-                                        "sizes (0-1; 0: none).")] = 0.25,
+                                        "sizes (0-1; 0: none).")] = 0.1,
     seed: SeedOption = 0,
     bits: Annotated[int, typer.Option("--bits", help="Bits per channel (8 or 16).")] = 8,
 ) -> None:
