@@ -182,7 +182,11 @@ def bench_quality(stems, sheets: Path | None) -> dict:
         # each seed's output scored against the exemplar, its diversity against the next seed's
         scores = {name: [ev.evaluate(imgs[i], output2=imgs[(i + 1) % len(imgs)]) for i in range(len(imgs))]
                   for name, imgs in outputs.items()}
-        med = {name: {k: statistics.median(r[k] for r in rs) for k in keys} for name, rs in scores.items()}
+
+        def median(rs, key):
+            return statistics.median(r[key] for r in rs)
+
+        med = {name: {k: median(rs, k) for k in keys} for name, rs in scores.items()}
         deformed = [model.window(0, 0, 1024, 1024, seed=s, options=DEFORM) for s in SEEDS]
         single = [one_layer.window(0, 0, 1024, 1024, seed=s, options=DEFORM) for s in SEEDS]
         # the tiles' own copies: the default warp bends them and breaks the detected copies up
@@ -191,10 +195,6 @@ def bench_quality(stems, sheets: Path | None) -> dict:
         r_single = [ev.evaluate(img) for img in single]
         for name, r in med.items():
             print(f"  {stem:20s} {name:9s} " + " ".join(f"{r[k]:12.3f}" for k in keys))
-
-        def median(rs, key):
-            return statistics.median(r[key] for r in rs)
-
         entry = {
             "engine": med["engine"], "engine_capped": med["capped"], "bilayer": med["bilayer"],
             "coherence_ratio": med["bilayer"]["coherence"] / med["engine"]["coherence"],
