@@ -4,12 +4,12 @@
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from barkgen.bilayer.analysis import AnalysisOptions, NoiseStatistics, as_rgb
-from barkgen.bilayer.spectra import noise_from_white
+from barkgen.bilayer.spectra import noise_from_white, welch_power
 from barkgen.bilayer.tiles import Deformation, build_tiles, default_tile_size
 from barkgen.errors import InvalidInputError
 
@@ -18,6 +18,8 @@ from barkgen.errors import InvalidInputError
 NOISE_TILE = 256
 #: largest window one call renders (pixels), about 1.6 GB of working arrays
 MAX_WINDOW_PIXELS = 1 << 28
+#: side of the sample of the deformed structure whose spectrum the noise compensation measures
+COMPENSATION_SAMPLE = 512
 
 
 @dataclass(frozen=True)
@@ -34,6 +36,9 @@ class SynthesisOptions:
             also bends each tile's content, so that no large piece of the output is a
             pixel-exact copy of the exemplar (texeval's largest copy on four barks, default tile
             size: 0.038-0.043 of the exemplar at 0.1, 0.050-0.056 at 0).
+        compensate: with a deformation, give the noise the power the deformed structure lost
+            (see :func:`compensated_noise`), so fine detail keeps the photo's scale; ``False``
+            is the paper's synthesis, the noise exactly as analysed.
     """
 
     tile_size: int | None = None
@@ -41,6 +46,7 @@ class SynthesisOptions:
     variants: int = 4
     deformation: Deformation = Deformation()
     warp: float = 0.1
+    compensate: bool = True
 
     def __post_init__(self) -> None:
         if self.tile_size is not None and (self.tile_size < 8 or self.tile_size % 2):
@@ -51,11 +57,60 @@ class SynthesisOptions:
             raise InvalidInputError(f"warp must be between 0 and 1 tile size, not {self.warp}")
 
 
+def compensated_noise(noise: NoiseStatistics, exemplar: np.ndarray, masks: np.ndarray,
+                      structure: np.ndarray) -> NoiseStatistics:
+    """Noise statistics topped up with the power a deformed structure lacks.
+
+    A zoom moves the structure's power to coarser bands, and a rotation's resampling softens
+    it, so the finest bands of a deformed ``P'`` are emptier than the photo's. guingo2017
+    keeps fine detail under deformation by leaving the noise undeformed (§4, Fig. 10); this
+    goes one step further and measures what is missing. With ``E`` the photo's power
+    spectrum, ``P'`` that of a sample of the deformed structure (Welch's method) and ``N``
+    the noise model's (each cluster's spectra weighted by its share of the masks), the
+    deficit ``D = max(E - P' - N, 0)`` is added to every cluster's and channel's power in
+    proportion to its variance, so the masks still modulate the noise and its colours keep
+    their proportions. Quantile tables (histogram equalisation) are widened by the same
+    factor as the deviations. A model without noise (:func:`single_layer`) is returned as is.
+    """
+    from scipy.ndimage import gaussian_filter
+
+    t = noise.spectra.shape[2]
+    share = masks.reshape(-1, masks.shape[2]).mean(axis=0).astype(np.float64)  # (K,)
+    power = noise.spectra.astype(np.float64) ** 2  # (K, 3, T, T)
+    energy = power.mean(axis=(2, 3))  # (K, 3): each channel's variance
+    total = float(share @ energy.sum(axis=1))
+    if total <= 0:
+        return noise  # no noise layer to top up (the one-layer baseline)
+    model_power = np.einsum("k,kcyx->yx", share, power)
+    deficit = welch_power(exemplar, t) - welch_power(structure, t) - model_power
+    deficit = gaussian_filter(np.maximum(deficit, 0.0), 1.0, mode="wrap")  # one bin of smoothing
+    deficit[0, 0] = 0.0
+    weights = energy / total
+    spectra = np.sqrt(power + weights[:, :, None, None] * deficit[None, None])
+    sigmas = np.sqrt((spectra ** 2).mean(axis=(2, 3)))
+    widen = np.where(energy > 0, sigmas / np.sqrt(np.maximum(energy, 1e-30)), 1.0)
+    quantiles = noise.quantiles.astype(np.float64) * widen[:, :, None]
+    return replace(noise, spectra=spectra.astype(np.float32), sigmas=np.maximum(sigmas, 1e-6).astype(np.float32),
+                   quantiles=quantiles.astype(np.float32))
+
+
 @dataclass
 class _Synthesizer:
     tiles: np.ndarray
     noise_tiles: np.ndarray
     hash_seed: int
+    noise: NoiseStatistics  # the model's, or compensated for the deformation
+    options: SynthesisOptions
+
+    def render(self, x: int, y: int, out: np.ndarray, structure: np.ndarray, noise: np.ndarray) -> None:
+        from barkgen.bilayer._kernels import render_window
+
+        stats = self.noise
+        render_window(int(y), int(x), out, structure, noise, self.tiles, self.options.colours,
+                      self.options.variants, self.hash_seed, self.noise_tiles,
+                      self.noise_tiles.shape[2] // 2, stats.bases.astype(np.float64),
+                      stats.means.astype(np.float64), stats.quantiles.astype(np.float64),
+                      stats.sigmas.astype(np.float64), float(self.options.warp * self.tiles.shape[1]))
 
 
 @dataclass
@@ -99,16 +154,21 @@ class BilayerModel:
             tiles = build_tiles(layers, np.random.default_rng(tiles_seq), size=size,
                                 colours=options.colours, variants=options.variants,
                                 deformation=options.deformation)
+            period = max(NOISE_TILE, 1 << (2 * self.noise.spectra.shape[2] - 1).bit_length())  # a power of two
+            hash_seed = int(hash_seq.generate_state(1, np.uint64)[0] >> np.uint64(1))
+            synth = _Synthesizer(tiles, np.zeros((self.k, 3, period, period), np.float32), hash_seed,
+                                 self.noise, options)
+            if options.compensate and options.deformation.active:
+                n = COMPENSATION_SAMPLE
+                sample = np.empty((n, n, tiles.shape[3]), np.float32)
+                synth.render(0, 0, np.empty((n, n, 3), np.float32), sample, np.empty((n, n, 3), np.float32))
+                synth.noise = compensated_noise(self.noise, self.exemplar, self.masks, sample[:, :, :3])
             rng = np.random.default_rng(noise_seq)
-            spectra = self.noise.spectra
-            period = max(NOISE_TILE, 1 << (2 * spectra.shape[2] - 1).bit_length())  # a power of two
-            noise_tiles = np.empty((self.k, 3, period, period), np.float32)
             for ch in range(3):  # one white noise per channel, shared by the clusters (§3.2)
                 white = rng.standard_normal((period, period))
                 for c in range(self.k):
-                    noise_tiles[c, ch] = noise_from_white(white, spectra[c, ch])
-            hash_seed = int(hash_seq.generate_state(1, np.uint64)[0] >> np.uint64(1))
-            self._cache[key] = _Synthesizer(tiles, noise_tiles, hash_seed)
+                    synth.noise_tiles[c, ch] = noise_from_white(white, synth.noise.spectra[c, ch])
+            self._cache[key] = synth
         return self._cache[key]
 
     def window(self, x: int, y: int, width: int, height: int, *, seed: int = 0,
@@ -120,8 +180,6 @@ class BilayerModel:
         [0, 1]; with ``layers=True`` a dict with ``texture``, ``structure``, ``masks`` and
         ``noise`` (the synthesized ``P'``, ``M'_k`` and ``N'``).
         """
-        from barkgen.bilayer._kernels import render_window
-
         for name, v in (("x", x), ("y", y), ("width", width), ("height", height), ("seed", seed)):
             if not isinstance(v, (int, np.integer)) or isinstance(v, bool):
                 raise InvalidInputError(f"window {name} must be an integer, not {v!r}")
@@ -140,12 +198,7 @@ class BilayerModel:
         out = np.empty((height, width, 3), np.float32)
         structure = np.empty((height, width, n_ch) if layers else (1, 1, n_ch), np.float32)
         noise = np.empty((height, width, 3) if layers else (1, 1, 3), np.float32)
-        stats = self.noise
-        render_window(int(y), int(x), out, structure, noise, synth.tiles, options.colours,
-                      options.variants, synth.hash_seed, synth.noise_tiles,
-                      synth.noise_tiles.shape[2] // 2, stats.bases.astype(np.float64),
-                      stats.means.astype(np.float64), stats.quantiles.astype(np.float64),
-                      stats.sigmas.astype(np.float64), float(options.warp * synth.tiles.shape[1]))
+        synth.render(x, y, out, structure, noise)
         if not layers:
             return out
         return {"texture": out, "structure": structure[:, :, :3], "masks": structure[:, :, 3:],

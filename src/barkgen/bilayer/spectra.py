@@ -68,6 +68,27 @@ def local_spectra(luminance: np.ndarray, tloc: int) -> np.ndarray:
     return np.stack(features, axis=-1).astype(np.float32)
 
 
+def welch_power(image: np.ndarray, size: int) -> np.ndarray:
+    """Power spectrum (``size x size``, numpy FFT order) of an image's stationary part, summed
+    over its channels: Welch's method with Hann-tapered windows overlapping by half, each
+    window's mean removed. Same convention as the model's spectra: the power averages to the
+    variance (summed over channels)."""
+    image = np.asarray(image, np.float64)
+    if image.ndim == 2:
+        image = image[:, :, None]
+    t = int(size)
+    if image.shape[0] < t or image.shape[1] < t:
+        raise InvalidInputError(f"the image ({image.shape[1]}x{image.shape[0]}) is smaller than one "
+                                f"{t}x{t} window")
+    step = max(1, t // 2)
+    windows = np.lib.stride_tricks.sliding_window_view(image, (t, t), axis=(0, 1))[::step, ::step]
+    windows = windows - windows.mean(axis=(-2, -1), keepdims=True)
+    w1 = _window(t)
+    taper = np.outer(w1, w1)
+    power = np.abs(np.fft.fft2(windows * taper)) ** 2  # (ny, nx, C, t, t)
+    return power.sum(axis=2).mean(axis=(0, 1)) / float((taper ** 2).mean() * t * t)
+
+
 def _parzen(n_lags: int) -> np.ndarray:
     """Parzen lag window over lags ``0..n_lags`` (its transform is non-negative)."""
     r = np.arange(n_lags + 1) / (n_lags + 1)

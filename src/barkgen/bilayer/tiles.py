@@ -102,48 +102,79 @@ def _random_sample(sources: list[np.ndarray], size: int, rng: np.random.Generato
     return src[y:y + size, x:x + size].copy()
 
 
-def _matching_samples(sources: list[np.ndarray], frame: np.ndarray, ring: np.ndarray, count: int,
+@dataclass
+class _SampleIndex:
+    """The sources as :func:`_matching_samples` searches them, prepared once per tile set: the
+    ring is the same for every tile, so each source's sums over it are too."""
+
+    sources: list[np.ndarray]
+    size: int
+    step: int  # large tiles are matched at half resolution (4x fewer sums)
+    mask: np.ndarray  # the ring, at matching resolution, 3 channels
+    images: list[np.ndarray]  # the sources' colours at matching resolution
+    ring_energy: list[np.ndarray]  # sum over the ring of image**2, per position
+    contrast: list[np.ndarray]  # the image's variance-like contrast over the ring, per position
+
+    @classmethod
+    def build(cls, sources: list[np.ndarray], ring: np.ndarray) -> _SampleIndex:
+        import cv2
+
+        size = ring.shape[0]
+        step = 2 if size >= 64 else 1
+        mask = np.repeat(ring[:, :, None], 3, axis=2).astype(np.float32)
+        if step > 1:
+            mask = (cv2.resize(mask, (size // step, size // step), interpolation=cv2.INTER_AREA) > 0.5
+                    ).astype(np.float32)
+        n = float(mask.sum())
+        images, energies, contrasts = [], [], []
+        for src in sources:
+            image = np.ascontiguousarray(src[:, :, :3])
+            if step > 1:
+                image = cv2.resize(image, (src.shape[1] // step, src.shape[0] // step),
+                                   interpolation=cv2.INTER_AREA)
+            total = cv2.matchTemplate(image, mask, cv2.TM_CCORR)
+            energy = cv2.matchTemplate(image * image, mask, cv2.TM_CCORR)
+            images.append(image)
+            energies.append(energy)
+            contrasts.append(np.maximum(energy - total * total / n, 0.0) + 1e-3 * n)
+        return cls(sources, size, step, mask, images, energies, contrasts)
+
+
+def _matching_samples(index: _SampleIndex, frame: np.ndarray, count: int,
                       rng: np.random.Generator) -> list[np.ndarray]:
-    """``count`` samples whose content agrees best with ``frame`` on ``ring`` (the edge
-    pieces already fixed around a tile), as image quilting chooses its patches (Efros &
-    Freeman 2001), the squared difference taken relative to the candidate's contrast on the
-    ring: the best matches of each source at least half a tile apart, then a random choice
-    among the ``2 count`` best, for variety."""
+    """``count`` samples whose content agrees best with ``frame`` on the ring (the edge pieces
+    already fixed around a tile), as image quilting chooses its patches (Efros & Freeman
+    2001), the squared difference taken relative to the candidate's contrast on the ring: the
+    best matches of each source at least half a tile apart, then a random choice among the
+    ``2 count`` best, for variety. The masked squared difference is expanded as
+    ``sum(m I^2) - 2 sum(m T I) + sum(m T^2)``: one correlation per source and tile."""
     import cv2
 
-    size = frame.shape[0]
-    step = 2 if size >= 64 else 1  # large tiles are matched at half resolution (4x fewer sums)
+    size, step = index.size, index.step
     template = np.ascontiguousarray(frame[:, :, :3])
-    mask = np.repeat(ring[:, :, None], 3, axis=2).astype(np.float32)
     if step > 1:
-        small = (size // step, size // step)
-        template = cv2.resize(template, small, interpolation=cv2.INTER_AREA)
-        mask = (cv2.resize(mask, small, interpolation=cv2.INTER_AREA) > 0.5).astype(np.float32)
+        template = cv2.resize(template, (size // step, size // step), interpolation=cv2.INTER_AREA)
+    weighted = index.mask * template
+    constant = float((weighted * template).sum())
     found = []
-    for index, src in enumerate(sources):
-        image = np.ascontiguousarray(src[:, :, :3])
-        if step > 1:
-            image = cv2.resize(image, (src.shape[1] // step, src.shape[0] // step), interpolation=cv2.INTER_AREA)
-        cost = cv2.matchTemplate(image, template, cv2.TM_SQDIFF, mask=mask)
+    for i, image in enumerate(index.images):
+        cross = cv2.matchTemplate(image, weighted, cv2.TM_CCORR)
         # relative to the candidate's own contrast on the ring: plain squared differences
         # favour flat samples, and a tile set of flat samples is blurrier than the exemplar
-        total = cv2.matchTemplate(image, mask, cv2.TM_CCORR)
-        total_sq = cv2.matchTemplate(image * image, mask, cv2.TM_CCORR)
-        n = float(mask.sum())
-        contrast = np.maximum(total_sq - total * total / n, 0.0)
-        cost = np.nan_to_num(cost / (contrast + 1e-3 * n), nan=np.inf)
+        cost = np.maximum(index.ring_energy[i] - 2.0 * cross + constant, 0.0) / index.contrast[i]
         spacing = max(1, size // (2 * step))
+        src = index.sources[i]
         for _ in range(2 * count):  # the best matches, each suppressing its neighbourhood
             y, x = np.unravel_index(int(np.argmin(cost)), cost.shape)
             if not np.isfinite(cost[y, x]):
                 break
-            found.append((float(cost[y, x]), index, min(int(y) * step, src.shape[0] - size),
+            found.append((float(cost[y, x]), i, min(int(y) * step, src.shape[0] - size),
                           min(int(x) * step, src.shape[1] - size)))
             cost[max(0, y - spacing + 1):y + spacing, max(0, x - spacing + 1):x + spacing] = np.inf
     found.sort()
     best = found[:2 * count]
     picks = rng.choice(len(best), size=min(count, len(best)), replace=False)
-    return [sources[best[i][1]][best[i][2]:best[i][2] + size, best[i][3]:best[i][3] + size].copy()
+    return [index.sources[best[i][1]][best[i][2]:best[i][2] + size, best[i][3]:best[i][3] + size].copy()
             for i in sorted(picks)]
 
 
@@ -202,6 +233,7 @@ def build_tiles(layers: np.ndarray, rng: np.random.Generator, *, size: int, colo
     edge_distance = np.minimum.reduce([y, x, size - 1 - y, size - 1 - x])
     ring = edge_distance < size // 4  # where the edge pieces are known before the interior
     core = edge_distance >= size // 6  # the exchanged content: all but a band along the edges
+    index_of_samples = _SampleIndex.build(sources, ring)
     n_tiles = colours ** 4 * variants
     tiles = np.empty((n_tiles, size, size, layers.shape[2]), np.float32)
     index = 0
@@ -219,7 +251,7 @@ def build_tiles(layers: np.ndarray, rng: np.random.Generator, *, size: int, colo
                     for name, piece in pieces.items():
                         frame[geometry[name][0]] = piece[geometry[name][0]]
                     made = []
-                    for canvas in _matching_samples(sources, frame, ring, 2 * variants, rng):
+                    for canvas in _matching_samples(index_of_samples, frame, 2 * variants, rng):
                         seam = 0.0
                         for name in ("N", "S", "W", "E"):
                             triangle, strip = geometry[name]

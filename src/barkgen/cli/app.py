@@ -837,6 +837,9 @@ def bilayer_synth_command(
                                                      "(default: a quarter of the exemplar).")] = None,
     warp: Annotated[float, typer.Option("--warp", help="Turbulence bending the tile grid, in tile "
                                         "sizes (0-1; 0: none).")] = 0.1,
+    compensate: Annotated[bool, typer.Option("--compensate/--no-compensate", help="With --rotate or "
+                                             "--scale, give the noise the fine detail the deformed "
+                                             "structure lost (--no-compensate: the paper's noise).")] = True,
     seed: SeedOption = 0,
     bits: Annotated[int, typer.Option("--bits", help="Bits per channel (8 or 16).")] = 8,
 ) -> None:
@@ -850,7 +853,7 @@ def bilayer_synth_command(
     if bits not in (8, 16):
         raise InvalidInputError(f"--bits must be 8 or 16, not {bits}")
     _check_png_target(output, "output")
-    options = SynthesisOptions(tile_size=tile_size, warp=warp,
+    options = SynthesisOptions(tile_size=tile_size, warp=warp, compensate=compensate,
                                deformation=Deformation(rotate=rotate, scale=(lo, hi), keep_vertical=keep_vertical))
     model = BilayerModel.load(model_path)
     image = model.window(x, y, out_shape[1], out_shape[0], seed=seed, options=options)
