@@ -82,11 +82,13 @@ def welch_power(image: np.ndarray, size: int) -> np.ndarray:
                                 f"{t}x{t} window")
     step = max(1, t // 2)
     windows = np.lib.stride_tricks.sliding_window_view(image, (t, t), axis=(0, 1))[::step, ::step]
-    windows = windows - windows.mean(axis=(-2, -1), keepdims=True)
     w1 = _window(t)
     taper = np.outer(w1, w1)
-    power = np.abs(np.fft.fft2(windows * taper)) ** 2  # (ny, nx, C, t, t)
-    return power.sum(axis=2).mean(axis=(0, 1)) / float((taper ** 2).mean() * t * t)
+    power = np.zeros((t, t))
+    for row in windows:  # one row of windows at a time: memory stays small for large images
+        row = row - row.mean(axis=(-2, -1), keepdims=True)
+        power += (np.abs(np.fft.fft2(row * taper)) ** 2).sum(axis=(0, 1))  # over windows, channels
+    return power / (windows.shape[0] * windows.shape[1] * float((taper ** 2).mean() * t * t))
 
 
 def _parzen(n_lags: int) -> np.ndarray:
