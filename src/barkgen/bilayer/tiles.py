@@ -156,13 +156,13 @@ def _matching_samples(index: _SampleIndex, frame: np.ndarray, count: int,
         template = cv2.resize(template, (size // step, size // step), interpolation=cv2.INTER_AREA)
     weighted = index.mask * template
     constant = float((weighted * template).sum())
+    spacing = max(1, size // (2 * step))
     found = []
     for i, image in enumerate(index.images):
         cross = cv2.matchTemplate(image, weighted, cv2.TM_CCORR)
         # relative to the candidate's own contrast on the ring: plain squared differences
         # favour flat samples, and a tile set of flat samples is blurrier than the exemplar
         cost = np.maximum(index.ring_energy[i] - 2.0 * cross + constant, 0.0) / index.contrast[i]
-        spacing = max(1, size // (2 * step))
         src = index.sources[i]
         for _ in range(2 * count):  # the best matches, each suppressing its neighbourhood
             y, x = np.unravel_index(int(np.argmin(cost)), cost.shape)
