@@ -39,6 +39,9 @@ class SynthesisOptions:
         compensate: with a deformation, give the noise the power the deformed structure lost
             (see :func:`compensated_noise`), so fine detail keeps the photo's scale; ``False``
             is the paper's synthesis, the noise exactly as analysed.
+        blend: blend the structure's seams inside each tile in the gradient domain
+            (sibbing2010 §5), so a graph cut across a furrow leaves no step; ``False`` keeps
+            the graph cuts alone.
     """
 
     tile_size: int | None = None
@@ -47,6 +50,7 @@ class SynthesisOptions:
     deformation: Deformation = Deformation()
     warp: float = 0.1
     compensate: bool = True
+    blend: bool = True
 
     def __post_init__(self) -> None:
         if self.tile_size is not None and (self.tile_size < 8 or self.tile_size % 2):
@@ -153,7 +157,7 @@ class BilayerModel:
             size = options.tile_size or default_tile_size(self.structure.shape[:2])
             tiles = build_tiles(layers, np.random.default_rng(tiles_seq), size=size,
                                 colours=options.colours, variants=options.variants,
-                                deformation=options.deformation)
+                                deformation=options.deformation, blend=options.blend)
             period = max(NOISE_TILE, 1 << (2 * self.noise.spectra.shape[2] - 1).bit_length())  # a power of two
             hash_seed = int(hash_seq.generate_state(1, np.uint64)[0] >> np.uint64(1))
             synth = _Synthesizer(tiles, np.zeros((self.k, 3, period, period), np.float32), hash_seed,

@@ -15,6 +15,10 @@ operations as P"). A tile set is built from it once per seed and deformation:
   the exchanged content fills most of the tile and the seams follow the texture. Of twice
   as many candidates, the ``variants`` with the cheapest seams are kept. Which version a
   cell uses is a hash of its position.
+- Seam blending (sibbing2010 §5, Pérez et al. 2003): a graph cut across a structure that
+  runs over it (willow's vertical furrows over a horizontal tile edge) still leaves a step;
+  the structure of each tile is re-solved in the gradient domain (screened, so only the
+  few pixels around a seam change) with its border fixed, so the tiles still join exactly.
 - Deformations (guingo2017 §4, Fig. 9-10): every sample (interior or edge) can be rotated by
   up to ``rotate`` degrees (optionally about the vertical only, keeping bark upright: 0° or
   180° plus the jitter) and zoomed by a factor in ``scale``.
@@ -203,6 +207,15 @@ def _graph_cut(canvas: np.ndarray, piece: np.ndarray, keep: np.ndarray, take: np
     return graph.get_grid_segments(nodes), float(flow)
 
 
+EDGES = ("N", "S", "W", "E")
+#: how far (px) the blend spreads a seam's step: the screening length of the Poisson solve.
+#: Unscreened, the corrections shift whole tiles' colours away from the exemplar's (texeval
+#: coherence of willow and lichen 2.94x and 2.73x the core engine's, 2.80x and 2.47x without
+#: blending); spread over 6-8 px the steps are gone just as well (willow's spectrum_dist 1.70x
+#: the engine's without blending, 1.34x unscreened, 1.38-1.40x) and coherence stays put.
+SEAM_SPREAD = 6.0
+
+
 def _edge_geometry(size: int, band: int):
     """Per edge (N, E, S, W): its triangle of the tile and the strip forced to it."""
     y, x = np.mgrid[0:size, 0:size]
@@ -214,10 +227,61 @@ def _edge_geometry(size: int, band: int):
     return out
 
 
+def _seam_guidance(stack: np.ndarray, origin: np.ndarray) -> np.ndarray:
+    """The divergence of the gradient field a composed tile should have: between two pixels
+    of one source, that source's gradient; across a seam, the mean of the two sources'
+    gradients (each source is a whole sample, so both are known there). ``stack`` is
+    ``(S, size, size, 3)``, ``origin`` the source of each pixel."""
+    div = np.zeros(stack.shape[1:], np.float32)
+    for axis in (0, 1):
+        lo = [slice(None)] * 2
+        hi = [slice(None)] * 2
+        lo[axis], hi[axis] = slice(None, -1), slice(1, None)
+        lo, hi = tuple(lo), tuple(hi)
+        diffs = stack[(slice(None),) + lo] - stack[(slice(None),) + hi]  # every source's steps
+        pick = np.take_along_axis(diffs, origin[lo][None, :, :, None], axis=0)[0]
+        pick += np.take_along_axis(diffs, origin[hi][None, :, :, None], axis=0)[0]
+        div[lo] += 0.5 * pick
+        div[hi] -= 0.5 * pick
+    return div
+
+
+def poisson_blend(images: np.ndarray, guidance: np.ndarray, spread: float | None = None) -> np.ndarray:
+    """Gradient-domain blending (Pérez et al. 2003) of a batch ``(B, H, W, C)`` at once: solve
+    ``(1/spread**2 - laplacian) u = guidance + images/spread**2`` inside each image with its
+    one-pixel border fixed to the image's own values. ``guidance`` is the divergence of the
+    wanted gradients (``-laplacian`` of the wanted image); the screening term keeps ``u`` near
+    ``images`` beyond about ``spread`` px of a seam (0: plain Poisson). The Dirichlet
+    Laplacian is diagonal in the type-I discrete sine basis, so the solve is two transforms
+    and a division (float32, both cores: 5x faster than float64 on one, same figures)."""
+    from scipy.fft import dstn, idstn
+
+    spread = SEAM_SPREAD if spread is None else spread
+
+    h, w = images.shape[1] - 2, images.shape[2] - 2
+    rhs = guidance[:, 1:-1, 1:-1].astype(np.float32)
+    rhs[:, 0] += images[:, 0, 1:-1]  # the fixed border's share of each neighbour sum
+    rhs[:, -1] += images[:, -1, 1:-1]
+    rhs[:, :, 0] += images[:, 1:-1, 0]
+    rhs[:, :, -1] += images[:, 1:-1, -1]
+    ky = 2.0 - 2.0 * np.cos(np.pi * np.arange(1, h + 1) / (h + 1))
+    kx = 2.0 - 2.0 * np.cos(np.pi * np.arange(1, w + 1) / (w + 1))
+    screen = 1.0 / spread ** 2 if spread else 0.0
+    rhs += screen * images[:, 1:-1, 1:-1]
+    eigen = (ky[:, None, None] + kx[None, :, None] + screen).astype(np.float32)
+    spectrum = dstn(rhs, type=1, axes=(1, 2), workers=2) / eigen
+    out = images.copy()
+    out[:, 1:-1, 1:-1] = idstn(spectrum, type=1, axes=(1, 2), workers=2)
+    return out
+
+
 def build_tiles(layers: np.ndarray, rng: np.random.Generator, *, size: int, colours: int = 3,
-                variants: int = 4, deformation: Deformation = Deformation()) -> np.ndarray:
+                variants: int = 4, deformation: Deformation = Deformation(),
+                blend: bool = True) -> np.ndarray:
     """The Wang tile set with exchanged contents: ``(colours**4 * variants, size, size, C)``
-    float32, indexed ``(((n * colours + e) * colours + s) * colours + w) * variants + v``."""
+    float32, indexed ``(((n * colours + e) * colours + s) * colours + w) * variants + v``.
+    With ``blend``, the structure's seams are blended in the gradient domain (the masks'
+    channels are left as cut)."""
     if size % 2 or size < 8:
         raise InvalidInputError(f"tile size must be even and at least 8, not {size}")
     if colours < 1 or variants < 1:
@@ -236,6 +300,7 @@ def build_tiles(layers: np.ndarray, rng: np.random.Generator, *, size: int, colo
     index_of_samples = _SampleIndex.build(sources, ring)
     n_tiles = colours ** 4 * variants
     tiles = np.empty((n_tiles, size, size, layers.shape[2]), np.float32)
+    guidance = np.empty((n_tiles, size, size, 3), np.float32) if blend else None
     index = 0
     for n in range(colours):
         for e in range(colours):
@@ -253,17 +318,26 @@ def build_tiles(layers: np.ndarray, rng: np.random.Generator, *, size: int, colo
                     made = []
                     for canvas in _matching_samples(index_of_samples, frame, 2 * variants, rng):
                         seam = 0.0
-                        for name in ("N", "S", "W", "E"):
+                        stack = [canvas[:, :, :3].copy()] + [pieces[name][:, :, :3] for name in EDGES]
+                        origin = np.zeros((size, size), np.intp)  # which of ``stack`` each pixel is
+                        for number, name in enumerate(EDGES, start=1):
                             triangle, strip = geometry[name]
                             take, cost = _graph_cut(canvas, pieces[name], keep=~triangle | core,
                                                     take=strip & triangle)
                             canvas[take] = pieces[name][take]
+                            origin[take] = number
                             seam += cost
                         grad = np.abs(np.diff(canvas[:, :, :3], axis=0)).mean() + np.abs(
                             np.diff(canvas[:, :, :3], axis=1)).mean()
-                        made.append((seam / (grad + 1e-6), len(made), canvas))  # relative seams
+                        made.append((seam / (grad + 1e-6), len(made), canvas, stack, origin))  # relative seams
                     made.sort(key=lambda item: item[:2])  # content exchange: the best-fitting ones
-                    for _, _, canvas in made[:variants]:
+                    for _, _, canvas, stack, origin in made[:variants]:
                         tiles[index] = canvas
+                        if blend:
+                            guidance[index] = _seam_guidance(np.stack(stack), origin)
                         index += 1
+    if blend:
+        for start in range(0, n_tiles, 64):  # bounded memory for large tiles
+            part = slice(start, start + 64)
+            tiles[part, :, :, :3] = poisson_blend(tiles[part, :, :, :3], guidance[part])
     return tiles

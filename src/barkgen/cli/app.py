@@ -840,6 +840,8 @@ def bilayer_synth_command(
     compensate: Annotated[bool, typer.Option("--compensate/--no-compensate", help="With --rotate or "
                                              "--scale, give the noise the fine detail the deformed "
                                              "structure lost (--no-compensate: the paper's noise).")] = True,
+    blend: Annotated[bool, typer.Option("--blend/--no-blend", help="Blend the tiles' seams in the "
+                                        "gradient domain (--no-blend: graph cuts only).")] = True,
     seed: SeedOption = 0,
     bits: Annotated[int, typer.Option("--bits", help="Bits per channel (8 or 16).")] = 8,
 ) -> None:
@@ -853,7 +855,7 @@ def bilayer_synth_command(
     if bits not in (8, 16):
         raise InvalidInputError(f"--bits must be 8 or 16, not {bits}")
     _check_png_target(output, "output")
-    options = SynthesisOptions(tile_size=tile_size, warp=warp, compensate=compensate,
+    options = SynthesisOptions(tile_size=tile_size, warp=warp, compensate=compensate, blend=blend,
                                deformation=Deformation(rotate=rotate, scale=(lo, hi), keep_vertical=keep_vertical))
     model = BilayerModel.load(model_path)
     image = model.window(x, y, out_shape[1], out_shape[0], seed=seed, options=options)
