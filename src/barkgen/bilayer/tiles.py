@@ -211,7 +211,7 @@ EDGES = ("N", "S", "W", "E")
 #: how far (px) the blend spreads a seam's step: the screening length of the Poisson solve.
 #: Unscreened, the corrections shift whole tiles' colours away from the exemplar's (texeval
 #: coherence of willow and lichen 2.94x and 2.73x the core engine's, 2.80x and 2.47x without
-#: blending); spread over 6-8 px the steps are gone just as well (willow's spectrum_dist 1.70x
+#: blending); spread over 6-8 px the steps are gone just as well (willow's spectrum_dist 1.69x
 #: the engine's without blending, 1.34x unscreened, 1.38-1.40x) and coherence stays put.
 SEAM_SPREAD = 6.0
 
