@@ -225,7 +225,7 @@ def test_poisson_blend_removes_a_seam_step_near_the_seam_only():
     stack = np.stack([texture, texture + 0.2])  # the second source is the first, brighter
     origin = (y > 32 + 4 * np.sin(x / 7.0)).astype(np.intp)
     composite = np.where(origin[..., None] == 1, stack[1], stack[0])[None]
-    guidance = _seam_guidance(stack, origin)[None]
+    guidance = _seam_guidance(composite[0], stack, origin)[None]
     unscreened = poisson_blend(composite, guidance, spread=0)
     screened = poisson_blend(composite, guidance, spread=4)
     for out in (unscreened, screened):
@@ -237,7 +237,7 @@ def test_poisson_blend_removes_a_seam_step_near_the_seam_only():
     far = np.abs(y - 32) > 24
     assert np.abs(screened[0] - composite[0])[far].max() < 0.01 < np.abs(unscreened[0] - composite[0])[far].max()
     image = rng.random((2, 40, 30, 3))  # no seam: the image itself
-    guidance = np.stack([_seam_guidance(img[None], np.zeros((40, 30), np.intp)) for img in image])
+    guidance = np.stack([_seam_guidance(img, img[None], np.zeros((40, 30), np.intp)) for img in image])
     assert np.allclose(poisson_blend(image, guidance), image, atol=1e-5)
 
 

@@ -216,6 +216,12 @@ EDGES = ("N", "S", "W", "E")
 SEAM_SPREAD = 6.0
 
 
+def _bounding_box(mask: np.ndarray, margin: int) -> tuple[slice, slice]:
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    return (slice(max(0, rows[0] - margin), rows[-1] + margin + 1),
+            slice(max(0, cols[0] - margin), cols[-1] + margin + 1))
+
+
 def _edge_geometry(size: int, band: int):
     """Per edge (N, E, S, W): its triangle of the tile and the strip forced to it."""
     y, x = np.mgrid[0:size, 0:size]
@@ -227,22 +233,24 @@ def _edge_geometry(size: int, band: int):
     return out
 
 
-def _seam_guidance(stack: np.ndarray, origin: np.ndarray) -> np.ndarray:
+def _seam_guidance(composite: np.ndarray, stack: np.ndarray, origin: np.ndarray) -> np.ndarray:
     """The divergence of the gradient field a composed tile should have: between two pixels
-    of one source, that source's gradient; across a seam, the mean of the two sources'
-    gradients (each source is a whole sample, so both are known there). ``stack`` is
-    ``(S, size, size, 3)``, ``origin`` the source of each pixel."""
-    div = np.zeros(stack.shape[1:], np.float32)
+    of one source, that source's gradient (the composite's own); across a seam, the mean of
+    the two sources' gradients (each source is a whole sample, so both are known there).
+    ``composite`` is the tile ``(size, size, 3)``, ``stack`` its sources ``(S, size, size,
+    3)`` and ``origin`` the source of each pixel."""
+    div = np.zeros(composite.shape, np.float32)
     for axis in (0, 1):
-        lo = [slice(None)] * 2
-        hi = [slice(None)] * 2
-        lo[axis], hi[axis] = slice(None, -1), slice(1, None)
-        lo, hi = tuple(lo), tuple(hi)
-        diffs = stack[(slice(None),) + lo] - stack[(slice(None),) + hi]  # every source's steps
-        pick = np.take_along_axis(diffs, origin[lo][None, :, :, None], axis=0)[0]
-        pick += np.take_along_axis(diffs, origin[hi][None, :, :, None], axis=0)[0]
-        div[lo] += 0.5 * pick
-        div[hi] -= 0.5 * pick
+        lo = (slice(None, -1), slice(None)) if axis == 0 else (slice(None), slice(None, -1))
+        hi = (slice(1, None), slice(None)) if axis == 0 else (slice(None), slice(1, None))
+        step = composite[lo] - composite[hi]
+        a, b = origin[lo], origin[hi]
+        ys, xs = np.nonzero(a != b)  # the pairs across a seam
+        y1, x1 = (ys + 1, xs) if axis == 0 else (ys, xs + 1)
+        sa, sb = a[ys, xs], b[ys, xs]
+        step[ys, xs] = 0.5 * ((stack[sa, ys, xs] - stack[sa, y1, x1]) + (stack[sb, ys, xs] - stack[sb, y1, x1]))
+        div[lo] += step
+        div[hi] -= step
     return div
 
 
@@ -298,6 +306,9 @@ def build_tiles(layers: np.ndarray, rng: np.random.Generator, *, size: int, colo
     ring = edge_distance < size // 4  # where the edge pieces are known before the interior
     core = edge_distance >= size // 6  # the exchanged content: all but a band along the edges
     index_of_samples = _SampleIndex.build(sources, ring)
+    # each cut only needs the pixels it may move and their neighbours: the same cut on a
+    # graph about a sixth of the tile's size
+    boxes = {name: _bounding_box(triangle & ~core, margin=1) for name, (triangle, _) in geometry.items()}
     n_tiles = colours ** 4 * variants
     tiles = np.empty((n_tiles, size, size, layers.shape[2]), np.float32)
     guidance = np.empty((n_tiles, size, size, 3), np.float32) if blend else None
@@ -322,8 +333,11 @@ def build_tiles(layers: np.ndarray, rng: np.random.Generator, *, size: int, colo
                         origin = np.zeros((size, size), np.intp)  # which of ``stack`` each pixel is
                         for number, name in enumerate(EDGES, start=1):
                             triangle, strip = geometry[name]
-                            take, cost = _graph_cut(canvas, pieces[name], keep=~triangle | core,
-                                                    take=strip & triangle)
+                            box = boxes[name]
+                            take = np.zeros((size, size), bool)
+                            take[box], cost = _graph_cut(canvas[box], pieces[name][box],
+                                                         keep=(~triangle | core)[box],
+                                                         take=(strip & triangle)[box])
                             canvas[take] = pieces[name][take]
                             origin[take] = number
                             seam += cost
@@ -334,7 +348,7 @@ def build_tiles(layers: np.ndarray, rng: np.random.Generator, *, size: int, colo
                     for _, _, canvas, stack, origin in made[:variants]:
                         tiles[index] = canvas
                         if blend:
-                            guidance[index] = _seam_guidance(np.stack(stack), origin)
+                            guidance[index] = _seam_guidance(canvas[:, :, :3], np.stack(stack), origin)
                         index += 1
     if blend:
         for start in range(0, n_tiles, 64):  # bounded memory for large tiles
