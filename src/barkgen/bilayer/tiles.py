@@ -167,8 +167,8 @@ def _matching_samples(index: _SampleIndex, frame: np.ndarray, count: int, rng: n
     constant = float((weighted * template).sum())
     spacing = max(1, size // (2 * step))
     found = []
-    for i, cross in enumerate(pool.map(lambda image: cv2.matchTemplate(image, weighted, cv2.TM_CCORR),
-                                             index.images)):
+    crosses = pool.map(lambda image: cv2.matchTemplate(image, weighted, cv2.TM_CCORR), index.images)
+    for i, cross in enumerate(crosses):
         # relative to the candidate's own contrast on the ring: plain squared differences
         # favour flat samples, and a tile set of flat samples is blurrier than the exemplar
         cost = np.maximum(index.ring_energy[i] - 2.0 * cross + constant, 0.0) / index.contrast[i]
@@ -222,6 +222,7 @@ SEAM_SPREAD = 6.0
 
 
 def _bounding_box(mask: np.ndarray, margin: int) -> tuple[slice, slice]:
+    """The rows and columns holding ``mask``'s pixels, ``margin`` px wider (within the image)."""
     rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
     return (slice(max(0, rows[0] - margin), rows[-1] + margin + 1),
             slice(max(0, cols[0] - margin), cols[-1] + margin + 1))
@@ -267,11 +268,10 @@ def poisson_blend(images: np.ndarray, guidance: np.ndarray, spread: float | None
     wanted gradients (``-laplacian`` of the wanted image); the screening term keeps ``u`` near
     ``images`` beyond about ``spread`` px of a seam (0: plain Poisson). The Dirichlet
     Laplacian is diagonal in the type-I discrete sine basis, so the solve is two transforms
-    and a division (float32, both cores: 5x faster than float64 on one, same figures)."""
+    and a division (float32, all cores: 5x faster than float64 on one, same figures)."""
     from scipy.fft import dstn, idstn
 
     spread = SEAM_SPREAD if spread is None else spread
-
     h, w = images.shape[1] - 2, images.shape[2] - 2
     rhs = guidance[:, 1:-1, 1:-1].astype(np.float32)
     rhs[:, 0] += images[:, 0, 1:-1]  # the fixed border's share of each neighbour sum
@@ -283,9 +283,9 @@ def poisson_blend(images: np.ndarray, guidance: np.ndarray, spread: float | None
     screen = 1.0 / spread ** 2 if spread else 0.0
     rhs += screen * images[:, 1:-1, 1:-1]
     eigen = (ky[:, None, None] + kx[None, :, None] + screen).astype(np.float32)
-    spectrum = dstn(rhs, type=1, axes=(1, 2), workers=2) / eigen
+    spectrum = dstn(rhs, type=1, axes=(1, 2), workers=-1) / eigen
     out = images.copy()
-    out[:, 1:-1, 1:-1] = idstn(spectrum, type=1, axes=(1, 2), workers=2)
+    out[:, 1:-1, 1:-1] = idstn(spectrum, type=1, axes=(1, 2), workers=-1)
     return out
 
 
