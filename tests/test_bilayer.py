@@ -41,6 +41,22 @@ def _rms_decades(estimate, psd):
     return float(np.sqrt((err ** 2).mean()))
 
 
+def _spectrum_distance(texeval, exemplar):
+    """texeval's spectrum_dist to ``exemplar`` (RMS log-ratio of Gabor energies of the
+    luminance), without the rest of its metrics."""
+
+    def lum(img):
+        return texeval.rgb_to_lab(np.clip(img, 0, 1))[..., 0].astype(np.float32)
+
+    reference = texeval.gabor_stats(lum(exemplar))
+
+    def spectrum_dist(img):
+        ratio = np.log((texeval.gabor_stats(lum(img)) + 0.05) / (reference + 0.05))
+        return float(np.sqrt(np.mean(ratio ** 2)))
+
+    return spectrum_dist
+
+
 def test_estimator_recovers_a_known_spectrum_through_an_irregular_mask():
     rng = np.random.default_rng(1)
     noise = _coloured_noise(rng, 512, _psd)
@@ -190,15 +206,7 @@ def test_compensated_noise_restores_what_a_deformation_takes_from_a_real_bark(te
     deformation = Deformation(rotate=30, scale=(1.0, 1.6))
     compensated = SynthesisOptions(deformation=deformation)
     paper = SynthesisOptions(deformation=deformation, compensate=False)
-
-    def lum(img):
-        return texeval.rgb_to_lab(np.clip(img, 0, 1))[..., 0].astype(np.float32)
-
-    reference = texeval.gabor_stats(lum(exemplar))
-
-    def spectrum_dist(img):
-        ratio = np.log((texeval.gabor_stats(lum(img)) + 0.05) / (reference + 0.05))
-        return float(np.sqrt(np.mean(ratio ** 2)))
+    spectrum_dist = _spectrum_distance(texeval, exemplar)
 
     d_comp = spectrum_dist(model.window(0, 0, 512, 512, seed=1, options=compensated))
     d_paper = spectrum_dist(model.window(0, 0, 512, 512, seed=1, options=paper))
@@ -249,15 +257,7 @@ def test_seam_blending_keeps_willow_furrows_from_breaking(texeval):
 
     exemplar = bark_exemplar("willow_furrowed_01", 192).astype(np.float32) / 255
     model = analyze(exemplar)
-
-    def lum(img):
-        return texeval.rgb_to_lab(np.clip(img, 0, 1))[..., 0].astype(np.float32)
-
-    reference = texeval.gabor_stats(lum(exemplar))
-
-    def spectrum_dist(img):
-        ratio = np.log((texeval.gabor_stats(lum(img)) + 0.05) / (reference + 0.05))
-        return float(np.sqrt(np.mean(ratio ** 2)))
+    spectrum_dist = _spectrum_distance(texeval, exemplar)
 
     blended = sum(spectrum_dist(model.window(0, 0, 768, 768, seed=s)) for s in (1, 2))
     cut = sum(spectrum_dist(model.window(0, 0, 768, 768, seed=s, options=SynthesisOptions(blend=False)))

@@ -333,7 +333,8 @@ def build_tiles(layers: np.ndarray, rng: np.random.Generator, *, size: int, colo
             made = []
             for canvas in _matching_samples(index_of_samples, frame, 2 * variants, rng, pool):
                 seam = 0.0
-                stack = [canvas[:, :, :3].copy()] + [pieces[name][:, :, :3] for name in EDGES]
+                stack = ([canvas[:, :, :3].copy()] + [pieces[name][:, :, :3] for name in EDGES]
+                         if blend else None)  # the sources the blend's guidance reads
                 origin = np.zeros((size, size), np.intp)  # which of ``stack`` each pixel is
                 for number, name in enumerate(EDGES, start=1):
                     triangle, strip = geometry[name]
