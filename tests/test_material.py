@@ -203,6 +203,50 @@ def test_light_is_recovered_and_shading_removed_on_a_rendered_surface():
     assert np.corrcoef(lum(albedo_est).ravel(), albedo.ravel())[0, 1] > 0.8
 
 
+def test_shading_is_removed_under_a_grazing_light():
+    """At 20° elevation 40 % of the pixels have N·L below the division's floor: the fit still
+    makes the albedo uncorrelated with N·L itself (it used to stop at 0.3 of the photo's)."""
+    rng = np.random.default_rng(3)
+    from scipy import ndimage as ndi
+
+    height = ndi.gaussian_filter(rng.normal(0, 1, (160, 160)), 3, mode="wrap")
+    height = (height / height.std() * 2.0).astype(np.float32)
+    photo = render_lambert(height, Light(135.0, 20.0), np.full((160, 160), 0.5, np.float32))
+    normals = normal_map(height, tile=True)
+    light = estimate_light(photo, normals)
+    shade = shading(normals, light).ravel()
+    assert (shade < 0.2).mean() > 0.3
+    albedo, _ = remove_shading(photo, normals, light)
+    before = np.corrcoef(photo[..., 1].ravel(), shade)[0, 1]
+    after = np.corrcoef(albedo[..., 1].ravel(), shade)[0, 1]
+    assert before > 0.8 and abs(after) < 0.02
+
+
+def test_light_is_the_best_match_even_when_no_light_explains_the_photo():
+    """A photo darker where the surface faces the viewer (dark flat fissure floors, as on the
+    plated pine): every light correlates negatively. The estimate is still the grid's best
+    direction, and the correlation it reports is the true one, not a default."""
+    from barkgen.material.shading import AZIMUTHS, ELEVATIONS
+
+    rng = np.random.default_rng(5)
+    from scipy import ndimage as ndi
+
+    height = ndi.gaussian_filter(rng.normal(0, 1, (128, 128)), 2, mode="wrap")
+    normals = normal_map((height / height.std() * 1.5).astype(np.float32), tile=True)
+    lateral = shading(normals, Light(200.0, 1e-3))
+    photo = np.repeat((0.9 - 0.8 * normals[..., 2] + 0.01 * lateral)[..., None], 3, axis=2)
+    light = estimate_light(photo.astype(np.float32), normals)
+    lum = photo[..., 0].ravel()
+    grid = [np.corrcoef(lum, shading(normals, Light(float(az), el)).ravel())[0, 1]
+            for el in ELEVATIONS for az in AZIMUTHS]
+    actual = np.corrcoef(lum, shading(normals, light).ravel())[0, 1]
+    assert max(grid) < 0 and light.elevation < 90
+    assert actual == pytest.approx(light.correlation, abs=1e-6) and actual >= max(grid) - 1e-6
+    # nothing to remove: the albedo is the photo
+    albedo, strength = remove_shading(photo.astype(np.float32), normals, light)
+    assert strength == 0.0 and np.allclose(albedo, photo, atol=2e-3)
+
+
 def test_light_angles_are_checked():
     assert parse_light("45, 30") == Light(45.0, 30.0)
     for text in ("10,100", "10,0", "x,3", "1,2,3", "1000,20"):

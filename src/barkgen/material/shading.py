@@ -71,7 +71,8 @@ def estimate_light(photo: np.ndarray, normals: np.ndarray) -> Light:
     """The light under which the normals, rendered Lambertian, look most like the photo: the
     grid direction maximising the correlation of ``N·L`` with the luminance (wang2003 §3.4's
     manual light matching, automated). Closed form per direction from the covariances of the
-    luminance with the three normal components."""
+    luminance with the three normal components. The correlation reported is the best
+    direction's, negative when no light makes the photo brighter where ``N·L`` is larger."""
     lum = luminance(photo).astype(np.float64).ravel()
     n = np.asarray(normals, np.float64).reshape(-1, 3)
     if n.shape[0] != lum.size:
@@ -81,7 +82,7 @@ def estimate_light(photo: np.ndarray, normals: np.ndarray) -> Light:
     cov_ln = n.T @ lum / lum.size
     cov_nn = n.T @ n / lum.size
     var_l = float(lum @ lum) / lum.size
-    best = Light(0.0, 90.0, 0.0)
+    best = Light(0.0, 90.0, -np.inf)
     for el in ELEVATIONS:
         for az in AZIMUTHS:
             v = Light(float(az), el).vector.astype(np.float64)
@@ -93,6 +94,8 @@ def estimate_light(photo: np.ndarray, normals: np.ndarray) -> Light:
                 best = Light(float(az), el, corr)
             if el == 90.0:
                 break  # every azimuth is the same light
+    if not np.isfinite(best.correlation):  # a flat photo or flat normals: nothing to match
+        return Light(0.0, 90.0, 0.0)
     return best
 
 
@@ -112,20 +115,21 @@ def _correlation(a: np.ndarray, b: np.ndarray) -> float:
     return float((a * b).sum()) / denom if denom > 0 else 0.0
 
 
-def shading_strength(linear: np.ndarray, log_shade: np.ndarray) -> float:
+def shading_strength(linear: np.ndarray, log_shade: np.ndarray, n_dot_l: np.ndarray) -> float:
     """How strongly the shading modulates the photo: the exponent ``g`` of the model
-    ``I = albedo * shade ** g`` for which the albedo's luminance is uncorrelated with the
-    shading (the albedo is independent of the lighting), by bisection in ``[0, MAX_STRENGTH]``
-    on a regular subsample of the pixels. It stands for what the estimated depth and the
-    light's unknown intensity against the ambient light leave open (``g = 1`` is wang2003's
-    plain division). 0 when the photo is not brighter where ``N·L`` is larger: nothing to
-    remove. ``linear``: the photo in linear light; ``log_shade``: log of the floored ``N·L``
-    minus its mean."""
+    ``I = albedo * shade ** g`` for which the albedo's luminance is uncorrelated with ``N·L``
+    (the albedo is independent of the lighting), by bisection in ``[0, MAX_STRENGTH]`` on a
+    regular subsample of the pixels. It stands for what the estimated depth and the light's
+    unknown intensity against the ambient light leave open (``g = 1`` is wang2003's plain
+    division). 0 when the photo is not brighter where ``N·L`` is larger: nothing to remove.
+    ``linear``: the photo in linear light; ``log_shade``: log of the floored ``N·L`` minus its
+    mean (what is divided); ``n_dot_l``: ``N·L`` itself, not floored (what the albedo must not
+    correlate with: the floor only keeps the division finite)."""
     step = max(1, int(np.sqrt(log_shade.size / FIT_PIXELS)))
     sub_linear = linear[::step, ::step]
     sub_log = log_shade[::step, ::step]
-    shade = np.exp(sub_log).ravel()
-    shade -= shade.mean()
+    shade = np.asarray(n_dot_l, np.float64)[::step, ::step].ravel()
+    shade = shade - shade.mean()
 
     def corr(g: float) -> float:
         return _correlation(luminance(linear_to_srgb(_divide(sub_linear, sub_log, g))).ravel(), shade)
@@ -153,9 +157,10 @@ def remove_shading(photo: np.ndarray, normals: np.ndarray, light: Light, *,
     delighting does (Materialize, AwesomeBump): the AO map puts them back at render time."""
     if floor <= 0:
         raise InvalidInputError("the shading floor must be > 0")
-    log_shade = np.log(np.maximum(shading(normals, light), floor))
+    n_dot_l = shading(normals, light)
+    log_shade = np.log(np.maximum(n_dot_l, floor))
     log_shade -= log_shade.mean()
     linear = srgb_to_linear(photo)
     if strength is None:
-        strength = shading_strength(linear, log_shade)
+        strength = shading_strength(linear, log_shade, n_dot_l)
     return linear_to_srgb(_divide(linear, log_shade, strength)), float(strength)
