@@ -11,10 +11,11 @@ per image *on the truth* (the best that peer method can do); target <= 0.85x fla
 The height's band weights (:data:`barkgen.material.height.BAND_WEIGHTS`) were fitted on these
 maps, so the figures here are leave-one-out: weights refitted on the other three photos
 (least squares of the height's gradient against the scan's slopes, then the relief strength
-minimising their mean angular error). AO: Pearson correlation of the AO computed from the
-leave-one-out height with the scanned AO (target >= 0.5). Also shown: the ceiling, i.e. the
-error of the scan's own height (its normals integrated, Frankot-Chellappa), which no height
-field can beat.
+minimising their mean angular error). AO: Pearson correlation with the scanned AO (target
+>= 0.5) of the AO of the leave-one-out height plus the photo's cavities, their weight and scale
+picked on the other three photos too; also shown, the height's AO alone. Also shown: the
+ceiling, i.e. the error of the scan's own height (its normals integrated, Frankot-Chellappa),
+which no height field can beat, and the correlation of that height's AO.
 
 Shading (every photo of ``../shared/data/bark``): correlation of luminance with the estimated
 ``N·L`` before (photo) and after (albedo) shading removal (target: at least halved), and
@@ -47,17 +48,16 @@ from barkgen.labels import color_regions  # noqa: E402
 from barkgen.labels.regions import check_image, to_codes  # noqa: E402
 from barkgen.material import (  # noqa: E402
     HeightConfig,
-    MaterialOptions,
     ambient_occlusion,
     decode_normals,
     estimate_height,
-    estimate_light,
     make_material,
     normal_map,
-    remove_shading,
+    photo_cavities,
     shading,
 )
 from barkgen.material.height import height_features, luminance  # noqa: E402
+from barkgen.material.maps import CAVITY_SCALE, CAVITY_WEIGHT  # noqa: E402
 from barkgen.render import render_trunk  # noqa: E402
 
 SCANNED = ("birch_smooth_lenticels_01", "oak_furrowed_moss_01", "pine_plated_01", "willow_furrowed_01")
@@ -132,25 +132,45 @@ def sobel_tuned(case: dict) -> float:
     return best
 
 
+#: the grid the AO's photo cavities (weight, scale) are fitted on, leave-one-out
+CAVITY_GRID = [(w, sc) for sc in (16, 32, 64) for w in (0.0, 0.25, 0.5, 1.0, 2.0, 4.0)]
+
+
+def ao_correlation(ao_height: np.ndarray, case: dict, weight: float, scale: float) -> float:
+    cavities = photo_cavities(ao_height, luminance(case["photo"]), weight=weight, scale=scale)
+    ao = np.clip(ao_height + cavities, 0.0, 1.0)
+    return float(np.corrcoef(ao.ravel(), case["ao"].ravel())[0, 1])
+
+
 def truth_table() -> list[dict]:
     cases = [load_case(n) for n in SCANNED]
     rows = []
     for i, case in enumerate(cases):
         config = fit_config([c for j, c in enumerate(cases) if j != i])
         height = estimate_height(case["photo"], case["codes"], config=config)
+        case["ao_height"] = ambient_occlusion(height)
         ours = angular_error(normal_map(height), case["truth"])
-        ao = ambient_occlusion(height)
         integrated = frankot_chellappa(case["truth"])
         row = {"photo": case["name"], "flat": flat_error(case["truth"]), "barkgen_loo": ours,
                "sobel_tuned": sobel_tuned(case),
                "ceiling": angular_error(normal_map(integrated, tile=True), case["truth"]),
-               "ao_corr": float(np.corrcoef(ao.ravel(), case["ao"].ravel())[0, 1]),
+               "ao_corr_height": float(np.corrcoef(case["ao_height"].ravel(), case["ao"].ravel())[0, 1]),
+               "ao_corr_ceiling": float(np.corrcoef(ambient_occlusion(integrated.astype(np.float32), tile=True).ravel(),
+                                                    case["ao"].ravel())[0, 1]),
                "loo_config": dataclasses.asdict(config)}
         row["ratio"] = row["barkgen_loo"] / row["flat"]
         rows.append(row)
-        print(f"  {case['name']:28s} flat {row['flat']:.1f} barkgen(LOO) {ours:.1f} "
+    # the AO's photo cavities: (weight, scale) picked on the other three photos' AO
+    grid = {cell: [ao_correlation(c["ao_height"], c, *cell) for c in cases] for cell in CAVITY_GRID}
+    for i, (case, row) in enumerate(zip(cases, rows)):
+        pick = max(CAVITY_GRID, key=lambda cell: np.mean([r for j, r in enumerate(grid[cell]) if j != i]))
+        row["ao_corr"], row["ao_cavities_loo"] = grid[pick][i], list(pick)
+        print(f"  {case['name']:28s} flat {row['flat']:.1f} barkgen(LOO) {row['barkgen_loo']:.1f} "
               f"({row['ratio']:.2f}x) sobel-tuned {row['sobel_tuned']:.1f} ceiling {row['ceiling']:.1f} "
-              f"AO r {row['ao_corr']:.2f}", file=sys.stderr, flush=True)
+              f"AO r {row['ao_corr']:.2f} (height alone {row['ao_corr_height']:.2f}, cavities {pick})",
+              file=sys.stderr, flush=True)
+    print(f"  AO cavities fitted on all four: {max(CAVITY_GRID, key=lambda cell: np.mean(grid[cell]))} "
+          f"(defaults: {CAVITY_WEIGHT}, {CAVITY_SCALE})", file=sys.stderr, flush=True)
     return rows
 
 
@@ -228,12 +248,15 @@ def main() -> int:
     if not args.skip_truth:
         rows = out["truth"] = truth_table()
         print("\nNormals and AO from the photo alone vs scanned maps (leave-one-out; degrees)")
-        print(f"{'photo':28s} {'flat':>6s} {'sobel*':>7s} {'barkgen':>8s} {'ratio':>6s} {'ceiling':>8s} {'AO r':>6s}")
+        print(f"{'photo':28s} {'flat':>6s} {'sobel*':>7s} {'barkgen':>8s} {'ratio':>6s} {'ceiling':>8s} "
+              f"{'AO r':>6s} {'height':>7s} {'ceiling':>8s}")
         for r in rows:
             print(f"{r['photo']:28s} {r['flat']:6.1f} {r['sobel_tuned']:7.1f} {r['barkgen_loo']:8.1f} "
-                  f"{r['ratio']:6.2f} {r['ceiling']:8.1f} {r['ao_corr']:6.2f}")
+                  f"{r['ratio']:6.2f} {r['ceiling']:8.1f} {r['ao_corr']:6.2f} {r['ao_corr_height']:7.2f} "
+                  f"{r['ao_corr_ceiling']:8.2f}")
         print("targets: ratio <= 0.85, AO r >= 0.5; sobel* = tuned per image on the truth; "
-              "ceiling = the scan's own integrated height")
+              "ceiling = the scan's own integrated height (its normals, its AO); AO r: with the photo's "
+              "cavities (weight and scale picked leave-one-out), height: the height's AO alone")
     if not args.skip_shading:
         rows = out["shading"] = shading_table(args.previews)
         print("\nShading removal (correlation of luminance with the estimated N·L)")

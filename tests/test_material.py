@@ -29,6 +29,7 @@ from barkgen.material import (
     normal_map,
     parse_edits,
     parse_light,
+    photo_cavities,
     remove_shading,
     shading,
     to_directx,
@@ -100,6 +101,25 @@ def test_ambient_occlusion_darkens_pits_and_wraps():
                        np.roll(ambient_occlusion(tile, tile=True), 9, 1), atol=1e-6)
 
 
+def test_photo_cavities_darken_the_ao_where_the_photo_is_dark_and_scale_with_the_relief():
+    h = bumps(96)
+    ao = ambient_occlusion(h, tile=True)
+    y, x = np.mgrid[0:96, 0:96]
+    lum = np.full((96, 96), 0.6, np.float32)
+    crack = (np.abs(x - 40) <= 1) & (y > 20) & (y < 70)       # a dark crack the height does not have
+    lum[crack] = 0.2
+    cav = photo_cavities(ao, lum, tile=True)
+    assert cav[crack].max() < 0 and cav[~crack].min() > cav[crack].max()
+    assert abs(float(cav.mean())) < 1e-6
+    # in units of the height AO's spread: twice the relief's spread, twice the term; none without
+    assert np.allclose(photo_cavities(0.5 + 2 * (ao - 0.5), lum, tile=True), 2 * cav, atol=1e-5)
+    assert not photo_cavities(np.ones_like(ao), lum).any() and not photo_cavities(ao, lum, weight=0).any()
+    assert np.allclose(photo_cavities(np.roll(ao, 17, 0), np.roll(lum, 17, 0), tile=True),
+                       np.roll(cav, 17, 0), atol=1e-5)
+    with pytest.raises(InvalidInputError):
+        MaterialOptions(cavities=-1)
+
+
 def test_height_puts_dark_fissures_low_and_wraps_when_tiled():
     rng = np.random.default_rng(1)
     y, x = np.mgrid[0:128, 0:128]
@@ -115,9 +135,9 @@ def test_height_puts_dark_fissures_low_and_wraps_when_tiled():
     assert strip.shape == (1, 128) and normal_map(strip).shape == (1, 128, 3)
 
 
-def test_estimated_normals_beat_flat_on_scanned_bark():
+def test_estimated_normals_and_ao_beat_the_baselines_on_scanned_bark():
     """Regression guard on two of the four scanned sets at half size (the defaults were fitted
-    on all four, so this is not the leave-one-out figure of the benchmark)."""
+    on all four, so these are not the leave-one-out figures of the benchmark)."""
     import cv2
 
     from conftest import _need_shared
@@ -134,6 +154,13 @@ def test_estimated_normals_beat_flat_on_scanned_bark():
         err = np.degrees(np.arccos(np.clip((material.normals * truth).sum(2), -1, 1))).mean()
         flat = np.degrees(np.arccos(np.clip(truth[..., 2], -1, 1))).mean()
         assert err < 0.95 * flat, (name, err, flat)
+        # the photo's cavities make the AO more like the scanned one than the height's alone
+        scan_ao = cv2.resize(read_image(SHARED / "data" / "bark_maps" / f"{name}_ao.jpg"), (512, 512),
+                             interpolation=cv2.INTER_AREA).astype(np.float32)
+        scan_ao = scan_ao[..., 0] if scan_ao.ndim == 3 else scan_ao
+        r_set = np.corrcoef(material.ao.ravel(), scan_ao.ravel())[0, 1]
+        r_height = np.corrcoef(ambient_occlusion(material.height).ravel(), scan_ao.ravel())[0, 1]
+        assert r_set > r_height + 0.02 and r_set > 0.5, (name, r_set, r_height)
 
 
 # ------------------------------------------------------------------ editing
@@ -299,6 +326,10 @@ def test_transfer_follows_the_references_and_tiles(pine_set):
     shifted = transfer_material(pine_set, np.roll(result.references, 31, axis=1), tile=True)
     assert np.allclose(shifted.normals, np.roll(out.normals, 31, axis=1), atol=1e-6)
     assert np.allclose(shifted.ao, np.roll(out.ao, 31, axis=1), atol=1e-6)
+    # the AO is the carried height's, plus the photo's cavities carried like the colour
+    assert np.array_equal(out.ao_cavities, pine_set.ao_cavities[ry, rx])
+    height_ao = ambient_occlusion(out.height, tile=True)
+    assert np.allclose(out.ao, np.clip(height_ao + out.ao_cavities, 0, 1), atol=1e-6)
 
 
 def test_trunk_render_is_lit_and_relieved(pine_set):

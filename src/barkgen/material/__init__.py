@@ -14,6 +14,7 @@ from barkgen.material.maps import (
     encode_normals,
     flip_green,
     normal_map,
+    photo_cavities,
     roughness_map,
     to_directx,
 )
@@ -45,6 +46,7 @@ __all__ = [
     "normal_map",
     "parse_edits",
     "parse_light",
+    "photo_cavities",
     "remove_shading",
     "roughness_map",
     "shading",

@@ -11,11 +11,15 @@ from __future__ import annotations
 import numpy as np
 
 from barkgen.material._kernels import horizon_occlusion
-from barkgen.material.height import gradient
+from barkgen.material.height import blur, gradient
 
 #: directions and reach (px) of the horizon-based ambient occlusion
 AO_DIRECTIONS = 8
 AO_RADIUS = 32
+#: the photo's own cavities in the AO (:func:`photo_cavities`): how much (in units of the
+#: height AO's spread) and below which scale (px), as fitted on the scanned AO of four barks
+CAVITY_WEIGHT = 2.0
+CAVITY_SCALE = 64
 #: roughness model: bark is rough; cavities (occluded) rougher, exposed ridges a little smoother
 ROUGHNESS_BASE = 0.8
 ROUGHNESS_CAVITY = 0.6
@@ -69,6 +73,25 @@ def ambient_occlusion(height: np.ndarray, *, radius: int = AO_RADIUS, directions
     angles = np.arange(directions) * (2 * np.pi / directions)
     dirs = np.stack([np.sin(angles), np.cos(angles)], axis=1).astype(np.float64)
     return horizon_occlusion(np.ascontiguousarray(height, dtype=np.float32), dirs, int(radius), bool(tile))
+
+
+def photo_cavities(ao: np.ndarray, lum: np.ndarray, *, weight: float = CAVITY_WEIGHT,
+                   scale: float = CAVITY_SCALE, tile: bool = False) -> np.ndarray:
+    """The photo's cavity term of the ambient occlusion ``(h, w)`` float32, to add to the
+    height's AO ``ao``: where the photo is darker than its surroundings (its luminance ``lum``
+    minus a Gaussian blur of ``scale``, in units of its std) the AO is lower, by ``weight``
+    times the spread (std) of ``ao``, so the term scales with the relief and vanishes with it.
+
+    The estimated height is smooth and cautious; the photo's own darkness in cracks and
+    between plates is the detail it leaves out (the normal + diffuse AO blend of Materialize
+    and AwesomeBump's AO from the photo do the same). Against the scanned AO of four barks,
+    leave-one-out, it raises the correlation on all four (``benchmarks/bench_material.py``)."""
+    lum = np.asarray(lum, np.float32)
+    detail = lum - blur(lum, scale, tile=tile)
+    spread = float(detail.std())
+    if weight == 0 or spread < 1e-6:
+        return np.zeros(lum.shape, np.float32)
+    return (weight * float(np.std(ao)) / spread * (detail - detail.mean())).astype(np.float32)
 
 
 def roughness_map(height: np.ndarray, ao: np.ndarray) -> np.ndarray:

@@ -1,14 +1,16 @@
 """A whole material set from a photo, or from a synthesized texture and its reference map.
 
 Photo (:func:`make_material`): label map -> estimated height (:mod:`.height`), replayed edits
-(:mod:`.editor`) -> normals, AO, roughness (:mod:`.maps`) -> light matched to the photo and
+(:mod:`.editor`) -> normals, AO (the height's, plus the photo's cavities), roughness
+(:mod:`.maps`) -> light matched to the photo and
 albedo ``I / max(N·L, floor) ** g`` relative to its geometric mean, ``g`` fitted
 (:mod:`.shading`).
 
 Synthesized texture (:func:`transfer_material`): the photo's albedo, height and roughness are
 carried to the output through the synthesis's reference map — the same exemplar pixel for
-every map, so all maps are aligned with the colour by construction — and normals and AO are
-recomputed from the carried height, wrapping when the texture tiles, so they tile too.
+every map, so all maps are aligned with the colour by construction — and normals and the
+height's AO are recomputed from the carried height, wrapping when the texture tiles, so they
+tile too (the AO's photo cavities are carried like the colour).
 """
 
 from __future__ import annotations
@@ -21,8 +23,17 @@ import numpy as np
 
 from barkgen.errors import InvalidInputError
 from barkgen.material.editor import HeightEdit, HeightEditor
-from barkgen.material.height import HeightConfig, estimate_height
-from barkgen.material.maps import AO_RADIUS, ambient_occlusion, encode_normals, flip_green, normal_map, roughness_map
+from barkgen.material.height import HeightConfig, estimate_height, luminance
+from barkgen.material.maps import (
+    AO_RADIUS,
+    CAVITY_WEIGHT,
+    ambient_occlusion,
+    encode_normals,
+    flip_green,
+    normal_map,
+    photo_cavities,
+    roughness_map,
+)
 from barkgen.material.shading import Light, estimate_light, remove_shading
 from barkgen.synth.solver import as_uint8
 
@@ -32,14 +43,16 @@ class MaterialOptions:
     """Parameters of :func:`make_material`: ``k`` labels of the colour label map used as the
     height's structure cue; ``light``: the photo's light (``None``: estimated);
     ``height``: :class:`~barkgen.material.height.HeightConfig`; ``relief``: multiplies its
-    strength (2 = twice as deep); ``ao_radius``: reach of the occlusion in px; ``tile``: the
-    photo wraps; ``seed``: the label map's k-means."""
+    strength (2 = twice as deep); ``ao_radius``: reach of the occlusion in px; ``cavities``:
+    weight of the photo's own cavities in the AO (:func:`~barkgen.material.maps.photo_cavities`;
+    0: the height's AO alone); ``tile``: the photo wraps; ``seed``: the label map's k-means."""
 
     k: int = 3
     light: Light | None = None
     height: HeightConfig = field(default_factory=HeightConfig)
     relief: float = 1.0
     ao_radius: int = AO_RADIUS
+    cavities: float = CAVITY_WEIGHT
     tile: bool = False
     seed: int = 0
 
@@ -52,6 +65,8 @@ class MaterialOptions:
             raise InvalidInputError(f"relief must be in (0, 100], not {self.relief:g}")
         if not 1 <= self.ao_radius <= 256:
             raise InvalidInputError(f"AO radius must be 1..256 px, not {self.ao_radius}")
+        if not (np.isfinite(self.cavities) and 0 <= self.cavities <= 100):
+            raise InvalidInputError(f"the AO's cavity weight must be in [0, 100], not {self.cavities:g}")
 
 
 @dataclass
@@ -59,7 +74,9 @@ class MaterialSet:
     """Aligned maps of one size: ``color`` (albedo, sRGB float ``(h, w, 3)`` in [0, 1]),
     ``height`` (pixels, float32), ``normals`` (unit, OpenGL), ``ao`` and ``roughness`` (float32
     in [0, 1]); ``light`` and ``shading_strength``: the shading removed from the colour
-    (:func:`~barkgen.material.shading.remove_shading`)."""
+    (:func:`~barkgen.material.shading.remove_shading`); ``ao_cavities``: the photo's cavity
+    term in ``ao`` (:func:`~barkgen.material.maps.photo_cavities`), carried with the height
+    by :func:`transfer_material` (``None``: the AO is the height's alone)."""
 
     color: np.ndarray
     height: np.ndarray
@@ -69,6 +86,7 @@ class MaterialSet:
     tile: bool = False
     light: Light | None = None
     shading_strength: float | None = None
+    ao_cavities: np.ndarray | None = None
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -154,23 +172,30 @@ def make_material(photo: np.ndarray, options: MaterialOptions | None = None, *,
         editor = HeightEditor(rgb, height, label_map, tile=options.tile)
         height = editor.apply(edits)
     normals, ao = derived_maps(height, tile=options.tile, ao_radius=options.ao_radius)
+    cavities = photo_cavities(ao, luminance(rgb), weight=options.cavities, tile=options.tile)
+    ao = np.clip(ao + cavities, 0.0, 1.0)
     light = options.light or estimate_light(rgb, normals)
     albedo, strength = remove_shading(rgb, normals, light)
     return MaterialSet(color=albedo, height=height, normals=normals, ao=ao,
                        roughness=roughness_map(height, ao), tile=options.tile, light=light,
-                       shading_strength=strength)
+                       shading_strength=strength, ao_cavities=cavities)
 
 
 def transfer_material(source: MaterialSet, references: np.ndarray, *, tile: bool,
                       ao_radius: int = AO_RADIUS) -> MaterialSet:
-    """The material set of a synthesized texture: the source's albedo, height and roughness
-    through the synthesis's reference map ``(H, W, 2)`` (exemplar ``(y, x)``); normals and AO
-    recomputed from the carried height (wrapping when ``tile``)."""
+    """The material set of a synthesized texture: the source's albedo, height, roughness and
+    the AO's photo cavities through the synthesis's reference map ``(H, W, 2)`` (exemplar
+    ``(y, x)``); normals and the height's AO recomputed from the carried height (wrapping when
+    ``tile``)."""
     from barkgen.synth import apply_references
 
     refs = np.asarray(references)
     height = apply_references(refs, source.height)
     normals, ao = derived_maps(height, tile=tile, ao_radius=ao_radius)
+    cavities = None
+    if source.ao_cavities is not None:
+        cavities = apply_references(refs, source.ao_cavities)
+        ao = np.clip(ao + cavities, 0.0, 1.0)
     return MaterialSet(color=apply_references(refs, source.color), height=height, normals=normals, ao=ao,
                        roughness=apply_references(refs, source.roughness), tile=tile, light=source.light,
-                       shading_strength=source.shading_strength)
+                       shading_strength=source.shading_strength, ao_cavities=cavities)
