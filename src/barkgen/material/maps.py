@@ -83,8 +83,7 @@ def photo_cavities(ao: np.ndarray, lum: np.ndarray, *, weight: float = CAVITY_WE
     times the spread (std) of ``ao``, so the term scales with the relief and vanishes with it.
 
     The estimated height is smooth and cautious; the photo's own darkness in cracks and
-    between plates is the detail it leaves out (the normal + diffuse AO blend of Materialize
-    and AwesomeBump's AO from the photo do the same). Against the scanned AO of four barks,
+    between plates is the detail it leaves out. Against the scanned AO of four barks,
     leave-one-out, it raises the correlation on all four (``benchmarks/bench_material.py``)."""
     lum = np.asarray(lum, np.float32)
     detail = lum - blur(lum, scale, tile=tile)

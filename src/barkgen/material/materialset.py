@@ -2,9 +2,8 @@
 
 Photo (:func:`make_material`): label map -> estimated height (:mod:`.height`), replayed edits
 (:mod:`.editor`) -> normals, AO (the height's, plus the photo's cavities), roughness
-(:mod:`.maps`) -> light matched to the photo and
-albedo ``I / max(N·L, floor) ** g`` relative to its geometric mean, ``g`` fitted
-(:mod:`.shading`).
+(:mod:`.maps`) -> light matched to the photo and albedo ``I / max(N·L, floor) ** g`` relative
+to its geometric mean, ``g`` fitted (:mod:`.shading`).
 
 Synthesized texture (:func:`transfer_material`): the photo's albedo, height and roughness are
 carried to the output through the synthesis's reference map — the same exemplar pixel for
