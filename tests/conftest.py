@@ -62,3 +62,18 @@ def synthetic_exemplar() -> np.ndarray:
     base = 128 + 60 * np.sin(x / 3.0) * np.cos(y / 5.0)
     img = np.stack([base, base * 0.8 + 20, 255 - base], axis=-1) + rng.normal(0, 8, (48, 40, 3))
     return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def assert_continuous_copy(out: np.ndarray, source: np.ndarray, references: np.ndarray,
+                           tolerance: float = 0.15) -> None:
+    """``out`` is ``source`` through ``references`` in the gradient domain: inside the copied
+    pieces it steps as the plain copy does (median error under ``tolerance`` of the copy's mean
+    step), and across their borders it steps no more than about the copy's largest step."""
+    ry, rx = references[..., 0], references[..., 1]
+    plain = np.asarray(source, np.float64)[ry, rx]
+    got = np.asarray(out, np.float64).reshape(plain.shape)
+    inside = (ry[1:] == ry[:-1] + 1) & (rx[1:] == rx[:-1])
+    d_got, d_plain = np.diff(got, axis=0), np.diff(plain, axis=0)
+    scale = max(np.abs(d_plain[inside]).mean(), 1e-9)
+    assert np.median(np.abs(d_got[inside] - d_plain[inside])) < tolerance * scale
+    assert np.abs(d_got).max() <= 1.1 * np.abs(d_plain).max() + 1e-6

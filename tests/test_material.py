@@ -320,14 +320,18 @@ def test_transfer_follows_the_references_and_tiles(pine_set):
     result = synthesize(pine_set.color, (96, 96), tile=True, seed=1)
     out = transfer_material(pine_set, result.references, tile=True)
     ry, rx = result.references[..., 0], result.references[..., 1]
-    assert np.array_equal(out.color, pine_set.color[ry, rx]) and np.array_equal(out.height, pine_set.height[ry, rx])
-    assert np.array_equal(out.roughness, pine_set.roughness[ry, rx])
+    from conftest import assert_continuous_copy
+
+    # the colour exactly; height, roughness and cavities in the gradient domain (no cliffs)
+    assert np.array_equal(out.color, pine_set.color[ry, rx])
+    assert_continuous_copy(out.height, pine_set.height, result.references, tolerance=0.6)
+    assert_continuous_copy(out.roughness, pine_set.roughness, result.references, tolerance=0.35)
     # normals and AO are recomputed on the torus: they tile like the colour
     shifted = transfer_material(pine_set, np.roll(result.references, 31, axis=1), tile=True)
     assert np.allclose(shifted.normals, np.roll(out.normals, 31, axis=1), atol=1e-6)
     assert np.allclose(shifted.ao, np.roll(out.ao, 31, axis=1), atol=1e-6)
-    # the AO is the carried height's, plus the photo's cavities carried like the colour
-    assert np.array_equal(out.ao_cavities, pine_set.ao_cavities[ry, rx])
+    # the AO is the carried height's, plus the photo's cavities carried like the height
+    assert_continuous_copy(out.ao_cavities, pine_set.ao_cavities, result.references, tolerance=0.35)
     height_ao = ambient_occlusion(out.height, tile=True)
     assert np.allclose(out.ao, np.clip(height_ao + out.ao_cavities, 0, 1), atol=1e-6)
 

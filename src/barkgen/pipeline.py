@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from barkgen.errors import InvalidInputError
+from barkgen.synth.edges import resolve_exemplar_wrap
 from barkgen.synth.solver import ProgressCallback, parse_output_shape
 
 if TYPE_CHECKING:
@@ -52,7 +53,9 @@ class GenerateOptions:
     ``max_memory``: solver limits; ``material``: also make the material set
     (:mod:`barkgen.material`) of the output, ``light`` the photo's
     :class:`~barkgen.material.Light` for its shading removal (``None``: estimated), ``relief``
-    the height's strength (1 = as fitted).
+    the height's strength (1 = as fitted); ``exemplar_wrap``: ``auto`` (the photo is used as a
+    torus along each axis it tiles along, :func:`barkgen.synth.exemplar_wraps`), ``yes`` or
+    ``no``.
     """
 
     size: tuple[int, int] = (1024, 1024)
@@ -69,11 +72,14 @@ class GenerateOptions:
     material: bool = False
     light: Light | None = None
     relief: float = 1.0
+    exemplar_wrap: str = "auto"
 
     def __post_init__(self) -> None:
         from barkgen.labels.regions import check_k, check_seed
         from barkgen.shapes import STRATEGIES, check_rotations
+        from barkgen.synth.edges import check_wrap_mode
 
+        check_wrap_mode(self.exemplar_wrap)
         object.__setattr__(self, "size", parse_output_shape(self.size))
         check_k(self.k)
         check_seed(self.seed)
@@ -149,7 +155,8 @@ class PhotoAnalysis:
 def _analysis_key(options: GenerateOptions) -> tuple:
     """The options a :class:`PhotoAnalysis` depends on."""
     light = None if options.light is None else (options.light.azimuth, options.light.elevation)
-    return (options.k, options.method, options.material, light, options.relief)
+    return (options.k, options.method, options.material, light, options.relief,
+            options.exemplar_wrap)
 
 
 def analyze_photo(
@@ -182,15 +189,17 @@ def analyze_photo(
             f"{photo.shape[1]}x{photo.shape[0]} px; they must match")
     if progress:
         progress(1, 4)
+    wrap = resolve_exemplar_wrap(options.exemplar_wrap, photo)
     cache = AnalysisCache()
     if options.strategy in _INIT_LEVELS:
         analyse_label_map(labels_in, options.size, cache,
-                          photo=photo if options.strategy == "joint" else None)
+                          photo=photo if options.strategy == "joint" else None, exemplar_wrap=wrap)
     if progress:
         progress(2, 4)
     analyse_texture_by_numbers(photo, labels_in, options.size, cache,
                                feature_weight=options.feature_weight, extra=extra,
-                               config=dataclasses.replace(TBN_CONFIG, threads=options.threads))
+                               config=dataclasses.replace(TBN_CONFIG, threads=options.threads),
+                               exemplar_wrap=wrap)
     if progress:
         progress(3, 4)
     material = _photo_material(photo, labels_in, options) if options.material else None
@@ -246,11 +255,12 @@ def generate(
     labels_in = analysis.labels_in
     t1 = time.perf_counter()
     timings["analysis"] = analysis.seconds
+    wrap = resolve_exemplar_wrap(options.exemplar_wrap, photo)
 
     label_result = synthesize_label_map(
         labels_in, options.size, strategy=options.strategy, tile=options.tile, seed=options.seed,
         rotations=options.rotations, resume=resume, progress=_stage_progress(progress, "label_map"),
-        cache=analysis.cache, photo=photo)
+        cache=analysis.cache, photo=photo, exemplar_wrap=wrap)
     t2 = time.perf_counter()
     timings["labels_out"] = t2 - t1
 
@@ -263,7 +273,7 @@ def generate(
         feature_weight=options.feature_weight, init=init,
         init_level=_INIT_LEVELS.get(options.strategy, 0), tile=options.tile, seed=options.seed,
         extra=extra, config=config, progress=_stage_progress(progress, "texture"),
-        cache=analysis.cache)
+        cache=analysis.cache, exemplar_wrap=wrap)
     t3 = time.perf_counter()
     timings["texture"] = t3 - t2
     material = None
@@ -273,7 +283,8 @@ def generate(
         source = analysis.material
         if source is None:
             source = _photo_material(photo, labels_in, options)
-        material = transfer_material(source, result.references, tile=options.tile)
+        material = transfer_material(source, result.references, tile=options.tile,
+                                     exemplar_wrap=wrap)
         timings["material"] = time.perf_counter() - t3
     # the analysis' own cost counts whether it ran here or was shared
     timings["total"] = analysis.seconds + time.perf_counter() - t1
@@ -288,6 +299,8 @@ def generate(
         "rotations": options.rotations,
         "layer_order": label_result.layer_order,
         "tile": bool(options.tile),
+        "exemplar_wrap_mode": options.exemplar_wrap,
+        "exemplar_wrap": [bool(wrap[0]), bool(wrap[1])],
         "seed": int(options.seed),
         "label_weight": options.label_weight,
         "feature_weight": options.feature_weight,

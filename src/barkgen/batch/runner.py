@@ -95,7 +95,10 @@ def local_cluster(workers: int | None = None, threads: int | None = None):
     workers = workers or os.cpu_count() or 1
     threads = threads or max(1, (os.cpu_count() or 1) // workers)
     environ = {"NUMBA_NUM_THREADS": threads, "OMP_NUM_THREADS": threads}
-    with dask.config.set({f"distributed.nanny.pre-spawn-environ.{k}": v for k, v in environ.items()}):
+    # set in each worker process as it starts, before barkgen (and numba) is imported there;
+    # not "pre-spawn-environ", which writes them into this process's own environment for good
+    # (a later numba compile here then fails: its pool was launched with another size)
+    with dask.config.set({f"distributed.nanny.environ.{k}": v for k, v in environ.items()}):
         return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                             dashboard_address=":0", silence_logs=logging.CRITICAL,
                             preload=["barkgen.batch.preload"])

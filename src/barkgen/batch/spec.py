@@ -31,7 +31,7 @@ from barkgen.synth.solver import parse_size
 
 #: pipeline options a spec may set at the top level or per exemplar, as GenerateOptions fields
 OPTION_KEYS = ("size", "k", "method", "strategy", "rotations", "tile", "material", "relief", "light",
-               "label_weight", "feature_weight", "bits", "material_name")
+               "label_weight", "feature_weight", "bits", "material_name", "exemplar_wrap")
 #: keys of an exemplar entry besides the options
 EXEMPLAR_KEYS = ("name", "path", "library", "labels", "seeds", "count", "seed_base")
 #: top-level keys besides the options
@@ -133,6 +133,9 @@ def _options(where: str, values: dict, threads: int | None) -> tuple[GenerateOpt
                 kwargs[key] = float(value)
             elif key in ("method", "strategy", "rotations"):
                 kwargs[key] = str(value)
+            elif key == "exemplar_wrap":  # YAML reads yes / no as booleans
+                kwargs[key] = ({True: "yes", False: "no"}[value] if isinstance(value, bool)
+                               else str(value))
         bits = values.get("bits")
         if bits is not None and (isinstance(bits, bool) or bits not in (8, 16)):
             raise InvalidInputError(f"bits must be 8 or 16, not {bits!r}")

@@ -126,6 +126,10 @@ def _progress(enabled: bool, description: str) -> Iterator:
 OutputOption = Annotated[Path, typer.Option("-o", "--output", help="Output PNG.")]
 TileOption = Annotated[bool, typer.Option("--tile", help="Make the output tile seamlessly.")]
 SeedOption = Annotated[int, typer.Option("--seed", min=0, help="Random seed (same seed, same bytes).")]
+ExemplarWrapsOption = Annotated[str, typer.Option(
+    "--exemplar-wraps", help="auto: the photo is used as a torus along each axis along which it "
+    "tiles itself (its last row continues into its first), so pieces run on across its edge; "
+    "yes / no: force it.")]
 ExtraOption = Annotated[Optional[list[str]], typer.Option(
     "--extra", metavar="NAME=PATH", help="Map aligned with the exemplar (height, normal, ...), "
     "synthesized along; written as OUTPUT_NAME.png.")]
@@ -168,6 +172,7 @@ def synth_command(
     bits: BitsOption = None,
     max_memory: MaxMemoryOption = "8G",
     threads: ThreadsOption = None,
+    exemplar_wraps: ExemplarWrapsOption = "auto",
     quiet: QuietOption = False,
 ) -> None:
     """Synthesize a new bark texture of any size from one exemplar photo."""
@@ -185,7 +190,7 @@ def synth_command(
     config = SynthesisConfig(threads=threads, max_memory=budget)
     with _progress(not quiet, "synthesizing") as progress:
         result = synthesize(image, out_shape, tile=tile, seed=seed, extra=extras, config=config,
-                            progress=progress)
+                            progress=progress, exemplar_wrap=exemplar_wraps)
     _write_result(result, output, bits, save_reference, quiet)
 
 
@@ -202,9 +207,11 @@ def _write_result(result, output: Path, bits: int | None, save_reference: Path |
     if not quiet:
         t = result.timings
         h, w = result.image.shape[:2]
+        wraps = [axis for axis, on in zip(("rows", "columns"), result.exemplar_wrap) if on]
         typer.echo(f"wrote {output} ({w}x{h}, seed {result.seed}"
-                   f"{', tileable' if result.tile else ''}) in {t['analysis'] + t['synthesis']:.2f} s",
-                   err=True)
+                   f"{', tileable' if result.tile else ''}"
+                   f"{', exemplar wraps ' + ' and '.join(wraps) if wraps else ''}) in "
+                   f"{t['analysis'] + t['synthesis']:.2f} s", err=True)
 
 
 def _check_outputs(output: Path, save_reference: Path | None, bits: int | None) -> None:
@@ -242,6 +249,7 @@ def tbn_command(
     bits: BitsOption = None,
     max_memory: MaxMemoryOption = "8G",
     threads: ThreadsOption = None,
+    exemplar_wraps: ExemplarWrapsOption = "auto",
     quiet: QuietOption = False,
 ) -> None:
     """Texture-by-numbers: synthesize bark that follows a target label map."""
@@ -272,7 +280,7 @@ def tbn_command(
         result = texture_by_numbers(image, label_map, target_map, label_weight=label_weight,
                                     feature_weight=feature_weight, init=init, tile=tile,
                                     seed=seed, extra=extras, config=config, progress=progress,
-                                    debug=debug)
+                                    debug=debug, exemplar_wrap=exemplar_wraps)
     _write_result(result, output, bits, save_reference, quiet)
 
 
@@ -424,6 +432,7 @@ def shapes_command(
     seed: SeedOption = 0,
     save_levels: SaveLevelsOption = None,
     resume: ResumeOption = None,
+    exemplar_wraps: ExemplarWrapsOption = "auto",
     quiet: QuietOption = False,
 ) -> None:
     """Synthesize a new label map of any size from an exemplar's label map (laitoch2018 §3.6)."""
@@ -449,7 +458,8 @@ def shapes_command(
     with _progress(not quiet, "label map") as progress:
         result = synthesize_label_map(label_map, out_shape, strategy=strategy, tile=tile,
                                       seed=seed, rotations=rotations, layer_order=order,
-                                      resume=edited, progress=progress, photo=photo_image)
+                                      resume=edited, progress=progress, photo=photo_image,
+                                      exemplar_wrap=exemplar_wraps)
     files = {output.name: encode_png(result.label_map)}
     _write_files(output.parent, files)
     if save_levels is not None:
@@ -487,6 +497,7 @@ def generate_command(
     name: NameOption = "bark",
     light: LightOption = None,
     relief: ReliefOption = 1.0,
+    exemplar_wraps: ExemplarWrapsOption = "auto",
     quiet: QuietOption = False,
 ) -> None:
     """Photo to new bark in one step: label map, output label map, texture-by-numbers
@@ -510,7 +521,7 @@ def generate_command(
     options = GenerateOptions(size=parse_size(size), k=k, method=method, strategy=strategy,
                               rotations=rotations, tile=tile, seed=seed, threads=threads,
                               max_memory=parse_memory(max_memory), material=material,
-                              light=_light(light), relief=relief)
+                              light=_light(light), relief=relief, exemplar_wrap=exemplar_wraps)
     extra_paths = parse_extras(extra)
     clash = sorted(set(extra_paths) & set(GENERATE_FILES))
     if clash:

@@ -181,20 +181,30 @@ def make_material(photo: np.ndarray, options: MaterialOptions | None = None, *,
 
 
 def transfer_material(source: MaterialSet, references: np.ndarray, *, tile: bool,
-                      ao_radius: int = AO_RADIUS) -> MaterialSet:
-    """The material set of a synthesized texture: the source's albedo, height, roughness and
-    the AO's photo cavities through the synthesis's reference map ``(H, W, 2)`` (exemplar
-    ``(y, x)``); normals and the height's AO recomputed from the carried height (wrapping when
-    ``tile``)."""
+                      ao_radius: int = AO_RADIUS,
+                      exemplar_wrap: tuple[bool, bool] = (False, False)) -> MaterialSet:
+    """The material set of a synthesized texture: the source's albedo through the synthesis's
+    reference map ``(H, W, 2)`` (exemplar ``(y, x)``), exactly as the colour; its height,
+    roughness and the AO's photo cavities through the same references in the gradient domain
+    (:func:`barkgen.synth.gradient.resolve_continuous`: continuous across the borders of the
+    copied pieces, tileable when ``tile``; ``exemplar_wrap``: the photo tiles along that axis);
+    normals and the height's AO recomputed from that height (wrapping when ``tile``)."""
     from barkgen.synth import apply_references
+    from barkgen.synth.gradient import resolve_continuous
 
     refs = np.asarray(references)
-    height = apply_references(refs, source.height)
+
+    def carry(image: np.ndarray) -> np.ndarray:
+        return resolve_continuous(image, refs, tile=tile, wrap=exemplar_wrap)
+
+    # the height's slopes too, so the normals recomputed from it have no creases at the borders
+    height = resolve_continuous(source.height, refs, tile=tile, wrap=exemplar_wrap,
+                                smooth_slopes=True)
     normals, ao = derived_maps(height, tile=tile, ao_radius=ao_radius)
     cavities = None
     if source.ao_cavities is not None:
-        cavities = apply_references(refs, source.ao_cavities)
+        cavities = carry(source.ao_cavities)
         ao = np.clip(ao + cavities, 0.0, 1.0)
     return MaterialSet(color=apply_references(refs, source.color), height=height, normals=normals, ao=ao,
-                       roughness=apply_references(refs, source.roughness), tile=tile, light=source.light,
+                       roughness=carry(source.roughness), tile=tile, light=source.light,
                        shading_strength=source.shading_strength, ao_cavities=cavities)

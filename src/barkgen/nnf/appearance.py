@@ -53,12 +53,14 @@ def _sample_neighbourhoods(image: np.ndarray, size: int, max_samples: int) -> np
 
 
 def neighbourhood_pca(image: np.ndarray, size: int, n_components: int,
-                      max_samples: int = 8192) -> NeighbourhoodProjection:
+                      max_samples: int = 8192,
+                      wrap: bool | tuple[bool, bool] = False) -> NeighbourhoodProjection:
     """Fit the neighbourhood PCA of an ``(h, w, C)`` float32 feature image and project it.
 
     The principal axes are fitted on a regular grid of neighbourhoods (so the fit is independent of
     any seed) and the full projection is computed with one correlation filter per (component,
-    channel) pair.
+    channel) pair; ``wrap`` (per axis ``(rows, columns)``): the image tiles itself, so its
+    neighbourhoods run round its edges.
     """
     image = np.ascontiguousarray(image, dtype=np.float32)
     h, w, c = image.shape
@@ -78,25 +80,29 @@ def neighbourhood_pca(image: np.ndarray, size: int, n_components: int,
     weights = (basis.T.reshape(d, size, size, c) * win[None, :, :, None]).astype(np.float32)
     mean_nb = (mean.reshape(size, size, c) / np.maximum(win[:, :, None], 1e-12)).astype(np.float32)
 
-    features = project_neighbourhoods(image, weights, mean_nb)
+    features = project_neighbourhoods(image, weights, mean_nb, wrap=wrap)
     return NeighbourhoodProjection(size=size, weights=weights, mean=mean_nb,
                                    features=features, scale=1.0)
 
 
 def project_neighbourhoods(image: np.ndarray, weights: np.ndarray, mean: np.ndarray,
-                           wrap: bool = False) -> np.ndarray:
+                           wrap: bool | tuple[bool, bool] = False) -> np.ndarray:
     """Project every ``size x size`` neighbourhood of ``image`` ``(h, w, C)``:
     ``a(p) = sum weights[d, dy, dx, c] * (image[p + (dy, dx), c] - mean[dy, dx, c])``, one
     correlation filter per (component, channel) pair. Borders are reflected, or wrapped around
-    when ``wrap`` (tileable outputs). Returns ``(h * w, D)`` float32."""
+    when ``wrap`` (tileable outputs, exemplars that tile; a pair ``(rows, columns)`` wraps each
+    axis on its own). Returns ``(h * w, D)`` float32."""
     import cv2
 
     image = np.ascontiguousarray(image, dtype=np.float32)
     h, w, c = image.shape
     d, size = weights.shape[0], weights.shape[1]
     r = size // 2
-    if wrap:
-        image = np.pad(image, ((r, r), (r, r), (0, 0)), mode="wrap")
+    wrap_y, wrap_x = (wrap, wrap) if isinstance(wrap, (bool, np.bool_)) else wrap
+    wrap = bool(wrap_y or wrap_x)
+    if wrap:  # the axis that does not wrap is reflected like the filter's own border
+        image = np.pad(image, ((r, r), (0, 0), (0, 0)), mode="wrap" if wrap_y else "reflect")
+        image = np.pad(image, ((0, 0), (r, r), (0, 0)), mode="wrap" if wrap_x else "reflect")
     features = np.empty((h, w, d), np.float32)
     offset = np.einsum("dyxc,yxc->d", weights, mean)
     channels = [np.ascontiguousarray(image[:, :, ch]) for ch in range(c)]

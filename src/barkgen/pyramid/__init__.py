@@ -31,24 +31,35 @@ def count_levels(exemplar_shape: tuple[int, int], output_shape: tuple[int, int],
     return max(1, min(n_ex, n_out))
 
 
-def _pyr_down(image: np.ndarray) -> np.ndarray:
+#: rows or columns of wrapped padding before a pyrDown of an image that tiles (even, so the
+#: subsampling grid stays on the image's own pixels; 4 >= the 5-tap kernel's reach)
+_WRAP_PAD = 4
+
+
+def _pyr_down(image: np.ndarray, wrap: tuple[bool, bool] = (False, False)) -> np.ndarray:
     import cv2
 
     h, w = image.shape[:2]
-    dst = ((w + 1) // 2, (h + 1) // 2)
+    py, px = (_WRAP_PAD if wrap[0] else 0), (_WRAP_PAD if wrap[1] else 0)
+    if py or px:
+        image = np.pad(image, ((py, py), (px, px), (0, 0)), mode="wrap")
+    dst = ((w + 2 * px + 1) // 2, (h + 2 * py + 1) // 2)
     chans = [cv2.pyrDown(np.ascontiguousarray(image[:, :, c]), dstsize=dst,
                          borderType=cv2.BORDER_REFLECT_101) for c in range(image.shape[2])]
-    return np.stack(chans, axis=-1)
+    out = np.stack(chans, axis=-1)
+    return np.ascontiguousarray(out[py // 2:py // 2 + (h + 1) // 2, px // 2:px // 2 + (w + 1) // 2])
 
 
-def gaussian_pyramid(image: np.ndarray, n_levels: int) -> list[np.ndarray]:
+def gaussian_pyramid(image: np.ndarray, n_levels: int,
+                     wrap: tuple[bool, bool] = (False, False)) -> list[np.ndarray]:
     """Gaussian pyramid of an ``(H, W, C)`` float32 image, finest level first.
 
     Each level is blurred with the 5-tap binomial kernel and subsampled by two; level sizes follow
-    :func:`level_shape`.
+    :func:`level_shape`. ``wrap`` ``(rows, columns)``: the image tiles itself along that axis, so
+    the blur runs round its edges (elsewhere they are reflected).
     """
     image = np.ascontiguousarray(image, dtype=np.float32)
     levels = [image]
     for _ in range(1, n_levels):
-        levels.append(_pyr_down(levels[-1]))
+        levels.append(_pyr_down(levels[-1], wrap))
     return levels

@@ -131,6 +131,7 @@ def synthesize_label_map(
     progress: ProgressCallback | None = None,
     cache: AnalysisCache | None = None,
     photo: np.ndarray | None = None,
+    exemplar_wrap: str | bool | tuple[bool, bool] = "auto",
 ) -> LabelMapResult:
     """Synthesize a new label map of ``size`` (``(height, width)`` or an int) from the
     exemplar's ``label_map`` (laitoch2018 §3.6; Figure 1.2's "output label map").
@@ -155,6 +156,9 @@ def synthesize_label_map(
             strategy's exemplar analysis (:func:`analyse_label_map`).
         photo: the photo ``label_map`` labels (same height and width); the joint strategy
             needs it, the others do not use it.
+        exemplar_wrap: ``"auto"`` (the photo, or else the label map, decides whether it tiles
+            along each axis: :func:`barkgen.synth.exemplar_wraps`), ``"yes"``, ``"no"`` or a
+            ``(rows, columns)`` pair; the engine strategies use the exemplar as a torus there.
     """
     if strategy not in STRATEGIES:
         raise InvalidInputError(f"strategy must be one of {', '.join(STRATEGIES)}, not {strategy!r}")
@@ -180,7 +184,8 @@ def synthesize_label_map(
 
         out, references = synthesize_codes(codes, palette.size, out_shape, tile=tile,
                                            seed=int(seed), start=start, on_level=on_level,
-                                           progress=progress, cache=cache, photo=photo)
+                                           progress=progress, cache=cache, photo=photo,
+                                           exemplar_wrap=_wrap(exemplar_wrap, codes, photo))
     else:
         from barkgen.shapes.layered import synthesize_layers
 
@@ -223,8 +228,16 @@ def _check_photo(photo: np.ndarray | None, shape: tuple[int, int], strategy: str
     return photo
 
 
+def _wrap(mode, codes: np.ndarray, photo: np.ndarray | None) -> tuple[bool, bool]:
+    """The exemplar's wrap: decided on the photo when there is one, else on the label map."""
+    from barkgen.synth.edges import resolve_exemplar_wrap
+
+    return resolve_exemplar_wrap(mode, codes if photo is None else photo)
+
+
 def analyse_label_map(label_map: np.ndarray, size, cache: AnalysisCache, *,
-                      photo: np.ndarray | None = None) -> AnalysisCache:
+                      photo: np.ndarray | None = None,
+                      exemplar_wrap: str | bool | tuple[bool, bool] = "auto") -> AnalysisCache:
     """Run the engine strategy's (with ``photo``, the joint strategy's) exemplar analysis for
     outputs of ``size`` into ``cache``, so that every :func:`synthesize_label_map` of this label
     map and size (any seed) skips it."""
@@ -232,4 +245,5 @@ def analyse_label_map(label_map: np.ndarray, size, cache: AnalysisCache, *,
 
     codes, palette = to_codes(label_map)
     photo = None if photo is None else _check_photo(photo, codes.shape, "joint")
-    return analyse_codes(codes, palette.size, parse_output_shape(size), cache, photo=photo)
+    return analyse_codes(codes, palette.size, parse_output_shape(size), cache, photo=photo,
+                         exemplar_wrap=_wrap(exemplar_wrap, codes, photo))

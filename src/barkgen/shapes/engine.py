@@ -129,7 +129,9 @@ def synthesize_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int
                      config: SynthesisConfig | None = None,
                      balance_weight: float | None = None,
                      cache: AnalysisCache | None = None,
-                     photo: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                     photo: np.ndarray | None = None,
+                     exemplar_wrap: tuple[bool, bool] = (False, False)
+                     ) -> tuple[np.ndarray, np.ndarray]:
     """Synthesize label codes ``(H, W)`` from the exemplar's ``codes`` with the core solver;
     returns them and their reference map ``(H, W, 2)`` (exemplar ``(y, x)`` per pixel).
 
@@ -142,7 +144,8 @@ def synthesize_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int
     initialisation of texture-by-numbers (coherent exemplar pieces whose labels match the edit,
     laitoch2018 §3.4.2) and the solver continues from that level. ``on_level(level, codes)``
     receives each level's result. ``cache``: an :class:`AnalysisCache` holding (or to keep) the
-    exemplar's k-coherence analysis (:func:`analyse_codes`).
+    exemplar's k-coherence analysis (:func:`analyse_codes`). ``exemplar_wrap`` ``(rows,
+    columns)``: the exemplar tiles along that axis (:mod:`barkgen.synth.edges`).
     """
     joint = photo is not None
     features, config = _solver_inputs(codes, n_labels, photo, config)
@@ -169,7 +172,8 @@ def synthesize_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int
         if joint:
             cache = cache if cache is not None else AnalysisCache()
             resume, coarse_levels = _choose_coarse_start(ex, features, out_shape, n_levels, config,
-                                                         balance, tile=tile, rng=rng, cache=cache)
+                                                         balance, tile=tile, rng=rng, cache=cache,
+                                                         exemplar_wrap=exemplar_wrap)
             for lvl, image in coarse_levels if on_level is not None else ():
                 on_level(lvl, image)
         else:
@@ -184,7 +188,8 @@ def synthesize_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int
 
     result = solve(ex, {}, features, out_shape, n_levels=n_levels, config=config, seed=seed,
                    tile=tile, guidance=guidance, progress=progress, debug=debug, start=resume,
-                   balance=balance, cache=cache)
+                   balance=balance, cache=cache, exemplar_wrap=exemplar_wrap,
+                   seam_channels=features.shape[2] - n_labels if joint else None)
     return result.image[:, :, 0].astype(np.int32), result.references
 
 
@@ -214,8 +219,9 @@ def start_score(references: np.ndarray, exemplar_width: int, shares: np.ndarray,
 
 def _choose_coarse_start(ex: np.ndarray, features: np.ndarray, out_shape: tuple[int, int],
                          n_levels: int, config: SynthesisConfig, balance: LabelBalance, *,
-                         tile: bool, rng: np.random.Generator,
-                         cache: AnalysisCache) -> tuple[tuple[int, np.ndarray] | None, list]:
+                         tile: bool, rng: np.random.Generator, cache: AnalysisCache,
+                         exemplar_wrap: tuple[bool, bool] = (False, False)
+                         ) -> tuple[tuple[int, np.ndarray] | None, list]:
     """The joint strategy's start: :data:`JOINT_CANDIDATES` runs of the coarsest levels down to
     :data:`JOINT_SELECT_DEPTH` below the coarsest, each from its own seed and with
     :data:`JOINT_CANDIDATE_BALANCE` of the area term; the one with the lowest
@@ -239,7 +245,7 @@ def _choose_coarse_start(ex: np.ndarray, features: np.ndarray, out_shape: tuple[
 
         run = solve(ex, {}, features, out_shape, n_levels=n_levels, config=config,
                     seed=int(candidate_seed), tile=tile, debug=keep, cache=cache, stop_level=level,
-                    balance=gentle)
+                    balance=gentle, exemplar_wrap=exemplar_wrap)
         references = run.references[..., 0] * run.exemplar_shape[1] + run.references[..., 1]
         score = start_score(references, run.exemplar_shape[1], balance.shares[level],
                             balance.fractions)
@@ -336,12 +342,14 @@ def joint_features(codes: np.ndarray, n_labels: int, photo: np.ndarray) -> np.nd
 
 def analyse_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int], cache: AnalysisCache,
                   config: SynthesisConfig | None = None,
-                  photo: np.ndarray | None = None) -> AnalysisCache:
+                  photo: np.ndarray | None = None,
+                  exemplar_wrap: tuple[bool, bool] = (False, False)) -> AnalysisCache:
     """The k-coherence analysis that :func:`synthesize_codes` needs for outputs of
     ``out_shape`` (with ``photo``: the joint strategy's), run into ``cache`` ahead of any
     synthesis."""
     features, config = _solver_inputs(codes, n_labels, photo, config)
-    cache.analyse(features, engine_levels(codes.shape, out_shape, config), config)
+    cache.analyse(features, engine_levels(codes.shape, out_shape, config), config,
+                  wrap=exemplar_wrap)
     return cache
 
 

@@ -1,6 +1,7 @@
 """Texture synthesis: the k-coherence discrete solver and what is built on it."""
 
 from barkgen.synth.config import SynthesisConfig
+from barkgen.synth.edges import exemplar_wraps
 from barkgen.synth.solver import (
     AnalysisCache,
     LevelAnalysis,
@@ -22,6 +23,7 @@ __all__ = [
     "analyse_texture_by_numbers",
     "apply_references",
     "estimate_memory",
+    "exemplar_wraps",
     "matching_features",
     "synthesize",
     "texture_by_numbers",

@@ -48,6 +48,30 @@ def _reflect(v, n):
 
 
 @nb.njit(inline="always")
+def _ex_coord(v, n, wrap):
+    """Exemplar coordinate ``v`` of a neighbourhood pixel: on the torus when the exemplar tiles
+    along this axis (``wrap``), else reflected like the analysis's filters."""
+    if wrap:
+        if v < 0:
+            return v + n
+        if v >= n:
+            return v - n
+        return v
+    return _reflect(v, n)
+
+
+@nb.njit(inline="always")
+def _ex_inside(v, n, wrap):
+    """Exemplar coordinate ``v`` of a shifted reference: wrapped when the exemplar tiles along
+    this axis, else -1 when it falls outside."""
+    if v < 0:
+        return v + n if wrap else -1
+    if v >= n:
+        return v - n if wrap else -1
+    return v
+
+
+@nb.njit(inline="always")
 def _mix(z):
     """splitmix64 finaliser: a well-mixed 64-bit hash of a uint64."""
     z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
@@ -56,27 +80,28 @@ def _mix(z):
 
 
 @nb.njit(inline="always")
-def _shifted_neighbour_source(refs, y, x, dy, dx, tile, ex_y, ex_x, ex_h, ex_w):
+def _shifted_neighbour_source(refs, y, x, dy, dx, tile, ex_y, ex_x, ex_h, ex_w, wrap_y,
+                              wrap_x):
     """The exemplar pixel that output pixel (y, x) would take to continue the piece its
     neighbour (y + dy, x + dx) was copied from (the neighbour's reference shifted back by
     (dy, dx)); -1 when the neighbour is outside the output (not tiled) or the shifted pixel
-    outside the exemplar."""
+    outside the exemplar (which wraps along the axes ``wrap_y`` / ``wrap_x``)."""
     H, W = refs.shape
     yy = y + dy
     xx = x + dx
     if not tile and (yy < 0 or yy >= H or xx < 0 or xx >= W):
         return -1
     e = refs[_wrap_or_clamp(yy, H, tile), _wrap_or_clamp(xx, W, tile)]
-    cy = ex_y[e] - dy
-    cx = ex_x[e] - dx
-    if cy < 0 or cy >= ex_h or cx < 0 or cx >= ex_w:
+    cy = _ex_inside(ex_y[e] - dy, ex_h, wrap_y)
+    cx = _ex_inside(ex_x[e] - dx, ex_w, wrap_x)
+    if cy < 0 or cx < 0:
         return -1
     return cy * ex_w + cx
 
 
 @nb.njit(parallel=True, cache=True, fastmath=True)
-def m_step(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, proj_w, proj_mean, appearance, ksets,
-           penalty, kset_cost, stride, oy, ox, tile, forbid, guide_ex, guide_out, ex_labels,
+def m_step(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, proj_w, proj_mean, appearance,
+           ksets, penalty, kset_cost, stride, oy, ox, tile, forbid, guide_ex, guide_out, ex_labels,
            target, pool, pool_start, n_random, random_key, match):  # pragma: no cover - compiled
     """M-step on the sparse grid ``(oy + i * stride, ox + j * stride)``.
 
@@ -124,10 +149,10 @@ def m_step(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, proj_w, proj_mean, appearance,
             n_wrong = 0
             for dy in range(-r, r + 1):
                 yy = _wrap_or_clamp(y + dy, H, tile)
-                ey = _reflect(cy0 + dy, ex_h)
+                ey = _ex_coord(cy0 + dy, ex_h, wrap_y)
                 for dx in range(-r, r + 1):
                     xx = _wrap_or_clamp(x + dx, W, tile)
-                    if refs[yy, xx] != ey * ex_w + _reflect(cx0 + dx, ex_w):
+                    if refs[yy, xx] != ey * ex_w + _ex_coord(cx0 + dx, ex_w, wrap_x):
                         n_diff += 1
                     if n_random > 0 and ex_labels[refs[yy, xx]] != target[yy, xx]:
                         n_wrong += 1
@@ -137,11 +162,11 @@ def m_step(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, proj_w, proj_mean, appearance,
                 if n_diff > 0:
                     for dy in range(-r, r + 1):
                         yy = _wrap_or_clamp(y + dy, H, tile)
-                        ey = _reflect(cy0 + dy, ex_h)
+                        ey = _ex_coord(cy0 + dy, ex_h, wrap_y)
                         for dx in range(-r, r + 1):
                             xx = _wrap_or_clamp(x + dx, W, tile)
                             e = refs[yy, xx]
-                            u = ey * ex_w + _reflect(cx0 + dx, ex_w)
+                            u = ey * ex_w + _ex_coord(cx0 + dx, ex_w, wrap_x)
                             if e == u:
                                 continue
                             for c in range(C):
@@ -167,7 +192,7 @@ def m_step(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, proj_w, proj_mean, appearance,
             for dy in range(-1, 2):
                 for dx in range(-1, 2):
                     u = _shifted_neighbour_source(refs, y, x, dy, dx, tile, ex_y, ex_x, ex_h,
-                                                  ex_w)
+                                                  ex_w, wrap_y, wrap_x)
                     if u < 0:
                         continue
                     dup = False
@@ -202,9 +227,9 @@ def m_step(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, proj_w, proj_mean, appearance,
                 n_pool = pool_start[lab + 1] - p0
                 v2 = pool[p0 + np.int64(h % np.uint64(n_pool))]
                 if sy != 0 or sx != 0:
-                    vy = ex_y[v2] - sy
-                    vx = ex_x[v2] - sx
-                    if vy < 0 or vy >= ex_h or vx < 0 or vx >= ex_w:
+                    vy = _ex_inside(ex_y[v2] - sy, ex_h, wrap_y)
+                    vx = _ex_inside(ex_x[v2] - sx, ex_w, wrap_x)
+                    if vy < 0 or vx < 0:
                         continue
                     v2 = vy * ex_w + vx
                 best, best_cost = _consider(v2, penalty[v2] + kset_cost, best, best_cost, fb, y,
@@ -277,8 +302,8 @@ def first_on_grid(y, radius, o, stride, n, tile):
 
 
 @nb.njit(parallel=True, cache=True, fastmath=True)
-def e_step(match, refs, ex_feat, ex_y, ex_x, ex_h, ex_w, radius, stride, oy, ox, tile, sigma,
-           forbid, ex_labels, target, label_discount, out):  # pragma: no cover - compiled
+def e_step(match, refs, ex_feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, radius, stride, oy, ox,
+           tile, sigma, forbid, ex_labels, target, label_discount, out):  # pragma: no cover - compiled
     """E-step (laitoch2018 eq. 3.5, Han et al. 2006): every output pixel collects the
     forward-shifted references voted by the matched neighbourhoods that cover it (Gaussian
     weights by distance to the neighbourhood centre) and takes the reference with the largest
@@ -335,9 +360,9 @@ def e_step(match, refs, ex_feat, ex_y, ex_x, ex_h, ex_w, radius, stride, oy, ox,
                     m = match[yy, xx]
                     if m < 0:
                         continue
-                    ey = ex_y[m] - dy
-                    ex = ex_x[m] - dx
-                    if ey < 0 or ey >= ex_h or ex < 0 or ex >= ex_w:
+                    ey = _ex_inside(ex_y[m] - dy, ex_h, wrap_y)
+                    ex = _ex_inside(ex_x[m] - dx, ex_w, wrap_x)
+                    if ey < 0 or ex < 0:
                         continue
                     v = ey * ex_w + ex
                     if fb >= 0 and offset_code(ey, ex, y, x) == fb:
@@ -401,10 +426,25 @@ def e_step(match, refs, ex_feat, ex_y, ex_x, ex_h, ex_w, radius, stride, oy, ox,
             out[y, x] = best
 
 
+@nb.njit(inline="always")
+def _continues(refs, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, py, px, qy, qx, dy, dx):
+    """True when output pixel (qy, qx) = (py + dy, px + dx) (a neighbour) copies the exemplar
+    pixel next to the one (py, px) copies, the same step away (on the exemplar's torus along
+    its wrapping axes): the two belong to one verbatim piece."""
+    e = refs[py, px]
+    f = refs[qy, qx]
+    cy = _ex_inside(ex_y[e] + dy, ex_h, wrap_y)
+    cx = _ex_inside(ex_x[e] + dx, ex_w, wrap_x)
+    return cy >= 0 and cx >= 0 and cy == ex_y[f] and cx == ex_x[f]
+
+
 @nb.njit(cache=True)
-def label_offset_regions(refs, ex_y, ex_x, labels):  # pragma: no cover - compiled
-    """Label the 4-connected regions of constant offset (reference - position), i.e. the pieces
-    copied verbatim from the exemplar. Fills ``labels`` and returns each region's pixel count."""
+def label_pieces(refs, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, tile,
+                 labels):  # pragma: no cover - compiled
+    """Label the pieces copied verbatim from the exemplar: the 4-connected regions whose
+    neighbouring output pixels copy neighbouring exemplar pixels (:func:`_continues`). A piece
+    that runs round a tiled output (``tile``) or across a wrapping exemplar's edge is one piece.
+    Fills ``labels`` and returns each piece's pixel count."""
     H, W = refs.shape
     for y in range(H):
         for x in range(W):
@@ -416,8 +456,6 @@ def label_offset_regions(refs, ex_y, ex_x, labels):  # pragma: no cover - compil
         for x0 in range(W):
             if labels[y0, x0] >= 0:
                 continue
-            e0 = refs[y0, x0]
-            code = offset_code(ex_y[e0], ex_x[e0], y0, x0)
             labels[y0, x0] = n
             stack[0] = y0 * W + x0
             top = 1
@@ -429,12 +467,19 @@ def label_offset_regions(refs, ex_y, ex_x, labels):  # pragma: no cover - compil
                 px = p - py * W
                 count += 1
                 for k in range(4):
-                    qy = py + (k == 0) - (k == 1)
-                    qx = px + (k == 2) - (k == 3)
-                    if qy < 0 or qy >= H or qx < 0 or qx >= W or labels[qy, qx] >= 0:
+                    dy = (k == 0) - (k == 1)
+                    dx = (k == 2) - (k == 3)
+                    qy = py + dy
+                    qx = px + dx
+                    if tile:
+                        qy = _wrap_or_clamp(qy, H, True)
+                        qx = _wrap_or_clamp(qx, W, True)
+                    elif qy < 0 or qy >= H or qx < 0 or qx >= W:
                         continue
-                    e1 = refs[qy, qx]
-                    if offset_code(ex_y[e1], ex_x[e1], qy, qx) == code:
+                    if labels[qy, qx] >= 0:
+                        continue
+                    if _continues(refs, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, py, px, qy, qx,
+                                  dy, dx):
                         labels[qy, qx] = n
                         stack[top] = qy * W + qx
                         top += 1
@@ -443,12 +488,115 @@ def label_offset_regions(refs, ex_y, ex_x, labels):  # pragma: no cover - compil
     return sizes[:n].copy()
 
 
+@nb.njit(inline="always")
+def _feature_distance(ex_feat, a, b):
+    d2 = 0.0
+    for c in range(ex_feat.shape[1]):
+        v = ex_feat[a, c] - ex_feat[b, c]
+        d2 += v * v
+    return np.sqrt(d2)
+
+
+@nb.njit(inline="always")
+def _seam_cost(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, c, qy, qx, dy, dx):
+    """Cost of the seam between output pixel p taking exemplar pixel ``c`` and its neighbour
+    q = p + (dy, dx) keeping its reference (Kwatra et al. 2003, eq. 1): ||A(p) - B(p)|| +
+    ||A(q) - B(q)||, A the piece ``c`` belongs to, B q's piece, each continued one pixel
+    across the seam; 0 when ``c`` continues q's piece. A piece that cannot be continued (it
+    reaches a non-wrapping exemplar edge) is taken as its last pixel."""
+    f = refs[qy, qx]
+    ay = _ex_inside(ex_y[c] + dy, ex_h, wrap_y)
+    ax = _ex_inside(ex_x[c] + dx, ex_w, wrap_x)
+    if ay >= 0 and ax >= 0 and ay == ex_y[f] and ax == ex_x[f]:
+        return 0.0
+    a_q = ay * ex_w + ax if (ay >= 0 and ax >= 0) else c
+    by = _ex_inside(ex_y[f] - dy, ex_h, wrap_y)
+    bx = _ex_inside(ex_x[f] - dx, ex_w, wrap_x)
+    b_p = by * ex_w + bx if (by >= 0 and bx >= 0) else f
+    return _feature_distance(ex_feat, c, b_p) + _feature_distance(ex_feat, a_q, f)
+
+
+@nb.njit(parallel=True, cache=True, fastmath=True)
+def refine_seams(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, tile, parity, forbid,
+                 ex_labels, target, out):  # pragma: no cover - compiled
+    """One half-sweep of seam optimisation (Kwatra et al. 2003, §3: the seam cost minimised by
+    local moves): every output pixel with ``(y + x) % 2 == parity`` takes, among its own
+    reference and the forward-shifted references of its 4 neighbours (each continues a
+    neighbouring piece), the one whose seams with its 4 neighbours cost least
+    (:func:`_seam_cost`). Pixels of one parity only have neighbours of the other, so a
+    half-sweep is exact and independent of threads, and the total seam cost never rises. The
+    borders between pieces thus move onto low-error paths instead of running straight along
+    the up-sampling grid. Candidates with the forbidden offset are skipped; when guided
+    (``ex_labels`` has more than one entry) a candidate of the wrong label never replaces one of
+    the wanted label. Pixels of the other parity are copied. Returns the number changed."""
+    H, W = refs.shape
+    guided = ex_labels.shape[0] > 1
+    changed = np.zeros(H, np.int64)
+    for y in nb.prange(H):
+        cand = np.empty(5, np.int32)
+        for x in range(W):
+            e0 = refs[y, x]
+            out[y, x] = e0
+            if (y + x) % 2 != parity:
+                continue
+            n = 1
+            cand[0] = e0
+            fb = forbid[y, x]
+            own_ok = (not guided) or ex_labels[e0] == target[y, x]
+            for k in range(4):
+                dy = (k == 0) - (k == 1)
+                dx = (k == 2) - (k == 3)
+                u = _shifted_neighbour_source(refs, y, x, dy, dx, tile, ex_y, ex_x, ex_h, ex_w,
+                                              wrap_y, wrap_x)
+                if u < 0:
+                    continue
+                if fb >= 0 and offset_code(ex_y[u], ex_x[u], y, x) == fb:
+                    continue
+                if guided and own_ok and ex_labels[u] != target[y, x]:
+                    continue
+                dup = False
+                for t in range(n):
+                    if cand[t] == u:
+                        dup = True
+                        break
+                if not dup:
+                    cand[n] = u
+                    n += 1
+            if n == 1:
+                continue
+            best = e0
+            best_cost = np.inf
+            for t in range(n):
+                c = cand[t]
+                cost = 0.0
+                for k in range(4):
+                    dy = (k == 0) - (k == 1)
+                    dx = (k == 2) - (k == 3)
+                    qy = y + dy
+                    qx = x + dx
+                    if tile:
+                        qy = _wrap_or_clamp(qy, H, True)
+                        qx = _wrap_or_clamp(qx, W, True)
+                    elif qy < 0 or qy >= H or qx < 0 or qx >= W:
+                        continue
+                    cost += _seam_cost(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, c,
+                                       qy, qx, dy, dx)
+                if cost < best_cost - 1e-6:
+                    best_cost = cost
+                    best = c
+            if best != e0:
+                out[y, x] = best
+                changed[y] += 1
+    return changed.sum()
+
+
 @nb.njit(parallel=True, cache=True)
-def upsample_state(refs, forbid, coarse_y, coarse_x, fine_h, fine_w, out_refs,
+def upsample_state(refs, forbid, coarse_y, coarse_x, fine_h, fine_w, wrap_y, wrap_x, out_refs,
                    out_forbid):  # pragma: no cover - compiled
     """Exact reference up-sampling (laitoch2018 §3.3.2): output pixel (y, x) takes the child
-    (2v + y % 2, 2u + x % 2) of the exemplar reference (v, u) of its parent (y // 2, x // 2).
-    Forbidden offsets (copy-size control) double with the resolution."""
+    (2v + y % 2, 2u + x % 2) of the exemplar reference (v, u) of its parent (y // 2, x // 2)
+    (on an exemplar of odd side, a child past its edge is its first row or column when it wraps,
+    else its last). Forbidden offsets (copy-size control) double with the resolution."""
     H, W = out_refs.shape
     two_b = 2 * OFFSET_BIAS
     for y in nb.prange(H):
@@ -458,10 +606,10 @@ def upsample_state(refs, forbid, coarse_y, coarse_x, fine_h, fine_w, out_refs,
             e = refs[py, px]
             fy = 2 * coarse_y[e] + (y & 1)
             fx = 2 * coarse_x[e] + (x & 1)
-            if fy >= fine_h:
-                fy = fine_h - 1
+            if fy >= fine_h:  # (odd exemplar sides: the last child row does not exist)
+                fy = 0 if wrap_y else fine_h - 1
             if fx >= fine_w:
-                fx = fine_w - 1
+                fx = 0 if wrap_x else fine_w - 1
             out_refs[y, x] = fy * fine_w + fx
             code = forbid[py, px]
             if code < 0:
@@ -473,7 +621,7 @@ def upsample_state(refs, forbid, coarse_y, coarse_x, fine_h, fine_w, out_refs,
 
 
 @nb.njit(parallel=True, cache=True)
-def enforce_labels(refs, ex_y, ex_x, ex_h, ex_w, ex_labels, target, tile,
+def enforce_labels(refs, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, ex_labels, target, tile,
                    out):  # pragma: no cover - compiled
     """Label clean-up (texture-by-numbers): an output pixel whose exemplar label differs from the
     wanted one takes, among the forward-shifted references of its 8 neighbours that have the
@@ -496,7 +644,7 @@ def enforce_labels(refs, ex_y, ex_x, ex_h, ex_w, ex_labels, target, tile,
                     if dy == 0 and dx == 0:
                         continue
                     u = _shifted_neighbour_source(refs, y, x, dy, dx, tile, ex_y, ex_x, ex_h,
-                                                  ex_w)
+                                                  ex_w, wrap_y, wrap_x)
                     if u < 0 or ex_labels[u] != want:
                         continue
                     found = False
@@ -518,3 +666,206 @@ def enforce_labels(refs, ex_y, ex_x, ex_h, ex_w, ex_labels, target, tile,
             out[y, x] = cand[best]
             changed[y] += 1
     return changed.sum()
+
+
+@nb.njit(inline="always")
+def _steps_on(d, n, wraps):
+    """A coordinate step ``d`` that should be 0, folded onto the exemplar's torus when it wraps
+    along that axis (``n`` its side)."""
+    if wraps:
+        d = d % n
+        if d > n // 2:
+            d -= n
+    return d
+
+
+@nb.njit(cache=True)
+def seam_runs(ry, rx, ex_h, ex_w, wrap_y, wrap_x, tile, min_run):  # pragma: no cover - compiled
+    """The straight seams between rows of a reference map (``ry``, ``rx``: exemplar row and
+    column per output pixel): runs of at least ``min_run`` neighbouring columns along which
+    output rows ``i`` and ``i + 1`` do not continue one piece (round the end when ``tile``; the
+    last row pairs with the first). Returns ``(n, 3)`` int64 rows ``(i, start, length)``."""
+    H, W = ry.shape
+    n_pairs = H if tile else H - 1
+    out = np.empty((max(n_pairs * (W // max(min_run, 1) + 1), 1), 3), np.int64)
+    n = 0
+    seam = np.empty(W, np.bool_)
+    for i in range(n_pairs):
+        j = i + 1 if i + 1 < H else 0
+        any_seam = False
+        all_seam = True
+        for x in range(W):
+            dy = _steps_on(ry[j, x] - ry[i, x] - 1, ex_h, wrap_y)
+            dx = _steps_on(rx[j, x] - rx[i, x], ex_w, wrap_x)
+            seam[x] = dy != 0 or dx != 0
+            any_seam = any_seam or seam[x]
+            all_seam = all_seam and seam[x]
+        if not any_seam:
+            continue
+        if all_seam:
+            if W >= min_run:
+                out[n, 0] = i
+                out[n, 1] = 0
+                out[n, 2] = W
+                n += 1
+            continue
+        first = 0
+        if tile:  # start the scan on a pixel that is no seam, so no run is split by the end
+            while seam[first]:
+                first += 1
+        length = 0
+        start = 0
+        for t in range(W + 1):
+            x = (first + t) % W if tile else t
+            on = t < W and seam[x]
+            if on:
+                if length == 0:
+                    start = x
+                length += 1
+            else:
+                if length >= min_run:
+                    out[n, 0] = i
+                    out[n, 1] = start
+                    out[n, 2] = length
+                    n += 1
+                length = 0
+            if not tile and t == W - 1:
+                if length >= min_run:
+                    out[n, 0] = i
+                    out[n, 1] = start
+                    out[n, 2] = length
+                    n += 1
+                break
+    return out[:n].copy()
+
+
+@nb.njit(inline="always")
+def _feat_dist(feat, ay, ax, by, bx):
+    d2 = 0.0
+    for c in range(feat.shape[2]):
+        v = feat[ay, ax, c] - feat[by, bx, c]
+        d2 += v * v
+    return np.sqrt(d2)
+
+
+@nb.njit(inline="always")
+def _coord_seam_cost(feat, ex_h, ex_w, wrap_y, wrap_x, cy, cx, fy, fx, dy, dx):
+    """:func:`_seam_cost` on exemplar coordinates: a pixel taking ``(cy, cx)`` beside its
+    neighbour ``(dy, dx)`` away taking ``(fy, fx)``; 0 when the first continues into the other."""
+    ay = _ex_inside(cy + dy, ex_h, wrap_y)
+    ax = _ex_inside(cx + dx, ex_w, wrap_x)
+    if ay >= 0 and ax >= 0 and ay == fy and ax == fx:
+        return 0.0
+    if ay < 0 or ax < 0:
+        ay = cy
+        ax = cx
+    by = _ex_inside(fy - dy, ex_h, wrap_y)
+    bx = _ex_inside(fx - dx, ex_w, wrap_x)
+    if by < 0 or bx < 0:
+        by = fy
+        bx = fx
+    return _feat_dist(feat, cy, cx, by, bx) + _feat_dist(feat, ay, ax, fy, fx)
+
+
+@nb.njit(cache=True)
+def seam_band(ry, rx, feat, wrap_y, wrap_x, tile, i, cols, band, cand_y, cand_x, valid,
+              member, cost, w_down, w_right):  # pragma: no cover - compiled
+    """The graph of one straight seam's re-cut (``barkgen.synth.cuts``), between output rows
+    ``i`` and ``i + 1`` along columns ``cols``, over the ``2 * band`` rows around it.
+
+    Fills, per band pixel ``(k, c)`` (output row ``i - band + 1 + k``, column ``cols[c]``):
+    ``cand_y/cand_x[l]`` the reference of choice ``l`` (0: the pixel of row ``i`` continued up
+    or down, 1: that of row ``i + 1``), ``valid[l]`` whether it exists on the exemplar,
+    ``member`` whether the pixel is in the band (it belongs to its side's piece, unbroken from
+    the seam), ``cost[l]`` the seam cost with its neighbours outside the band (plus the
+    graph-representable part of the pair terms) and ``w_down``/``w_right`` the pair weights to
+    the band pixel below / to the right (Kolmogorov & Zabih 2004's reduction of a 2x2 table,
+    clipped at 0 where it is not submodular). Returns the number of band pixels."""
+    H, W = ry.shape
+    ex_h, ex_w = feat.shape[0], feat.shape[1]
+    L = cols.shape[0]
+    K2 = 2 * band
+    j = i + 1 if i + 1 < H else 0
+    n = 0
+    for c in range(L):
+        x = cols[c]
+        for k in range(K2):
+            off = k - (band - 1)
+            y = i + off
+            inside = True
+            if tile:
+                y = y % H
+            elif y < 0 or y >= H:
+                inside = False
+                y = min(max(y, 0), H - 1)
+            vy = _ex_inside(ry[i, x] + off, ex_h, wrap_y)
+            cand_y[0, k, c] = max(vy, 0)
+            cand_x[0, k, c] = rx[i, x]
+            valid[0, k, c] = vy >= 0
+            vy = _ex_inside(ry[j, x] + off - 1, ex_h, wrap_y)
+            cand_y[1, k, c] = max(vy, 0)
+            cand_x[1, k, c] = rx[j, x]
+            valid[1, k, c] = vy >= 0
+            side = 0 if off <= 0 else 1
+            member[k, c] = (inside and valid[side, k, c] and ry[y, x] == cand_y[side, k, c]
+                            and rx[y, x] == cand_x[side, k, c])
+        # unbroken from the seam: rows i, i - 1, ... and i + 1, i + 2, ...
+        for k in range(band - 2, -1, -1):
+            member[k, c] = member[k, c] and member[k + 1, c]
+        for k in range(band + 1, K2):
+            member[k, c] = member[k, c] and member[k - 1, c]
+    for c in range(L):
+        for k in range(K2):
+            cost[0, k, c] = 0.0
+            cost[1, k, c] = 0.0
+            w_down[k, c] = 0.0
+            w_right[k, c] = 0.0
+    for c in range(L):
+        x = cols[c]
+        for k in range(K2):
+            if not member[k, c]:
+                continue
+            n += 1
+            y = (i + k - (band - 1)) % H
+            for t in range(4):
+                dy = (t == 0) - (t == 1)
+                dx = (t == 2) - (t == 3)
+                kk = k + dy
+                cc = c + dx
+                if 0 <= kk < K2 and 0 <= cc < L and member[kk, cc]:
+                    continue  # a pair inside the band: below
+                qy = y + dy
+                qx = x + dx
+                if tile:
+                    qy = qy % H
+                    qx = qx % W
+                elif qy < 0 or qy >= H or qx < 0 or qx >= W:
+                    continue
+                for lab in range(2):
+                    cost[lab, k, c] += _coord_seam_cost(feat, ex_h, ex_w, wrap_y, wrap_x,
+                                                        cand_y[lab, k, c], cand_x[lab, k, c],
+                                                        ry[qy, qx], rx[qy, qx], dy, dx)
+            for t in range(2):  # pairs with the band pixel below (t = 0) and to the right
+                kk = k + 1 - t
+                cc = c + t
+                if kk >= K2 or cc >= L or not member[kk, cc]:
+                    continue
+                dy = 1 - t
+                dx = t
+                e = np.empty((2, 2))
+                for u in range(2):
+                    for v in range(2):
+                        e[u, v] = _coord_seam_cost(feat, ex_h, ex_w, wrap_y, wrap_x,
+                                                   cand_y[u, k, c], cand_x[u, k, c],
+                                                   cand_y[v, kk, cc], cand_x[v, kk, cc], dy, dx)
+                cost[1, k, c] += e[1, 0] - e[0, 0]
+                cost[1, kk, cc] += e[1, 1] - e[1, 0]
+                w = max(e[0, 1] + e[1, 0] - e[0, 0] - e[1, 1], 0.0)
+                if t == 0:
+                    w_down[k, c] = w
+                else:
+                    w_right[k, c] = w
+            for lab in range(2):
+                if not valid[lab, k, c]:
+                    cost[lab, k, c] += 1e9
+    return n

@@ -37,6 +37,11 @@ class SynthesisConfig:
             seeded random offset of up to ``round(2 * jitter)`` pixels (Lefebvre & Hoppe 2005).
             Off by default: the random initialisation and per-level random grid offsets already
             give seeds independent results, and jitter measurably costs coherence.
+        seam_sweeps: sweeps of seam optimisation after each level's iterations (Kwatra et al.
+            2003's seam cost, minimised by local moves: ``_kernels.refine_seams``); 0 disables.
+        seam_cut_run: straight seams at least this long are re-cut along minimum-cost paths
+            (graph cuts, Kwatra et al. 2003: :mod:`barkgen.synth.cuts`); 0 disables.
+        seam_cut_levels: how many of the finest levels get those cuts.
         extra_weight: weight of the extra channels relative to luminance in the matching.
         threads: worker threads for numba/faiss (None: all cores).
         max_memory: refuse jobs whose estimated peak memory exceeds this many bytes.
@@ -53,6 +58,9 @@ class SynthesisConfig:
     occurrence_weight: float = 1.0
     max_copy: float = 0.2
     jitter: float = 0.0
+    seam_sweeps: int = 4
+    seam_cut_run: int = 24
+    seam_cut_levels: int = 1
     extra_weight: float = 0.5
     threads: int | None = None
     max_memory: int = 8 * 1024**3
@@ -78,6 +86,12 @@ class SynthesisConfig:
         for name in ("kset_cost", "occurrence_weight", "jitter", "extra_weight"):
             if getattr(self, name) < 0:
                 raise InvalidInputError(f"{name} must be >= 0")
+        if not 0 <= self.seam_sweeps <= 64:
+            raise InvalidInputError("seam_sweeps must be between 0 and 64")
+        if self.seam_cut_run != 0 and not 4 <= self.seam_cut_run <= 4096:
+            raise InvalidInputError("seam_cut_run must be 0 (off) or between 4 and 4096")
+        if not 0 <= self.seam_cut_levels <= 16:
+            raise InvalidInputError("seam_cut_levels must be between 0 and 16")
         if not 0.0 < self.max_copy <= 1.0:
             raise InvalidInputError("max_copy must be in (0, 1]")
         if self.threads is not None and self.threads < 1:

@@ -37,6 +37,8 @@ from barkgen.nnf import (
 )
 from barkgen.pyramid import count_levels, gaussian_pyramid, level_shape
 from barkgen.synth.config import SynthesisConfig
+from barkgen.synth.edges import border_cost, resolve_exemplar_wrap
+from barkgen.synth.gradient import resolve_continuous
 
 #: progress(done, total): called after each unit of work.
 ProgressCallback = Callable[[int, int], None]
@@ -56,6 +58,8 @@ class SynthesisResult:
         references: ``(H, W, 2)`` int32, the exemplar (row, col) each output pixel copies.
         extras: each extra map of the exemplar, resolved through the same references.
         exemplar_shape: ``(h, w)`` of the exemplar the references point into.
+        exemplar_wrap: ``(rows, columns)``: the exemplar was used as a torus along that axis
+            (a reference may step from its last row to its first inside one piece).
         seed, tile: as requested.
         timings: seconds spent in ``analysis`` and ``synthesis``.
     """
@@ -64,6 +68,7 @@ class SynthesisResult:
     references: np.ndarray
     extras: dict[str, np.ndarray] = field(default_factory=dict)
     exemplar_shape: tuple[int, int] = (0, 0)
+    exemplar_wrap: tuple[bool, bool] = (False, False)
     seed: int = 0
     tile: bool = False
     timings: dict[str, float] = field(default_factory=dict)
@@ -82,6 +87,7 @@ class LevelAnalysis:
     kernel_weights: dict[int, np.ndarray]  # projection weights laid out [dy, dx, c, d] for m_step
     ksets: np.ndarray  # (h * w, k) int32
     scale: float  # typical squared appearance distance to the nearest distinct neighbour
+    wrap: tuple[bool, bool] = (False, False)  # the exemplar tiles along (rows, columns)
 
 
 # --------------------------------------------------------------------------------------------
@@ -179,15 +185,19 @@ def _schedule_sizes(config: SynthesisConfig, level: int, n_levels: int) -> list[
 
 
 def analyse_exemplar(features: np.ndarray, n_levels: int, config: SynthesisConfig,
-                     progress: Callable[[], None] | None = None) -> list[LevelAnalysis]:
-    """k-coherence analysis phase on every pyramid level of the exemplar features."""
-    pyramid = gaussian_pyramid(features, n_levels)
+                     progress: Callable[[], None] | None = None,
+                     wrap: tuple[bool, bool] = (False, False)) -> list[LevelAnalysis]:
+    """k-coherence analysis phase on every pyramid level of the exemplar features; ``wrap``
+    ``(rows, columns)``: the exemplar tiles along that axis (:mod:`barkgen.synth.edges`), so its
+    pyramid and neighbourhoods run round its edges."""
+    wrap = (bool(wrap[0]), bool(wrap[1]))
+    pyramid = gaussian_pyramid(features, n_levels, wrap)
     levels: list[LevelAnalysis | None] = [None] * n_levels
     parent: LevelAnalysis | None = None
     for lvl in reversed(range(n_levels)):
         img = pyramid[lvl]
         h, w, c = img.shape
-        projections = {s: neighbourhood_pca(img, s, config.pca_components)
+        projections = {s: neighbourhood_pca(img, s, config.pca_components, wrap=wrap)
                        for s in _schedule_sizes(config, lvl, n_levels)}
         largest = projections[max(projections)]
         if parent is None or h * w <= DIRECT_SEARCH_LIMIT:
@@ -200,7 +210,7 @@ def analyse_exemplar(features: np.ndarray, n_levels: int, config: SynthesisConfi
         kernel_weights = {size: np.ascontiguousarray(p.weights.transpose(1, 2, 3, 0))
                           for size, p in projections.items()}
         parent = LevelAnalysis(h, w, img.reshape(h * w, c), cy, cx, projections, kernel_weights,
-                               ksets, scale)
+                               ksets, scale, wrap)
         levels[lvl] = parent
         if progress:
             progress()
@@ -222,21 +232,26 @@ class AnalysisCache:
         self._entries: dict[str, list[LevelAnalysis]] = {}
 
     @staticmethod
-    def key(features: np.ndarray, n_levels: int, config: SynthesisConfig) -> str:
+    def key(features: np.ndarray, n_levels: int, config: SynthesisConfig,
+            wrap: tuple[bool, bool] = (False, False)) -> str:
         digest = hashlib.blake2b(digest_size=20)
-        digest.update(repr((features.shape, features.dtype.str, int(n_levels), config.k,
-                            config.pca_components, config.schedule_coarsest, config.schedule_middle,
-                            config.schedule_finest)).encode())
+        key = (features.shape, features.dtype.str, int(n_levels), config.k, config.pca_components,
+               config.schedule_coarsest, config.schedule_middle, config.schedule_finest)
+        if any(wrap):  # (the key of an exemplar that does not wrap is as it always was)
+            key += (bool(wrap[0]), bool(wrap[1]))
+        digest.update(repr(key).encode())
         digest.update(memoryview(np.ascontiguousarray(features)).cast("B"))
         return digest.hexdigest()
 
     def analyse(self, features: np.ndarray, n_levels: int, config: SynthesisConfig,
-                progress: Callable[[], None] | None = None) -> list[LevelAnalysis]:
+                progress: Callable[[], None] | None = None,
+                wrap: tuple[bool, bool] = (False, False)) -> list[LevelAnalysis]:
         """:func:`analyse_exemplar`, computed on the first call for these inputs only."""
-        key = self.key(features, n_levels, config)
+        key = self.key(features, n_levels, config, wrap)
         levels = self._entries.get(key)
         if levels is None:
-            levels = self._entries[key] = analyse_exemplar(features, n_levels, config, progress)
+            levels = self._entries[key] = analyse_exemplar(features, n_levels, config, progress,
+                                                           wrap)
         elif progress is not None:
             for _ in range(n_levels):
                 progress()
@@ -270,8 +285,8 @@ def _jitter(refs: np.ndarray, level: LevelAnalysis, amplitude: int,
     ry, rx = level.coords_y[refs], level.coords_x[refs]
     jy = rng.integers(-amplitude, amplitude + 1, size=refs.shape, dtype=np.int32)
     jx = rng.integers(-amplitude, amplitude + 1, size=refs.shape, dtype=np.int32)
-    ry = np.clip(ry + jy, 0, level.height - 1)
-    rx = np.clip(rx + jx, 0, level.width - 1)
+    ry = np.mod(ry + jy, level.height) if level.wrap[0] else np.clip(ry + jy, 0, level.height - 1)
+    rx = np.mod(rx + jx, level.width) if level.wrap[1] else np.clip(rx + jx, 0, level.width - 1)
     return np.ascontiguousarray(ry * level.width + rx, dtype=np.int32)
 
 
@@ -283,22 +298,33 @@ def _occurrence_penalty(refs: np.ndarray, level: LevelAnalysis, weight: float,
     n = level.height * level.width
     if weight <= 0:
         return np.zeros(n, np.float32)
-    import cv2
-
     counts = np.bincount(refs.ravel(), minlength=n).astype(np.float32).reshape(level.height, level.width)
     k = 2 * radius + 1
-    regional = cv2.blur(counts, (k, k), borderType=cv2.BORDER_REFLECT_101)
+    regional = _box_blur(counts, k, level.wrap)
     if expected_use is None:
         expected = max(1.0, refs.size / n)
         # > 0 for regions used more than their share, down to -1 (a bonus) for unused ones: small
         # outputs then still cover the whole exemplar (completeness)
         excess = regional / expected - 1.0
     else:
-        share = cv2.blur(expected_use.reshape(level.height, level.width), (k, k),
-                         borderType=cv2.BORDER_REFLECT_101)
+        share = _box_blur(expected_use.reshape(level.height, level.width), k, level.wrap)
         # regions of labels the target does not want get neither cost nor bonus
         excess = np.where(share > 0, regional / np.maximum(share, 1.0) - 1.0, 0.0)
     return np.ascontiguousarray((weight * level.scale) * excess, dtype=np.float32).ravel()
+
+
+def _box_blur(image: np.ndarray, k: int, wrap: tuple[bool, bool]) -> np.ndarray:
+    """``k x k`` box mean of a level's map, round the edges along the axes that wrap (else
+    reflected)."""
+    import cv2
+
+    image = np.ascontiguousarray(image, dtype=np.float32)
+    if not any(wrap):
+        return cv2.blur(image, (k, k), borderType=cv2.BORDER_REFLECT_101)
+    r = k // 2
+    pad = np.pad(image, ((r, r), (0, 0)), mode="wrap" if wrap[0] else "reflect")
+    pad = np.pad(pad, ((0, 0), (r, r)), mode="wrap" if wrap[1] else "reflect")
+    return np.ascontiguousarray(cv2.blur(pad, (k, k))[r:r + image.shape[0], r:r + image.shape[1]])
 
 
 @dataclass
@@ -344,9 +370,10 @@ def _offset_parts(codes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _limit_copies(refs: np.ndarray, level: LevelAnalysis, max_area: float,
-                  forbid: np.ndarray) -> int:
-    """Copy-size control: find the pieces copied verbatim (regions of constant offset) larger than
-    ``max_area`` pixels and forbid their offset on a cross-shaped band through each one's
+                  forbid: np.ndarray, tile: bool) -> int:
+    """Copy-size control: find the pieces copied verbatim (``_kernels.label_pieces``: a piece that
+    runs round a tiled output or across a wrapping exemplar's edge is one) larger than
+    ``max_area`` pixels and forbid their offsets on a cross-shaped band through each one's
     centroid, so the next iterations cut it in up to four. Returns the number of regions cut.
 
     The discrete solver left alone grows whole-exemplar copies wherever nothing stops coherence
@@ -356,20 +383,40 @@ def _limit_copies(refs: np.ndarray, level: LevelAnalysis, max_area: float,
     from barkgen.synth import _kernels as K
 
     labels = np.empty(refs.shape, np.int32)
-    sizes = K.label_offset_regions(refs, level.coords_y, level.coords_x, labels)
+    sizes = K.label_pieces(refs, level.coords_y, level.coords_x, level.height, level.width,
+                           level.wrap[0], level.wrap[1], tile, labels)
     big = sizes > max_area
     if not big.any():
         return 0
     ys, xs = np.nonzero(big[labels])
     lab = labels[ys, xs]
     n = np.bincount(lab, minlength=sizes.size).astype(np.float64)
-    cy = np.bincount(lab, ys, minlength=sizes.size) / np.maximum(n, 1)
-    cx = np.bincount(lab, xs, minlength=sizes.size) / np.maximum(n, 1)
-    band = (np.abs(ys - cy[lab]) <= 1.0) | (np.abs(xs - cx[lab]) <= 1.0)
+    if tile:  # a piece round the torus: its centre is the circular mean, the band wraps
+        H, W = refs.shape
+        cy = _circular_centre(lab, ys, H, n)
+        cx = _circular_centre(lab, xs, W, n)
+        band = (_circular_gap(ys, cy[lab], H) <= 1.0) | (_circular_gap(xs, cx[lab], W) <= 1.0)
+    else:
+        cy = np.bincount(lab, ys, minlength=sizes.size) / np.maximum(n, 1)
+        cx = np.bincount(lab, xs, minlength=sizes.size) / np.maximum(n, 1)
+        band = (np.abs(ys - cy[lab]) <= 1.0) | (np.abs(xs - cx[lab]) <= 1.0)
     ys, xs = ys[band], xs[band]
     e = refs[ys, xs]
     forbid[ys, xs] = _offset_codes(level.coords_y[e] - ys, level.coords_x[e] - xs)
     return int(big.sum())
+
+
+def _circular_centre(lab: np.ndarray, pos: np.ndarray, period: int, n: np.ndarray) -> np.ndarray:
+    """Per label, the circular mean of the positions ``pos`` on a circle of ``period`` pixels."""
+    angle = pos * (2 * np.pi / period)
+    c = np.bincount(lab, np.cos(angle), minlength=n.size)
+    s = np.bincount(lab, np.sin(angle), minlength=n.size)
+    return np.mod(np.arctan2(s, c) * (period / (2 * np.pi)), period)
+
+
+def _circular_gap(pos: np.ndarray, centre: np.ndarray, period: int) -> np.ndarray:
+    d = np.abs(pos - centre) % period
+    return np.minimum(d, period - d)
 
 
 def _roll(refs: np.ndarray, forbid: np.ndarray, shift: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
@@ -384,6 +431,25 @@ def _roll(refs: np.ndarray, forbid: np.ndarray, shift: tuple[int, int]) -> tuple
     moved = np.where(forbid >= 0, moved, -1)
     return (np.ascontiguousarray(np.roll(refs, shift, axis=(0, 1))),
             np.ascontiguousarray(np.roll(moved, shift, axis=(0, 1))))
+
+
+def _cut_seams(refs: np.ndarray, level: LevelAnalysis, features: np.ndarray, tile: bool,
+               min_run: int, labels: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
+    """The level's reference map with its straight seams re-cut (:mod:`barkgen.synth.cuts`);
+    ``labels`` ``(exemplar labels, target labels)`` keeps texture-by-numbers' labels."""
+    from barkgen.synth.cuts import cut_straight_seams
+
+    allowed = None
+    if labels is not None:
+        ex_labels, target = labels
+
+        def allowed(ys, xs, ey, ex):
+            return ex_labels[ey * level.width + ex] == target[ys, xs]
+
+    coords = np.stack([level.coords_y[refs], level.coords_x[refs]], axis=-1)
+    cut = cut_straight_seams(coords, features.reshape(level.height, level.width, -1),
+                             tile=tile, wrap=level.wrap, min_run=min_run, allowed=allowed)
+    return np.ascontiguousarray(cut[..., 0] * level.width + cut[..., 1], dtype=np.int32)
 
 
 def _stride_for(size: int) -> int:
@@ -497,7 +563,9 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
           debug: DebugCallback | None = None,
           start: tuple[int, np.ndarray] | None = None,
           balance: LabelBalance | None = None,
-          cache: AnalysisCache | None = None, stop_level: int = 0) -> SynthesisResult:
+          cache: AnalysisCache | None = None, stop_level: int = 0,
+          exemplar_wrap: tuple[bool, bool] = (False, False),
+          seam_channels: int | None = None) -> SynthesisResult:
     """The coarse-to-fine discrete solver shared by :func:`synthesize` and texture-by-numbers.
 
     ``ex`` ``(h, w, C)`` and ``extras`` are resolved through the final references; ``features``
@@ -508,6 +576,12 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
     :class:`AnalysisCache` that supplies (or keeps) the exemplar's analysis. ``stop_level`` > 0
     stops after that level: the result's ``references`` and ``exemplar_shape`` are then that
     level's, its ``image`` the level shown in the exemplar's colours, and it has no extras.
+    ``exemplar_wrap`` ``(rows, columns)``: the exemplar tiles along that axis and is used as a
+    torus there; along an axis that does not wrap its border costs (:mod:`barkgen.synth.edges`).
+    After each level's iterations, ``config.seam_sweeps`` sweeps of seam optimisation
+    (``_kernels.refine_seams``) and, at the finest levels, graph cuts of the straight seams
+    (:mod:`barkgen.synth.cuts`) move the borders between pieces onto low-error paths; their
+    seam cost compares the first ``seam_channels`` feature channels (the colour; None: all).
     """
     if not 0 <= stop_level < n_levels:
         raise InvalidInputError(f"stop_level must be in 0..{n_levels - 1}")
@@ -526,7 +600,8 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
 
     t0 = time.perf_counter()
     cache = cache if cache is not None else AnalysisCache()
-    levels = cache.analyse(features, n_levels, config, progress=tick)
+    wrap = (bool(exemplar_wrap[0]), bool(exemplar_wrap[1]))
+    levels = cache.analyse(features, n_levels, config, progress=tick, wrap=wrap)
     t1 = time.perf_counter()
 
     no_labels = np.zeros(1, np.int32)
@@ -564,7 +639,7 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
             fine_refs = np.empty(shape, np.int32)
             fine_forbid = np.empty(shape, np.int64)
             K.upsample_state(refs, forbid, coarse.coords_y, coarse.coords_x, la.height, la.width,
-                             fine_refs, fine_forbid)
+                             wrap[0], wrap[1], fine_refs, fine_forbid)
             refs, forbid = fine_refs, fine_forbid
             if tile and lvl > 0 and lg is None:
                 # seams formed at coarse levels lie on the block grid of the upsampling; a random
@@ -583,7 +658,8 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
             expected = lg.expected_use
             n_random, discount = guidance.random_candidates, guidance.vote_discount
             for nb_size in _schedule_sizes(config, lvl, n_levels):
-                gp = neighbourhood_pca(guidance.exemplar_guides[lvl], nb_size, guidance.components)
+                gp = neighbourhood_pca(guidance.exemplar_guides[lvl], nb_size, guidance.components,
+                                       wrap=wrap)
                 guide_ex[nb_size] = gp.features
                 guide_out[nb_size] = project_neighbourhoods(
                     guidance.target_guides[lvl], gp.weights, gp.mean, wrap=tile).reshape(shape + (-1,))
@@ -593,9 +669,14 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
         match = np.empty(shape, np.int32)
         new = np.empty(shape, np.int32)
         occ_radius = 3
+        edge_cost = border_cost(la.height, la.width, wrap, la.scale) if not all(wrap) else None
+        seam_feats = (la.features if seam_channels is None
+                      else np.ascontiguousarray(la.features[:, :seam_channels]))
 
         def occurrence(refs: np.ndarray) -> np.ndarray:
             cost = _occurrence_penalty(refs, la, config.occurrence_weight, occ_radius, expected)
+            if edge_cost is not None:
+                cost = cost + edge_cost
             if balance is not None:
                 cost += balance.penalty(refs, lvl, la.scale)
             return cost
@@ -608,26 +689,38 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
             oy, ox = (int(v) for v in rng.integers(0, stride, size=2))
             key = np.uint64(rng.integers(0, 2**63)) if lg is not None else np.uint64(0)
             match.fill(-1)
-            K.m_step(refs, la.features, la.coords_y, la.coords_x, la.height, la.width,
-                     la.kernel_weights[nb_size], proj.mean,
+            K.m_step(refs, la.features, la.coords_y, la.coords_x, la.height, la.width, wrap[0],
+                     wrap[1], la.kernel_weights[nb_size], proj.mean,
                      proj.features, la.ksets, penalty, np.float32(config.kset_cost * la.scale),
                      stride, oy, ox, tile, forbid, guide_ex.get(nb_size, no_guide_ex),
                      guide_out.get(nb_size, no_guide_out), ex_labels, target, pool, pool_start,
                      n_random, key, match)
             K.e_step(match, refs, la.features, la.coords_y, la.coords_x, la.height, la.width,
-                     min(nb_size // 2, config.vote_radius), stride,
+                     wrap[0], wrap[1], min(nb_size // 2, config.vote_radius), stride,
                      oy, ox, tile, np.float32(max(nb_size / 3.0, 1.0)), forbid,
                      ex_labels, target, np.float32(discount), new)
             refs, new = new, refs
             if config.max_copy < 1.0 and (lvl > 0 or step < len(schedule) - 1):
                 # (cuts act through the following iterations, none after the very last one)
-                _limit_copies(refs, la, config.max_copy * la.height * la.width, forbid)
+                _limit_copies(refs, la, config.max_copy * la.height * la.width, forbid, tile)
             penalty = occurrence(refs)
             tick()
+        for _ in range(config.seam_sweeps):
+            moved = 0
+            for parity in (0, 1):
+                moved += K.refine_seams(refs, seam_feats, la.coords_y, la.coords_x, la.height,
+                                        la.width, wrap[0], wrap[1], tile, parity, forbid,
+                                        ex_labels, target, new)
+                refs, new = new, refs
+            if moved == 0:
+                break
+        if config.seam_cut_run and lvl <= config.seam_cut_levels - 1:
+            refs = _cut_seams(refs, la, seam_feats, tile, config.seam_cut_run,
+                              (ex_labels, target) if lg is not None else None)
         if lg is not None and lvl == 0:
             for _ in range(guidance.cleanup_passes):
-                if K.enforce_labels(refs, la.coords_y, la.coords_x, la.height, la.width,
-                                    ex_labels, target, tile, new) == 0:
+                if K.enforce_labels(refs, la.coords_y, la.coords_x, la.height, la.width, wrap[0],
+                                    wrap[1], ex_labels, target, tile, new) == 0:
                     break
                 refs, new = new, refs
         if debug is not None:
@@ -637,17 +730,21 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
         la = levels[stop_level]
         references = np.stack([la.coords_y[refs], la.coords_x[refs]], axis=-1).astype(np.int32)
         return SynthesisResult(image=_level_image(ex, refs, stop_level), references=references,
-                               exemplar_shape=(la.height, la.width), seed=int(seed), tile=bool(tile),
+                               exemplar_shape=(la.height, la.width), exemplar_wrap=wrap,
+                               seed=int(seed), tile=bool(tile),
                                timings={"analysis": t1 - t0, "synthesis": t2 - t1})
 
     h, w = ex.shape[:2]
     image = ex.reshape(h * w, ex.shape[2])[refs].reshape(out_shape + (ex.shape[2],))
-    out_extras = {name: e.reshape(h * w, e.shape[2])[refs].reshape(out_shape + (e.shape[2],))
-                  for name, e in extras.items()}
     ry, rx = levels[0].coords_y[refs], levels[0].coords_x[refs]
     references = np.stack([ry, rx], axis=-1).astype(np.int32)
+    # extra maps are continuous (height, normals, roughness): resolved in the gradient domain,
+    # so the borders of the copied pieces leave no cliffs in them
+    out_extras = {name: resolve_continuous(e, references, tile=tile, wrap=wrap)
+                  for name, e in extras.items()}
     return SynthesisResult(image=image, references=references, extras=out_extras,
-                           exemplar_shape=(h, w), seed=int(seed), tile=bool(tile),
+                           exemplar_shape=(h, w), exemplar_wrap=wrap, seed=int(seed),
+                           tile=bool(tile),
                            timings={"analysis": t1 - t0, "synthesis": t2 - t1})
 
 
@@ -664,6 +761,7 @@ def synthesize(
     extra: Mapping[str, np.ndarray] | None = None,
     config: SynthesisConfig | None = None,
     progress: ProgressCallback | None = None,
+    exemplar_wrap: str | bool | tuple[bool, bool] = "auto",
 ) -> SynthesisResult:
     """Synthesize a new texture of ``size`` = ``(height, width)`` from ``exemplar``.
 
@@ -676,6 +774,9 @@ def synthesize(
             matching (weight ``config.extra_weight``) and are returned resolved.
         config: solver parameters (:class:`SynthesisConfig`).
         progress: optional ``progress(done, total)`` callback.
+        exemplar_wrap: ``"auto"`` (the exemplar is used as a torus along each axis along which
+            it tiles itself, :func:`barkgen.synth.edges.exemplar_wraps`), ``"yes"``, ``"no"``,
+            or a ``(rows, columns)`` pair of bools.
 
     Returns:
         :class:`SynthesisResult` with the image, the references and the extra maps.
@@ -688,10 +789,12 @@ def synthesize(
     ex, out_shape, extras = validate_inputs(exemplar, size, seed, extra)
     n_feat = (3 if ex.shape[2] == 3 else 1) + sum(e.shape[2] for e in extras.values())
     check_memory(ex, extras, out_shape, n_feat, config)
+    wrap = resolve_exemplar_wrap(exemplar_wrap, ex)
     feats = matching_features(ex, extras, config.extra_weight)
     n_levels = count_levels(ex.shape[:2], out_shape, config.coarsest_exemplar)
     result = solve(ex, extras, feats, out_shape, n_levels=n_levels, config=config, seed=seed,
-                   tile=tile, progress=progress)
+                   tile=tile, progress=progress, exemplar_wrap=wrap,
+                   seam_channels=3 if ex.shape[2] == 3 else 1)
     if np.asarray(exemplar).ndim == 2:
         result.image = result.image[:, :, 0]
     return result

@@ -28,6 +28,7 @@ import numpy as np
 from barkgen.errors import InvalidInputError
 from barkgen.pyramid import count_levels, gaussian_pyramid, level_shape
 from barkgen.synth.config import SynthesisConfig
+from barkgen.synth.edges import resolve_exemplar_wrap
 from barkgen.synth.guide import boundary_distance, encode_label_maps, label_pyramid, level_guide
 from barkgen.synth.initialization import random_initialization, smart_initialization
 from barkgen.synth.solver import (
@@ -48,9 +49,11 @@ INITIALIZATIONS = ("smart", "random")
 #: solver defaults for texture-by-numbers: label structure needs a coarsest level where the
 #: label regions still exist, so the pyramid stops at 32 px instead of 16; the initialisation
 #: and the guide already set the layout, so fewer and smaller iterations per level and 6
-#: appearance dimensions give the same quality (measured on the bark set, benchmarks/bench_tbn.py)
+#: appearance dimensions give the same quality (measured on the bark set, benchmarks/bench_tbn.py);
+#: label boundaries break its seams into short stretches, so stretches from 8 px are re-cut
+#: (the texture's step ratio across seams on the sample, seeds 0/1: 1.54/1.47 -> 1.51/1.45)
 TBN_CONFIG = SynthesisConfig(coarsest_exemplar=32, schedule_coarsest=((9, 3), (7, 2), (5, 2)),
-                             schedule_middle=((7, 1), (5, 1)), pca_components=6)
+                             schedule_middle=((7, 1), (5, 1)), pca_components=6, seam_cut_run=8)
 
 #: a reference map given as ``init`` is taken up at this pyramid level (0 = finest) unless
 #: ``init_level`` says otherwise: its coarser structure is kept, the solver refines the finer levels
@@ -153,6 +156,7 @@ def texture_by_numbers(
     progress: ProgressCallback | None = None,
     debug: DebugCallback | None = None,
     cache: AnalysisCache | None = None,
+    exemplar_wrap: str | bool | tuple[bool, bool] = "auto",
 ) -> SynthesisResult:
     """Synthesize a texture that follows ``target_labels`` from ``exemplar`` and its labels.
 
@@ -181,6 +185,9 @@ def texture_by_numbers(
             the initialisation and each level's result as uint8 images.
         cache: an :class:`~barkgen.synth.solver.AnalysisCache` holding (or to keep) the
             exemplar's k-coherence analysis, e.g. from :func:`analyse_texture_by_numbers`.
+        exemplar_wrap: ``"auto"``, ``"yes"``, ``"no"`` or a ``(rows, columns)`` pair: the
+            exemplar is used as a torus along the axes it tiles along
+            (:mod:`barkgen.synth.edges`).
 
     Returns:
         :class:`~barkgen.synth.SynthesisResult` (image, references, extras).
@@ -204,6 +211,7 @@ def texture_by_numbers(
         raise InvalidInputError(f"target label map must be an (H, W) or (H, W, C) image, not "
                                 f"shape {target.shape}")
     ex, out_shape, extras = validate_inputs(exemplar, target.shape[:2], seed, extra)
+    wrap = resolve_exemplar_wrap(exemplar_wrap, ex)
     labels = encode_label_maps(exemplar_labels, target, ex.shape[:2])
     n_feat = (3 if ex.shape[2] == 3 else 1) + 1 + sum(e.shape[2] for e in extras.values())
     check_memory(ex, extras, out_shape, n_feat, config, guided=True)
@@ -236,11 +244,11 @@ def texture_by_numbers(
             return smart_initialization(a, b, rng, tile=tile)
     else:
         initial = random_initialization
-    guidance = Guidance(levels=guides, exemplar_guides=gaussian_pyramid(guide_a, n_levels),
+    guidance = Guidance(levels=guides, exemplar_guides=gaussian_pyramid(guide_a, n_levels, wrap),
                         target_guides=gaussian_pyramid(guide_b, n_levels), initial_references=initial)
     result = solve(ex, extras, feats, out_shape, n_levels=n_levels, config=config, seed=seed,
                    tile=tile, guidance=guidance, progress=progress, debug=debug, start=start,
-                   cache=cache)
+                   cache=cache, exemplar_wrap=wrap, seam_channels=3 if ex.shape[2] == 3 else 1)
     if np.asarray(exemplar).ndim == 2:
         result.image = result.image[:, :, 0]
     return result
@@ -266,6 +274,7 @@ def analyse_texture_by_numbers(
     feature_weight: float = 8.0,
     extra: Mapping[str, np.ndarray] | None = None,
     config: SynthesisConfig | None = None,
+    exemplar_wrap: str | bool | tuple[bool, bool] = "auto",
 ) -> AnalysisCache:
     """Run the k-coherence analysis phase (mazzolini2012 §4.1.2) that
     :func:`texture_by_numbers` needs for outputs of ``size`` into ``cache``, ahead of any
@@ -275,5 +284,6 @@ def analyse_texture_by_numbers(
     ex, out_shape, extras = validate_inputs(exemplar, size, 0, extra)
     labels = encode_label_maps(exemplar_labels, exemplar_labels, ex.shape[:2])
     feats, _ = _matching_features(ex, extras, labels.exemplar, feature_weight, config)
-    cache.analyse(feats, count_levels(ex.shape[:2], out_shape, config.coarsest_exemplar), config)
+    cache.analyse(feats, count_levels(ex.shape[:2], out_shape, config.coarsest_exemplar), config,
+                  wrap=resolve_exemplar_wrap(exemplar_wrap, ex))
     return cache

@@ -1,0 +1,141 @@
+"""Graph-cut seam optimisation of a reference map (Kwatra et al. 2003, "Graphcut textures", §3).
+
+The discrete solver (mazzolini2012 §4.1) lets two copied pieces meet wherever its votes switch
+from one to the other; when both pieces are long and run in step, they meet along a straight
+line, which the eye finds at once. Each such straight stretch of seam is re-cut here: inside a
+band around it, every pixel that belongs to one of the two pieces may take either piece (each
+continued across the seam), and a minimum cut (PyMaxflow) chooses the border of least seam cost
+``||A(p) - B(p)|| + ||A(q) - B(q)||`` over neighbouring pixels ``p``, ``q`` on either side
+(Kwatra eq. 1), so the border follows the texture's own low-error paths. The pixels around the
+band keep their references and enter as fixed neighbours, so the cut joins the seams there.
+
+Arrays in, arrays out: reference maps as exemplar ``(row, col)`` coordinates.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: straight seam runs at least this long are re-cut
+MIN_RUN = 24
+#: half-width of the band (pixels on each side of the seam) a cut may move the border in
+BAND = 16
+#: cost of a forbidden choice (a piece that cannot continue, a wrong label)
+_HARD = 1e9
+#: PyMaxflow grid structures: an edge to the pixel below, to the pixel on the right
+_BELOW = np.array([[0, 0, 0], [0, 0, 0], [0, 1, 0]])
+_RIGHT = np.array([[0, 0, 0], [0, 0, 1], [0, 0, 0]])
+
+
+class _Exemplar:
+    """One exemplar level's features ``(h, w, C)`` and wrap, in the frame of the seams being cut
+    (the transposed frame for seams between columns)."""
+
+    def __init__(self, features: np.ndarray, wrap: tuple[bool, bool]) -> None:
+        self.features = np.ascontiguousarray(features, dtype=np.float32)
+        self.shape = self.features.shape[:2]
+        self.wrap = (bool(wrap[0]), bool(wrap[1]))
+
+    def transposed(self) -> _Exemplar:
+        return _Exemplar(self.features.transpose(1, 0, 2), (self.wrap[1], self.wrap[0]))
+
+
+def _cut_run(ry: np.ndarray, rx: np.ndarray, i: int, cols: np.ndarray, ex: _Exemplar,
+             tile: bool, allowed=None) -> int:
+    """Re-cut the straight seam between output rows ``i`` and ``i + 1`` along ``cols``, in place:
+    each column's pixel of row ``i`` continued up and down is its choice A, that of row ``i + 1``
+    its choice B (several pieces may stand along the seam); the graph is built by
+    ``_kernels.seam_band``. ``allowed(ys, xs, ey, ex)`` says which references each output pixel
+    may take (labels). Returns the pixels changed."""
+    import maxflow
+
+    from barkgen.synth import _kernels as K
+
+    H, W = ry.shape
+    shape = (2 * BAND, cols.size)
+    cand_y = np.empty((2,) + shape, np.int64)
+    cand_x = np.empty((2,) + shape, np.int64)
+    valid = np.empty((2,) + shape, np.bool_)
+    member = np.empty(shape, np.bool_)
+    cost = np.empty((2,) + shape)
+    w_down = np.empty(shape)
+    w_right = np.empty(shape)
+    if K.seam_band(ry, rx, ex.features, ex.wrap[0], ex.wrap[1], tile, i,
+                   np.ascontiguousarray(cols, dtype=np.int64), BAND, cand_y, cand_x, valid,
+                   member, cost, w_down, w_right) < 2:
+        return 0
+    rows = np.mod(i - BAND + 1 + np.arange(2 * BAND), H)
+    ys, xs = np.broadcast_arrays(rows[:, None], cols[None, :])
+    if allowed is not None:  # a pixel that has its wanted label keeps one
+        ok = np.stack([allowed(ys, xs, cand_y[t], cand_x[t]) for t in (0, 1)])
+        k = np.arange(2 * BAND)[:, None]
+        own_ok = np.where(k < BAND, ok[0], ok[1])
+        cost += np.where(ok | ~own_ok[None], 0.0, _HARD)
+    low = np.minimum(cost[0], cost[1])
+    g = maxflow.Graph[float]()
+    nodes = g.add_grid_nodes(shape)
+    g.add_grid_edges(nodes, weights=w_down, structure=_BELOW, symmetric=False)
+    g.add_grid_edges(nodes, weights=w_right, structure=_RIGHT, symmetric=False)
+    # source side = choice A: a node there pays its edge to the sink, which carries A's cost
+    g.add_grid_tedges(nodes, np.where(member, cost[1] - low, 0.0),
+                      np.where(member, cost[0] - low, 0.0))
+    g.maxflow()
+    take_b = g.get_grid_segments(nodes)[member]
+    new_y = np.where(take_b, cand_y[1][member], cand_y[0][member])
+    new_x = np.where(take_b, cand_x[1][member], cand_x[0][member])
+    py, px = ys[member], xs[member]
+    changed = int(((ry[py, px] != new_y) | (rx[py, px] != new_x)).sum())
+    ry[py, px] = new_y
+    rx[py, px] = new_x
+    return changed
+
+
+def _cut_rows(ry, rx, ex: _Exemplar, tile: bool, min_run: int, allowed) -> int:
+    """Re-cut every straight seam between rows at least ``min_run`` long; returns pixels changed."""
+    from barkgen.synth import _kernels as K
+
+    W = ry.shape[1]
+    runs = K.seam_runs(np.ascontiguousarray(ry), np.ascontiguousarray(rx), ex.shape[0],
+                       ex.shape[1], ex.wrap[0], ex.wrap[1], tile, min_run)
+    changed = 0
+    for i, start, length in runs:
+        cols = np.arange(start, start + length)
+        cols = np.mod(cols, W) if tile else cols
+        changed += _cut_run(ry, rx, int(i), cols, ex, tile, allowed)
+    return changed
+
+
+def cut_straight_seams(references: np.ndarray, features: np.ndarray, *, tile: bool,
+                       wrap: tuple[bool, bool] = (False, False), min_run: int = MIN_RUN,
+                       rounds: int = 2, allowed=None) -> np.ndarray:
+    """Re-cut the straight seams of a reference map along minimum-cost paths (Kwatra 2003).
+
+    Args:
+        references: ``(H, W, 2)`` exemplar ``(row, col)`` per output pixel.
+        features: ``(h, w, C)`` float32 features of the exemplar the seam cost compares.
+        tile: the output wraps round (its last row meets its first).
+        wrap: ``(rows, columns)``: the exemplar tiles along that axis.
+        min_run: straight seams at least this long are re-cut.
+        rounds: passes over both directions.
+        allowed: optional ``allowed(ys, xs, ey, ex) -> bool array``: which exemplar pixels the
+            output pixels may take (texture-by-numbers keeps its labels).
+
+    Returns:
+        The new ``(H, W, 2)`` reference map (int32); pixels only ever take the reference of a
+        piece that borders them, continued.
+    """
+    refs = np.asarray(references)
+    ry = np.ascontiguousarray(refs[..., 0], dtype=np.int64)
+    rx = np.ascontiguousarray(refs[..., 1], dtype=np.int64)
+    ex = _Exemplar(features, wrap)
+    ext = ex.transposed()
+    allowed_t = None if allowed is None else (lambda ys, xs, ey, exx: allowed(xs, ys, exx, ey))
+    for _ in range(rounds):
+        changed = _cut_rows(ry, rx, ex, tile, min_run, allowed)
+        # seams between columns: the same on the transposed maps
+        ry_t, rx_t = np.ascontiguousarray(rx.T), np.ascontiguousarray(ry.T)
+        changed += _cut_rows(ry_t, rx_t, ext, tile, min_run, allowed_t)
+        ry, rx = np.ascontiguousarray(rx_t.T), np.ascontiguousarray(ry_t.T)
+        if changed == 0:
+            break
+    return np.stack([ry, rx], axis=-1).astype(np.int32)

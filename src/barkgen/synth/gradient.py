@@ -1,0 +1,133 @@
+"""Continuous maps through a reference map: gradients carried, then re-integrated.
+
+A reference map copies pieces of the exemplar (laitoch2018 §3.3.1). For the colour that is what
+we want: every output pixel is exactly an exemplar pixel, so the texture is as sharp as the
+photo and ``apply_references`` reproduces it. A height field copied the same way is not: two
+pieces meet at different heights, and the border between them becomes a cliff, in the
+displacement and in every map derived from it (normals, AO).
+
+So a continuous map (height, roughness, an extra map) goes through the gradient domain (Pérez et
+al. 2003, "Poisson image editing"; the same idea as the gradient-domain seams of sibbing2010
+§5): every output pixel takes the exemplar's *gradient* at its reference (the step to the next
+exemplar pixel, as if its piece went on), and the map is the field whose gradients fit those
+best, screened towards the plainly copied map so that its low frequencies stay the exemplar's:
+
+    minimise  sum |grad u - g|^2 + lambda * sum (u - f)^2,
+
+solved exactly by FFT on the torus when the output tiles (so the map still tiles) and by the
+cosine transform (Neumann border) when it does not. Inside a piece the carried gradients are
+the copied map's own, so nothing changes there but a slow drift; across a border the step
+becomes an ordinary one.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: lambda of the screened Poisson equation: a step at a seam spreads over about
+#: 1 / sqrt(lambda) px (here ~30), far below the size of a copied piece
+SCREENING = 1e-3
+
+
+def exemplar_steps(source: np.ndarray, wrap: tuple[bool, bool] = (False, False)
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """``(sy, sx)``, each ``(h, w, C)`` float64: the exemplar map's forward steps down and to the
+    right at every pixel (from its last row or column: to the first where the exemplar wraps,
+    else the step that reaches it)."""
+    src = np.asarray(source, dtype=np.float64)
+    if src.ndim == 2:
+        src = src[:, :, None]
+    steps = []
+    for axis in (0, 1):
+        if wrap[axis]:
+            steps.append(np.roll(src, -1, axis=axis) - src)
+            continue
+        d = np.diff(src, axis=axis)
+        last = np.take(d, [-1], axis=axis) if src.shape[axis] > 1 else np.zeros_like(
+            np.take(src, [0], axis=axis))
+        steps.append(np.concatenate([d, last], axis=axis))
+    return steps[0], steps[1]
+
+
+def carried_gradients(source: np.ndarray, references: np.ndarray,
+                      wrap: tuple[bool, bool] = (False, False)) -> tuple[np.ndarray, np.ndarray]:
+    """``(gy, gx)``, each ``(H, W, C)`` float64: the exemplar map's forward steps
+    (:func:`exemplar_steps`) at each output pixel's reference: the steps its piece would take
+    if it went on."""
+    sy, sx = exemplar_steps(source, wrap)
+    ry, rx = references[..., 0], references[..., 1]
+    return sy[ry, rx], sx[ry, rx]
+
+
+def _eigenvalues(n: int, tile: bool) -> np.ndarray:
+    """Eigenvalues of the 1-D negative Laplacian: periodic (FFT) or Neumann (DCT-II)."""
+    k = np.arange(n)
+    return 2.0 - 2.0 * np.cos((2.0 if tile else 1.0) * np.pi * k / n)
+
+
+def screened_poisson(plain: np.ndarray, gy: np.ndarray, gx: np.ndarray, *, tile: bool,
+                     screening: float = SCREENING) -> np.ndarray:
+    """The ``u`` minimising ``|grad u - (gy, gx)|^2 + screening * |u - plain|^2`` over an
+    ``(H, W, C)`` map, forward differences; on the torus when ``tile``, else with a Neumann
+    border (the last row's ``gy`` and last column's ``gx`` are not used)."""
+    import scipy.fft as sfft
+
+    f = np.asarray(plain, dtype=np.float64)
+    H, W = f.shape[:2]
+    if tile:
+        div = (gx - np.roll(gx, 1, axis=1)) + (gy - np.roll(gy, 1, axis=0))
+    else:
+        gx = gx.copy()
+        gy = gy.copy()
+        gx[:, -1] = 0.0
+        gy[-1, :] = 0.0
+        div = gx.copy()
+        div[:, 1:] -= gx[:, :-1]
+        div += gy
+        div[1:] -= gy[:-1]
+    rhs = screening * f - div
+    denom = (screening + _eigenvalues(H, tile)[:, None] + _eigenvalues(W, tile)[None, :])[:, :, None]
+    if tile:
+        return np.real(sfft.ifft2(sfft.fft2(rhs, axes=(0, 1)) / denom, axes=(0, 1)))
+    return sfft.idctn(sfft.dctn(rhs, type=2, axes=(0, 1), norm="ortho") / denom, type=2,
+                      axes=(0, 1), norm="ortho")
+
+
+def _integrate(source: np.ndarray, references: np.ndarray, tile: bool, wrap: tuple[bool, bool],
+               screening: float, smooth_slopes: bool) -> np.ndarray:
+    """The gradient-domain map ``(H, W, C)`` float64 of an ``(h, w, C)`` exemplar map."""
+    ry, rx = references[..., 0], references[..., 1]
+    plain = np.asarray(source, dtype=np.float64)[ry, rx]
+    if not smooth_slopes:
+        gy, gx = carried_gradients(source, references, wrap)
+    else:  # the slopes are continuous maps themselves: carried through their own gradients
+        sy, sx = exemplar_steps(source, wrap)
+        gy = _integrate(sy, references, tile, wrap, screening, False)
+        gx = _integrate(sx, references, tile, wrap, screening, False)
+    return screened_poisson(plain, gy, gx, tile=tile, screening=screening)
+
+
+def resolve_continuous(source: np.ndarray, references: np.ndarray, *, tile: bool,
+                       wrap: tuple[bool, bool] = (False, False),
+                       screening: float = SCREENING, smooth_slopes: bool = False) -> np.ndarray:
+    """A continuous map of the exemplar (height, roughness, ...) through a reference map
+    ``(H, W, 2)`` in the gradient domain (see the module): continuous across the borders of the
+    copied pieces, tileable when ``tile``. ``smooth_slopes``: the slopes too are continuous
+    across the borders (the carried gradients go through the gradient domain first), so
+    normals computed from a height resolved this way have no creases there. Same dtype and
+    channels as ``source``; integer maps are rounded and clipped to their range, float maps in
+    [0, 1] stay in it."""
+    src = np.asarray(source)
+    refs = np.asarray(references)
+    flat = src.ndim == 2
+    s3 = src[:, :, None] if flat else src
+    u = _integrate(s3, refs, tile, wrap, screening, smooth_slopes)
+    if src.dtype.kind in "ui":
+        info = np.iinfo(src.dtype)
+        u = np.clip(np.rint(u), info.min, info.max).astype(src.dtype)
+    else:
+        lo, hi = float(src.min()), float(src.max())
+        if lo >= 0.0 and hi <= 1.0:
+            u = np.clip(u, 0.0, 1.0)
+        u = u.astype(src.dtype)
+    return u[:, :, 0] if flat else u
