@@ -30,15 +30,26 @@ def _need_shared() -> None:
                     "(set BARKGEN_SHARED); not part of a user's checkout")
 
 
-@pytest.fixture(scope="session")
-def texeval():
-    """The texeval module of ../shared/eval."""
+def _eval_module(name: str):
+    """A module of the team's ../shared/eval (texeval, seams)."""
+    import importlib
+
     _need_shared()
     if str(EVAL) not in sys.path:
         sys.path.insert(0, str(EVAL))
-    import texeval as module
+    return importlib.import_module(name)
 
-    return module
+
+@pytest.fixture(scope="session")
+def texeval():
+    """The texeval module of ../shared/eval."""
+    return _eval_module("texeval")
+
+
+@pytest.fixture(scope="session")
+def seams():
+    """The seams module of ../shared/eval (longest straight seam, step ratio across seams)."""
+    return _eval_module("seams")
 
 
 def bark_exemplar(name: str, size: int) -> np.ndarray:

@@ -4,8 +4,6 @@ with the team's ``seams.py`` where it says what a user sees."""
 
 from __future__ import annotations
 
-import sys
-
 import cv2
 import numpy as np
 import pytest
@@ -15,19 +13,6 @@ from barkgen.synth import SynthesisConfig, exemplar_wraps, synthesize
 from barkgen.synth.cuts import cut_straight_seams
 from barkgen.synth.edges import border_cost, edge_step_shares, resolve_exemplar_wrap
 from barkgen.synth.gradient import resolve_continuous
-
-
-@pytest.fixture(scope="module")
-def seams():
-    """The team's ../shared/eval/seams.py."""
-    from conftest import EVAL, _need_shared
-
-    _need_shared()
-    if str(EVAL) not in sys.path:
-        sys.path.insert(0, str(EVAL))
-    import seams as module
-
-    return module
 
 
 @pytest.fixture(scope="module")

@@ -72,6 +72,15 @@ def _ex_inside(v, n, wrap):
 
 
 @nb.njit(inline="always")
+def _listed(values, n, v):
+    """True when ``v`` is among the first ``n`` entries of ``values``."""
+    for t in range(n):
+        if values[t] == v:
+            return True
+    return False
+
+
+@nb.njit(inline="always")
 def _mix(z):
     """splitmix64 finaliser: a well-mixed 64-bit hash of a uint64."""
     z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
@@ -195,12 +204,7 @@ def m_step(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, proj_w, proj_m
                                                   ex_w, wrap_y, wrap_x)
                     if u < 0:
                         continue
-                    dup = False
-                    for t in range(n_seen):
-                        if seen[t] == u:
-                            dup = True
-                            break
-                    if dup:
+                    if _listed(seen, n_seen, u):
                         continue
                     seen[n_seen] = u
                     n_seen += 1
@@ -438,6 +442,20 @@ def _continues(refs, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, py, px, qy, qx, dy,
     return cy >= 0 and cx >= 0 and cy == ex_y[f] and cx == ex_x[f]
 
 
+@nb.njit(inline="always")
+def _neighbour4(y, x, k, H, W, tile):
+    """The ``k``-th (0..3: below, above, right, left) 4-neighbour of output pixel (y, x):
+    ``(qy, qx, dy, dx, inside)``, round the torus when ``tile``; ``inside`` is False for a
+    neighbour beyond the edge of an output that does not tile."""
+    dy = (k == 0) - (k == 1)
+    dx = (k == 2) - (k == 3)
+    qy = y + dy
+    qx = x + dx
+    if tile:
+        return _wrap_or_clamp(qy, H, True), _wrap_or_clamp(qx, W, True), dy, dx, True
+    return qy, qx, dy, dx, 0 <= qy < H and 0 <= qx < W
+
+
 @nb.njit(cache=True)
 def label_pieces(refs, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, tile,
                  labels):  # pragma: no cover - compiled
@@ -467,16 +485,8 @@ def label_pieces(refs, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, tile,
                 px = p - py * W
                 count += 1
                 for k in range(4):
-                    dy = (k == 0) - (k == 1)
-                    dx = (k == 2) - (k == 3)
-                    qy = py + dy
-                    qx = px + dx
-                    if tile:
-                        qy = _wrap_or_clamp(qy, H, True)
-                        qx = _wrap_or_clamp(qx, W, True)
-                    elif qy < 0 or qy >= H or qx < 0 or qx >= W:
-                        continue
-                    if labels[qy, qx] >= 0:
+                    qy, qx, dy, dx, inside = _neighbour4(py, px, k, H, W, tile)
+                    if not inside or labels[qy, qx] >= 0:
                         continue
                     if _continues(refs, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, py, px, qy, qx,
                                   dy, dx):
@@ -554,12 +564,7 @@ def refine_seams(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, tile, pa
                     continue
                 if guided and own_ok and ex_labels[u] != target[y, x]:
                     continue
-                dup = False
-                for t in range(n):
-                    if cand[t] == u:
-                        dup = True
-                        break
-                if not dup:
+                if not _listed(cand, n, u):
                     cand[n] = u
                     n += 1
             if n == 1:
@@ -570,14 +575,8 @@ def refine_seams(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, tile, pa
                 c = cand[t]
                 cost = 0.0
                 for k in range(4):
-                    dy = (k == 0) - (k == 1)
-                    dx = (k == 2) - (k == 3)
-                    qy = y + dy
-                    qx = x + dx
-                    if tile:
-                        qy = _wrap_or_clamp(qy, H, True)
-                        qx = _wrap_or_clamp(qx, W, True)
-                    elif qy < 0 or qy >= H or qx < 0 or qx >= W:
+                    qy, qx, dy, dx, inside = _neighbour4(y, x, k, H, W, tile)
+                    if not inside:
                         continue
                     cost += _seam_cost(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, c,
                                        qy, qx, dy, dx)

@@ -60,7 +60,7 @@ class SynthesisConfig:
     jitter: float = 0.0
     seam_sweeps: int = 4
     seam_cut_run: int = 24
-    seam_cut_levels: int = 1
+    seam_cut_levels: int = 2
     extra_weight: float = 0.5
     threads: int | None = None
     max_memory: int = 8 * 1024**3

@@ -32,7 +32,7 @@ WRAP_MODES = ("auto", "yes", "no")
 WRAP_EDGE_SHARE = 0.3
 
 #: weight of the border cost, in units of the level's typical appearance distance
-BORDER_WEIGHT = 2.0
+BORDER_WEIGHT = 4.0
 #: reach of the border cost, as a fraction of the level's side along that axis
 BORDER_REACH = 0.016
 
