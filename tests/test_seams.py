@@ -86,8 +86,10 @@ def test_pieces_run_across_a_wrapping_exemplars_edge(seams, sample256):
 def test_pieces_end_before_a_border_that_does_not_wrap():
     """The border cost: pixels at a non-wrapping border cost most, nothing past its reach, and
     nothing at all along an axis that wraps."""
+    from barkgen.synth.edges import BORDER_WEIGHT
+
     cost = border_cost(100, 200, (False, True), scale=2.0).reshape(100, 200)
-    assert cost[0, 50] == pytest.approx(4.0) and cost[-1, 50] == pytest.approx(4.0)
+    assert cost[0, 50] == pytest.approx(2 * BORDER_WEIGHT) and cost[-1, 50] == pytest.approx(2 * BORDER_WEIGHT)
     assert cost[50].max() == 0.0  # columns wrap: no cost at the left and right edges
     assert border_cost(64, 64, (True, True), 1.0).max() == 0.0
     # the output of a non-tiling exemplar uses the rows by its border less than the others

@@ -11,6 +11,10 @@ E-step, extra channels), with these additions:
   which answers the "same patterns repeated" defect of laitoch2018 §4.1;
 * a coherence bias (Ashikhmin 2001) that keeps exemplar patches whole;
 * toroidal neighbourhoods at every level for tileable output;
+* an exemplar that tiles itself is a torus too, one that does not has a soft border cost
+  (:mod:`barkgen.synth.edges`), so pieces never end in a line along its edge;
+* seam optimisation: local moves and graph cuts of straight seams (Kwatra et al. 2003,
+  :mod:`barkgen.synth.cuts`), so the borders between pieces follow low-error paths;
 * the output is an image of references, resolved to exemplar pixels only at the end, so nothing
   is ever averaged: the result is exactly as sharp as the exemplar (laitoch2018 §4.2's blur).
 """
@@ -56,7 +60,9 @@ class SynthesisResult:
     Attributes:
         image: the synthesized texture, same dtype and channel count as the exemplar.
         references: ``(H, W, 2)`` int32, the exemplar (row, col) each output pixel copies.
-        extras: each extra map of the exemplar, resolved through the same references.
+        extras: each extra map of the exemplar through the same references, in the gradient
+            domain (:func:`barkgen.synth.gradient.resolve_continuous`: no cliffs where copied
+            pieces meet; :func:`apply_references` gives the exact copy).
         exemplar_shape: ``(h, w)`` of the exemplar the references point into.
         exemplar_wrap: ``(rows, columns)``: the exemplar was used as a torus along that axis
             (a reference may step from its last row to its first inside one piece).
