@@ -27,8 +27,9 @@ WRAP_MODES = ("auto", "yes", "no")
 #: an axis wraps when the mean step from the exemplar's last row (column) to its first lies at
 #: most this far from its mean step between neighbouring rows towards its mean step between
 #: rows half the exemplar apart (unrelated rows): 0 = as seamless as any two neighbours, 1 = as
-#: unrelated as any two rows. The bundled sample and the shared scanned textures sit at -0.07 to
-#: 0.22, a photo cut anywhere at 0.59 to 1.43
+#: unrelated as any two rows. The bundled sample and the shared game textures that tile sit at
+#: -0.07 to 0.22 on both axes, the other shared photos at 0.38 to 1.14 on at least one, a photo
+#: cut anywhere at 0.59 to 1.43
 WRAP_EDGE_SHARE = 0.3
 
 #: weight of the border cost, in units of the level's typical appearance distance
