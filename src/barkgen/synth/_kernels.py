@@ -499,41 +499,45 @@ def label_pieces(refs, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, tile,
 
 
 @nb.njit(inline="always")
-def _feature_distance(ex_feat, a, b):
+def _feat_dist(feat, ay, ax, by, bx):
     d2 = 0.0
-    for c in range(ex_feat.shape[1]):
-        v = ex_feat[a, c] - ex_feat[b, c]
+    for c in range(feat.shape[2]):
+        v = feat[ay, ax, c] - feat[by, bx, c]
         d2 += v * v
     return np.sqrt(d2)
 
 
 @nb.njit(inline="always")
-def _seam_cost(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, c, qy, qx, dy, dx):
-    """Cost of the seam between output pixel p taking exemplar pixel ``c`` and its neighbour
-    q = p + (dy, dx) keeping its reference (Kwatra et al. 2003, eq. 1): ||A(p) - B(p)|| +
-    ||A(q) - B(q)||, A the piece ``c`` belongs to, B q's piece, each continued one pixel
-    across the seam; 0 when ``c`` continues q's piece. A piece that cannot be continued (it
-    reaches a non-wrapping exemplar edge) is taken as its last pixel."""
-    f = refs[qy, qx]
-    ay = _ex_inside(ex_y[c] + dy, ex_h, wrap_y)
-    ax = _ex_inside(ex_x[c] + dx, ex_w, wrap_x)
-    if ay >= 0 and ax >= 0 and ay == ex_y[f] and ax == ex_x[f]:
+def _seam_cost(feat, ex_h, ex_w, wrap_y, wrap_x, cy, cx, fy, fx, dy, dx):
+    """Cost of the seam between an output pixel taking exemplar pixel ``(cy, cx)`` and its
+    neighbour ``(dy, dx)`` away taking ``(fy, fx)`` (Kwatra et al. 2003, eq. 1): ||A(p) - B(p)||
+    + ||A(q) - B(q)||, A and B the two pieces, each continued one pixel across the seam; 0 when
+    the first continues into the other. A piece that cannot be continued (it reaches a
+    non-wrapping exemplar edge) is taken as its last pixel. ``feat``: ``(h, w, C)``."""
+    ay = _ex_inside(cy + dy, ex_h, wrap_y)
+    ax = _ex_inside(cx + dx, ex_w, wrap_x)
+    if ay >= 0 and ax >= 0 and ay == fy and ax == fx:
         return 0.0
-    a_q = ay * ex_w + ax if (ay >= 0 and ax >= 0) else c
-    by = _ex_inside(ex_y[f] - dy, ex_h, wrap_y)
-    bx = _ex_inside(ex_x[f] - dx, ex_w, wrap_x)
-    b_p = by * ex_w + bx if (by >= 0 and bx >= 0) else f
-    return _feature_distance(ex_feat, c, b_p) + _feature_distance(ex_feat, a_q, f)
+    if ay < 0 or ax < 0:
+        ay = cy
+        ax = cx
+    by = _ex_inside(fy - dy, ex_h, wrap_y)
+    bx = _ex_inside(fx - dx, ex_w, wrap_x)
+    if by < 0 or bx < 0:
+        by = fy
+        bx = fx
+    return _feat_dist(feat, cy, cx, by, bx) + _feat_dist(feat, ay, ax, fy, fx)
 
 
 @nb.njit(parallel=True, cache=True, fastmath=True)
-def refine_seams(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, tile, parity, forbid,
+def refine_seams(refs, feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, tile, parity, forbid,
                  ex_labels, target, out):  # pragma: no cover - compiled
     """One half-sweep of seam optimisation (Kwatra et al. 2003, §3: the seam cost minimised by
     local moves): every output pixel with ``(y + x) % 2 == parity`` takes, among its own
     reference and the forward-shifted references of its 4 neighbours (each continues a
     neighbouring piece), the one whose seams with its 4 neighbours cost least
-    (:func:`_seam_cost`). Pixels of one parity only have neighbours of the other, so a
+    (:func:`_seam_cost` on ``feat``, the exemplar features as an ``(h, w, C)`` image). Pixels
+    of one parity only have neighbours of the other, so a
     half-sweep is exact and independent of threads, and the total seam cost never rises. The
     borders between pieces thus move onto low-error paths instead of running straight along
     the up-sampling grid. Candidates with the forbidden offset are skipped; when guided
@@ -578,8 +582,9 @@ def refine_seams(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, tile, pa
                     qy, qx, dy, dx, inside = _neighbour4(y, x, k, H, W, tile)
                     if not inside:
                         continue
-                    cost += _seam_cost(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, c,
-                                       qy, qx, dy, dx)
+                    f = refs[qy, qx]
+                    cost += _seam_cost(feat, ex_h, ex_w, wrap_y, wrap_x, ex_y[c], ex_x[c],
+                                       ex_y[f], ex_x[f], dy, dx)
                 if cost < best_cost - 1e-6:
                     best_cost = cost
                     best = c
@@ -738,34 +743,6 @@ def seam_runs(ry, rx, ex_h, ex_w, wrap_y, wrap_x, tile, min_run):  # pragma: no 
     return out[:n].copy()
 
 
-@nb.njit(inline="always")
-def _feat_dist(feat, ay, ax, by, bx):
-    d2 = 0.0
-    for c in range(feat.shape[2]):
-        v = feat[ay, ax, c] - feat[by, bx, c]
-        d2 += v * v
-    return np.sqrt(d2)
-
-
-@nb.njit(inline="always")
-def _coord_seam_cost(feat, ex_h, ex_w, wrap_y, wrap_x, cy, cx, fy, fx, dy, dx):
-    """:func:`_seam_cost` on exemplar coordinates: a pixel taking ``(cy, cx)`` beside its
-    neighbour ``(dy, dx)`` away taking ``(fy, fx)``; 0 when the first continues into the other."""
-    ay = _ex_inside(cy + dy, ex_h, wrap_y)
-    ax = _ex_inside(cx + dx, ex_w, wrap_x)
-    if ay >= 0 and ax >= 0 and ay == fy and ax == fx:
-        return 0.0
-    if ay < 0 or ax < 0:
-        ay = cy
-        ax = cx
-    by = _ex_inside(fy - dy, ex_h, wrap_y)
-    bx = _ex_inside(fx - dx, ex_w, wrap_x)
-    if by < 0 or bx < 0:
-        by = fy
-        bx = fx
-    return _feat_dist(feat, cy, cx, by, bx) + _feat_dist(feat, ay, ax, fy, fx)
-
-
 @nb.njit(cache=True)
 def seam_band(ry, rx, feat, wrap_y, wrap_x, tile, i, cols, band, cand_y, cand_x, valid,
               member, cost, w_down, w_right):  # pragma: no cover - compiled
@@ -841,7 +818,7 @@ def seam_band(ry, rx, feat, wrap_y, wrap_x, tile, i, cols, band, cand_y, cand_x,
                 elif qy < 0 or qy >= H or qx < 0 or qx >= W:
                     continue
                 for lab in range(2):
-                    cost[lab, k, c] += _coord_seam_cost(feat, ex_h, ex_w, wrap_y, wrap_x,
+                    cost[lab, k, c] += _seam_cost(feat, ex_h, ex_w, wrap_y, wrap_x,
                                                         cand_y[lab, k, c], cand_x[lab, k, c],
                                                         ry[qy, qx], rx[qy, qx], dy, dx)
             for t in range(2):  # pairs with the band pixel below (t = 0) and to the right
@@ -854,7 +831,7 @@ def seam_band(ry, rx, feat, wrap_y, wrap_x, tile, i, cols, band, cand_y, cand_x,
                 e = np.empty((2, 2))
                 for u in range(2):
                     for v in range(2):
-                        e[u, v] = _coord_seam_cost(feat, ex_h, ex_w, wrap_y, wrap_x,
+                        e[u, v] = _seam_cost(feat, ex_h, ex_w, wrap_y, wrap_x,
                                                    cand_y[u, k, c], cand_x[u, k, c],
                                                    cand_y[v, kk, cc], cand_x[v, kk, cc], dy, dx)
                 cost[1, k, c] += e[1, 0] - e[0, 0]

@@ -442,7 +442,8 @@ def _roll(refs: np.ndarray, forbid: np.ndarray, shift: tuple[int, int]) -> tuple
 def _cut_seams(refs: np.ndarray, level: LevelAnalysis, features: np.ndarray, tile: bool,
                min_run: int, labels: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
     """The level's reference map with its straight seams re-cut (:mod:`barkgen.synth.cuts`);
-    ``labels`` ``(exemplar labels, target labels)`` keeps texture-by-numbers' labels."""
+    ``features`` ``(h, w, C)``: what the seam cost compares; ``labels`` ``(exemplar labels,
+    target labels)`` keeps texture-by-numbers' labels."""
     from barkgen.synth.cuts import cut_straight_seams
 
     allowed = None
@@ -453,8 +454,8 @@ def _cut_seams(refs: np.ndarray, level: LevelAnalysis, features: np.ndarray, til
             return ex_labels[ey * level.width + ex] == target[ys, xs]
 
     coords = np.stack([level.coords_y[refs], level.coords_x[refs]], axis=-1)
-    cut = cut_straight_seams(coords, features.reshape(level.height, level.width, -1),
-                             tile=tile, wrap=level.wrap, min_run=min_run, allowed=allowed)
+    cut = cut_straight_seams(coords, features, tile=tile, wrap=level.wrap, min_run=min_run,
+                             allowed=allowed)
     return np.ascontiguousarray(cut[..., 0] * level.width + cut[..., 1], dtype=np.int32)
 
 
@@ -676,8 +677,8 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
         new = np.empty(shape, np.int32)
         occ_radius = 3
         edge_cost = border_cost(la.height, la.width, wrap, la.scale) if not all(wrap) else None
-        seam_feats = (la.features if seam_channels is None
-                      else np.ascontiguousarray(la.features[:, :seam_channels]))
+        seam_image = np.ascontiguousarray(la.features[:, :seam_channels]).reshape(
+            la.height, la.width, -1)  # what the seam costs compare, as an image
 
         def occurrence(refs: np.ndarray) -> np.ndarray:
             cost = _occurrence_penalty(refs, la, config.occurrence_weight, occ_radius, expected)
@@ -714,14 +715,14 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
         for _ in range(config.seam_sweeps):
             moved = 0
             for parity in (0, 1):
-                moved += K.refine_seams(refs, seam_feats, la.coords_y, la.coords_x, la.height,
+                moved += K.refine_seams(refs, seam_image, la.coords_y, la.coords_x, la.height,
                                         la.width, wrap[0], wrap[1], tile, parity, forbid,
                                         ex_labels, target, new)
                 refs, new = new, refs
             if moved == 0:
                 break
         if config.seam_cut_run and lvl <= config.seam_cut_levels - 1:
-            refs = _cut_seams(refs, la, seam_feats, tile, config.seam_cut_run,
+            refs = _cut_seams(refs, la, seam_image, tile, config.seam_cut_run,
                               (ex_labels, target) if lg is not None else None)
         if lg is not None and lvl == 0:
             for _ in range(guidance.cleanup_passes):
