@@ -531,7 +531,7 @@ def _seam_cost(feat, ex_h, ex_w, wrap_y, wrap_x, cy, cx, fy, fx, dy, dx):
 
 @nb.njit(parallel=True, cache=True, fastmath=True)
 def refine_seams(refs, feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, tile, parity, forbid,
-                 ex_labels, target, out):  # pragma: no cover - compiled
+                 ex_labels, target, after, moved, out):  # pragma: no cover - compiled
     """One half-sweep of seam optimisation (Kwatra et al. 2003, §3: the seam cost minimised by
     local moves): every output pixel with ``(y + x) % 2 == parity`` takes, among its own
     reference and the forward-shifted references of its 4 neighbours (each continues a
@@ -542,17 +542,34 @@ def refine_seams(refs, feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, tile, parit
     borders between pieces thus move onto low-error paths instead of running straight along
     the up-sampling grid. Candidates with the forbidden offset are skipped; when guided
     (``ex_labels`` has more than one entry) a candidate of the wrong label never replaces one of
-    the wanted label. Pixels of the other parity are copied. Returns the number changed."""
+    the wanted label. Pixels of the other parity are copied.
+
+    ``after`` ``(H, W)`` uint8, or shape ``(1, 1)`` for a first half-sweep that looks at every
+    pixel: the ``moved`` map of the previous half-sweep, when this parity's pixels have been
+    swept before; a pixel is then looked at only if a neighbour moved (its choice depends on
+    nothing else, so the others would keep theirs). ``moved`` ``(H, W)`` uint8 receives 1 where
+    a pixel changed. Returns the number changed."""
     H, W = refs.shape
     guided = ex_labels.shape[0] > 1
+    every = after.shape[0] != H or after.shape[1] != W
     changed = np.zeros(H, np.int64)
     for y in nb.prange(H):
         cand = np.empty(5, np.int32)
         for x in range(W):
             e0 = refs[y, x]
             out[y, x] = e0
+            moved[y, x] = 0
             if (y + x) % 2 != parity:
                 continue
+            if not every:
+                near = False
+                for k in range(4):
+                    qy, qx, dy, dx, inside = _neighbour4(y, x, k, H, W, tile)
+                    if inside and after[qy, qx] != 0:
+                        near = True
+                        break
+                if not near:
+                    continue
             n = 1
             cand[0] = e0
             fb = forbid[y, x]
@@ -590,6 +607,7 @@ def refine_seams(refs, feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, tile, parit
                     best = c
             if best != e0:
                 out[y, x] = best
+                moved[y, x] = 1
                 changed[y] += 1
     return changed.sum()
 

@@ -14,6 +14,7 @@ Arrays in, arrays out: reference maps as exemplar ``(row, col)`` coordinates.
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 
 #: straight seam runs at least this long are re-cut
@@ -95,8 +96,7 @@ def _cut_rows(ry, rx, ex: _Exemplar, tile: bool, min_run: int, allowed) -> int:
     from barkgen.synth import _kernels as K
 
     W = ry.shape[1]
-    runs = K.seam_runs(np.ascontiguousarray(ry), np.ascontiguousarray(rx), ex.shape[0],
-                       ex.shape[1], ex.wrap[0], ex.wrap[1], tile, min_run)
+    runs = K.seam_runs(ry, rx, ex.shape[0], ex.shape[1], ex.wrap[0], ex.wrap[1], tile, min_run)
     changed = 0
     for i, start, length in runs:
         cols = np.arange(start, start + length)
@@ -125,17 +125,17 @@ def cut_straight_seams(references: np.ndarray, features: np.ndarray, *, tile: bo
         piece that borders them, continued.
     """
     refs = np.asarray(references)
-    ry = np.ascontiguousarray(refs[..., 0], dtype=np.int64)
-    rx = np.ascontiguousarray(refs[..., 1], dtype=np.int64)
+    ry = np.ascontiguousarray(refs[..., 0], dtype=np.int32)
+    rx = np.ascontiguousarray(refs[..., 1], dtype=np.int32)
     ex = _Exemplar(features, wrap)
     ext = ex.transposed()
     allowed_t = None if allowed is None else (lambda ys, xs, ey, exx: allowed(xs, ys, exx, ey))
     for _ in range(rounds):
         changed = _cut_rows(ry, rx, ex, tile, min_run, allowed)
-        # seams between columns: the same on the transposed maps
-        ry_t, rx_t = np.ascontiguousarray(rx.T), np.ascontiguousarray(ry.T)
+        # seams between columns: the same on the transposed maps (cv2's blocked transpose)
+        ry_t, rx_t = cv2.transpose(rx), cv2.transpose(ry)
         changed += _cut_rows(ry_t, rx_t, ext, tile, min_run, allowed_t)
-        ry, rx = np.ascontiguousarray(rx_t.T), np.ascontiguousarray(ry_t.T)
+        ry, rx = cv2.transpose(rx_t), cv2.transpose(ry_t)
         if changed == 0:
             break
-    return np.stack([ry, rx], axis=-1).astype(np.int32)
+    return np.stack([ry, rx], axis=-1)

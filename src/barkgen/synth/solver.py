@@ -712,13 +712,18 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
                 _limit_copies(refs, la, config.max_copy * la.height * la.width, forbid, tile)
             penalty = occurrence(refs)
             tick()
-        for _ in range(config.seam_sweeps):
+        # the first sweep looks at every pixel; later half-sweeps only beside the moved ones
+        moved_map, after = np.empty(shape, np.uint8), np.zeros(shape, np.uint8)
+        every = np.zeros((1, 1), np.uint8)
+        for sweep in range(config.seam_sweeps):
             moved = 0
             for parity in (0, 1):
                 moved += K.refine_seams(refs, seam_image, la.coords_y, la.coords_x, la.height,
                                         la.width, wrap[0], wrap[1], tile, parity, forbid,
-                                        ex_labels, target, new)
+                                        ex_labels, target, every if sweep == 0 else after,
+                                        moved_map, new)
                 refs, new = new, refs
+                moved_map, after = after, moved_map
             if moved == 0:
                 break
         if config.seam_cut_run and lvl <= config.seam_cut_levels - 1:
