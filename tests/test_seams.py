@@ -137,6 +137,51 @@ def test_a_straight_seam_is_recut_along_the_texture():
     assert cost(out) <= cost(refs)
 
 
+def test_a_seam_stuck_at_the_exemplar_border_is_given_to_the_solver():
+    """A straight seam where the upper piece ends on the exemplar's last row and the lower one
+    starts on its first (the fir crop's 69 px seam, between columns there): no cut can move it,
+    as neither piece continues past the border; the lower piece's offset is forbidden on the
+    rows below it, so the next iterations put other pieces there. A seam of the same length
+    that a cut can move is left to the cut."""
+    from types import SimpleNamespace
+
+    from barkgen.synth.solver import UNSTICK_DEPTH, _offset_codes, _unstick_border_seams
+
+    eh, ew, H, W = 80, 120, 64, 96
+    cy, cx = np.divmod(np.arange(eh * ew, dtype=np.int32), np.int32(ew))
+    level = SimpleNamespace(coords_y=cy, coords_x=cx, height=eh, width=ew, wrap=(False, False))
+    yy, xx = np.mgrid[0:H, 0:W]
+    stuck_rows = np.where(yy < 32, yy + (eh - 32), yy - 32)  # rows 48..79, then rows 0..31
+    for transposed in (False, True):
+        if not transposed:
+            ry, rx = stuck_rows, xx + 10
+        else:  # the same seam between columns 31 and 32 of a 64 x 64 output
+            yy_t, xx_t = np.mgrid[0:H, 0:64]
+            ry, rx = yy_t + 5, np.where(xx_t < 32, xx_t + (ew - 32), xx_t - 32)
+        refs = np.ascontiguousarray(ry * ew + rx, dtype=np.int32)
+        coords = np.stack([ry, rx], axis=-1).astype(np.int32)
+        assert np.array_equal(cut_straight_seams(coords, np.zeros((eh, ew, 3), np.float32),
+                                                 tile=False), coords)  # the cut cannot move it
+        forbid = np.full(refs.shape, -1, np.int64)
+        assert _unstick_border_seams(refs, level, forbid, False, 24) == 1
+        band = (slice(32, 32 + UNSTICK_DEPTH), slice(None)) if not transposed else \
+            (slice(None), slice(32, 32 + UNSTICK_DEPTH))
+        ys, xs = np.mgrid[0:refs.shape[0], 0:refs.shape[1]]
+        want = _offset_codes(ry - ys, rx - xs)
+        assert np.array_equal(forbid[band], want[band])  # the lower piece, on its first rows
+        forbid[band] = -1
+        assert (forbid == -1).all()  # nothing else
+    # a seam whose lower piece can continue upwards is the cut's: nothing forbidden
+    movable = np.where(yy < 32, yy + (eh - 32), yy - 20)
+    refs = np.ascontiguousarray(movable * ew + xx + 10, dtype=np.int32)
+    forbid = np.full(refs.shape, -1, np.int64)
+    assert _unstick_border_seams(refs, level, forbid, False, 24) == 0 and (forbid == -1).all()
+    # along an axis that wraps there is no border to be stuck at
+    level.wrap = (True, False)
+    refs = np.ascontiguousarray(stuck_rows * ew + xx + 10, dtype=np.int32)
+    assert _unstick_border_seams(refs, level, forbid, False, 24) == 0
+
+
 def test_a_piece_round_a_tiled_output_is_one_piece():
     """Copy-size control: a strip of the exemplar that runs round a tiled output is one piece
     (its offset changes where it wraps), so it is cut like any other large piece."""

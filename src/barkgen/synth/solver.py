@@ -28,6 +28,7 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
+import cv2
 import numpy as np
 
 from barkgen.color import rgb_to_lab
@@ -412,6 +413,60 @@ def _limit_copies(refs: np.ndarray, level: LevelAnalysis, max_area: float,
     return int(big.sum())
 
 
+#: rows (or columns) of the lower piece that a straight seam stuck at the exemplar's border
+#: forbids (:func:`_unstick_border_seams`)
+UNSTICK_DEPTH = 4
+
+
+def _unstick_border_seams(refs: np.ndarray, level: LevelAnalysis, forbid: np.ndarray,
+                          tile: bool, min_run: int) -> int:
+    """Where a straight seam joins two pieces that both end at the exemplar's border there
+    (the upper one on its last row, the lower one on its first, along an axis that does not
+    wrap), no cut can move it: neither piece continues past the border. The lower piece's offset
+    is forbidden on the ``UNSTICK_DEPTH`` rows below the seam, so the next iterations put
+    other pieces there, which can be cut. The same for seams between columns. Returns the
+    number of seams treated."""
+    from barkgen.synth import _kernels as K
+
+    ry = np.ascontiguousarray(level.coords_y[refs], dtype=np.int32)
+    rx = np.ascontiguousarray(level.coords_x[refs], dtype=np.int32)
+    h, w = level.height, level.width
+    treated = 0
+    for axis in (0, 1):
+        if level.wrap[axis]:
+            continue
+        if axis == 0:
+            a, b, n_ex, wy, wx, fb = ry, rx, (h, w), level.wrap[0], level.wrap[1], forbid
+        else:
+            a, b, n_ex, wy, wx, fb = (cv2.transpose(rx), cv2.transpose(ry), (w, h),
+                                      level.wrap[1], level.wrap[0], forbid.T)
+        H, W = a.shape
+        runs = K.seam_runs(a, b, n_ex[0], n_ex[1], wy, wx, tile, min_run)
+        for i, start, length in runs:
+            cols = np.arange(start, start + length)
+            cols = np.mod(cols, W) if tile else cols
+            j = (i + 1) % H
+            stuck = (a[i, cols] == n_ex[0] - 1) & (a[j, cols] == 0)
+            if stuck.mean() < 0.5:
+                continue
+            rows = j + np.arange(UNSTICK_DEPTH)
+            if tile:
+                rows = np.mod(rows, H)
+            else:
+                rows = rows[rows < H]
+            yy, xx = np.meshgrid(rows, cols, indexing="ij")
+            dy = (rows - j)[:, None] if not tile else np.mod(rows - j, H)[:, None]
+            same = (a[yy, xx] == a[j, cols][None, :] + dy) & (b[yy, xx] == b[j, cols][None, :])
+            yy, xx = yy[same], xx[same]
+            ey, ex = a[yy, xx], b[yy, xx]
+            if axis == 0:
+                fb[yy, xx] = _offset_codes(ey - yy, ex - xx)
+            else:  # transposed frame: output (xx, yy), exemplar (ex, ey)
+                fb[yy, xx] = _offset_codes(ex - xx, ey - yy)
+            treated += 1
+    return treated
+
+
 def _circular_centre(lab: np.ndarray, pos: np.ndarray, period: int, n: np.ndarray) -> np.ndarray:
     """Per label, the circular mean of the positions ``pos`` on a circle of ``period`` pixels."""
     angle = pos * (2 * np.pi / period)
@@ -710,6 +765,8 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
             if config.max_copy < 1.0 and (lvl > 0 or step < len(schedule) - 1):
                 # (cuts act through the following iterations, none after the very last one)
                 _limit_copies(refs, la, config.max_copy * la.height * la.width, forbid, tile)
+            if config.seam_cut_run and not all(wrap):
+                _unstick_border_seams(refs, la, forbid, tile, max(4, config.seam_cut_run >> lvl))
             penalty = occurrence(refs)
             tick()
         # the first sweep looks at every pixel; later half-sweeps only beside the moved ones
