@@ -11,7 +11,7 @@ import pytest
 from barkgen.errors import InvalidInputError
 from barkgen.synth import SynthesisConfig, exemplar_wraps, synthesize
 from barkgen.synth.cuts import cut_straight_seams
-from barkgen.synth.edges import border_cost, edge_step_shares, resolve_exemplar_wrap
+from barkgen.synth.edges import edge_step_shares, resolve_exemplar_wrap
 from barkgen.synth.gradient import resolve_continuous
 
 
@@ -83,22 +83,6 @@ def test_pieces_run_across_a_wrapping_exemplars_edge(seams, sample256):
     assert not np.any((fy[1:] == 0) & (fy[:-1] == 255) & (fx[1:] == fx[:-1]))
 
 
-def test_pieces_end_before_a_border_that_does_not_wrap():
-    """The border cost: pixels at a non-wrapping border cost most, nothing past its reach, and
-    nothing at all along an axis that wraps."""
-    from barkgen.synth.edges import BORDER_WEIGHT
-
-    cost = border_cost(100, 200, (False, True), scale=2.0).reshape(100, 200)
-    assert cost[0, 50] == pytest.approx(2 * BORDER_WEIGHT) and cost[-1, 50] == pytest.approx(2 * BORDER_WEIGHT)
-    assert cost[50].max() == 0.0  # columns wrap: no cost at the left and right edges
-    assert border_cost(64, 64, (True, True), 1.0).max() == 0.0
-    # the output of a non-tiling exemplar uses the rows by its border less than the others
-    ex = photo_like(1, (128, 128))
-    res = synthesize(ex, 256, seed=0)
-    rows = np.bincount(res.references[..., 0].ravel(), minlength=128) / (256 * 256 / 128)
-    assert rows[0] < 0.5 and rows[-1] < 0.5 and rows[32:96].mean() > 0.9
-
-
 # ------------------------------------------------------------------------------------------
 # seams that do not run straight
 
@@ -135,6 +119,37 @@ def test_a_straight_seam_is_recut_along_the_texture():
         return float(np.linalg.norm(a[1:] - a[:-1], axis=-1)[~same].sum())
 
     assert cost(out) <= cost(refs)
+
+
+def test_a_seam_on_a_flat_stretch_meanders_instead_of_staying_straight():
+    """Two pieces whose difference is the same everywhere (a ramp shifted by 40 rows): every
+    border costs the same per unit of length, so a plain minimum cut keeps the shortest one, the
+    straight line; the second pass, pulled towards a random meander, breaks it into short runs."""
+    ramp = np.repeat(np.linspace(0, 10, 256, dtype=np.float32)[:, None, None], 256, axis=1)
+    refs = np.zeros((64, 192, 2), np.int32)
+    yy, xx = np.mgrid[0:64, 0:192]
+    refs[..., 0] = np.where(yy < 32, yy + 40, yy + 80)
+    refs[..., 1] = xx + 20
+
+    def longest_row_run(r):
+        step = ~((r[1:, :, 0] == r[:-1, :, 0] + 1) & (r[1:, :, 1] == r[:-1, :, 1]))
+        best = 0
+        for row in step:
+            edges = np.diff(np.concatenate([[0], row.astype(np.int8), [0]]))
+            starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+            best = max(best, int((ends - starts).max(initial=0)))
+        return best
+
+    plain = cut_straight_seams(refs, ramp, tile=False, wrap=(False, True))
+    assert longest_row_run(plain) == 192
+    out = cut_straight_seams(refs, ramp, tile=False, wrap=(False, True),
+                             rng=np.random.default_rng(0))
+    piece_a = (out[..., 0] == yy + 40) & (out[..., 1] == xx + 20)
+    piece_b = (out[..., 0] == yy + 80) & (out[..., 1] == xx + 20)
+    assert np.all(piece_a | piece_b)
+    assert longest_row_run(out) < 24
+    assert np.array_equal(out, cut_straight_seams(refs, ramp, tile=False, wrap=(False, True),
+                                                  rng=np.random.default_rng(0)))
 
 
 def test_a_seam_stuck_at_the_exemplar_border_is_given_to_the_solver():
@@ -180,6 +195,36 @@ def test_a_seam_stuck_at_the_exemplar_border_is_given_to_the_solver():
     level.wrap = (True, False)
     refs = np.ascontiguousarray(stuck_rows * ew + xx + 10, dtype=np.int32)
     assert _unstick_border_seams(refs, level, forbid, False, 24) == 0
+
+
+def test_the_copy_size_control_cuts_a_piece_along_meandering_lines():
+    """A piece larger than the copy limit gets its offset forbidden on a cross through its centre;
+    the cross's lines meander (straight, they would leave two straight seams that the seam cuts
+    close again, joining the piece), reproducibly from the generator."""
+    from types import SimpleNamespace
+
+    from barkgen.synth.solver import _limit_copies
+
+    eh = ew = 160
+    cy, cx = np.divmod(np.arange(eh * ew, dtype=np.int32), np.int32(ew))
+    level = SimpleNamespace(coords_y=cy, coords_x=cx, height=eh, width=ew, wrap=(False, False))
+    yy, xx = np.mgrid[0:128, 0:128]
+    refs = np.ascontiguousarray((yy + 10) * ew + xx + 10, dtype=np.int32)  # one 128 x 128 piece
+
+    def forbidden(seed):
+        forbid = np.full(refs.shape, -1, np.int64)
+        assert _limit_copies(refs, level, 0.2 * eh * ew, forbid, False,
+                             np.random.default_rng(seed)) == 1
+        return forbid >= 0
+
+    band = forbidden(0)
+    assert 0.02 < band.mean() < 0.08  # two lines about 3 px wide
+    # the horizontal line's rows, column by column, away from the vertical line
+    cols = [x for x in range(128) if band[:, x].sum() <= 5]
+    rows = np.array([np.flatnonzero(band[:, x]).mean() for x in cols])
+    assert rows.max() - rows.min() > 6  # it swings
+    assert np.abs(np.diff(rows)).max() <= 2  # and stays one connected line
+    assert np.array_equal(band, forbidden(0)) and not np.array_equal(band, forbidden(1))
 
 
 def test_a_piece_round_a_tiled_output_is_one_piece():

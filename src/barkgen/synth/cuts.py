@@ -9,6 +9,13 @@ continued across the seam), and a minimum cut (PyMaxflow) chooses the border of 
 (Kwatra eq. 1), so the border follows the texture's own low-error paths. The pixels around the
 band keep their references and enter as fixed neighbours, so the cut joins the seams there.
 
+A minimum cut of even costs is the shortest path, and that is the straight line: where the two
+pieces match equally well everywhere (a flat stretch of bark), the first cut leaves the seam
+where it was. A seam still straight over ``MEANDER_MIN_RUN`` pixels after that is re-cut with a
+small pull towards a meander
+(a sinusoid of random period and phase, ``MEANDER_AMPLITUDE`` rows either side), weak enough
+that the texture's own low-error paths still win where they exist.
+
 Arrays in, arrays out: reference maps as exemplar ``(row, col)`` coordinates.
 """
 
@@ -21,6 +28,15 @@ import numpy as np
 MIN_RUN = 24
 #: half-width of the band (pixels on each side of the seam) a cut may move the border in
 BAND = 16
+#: straight seams still at least this long after a first cut are cut again along a meander
+MEANDER_MIN_RUN = 32
+#: rows either side of the seam the meander of a second cut swings
+MEANDER_AMPLITUDE = 6.0
+#: shortest period of the meander, in pixels along the seam (the longest is twice this)
+MEANDER_PERIOD = 40.0
+#: pull towards the meander, per pixel on its wrong side, in units of the band's median pair
+#: weight (the cost of a unit of seam)
+MEANDER_WEIGHT = 0.5
 #: cost of a forbidden choice (a piece that cannot continue, a wrong label)
 _HARD = 1e9
 #: PyMaxflow grid structures: an edge to the pixel below, to the pixel on the right
@@ -41,13 +57,32 @@ class _Exemplar:
         return _Exemplar(self.features.transpose(1, 0, 2), (self.wrap[1], self.wrap[0]))
 
 
+def _meander_cost(cost: np.ndarray, member: np.ndarray, w_down: np.ndarray,
+                  w_right: np.ndarray, rng: np.random.Generator) -> None:
+    """Add, in place, the pull of a random meander to the unary ``cost`` ``(2, 2 * BAND, L)``
+    of one seam's band: a pixel above the meander pays for taking the lower piece (choice 1),
+    one below it for the upper piece."""
+    pair = np.concatenate([w_down[member], w_right[member]])
+    pair = pair[pair > 0]
+    if pair.size == 0:
+        return
+    weight = MEANDER_WEIGHT * float(np.median(pair))
+    period = MEANDER_PERIOD * (1.0 + rng.random())
+    phase = 2 * np.pi * rng.random()
+    line = MEANDER_AMPLITUDE * np.sin(2 * np.pi * np.arange(cost.shape[2]) / period + phase)
+    offset = np.arange(cost.shape[1])[:, None] - (BAND - 0.5)  # the seam lies at 0
+    cost[1] += np.where(offset < line[None, :], weight, 0.0)
+    cost[0] += np.where(offset > line[None, :], weight, 0.0)
+
+
 def _cut_run(ry: np.ndarray, rx: np.ndarray, i: int, cols: np.ndarray, ex: _Exemplar,
-             tile: bool, allowed=None) -> int:
+             tile: bool, allowed=None, meander: np.random.Generator | None = None) -> int:
     """Re-cut the straight seam between output rows ``i`` and ``i + 1`` along ``cols``, in place:
     each column's pixel of row ``i`` continued up and down is its choice A, that of row ``i + 1``
     its choice B (several pieces may stand along the seam); the graph is built by
     ``_kernels.seam_band``. ``allowed(ys, xs, ey, ex)`` says which references each output pixel
-    may take (labels). Returns the pixels changed."""
+    may take (labels); with a generator ``meander``, the cut is pulled towards a random meander
+    (:func:`_meander_cost`). Returns the pixels changed."""
     import maxflow
 
     from barkgen.synth import _kernels as K
@@ -72,6 +107,8 @@ def _cut_run(ry: np.ndarray, rx: np.ndarray, i: int, cols: np.ndarray, ex: _Exem
         k = np.arange(2 * BAND)[:, None]
         own_ok = np.where(k < BAND, ok[0], ok[1])
         cost += np.where(ok | ~own_ok[None], 0.0, _HARD)
+    if meander is not None:
+        _meander_cost(cost, member, w_down, w_right, meander)
     low = np.minimum(cost[0], cost[1])
     g = maxflow.Graph[float]()
     nodes = g.add_grid_nodes(shape)
@@ -91,7 +128,8 @@ def _cut_run(ry: np.ndarray, rx: np.ndarray, i: int, cols: np.ndarray, ex: _Exem
     return changed
 
 
-def _cut_rows(ry, rx, ex: _Exemplar, tile: bool, min_run: int, allowed) -> int:
+def _cut_rows(ry, rx, ex: _Exemplar, tile: bool, min_run: int, allowed,
+              meander: np.random.Generator | None) -> int:
     """Re-cut every straight seam between rows at least ``min_run`` long; returns pixels changed."""
     from barkgen.synth import _kernels as K
 
@@ -101,13 +139,15 @@ def _cut_rows(ry, rx, ex: _Exemplar, tile: bool, min_run: int, allowed) -> int:
     for i, start, length in runs:
         cols = np.arange(start, start + length)
         cols = np.mod(cols, W) if tile else cols
-        changed += _cut_run(ry, rx, int(i), cols, ex, tile, allowed)
+        changed += _cut_run(ry, rx, int(i), cols, ex, tile, allowed,
+                            meander if length >= MEANDER_MIN_RUN else None)
     return changed
 
 
 def cut_straight_seams(references: np.ndarray, features: np.ndarray, *, tile: bool,
                        wrap: tuple[bool, bool] = (False, False), min_run: int = MIN_RUN,
-                       rounds: int = 2, allowed=None) -> np.ndarray:
+                       rounds: int = 2, allowed=None,
+                       rng: np.random.Generator | None = None) -> np.ndarray:
     """Re-cut the straight seams of a reference map along minimum-cost paths (Kwatra 2003).
 
     Args:
@@ -116,9 +156,11 @@ def cut_straight_seams(references: np.ndarray, features: np.ndarray, *, tile: bo
         tile: the output wraps round (its last row meets its first).
         wrap: ``(rows, columns)``: the exemplar tiles along that axis.
         min_run: straight seams at least this long are re-cut.
-        rounds: passes over both directions.
+        rounds: passes over both directions; from the second on, with ``rng``, the seams still
+            straight are pulled towards random meanders.
         allowed: optional ``allowed(ys, xs, ey, ex) -> bool array``: which exemplar pixels the
             output pixels may take (texture-by-numbers keeps its labels).
+        rng: draws the meanders; without it every pass is a plain minimum cut.
 
     Returns:
         The new ``(H, W, 2)`` reference map (int32); pixels only ever take the reference of a
@@ -130,12 +172,13 @@ def cut_straight_seams(references: np.ndarray, features: np.ndarray, *, tile: bo
     ex = _Exemplar(features, wrap)
     ext = ex.transposed()
     allowed_t = None if allowed is None else (lambda ys, xs, ey, exx: allowed(xs, ys, exx, ey))
-    for _ in range(rounds):
-        changed = _cut_rows(ry, rx, ex, tile, min_run, allowed)
+    for rnd in range(rounds):
+        meander = rng if rnd > 0 else None
+        changed = _cut_rows(ry, rx, ex, tile, min_run, allowed, meander)
         # seams between columns: the same on the transposed maps (cv2's blocked transpose)
         ry_t, rx_t = cv2.transpose(rx), cv2.transpose(ry)
-        changed += _cut_rows(ry_t, rx_t, ext, tile, min_run, allowed_t)
+        changed += _cut_rows(ry_t, rx_t, ext, tile, min_run, allowed_t, meander)
         ry, rx = cv2.transpose(rx_t), cv2.transpose(ry_t)
-        if changed == 0:
+        if changed == 0 and (rnd > 0 or rng is None):
             break
     return np.stack([ry, rx], axis=-1)

@@ -1,5 +1,5 @@
-"""The exemplar's edges: an exemplar that tiles is a torus, one that does not has a border that
-pieces must not run into.
+"""The exemplar's edges: an exemplar that tiles is a torus, one that does not has a border where
+pieces end.
 
 A discrete solver copies pieces of the exemplar (mazzolini2012 §4.1, laitoch2018 §3.3). Where a
 piece reaches the exemplar's edge it cannot continue, so it ends there, and every piece that
@@ -10,9 +10,13 @@ worst where a strip of the exemplar runs all the way round a tiled output. Two a
   so the solver treats them as a torus (neighbourhoods, shifted references, k-coherence sets and
   up-sampling all wrap) and a piece simply runs on across the edge (:func:`exemplar_wraps`
   decides it from the exemplar itself, per axis);
-* along an axis that does not wrap, exemplar pixels near the border pay a soft cost
-  (:func:`border_cost`), so pieces end before it, where the matching chooses, not all on the
-  border's line.
+* along an axis that does not wrap, a piece that reaches the border ends there, and its seam
+  is re-cut like any other straight seam (:mod:`barkgen.synth.cuts`): the piece below it is
+  continued upwards, so the border follows a low-error path instead of the border's line; a seam
+  where both pieces end at the border (no cut can move it) makes the solver put other pieces
+  there (``solver._unstick_border_seams``). An earlier soft cost on the border pixels kept pieces
+  away from them, but left the border's content out of the output (completeness) and did not
+  keep the seams shorter once the cuts were there.
 """
 
 from __future__ import annotations
@@ -31,12 +35,6 @@ WRAP_MODES = ("auto", "yes", "no")
 #: -0.07 to 0.22 on both axes, the other shared photos at 0.38 to 1.14 on at least one, a photo
 #: cut anywhere at 0.59 to 1.43
 WRAP_EDGE_SHARE = 0.3
-
-#: weight of the border cost, in units of the level's typical appearance distance
-BORDER_WEIGHT = 4.0
-#: reach of the border cost, as a fraction of the level's side along that axis
-BORDER_REACH = 0.016
-
 
 def edge_step_shares(image: np.ndarray) -> tuple[float, float]:
     """``(rows, columns)``: where the mean step across the exemplar's edge (last row to first,
@@ -96,19 +94,3 @@ def resolve_exemplar_wrap(mode: str | bool | tuple[bool, bool],
     if mode == "auto":
         return exemplar_wraps(image)
     return (True, True) if mode == "yes" else (False, False)
-
-
-def border_cost(height: int, width: int, wrap: tuple[bool, bool], scale: float) -> np.ndarray:
-    """Per exemplar pixel of one level ``(height * width,)``: the cost of being near a border
-    that does not wrap, ``BORDER_WEIGHT * scale * (1 - d / R)`` within ``R`` (``BORDER_REACH`` of
-    the side, at least one pixel) of it, ``d`` the distance in pixels; 0 elsewhere."""
-    cost = np.zeros((height, width), np.float32)
-    for axis, (n, wraps) in enumerate(((height, wrap[0]), (width, wrap[1]))):
-        if wraps:
-            continue
-        reach = max(BORDER_REACH * n, 1.0)
-        i = np.arange(n, dtype=np.float32)
-        d = np.minimum(i, n - 1 - i)
-        ramp = np.clip(1.0 - d / reach, 0.0, 1.0).astype(np.float32)
-        cost = np.maximum(cost, ramp[:, None] if axis == 0 else ramp[None, :])
-    return np.ascontiguousarray((np.float32(BORDER_WEIGHT * scale) * cost).ravel())

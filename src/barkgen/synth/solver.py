@@ -42,7 +42,7 @@ from barkgen.nnf import (
 )
 from barkgen.pyramid import count_levels, gaussian_pyramid, level_shape
 from barkgen.synth.config import SynthesisConfig
-from barkgen.synth.edges import border_cost, resolve_exemplar_wrap
+from barkgen.synth.edges import resolve_exemplar_wrap
 from barkgen.synth.gradient import resolve_continuous
 
 #: progress(done, total): called after each unit of work.
@@ -376,12 +376,21 @@ def _offset_parts(codes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return dy - bias, dx - bias
 
 
+#: swing of the copy-size control's meandering cut lines, as a fraction of the side of a
+#: square piece of the largest area allowed
+CUT_MEANDER_AMPLITUDE = 0.05
+#: their shortest period, in the same unit (the longest is twice this)
+CUT_MEANDER_PERIOD = 0.4
+
+
 def _limit_copies(refs: np.ndarray, level: LevelAnalysis, max_area: float,
-                  forbid: np.ndarray, tile: bool) -> int:
+                  forbid: np.ndarray, tile: bool, rng: np.random.Generator) -> int:
     """Copy-size control: find the pieces copied verbatim (``_kernels.label_pieces``: a piece that
     runs round a tiled output or across a wrapping exemplar's edge is one) larger than
     ``max_area`` pixels and forbid their offsets on a cross-shaped band through each one's
-    centroid, so the next iterations cut it in up to four. Returns the number of regions cut.
+    centroid, so the next iterations cut it in up to four. The band's two lines meander (random
+    phase and period per piece, drawn from ``rng``): straight, they would leave two straight
+    seams, which the seam cuts would close again. Returns the number of regions cut.
 
     The discrete solver left alone grows whole-exemplar copies wherever nothing stops coherence
     (G'MIC's results copy 64 % of the exemplar in one piece); this keeps the coherence bias while
@@ -398,15 +407,23 @@ def _limit_copies(refs: np.ndarray, level: LevelAnalysis, max_area: float,
     ys, xs = np.nonzero(big[labels])
     lab = labels[ys, xs]
     n = np.bincount(lab, minlength=sizes.size).astype(np.float64)
+    side = np.sqrt(max_area)
+    which = np.cumsum(big) - 1  # a big piece's row in the draws
+    phase = 2 * np.pi * rng.random((2, int(big.sum())))
+    period = CUT_MEANDER_PERIOD * side * (1.0 + rng.random(phase.shape))
+    k = which[lab]
+    swing_y = CUT_MEANDER_AMPLITUDE * side * np.sin(2 * np.pi * xs / period[0, k] + phase[0, k])
+    swing_x = CUT_MEANDER_AMPLITUDE * side * np.sin(2 * np.pi * ys / period[1, k] + phase[1, k])
     if tile:  # a piece round the torus: its centre is the circular mean, the band wraps
         H, W = refs.shape
         cy = _circular_centre(lab, ys, H, n)
         cx = _circular_centre(lab, xs, W, n)
-        band = (_circular_gap(ys, cy[lab], H) <= 1.0) | (_circular_gap(xs, cx[lab], W) <= 1.0)
+        band = ((_circular_gap(ys, cy[lab] + swing_y, H) <= 1.0)
+                | (_circular_gap(xs, cx[lab] + swing_x, W) <= 1.0))
     else:
         cy = np.bincount(lab, ys, minlength=sizes.size) / np.maximum(n, 1)
         cx = np.bincount(lab, xs, minlength=sizes.size) / np.maximum(n, 1)
-        band = (np.abs(ys - cy[lab]) <= 1.0) | (np.abs(xs - cx[lab]) <= 1.0)
+        band = (np.abs(ys - cy[lab] - swing_y) <= 1.0) | (np.abs(xs - cx[lab] - swing_x) <= 1.0)
     ys, xs = ys[band], xs[band]
     e = refs[ys, xs]
     forbid[ys, xs] = _offset_codes(level.coords_y[e] - ys, level.coords_x[e] - xs)
@@ -495,10 +512,11 @@ def _roll(refs: np.ndarray, forbid: np.ndarray, shift: tuple[int, int]) -> tuple
 
 
 def _cut_seams(refs: np.ndarray, level: LevelAnalysis, features: np.ndarray, tile: bool,
-               min_run: int, labels: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
+               min_run: int, labels: tuple[np.ndarray, np.ndarray] | None,
+               rng: np.random.Generator) -> np.ndarray:
     """The level's reference map with its straight seams re-cut (:mod:`barkgen.synth.cuts`);
     ``features`` ``(h, w, C)``: what the seam cost compares; ``labels`` ``(exemplar labels,
-    target labels)`` keeps texture-by-numbers' labels."""
+    target labels)`` keeps texture-by-numbers' labels; ``rng`` draws the meanders."""
     from barkgen.synth.cuts import cut_straight_seams
 
     allowed = None
@@ -510,7 +528,7 @@ def _cut_seams(refs: np.ndarray, level: LevelAnalysis, features: np.ndarray, til
 
     coords = np.stack([level.coords_y[refs], level.coords_x[refs]], axis=-1)
     cut = cut_straight_seams(coords, features, tile=tile, wrap=level.wrap, min_run=min_run,
-                             allowed=allowed)
+                             allowed=allowed, rng=rng)
     return np.ascontiguousarray(cut[..., 0] * level.width + cut[..., 1], dtype=np.int32)
 
 
@@ -733,14 +751,11 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
         match = np.empty(shape, np.int32)
         new = np.empty(shape, np.int32)
         occ_radius = 3
-        edge_cost = border_cost(la.height, la.width, wrap, la.scale) if not all(wrap) else None
         seam_image = np.ascontiguousarray(la.features[:, :seam_channels]).reshape(
             la.height, la.width, -1)  # what the seam costs compare, as an image
 
         def occurrence(refs: np.ndarray) -> np.ndarray:
             cost = _occurrence_penalty(refs, la, config.occurrence_weight, occ_radius, expected)
-            if edge_cost is not None:
-                cost = cost + edge_cost
             if balance is not None:
                 cost += balance.penalty(refs, lvl, la.scale)
             return cost
@@ -766,7 +781,7 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
             refs, new = new, refs
             if config.max_copy < 1.0 and (lvl > 0 or step < len(schedule) - 1):
                 # (cuts act through the following iterations, none after the very last one)
-                _limit_copies(refs, la, config.max_copy * la.height * la.width, forbid, tile)
+                _limit_copies(refs, la, config.max_copy * la.height * la.width, forbid, tile, rng)
             if config.seam_cut_run and not all(wrap):
                 _unstick_border_seams(refs, la, forbid, tile, max(4, config.seam_cut_run >> lvl))
             penalty = occurrence(refs)
@@ -787,7 +802,7 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
                 break
         if config.seam_cut_run and lvl <= config.seam_cut_levels - 1:
             refs = _cut_seams(refs, la, seam_image, tile, config.seam_cut_run,
-                              (ex_labels, target) if lg is not None else None)
+                              (ex_labels, target) if lg is not None else None, rng)
         if lg is not None and lvl == 0:
             for _ in range(guidance.cleanup_passes):
                 if K.enforce_labels(refs, la.coords_y, la.coords_x, la.height, la.width, wrap[0],
