@@ -12,9 +12,8 @@ band keep their references and enter as fixed neighbours, so the cut joins the s
 A minimum cut of even costs is the shortest path, and that is the straight line: where the two
 pieces match equally well everywhere (a flat stretch of bark), the first cut leaves the seam
 where it was. A seam still straight over ``MEANDER_MIN_RUN`` pixels after that is re-cut with a
-small pull towards a meander
-(a sinusoid of random period and phase, ``MEANDER_AMPLITUDE`` rows either side), weak enough
-that the texture's own low-error paths still win where they exist.
+small pull towards a meander (a sinusoid of random period and phase, ``MEANDER_AMPLITUDE`` rows
+either side), weak enough that the texture's own low-error paths still win where they exist.
 
 Arrays in, arrays out: reference maps as exemplar ``(row, col)`` coordinates.
 """

@@ -36,6 +36,7 @@ WRAP_MODES = ("auto", "yes", "no")
 #: cut anywhere at 0.59 to 1.43
 WRAP_EDGE_SHARE = 0.3
 
+
 def edge_step_shares(image: np.ndarray) -> tuple[float, float]:
     """``(rows, columns)``: where the mean step across the exemplar's edge (last row to first,
     last column to first) lies between its mean step between neighbouring rows (0) and its mean
