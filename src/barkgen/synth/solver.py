@@ -657,9 +657,9 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
     stops after that level: the result's ``references`` and ``exemplar_shape`` are then that
     level's, its ``image`` the level shown in the exemplar's colours, and it has no extras.
     ``exemplar_wrap`` ``(rows, columns)``: the exemplar tiles along that axis and is used as a
-    torus there; along an axis that does not wrap its border costs (:mod:`barkgen.synth.edges`),
-    and after each iteration a straight seam stuck at that border is handed back to the solver
-    (:func:`_unstick_border_seams`).
+    torus there; along an axis that does not wrap, pieces may run up to its border
+    (:mod:`barkgen.synth.edges`), and after each iteration a straight seam stuck at that border
+    is handed back to the solver (:func:`_unstick_border_seams`).
     After each level's iterations, ``config.seam_sweeps`` sweeps of seam optimisation
     (``_kernels.refine_seams``) and, at the finest levels, graph cuts of the straight seams
     (:mod:`barkgen.synth.cuts`) move the borders between pieces onto low-error paths; their
