@@ -11,8 +11,9 @@ E-step, extra channels), with these additions:
   which answers the "same patterns repeated" defect of laitoch2018 §4.1;
 * a coherence bias (Ashikhmin 2001) that keeps exemplar patches whole;
 * toroidal neighbourhoods at every level for tileable output;
-* an exemplar that tiles itself is a torus too, one that does not has a soft border cost
-  (:mod:`barkgen.synth.edges`), so pieces never end in a line along its edge;
+* an exemplar that tiles itself is a torus too (:mod:`barkgen.synth.edges`); along an edge
+  that does not wrap, the seams where pieces end are cut like the others, so they do not
+  follow the edge's line;
 * seam optimisation: local moves and graph cuts of straight seams (Kwatra et al. 2003,
   :mod:`barkgen.synth.cuts`), so the borders between pieces follow low-error paths;
 * the output is an image of references, resolved to exemplar pixels only at the end, so nothing
