@@ -160,6 +160,34 @@ def test_worker_killed_mid_run_still_completes(photos, local_small):
         assert (folder / "texture.png").read_bytes() == (ref / "texture.png").read_bytes()
 
 
+def test_every_worker_killed_after_the_first_variant_still_completes(photos, local_small):
+    """Both workers are killed at once after the first variant, with every copy of the photos
+    and analyses: the photos are made again from the graph (scattered data would be lost for
+    good and the variants needing it cancelled)."""
+    from distributed import Client
+
+    from barkgen.batch import load_spec, run_batch
+    from barkgen.batch.runner import local_cluster
+
+    out = photos / "all_killed"
+    killed = []
+    with local_cluster(2, 1) as cluster, Client(cluster) as client:
+        def kill_every_worker(done, total):
+            if done == 1:
+                for pid in client.run(os.getpid).values():
+                    os.kill(pid, signal.SIGKILL)
+                    killed.append(pid)
+
+        report = run_batch(load_spec(write_spec(photos, "160x128", name="small.yaml")), out,
+                           progress=kill_every_worker, client=client)
+    assert len(killed) == 2
+    assert report.failed == [] and report.made == 16
+    check_complete(out, (128, 160))
+    for folder in variant_folders(out):
+        ref = local_small / folder.parent.name / folder.name
+        assert (folder / "texture.png").read_bytes() == (ref / "texture.png").read_bytes()
+
+
 def test_interrupted_client_then_rerun_makes_only_the_rest(photos, local_small):
     spec = write_spec(photos, "160x128", name="small.yaml")
     out = photos / "interrupted"

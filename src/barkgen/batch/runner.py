@@ -1,7 +1,9 @@
 """Running a batch on Dask's distributed scheduler (an embedded LocalCluster by default, any
 Dask cluster when given its address).
 
-Task graph per exemplar: the photo is scattered to every worker; one task analyses it
+Task graph per exemplar: one task holds the photo (the array travels in the graph, so the
+scheduler can make it again when the worker keeping it dies: scattered data has no recipe, and
+Dask keeps one copy of it); one task analyses it
 (:func:`barkgen.pipeline.analyze_photo`: label map, k-coherence sets, material source), once;
 one task per seed synthesizes a variant from that shared analysis and returns its encoded files
 (:func:`barkgen.io.encode_generate`). The client writes each variant's folder atomically
@@ -16,6 +18,7 @@ import dataclasses
 import logging
 import os
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -51,6 +54,11 @@ class BatchReport:
     analysis_seconds: dict[str, float] = field(default_factory=dict)
     workers: int = 0
     dashboard: str | None = None
+
+
+def _photo_task(photo):
+    """Worker side: the photo, kept as a task's result so that a lost copy can be made again."""
+    return photo
 
 
 def _analyse_task(photo, labels, options):
@@ -236,8 +244,10 @@ def _run(client, todo, inputs, output_dir: Path, manifest: Manifest, report: Bat
     shared: dict[str, list] = {}
     for job, seeds in todo:
         photo, labels = inputs[job.name]
-        # a copy on every worker: losing one worker loses no input
-        photo_f = client.scatter(photo, broadcast=True, hash=False)
+        with warnings.catch_warnings():  # a 4096² photo is a "large graph"; it is sent once
+            warnings.filterwarnings("ignore", message="Sending large graph")
+            photo_f = client.submit(_photo_task, photo, pure=False,
+                                    key=f"barkgen-photo-{job.name}-{os.urandom(4).hex()}")
         analysis_f = client.submit(_analyse_task, photo_f, labels, job.options, pure=False,
                                    key=f"barkgen-analyse-{job.name}-{os.urandom(4).hex()}")
         shared[job.name] = [photo_f, analysis_f]
@@ -260,7 +270,8 @@ def _run(client, todo, inputs, output_dir: Path, manifest: Manifest, report: Bat
             report.variant_seconds.append(out.seconds)
             report.analysis_seconds[job.name] = out.analysis_seconds
         else:
-            error = _one_line(future.exception())
+            exc = future.exception() if future.status == "error" else None
+            error = _one_line(exc) if exc is not None else f"the task was {future.status} on the cluster"
             manifest.mark(job.name, seed, fingerprint, "failed", error=error)
             report.failed.append((job.name, seed, error))
         future.release()
