@@ -7,7 +7,7 @@ cd "$(dirname "$0")/.."
 VENV=${BARKGEN_VENV:-.venv}
 [ -x "$VENV/bin/python" ] || python3 -m venv "$VENV"
 log=$(mktemp)
-if ! "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check -e . >"$log" 2>&1; then
+if ! "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check -e ".[all]" >"$log" 2>&1; then
   cat "$log" >&2; rm -f "$log"; echo "barkgen: installing dependencies failed" >&2; exit 1
 fi
 rm -f "$log"

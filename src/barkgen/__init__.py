@@ -9,7 +9,7 @@ from __future__ import annotations
 from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
-__version__ = "0.1.0"
+from barkgen._version import __version__
 
 _LAZY = {
     "synthesize": "barkgen.synth",
@@ -48,6 +48,10 @@ if TYPE_CHECKING:  # pragma: no cover
         synthesize,
         texture_by_numbers,
     )
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
 
 
 def __getattr__(name: str) -> Any:

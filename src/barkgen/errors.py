@@ -24,3 +24,8 @@ class InvalidInputError(BarkgenError):
 
 class MemoryBudgetError(BarkgenError):
     """The estimated memory of a job exceeds the allowed budget."""
+
+
+class MissingExtraError(BarkgenError):
+    """A front end or format needs an optional extra that is not installed
+    (``pip install 'barkgen[EXTRA]'``)."""

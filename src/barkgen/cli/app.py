@@ -879,7 +879,7 @@ def _root(
     version: Annotated[bool, typer.Option("--version", help="Print the version and exit.")] = False,
 ) -> None:
     if version:
-        from barkgen import __version__
+        from barkgen._version import __version__
 
         typer.echo(f"barkgen {__version__}")
         raise typer.Exit()

@@ -22,7 +22,7 @@ _ARRAYS = ("exemplar", "structure", "masks", "labels", "spectra", "bases", "mean
 
 def encode_bilayer_model(model) -> bytes:
     """The bytes of a model file."""
-    from barkgen import __version__
+    from barkgen._version import __version__
 
     header = {"format": FORMAT, "version": VERSION, "barkgen": __version__,
               "options": dataclasses.asdict(model.options)}

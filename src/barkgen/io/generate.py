@@ -26,7 +26,7 @@ def encode_generate(photo: np.ndarray, result, source: str, *, name: str = "bark
     ``preview.png``, one ``NAME.png`` per extra map, the material set as ``name``
     (:func:`~barkgen.io.encode_material`) when there is one, and ``report.json`` (version, the
     ``source`` photo, the run's report and the list of files)."""
-    from barkgen import __version__
+    from barkgen._version import __version__
     from barkgen.io.material import encode_material
     from barkgen.pipeline import preview_sheet
 

@@ -118,6 +118,9 @@ def encode_glb(mesh, material) -> bytes:
     """The trunk ``mesh`` (:class:`~barkgen.render.TrunkMesh`) with the set's textures as a
     glTF 2.0 binary: base colour, normal (OpenGL, as glTF fixes) and one occlusion-roughness-
     metallic image (R = AO, G = roughness, B = metalness 0) used for both slots."""
+    from barkgen._shared.extras import require_extra
+
+    require_extra("gltf", "glTF export")
     import trimesh
     from PIL import Image
 

@@ -122,7 +122,7 @@ class MaterialSet:
 
     def metadata(self, **extra) -> dict:
         """The ``NAME.json`` record (size, tileable, depth scale, light; plus ``extra``)."""
-        from barkgen import __version__
+        from barkgen._version import __version__
 
         meta = {
             "size": [int(self.shape[1]), int(self.shape[0])],

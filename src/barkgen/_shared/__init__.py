@@ -1,0 +1,1 @@
+"""Private helpers shared by barkgen's packages (no algorithm, no front end)."""
