@@ -14,6 +14,7 @@ from barkgen.bilayer import (AnalysisOptions, BilayerModel, Deformation, Synthes
 from barkgen.bilayer.spectra import noise_from_white
 from barkgen.cli.app import app
 from barkgen.errors import InvalidInputError
+from barkgen.io import read_bilayer_model, write_bilayer_model
 
 
 def _psd(fy, fx):
@@ -304,8 +305,8 @@ def test_border_band_keeps_borders_in_the_structure():
 
 def test_models_round_trip_and_bad_files_are_refused(tmp_path, composite_model):
     path = tmp_path / "m.npz"
-    composite_model.save(path)
-    loaded = BilayerModel.load(path)
+    write_bilayer_model(path, composite_model)
+    loaded = read_bilayer_model(path)
     assert np.array_equal(loaded.window(-30, 40, 90, 70, seed=3), composite_model.window(-30, 40, 90, 70, seed=3))
     assert loaded.options == composite_model.options
     # wrong version
@@ -322,11 +323,11 @@ def test_models_round_trip_and_bad_files_are_refused(tmp_path, composite_model):
         for name, data in members.items():
             z.writestr(name, data)
     with pytest.raises(InvalidInputError, match="version 99"):
-        BilayerModel.load(bad)
+        read_bilayer_model(bad)
     corrupt = tmp_path / "corrupt.npz"
     corrupt.write_bytes(path.read_bytes()[:1000])
     with pytest.raises(InvalidInputError, match="not a barkgen bi-layer model"):
-        BilayerModel.load(corrupt)
+        read_bilayer_model(corrupt)
 
 
 def test_bad_parameters_are_refused(composite_model):

@@ -6,7 +6,7 @@ scheduler can make it again when the worker keeping it dies: scattered data has 
 Dask keeps one copy of it); one task analyses it
 (:func:`barkgen.pipeline.analyze_photo`: label map, k-coherence sets, material source), once;
 one task per seed synthesizes a variant from that shared analysis and returns its encoded files
-(:func:`barkgen.io.encode_generate`). The client writes each variant's folder atomically
+(:func:`barkgen.pipeline.encode_generate`). The client writes each variant's folder atomically
 (:func:`barkgen.io.write_folder_atomic`) and records it in the manifest, so workers need no
 access to the output folder and a worker killed mid-task leaves nothing behind: Dask reruns its
 task elsewhere.
@@ -71,7 +71,7 @@ def _analyse_task(photo, labels, options):
 def _variant_task(photo, analysis, options, source: str, material_name: str, bits: int | None):
     """Worker side: one variant from the shared analysis, encoded exactly as
     ``barkgen generate`` encodes it."""
-    from barkgen.io import encode_generate
+    from barkgen.pipeline import encode_generate
     from barkgen.pipeline import generate
 
     t0 = time.perf_counter()

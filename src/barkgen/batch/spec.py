@@ -109,7 +109,8 @@ def _int(where: str, key: str, value, minimum: int = 0) -> int:
 
 def _options(where: str, values: dict, threads: int | None) -> tuple[GenerateOptions, int | None, str]:
     """GenerateOptions from a spec's option keys (errors say where)."""
-    from barkgen.io import GENERATE_FILES, check_material_name
+    from barkgen.io import check_material_name
+    from barkgen.pipeline import GENERATE_FILES
     from barkgen.material import parse_light
 
     kwargs = {}

@@ -10,8 +10,9 @@ References:
     deformation of composite textures, Computer Graphics Forum 36(4).
 """
 
-from barkgen.bilayer.analysis import AnalysisOptions, analyze
-from barkgen.bilayer.model import BilayerModel, SynthesisOptions, single_layer
+from barkgen.bilayer.analysis import analyze
+from barkgen.bilayer.model import BilayerModel, single_layer
+from barkgen.bilayer.options import AnalysisOptions, SynthesisOptions
 from barkgen.bilayer.sheets import analysis_preview, tune_sheet
 from barkgen.bilayer.spectra import TLOC_CHOICES, estimate_spectrum, local_spectra
 from barkgen.bilayer.tiles import Deformation

@@ -9,82 +9,15 @@ channel (§6), from the auto-correlation estimator with missing data (eq. 3-5).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 
-from barkgen.bilayer.spectra import SPECTRUM_SIZE, check_tloc, estimate_spectrum, local_spectra
-from barkgen.errors import InvalidInputError
+from barkgen.bilayer.model import BilayerModel, NoiseStatistics
+from barkgen.bilayer.options import AnalysisOptions, as_rgb
+from barkgen.bilayer.spectra import estimate_spectrum, local_spectra
 
-#: smallest exemplar side the analysis accepts (the global spectra need 16 px windows)
-MIN_SIDE = 32
 #: quantiles kept per cluster and channel for the noise's histogram equalisation (§6)
 N_QUANTILES = 257
-MASK_KINDS = ("binary", "barycentric")
-
-
-@dataclass(frozen=True)
-class AnalysisOptions:
-    """Parameters of the analysis (guingo2017 §5: only ``k`` and ``tloc`` are the user's).
-
-    Attributes:
-        k: number of stationary noises (clusters of local spectra), 1-8.
-        tloc: local spectrum window, one of 2, 4, 8, 16 (``barkgen bilayer tune`` shows them).
-        masks: ``"binary"`` (a pixel belongs to its nearest cluster; sharp noise transitions,
-            the paper's choice for its results) or ``"barycentric"`` (convex weights from the
-            distances to the cluster centres; smooth transitions).
-        spectrum_size: size T of the global spectra (64 in the paper).
-        equalize: store per-cluster, per-channel noise quantiles and equalise the synthesized
-            noise's histogram to them (§6, for non-Gaussian noise).
-        border: width in px of the band along mask borders where ``N`` is forced to 0, so
-            sharp borders stay in ``P`` (§6, Fig. 16); 0 disables it.
-        iterations, radius, sigma_range: the joint bilateral filter (§5: 5 iterations,
-            16 px neighbourhoods). ``sigma_range`` is in the units of
-            :func:`~barkgen.bilayer.local_spectra` (a spectrum's norm is the local RMS of the
-            luminance in [0, 1]); the paper's 0.01 is in units it does not give. 0.001 keeps
-            bark's cracks, fissures and the sharp edges of its plates in ``P`` and leaves the
-            fine grain to ``N`` (at 0.002 the filter softens the edges and their remainder
-            goes into ``N``, where fresh noise cannot line up with them again: fir's finest
-            band loses 12 % of its energy); raise it to move more into the noise.
-        core: fraction of each cluster, closest to its centre, used to estimate its spectrum
-            (§3.3: 90 %).
-        seed: seed of the K-means initialisation.
-    """
-
-    k: int = 2
-    tloc: int = 4
-    masks: str = "binary"
-    spectrum_size: int = SPECTRUM_SIZE
-    equalize: bool = False
-    border: int = 0
-    iterations: int = 5
-    radius: int = 8
-    sigma_range: float = 0.001
-    core: float = 0.9
-    seed: int = 0
-
-    def __post_init__(self) -> None:
-        check_tloc(self.tloc)
-        if not (isinstance(self.k, (int, np.integer)) and 1 <= self.k <= 8):
-            raise InvalidInputError(f"K (number of noises) must be between 1 and 8, not {self.k}")
-        if self.masks not in MASK_KINDS:
-            raise InvalidInputError(f"masks must be one of {', '.join(MASK_KINDS)}, not {self.masks!r}")
-        if self.spectrum_size < 16 or self.spectrum_size % 2:
-            raise InvalidInputError(f"spectrum size must be even and at least 16, not {self.spectrum_size}")
-        if self.border < 0 or self.iterations < 0 or self.radius < 1 or not (0 < self.sigma_range <= 1):
-            raise InvalidInputError("border and iterations must be >= 0, radius >= 1, "
-                                    "the range sigma in (0, 1]")
-        if not (0 < self.core <= 1):
-            raise InvalidInputError(f"core must be in (0, 1], not {self.core}")
-        if self.seed < 0:
-            raise InvalidInputError(f"seed must be >= 0, not {self.seed}")
-
-
-def as_rgb(image: np.ndarray) -> np.ndarray:
-    """An ``(H, W)`` or ``(H, W, C)`` image (uint8, uint16 or float in [0, 1]) as float32 RGB."""
-    from barkgen.labels.regions import check_image
-
-    return check_image(image, min_side=MIN_SIDE, what="exemplar", purpose="the bi-layer analysis needs")
 
 
 def _reduce(features: np.ndarray, dims: int, rng: np.random.Generator) -> np.ndarray:
@@ -153,19 +86,6 @@ def border_band(labels: np.ndarray, width: int) -> np.ndarray:
     return dist < width
 
 
-@dataclass
-class NoiseStatistics:
-    """Per-cluster colour noise (guingo2017 §6): ``noise ≈ means[k] + bases[k] @ channels``
-    with independent channels of spectra ``spectra[k, c]``, standard deviations ``sigmas``
-    and optional quantile tables."""
-
-    spectra: np.ndarray  # (K, 3, T, T)
-    bases: np.ndarray  # (K, 3, 3): columns are the PCA axes
-    means: np.ndarray  # (K, 3)
-    sigmas: np.ndarray  # (K, 3)
-    quantiles: np.ndarray  # (K, 3, Q) or (K, 3, 1) when not equalising
-
-
 def noise_statistics(noise: np.ndarray, labels: np.ndarray, distances: np.ndarray,
                      options: AnalysisOptions, exclude: np.ndarray | None = None) -> NoiseStatistics:
     """Spectra, PCA colour bases and quantiles of each cluster's noise (§3.3, §6)."""
@@ -217,7 +137,6 @@ def analyze(exemplar: np.ndarray, options: AnalysisOptions | None = None, *,
     luminance (CIELAB L): local spectra, masks and the filter's guide come from it; ``P`` and
     ``N`` are colour layers (§6).
     """
-    from barkgen.bilayer.model import BilayerModel
     from barkgen.color import rgb_to_lab
 
     options = options or AnalysisOptions()

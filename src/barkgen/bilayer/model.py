@@ -3,14 +3,13 @@
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from barkgen.bilayer.analysis import AnalysisOptions, NoiseStatistics, as_rgb
+from barkgen.bilayer.options import AnalysisOptions, SynthesisOptions, as_rgb
 from barkgen.bilayer.spectra import noise_from_white, welch_power
-from barkgen.bilayer.tiles import Deformation, build_tiles, default_tile_size
+from barkgen.bilayer.tiles import build_tiles, default_tile_size
 from barkgen.errors import InvalidInputError
 
 #: side of the periodic noise tiles; the window reads each at four hashed offsets per
@@ -20,45 +19,6 @@ NOISE_TILE = 256
 MAX_WINDOW_PIXELS = 1 << 28
 #: side of the sample of the deformed structure whose spectrum the noise compensation measures
 COMPENSATION_SAMPLE = 512
-
-
-@dataclass(frozen=True)
-class SynthesisOptions:
-    """How the structure is tiled (guingo2017 §4).
-
-    Attributes:
-        tile_size: Wang tile side in px (default: about a quarter of the exemplar's side).
-        colours: edge colours per direction (``colours**4`` tiles).
-        variants: exchanged contents per tile.
-        deformation: rotations and zooms of the structure's samples.
-        warp: turbulence of the structure (Fig. 10): a smooth random displacement of up to
-            ``warp`` tile sizes that bends the straight seams of the tile grid (0: none). It
-            also bends each tile's content, so that no large piece of the output is a
-            pixel-exact copy of the exemplar (texeval's largest copy on four barks, default tile
-            size: 0.038-0.043 of the exemplar at 0.1, 0.050-0.056 at 0).
-        compensate: with a deformation, give the noise the power the deformed structure lost
-            (see :func:`compensated_noise`), so fine detail keeps the photo's scale; ``False``
-            is the paper's synthesis, the noise exactly as analysed.
-        blend: blend the structure's seams inside each tile in the gradient domain
-            (sibbing2010 §5), so a graph cut across a furrow leaves no step; ``False`` keeps
-            the graph cuts alone.
-    """
-
-    tile_size: int | None = None
-    colours: int = 3
-    variants: int = 4
-    deformation: Deformation = Deformation()
-    warp: float = 0.1
-    compensate: bool = True
-    blend: bool = True
-
-    def __post_init__(self) -> None:
-        if self.tile_size is not None and (self.tile_size < 8 or self.tile_size % 2):
-            raise InvalidInputError(f"tile size must be even and at least 8, not {self.tile_size}")
-        if not (1 <= self.colours <= 4) or not (1 <= self.variants <= 16):
-            raise InvalidInputError("colours must be 1-4 and variants 1-16")
-        if not (0 <= self.warp <= 1):
-            raise InvalidInputError(f"warp must be between 0 and 1 tile size, not {self.warp}")
 
 
 def compensated_noise(noise: NoiseStatistics, exemplar: np.ndarray, masks: np.ndarray,
@@ -96,6 +56,19 @@ def compensated_noise(noise: NoiseStatistics, exemplar: np.ndarray, masks: np.nd
     quantiles = noise.quantiles.astype(np.float64) * widen[:, :, None]
     return replace(noise, spectra=spectra.astype(np.float32), sigmas=np.maximum(sigmas, 1e-6).astype(np.float32),
                    quantiles=quantiles.astype(np.float32))
+
+
+@dataclass
+class NoiseStatistics:
+    """Per-cluster colour noise (guingo2017 §6): ``noise ≈ means[k] + bases[k] @ channels``
+    with independent channels of spectra ``spectra[k, c]``, standard deviations ``sigmas``
+    and optional quantile tables."""
+
+    spectra: np.ndarray  # (K, 3, T, T)
+    bases: np.ndarray  # (K, 3, 3): columns are the PCA axes
+    means: np.ndarray  # (K, 3)
+    sigmas: np.ndarray  # (K, 3)
+    quantiles: np.ndarray  # (K, 3, Q) or (K, 3, 1) when not equalising
 
 
 @dataclass
@@ -212,19 +185,6 @@ class BilayerModel:
                    options: SynthesisOptions | None = None) -> np.ndarray:
         """An ``(height, width)`` texture: the window at ``offset = (x, y)``."""
         return self.window(offset[0], offset[1], shape[1], shape[0], seed=seed, options=options)
-
-    def save(self, path: str | os.PathLike) -> None:
-        """Write the model as a versioned ``.npz`` (atomically)."""
-        from barkgen.io.bilayer import write_bilayer_model
-
-        write_bilayer_model(path, self)
-
-    @classmethod
-    def load(cls, path: str | os.PathLike) -> BilayerModel:
-        """Read a model written by :meth:`save`; a clear error if it is not one."""
-        from barkgen.io.bilayer import read_bilayer_model
-
-        return read_bilayer_model(path)
 
 
 def single_layer(exemplar: np.ndarray, options: AnalysisOptions | None = None) -> BilayerModel:

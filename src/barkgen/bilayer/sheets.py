@@ -53,7 +53,8 @@ def tune_sheet(exemplar: np.ndarray, options=None, *, tlocs=TLOC_CHOICES, seed: 
     """guingo2017 Fig. 14: for each T_loc a row of P, N and a synthesized sample of twice the
     exemplar's width (the same seed for all rows), so the user can pick the largest T_loc
     whose synthesis still looks right."""
-    from barkgen.bilayer.analysis import AnalysisOptions, analyze
+    from barkgen.bilayer.analysis import analyze
+    from barkgen.bilayer.options import AnalysisOptions
     from barkgen.labels.preview import contact_sheet
 
     options = options or AnalysisOptions()

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from barkgen.branching import _grow_kernels as K
+import barkgen.branching._grow_kernels as K
 from barkgen.branching.model import BranchModel, _wrap
 from barkgen.branching.structure import Branch, Structure, junction_radius
 from barkgen.errors import InvalidInputError

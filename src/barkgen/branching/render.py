@@ -53,7 +53,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from barkgen.branching import _render_kernels as K
+import barkgen.branching._render_kernels as K
 from barkgen.branching.structure import Structure, rasterize
 from barkgen.errors import InvalidInputError
 from barkgen.synth.config import SynthesisConfig

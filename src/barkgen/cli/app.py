@@ -505,7 +505,8 @@ def generate_command(
     report.json and preview.png (+ NAME.png per --extra, + the material set with --material)
     into the output folder."""
     from barkgen.data import sample_exemplar_path
-    from barkgen.io import GENERATE_FILES, encode_generate, read_image
+    from barkgen.io import read_image
+    from barkgen.pipeline import GENERATE_FILES, encode_generate
     from barkgen.pipeline import GenerateOptions, generate
 
     if bits not in (None, 8, 16):
@@ -857,8 +858,9 @@ def bilayer_synth_command(
     bits: Annotated[int, typer.Option("--bits", help="Bits per channel (8 or 16).")] = 8,
 ) -> None:
     """Synthesize a window of the unbounded bi-layer texture of a model."""
-    from barkgen.bilayer import BilayerModel, Deformation, SynthesisOptions
+    from barkgen.bilayer import Deformation, SynthesisOptions
     from barkgen.io import encode_png
+    from barkgen.io.bilayer import read_bilayer_model
 
     out_shape = parse_size(size)
     x, y = parse_pair(offset, "--offset", int)
@@ -868,7 +870,7 @@ def bilayer_synth_command(
     _check_png_target(output, "output")
     options = SynthesisOptions(tile_size=tile_size, warp=warp, compensate=compensate, blend=blend,
                                deformation=Deformation(rotate=rotate, scale=(lo, hi), keep_vertical=keep_vertical))
-    model = BilayerModel.load(model_path)
+    model = read_bilayer_model(model_path)
     image = model.window(x, y, out_shape[1], out_shape[0], seed=seed, options=options)
     image16 = (image * 65535.0 + 0.5).astype(np.uint16)
     _write_files(output.parent, {output.name: encode_png(image16, bits=bits)})

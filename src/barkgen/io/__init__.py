@@ -1,11 +1,8 @@
-"""Image and reference-map input/output: the only place where barkgen touches image files."""
+"""Codecs and file writes: images, reference maps, material sets, bi-layer models and folders
+written as one step (the only place where barkgen touches files)."""
 
-from barkgen.io.generate import (
-    GENERATE_FILES,
-    encode_generate,
-    remove_staging,
-    write_folder_atomic,
-)
+from barkgen.io.bilayer import encode_bilayer_model, read_bilayer_model, write_bilayer_model
+from barkgen.io.folders import remove_staging, write_folder_atomic
 from barkgen.io.images import (
     AlphaDroppedWarning,
     decode_image,
@@ -23,8 +20,9 @@ from barkgen.io.references import encode_reference, read_reference, write_refere
 
 __all__ = [
     "AlphaDroppedWarning",
-    "GENERATE_FILES",
-    "encode_generate",
+    "encode_bilayer_model",
+    "read_bilayer_model",
+    "write_bilayer_model",
     "remove_staging",
     "write_folder_atomic",
     "MAP_SUFFIXES",

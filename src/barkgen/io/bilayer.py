@@ -37,6 +37,7 @@ def encode_bilayer_model(model) -> bytes:
 
 
 def write_bilayer_model(path: str | os.PathLike, model) -> Path:
+    """Write ``model`` (:class:`~barkgen.bilayer.BilayerModel`) to ``path``, atomically."""
     return write_bytes_atomic(path, encode_bilayer_model(model))
 
 
@@ -46,8 +47,8 @@ def _bad(path, why: str) -> InvalidInputError:
 
 def read_bilayer_model(path: str | os.PathLike):
     """Read and validate a model file; any defect is one clear :class:`InvalidInputError`."""
-    from barkgen.bilayer.analysis import AnalysisOptions, NoiseStatistics
-    from barkgen.bilayer.model import BilayerModel
+    from barkgen.bilayer.model import BilayerModel, NoiseStatistics
+    from barkgen.bilayer.options import AnalysisOptions
 
     path = Path(path)
     if not path.is_file():

@@ -109,7 +109,7 @@ def match_boundary(codes: np.ndarray, exemplar: ExemplarBoundary, candidates: in
     patch are visited closest pair first (random order among equal distances); a synthesized
     patch whose candidates are all used up takes its nearest one.
     """
-    from barkgen.shapes import _kernels as K
+    import barkgen.shapes._kernels as K
 
     n_s, n_e = codes.shape[0], exemplar.count
     k = min(candidates, exemplar.index.ntotal)
@@ -173,7 +173,7 @@ def adjust_shape(shape: np.ndarray, exemplar: ExemplarBoundary, *, mask: np.ndar
     fraction to keep (an edited level keeps its own). Stops early when fewer than
     ``config.tolerance`` of the pixels change.
     """
-    from barkgen.shapes import _kernels as K
+    import barkgen.shapes._kernels as K
 
     s = np.ascontiguousarray(shape, dtype=np.uint8)
     if mask is not None:

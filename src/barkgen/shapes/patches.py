@@ -31,7 +31,7 @@ def check_rotations(rotations: str) -> tuple[int, ...]:
 def boundary_pixels(shape: np.ndarray, tile: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Coordinates ``(ys, xs)`` of the boundary pixels of a binary ``shape``: pixels with a
     4-neighbour of the other value (wrapping around when ``tile``)."""
-    from barkgen.shapes import _kernels as K
+    import barkgen.shapes._kernels as K
 
     s = np.ascontiguousarray(shape, dtype=np.uint8)
     out = np.empty_like(s)

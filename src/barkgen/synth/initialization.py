@@ -48,7 +48,7 @@ def smart_initialization(exemplar_labels: np.ndarray, target_labels: np.ndarray,
     among near-equal matches the least used exemplar pixel is taken, which spreads the copies
     over the whole exemplar (laitoch2018 §4.2).
     """
-    from barkgen.synth import _init_kernels as K
+    import barkgen.synth._init_kernels as K
 
     ida = np.ascontiguousarray(exemplar_labels, dtype=np.int32)
     idb = np.ascontiguousarray(target_labels, dtype=np.int32)

@@ -362,7 +362,7 @@ class LabelBalance:
 def _offset_codes(dy: np.ndarray, dx: np.ndarray) -> np.ndarray:
     """Offsets (reference - position) as the int64 codes the kernels compare
     (``_kernels.offset_code``)."""
-    from barkgen.synth import _kernels as K
+    import barkgen.synth._kernels as K
 
     bias = K.OFFSET_BIAS
     return (np.asarray(dy, np.int64) + bias) * (2 * bias) + (np.asarray(dx, np.int64) + bias)
@@ -370,7 +370,7 @@ def _offset_codes(dy: np.ndarray, dx: np.ndarray) -> np.ndarray:
 
 def _offset_parts(codes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Inverse of :func:`_offset_codes`: ``(dy, dx)``."""
-    from barkgen.synth import _kernels as K
+    import barkgen.synth._kernels as K
 
     bias = K.OFFSET_BIAS
     dy, dx = np.divmod(codes, 2 * bias)
@@ -397,7 +397,7 @@ def _limit_copies(refs: np.ndarray, level: LevelAnalysis, max_area: float,
     (G'MIC's results copy 64 % of the exemplar in one piece); this keeps the coherence bias while
     bounding the largest verbatim piece.
     """
-    from barkgen.synth import _kernels as K
+    import barkgen.synth._kernels as K
 
     labels = np.empty(refs.shape, np.int32)
     sizes = K.label_pieces(refs, level.coords_y, level.coords_x, level.height, level.width,
@@ -444,7 +444,7 @@ def _unstick_border_seams(refs: np.ndarray, level: LevelAnalysis, forbid: np.nda
     is forbidden on the ``UNSTICK_DEPTH`` rows below the seam, so the next iterations put
     other pieces there, which can be cut. The same for seams between columns. Returns the
     number of seams treated."""
-    from barkgen.synth import _kernels as K
+    import barkgen.synth._kernels as K
 
     ry = np.ascontiguousarray(level.coords_y[refs], dtype=np.int32)
     rx = np.ascontiguousarray(level.coords_x[refs], dtype=np.int32)
@@ -669,7 +669,7 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
     if not 0 <= stop_level < n_levels:
         raise InvalidInputError(f"stop_level must be in 0..{n_levels - 1}")
     _set_threads(config)
-    from barkgen.synth import _kernels as K
+    import barkgen.synth._kernels as K
 
     rng = np.random.default_rng(int(seed))
     total = n_levels + sum(it for lvl in range(n_levels) for _, it in config.schedule_for(lvl, n_levels))

@@ -37,14 +37,15 @@ class JobSpec:
 
 
 def encode_result(photo: np.ndarray, result, spec: JobSpec) -> dict[str, bytes]:
-    """Every file of a job's result: those of ``barkgen generate`` (:func:`barkgen.io.encode_generate`,
+    """Every file of a job's result: those of ``barkgen generate`` (:func:`barkgen.pipeline.encode_generate`,
     with the material set named ``spec.set_name``), every level of the output label map as
     ``level_N.png`` and a ``thumbnail.jpg`` of the texture."""
     import io
 
     from PIL import Image
 
-    from barkgen.io import encode_generate, encode_png
+    from barkgen.io import encode_png
+    from barkgen.pipeline import encode_generate
     from barkgen.synth.solver import as_uint8
 
     files = encode_generate(photo, result, spec.source, name=spec.set_name)

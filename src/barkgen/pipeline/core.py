@@ -9,7 +9,7 @@
    the finest level for the joint strategy, whose references already fit together in colour,
    two levels above for the label-only engine.
 
-Arrays in, arrays out; the CLI writes the files.
+Arrays in, arrays out; :mod:`barkgen.pipeline.files` encodes the files, the front ends write them.
 """
 
 from __future__ import annotations

@@ -1,0 +1,119 @@
+"""Options of the bi-layer model (guingo2017): of its analysis (§3.3, §5, §6) and of its
+synthesis (§4), validated once when made; and the exemplar check both share."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from barkgen.bilayer.spectra import SPECTRUM_SIZE, check_tloc
+from barkgen.bilayer.tiles import Deformation
+from barkgen.errors import InvalidInputError
+
+#: smallest exemplar side the analysis accepts (the global spectra need 16 px windows)
+MIN_SIDE = 32
+MASK_KINDS = ("binary", "barycentric")
+
+
+@dataclass(frozen=True)
+class AnalysisOptions:
+    """Parameters of the analysis (guingo2017 §5: only ``k`` and ``tloc`` are the user's).
+
+    Attributes:
+        k: number of stationary noises (clusters of local spectra), 1-8.
+        tloc: local spectrum window, one of 2, 4, 8, 16 (``barkgen bilayer tune`` shows them).
+        masks: ``"binary"`` (a pixel belongs to its nearest cluster; sharp noise transitions,
+            the paper's choice for its results) or ``"barycentric"`` (convex weights from the
+            distances to the cluster centres; smooth transitions).
+        spectrum_size: size T of the global spectra (64 in the paper).
+        equalize: store per-cluster, per-channel noise quantiles and equalise the synthesized
+            noise's histogram to them (§6, for non-Gaussian noise).
+        border: width in px of the band along mask borders where ``N`` is forced to 0, so
+            sharp borders stay in ``P`` (§6, Fig. 16); 0 disables it.
+        iterations, radius, sigma_range: the joint bilateral filter (§5: 5 iterations,
+            16 px neighbourhoods). ``sigma_range`` is in the units of
+            :func:`~barkgen.bilayer.local_spectra` (a spectrum's norm is the local RMS of the
+            luminance in [0, 1]); the paper's 0.01 is in units it does not give. 0.001 keeps
+            bark's cracks, fissures and the sharp edges of its plates in ``P`` and leaves the
+            fine grain to ``N`` (at 0.002 the filter softens the edges and their remainder
+            goes into ``N``, where fresh noise cannot line up with them again: fir's finest
+            band loses 12 % of its energy); raise it to move more into the noise.
+        core: fraction of each cluster, closest to its centre, used to estimate its spectrum
+            (§3.3: 90 %).
+        seed: seed of the K-means initialisation.
+    """
+
+    k: int = 2
+    tloc: int = 4
+    masks: str = "binary"
+    spectrum_size: int = SPECTRUM_SIZE
+    equalize: bool = False
+    border: int = 0
+    iterations: int = 5
+    radius: int = 8
+    sigma_range: float = 0.001
+    core: float = 0.9
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        check_tloc(self.tloc)
+        if not (isinstance(self.k, (int, np.integer)) and 1 <= self.k <= 8):
+            raise InvalidInputError(f"K (number of noises) must be between 1 and 8, not {self.k}")
+        if self.masks not in MASK_KINDS:
+            raise InvalidInputError(f"masks must be one of {', '.join(MASK_KINDS)}, not {self.masks!r}")
+        if self.spectrum_size < 16 or self.spectrum_size % 2:
+            raise InvalidInputError(f"spectrum size must be even and at least 16, not {self.spectrum_size}")
+        if self.border < 0 or self.iterations < 0 or self.radius < 1 or not (0 < self.sigma_range <= 1):
+            raise InvalidInputError("border and iterations must be >= 0, radius >= 1, "
+                                    "the range sigma in (0, 1]")
+        if not (0 < self.core <= 1):
+            raise InvalidInputError(f"core must be in (0, 1], not {self.core}")
+        if self.seed < 0:
+            raise InvalidInputError(f"seed must be >= 0, not {self.seed}")
+
+
+@dataclass(frozen=True)
+class SynthesisOptions:
+    """How the structure is tiled (guingo2017 §4).
+
+    Attributes:
+        tile_size: Wang tile side in px (default: about a quarter of the exemplar's side).
+        colours: edge colours per direction (``colours**4`` tiles).
+        variants: exchanged contents per tile.
+        deformation: rotations and zooms of the structure's samples.
+        warp: turbulence of the structure (Fig. 10): a smooth random displacement of up to
+            ``warp`` tile sizes that bends the straight seams of the tile grid (0: none). It
+            also bends each tile's content, so that no large piece of the output is a
+            pixel-exact copy of the exemplar (texeval's largest copy on four barks, default tile
+            size: 0.038-0.043 of the exemplar at 0.1, 0.050-0.056 at 0).
+        compensate: with a deformation, give the noise the power the deformed structure lost
+            (see :func:`compensated_noise`), so fine detail keeps the photo's scale; ``False``
+            is the paper's synthesis, the noise exactly as analysed.
+        blend: blend the structure's seams inside each tile in the gradient domain
+            (sibbing2010 §5), so a graph cut across a furrow leaves no step; ``False`` keeps
+            the graph cuts alone.
+    """
+
+    tile_size: int | None = None
+    colours: int = 3
+    variants: int = 4
+    deformation: Deformation = Deformation()
+    warp: float = 0.1
+    compensate: bool = True
+    blend: bool = True
+
+    def __post_init__(self) -> None:
+        if self.tile_size is not None and (self.tile_size < 8 or self.tile_size % 2):
+            raise InvalidInputError(f"tile size must be even and at least 8, not {self.tile_size}")
+        if not (1 <= self.colours <= 4) or not (1 <= self.variants <= 16):
+            raise InvalidInputError("colours must be 1-4 and variants 1-16")
+        if not (0 <= self.warp <= 1):
+            raise InvalidInputError(f"warp must be between 0 and 1 tile size, not {self.warp}")
+
+
+def as_rgb(image: np.ndarray) -> np.ndarray:
+    """An ``(H, W)`` or ``(H, W, C)`` image (uint8, uint16 or float in [0, 1]) as float32 RGB."""
+    from barkgen.labels.regions import check_image
+
+    return check_image(image, min_side=MIN_SIDE, what="exemplar", purpose="the bi-layer analysis needs")

@@ -1,0 +1,29 @@
+"""The one-click pipeline, photo -> new bark (laitoch2018 §1): :func:`generate` (arrays in,
+arrays out; :mod:`barkgen.pipeline.core`) and the files of one run, encoded
+(:func:`encode_generate`; :mod:`barkgen.pipeline.files`), which ``barkgen generate``,
+``barkgen batch`` and the web app write."""
+
+from barkgen.pipeline.core import (
+    ANALYSIS_SEED,
+    LABEL_METHODS,
+    GenerateOptions,
+    GenerateResult,
+    PhotoAnalysis,
+    analyze_photo,
+    generate,
+    preview_sheet,
+)
+from barkgen.pipeline.files import GENERATE_FILES, encode_generate
+
+__all__ = [
+    "ANALYSIS_SEED",
+    "GENERATE_FILES",
+    "LABEL_METHODS",
+    "GenerateOptions",
+    "GenerateResult",
+    "PhotoAnalysis",
+    "analyze_photo",
+    "encode_generate",
+    "generate",
+    "preview_sheet",
+]

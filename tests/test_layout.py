@@ -1,0 +1,143 @@
+"""The house's layout rules: no import circles, no import that
+runs back up from io or an algorithm package to a front end, the pipeline or the package face
+(imports inside functions count, and ``from barkgen.synth import _kernels`` counts as an import
+of ``barkgen.synth``), and no module, function or kernel grows past its limit beyond the ones
+still listed here to be split."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+SRC = Path(__file__).resolve().parents[1] / "src"
+FRONT_ENDS = ("barkgen.cli", "barkgen.web", "barkgen.batch")
+MAX_MODULE_LINES = 600
+MAX_FUNCTION_LINES = 120
+MAX_KERNEL_PARAMETERS = 12
+
+#: still to be split (the architecture issue); the list may only shrink
+LONG_MODULES = {"barkgen.cli.app", "barkgen.synth.solver", "barkgen.branching.extract",
+                "barkgen.branching.render"}
+LONG_FUNCTIONS = {"barkgen.web.app.create_app", "barkgen.synth.solver.solve",
+                  "barkgen.branching._grow_kernels.extension_candidates",
+                  "barkgen.bilayer._kernels.render_window", "barkgen.branching.model.fit_model",
+                  "barkgen.branching._kernels.trace_edges", "barkgen.synth._kernels.m_step",
+                  "barkgen.synth._init_kernels.grow_regions", "barkgen.synth._kernels.e_step"}
+WIDE_KERNELS = {
+    "barkgen.branching._grow_kernels.extension_candidates", "barkgen.synth._kernels.m_step",
+    "barkgen.branching._render_kernels.compose_setup", "barkgen.branching._render_kernels.junction_samples",
+    "barkgen.branching._render_kernels.select_candidates", "barkgen.branching._render_kernels.seam_setup",
+    "barkgen.synth._kernels.e_step", "barkgen.branching._render_kernels.fragment_maps",
+    "barkgen.synth._kernels.refine_seams", "barkgen.synth._kernels.seam_band",
+    "barkgen.bilayer._kernels.render_window", "barkgen.branching._render_kernels.regular_samples",
+    "barkgen.branching._render_kernels.blend", "barkgen.branching._grow_kernels.push_elements",
+    "barkgen.synth._init_kernels.grow_regions", "barkgen.branching._render_kernels.colour_costs",
+    "barkgen.synth._kernels._consider", "barkgen.synth._kernels._continues"}
+
+
+def modules() -> dict[str, Path]:
+    found = {}
+    for path in (SRC / "barkgen").rglob("*.py"):
+        name = ".".join(path.relative_to(SRC).with_suffix("").parts)
+        found[name.removesuffix(".__init__")] = path
+    return found
+
+
+def import_graph(mods: dict[str, Path]) -> dict[str, set[str]]:
+    """Module -> the barkgen modules it imports anywhere in its body."""
+    graph: dict[str, set[str]] = {}
+    for name, path in mods.items():
+        package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+        targets: set[str] = set()
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                # `import a.b.c as K` binds the submodule: an import of a.b.c alone
+                targets.update(alias.name for alias in node.names)
+            elif isinstance(node, ast.ImportFrom):
+                base = node.module or ""
+                if node.level:
+                    parts = package.split(".")[:len(package.split(".")) - node.level + 1]
+                    base = ".".join(parts + ([node.module] if node.module else []))
+                targets.add(base)  # `from pkg import x` runs and reads pkg's face
+                targets.update(f"{base}.{alias.name}" for alias in node.names)
+        edges = set()
+        for target in targets:
+            while target not in mods and "." in target:
+                target = target.rpartition(".")[0]
+            if target in mods and target != name and target.startswith("barkgen"):
+                edges.add(target)
+        graph[name] = edges
+    return graph
+
+
+def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components of more than one module (Tarjan)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    found: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in graph[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for v in graph:
+        if v not in index:
+            visit(v)
+    return found
+
+
+def test_no_import_circles():
+    assert cycles(import_graph(modules())) == []
+
+
+def test_the_checker_sees_a_circle():
+    graph = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}
+    assert cycles(graph) == [["a", "b", "c"]]
+
+
+def test_no_import_runs_back_up():
+    upward = []
+    for name, targets in import_graph(modules()).items():
+        if name == "barkgen" or name.startswith(FRONT_ENDS + ("barkgen.pipeline", "barkgen.__main__")):
+            continue
+        upward += [(name, t) for t in targets
+                   if t == "barkgen" or t.startswith(FRONT_ENDS + ("barkgen.pipeline",))]
+    assert upward == []
+
+
+def test_no_new_long_module_function_or_wide_kernel():
+    long_modules, long_functions, wide_kernels = set(), set(), set()
+    for name, path in modules().items():
+        text = path.read_text()
+        if len(text.splitlines()) > MAX_MODULE_LINES and "_kernels" not in path.name:
+            long_modules.add(name)
+        for node in ast.walk(ast.parse(text)):
+            if not isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                continue
+            if node.end_lineno - node.lineno + 1 > MAX_FUNCTION_LINES:
+                long_functions.add(f"{name}.{node.name}")
+            args = node.args
+            if "_kernels" in path.name and len(args.posonlyargs + args.args + args.kwonlyargs) > MAX_KERNEL_PARAMETERS:
+                wide_kernels.add(f"{name}.{node.name}")
+    assert long_modules <= LONG_MODULES, long_modules - LONG_MODULES
+    assert long_functions <= LONG_FUNCTIONS, long_functions - LONG_FUNCTIONS
+    assert wide_kernels <= WIDE_KERNELS, wide_kernels - WIDE_KERNELS
