@@ -71,8 +71,7 @@ def _analyse_task(photo, labels, options):
 def _variant_task(photo, analysis, options, source: str, material_name: str, bits: int | None):
     """Worker side: one variant from the shared analysis, encoded exactly as
     ``barkgen generate`` encodes it."""
-    from barkgen.pipeline import encode_generate
-    from barkgen.pipeline import generate
+    from barkgen.pipeline import encode_generate, generate
 
     t0 = time.perf_counter()
     result = generate(photo, options, analysis=analysis)
