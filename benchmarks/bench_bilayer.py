@@ -53,7 +53,7 @@ from barkgen.data import sample_exemplar_path  # noqa: E402
 from barkgen.io import write_png  # noqa: E402
 from barkgen.labels.preview import contact_sheet  # noqa: E402
 from barkgen.synth import SynthesisConfig, synthesize  # noqa: E402
-from barkgen.synth.solver import as_uint8 as _u8  # noqa: E402
+from barkgen._shared.arrays import as_uint8 as _u8  # noqa: E402
 
 STOCHASTIC = ("fir_scaly_01", "lichen_covered_01", "furrowed_fine_01", "willow_furrowed_01")
 DEFORM = SynthesisOptions(deformation=Deformation(rotate=30, scale=(1.0, 1.6)))

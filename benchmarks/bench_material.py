@@ -45,7 +45,8 @@ sys.path.insert(0, str(REPO / "src"))
 
 from barkgen.io import read_image, write_png  # noqa: E402
 from barkgen.labels import color_regions  # noqa: E402
-from barkgen.labels.regions import check_image, to_codes  # noqa: E402
+from barkgen._shared.checks import check_image  # noqa: E402
+from barkgen.labels.regions import to_codes  # noqa: E402
 from barkgen.material import (  # noqa: E402
     HeightConfig,
     ambient_occlusion,

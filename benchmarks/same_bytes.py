@@ -10,7 +10,9 @@ only: the folder is a new temporary one each run).
     .venv/bin/python benchmarks/same_bytes.py --compare before.json after.json
 
 ``--src`` runs another checkout's ``src`` (``git worktree add /tmp/base COMMIT``) with this
-interpreter. ``--compare`` prints the files whose bytes differ and exits 1 if any do.
+interpreter. ``--cases branches,bilayer`` runs only the cases whose names start so (and the cases
+they read from). ``--compare`` prints the files whose bytes differ and exits 1 if any do; it
+compares the cases both files hold.
 """
 
 from __future__ import annotations
@@ -91,7 +93,25 @@ def digest(path: Path) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
-def run_cases(src: Path | None) -> dict[str, str]:
+def selected_cases(prefixes: list[str] | None) -> list[tuple[str, list[str]]]:
+    """The cases whose names start with one of ``prefixes`` (all when None), with the cases
+    whose folders they read (``{prev}/NAME/``)."""
+    if not prefixes:
+        return CASES
+    wanted = {name for name, _ in CASES if name.startswith(tuple(prefixes))}
+    args_of = dict(CASES)
+    pending = list(wanted)
+    while pending:
+        for arg in args_of[pending.pop()]:
+            if arg.startswith("{prev}/"):
+                need = arg.split("/")[1]
+                if need not in wanted:
+                    wanted.add(need)
+                    pending.append(need)
+    return [(name, args) for name, args in CASES if name in wanted]
+
+
+def run_cases(src: Path | None, prefixes: list[str] | None = None) -> dict[str, str]:
     env = dict(os.environ)
     if src is not None:
         env["PYTHONPATH"] = str(src) + os.pathsep + env.get("PYTHONPATH", "")
@@ -99,7 +119,7 @@ def run_cases(src: Path | None) -> dict[str, str]:
     with tempfile.TemporaryDirectory(prefix="same-bytes-") as tmp:
         root = Path(tmp)
         values = make_inputs(root, env)
-        for name, args in CASES:
+        for name, args in selected_cases(prefixes):
             if "{cracks}" in " ".join(args) and not values["cracks"]:
                 print(f"{name}: skipped (no crack image in {SHARED})", file=sys.stderr)
                 continue
@@ -122,17 +142,20 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", type=Path, help="write the hashes here (JSON)")
     parser.add_argument("--src", type=Path, help="run this checkout's src instead of the installed barkgen")
+    parser.add_argument("--cases", help="comma-separated case name prefixes (default: all)")
     parser.add_argument("--compare", nargs=2, type=Path, metavar=("BEFORE", "AFTER"))
     args = parser.parse_args()
     if args.compare:
         a, b = (json.loads(p.read_text()) for p in args.compare)
+        common = {k.split("/")[0] for k in a} & {k.split("/")[0] for k in b}
+        a, b = ({k: v for k, v in d.items() if k.split("/")[0] in common} for d in (a, b))
         differ = sorted(k for k in set(a) | set(b) if a.get(k) != b.get(k))
         print(f"| files | same | differ |\n|---|---|---|\n| {len(set(a) | set(b))} | "
               f"{len(set(a) | set(b)) - len(differ)} | {len(differ)} |")
         for k in differ:
             print(f"  differs: {k} ({'missing before' if k not in a else 'missing after' if k not in b else 'bytes'})")
         sys.exit(1 if differ else 0)
-    hashes = run_cases(args.src)
+    hashes = run_cases(args.src, args.cases.split(",") if args.cases else None)
     text = json.dumps(hashes, indent=1, sort_keys=True)
     if args.out:
         args.out.write_text(text + "\n")

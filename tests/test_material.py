@@ -141,7 +141,7 @@ def test_estimated_normals_and_ao_beat_the_baselines_on_scanned_bark():
     import cv2
 
     from conftest import _need_shared
-    from barkgen.labels.regions import check_image
+    from barkgen._shared.checks import check_image
 
     _need_shared()
     for name in ("oak_furrowed_moss_01", "pine_plated_01"):

@@ -220,7 +220,7 @@ def _read_inputs(job: ExemplarJob):
     """A job's photo (and label map), read and checked as the pipeline will check them."""
     from barkgen.errors import BarkgenError
     from barkgen.io import read_image
-    from barkgen.labels.regions import check_image
+    from barkgen._shared.checks import check_image
 
     try:
         photo = read_image(job.path)

@@ -27,7 +27,7 @@ from pathlib import Path
 
 from barkgen.errors import BarkgenError, InvalidInputError
 from barkgen.pipeline import GenerateOptions
-from barkgen.synth.solver import parse_size
+from barkgen._shared.checks import parse_size
 
 #: pipeline options a spec may set at the top level or per exemplar, as GenerateOptions fields
 OPTION_KEYS = ("size", "k", "method", "strategy", "rotations", "tile", "material", "relief", "light",

@@ -114,6 +114,6 @@ class SynthesisOptions:
 
 def as_rgb(image: np.ndarray) -> np.ndarray:
     """An ``(H, W)`` or ``(H, W, C)`` image (uint8, uint16 or float in [0, 1]) as float32 RGB."""
-    from barkgen.labels.regions import check_image
+    from barkgen._shared.checks import check_image
 
     return check_image(image, min_side=MIN_SIDE, what="exemplar", purpose="the bi-layer analysis needs")

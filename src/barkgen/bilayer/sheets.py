@@ -8,7 +8,7 @@ import dataclasses
 import numpy as np
 
 from barkgen.bilayer.spectra import TLOC_CHOICES
-from barkgen.synth.solver import as_uint8 as _u8
+from barkgen._shared.arrays import as_uint8 as _u8
 
 
 def noise_picture(noise: np.ndarray) -> np.ndarray:

@@ -14,7 +14,12 @@ from barkgen.branching.extract import crack_mask, extract_structure, overlay_str
 from barkgen.branching.grow import GrowOptions, grow_structure
 from barkgen.branching.model import BranchModel, ModelOptions, fit_model
 from barkgen.branching.render import RenderOptions, RenderResult, render_branches
-from barkgen.branching.stats import StructureComparison, compare_structures, comparison_plot, self_intersections
+from barkgen.branching.stats import (
+    StructureComparison,
+    compare_structures,
+    comparison_plot,
+    self_intersections,
+)
 from barkgen.branching.structure import (
     STRUCTURE_VERSION,
     Branch,

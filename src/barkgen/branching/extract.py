@@ -71,7 +71,7 @@ STEP_RANGE = (2.0, 8.0)
 def _check_image(image: np.ndarray, what: str = "image") -> np.ndarray:
     """An ``(H, W)`` / ``(H, W, C)`` uint8, uint16, float [0, 1] or boolean image as float32 RGB
     in [0, 1] (:func:`barkgen.labels.regions.check_image`, which words the errors)."""
-    from barkgen.labels.regions import check_image
+    from barkgen._shared.checks import check_image
 
     img = np.asarray(image)
     if img.dtype == np.bool_:

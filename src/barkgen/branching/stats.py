@@ -9,7 +9,12 @@ import cv2
 import numpy as np
 
 from barkgen.branching.model import histogram
-from barkgen.branching.structure import Structure, junction_radius, resample_polyline, turning_angles
+from barkgen.branching.structure import (
+    Structure,
+    junction_radius,
+    resample_polyline,
+    turning_angles,
+)
 
 
 def structure_values(structure: Structure, step: float | None = None) -> tuple[np.ndarray, np.ndarray]:

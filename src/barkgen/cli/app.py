@@ -15,7 +15,7 @@ import numpy as np
 import typer
 
 from barkgen.errors import BarkgenError, InvalidInputError
-from barkgen.synth.solver import parse_size
+from barkgen._shared.checks import parse_size
 
 F = TypeVar("F", bound=Callable[..., None])
 

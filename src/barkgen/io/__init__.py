@@ -15,7 +15,14 @@ from barkgen.io.images import (
     write_files_atomic,
     write_png,
 )
-from barkgen.io.material import MAP_SUFFIXES, check_material_name, encode_glb, encode_material, find_material, read_material
+from barkgen.io.material import (
+    MAP_SUFFIXES,
+    check_material_name,
+    encode_glb,
+    encode_material,
+    find_material,
+    read_material,
+)
 from barkgen.io.references import encode_reference, read_reference, write_reference
 
 __all__ = [

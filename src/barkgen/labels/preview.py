@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from barkgen.labels.regions import check_image, to_codes
+from barkgen._shared.checks import check_image
+from barkgen.labels.regions import to_codes
 
 
 def label_colours(n_labels: int) -> np.ndarray:

@@ -14,12 +14,9 @@ import warnings
 
 import numpy as np
 
+from barkgen._shared.checks import MAX_K, check_image, check_k, check_seed
 from barkgen.errors import InvalidInputError
 
-#: most labels a label map may ask for
-MAX_K = 16
-#: smallest photo side accepted
-MIN_SIDE = 16
 #: a label covering less of the photo than this is grown to it (then tiny regions go)
 MIN_LABEL_FRACTION = 0.06
 #: default smallest region, as a fraction of the photo's area (at least MIN_REGION_PX pixels)
@@ -29,46 +26,6 @@ MIN_REGION_PX = 16
 DENOISE_STRENGTH = 10.0
 #: pixels sampled to fit k-means (all are then assigned)
 KMEANS_SAMPLES = 60_000
-
-
-def check_image(image: np.ndarray, *, min_side: int = MIN_SIDE, what: str = "photo",
-                purpose: str = "label maps need") -> np.ndarray:
-    """An ``(h, w)`` or ``(h, w, C)`` photo (uint8, uint16 or float in [0, 1]) as float32 RGB in
-    [0, 1]; alpha is dropped, grey is repeated to three channels. ``what`` and ``purpose``
-    word the errors (e.g. "exemplar", "the bi-layer analysis needs")."""
-    img = np.asarray(image)
-    if img.ndim == 2:
-        img = img[:, :, None]
-    if img.ndim != 3 or img.shape[2] not in (1, 2, 3, 4):
-        raise InvalidInputError(f"{what} must be an (H, W) or (H, W, C) image, not shape {img.shape}")
-    if min(img.shape[:2]) < min_side:
-        raise InvalidInputError(f"{what} is {img.shape[1]}x{img.shape[0]} px; {purpose} at "
-                                f"least {min_side} px on each side")
-    if img.shape[2] in (2, 4):
-        img = img[:, :, :-1]
-    if img.dtype == np.uint8:
-        f = img.astype(np.float32) / 255.0
-    elif img.dtype == np.uint16:
-        f = img.astype(np.float32) / 65535.0
-    elif img.dtype.kind == "f":
-        f = np.clip(np.nan_to_num(img.astype(np.float32)), 0.0, 1.0)
-    else:
-        raise InvalidInputError(f"{what} has unsupported dtype {img.dtype}")
-    if f.shape[2] == 1:
-        f = np.repeat(f, 3, axis=2)
-    return np.ascontiguousarray(f)
-
-
-def check_k(k: int, name: str = "k") -> int:
-    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 1 <= k <= MAX_K:
-        raise InvalidInputError(f"{name} must be an integer from 1 to {MAX_K}, not {k!r}")
-    return int(k)
-
-
-def check_seed(seed: int) -> int:
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise InvalidInputError(f"seed must be a non-negative integer, not {seed!r}")
-    return int(seed)
 
 
 def grey_values(n_labels: int) -> np.ndarray:

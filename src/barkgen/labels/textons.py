@@ -12,10 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from barkgen.errors import InvalidInputError
+from barkgen._shared.checks import check_image, check_k, check_seed
 from barkgen.labels.regions import (
-    check_image,
-    check_k,
-    check_seed,
     clean_regions,
     default_min_region,
     finish_label_map,

@@ -34,7 +34,7 @@ from barkgen.material.maps import (
     roughness_map,
 )
 from barkgen.material.shading import Light, estimate_light, remove_shading
-from barkgen.synth.solver import as_uint8
+from barkgen._shared.arrays import as_uint8
 
 
 @dataclass(frozen=True)
@@ -56,7 +56,7 @@ class MaterialOptions:
     seed: int = 0
 
     def __post_init__(self) -> None:
-        from barkgen.labels.regions import check_k, check_seed
+        from barkgen._shared.checks import check_k, check_seed
 
         check_k(self.k)
         check_seed(self.seed)
@@ -158,7 +158,8 @@ def make_material(photo: np.ndarray, options: MaterialOptions | None = None, *,
         edits: height edits to replay (:class:`~barkgen.material.editor.HeightEdit`).
     """
     from barkgen.labels import color_regions
-    from barkgen.labels.regions import check_image, to_codes
+    from barkgen._shared.checks import check_image
+    from barkgen.labels.regions import to_codes
 
     options = options or MaterialOptions()
     rgb = check_image(photo)

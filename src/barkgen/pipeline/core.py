@@ -24,7 +24,8 @@ import numpy as np
 
 from barkgen.errors import InvalidInputError
 from barkgen.synth.edges import resolve_exemplar_wrap
-from barkgen.synth.solver import ProgressCallback, parse_output_shape
+from barkgen._shared.arrays import ProgressCallback
+from barkgen._shared.checks import parse_output_shape
 
 if TYPE_CHECKING:
     from barkgen.material import Light, MaterialSet
@@ -75,7 +76,7 @@ class GenerateOptions:
     exemplar_wrap: str = "auto"
 
     def __post_init__(self) -> None:
-        from barkgen.labels.regions import check_k, check_seed
+        from barkgen._shared.checks import check_k, check_seed
         from barkgen.shapes import STRATEGIES, check_rotations
         from barkgen.synth.edges import check_wrap_mode
 
@@ -334,7 +335,7 @@ def _photo_material(photo: np.ndarray, labels_in: np.ndarray, options: GenerateO
 def preview_sheet(photo: np.ndarray, result: GenerateResult, tile_size: int = 320) -> np.ndarray:
     """The contact sheet of a run: photo, input labels, output labels, result."""
     from barkgen.labels import contact_sheet, label_colour_map
-    from barkgen.synth.solver import as_uint8
+    from barkgen._shared.arrays import as_uint8
 
     values = np.unique(result.labels_in)
     tiles = [as_uint8(photo), label_colour_map(result.labels_in, values),

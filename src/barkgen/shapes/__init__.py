@@ -25,7 +25,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from barkgen.errors import InvalidInputError
-from barkgen.labels.regions import check_seed, to_codes
+from barkgen._shared.checks import check_seed
+from barkgen.labels.regions import to_codes
 from barkgen.pyramid import count_levels, level_shape
 from barkgen.shapes.binary import ShapeConfig
 from barkgen.shapes.layered import automatic_layer_order
@@ -36,7 +37,9 @@ from barkgen.shapes.patches import (
     shape_dissimilarity,
 )
 from barkgen.synth.guide import label_pyramid
-from barkgen.synth.solver import AnalysisCache, ProgressCallback, parse_output_shape
+from barkgen._shared.arrays import ProgressCallback
+from barkgen._shared.checks import parse_output_shape
+from barkgen.synth.solver import AnalysisCache
 
 STRATEGIES = ("engine", "joint", "layered")
 

@@ -51,14 +51,8 @@ from barkgen.pyramid import count_levels, gaussian_pyramid, level_shape
 from barkgen.synth.config import SynthesisConfig
 from barkgen.synth.guide import label_pyramid, level_guide
 from barkgen.synth.initialization import smart_initialization
-from barkgen.synth.solver import (
-    AnalysisCache,
-    Guidance,
-    LabelBalance,
-    ProgressCallback,
-    matching_features,
-    solve,
-)
+from barkgen._shared.arrays import ProgressCallback
+from barkgen.synth.solver import AnalysisCache, Guidance, LabelBalance, matching_features, solve
 from barkgen.synth.tbn import guide_channels
 
 #: the solver for label maps: the pyramid stops where label regions still exist (as for

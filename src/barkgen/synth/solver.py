@@ -23,7 +23,6 @@ E-step, extra channels), with these additions:
 from __future__ import annotations
 
 import hashlib
-import re
 import sys
 import time
 from collections.abc import Callable, Mapping
@@ -32,6 +31,8 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from barkgen._shared.arrays import ProgressCallback, as_hw_c, as_uint8, unit_float
+from barkgen._shared.checks import parse_output_shape
 from barkgen.color import rgb_to_lab
 from barkgen.errors import InvalidInputError, MemoryBudgetError
 from barkgen.nnf import (
@@ -45,9 +46,6 @@ from barkgen.pyramid import count_levels, gaussian_pyramid, level_shape
 from barkgen.synth.config import SynthesisConfig
 from barkgen.synth.edges import resolve_exemplar_wrap
 from barkgen.synth.gradient import resolve_continuous
-
-#: progress(done, total): called after each unit of work.
-ProgressCallback = Callable[[int, int], None]
 
 MIN_EXEMPLAR_SIDE = 16
 #: exemplar levels with at most this many pixels get an exact k-NN search (faiss); larger
@@ -102,69 +100,18 @@ class LevelAnalysis:
 # validation and set-up
 
 
-def _as_hw_c(name: str, array: np.ndarray) -> np.ndarray:
-    arr = np.asarray(array)
-    if arr.ndim == 2:
-        arr = arr[:, :, None]
-    if arr.ndim != 3 or arr.shape[2] < 1:
-        raise InvalidInputError(f"{name} must be an (H, W) or (H, W, C) array, not {arr.shape}")
-    if arr.dtype.kind not in "uif" or arr.dtype == np.bool_:
-        raise InvalidInputError(f"{name} has unsupported dtype {arr.dtype}")
-    return arr
-
-
-def _unit_float(arr: np.ndarray) -> np.ndarray:
-    if arr.dtype == np.uint8:
-        return arr.astype(np.float32) / 255.0
-    if arr.dtype == np.uint16:
-        return arr.astype(np.float32) / 65535.0
-    if arr.dtype.kind == "f":
-        return arr.astype(np.float32)
-    info = np.iinfo(arr.dtype)
-    return (arr.astype(np.float64) / max(info.max, 1)).astype(np.float32)
-
-
-def parse_output_shape(size: int | tuple[int, int]) -> tuple[int, int]:
-    """``size`` as ``(height, width)``; an int is a square."""
-    if isinstance(size, (int, np.integer)):
-        shape = (int(size), int(size))
-    else:
-        try:
-            h, w = size
-            shape = (int(h), int(w))
-        except (TypeError, ValueError):
-            raise InvalidInputError(f"size must be an int or (height, width), not {size!r}") from None
-    if shape[0] < 1 or shape[1] < 1:
-        raise InvalidInputError(f"output size must be positive, not {shape[1]}x{shape[0]}")
-    return shape
-
-
-_SIZE_RE = re.compile(r"^\s*(-?\d+)\s*[xX×]\s*(-?\d+)\s*$")
-
-
-def parse_size(text: str) -> tuple[int, int]:
-    """``"WxH"`` -> ``(height, width)``; raises :class:`InvalidInputError` with a clear message."""
-    m = _SIZE_RE.match(text if isinstance(text, str) else "")
-    if not m:
-        raise InvalidInputError(f"invalid size {text!r}: expected WIDTHxHEIGHT, e.g. 1024x1024")
-    w, h = int(m.group(1)), int(m.group(2))
-    if w <= 0 or h <= 0:
-        raise InvalidInputError(f"invalid size {text!r}: width and height must be positive")
-    return h, w
-
-
 def matching_features(exemplar: np.ndarray, extras: Mapping[str, np.ndarray] | None,
                       extra_weight: float) -> np.ndarray:
     """Per-pixel features used for matching: CIELAB (L in 0..100) or L alone for grey images,
     plus each extra channel scaled to 0..100 and weighted (laitoch2018 §3.3.1, extra channels).
     """
-    ex = _unit_float(_as_hw_c("exemplar", exemplar))
+    ex = unit_float(as_hw_c("exemplar", exemplar))
     if ex.shape[2] >= 3:
         feats = [rgb_to_lab(ex[:, :, :3])]
     else:
         feats = [ex[:, :, :1] * 100.0]
     for name, arr in (extras or {}).items():
-        e = _unit_float(_as_hw_c(f"extra map {name!r}", arr))
+        e = unit_float(as_hw_c(f"extra map {name!r}", arr))
         feats.append(e * (100.0 * extra_weight / np.sqrt(e.shape[2])))
     return np.ascontiguousarray(np.concatenate(feats, axis=2), dtype=np.float32)
 
@@ -570,7 +517,7 @@ DebugCallback = Callable[[str, np.ndarray], None]
 def validate_inputs(exemplar: np.ndarray, size: int | tuple[int, int], seed: int,
                     extra: Mapping[str, np.ndarray] | None) -> tuple[np.ndarray, tuple[int, int], dict]:
     """Check the exemplar, output size, seed and extra maps; return them normalised."""
-    ex = _as_hw_c("exemplar", exemplar)
+    ex = as_hw_c("exemplar", exemplar)
     if ex.shape[2] not in (1, 3):
         raise InvalidInputError(f"exemplar must have 1 or 3 channels, not {ex.shape[2]}")
     if min(ex.shape[:2]) < MIN_EXEMPLAR_SIDE:
@@ -582,7 +529,7 @@ def validate_inputs(exemplar: np.ndarray, size: int | tuple[int, int], seed: int
         raise InvalidInputError(f"seed must be a non-negative integer, not {seed!r}")
     extras = {}
     for name, arr in (extra or {}).items():
-        e = _as_hw_c(f"extra map {name!r}", arr)
+        e = as_hw_c(f"extra map {name!r}", arr)
         if e.shape[:2] != ex.shape[:2]:
             raise InvalidInputError(
                 f"extra map {name!r} is {e.shape[1]}x{e.shape[0]} px but the exemplar is "
@@ -625,16 +572,6 @@ def _level_image(ex: np.ndarray, refs: np.ndarray, level: int) -> np.ndarray:
     ry, rx = np.divmod(refs, lw)
     img = ex[np.minimum(ry << level, h - 1), np.minimum(rx << level, w - 1)]
     return as_uint8(img)
-
-
-def as_uint8(img: np.ndarray) -> np.ndarray:
-    """An image as uint8 for previews (16-bit and float scaled); one channel becomes 2-D."""
-    img = np.asarray(img)
-    if img.dtype == np.uint16:
-        img = (img >> 8).astype(np.uint8)
-    elif img.dtype != np.uint8:
-        img = (np.clip(_unit_float(img), 0, 1) * 255 + 0.5).astype(np.uint8)
-    return img[:, :, 0] if img.ndim == 3 and img.shape[2] == 1 else img
 
 
 def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray,

@@ -31,13 +31,12 @@ from barkgen.synth.config import SynthesisConfig
 from barkgen.synth.edges import resolve_exemplar_wrap
 from barkgen.synth.guide import boundary_distance, encode_label_maps, label_pyramid, level_guide
 from barkgen.synth.initialization import random_initialization, smart_initialization
+from barkgen._shared.arrays import ProgressCallback, as_uint8
 from barkgen.synth.solver import (
     AnalysisCache,
     DebugCallback,
     Guidance,
-    ProgressCallback,
     SynthesisResult,
-    as_uint8,
     check_memory,
     matching_features,
     solve,

@@ -160,7 +160,7 @@ def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: b
     from barkgen.labels import label_colour_map
     from barkgen.labels.preview import label_colours
     from barkgen.pipeline import ANALYSIS_SEED, GenerateOptions
-    from barkgen.synth.solver import parse_size
+    from barkgen._shared.checks import parse_size
 
     limits = limits or WebLimits()
     jobs = JobManager(library)
@@ -271,7 +271,7 @@ def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: b
             return cached
         from PIL import Image
 
-        from barkgen.synth.solver import as_uint8
+        from barkgen._shared.arrays import as_uint8
 
         image = Image.fromarray(as_uint8(library.photo(exemplar_id)).squeeze())
         image.thumbnail((side, side))
@@ -467,7 +467,7 @@ def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: b
         cached = library.analysis(exemplar_id, "label_looks", key)
         if cached is not None:
             return json.loads(cached)
-        from barkgen.synth.solver import as_uint8
+        from barkgen._shared.arrays import as_uint8
 
         photo = as_uint8(library.photo(exemplar_id)).astype(np.float64)
         photo = np.broadcast_to(photo, photo.shape[:2] + (3,))

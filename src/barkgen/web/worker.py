@@ -46,7 +46,7 @@ def encode_result(photo: np.ndarray, result, spec: JobSpec) -> dict[str, bytes]:
 
     from barkgen.io import encode_png
     from barkgen.pipeline import encode_generate
-    from barkgen.synth.solver import as_uint8
+    from barkgen._shared.arrays import as_uint8
 
     files = encode_generate(photo, result, spec.source, name=spec.set_name)
     files.update({f"level_{i}.png": encode_png(level)
