@@ -7,7 +7,7 @@ import pytest
 
 from barkgen.nnf import k_coherence_sets, k_coherence_sets_from_parent, knn_search, neighbourhood_pca
 from barkgen.pyramid import gaussian_pyramid
-from barkgen.synth.solver import matching_features
+from barkgen.synth.engine import matching_features
 
 
 @pytest.mark.parametrize("n", [500, 6000, 30000])

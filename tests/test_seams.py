@@ -160,7 +160,7 @@ def test_a_seam_stuck_at_the_exemplar_border_is_given_to_the_solver():
     that a cut can move is left to the cut."""
     from types import SimpleNamespace
 
-    from barkgen.synth.solver import UNSTICK_DEPTH, _offset_codes, _unstick_border_seams
+    from barkgen.synth.pieces import UNSTICK_DEPTH, offset_codes, unstick_border_seams
 
     eh, ew, H, W = 80, 120, 64, 96
     cy, cx = np.divmod(np.arange(eh * ew, dtype=np.int32), np.int32(ew))
@@ -178,11 +178,11 @@ def test_a_seam_stuck_at_the_exemplar_border_is_given_to_the_solver():
         assert np.array_equal(cut_straight_seams(coords, np.zeros((eh, ew, 3), np.float32),
                                                  tile=False), coords)  # the cut cannot move it
         forbid = np.full(refs.shape, -1, np.int64)
-        assert _unstick_border_seams(refs, level, forbid, False, 24) == 1
+        assert unstick_border_seams(refs, level, forbid, False, 24) == 1
         band = (slice(32, 32 + UNSTICK_DEPTH), slice(None)) if not transposed else \
             (slice(None), slice(32, 32 + UNSTICK_DEPTH))
         ys, xs = np.mgrid[0:refs.shape[0], 0:refs.shape[1]]
-        want = _offset_codes(ry - ys, rx - xs)
+        want = offset_codes(ry - ys, rx - xs)
         assert np.array_equal(forbid[band], want[band])  # the lower piece, on its first rows
         forbid[band] = -1
         assert (forbid == -1).all()  # nothing else
@@ -190,11 +190,11 @@ def test_a_seam_stuck_at_the_exemplar_border_is_given_to_the_solver():
     movable = np.where(yy < 32, yy + (eh - 32), yy - 20)
     refs = np.ascontiguousarray(movable * ew + xx + 10, dtype=np.int32)
     forbid = np.full(refs.shape, -1, np.int64)
-    assert _unstick_border_seams(refs, level, forbid, False, 24) == 0 and (forbid == -1).all()
+    assert unstick_border_seams(refs, level, forbid, False, 24) == 0 and (forbid == -1).all()
     # along an axis that wraps there is no border to be stuck at
     level.wrap = (True, False)
     refs = np.ascontiguousarray(stuck_rows * ew + xx + 10, dtype=np.int32)
-    assert _unstick_border_seams(refs, level, forbid, False, 24) == 0
+    assert unstick_border_seams(refs, level, forbid, False, 24) == 0
 
 
 def test_the_copy_size_control_cuts_a_piece_along_meandering_lines():
@@ -203,7 +203,7 @@ def test_the_copy_size_control_cuts_a_piece_along_meandering_lines():
     close again, joining the piece), reproducibly from the generator."""
     from types import SimpleNamespace
 
-    from barkgen.synth.solver import _limit_copies
+    from barkgen.synth.pieces import limit_copies
 
     eh = ew = 160
     cy, cx = np.divmod(np.arange(eh * ew, dtype=np.int32), np.int32(ew))
@@ -213,7 +213,7 @@ def test_the_copy_size_control_cuts_a_piece_along_meandering_lines():
 
     def forbidden(seed):
         forbid = np.full(refs.shape, -1, np.int64)
-        assert _limit_copies(refs, level, 0.2 * eh * ew, forbid, False,
+        assert limit_copies(refs, level, 0.2 * eh * ew, forbid, False,
                              np.random.default_rng(seed)) == 1
         return forbid >= 0
 

@@ -65,7 +65,7 @@ def test_a_run_stopped_at_a_level_is_that_level_of_the_full_run(synthetic_exempl
     """``stop_level``: the references at that level are the full run's (same seed, same draws);
     resuming from them finishes a valid output; a level outside the pyramid is refused."""
     from barkgen.pyramid import count_levels, level_shape
-    from barkgen.synth.solver import matching_features, solve
+    from barkgen.synth.engine import matching_features, solve
 
     config = SynthesisConfig(coarsest_exemplar=8)
     features = matching_features(synthetic_exemplar, None, 0.0)

@@ -39,7 +39,7 @@ from barkgen.shapes.patches import (
 from barkgen.synth.guide import label_pyramid
 from barkgen._shared.arrays import ProgressCallback
 from barkgen._shared.checks import parse_output_shape
-from barkgen.synth.solver import AnalysisCache
+from barkgen.synth.engine import AnalysisCache
 
 STRATEGIES = ("engine", "joint", "layered")
 

@@ -11,7 +11,7 @@ percentage points on the bark set):
 
 * the coarsest level starts from a random patchwork of exemplar squares instead of random
   pixels, so small isolated regions (lenticels, knots) exist from the start;
-* a label-area term in the occurrence cost (:class:`barkgen.synth.solver.LabelBalance`,
+* a label-area term in the occurrence cost (:class:`barkgen.synth.engine.LabelBalance`,
   histogram matching after Kopf et al. 2007) makes labels the output has too much of dearer and
   the missing ones cheaper, judged at every level on the full-resolution label shares under the
   referenced pixels.
@@ -32,7 +32,7 @@ large uniform label regions give the solver nothing to choose by, on six (lichen
 An edited level is resumed as texture-by-numbers of the label map on the edit (laitoch2018 §1:
 the artist sets the large-scale layout, barkgen the detail): the edit, brought to full size with
 smooth boundaries, is the target label map that guides every level from the edited one down
-(:class:`barkgen.synth.solver.Guidance`), the edited level starts from the smart initialisation on
+(:class:`barkgen.synth.engine.Guidance`), the edited level starts from the smart initialisation on
 it, and no area term pulls against it (the edit sets the areas). Without the guide the free
 solver drifts back to a layout of its own below the edited level: a stroke painted at level 3 of
 a 512 px map of the oak photo kept 2-39 % of its pixels, 93-97 % with the guide (and 87-89 % of
@@ -52,13 +52,13 @@ from barkgen.synth.config import SynthesisConfig
 from barkgen.synth.guide import label_pyramid, level_guide
 from barkgen.synth.initialization import smart_initialization
 from barkgen._shared.arrays import ProgressCallback
-from barkgen.synth.solver import AnalysisCache, Guidance, LabelBalance, matching_features, solve
+from barkgen.synth.engine import AnalysisCache, Guidance, LabelBalance, matching_features, solve
 from barkgen.synth.tbn import guide_channels
 
 #: the solver for label maps: the pyramid stops where label regions still exist (as for
 #: texture-by-numbers); one-hot channels need few appearance dimensions
 LABEL_ENGINE_CONFIG = SynthesisConfig(coarsest_exemplar=32, pca_components=6)
-#: weight of the label-area term (:class:`barkgen.synth.solver.LabelBalance`)
+#: weight of the label-area term (:class:`barkgen.synth.engine.LabelBalance`)
 BALANCE_WEIGHT = 64.0
 #: side of the squares of the coarsest level's random patchwork start
 INIT_BLOCK = 8
@@ -66,7 +66,7 @@ INIT_BLOCK = 8
 JOINT_CONFIG = SynthesisConfig()
 #: joint strategy: the label channels' total variance, in units of the photo's colour variance
 JOINT_LABEL_WEIGHT = 1.0
-#: joint strategy: weight of the label-area term (:class:`~barkgen.synth.solver.LabelBalance`)
+#: joint strategy: weight of the label-area term (:class:`~barkgen.synth.engine.LabelBalance`)
 #: from the chosen start down; the candidate starts run with :data:`JOINT_CANDIDATE_BALANCE` of
 #: it. (32 at every level of a single run, the previous default, moved whole regions at the
 #: coarse levels and cost oak 1.2-2.3x plain synthesis' coherence; free candidates and 16 from
@@ -288,7 +288,7 @@ def upsample_codes(edited: np.ndarray, out_shape: tuple[int, int], n_labels: int
 def edit_guidance(codes: np.ndarray, features: np.ndarray, target: np.ndarray, n_labels: int,
                   n_levels: int, *, tile: bool, softness: float = 0.0,
                   exemplar_levels: list | None = None) -> Guidance:
-    """The :class:`~barkgen.synth.solver.Guidance` that makes the label engine follow a target
+    """The :class:`~barkgen.synth.engine.Guidance` that makes the label engine follow a target
     label map (texture-by-numbers of the label map itself, laitoch2018 §3.3) as a soft guide:
     the target's channels are blurred by ``softness`` px (boundaries may move that much to take
     exemplar shapes), votes of other labels count, and no label is enforced afterwards."""

@@ -120,7 +120,7 @@ def m_step(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, proj_w, proj_m
     their k-coherence sets (laitoch2018 eq. 3.4). The cost adds the occurrence ``penalty`` of the
     candidate and ``kset_cost`` for non-coherent candidates. Candidates whose offset
     (reference - position) equals ``forbid[y, x]`` are skipped (copy-size control, see
-    ``solver._limit_copies``). ``match`` receives the best exemplar index at grid pixels (others
+    :func:`barkgen.synth.pieces.limit_copies`). ``match`` receives the best exemplar index at grid pixels (others
     are left untouched).
 
     Texture-by-numbers (laitoch2018 eq. 3.2, A : A' :: B : B'): when ``guide_ex`` has columns,

@@ -14,7 +14,7 @@ worst where a strip of the exemplar runs all the way round a tiled output. Two a
   is re-cut like any other straight seam (:mod:`barkgen.synth.cuts`): the piece below it is
   continued upwards, so the border follows a low-error path instead of the border's line; a seam
   where both pieces end at the border (no cut can move it) makes the solver put other pieces
-  there (``solver._unstick_border_seams``). An earlier soft cost on the border pixels kept pieces
+  there (:func:`barkgen.synth.pieces.unstick_border_seams`). An earlier soft cost on the border pixels kept pieces
   away from them, but left the border's content out of the output (completeness) and did not
   keep the seams shorter once the cuts were there.
 """

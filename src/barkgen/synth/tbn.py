@@ -32,7 +32,7 @@ from barkgen.synth.edges import resolve_exemplar_wrap
 from barkgen.synth.guide import boundary_distance, encode_label_maps, label_pyramid, level_guide
 from barkgen.synth.initialization import random_initialization, smart_initialization
 from barkgen._shared.arrays import ProgressCallback, as_uint8
-from barkgen.synth.solver import (
+from barkgen.synth.engine import (
     AnalysisCache,
     DebugCallback,
     Guidance,
@@ -182,7 +182,7 @@ def texture_by_numbers(
         progress: optional ``progress(done, total)`` callback.
         debug: optional ``debug(name, image)`` callback receiving the pyramid levels, label maps,
             the initialisation and each level's result as uint8 images.
-        cache: an :class:`~barkgen.synth.solver.AnalysisCache` holding (or to keep) the
+        cache: an :class:`~barkgen.synth.engine.AnalysisCache` holding (or to keep) the
             exemplar's k-coherence analysis, e.g. from :func:`analyse_texture_by_numbers`.
         exemplar_wrap: ``"auto"``, ``"yes"``, ``"no"`` or a ``(rows, columns)`` pair: the
             exemplar is used as a torus along the axes it tiles along

@@ -1,0 +1,155 @@
+"""The analysis phase of the discrete solver: what it matches and what it precomputes per
+exemplar (mazzolini2012 §4.1.2, laitoch2018 §3.3.1).
+
+:func:`matching_features` turns an exemplar (and its extra maps) into the per-pixel features
+that are compared; :func:`analyse_exemplar` builds, on every pyramid level, the appearance-space
+projections of the neighbourhoods (Lefebvre & Hoppe 2006) and the k-coherence sets (Tong et al.
+2002); :class:`AnalysisCache` keeps those analyses for reuse across seeds.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from barkgen._shared.arrays import as_hw_c, unit_float
+from barkgen.color import rgb_to_lab
+from barkgen.nnf import (
+    NeighbourhoodProjection,
+    k_coherence_sets,
+    k_coherence_sets_from_parent,
+    neighbourhood_pca,
+)
+from barkgen.pyramid import gaussian_pyramid
+from barkgen.synth.config import SynthesisConfig
+
+#: exemplar levels with at most this many pixels get an exact k-NN search (faiss); larger
+#: ones refine their parent's k-coherence sets
+DIRECT_SEARCH_LIMIT = 2048
+
+
+@dataclass
+class LevelAnalysis:
+    """The k-coherence analysis of one exemplar pyramid level (mazzolini2012 §4.1.2)."""
+
+    height: int
+    width: int
+    features: np.ndarray  # (h * w, C) float32 per-pixel matching features
+    coords_y: np.ndarray  # (h * w,) int32 row of each flat index (division-free decoding)
+    coords_x: np.ndarray  # (h * w,) int32 column of each flat index
+    projections: dict[int, NeighbourhoodProjection]
+    kernel_weights: dict[int, np.ndarray]  # projection weights laid out [dy, dx, c, d] for m_step
+    ksets: np.ndarray  # (h * w, k) int32
+    scale: float  # typical squared appearance distance to the nearest distinct neighbour
+    wrap: tuple[bool, bool] = (False, False)  # the exemplar tiles along (rows, columns)
+
+
+def matching_features(exemplar: np.ndarray, extras: Mapping[str, np.ndarray] | None,
+                      extra_weight: float) -> np.ndarray:
+    """Per-pixel features used for matching: CIELAB (L in 0..100) or L alone for grey images,
+    plus each extra channel scaled to 0..100 and weighted (laitoch2018 §3.3.1, extra channels).
+    """
+    ex = unit_float(as_hw_c("exemplar", exemplar))
+    if ex.shape[2] >= 3:
+        feats = [rgb_to_lab(ex[:, :, :3])]
+    else:
+        feats = [ex[:, :, :1] * 100.0]
+    for name, arr in (extras or {}).items():
+        e = unit_float(as_hw_c(f"extra map {name!r}", arr))
+        feats.append(e * (100.0 * extra_weight / np.sqrt(e.shape[2])))
+    return np.ascontiguousarray(np.concatenate(feats, axis=2), dtype=np.float32)
+
+
+def schedule_sizes(config: SynthesisConfig, level: int, n_levels: int) -> list[int]:
+    return sorted({s for s, _ in config.schedule_for(level, n_levels)}, reverse=True)
+
+
+def analyse_exemplar(features: np.ndarray, n_levels: int, config: SynthesisConfig,
+                     progress: Callable[[], None] | None = None,
+                     wrap: tuple[bool, bool] = (False, False)) -> list[LevelAnalysis]:
+    """k-coherence analysis phase on every pyramid level of the exemplar features; ``wrap``
+    ``(rows, columns)``: the exemplar tiles along that axis (:mod:`barkgen.synth.edges`), so its
+    pyramid and neighbourhoods run round its edges."""
+    wrap = (bool(wrap[0]), bool(wrap[1]))
+    pyramid = gaussian_pyramid(features, n_levels, wrap)
+    levels: list[LevelAnalysis | None] = [None] * n_levels
+    parent: LevelAnalysis | None = None
+    for lvl in reversed(range(n_levels)):
+        img = pyramid[lvl]
+        h, w, c = img.shape
+        projections = {s: neighbourhood_pca(img, s, config.pca_components, wrap=wrap)
+                       for s in schedule_sizes(config, lvl, n_levels)}
+        largest = projections[max(projections)]
+        if parent is None or h * w <= DIRECT_SEARCH_LIMIT:
+            ksets, scale = k_coherence_sets(largest.features, w, config.k, radius=2)
+        else:
+            ksets, scale = k_coherence_sets_from_parent(
+                parent.ksets, (parent.height, parent.width), largest.features, (h, w),
+                config.k, radius=2)
+        cy, cx = np.divmod(np.arange(h * w, dtype=np.int32), np.int32(w))
+        kernel_weights = {size: np.ascontiguousarray(p.weights.transpose(1, 2, 3, 0))
+                          for size, p in projections.items()}
+        parent = LevelAnalysis(h, w, img.reshape(h * w, c), cy, cx, projections, kernel_weights,
+                               ksets, scale, wrap)
+        levels[lvl] = parent
+        if progress:
+            progress()
+    return levels  # type: ignore[return-value]
+
+
+class AnalysisCache:
+    """Exemplar analyses (:func:`analyse_exemplar`) kept for reuse.
+
+    The k-coherence analysis phase (mazzolini2012 §4.1.2) depends on the exemplar alone, not on
+    the seed, so one analysis serves every variant synthesized from one photo. Entries are keyed
+    by what the analysis depends on (the matching features' bytes, the pyramid depth and the
+    config's analysis fields), so a cache can never hand back the analysis of other inputs: a
+    changed photo, label map or option is a miss and is analysed afresh. Plain data, so it can
+    be pickled and shipped to other processes (:mod:`barkgen.batch`).
+    """
+
+    def __init__(self) -> None:
+        self._entries: dict[str, list[LevelAnalysis]] = {}
+
+    @staticmethod
+    def key(features: np.ndarray, n_levels: int, config: SynthesisConfig,
+            wrap: tuple[bool, bool] = (False, False)) -> str:
+        digest = hashlib.blake2b(digest_size=20)
+        key = (features.shape, features.dtype.str, int(n_levels), config.k, config.pca_components,
+               config.schedule_coarsest, config.schedule_middle, config.schedule_finest)
+        if any(wrap):  # (the key of an exemplar that does not wrap is as it always was)
+            key += (bool(wrap[0]), bool(wrap[1]))
+        digest.update(repr(key).encode())
+        digest.update(memoryview(np.ascontiguousarray(features)).cast("B"))
+        return digest.hexdigest()
+
+    def analyse(self, features: np.ndarray, n_levels: int, config: SynthesisConfig,
+                progress: Callable[[], None] | None = None,
+                wrap: tuple[bool, bool] = (False, False)) -> list[LevelAnalysis]:
+        """:func:`analyse_exemplar`, computed on the first call for these inputs only."""
+        key = self.key(features, n_levels, config, wrap)
+        levels = self._entries.get(key)
+        if levels is None:
+            levels = self._entries[key] = analyse_exemplar(features, n_levels, config, progress,
+                                                           wrap)
+        elif progress is not None:
+            for _ in range(n_levels):
+                progress()
+        return levels
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes held by the cached arrays."""
+        total = 0
+        for levels in self._entries.values():
+            for la in levels:
+                total += la.features.nbytes + la.coords_y.nbytes + la.coords_x.nbytes + la.ksets.nbytes
+                total += sum(w.nbytes for w in la.kernel_weights.values())
+                total += sum(p.features.nbytes for p in la.projections.values())
+        return total

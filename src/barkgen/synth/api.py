@@ -1,0 +1,140 @@
+"""The public face of example-based synthesis: :func:`synthesize`, :func:`apply_references`, and
+the checks made before any work starts (inputs, memory budget).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from barkgen._shared.arrays import ProgressCallback, as_hw_c
+from barkgen._shared.checks import parse_output_shape
+from barkgen.errors import InvalidInputError, MemoryBudgetError
+from barkgen.pyramid import count_levels
+from barkgen.synth.analysis import matching_features
+from barkgen.synth.config import SynthesisConfig
+from barkgen.synth.edges import resolve_exemplar_wrap
+from barkgen.synth.solver import SynthesisResult, solve
+
+#: smallest exemplar side accepted
+MIN_EXEMPLAR_SIDE = 16
+
+
+def validate_inputs(exemplar: np.ndarray, size: int | tuple[int, int], seed: int,
+                    extra: Mapping[str, np.ndarray] | None) -> tuple[np.ndarray, tuple[int, int], dict]:
+    """Check the exemplar, output size, seed and extra maps; return them normalised."""
+    ex = as_hw_c("exemplar", exemplar)
+    if ex.shape[2] not in (1, 3):
+        raise InvalidInputError(f"exemplar must have 1 or 3 channels, not {ex.shape[2]}")
+    if min(ex.shape[:2]) < MIN_EXEMPLAR_SIDE:
+        raise InvalidInputError(
+            f"exemplar is {ex.shape[1]}x{ex.shape[0]} px; it must be at least "
+            f"{MIN_EXEMPLAR_SIDE} px on each side")
+    out_shape = parse_output_shape(size)
+    if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool) or seed < 0:
+        raise InvalidInputError(f"seed must be a non-negative integer, not {seed!r}")
+    extras = {}
+    for name, arr in (extra or {}).items():
+        e = as_hw_c(f"extra map {name!r}", arr)
+        if e.shape[:2] != ex.shape[:2]:
+            raise InvalidInputError(
+                f"extra map {name!r} is {e.shape[1]}x{e.shape[0]} px but the exemplar is "
+                f"{ex.shape[1]}x{ex.shape[0]} px; they must match")
+        extras[name] = e
+    return ex, out_shape, extras
+
+
+def check_memory(ex: np.ndarray, extras: Mapping[str, np.ndarray], out_shape: tuple[int, int],
+                 feature_channels: int, config: SynthesisConfig, guided: bool = False) -> None:
+    """Raise :class:`MemoryBudgetError` before any work if the job would not fit the budget."""
+    need = estimate_memory(ex.shape[:2], out_shape,
+                           ex.shape[2] + sum(e.shape[2] for e in extras.values()),
+                           max([ex.dtype.itemsize] + [e.dtype.itemsize for e in extras.values()]),
+                           feature_channels, config)
+    if guided:  # label pyramids and tables
+        need += 24 * out_shape[0] * out_shape[1] + 24 * ex.shape[0] * ex.shape[1]
+    if need > config.max_memory:
+        raise MemoryBudgetError(
+            f"output {out_shape[1]}x{out_shape[0]} needs about {need / 2**30:.1f} GiB, more than "
+            f"the memory budget of {config.max_memory / 2**30:.1f} GiB (raise it with --max-memory)")
+
+
+def estimate_memory(exemplar_shape: tuple[int, int], output_shape: tuple[int, int],
+                    channels: int, bytes_per_channel: int, feature_channels: int,
+                    config: SynthesisConfig) -> int:
+    """Estimated peak memory of a synthesis, in bytes (made before any work starts)."""
+    n_ex = exemplar_shape[0] * exemplar_shape[1]
+    n_out = output_shape[0] * output_shape[1]
+    sizes = {s for sched in (config.schedule_coarsest, config.schedule_middle,
+                             config.schedule_finest) for s, _ in sched}
+    per_ex = (feature_channels * 4 * 3 + config.pca_components * 4 * len(sizes) * 1.4
+              + config.k * 4 * 1.4 + 8)
+    per_out = 100 + 3 * channels * bytes_per_channel
+    search = min(n_ex, 262_144) * max(4 * config.k + 8, 32) * 12
+    return int(200e6 + n_ex * per_ex + n_out * per_out + search)
+
+
+def synthesize(
+    exemplar: np.ndarray,
+    size: int | tuple[int, int],
+    *,
+    tile: bool = False,
+    seed: int = 0,
+    extra: Mapping[str, np.ndarray] | None = None,
+    config: SynthesisConfig | None = None,
+    progress: ProgressCallback | None = None,
+    exemplar_wrap: str | bool | tuple[bool, bool] = "auto",
+) -> SynthesisResult:
+    """Synthesize a new texture of ``size`` = ``(height, width)`` from ``exemplar``.
+
+    Args:
+        exemplar: ``(h, w)`` or ``(h, w, C)`` array (uint8, uint16 or float), C = 1 or 3.
+        size: output ``(height, width)`` (numpy order) or an int for a square.
+        tile: make the output wrap seamlessly in x and y (toroidal neighbourhoods).
+        seed: seeds the one ``numpy.random.Generator`` behind every random choice.
+        extra: named maps aligned with the exemplar (height, normal, ...); they take part in the
+            matching (weight ``config.extra_weight``) and are returned resolved.
+        config: solver parameters (:class:`SynthesisConfig`).
+        progress: optional ``progress(done, total)`` callback.
+        exemplar_wrap: ``"auto"`` (the exemplar is used as a torus along each axis along which
+            it tiles itself, :func:`barkgen.synth.edges.exemplar_wraps`), ``"yes"``, ``"no"``,
+            or a ``(rows, columns)`` pair of bools.
+
+    Returns:
+        :class:`SynthesisResult` with the image, the references and the extra maps.
+
+    Raises:
+        InvalidInputError: bad shapes, sizes or parameters.
+        MemoryBudgetError: the estimated memory exceeds ``config.max_memory``.
+    """
+    config = config or SynthesisConfig()
+    ex, out_shape, extras = validate_inputs(exemplar, size, seed, extra)
+    n_feat = (3 if ex.shape[2] == 3 else 1) + sum(e.shape[2] for e in extras.values())
+    check_memory(ex, extras, out_shape, n_feat, config)
+    wrap = resolve_exemplar_wrap(exemplar_wrap, ex)
+    feats = matching_features(ex, extras, config.extra_weight)
+    n_levels = count_levels(ex.shape[:2], out_shape, config.coarsest_exemplar)
+    result = solve(ex, extras, feats, out_shape, n_levels=n_levels, config=config, seed=seed,
+                   tile=tile, progress=progress, exemplar_wrap=wrap,
+                   seam_channels=3 if ex.shape[2] == 3 else 1)
+    if np.asarray(exemplar).ndim == 2:
+        result.image = result.image[:, :, 0]
+    return result
+
+
+def apply_references(references: np.ndarray, image: np.ndarray) -> np.ndarray:
+    """Resolve a reference map against any map of the exemplar's size (laitoch2018 §3.3.1):
+    ``out[y, x] = image[references[y, x, 0], references[y, x, 1]]``."""
+    refs = np.asarray(references)
+    img = np.asarray(image)
+    if refs.ndim != 3 or refs.shape[2] != 2:
+        raise InvalidInputError(f"references must have shape (H, W, 2), not {refs.shape}")
+    if img.ndim not in (2, 3):
+        raise InvalidInputError(f"image must be (H, W) or (H, W, C), not {img.shape}")
+    if refs.size and (refs.min() < 0 or refs[:, :, 0].max() >= img.shape[0]
+                      or refs[:, :, 1].max() >= img.shape[1]):
+        raise InvalidInputError(
+            f"the reference map points outside a {img.shape[1]}x{img.shape[0]} image; "
+            "apply it to a map of the exemplar's size")
+    return img[refs[:, :, 0], refs[:, :, 1]]
