@@ -1,0 +1,375 @@
+"""The library's database: exemplars, their cached analyses and results (see
+:mod:`barkgen.library`)."""
+
+from __future__ import annotations
+
+import json
+import os
+import sqlite3
+from collections.abc import Mapping
+from contextlib import closing, contextmanager
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+from barkgen.errors import BarkgenError, InvalidInputError
+from barkgen.library.store import ObjectStore, content_hash
+
+__all__ = ["Exemplar", "Library", "LibraryError", "NotFoundError", "Result", "default_library_path",
+           "SCHEMA_VERSION"]
+
+#: what the migrations below bring a database to
+SCHEMA_VERSION = 1
+
+_MIGRATIONS = {
+    1: """
+    CREATE TABLE exemplars (
+        id INTEGER PRIMARY KEY,
+        name TEXT NOT NULL,
+        species TEXT,
+        bark_type TEXT,
+        licence TEXT,
+        source TEXT,
+        image_hash TEXT NOT NULL UNIQUE,
+        width INTEGER NOT NULL,
+        height INTEGER NOT NULL,
+        created TEXT NOT NULL
+    );
+    CREATE TABLE analyses (
+        id INTEGER PRIMARY KEY,
+        exemplar_id INTEGER NOT NULL REFERENCES exemplars(id) ON DELETE CASCADE,
+        kind TEXT NOT NULL,
+        params TEXT NOT NULL,
+        file_hash TEXT NOT NULL,
+        created TEXT NOT NULL,
+        UNIQUE (exemplar_id, kind, params)
+    );
+    CREATE TABLE results (
+        id INTEGER PRIMARY KEY,
+        exemplar_id INTEGER NOT NULL REFERENCES exemplars(id) ON DELETE CASCADE,
+        params TEXT NOT NULL,
+        seed INTEGER NOT NULL,
+        timings TEXT NOT NULL,
+        parent_id INTEGER REFERENCES results(id) ON DELETE SET NULL,
+        created TEXT NOT NULL
+    );
+    CREATE TABLE result_files (
+        result_id INTEGER NOT NULL REFERENCES results(id) ON DELETE CASCADE,
+        name TEXT NOT NULL,
+        file_hash TEXT NOT NULL,
+        PRIMARY KEY (result_id, name)
+    );
+    CREATE INDEX results_by_exemplar ON results(exemplar_id);
+    CREATE TABLE settings (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+    """,
+}
+
+SAMPLE_NAME = "Sample pine bark"
+
+
+class LibraryError(BarkgenError):
+    """The library folder or database cannot be used."""
+
+
+class NotFoundError(LibraryError):
+    """No exemplar or result has the id asked for."""
+
+
+def default_library_path() -> Path:
+    """``$BARKGEN_LIBRARY``, else ``barkgen/library`` in the user's data directory."""
+    env = os.environ.get("BARKGEN_LIBRARY")
+    if env:
+        return Path(env).expanduser()
+    import platformdirs
+
+    return platformdirs.user_data_path("barkgen") / "library"
+
+
+def _now() -> str:
+    return datetime.now(timezone.utc).isoformat(timespec="seconds")
+
+
+def canonical_params(params: Mapping) -> str:
+    """The one JSON text of a parameter dict (sorted keys), used as a key."""
+    return json.dumps(dict(params), sort_keys=True, separators=(",", ":"))
+
+
+@dataclass(frozen=True)
+class Exemplar:
+    """A bark photo of the library."""
+
+    id: int
+    name: str
+    species: str | None
+    bark_type: str | None
+    licence: str | None
+    source: str | None
+    image_hash: str
+    width: int
+    height: int
+    created: str
+
+    def to_dict(self) -> dict:
+        return {k: getattr(self, k) for k in self.__dataclass_fields__}
+
+
+@dataclass(frozen=True)
+class Result:
+    """A generated texture and its files (``files``: file name -> content hash)."""
+
+    id: int
+    exemplar_id: int
+    params: dict
+    seed: int
+    timings: dict
+    created: str
+    parent_id: int | None = None
+    files: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {k: getattr(self, k) for k in self.__dataclass_fields__}
+
+
+class Library:
+    """The exemplar library in folder ``path`` (made when missing; see the module doc)."""
+
+    def __init__(self, path: str | os.PathLike | None = None, *, add_sample: bool = True) -> None:
+        self.path = Path(path).expanduser() if path is not None else default_library_path()
+        if self.path.exists() and not self.path.is_dir():
+            raise LibraryError(f"{self.path}: the library must be a folder, and this is a file")
+        try:
+            self.path.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise LibraryError(f"{self.path}: cannot make the library folder ({exc.strerror or exc})") from None
+        self.db_path = self.path / "library.sqlite"
+        self.store = ObjectStore(self.path / "objects")
+        self._migrate()
+        if add_sample:
+            self._add_sample_once()
+
+    # -- database -------------------------------------------------------------------------
+    def _connect(self) -> sqlite3.Connection:
+        try:
+            conn = sqlite3.connect(self.db_path, timeout=30.0, isolation_level=None)
+        except sqlite3.Error as exc:
+            raise LibraryError(f"{self.db_path}: cannot open the library database ({exc})") from None
+        conn.row_factory = sqlite3.Row
+        conn.execute("PRAGMA foreign_keys = ON")
+        return conn
+
+    @contextmanager
+    def _transaction(self):
+        with closing(self._connect()) as conn:
+            conn.execute("BEGIN IMMEDIATE")
+            try:
+                yield conn
+            except BaseException:
+                conn.execute("ROLLBACK")
+                raise
+            conn.execute("COMMIT")
+
+    def _read(self, sql: str, args: tuple = ()) -> list[sqlite3.Row]:
+        with closing(self._connect()) as conn:
+            return conn.execute(sql, args).fetchall()
+
+    def _migrate(self) -> None:
+        try:
+            with closing(self._connect()) as conn:
+                conn.execute("PRAGMA journal_mode = WAL")
+                # read under the write lock: two processes opening a new library migrate once
+                conn.execute("BEGIN IMMEDIATE")
+                try:
+                    version = conn.execute("PRAGMA user_version").fetchone()[0]
+                    if version > SCHEMA_VERSION:
+                        raise LibraryError(f"{self.db_path}: made by a newer barkgen (schema {version}, "
+                                           f"this one knows {SCHEMA_VERSION}); upgrade barkgen")
+                    for target in range(version + 1, SCHEMA_VERSION + 1):
+                        for statement in _MIGRATIONS[target].split(";"):
+                            if statement.strip():
+                                conn.execute(statement)
+                        conn.execute(f"PRAGMA user_version = {target}")
+                except BaseException:
+                    conn.execute("ROLLBACK")
+                    raise
+                conn.execute("COMMIT")
+        except sqlite3.DatabaseError as exc:
+            raise LibraryError(f"{self.db_path}: not a barkgen library database ({exc})") from None
+
+    def _add_sample_once(self) -> None:
+        """The bundled sample, the first time this library is opened (removing it later is
+        the user's choice: it is not added again)."""
+        if self._read("SELECT 1 FROM settings WHERE key = 'sample_added'"):
+            return
+        from barkgen.data import sample_exemplar_path
+
+        with self._transaction() as conn:  # check and add under one write lock
+            if conn.execute("SELECT 1 FROM settings WHERE key = 'sample_added'").fetchone():
+                return
+            self._insert_exemplar(conn, sample_exemplar_path().read_bytes(), name=SAMPLE_NAME,
+                                  species="pine", bark_type="plated", licence="MIT",
+                                  source="barkgen's bundled sample (npm @dgreenheck/ez-tree 1.1.0, "
+                                  "texturecan.com 588)")
+            conn.execute("INSERT OR REPLACE INTO settings VALUES ('sample_added', ?)", (_now(),))
+
+    # -- exemplars ------------------------------------------------------------------------
+    def add_exemplar(self, data: bytes, name: str, *, species: str | None = None,
+                     bark_type: str | None = None, licence: str | None = None,
+                     source: str | None = None, max_pixels: int | None = None) -> Exemplar:
+        """Add the image file ``data`` (checked by decoding it: any format
+        :func:`barkgen.io.read_image` reads, at most ``max_pixels``). The same bytes added twice
+        give the same exemplar."""
+        from barkgen.io import decode_image
+
+        name = (name or "").strip()
+        if not name or len(name) > 200:
+            raise InvalidInputError("an exemplar needs a name of 1 to 200 characters")
+        for what, value in (("species", species), ("bark type", bark_type), ("licence", licence),
+                            ("source", source)):
+            if value is not None and len(value) > 500:
+                raise InvalidInputError(f"the {what} must be at most 500 characters")
+        image = decode_image(data, name, max_pixels=max_pixels)
+        with self._transaction() as conn:
+            exemplar_id = self._insert_exemplar(conn, data, name, species=species, bark_type=bark_type,
+                                                licence=licence, source=source, shape=image.shape)
+        return self.exemplar(exemplar_id)
+
+    def _insert_exemplar(self, conn, data: bytes, name: str, *, species=None, bark_type=None,
+                         licence=None, source=None, shape=None) -> int:
+        """Store the photo and insert its row (or find the row of the same bytes), under the
+        caller's write lock."""
+        if shape is None:
+            from barkgen.io import decode_image
+
+            shape = decode_image(data, name).shape
+        digest = self.store.put(data)
+        conn.execute(
+            "INSERT OR IGNORE INTO exemplars (name, species, bark_type, licence, source, image_hash, "
+            "width, height, created) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            (name, species, bark_type, licence, source, digest, shape[1], shape[0], _now()))
+        return conn.execute("SELECT id FROM exemplars WHERE image_hash = ?", (digest,)).fetchone()[0]
+
+    def find_exemplar(self, data: bytes) -> Exemplar | None:
+        """The exemplar of exactly these image-file bytes, if the library has it."""
+        rows = self._read("SELECT * FROM exemplars WHERE image_hash = ?", (content_hash(data),))
+        return Exemplar(**dict(rows[0])) if rows else None
+
+    def exemplars(self) -> list[Exemplar]:
+        """Every exemplar, oldest first."""
+        return [Exemplar(**dict(row)) for row in self._read("SELECT * FROM exemplars ORDER BY id")]
+
+    def exemplar(self, exemplar_id: int) -> Exemplar:
+        rows = self._read("SELECT * FROM exemplars WHERE id = ?", (int(exemplar_id),))
+        if not rows:
+            raise NotFoundError(f"no exemplar {exemplar_id} in the library")
+        return Exemplar(**dict(rows[0]))
+
+    def photo_bytes(self, exemplar_id: int) -> bytes:
+        """The exemplar's image file as it was added."""
+        return self.store.get(self.exemplar(exemplar_id).image_hash)
+
+    def photo(self, exemplar_id: int) -> np.ndarray:
+        """The exemplar's photo, decoded (:func:`barkgen.io.decode_image`)."""
+        from barkgen.io import decode_image
+
+        exemplar = self.exemplar(exemplar_id)
+        return decode_image(self.store.get(exemplar.image_hash), exemplar.name)
+
+    def remove_exemplar(self, exemplar_id: int) -> None:
+        """Remove an exemplar with its analyses and results (and files nothing else uses)."""
+        self.exemplar(exemplar_id)
+        with self._transaction() as conn:
+            conn.execute("DELETE FROM exemplars WHERE id = ?", (int(exemplar_id),))
+            self._sweep(conn)
+
+    # -- analyses -------------------------------------------------------------------------
+    def analysis(self, exemplar_id: int, kind: str, params: Mapping) -> bytes | None:
+        """The cached analysis file of ``kind`` with ``params``, or None."""
+        rows = self._read("SELECT file_hash FROM analyses WHERE exemplar_id = ? AND kind = ? AND "
+                          "params = ?", (int(exemplar_id), kind, canonical_params(params)))
+        if not rows or not self.store.exists(rows[0]["file_hash"]):
+            return None
+        return self.store.get(rows[0]["file_hash"])
+
+    def put_analysis(self, exemplar_id: int, kind: str, params: Mapping, data: bytes) -> None:
+        """Cache an analysis file of an exemplar (replacing one with the same kind and params)."""
+        self.exemplar(exemplar_id)
+        with self._transaction() as conn:
+            digest = self.store.put(data)
+            conn.execute("INSERT OR REPLACE INTO analyses (exemplar_id, kind, params, file_hash, "
+                         "created) VALUES (?, ?, ?, ?, ?)",
+                         (int(exemplar_id), kind, canonical_params(params), digest, _now()))
+
+    # -- results --------------------------------------------------------------------------
+    def add_result(self, exemplar_id: int, params: Mapping, seed: int, files: Mapping[str, bytes],
+                   timings: Mapping | None = None, parent_id: int | None = None) -> Result:
+        """Record a generated result and store its files (all stored before the row exists,
+        so a listed result always has every file)."""
+        self.exemplar(exemplar_id)
+        with self._transaction() as conn:
+            # files are stored under the write lock, so no removal can take one of them
+            # between its store and this row (a rolled-back insert leaves them to the next
+            # removal's sweep)
+            hashes = {name: self.store.put(data) for name, data in files.items()}
+            if parent_id is not None and not conn.execute("SELECT 1 FROM results WHERE id = ?",
+                                                          (parent_id,)).fetchone():
+                parent_id = None  # the parent was removed meanwhile
+            cur = conn.execute(
+                "INSERT INTO results (exemplar_id, params, seed, timings, parent_id, created) "
+                "VALUES (?, ?, ?, ?, ?, ?)",
+                (int(exemplar_id), canonical_params(params), int(seed),
+                 json.dumps(dict(timings or {})), parent_id, _now()))
+            result_id = cur.lastrowid
+            conn.executemany("INSERT INTO result_files VALUES (?, ?, ?)",
+                             [(result_id, name, digest) for name, digest in hashes.items()])
+        return self.result(result_id)
+
+    def _result(self, row: sqlite3.Row, files: dict) -> Result:
+        return Result(id=row["id"], exemplar_id=row["exemplar_id"], params=json.loads(row["params"]),
+                      seed=row["seed"], timings=json.loads(row["timings"]), created=row["created"],
+                      parent_id=row["parent_id"], files=files)
+
+    def result(self, result_id: int) -> Result:
+        rows = self._read("SELECT * FROM results WHERE id = ?", (int(result_id),))
+        if not rows:
+            raise NotFoundError(f"no result {result_id} in the library")
+        files = {r["name"]: r["file_hash"] for r in
+                 self._read("SELECT name, file_hash FROM result_files WHERE result_id = ? "
+                            "ORDER BY name", (int(result_id),))}
+        return self._result(rows[0], files)
+
+    def results(self, exemplar_id: int | None = None) -> list[Result]:
+        """Results, newest first (of one exemplar when given)."""
+        where, args = ("WHERE exemplar_id = ?", (int(exemplar_id),)) if exemplar_id is not None else ("", ())
+        rows = self._read(f"SELECT * FROM results {where} ORDER BY id DESC", args)
+        files: dict[int, dict] = {}
+        for r in self._read("SELECT result_id, name, file_hash FROM result_files ORDER BY name"):
+            files.setdefault(r["result_id"], {})[r["name"]] = r["file_hash"]
+        return [self._result(row, files.get(row["id"], {})) for row in rows]
+
+    def result_file(self, result_id: int, name: str) -> bytes:
+        """One output file of a result by its name (``texture.png``, ...)."""
+        digest = self.result(result_id).files.get(name)
+        if digest is None:
+            raise NotFoundError(f"result {result_id} has no file {name!r}")
+        return self.store.get(digest)
+
+    def remove_result(self, result_id: int) -> None:
+        self.result(result_id)
+        with self._transaction() as conn:
+            conn.execute("DELETE FROM results WHERE id = ?", (int(result_id),))
+            self._sweep(conn)
+
+    # -- housekeeping ---------------------------------------------------------------------
+    def _sweep(self, conn) -> int:
+        """Remove stored files no row refers to; returns how many. Runs under the caller's
+        write lock, and every writer stores its files under that lock too, so a file stored
+        for a row being inserted is never taken."""
+        used = {r[0] for r in conn.execute(
+            "SELECT image_hash FROM exemplars UNION SELECT file_hash FROM analyses "
+            "UNION SELECT file_hash FROM result_files")}
+        unused = self.store.digests() - used
+        for digest in unused:
+            self.store.remove(digest)
+        return len(unused)

@@ -1,0 +1,218 @@
+"""The label-map synthesis API: strategies, resumable pyramid levels and the shared analysis
+(see :mod:`barkgen.shapes` for the strategies)."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from barkgen._shared.arrays import ProgressCallback
+from barkgen._shared.checks import check_seed, parse_output_shape
+from barkgen.errors import InvalidInputError
+from barkgen.labels.regions import to_codes
+from barkgen.pyramid import count_levels, level_shape
+from barkgen.shapes.binary import ShapeConfig
+from barkgen.shapes.layered import automatic_layer_order
+from barkgen.shapes.patches import check_rotations
+from barkgen.synth.engine import AnalysisCache
+from barkgen.synth.guide import label_pyramid
+
+#: the label-map strategies (see :mod:`barkgen.shapes`)
+STRATEGIES = ("engine", "joint", "layered")
+
+
+@dataclass
+class LabelMapResult:
+    """A synthesized label map (``(H, W)``, grey values of the exemplar's palette), every
+    pyramid level's map (``levels[l]`` for level ``l``, 0 = finest; levels above a resumed one
+    are None), the strategy, the layer order (layered strategy, bottom label value first), the
+    reference map ``(H, W, 2)`` of the exemplar label pixels the map copies (engine and joint
+    strategies), the level resumed from (or None) and timings in seconds."""
+
+    label_map: np.ndarray
+    levels: list
+    strategy: str
+    layer_order: list[int] | None = None
+    references: np.ndarray | None = None
+    resumed_level: int | None = None
+    timings: dict = field(default_factory=dict)
+
+
+def label_map_levels(exemplar_shape: tuple[int, int], size, strategy: str = "engine",
+                     config: ShapeConfig | None = None) -> list[tuple[int, int]]:
+    """The ``(height, width)`` of every pyramid level of an output label map, finest first."""
+    out_shape = parse_output_shape(size)
+    if strategy in ("engine", "joint"):
+        from barkgen.shapes.engine import engine_levels
+
+        n = engine_levels(tuple(exemplar_shape), out_shape, joint=strategy == "joint")
+    else:
+        n = count_levels(tuple(exemplar_shape), out_shape, (config or ShapeConfig()).coarsest_exemplar)
+    return [level_shape(out_shape, lvl) for lvl in range(n)]
+
+
+def _resume_codes(resume, palette: np.ndarray, shapes: list[tuple[int, int]]) -> tuple[int, np.ndarray]:
+    if isinstance(resume, tuple):
+        level, edited = resume
+    else:  # the level is the one of the edited map's size
+        edited = resume
+        level = next((i for i, s in enumerate(shapes) if s == np.asarray(edited).shape[:2]), -1)
+    codes, values = to_codes(edited)
+    if not 0 <= int(level) < len(shapes) or codes.shape != shapes[int(level)]:
+        sizes = ", ".join(f"level {i}: {w}x{h}" for i, (h, w) in enumerate(shapes))
+        raise InvalidInputError(
+            f"the edited level is {codes.shape[1]}x{codes.shape[0]} px, which is not "
+            f"{'a level' if level < 0 else f'level {int(level)}'} of this output ({sizes})")
+    unknown = np.setdiff1d(values, palette)
+    if unknown.size:
+        shown = ", ".join(str(int(v)) for v in unknown[:8])
+        raise InvalidInputError(
+            f"the edited level uses grey value(s) {shown} that are not labels of the exemplar "
+            f"label map ({', '.join(str(int(v)) for v in palette)})")
+    return int(level), np.searchsorted(palette, values)[codes].astype(np.int32)
+
+
+def _layer_order_codes(layer_order, palette: np.ndarray) -> list[int]:
+    """A user's layer order (grey values, bottom first) as label codes; every label once."""
+    values = ", ".join(str(int(v)) for v in palette)
+    order = [int(v) for v in layer_order]
+    unknown = [v for v in order if v not in set(int(p) for p in palette)]
+    if unknown:
+        raise InvalidInputError(f"layer order value(s) {unknown} are not labels of the label map ({values})")
+    if sorted(order) != sorted(int(v) for v in palette):
+        raise InvalidInputError(f"the layer order must list each label ({values}) once, not {order}")
+    return [int(np.searchsorted(palette, v)) for v in order]
+
+
+def synthesize_label_map(
+    label_map: np.ndarray,
+    size,
+    *,
+    strategy: str = "engine",
+    tile: bool = False,
+    seed: int = 0,
+    rotations: str = "vertical",
+    layer_order: list[int] | None = None,
+    resume: tuple[int, np.ndarray] | np.ndarray | None = None,
+    config: ShapeConfig | None = None,
+    progress: ProgressCallback | None = None,
+    cache: AnalysisCache | None = None,
+    photo: np.ndarray | None = None,
+    exemplar_wrap: str | bool | tuple[bool, bool] = "auto",
+) -> LabelMapResult:
+    """Synthesize a new label map of ``size`` (``(height, width)`` or an int) from the
+    exemplar's ``label_map`` (laitoch2018 §3.6; Figure 1.2's "output label map").
+
+    Args:
+        label_map: ``(h, w)`` grey label map (every distinct value is a label, at most 64).
+        size: output ``(height, width)``.
+        strategy: ``"engine"`` (default; the core engine on one-hot label channels),
+            ``"joint"`` (the engine matching ``photo``'s colours too) or ``"layered"``
+            (Rosenberger et al.'s layered shape synthesis).
+        tile: the output label map wraps around (toroidal), so the texture made from it can tile.
+        seed: seeds every random choice.
+        rotations: boundary patches may match turned ``"none"``, ``"vertical"`` (180°, the
+            default: bark is vertical) or ``"all"`` four ways (layered strategy, eq. 3.7).
+        layer_order: label values, bottom layer first (layered strategy; automatic when None).
+        resume: an edited pyramid level to continue from: ``(level, label_map)`` or just the
+            label map (its size tells the level, see :func:`label_map_levels`); grey values of
+            the exemplar's labels.
+        config: parameters of the layered strategy.
+        progress: optional ``progress(done, total)`` callback.
+        cache: an :class:`~barkgen.synth.AnalysisCache` holding (or to keep) the engine
+            strategy's exemplar analysis (:func:`analyse_label_map`).
+        photo: the photo ``label_map`` labels (same height and width); the joint strategy
+            needs it, the others do not use it.
+        exemplar_wrap: ``"auto"`` (the photo, or else the label map, decides whether it tiles
+            along each axis: :func:`barkgen.synth.exemplar_wraps`), ``"yes"``, ``"no"`` or a
+            ``(rows, columns)`` pair; the engine strategies use the exemplar as a torus there.
+    """
+    if strategy not in STRATEGIES:
+        raise InvalidInputError(f"strategy must be one of {', '.join(STRATEGIES)}, not {strategy!r}")
+    turns = check_rotations(rotations)
+    check_seed(seed)
+    out_shape = parse_output_shape(size)
+    codes, palette = to_codes(label_map)
+    photo = _check_photo(photo, codes.shape, strategy)
+    config = config or ShapeConfig()
+    shapes = label_map_levels(codes.shape, out_shape, strategy, config)
+    start = _resume_codes(resume, palette, shapes) if resume is not None else None
+    levels: list = [None] * len(shapes)
+
+    def on_level(level: int, level_codes: np.ndarray) -> None:
+        levels[level] = palette[level_codes]
+
+    if start is not None:
+        on_level(*start)
+    t0 = time.perf_counter()
+    order_values = references = None
+    if strategy in ("engine", "joint"):
+        from barkgen.shapes.engine import synthesize_codes
+
+        out, references = synthesize_codes(codes, palette.size, out_shape, tile=tile,
+                                           seed=int(seed), start=start, on_level=on_level,
+                                           progress=progress, cache=cache, photo=photo,
+                                           exemplar_wrap=_wrap(exemplar_wrap, codes, photo))
+    else:
+        from barkgen.shapes.layered import synthesize_layers
+
+        if layer_order is None:
+            order = automatic_layer_order(codes, palette.size)
+        else:
+            order = _layer_order_codes(layer_order, palette)
+        ex_levels = label_pyramid(codes, palette.size, len(shapes))
+        n_ticks = len(shapes) * max(palette.size - 1, 1)
+        done = [0]
+
+        def tick() -> None:
+            done[0] += 1
+            if progress:
+                progress(done[0], n_ticks)
+
+        rng = np.random.default_rng(int(seed))
+        out = synthesize_layers(ex_levels, out_shape, order, quarter_turns=turns, tile=tile,
+                                config=config, rng=rng, start=start, on_level=on_level, tick=tick)
+        order_values = [int(palette[i]) for i in order]
+    label_out = palette[out]
+    levels[0] = label_out
+    return LabelMapResult(label_map=label_out, levels=levels, strategy=strategy,
+                          layer_order=order_values, references=references,
+                          resumed_level=None if start is None else start[0],
+                          timings={"label_map": time.perf_counter() - t0})
+
+
+def _check_photo(photo: np.ndarray | None, shape: tuple[int, int], strategy: str) -> np.ndarray | None:
+    """The joint strategy's photo (None for the others), checked against the label map."""
+    if strategy != "joint":
+        return None
+    if photo is None:
+        raise InvalidInputError("the joint strategy matches the photo's colours too: give the photo "
+                                "the label map belongs to")
+    photo = np.asarray(photo)
+    if photo.ndim not in (2, 3) or photo.shape[:2] != tuple(shape):
+        raise InvalidInputError(f"the photo ({'x'.join(str(v) for v in photo.shape[1::-1])} px) and "
+                                f"the label map ({shape[1]}x{shape[0]} px) must have the same size")
+    return photo
+
+
+def _wrap(mode, codes: np.ndarray, photo: np.ndarray | None) -> tuple[bool, bool]:
+    """The exemplar's wrap: decided on the photo when there is one, else on the label map."""
+    from barkgen.synth.edges import resolve_exemplar_wrap
+
+    return resolve_exemplar_wrap(mode, codes if photo is None else photo)
+
+
+def analyse_label_map(label_map: np.ndarray, size, cache: AnalysisCache, *,
+                      photo: np.ndarray | None = None,
+                      exemplar_wrap: str | bool | tuple[bool, bool] = "auto") -> AnalysisCache:
+    """Run the engine strategy's (with ``photo``, the joint strategy's) exemplar analysis for
+    outputs of ``size`` into ``cache``, so that every :func:`synthesize_label_map` of this label
+    map and size (any seed) skips it."""
+    from barkgen.shapes.engine import analyse_codes
+
+    codes, palette = to_codes(label_map)
+    photo = None if photo is None else _check_photo(photo, codes.shape, "joint")
+    return analyse_codes(codes, palette.size, parse_output_shape(size), cache, photo=photo,
+                         exemplar_wrap=_wrap(exemplar_wrap, codes, photo))
