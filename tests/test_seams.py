@@ -164,7 +164,8 @@ def test_a_seam_stuck_at_the_exemplar_border_is_given_to_the_solver():
 
     eh, ew, H, W = 80, 120, 64, 96
     cy, cx = np.divmod(np.arange(eh * ew, dtype=np.int32), np.int32(ew))
-    level = SimpleNamespace(coords_y=cy, coords_x=cx, height=eh, width=ew, wrap=(False, False))
+    level = SimpleNamespace(coords_y=cy, coords_x=cx, height=eh, width=ew, wrap=(False, False),
+                            grid=(cy, cx, eh, ew, False, False))
     yy, xx = np.mgrid[0:H, 0:W]
     stuck_rows = np.where(yy < 32, yy + (eh - 32), yy - 32)  # rows 48..79, then rows 0..31
     for transposed in (False, True):
@@ -207,7 +208,8 @@ def test_the_copy_size_control_cuts_a_piece_along_meandering_lines():
 
     eh = ew = 160
     cy, cx = np.divmod(np.arange(eh * ew, dtype=np.int32), np.int32(ew))
-    level = SimpleNamespace(coords_y=cy, coords_x=cx, height=eh, width=ew, wrap=(False, False))
+    level = SimpleNamespace(coords_y=cy, coords_x=cx, height=eh, width=ew, wrap=(False, False),
+                            grid=(cy, cx, eh, ew, False, False))
     yy, xx = np.mgrid[0:128, 0:128]
     refs = np.ascontiguousarray((yy + 10) * ew + xx + 10, dtype=np.int32)  # one 128 x 128 piece
 
@@ -240,11 +242,11 @@ def test_a_piece_round_a_tiled_output_is_one_piece():
     labels = np.empty((H, W), np.int32)
     # on an 80-row exemplar, rows 63 -> 0 do not continue: not tiled, two pieces; tiled, the
     # output's last row continues into its first, and the strip round the torus is one piece
-    assert sorted(K.label_pieces(refs, cy, cx, eh, ew, False, False, False, labels)) == [30 * W, 34 * W]
-    assert K.label_pieces(refs, cy, cx, eh, ew, False, False, True, labels).tolist() == [H * W]
+    assert sorted(K.label_pieces(refs, (cy, cx, eh, ew, False, False), False, labels)) == [30 * W, 34 * W]
+    assert K.label_pieces(refs, (cy, cx, eh, ew, False, False), True, labels).tolist() == [H * W]
     # on a 64-row exemplar that wraps, rows 63 -> 0 continue: one piece either way
     cy2, cx2 = np.divmod(np.arange(64 * ew, dtype=np.int32), np.int32(ew))
-    assert K.label_pieces(refs, cy2, cx2, 64, ew, True, False, False, labels).tolist() == [H * W]
+    assert K.label_pieces(refs, (cy2, cx2, 64, ew, True, False), False, labels).tolist() == [H * W]
 
 
 def test_same_bytes_on_one_or_two_threads(sample256):

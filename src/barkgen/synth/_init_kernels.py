@@ -48,9 +48,64 @@ def _guide_distance(pad_a, pad_da, ay, ax, lab, dist, radius, label_weight, boun
     return mism + np.sqrt(dd / n)
 
 
+@nb.njit(inline="always")
+def _seed_match(pad, pool, seed, salt, neighbourhood, params, usage, cand, dist):
+    """The exemplar pixel a seed's region copies: the nearest under eq. 3.6 among at most
+    ``max_candidates`` pixels of ``pool`` (the seed's label), and among those within
+    ``tolerance`` of it the least used so far. ``pad`` ``(labels, distances)`` of the padded
+    exemplar, ``neighbourhood`` ``(labels, distances)`` of the seed's output neighbourhood,
+    ``params`` ``(radius, label_weight, tolerance, max_candidates)``; ``cand``, ``dist`` are
+    scratch. Returns ``(pixel, distance)``."""
+    pad_a, pad_da = pad
+    nb_lab, nb_dist = neighbourhood
+    radius, label_weight, tolerance, max_candidates = params
+    w = pad_a.shape[1] - 2 * radius
+    n_ex = (pad_a.shape[0] - 2 * radius) * w
+    # a first estimate of the best distance from a few candidates bounds the scan: candidates
+    # beyond it + tolerance stop early (they cannot be chosen)
+    bound = np.inf
+    for t in range(32):
+        a = pool[np.int64(_mix(salt ^ np.uint64(seed * 32 + t + 1)) % np.uint64(pool.size))]
+        qy = a // w
+        d = _guide_distance(pad_a, pad_da, qy, a - qy * w, nb_lab, nb_dist, radius,
+                            label_weight, bound)
+        if d + tolerance < bound:
+            bound = d + tolerance
+    # a regular subsample with a random phase: at most max_candidates of the exemplar's pixels
+    step = max(1, n_ex // max_candidates)
+    phase = np.int64(_mix(salt ^ np.uint64(seed + 7)) % np.uint64(min(step, pool.size)))
+    n_cand = 0
+    d_min = np.inf
+    for i in range(phase, pool.size, step):
+        a = pool[i]
+        qy = a // w
+        d = _guide_distance(pad_a, pad_da, qy, a - qy * w, nb_lab, nb_dist, radius,
+                            label_weight, bound)
+        cand[n_cand] = a
+        dist[n_cand] = d
+        n_cand += 1
+        if d < d_min:
+            d_min = d
+    best = -1
+    best_d = np.inf
+    best_use = 0
+    best_key = np.uint64(0)
+    for i in range(n_cand):
+        if dist[i] > d_min + tolerance:
+            continue
+        a = cand[i]
+        key = _mix(salt ^ np.uint64(a + 1))
+        if best < 0 or usage[a] < best_use or (usage[a] == best_use and key < best_key):
+            best = a
+            best_d = dist[i]
+            best_use = usage[a]
+            best_key = key
+    return best, best_d
+
+
 @nb.njit(cache=True)
-def grow_regions(ida, da, idb, db, label_pool, label_start, order, radius, label_weight,
-                 tolerance, tile, salt, max_candidates, refs):  # pragma: no cover - compiled
+def grow_regions(exemplar, target, label_pools, order, params, tile, salt,
+                 refs):  # pragma: no cover - compiled
     """Seeded region growing of Bonneel et al. 2010's first pass (laitoch2018 §3.4.2).
 
     Output pixels are taken as seeds in ``order`` (a random permutation); an unfilled seed ``pB``
@@ -62,7 +117,15 @@ def grow_regions(ida, da, idb, db, label_pool, label_start, order, radius, label
     ``d(p' + offset, p') < (d(pA, pB) + 5) * 1.25`` and (stricter than the thesis, which lets
     regions spill over label edges the solver must then repair) its own label matches. ``refs``
     (``-1`` = unfilled) receives flat exemplar indices. Returns the number of regions.
+
+    ``exemplar`` ``(labels, boundary distances)`` of the exemplar (``ida``, ``da``), ``target``
+    the same of the output (``idb``, ``db``), ``label_pools`` ``(label_pool, label_start)``,
+    ``params`` ``(radius, label_weight, tolerance, max_candidates)``.
     """
+    ida, da = exemplar
+    idb, db = target
+    label_pool, label_start = label_pools
+    radius, label_weight = params[0], params[1]
     h, w = ida.shape
     H, W = idb.shape
     side = 2 * radius + 1
@@ -92,45 +155,8 @@ def grow_regions(ida, da, idb, db, label_pool, label_start, order, radius, label
         # candidates: the exemplar pixels of the seed's label
         own = idb[by, bx]
         pool = label_pool[label_start[own]:label_start[own + 1]]
-        # a first estimate of the best distance from a few candidates bounds the scan: candidates
-        # beyond it + tolerance stop early (they cannot be chosen)
-        bound = np.inf
-        for t in range(32):
-            a = pool[np.int64(_mix(salt ^ np.uint64(seed * 32 + t + 1)) % np.uint64(pool.size))]
-            qy = a // w
-            d = _guide_distance(pad_a, pad_da, qy, a - qy * w, nb_lab, nb_dist, radius,
-                                label_weight, bound)
-            if d + tolerance < bound:
-                bound = d + tolerance
-        # a regular subsample with a random phase: at most max_candidates of the exemplar's pixels
-        step = max(1, (h * w) // max_candidates)
-        phase = np.int64(_mix(salt ^ np.uint64(seed + 7)) % np.uint64(min(step, pool.size)))
-        n_cand = 0
-        d_min = np.inf
-        for i in range(phase, pool.size, step):
-            a = pool[i]
-            qy = a // w
-            d = _guide_distance(pad_a, pad_da, qy, a - qy * w, nb_lab, nb_dist, radius,
-                                label_weight, bound)
-            cand[n_cand] = a
-            dist[n_cand] = d
-            n_cand += 1
-            if d < d_min:
-                d_min = d
-        best = -1
-        best_d = np.inf
-        best_use = 0
-        best_key = np.uint64(0)
-        for i in range(n_cand):
-            if dist[i] > d_min + tolerance:
-                continue
-            a = cand[i]
-            key = _mix(salt ^ np.uint64(a + 1))
-            if best < 0 or usage[a] < best_use or (usage[a] == best_use and key < best_key):
-                best = a
-                best_d = dist[i]
-                best_use = usage[a]
-                best_key = key
+        best, best_d = _seed_match((pad_a, pad_da), pool, seed, salt, (nb_lab, nb_dist), params,
+                                   usage, cand, dist)
         ay = best // w
         ax = best - ay * w
         threshold = (best_d + 5.0) * 1.25

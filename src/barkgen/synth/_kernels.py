@@ -3,6 +3,11 @@
 All kernels are ``parallel`` over output rows and write only their own rows, so results never
 depend on thread timing. Output state is an image of references: flat exemplar indices
 ``y * ex_w + x`` at the current pyramid level.
+
+Kernels take the level's exemplar grid as one tuple ``exemplar = (ex_y, ex_x, ex_h, ex_w,
+wrap_y, wrap_x)``: the row and column of each flat index (division-free decoding), the level's
+size, and whether the exemplar tiles along its rows / columns
+(:attr:`barkgen.synth.analysis.LevelAnalysis.grid`).
 """
 
 from __future__ import annotations
@@ -89,12 +94,12 @@ def _mix(z):
 
 
 @nb.njit(inline="always")
-def _shifted_neighbour_source(refs, y, x, dy, dx, tile, ex_y, ex_x, ex_h, ex_w, wrap_y,
-                              wrap_x):
+def _shifted_neighbour_source(refs, y, x, dy, dx, tile, exemplar):
     """The exemplar pixel that output pixel (y, x) would take to continue the piece its
     neighbour (y + dy, x + dx) was copied from (the neighbour's reference shifted back by
     (dy, dx)); -1 when the neighbour is outside the output (not tiled) or the shifted pixel
     outside the exemplar (which wraps along the axes ``wrap_y`` / ``wrap_x``)."""
+    ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x = exemplar
     H, W = refs.shape
     yy = y + dy
     xx = x + dx
@@ -108,11 +113,109 @@ def _shifted_neighbour_source(refs, y, x, dy, dx, tile, ex_y, ex_x, ex_h, ex_w, 
     return cy * ex_w + cx
 
 
+@nb.njit(inline="always")
+def _project_query(refs, y, x, tile, exemplar, ex_feat, projection, q, ex_labels, target,
+                   n_random):
+    """The output neighbourhood of (y, x) (resolved references) projected into appearance space
+    into ``q``; returns how many of its pixels have the wrong label (counted when
+    ``n_random`` > 0).
+
+    Incremental projection: the neighbourhood is compared with the exemplar neighbourhood of its
+    centre's reference, whose projection is known (``appearance[e0]``, reflected at the exemplar
+    border like the analysis); only the pixels that differ from it are projected (exact, the
+    projection is linear). Pieces copied whole cost nothing; a full projection is done when
+    most pixels differ."""
+    ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x = exemplar
+    proj_w, proj_mean, appearance = projection
+    H, W = refs.shape
+    S, _, C, D = proj_w.shape
+    r = S // 2
+    e0 = refs[y, x]
+    cy0 = ex_y[e0]
+    cx0 = ex_x[e0]
+    n_diff = 0
+    n_wrong = 0
+    for dy in range(-r, r + 1):
+        yy = _wrap_or_clamp(y + dy, H, tile)
+        ey = _ex_coord(cy0 + dy, ex_h, wrap_y)
+        for dx in range(-r, r + 1):
+            xx = _wrap_or_clamp(x + dx, W, tile)
+            if refs[yy, xx] != ey * ex_w + _ex_coord(cx0 + dx, ex_w, wrap_x):
+                n_diff += 1
+            if n_random > 0 and ex_labels[refs[yy, xx]] != target[yy, xx]:
+                n_wrong += 1
+    if 2 * n_diff < S * S:
+        for d in range(D):
+            q[d] = appearance[e0, d]
+        if n_diff > 0:
+            for dy in range(-r, r + 1):
+                yy = _wrap_or_clamp(y + dy, H, tile)
+                ey = _ex_coord(cy0 + dy, ex_h, wrap_y)
+                for dx in range(-r, r + 1):
+                    xx = _wrap_or_clamp(x + dx, W, tile)
+                    e = refs[yy, xx]
+                    u = ey * ex_w + _ex_coord(cx0 + dx, ex_w, wrap_x)
+                    if e == u:
+                        continue
+                    for c in range(C):
+                        v = ex_feat[e, c] - ex_feat[u, c]
+                        for d in range(D):
+                            q[d] += proj_w[dy + r, dx + r, c, d] * v
+    else:
+        for d in range(D):
+            q[d] = 0.0
+        for dy in range(-r, r + 1):
+            yy = _wrap_or_clamp(y + dy, H, tile)
+            for dx in range(-r, r + 1):
+                xx = _wrap_or_clamp(x + dx, W, tile)
+                e = refs[yy, xx]
+                for c in range(C):
+                    v = ex_feat[e, c] - proj_mean[dy + r, dx + r, c]
+                    for d in range(D):
+                        q[d] += proj_w[dy + r, dx + r, c, d] * v
+    return n_wrong
+
+
+@nb.njit(inline="always")
+def _label_candidates(best, best_cost, y, x, r, tile, exemplar, costs, guide, query, fb):
+    """Texture-by-numbers' drawn candidates of the M-step at (y, x) (see :func:`m_step`):
+    ``n_random`` from the wanted label's exemplar pixels and one aligned on the nearest pixel
+    that wants another label. Returns the new ``(best, best_cost)``."""
+    ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x = exemplar
+    penalty, kset_cost = costs
+    _, _, _, target, pool, pool_start, n_random, random_key = guide
+    W = target.shape[1]
+    for t in range(n_random + 1):
+        h = _mix(random_key ^ _mix(np.uint64((y * W + x) * (n_random + 1) + t + 1)))
+        if t < n_random:
+            lab = target[y, x]
+            sy = 0
+            sx = 0
+        else:
+            lab, sy, sx = _nearest_other_label(target, y, x, r, tile)
+            if lab < 0:
+                continue
+        p0 = pool_start[lab]
+        n_pool = pool_start[lab + 1] - p0
+        v2 = pool[p0 + np.int64(h % np.uint64(n_pool))]
+        if sy != 0 or sx != 0:
+            vy = _ex_inside(ex_y[v2] - sy, ex_h, wrap_y)
+            vx = _ex_inside(ex_x[v2] - sx, ex_w, wrap_x)
+            if vy < 0 or vx < 0:
+                continue
+            v2 = vy * ex_w + vx
+        best, best_cost = _consider(v2, penalty[v2] + kset_cost, best, best_cost, fb, y, x,
+                                    ex_y, ex_x, query)
+    return best, best_cost
+
+
 @nb.njit(parallel=True, cache=True, fastmath=True)
-def m_step(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, proj_w, proj_mean, appearance,
-           ksets, penalty, kset_cost, stride, oy, ox, tile, forbid, guide_ex, guide_out, ex_labels,
-           target, pool, pool_start, n_random, random_key, match):  # pragma: no cover - compiled
-    """M-step on the sparse grid ``(oy + i * stride, ox + j * stride)``.
+def m_step(refs, exemplar, ex_feat, projection, ksets, costs, grid, tile, forbid, guide,
+           match):  # pragma: no cover - compiled
+    """M-step on the sparse grid ``(oy + i * stride, ox + j * stride)``, ``grid = (stride, oy,
+    ox)``; ``projection = (proj_w, proj_mean, appearance)``, ``costs = (penalty, kset_cost)``,
+    ``guide = (guide_ex, guide_out, ex_labels, target, pool, pool_start, n_random,
+    random_key)``.
 
     For each grid pixel, the output neighbourhood (resolved references) is projected into
     appearance space (``proj_w[dy, dx, c, d]``, ``proj_mean[dy, dx, c]``) and compared with the
@@ -136,6 +239,11 @@ def m_step(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, proj_w, proj_m
     ``target``): elsewhere coherent candidates already fit. Unguided synthesis passes zero guide
     columns and ``n_random = 0``.
     """
+    ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x = exemplar
+    proj_w, proj_mean, appearance = projection
+    penalty, kset_cost = costs
+    stride, oy, ox = grid
+    guide_ex, guide_out, ex_labels, target, pool, pool_start, n_random, random_key = guide
     H, W = refs.shape
     S, _, C, D = proj_w.shape
     r = S // 2
@@ -145,63 +253,17 @@ def m_step(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, proj_w, proj_m
         y = oy + iy * stride
         q = np.empty(D, np.float32)
         seen = np.empty(9, np.int32)
+        query = (appearance, q, guide_ex, guide_out)
         for x in range(ox, W, stride):
-            # incremental projection: the neighbourhood is compared with the exemplar
-            # neighbourhood of its centre's reference, whose projection is known
-            # (``appearance[e0]``, reflected at the exemplar border like the analysis); only the
-            # pixels that differ from it are projected (exact, the projection is linear). Pieces
-            # copied whole cost nothing; a full projection is done when most pixels differ.
-            e0 = refs[y, x]
-            cy0 = ex_y[e0]
-            cx0 = ex_x[e0]
-            n_diff = 0
-            n_wrong = 0
-            for dy in range(-r, r + 1):
-                yy = _wrap_or_clamp(y + dy, H, tile)
-                ey = _ex_coord(cy0 + dy, ex_h, wrap_y)
-                for dx in range(-r, r + 1):
-                    xx = _wrap_or_clamp(x + dx, W, tile)
-                    if refs[yy, xx] != ey * ex_w + _ex_coord(cx0 + dx, ex_w, wrap_x):
-                        n_diff += 1
-                    if n_random > 0 and ex_labels[refs[yy, xx]] != target[yy, xx]:
-                        n_wrong += 1
-            if 2 * n_diff < S * S:
-                for d in range(D):
-                    q[d] = appearance[e0, d]
-                if n_diff > 0:
-                    for dy in range(-r, r + 1):
-                        yy = _wrap_or_clamp(y + dy, H, tile)
-                        ey = _ex_coord(cy0 + dy, ex_h, wrap_y)
-                        for dx in range(-r, r + 1):
-                            xx = _wrap_or_clamp(x + dx, W, tile)
-                            e = refs[yy, xx]
-                            u = ey * ex_w + _ex_coord(cx0 + dx, ex_w, wrap_x)
-                            if e == u:
-                                continue
-                            for c in range(C):
-                                v = ex_feat[e, c] - ex_feat[u, c]
-                                for d in range(D):
-                                    q[d] += proj_w[dy + r, dx + r, c, d] * v
-            else:
-                for d in range(D):
-                    q[d] = 0.0
-                for dy in range(-r, r + 1):
-                    yy = _wrap_or_clamp(y + dy, H, tile)
-                    for dx in range(-r, r + 1):
-                        xx = _wrap_or_clamp(x + dx, W, tile)
-                        e = refs[yy, xx]
-                        for c in range(C):
-                            v = ex_feat[e, c] - proj_mean[dy + r, dx + r, c]
-                            for d in range(D):
-                                q[d] += proj_w[dy + r, dx + r, c, d] * v
+            n_wrong = _project_query(refs, y, x, tile, exemplar, ex_feat, projection, q,
+                                     ex_labels, target, n_random)
             best = np.int64(refs[y, x])
             best_cost = np.inf
             n_seen = 0
             fb = forbid[y, x]
             for dy in range(-1, 2):
                 for dx in range(-1, 2):
-                    u = _shifted_neighbour_source(refs, y, x, dy, dx, tile, ex_y, ex_x, ex_h,
-                                                  ex_w, wrap_y, wrap_x)
+                    u = _shifted_neighbour_source(refs, y, x, dy, dx, tile, exemplar)
                     if u < 0:
                         continue
                     if _listed(seen, n_seen, u):
@@ -211,33 +273,14 @@ def m_step(refs, ex_feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, proj_w, proj_m
                     if fb >= 0 and offset_code(ex_y[u], ex_x[u], y, x) == fb:
                         continue  # (its k-coherence set goes with it)
                     best, best_cost = _consider(u, penalty[u], best, best_cost, -1, y, x, ex_y,
-                                                ex_x, appearance, q, guide_ex, guide_out)
+                                                ex_x, query)
                     for t in range(K):
                         v2 = ksets[u, t]
                         best, best_cost = _consider(v2, penalty[v2] + kset_cost, best, best_cost,
-                                                    fb, y, x, ex_y, ex_x, appearance, q,
-                                                    guide_ex, guide_out)
-            for t in range(n_random + 1 if n_wrong > 0 else 0):
-                h = _mix(random_key ^ _mix(np.uint64((y * W + x) * (n_random + 1) + t + 1)))
-                if t < n_random:
-                    lab = target[y, x]
-                    sy = 0
-                    sx = 0
-                else:
-                    lab, sy, sx = _nearest_other_label(target, y, x, r, tile)
-                    if lab < 0:
-                        continue
-                p0 = pool_start[lab]
-                n_pool = pool_start[lab + 1] - p0
-                v2 = pool[p0 + np.int64(h % np.uint64(n_pool))]
-                if sy != 0 or sx != 0:
-                    vy = _ex_inside(ex_y[v2] - sy, ex_h, wrap_y)
-                    vx = _ex_inside(ex_x[v2] - sx, ex_w, wrap_x)
-                    if vy < 0 or vx < 0:
-                        continue
-                    v2 = vy * ex_w + vx
-                best, best_cost = _consider(v2, penalty[v2] + kset_cost, best, best_cost, fb, y,
-                                            x, ex_y, ex_x, appearance, q, guide_ex, guide_out)
+                                                    fb, y, x, ex_y, ex_x, query)
+            if n_wrong > 0:
+                best, best_cost = _label_candidates(best, best_cost, y, x, r, tile, exemplar,
+                                                    costs, guide, query, fb)
             match[y, x] = best
 
 
@@ -265,11 +308,12 @@ def _nearest_other_label(target, y, x, radius, tile):
 
 
 @nb.njit(inline="always")
-def _consider(v, base, best, best_cost, fb, y, x, ex_y, ex_x, appearance, q, guide_ex,
-              guide_out):
+def _consider(v, base, best, best_cost, fb, y, x, ex_y, ex_x, query):
     """M-step candidate ``v`` at cost ``base`` (occurrence penalty, coherence bias) plus its
-    distances (:func:`_cost`): returns ``(v, cost)`` if it beats ``(best, best_cost)``, else
-    those. A candidate whose offset is the forbidden one ``fb`` is never taken."""
+    distances (:func:`_cost`; ``query = (appearance, q, guide_ex, guide_out)``): returns
+    ``(v, cost)`` if it beats ``(best, best_cost)``, else those. A candidate whose offset is the
+    forbidden one ``fb`` is never taken."""
+    appearance, q, guide_ex, guide_out = query
     if base >= best_cost:
         return best, best_cost
     if fb >= 0 and offset_code(ex_y[v], ex_x[v], y, x) == fb:
@@ -305,9 +349,43 @@ def first_on_grid(y, radius, o, stride, n, tile):
     return -radius + (o - (y - radius)) % stride
 
 
+@nb.njit(inline="always")
+def _least_squares_vote(votes, vw, nv, uniq, usup, nu, top, ex_feat, avg):
+    """Among the ``nu`` distinct votes ``uniq`` tied for the largest support ``usup[top]``, the
+    one whose features are closest to the weighted average of all ``nv`` votes (``votes``,
+    weights ``vw``; ``avg`` is scratch): the least-squares value of the original E-step. The
+    first when every vote was discounted to zero."""
+    C = ex_feat.shape[1]
+    wsum = 0.0
+    for c in range(C):
+        avg[c] = 0.0
+    for t in range(nv):
+        wsum += vw[t]
+        for c in range(C):
+            avg[c] += vw[t] * ex_feat[votes[t], c]
+    best = uniq[top]
+    if wsum <= 0.0:  # only votes of the wrong label, all discounted to zero: the first
+        return best
+    for c in range(C):
+        avg[c] /= wsum
+    best_cost = np.inf
+    for t in range(nu):
+        if usup[t] < usup[top] - 1e-6:
+            continue
+        v = uniq[t]
+        cost = 0.0
+        for c in range(C):
+            diff = ex_feat[v, c] - avg[c]
+            cost += diff * diff
+        if cost < best_cost:
+            best_cost = cost
+            best = v
+    return best
+
+
 @nb.njit(parallel=True, cache=True, fastmath=True)
-def e_step(match, refs, ex_feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, radius, stride, oy, ox,
-           tile, sigma, forbid, ex_labels, target, label_discount, out):  # pragma: no cover - compiled
+def e_step(match, refs, exemplar, ex_feat, votes, tile, forbid, labels,
+           out):  # pragma: no cover - compiled
     """E-step (laitoch2018 eq. 3.5, Han et al. 2006): every output pixel collects the
     forward-shifted references voted by the matched neighbourhoods that cover it (Gaussian
     weights by distance to the neighbourhood centre) and takes the reference with the largest
@@ -321,7 +399,13 @@ def e_step(match, refs, ex_feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, radius,
     (``ex_labels``) differs from the wanted label ``target[y, x]`` weighs ``label_discount``
     times as much, so labels are kept wherever any vote agrees with them (with 0, wrong votes
     count only when there is no other: then the first one is taken).
+
+    ``votes = (radius, stride, oy, ox, sigma)``: the matched neighbourhoods' radius and grid,
+    and the Gaussian's width; ``labels = (ex_labels, target, label_discount)``.
     """
+    ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x = exemplar
+    radius, stride, oy, ox, sigma = votes
+    ex_labels, target, label_discount = labels
     H, W = refs.shape
     C = ex_feat.shape[1]
     side = 2 * radius + 1
@@ -336,7 +420,7 @@ def e_step(match, refs, ex_feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, radius,
     y_step = stride if (not tile or H % stride == 0) else 1
     x_step = stride if (not tile or W % stride == 0) else 1
     for y in nb.prange(H):
-        votes = np.empty(nmax, np.int32)
+        votes_at = np.empty(nmax, np.int32)
         vw = np.empty(nmax, np.float32)
         uniq = np.empty(nmax, np.int32)
         usup = np.empty(nmax, np.float32)
@@ -374,7 +458,7 @@ def e_step(match, refs, ex_feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, radius,
                     wgt = wtab[dy + radius, dx + radius]
                     if label_discount < 1.0 and ex_labels[v] != target[y, x]:
                         wgt *= label_discount
-                    votes[nv] = v
+                    votes_at[nv] = v
                     vw[nv] = wgt
                     nv += 1
                     found = False
@@ -402,39 +486,15 @@ def e_step(match, refs, ex_feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, radius,
                 out[y, x] = uniq[top]
                 continue
             # tie: the least-squares choice among the best-supported references
-            wsum = 0.0
-            for c in range(C):
-                avg[c] = 0.0
-            for t in range(nv):
-                wsum += vw[t]
-                for c in range(C):
-                    avg[c] += vw[t] * ex_feat[votes[t], c]
-            best = uniq[top]
-            if wsum <= 0.0:  # only votes of the wrong label, all discounted to zero: the first
-                out[y, x] = best
-                continue
-            for c in range(C):
-                avg[c] /= wsum
-            best_cost = np.inf
-            for t in range(nu):
-                if usup[t] < usup[top] - 1e-6:
-                    continue
-                v = uniq[t]
-                cost = 0.0
-                for c in range(C):
-                    diff = ex_feat[v, c] - avg[c]
-                    cost += diff * diff
-                if cost < best_cost:
-                    best_cost = cost
-                    best = v
-            out[y, x] = best
+            out[y, x] = _least_squares_vote(votes_at, vw, nv, uniq, usup, nu, top, ex_feat, avg)
 
 
 @nb.njit(inline="always")
-def _continues(refs, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, py, px, qy, qx, dy, dx):
+def _continues(refs, exemplar, py, px, qy, qx, dy, dx):
     """True when output pixel (qy, qx) = (py + dy, px + dx) (a neighbour) copies the exemplar
     pixel next to the one (py, px) copies, the same step away (on the exemplar's torus along
     its wrapping axes): the two belong to one verbatim piece."""
+    ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x = exemplar
     e = refs[py, px]
     f = refs[qy, qx]
     cy = _ex_inside(ex_y[e] + dy, ex_h, wrap_y)
@@ -457,8 +517,7 @@ def _neighbour4(y, x, k, H, W, tile):
 
 
 @nb.njit(cache=True)
-def label_pieces(refs, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, tile,
-                 labels):  # pragma: no cover - compiled
+def label_pieces(refs, exemplar, tile, labels):  # pragma: no cover - compiled
     """Label the pieces copied verbatim from the exemplar: the 4-connected regions whose
     neighbouring output pixels copy neighbouring exemplar pixels (:func:`_continues`). A piece
     that runs round a tiled output (``tile``) or across a wrapping exemplar's edge is one piece.
@@ -488,8 +547,7 @@ def label_pieces(refs, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, tile,
                     qy, qx, dy, dx, inside = _neighbour4(py, px, k, H, W, tile)
                     if not inside or labels[qy, qx] >= 0:
                         continue
-                    if _continues(refs, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, py, px, qy, qx,
-                                  dy, dx):
+                    if _continues(refs, exemplar, py, px, qy, qx, dy, dx):
                         labels[qy, qx] = n
                         stack[top] = qy * W + qx
                         top += 1
@@ -530,8 +588,8 @@ def _seam_cost(feat, ex_h, ex_w, wrap_y, wrap_x, cy, cx, fy, fx, dy, dx):
 
 
 @nb.njit(parallel=True, cache=True, fastmath=True)
-def refine_seams(refs, feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, tile, parity, forbid,
-                 ex_labels, target, after, moved, out):  # pragma: no cover - compiled
+def refine_seams(refs, feat, exemplar, tile, parity, forbid, labels, after, moved,
+                 out):  # pragma: no cover - compiled
     """One half-sweep of seam optimisation (Kwatra et al. 2003, §3: the seam cost minimised by
     local moves): every output pixel with ``(y + x) % 2 == parity`` takes, among its own
     reference and the forward-shifted references of its 4 neighbours (each continues a
@@ -548,7 +606,9 @@ def refine_seams(refs, feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, tile, parit
     pixel: the ``moved`` map of the previous half-sweep, when this parity's pixels have been
     swept before; a pixel is then looked at only if a neighbour moved (its choice depends on
     nothing else, so the others would keep theirs). ``moved`` ``(H, W)`` uint8 receives 1 where
-    a pixel changed. Returns the number changed."""
+    a pixel changed. Returns the number changed. ``labels = (ex_labels, target)``."""
+    ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x = exemplar
+    ex_labels, target = labels
     H, W = refs.shape
     guided = ex_labels.shape[0] > 1
     every = after.shape[0] != H or after.shape[1] != W
@@ -577,8 +637,7 @@ def refine_seams(refs, feat, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, tile, parit
             for k in range(4):
                 dy = (k == 0) - (k == 1)
                 dx = (k == 2) - (k == 3)
-                u = _shifted_neighbour_source(refs, y, x, dy, dx, tile, ex_y, ex_x, ex_h, ex_w,
-                                              wrap_y, wrap_x)
+                u = _shifted_neighbour_source(refs, y, x, dy, dx, tile, exemplar)
                 if u < 0:
                     continue
                 if fb >= 0 and offset_code(ex_y[u], ex_x[u], y, x) == fb:
@@ -643,8 +702,7 @@ def upsample_state(refs, forbid, coarse_y, coarse_x, fine_h, fine_w, wrap_y, wra
 
 
 @nb.njit(parallel=True, cache=True)
-def enforce_labels(refs, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, ex_labels, target, tile,
-                   out):  # pragma: no cover - compiled
+def enforce_labels(refs, exemplar, ex_labels, target, tile, out):  # pragma: no cover - compiled
     """Label clean-up (texture-by-numbers): an output pixel whose exemplar label differs from the
     wanted one takes, among the forward-shifted references of its 8 neighbours that have the
     wanted label, the one most of them agree on (so it continues a neighbouring piece); pixels
@@ -665,8 +723,7 @@ def enforce_labels(refs, ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x, ex_labels, targ
                 for dx in range(-1, 2):
                     if dy == 0 and dx == 0:
                         continue
-                    u = _shifted_neighbour_source(refs, y, x, dy, dx, tile, ex_y, ex_x, ex_h,
-                                                  ex_w, wrap_y, wrap_x)
+                    u = _shifted_neighbour_source(refs, y, x, dy, dx, tile, exemplar)
                     if u < 0 or ex_labels[u] != want:
                         continue
                     found = False
@@ -762,8 +819,8 @@ def seam_runs(ry, rx, ex_h, ex_w, wrap_y, wrap_x, tile, min_run):  # pragma: no 
 
 
 @nb.njit(cache=True)
-def seam_band(ry, rx, feat, wrap_y, wrap_x, tile, i, cols, band, cand_y, cand_x, valid,
-              member, cost, w_down, w_right):  # pragma: no cover - compiled
+def seam_band(ry, rx, feat, wrap_y, wrap_x, tile, i, cols, band,
+              out):  # pragma: no cover - compiled
     """The graph of one straight seam's re-cut (``barkgen.synth.cuts``), between output rows
     ``i`` and ``i + 1`` along columns ``cols``, over the ``2 * band`` rows around it.
 
@@ -774,7 +831,9 @@ def seam_band(ry, rx, feat, wrap_y, wrap_x, tile, i, cols, band, cand_y, cand_x,
     the seam), ``cost[l]`` the seam cost with its neighbours outside the band (plus the
     graph-representable part of the pair terms) and ``w_down``/``w_right`` the pair weights to
     the band pixel below / to the right (Kolmogorov & Zabih 2004's reduction of a 2x2 table,
-    clipped at 0 where it is not submodular). Returns the number of band pixels."""
+    clipped at 0 where it is not submodular). Returns the number of band pixels.
+    ``out = (cand_y, cand_x, valid, member, cost, w_down, w_right)``."""
+    cand_y, cand_x, valid, member, cost, w_down, w_right = out
     H, W = ry.shape
     ex_h, ex_w = feat.shape[0], feat.shape[1]
     L = cols.shape[0]

@@ -46,6 +46,13 @@ class LevelAnalysis:
     scale: float  # typical squared appearance distance to the nearest distinct neighbour
     wrap: tuple[bool, bool] = (False, False)  # the exemplar tiles along (rows, columns)
 
+    @property
+    def grid(self) -> tuple:
+        """``(coords_y, coords_x, height, width, wrap_rows, wrap_columns)``: the level's exemplar
+        grid as the kernels take it (``exemplar`` in :mod:`barkgen.synth._kernels`)."""
+        return (self.coords_y, self.coords_x, int(self.height), int(self.width),
+                bool(self.wrap[0]), bool(self.wrap[1]))
+
 
 def matching_features(exemplar: np.ndarray, extras: Mapping[str, np.ndarray] | None,
                       extra_weight: float) -> np.ndarray:

@@ -96,8 +96,8 @@ def _cut_run(ry: np.ndarray, rx: np.ndarray, i: int, cols: np.ndarray, ex: _Exem
     w_down = np.empty(shape)
     w_right = np.empty(shape)
     if K.seam_band(ry, rx, ex.features, ex.wrap[0], ex.wrap[1], tile, i,
-                   np.ascontiguousarray(cols, dtype=np.int64), BAND, cand_y, cand_x, valid,
-                   member, cost, w_down, w_right) < 2:
+                   np.ascontiguousarray(cols, dtype=np.int64), BAND,
+                   (cand_y, cand_x, valid, member, cost, w_down, w_right)) < 2:
         return 0
     rows = np.mod(i - BAND + 1 + np.arange(2 * BAND), H)
     ys, xs = np.broadcast_arrays(rows[:, None], cols[None, :])

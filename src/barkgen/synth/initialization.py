@@ -58,6 +58,7 @@ def smart_initialization(exemplar_labels: np.ndarray, target_labels: np.ndarray,
     order = rng.permutation(idb.size).astype(np.int64)
     salt = np.uint64(rng.integers(0, 2**63))
     refs = np.full(idb.size, -1, np.int32)
-    K.grow_regions(ida, da, idb, db, guide.pool, guide.pool_start, order, SMART_RADIUS,
-                   float(label_weight), SMART_TOLERANCE, bool(tile), salt, SMART_CANDIDATES, refs)
+    params = (SMART_RADIUS, float(label_weight), SMART_TOLERANCE, SMART_CANDIDATES)
+    K.grow_regions((ida, da), (idb, db), (guide.pool, guide.pool_start), order, params, bool(tile),
+                   salt, refs)
     return refs.reshape(idb.shape)

@@ -57,8 +57,7 @@ def limit_copies(refs: np.ndarray, level: LevelAnalysis, max_area: float,
     import barkgen.synth._kernels as K
 
     labels = np.empty(refs.shape, np.int32)
-    sizes = K.label_pieces(refs, level.coords_y, level.coords_x, level.height, level.width,
-                           level.wrap[0], level.wrap[1], tile, labels)
+    sizes = K.label_pieces(refs, level.grid, tile, labels)
     big = sizes > max_area
     if not big.any():
         return 0

@@ -220,16 +220,16 @@ def _iterate(refs: np.ndarray, forbid: np.ndarray, la: LevelAnalysis, lvl: int,
         oy, ox = (int(v) for v in rng.integers(0, stride, size=2))
         key = np.uint64(rng.integers(0, 2**63)) if guide.guided else np.uint64(0)
         match.fill(-1)
-        K.m_step(refs, la.features, la.coords_y, la.coords_x, la.height, la.width, wrap[0],
-                 wrap[1], la.kernel_weights[nb_size], proj.mean,
-                 proj.features, la.ksets, penalty, np.float32(config.kset_cost * la.scale),
-                 stride, oy, ox, tile, forbid, guide.guide_ex.get(nb_size, _NO_GUIDE_EX),
-                 guide.guide_out.get(nb_size, _NO_GUIDE_OUT), guide.ex_labels, guide.target,
-                 guide.pool, guide.pool_start, guide.n_random, key, match)
-        K.e_step(match, refs, la.features, la.coords_y, la.coords_x, la.height, la.width,
-                 wrap[0], wrap[1], min(nb_size // 2, config.vote_radius), stride,
-                 oy, ox, tile, np.float32(max(nb_size / 3.0, 1.0)), forbid,
-                 guide.ex_labels, guide.target, np.float32(guide.discount), new)
+        kernel_guide = (guide.guide_ex.get(nb_size, _NO_GUIDE_EX),
+                        guide.guide_out.get(nb_size, _NO_GUIDE_OUT), guide.ex_labels,
+                        guide.target, guide.pool, guide.pool_start, guide.n_random, key)
+        K.m_step(refs, la.grid, la.features, (la.kernel_weights[nb_size], proj.mean, proj.features),
+                 la.ksets, (penalty, np.float32(config.kset_cost * la.scale)), (stride, oy, ox),
+                 tile, forbid, kernel_guide, match)
+        votes = (min(nb_size // 2, config.vote_radius), stride, oy, ox,
+                 np.float32(max(nb_size / 3.0, 1.0)))
+        K.e_step(match, refs, la.grid, la.features, votes, tile, forbid,
+                 (guide.ex_labels, guide.target, np.float32(guide.discount)), new)
         refs, new = new, refs
         if config.max_copy < 1.0 and (lvl > 0 or step < len(schedule) - 1):
             # (cuts act through the following iterations, none after the very last one)
@@ -255,9 +255,8 @@ def _refine_seams(refs: np.ndarray, forbid: np.ndarray, la: LevelAnalysis,
     for sweep in range(sweeps):
         moved = 0
         for parity in (0, 1):
-            moved += K.refine_seams(refs, seam_image, la.coords_y, la.coords_x, la.height,
-                                    la.width, la.wrap[0], la.wrap[1], tile, parity, forbid,
-                                    guide.ex_labels, guide.target,
+            moved += K.refine_seams(refs, seam_image, la.grid, tile, parity, forbid,
+                                    (guide.ex_labels, guide.target),
                                     every if sweep == 0 else after, moved_map, new)
             refs, new = new, refs
             moved_map, after = after, moved_map
@@ -273,8 +272,7 @@ def _enforce_labels(refs: np.ndarray, la: LevelAnalysis, guide: _LevelGuide, pas
 
     new = np.empty(refs.shape, np.int32)
     for _ in range(passes):
-        if K.enforce_labels(refs, la.coords_y, la.coords_x, la.height, la.width, la.wrap[0],
-                            la.wrap[1], guide.ex_labels, guide.target, tile, new) == 0:
+        if K.enforce_labels(refs, la.grid, guide.ex_labels, guide.target, tile, new) == 0:
             break
         refs, new = new, refs
     return refs
