@@ -35,7 +35,7 @@ SHARED = Path(os.environ.get("BARKGEN_SHARED", REPO.parent / "shared"))
 sys.path.insert(0, str(REPO / "src"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from tbn_cases import centre_crop  # noqa: E402
+from barkgen.io import read_centre_crop  # noqa: E402
 
 PHOTOS = {"fir": "fir_scaly_01", "pine": "pine_plated_01"}
 CONFIGS = (("1 worker x 1 thread", 1, 1), ("1 worker x 2 threads", 1, 2), ("2 workers x 1 thread", 2, 1))
@@ -47,7 +47,7 @@ def make_spec(folder: Path, size: int, variants: int) -> Path:
     entries = []
     for name, stem in PHOTOS.items():
         path = folder / f"{name}.png"
-        write_png(path, centre_crop(next((SHARED / "data" / "bark").glob(stem + ".*")), 512))
+        write_png(path, read_centre_crop(next((SHARED / "data" / "bark").glob(stem + ".*")), 512))
         entries.append({"name": name, "path": path.name, "count": variants, "seed_base": 0})
     spec = folder / "spec.yaml"
     spec.write_text(json.dumps({"size": f"{size}x{size}", "tile": True, "k": 3, "exemplars": entries}))

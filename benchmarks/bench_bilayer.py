@@ -44,7 +44,7 @@ sys.path.insert(0, str(REPO / "src"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(SHARED / "eval"))
 
-from tbn_cases import centre_crop  # noqa: E402
+from barkgen.io import read_centre_crop  # noqa: E402
 from texeval import TexEval  # noqa: E402
 
 from barkgen.bilayer import (Deformation, SynthesisOptions, analyze,  # noqa: E402
@@ -70,7 +70,7 @@ def photo_path(stem: str) -> Path:
 
 
 def bench_speed() -> dict:
-    ex = centre_crop(sample_exemplar_path(), 512)
+    ex = read_centre_crop(sample_exemplar_path(), 512)
     times = []
     for _ in range(3):
         start = time.perf_counter()
@@ -107,7 +107,7 @@ def bench_speed() -> dict:
 
 
 def bench_consistency() -> dict:
-    model = analyze(centre_crop(sample_exemplar_path(), 256))
+    model = analyze(read_centre_crop(sample_exemplar_path(), 256))
     model.window(0, 0, 8, 8, seed=3)  # build the tile set first: time the synthesis alone
     start = time.perf_counter()
     whole = model.window(0, 0, 4096, 4096, seed=3)
@@ -177,7 +177,7 @@ def bench_quality(stems, sheets: Path | None) -> dict:
     print(f"  {'photo':20s} {'method':9s} " + " ".join(f"{k[:12]:>12s}" for k in keys))
     rows = []
     for stem in stems:
-        ex = centre_crop(photo_path(stem), 256)
+        ex = read_centre_crop(photo_path(stem), 256)
         ev = TexEval(ex)
         model = analyze(ex)
         one_layer = single_layer(ex)

@@ -43,7 +43,7 @@ SHARED = Path(os.environ.get("BARKGEN_SHARED", REPO.parent / "shared"))
 sys.path.insert(0, str(REPO / "src"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from tbn_cases import centre_crop  # noqa: E402
+from barkgen.io import read_centre_crop  # noqa: E402
 
 from barkgen.io import read_image, write_png  # noqa: E402
 from barkgen.labels import color_regions  # noqa: E402
@@ -69,7 +69,7 @@ def mean_dissimilarity(a: np.ndarray, b: np.ndarray) -> float:
 def labelmaps(paths: list[Path], ks: list[int], crop: int) -> list[dict]:
     rows = []
     for path in paths:
-        ex = centre_crop(path, crop)
+        ex = read_centre_crop(path, crop)
         for k in ks:
             labels = color_regions(ex, k, seed=0)
             values = np.unique(labels)
@@ -134,7 +134,7 @@ def textures(paths: list[Path], size: int, seeds: list[int], strategy: str,
 def speed(runs: int) -> dict:
     from barkgen.data import sample_exemplar_path
 
-    ex = centre_crop(sample_exemplar_path(), 256)
+    ex = read_centre_crop(sample_exemplar_path(), 256)
     options = GenerateOptions(size=(1024, 1024))
     generate(ex, GenerateOptions(size=(128, 128)))  # compile / load the numba cache
     gen, plain = [], []

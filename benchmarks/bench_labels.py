@@ -23,7 +23,7 @@ SHARED = Path(os.environ.get("BARKGEN_SHARED", REPO.parent / "shared"))
 sys.path.insert(0, str(REPO / "src"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from label_metrics import half_split_accuracy, label_fractions, smallest_region  # noqa: E402
+from barkgen.testing import half_split_accuracy, label_fractions, smallest_region  # noqa: E402
 
 from barkgen.io import read_image, write_png  # noqa: E402
 from barkgen.labels import color_regions, contact_sheet, label_preview, texton_channels  # noqa: E402
@@ -84,9 +84,9 @@ def main() -> int:
         print(f"| {name} | {' | '.join(cells)} |")
 
     # speed on a 1024x1024 photo
-    from tbn_cases import centre_crop
+    from barkgen.io import read_centre_crop
 
-    img = centre_crop(bark / "pine_plated_01.jpg", 1024)
+    img = read_centre_crop(bark / "pine_plated_01.jpg", 1024)
     times = {"colour regions, k = 3": [], "texton channels, 36 filters, K = 25": []}
     for _ in range(a.runs):
         t = time.perf_counter()

@@ -38,7 +38,7 @@ sys.path.insert(0, str(SHARED / "eval"))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
 import seams  # noqa: E402  (../shared/eval/seams.py)
-from tbn_cases import centre_crop  # noqa: E402
+from barkgen.io import read_centre_crop  # noqa: E402
 
 from barkgen.data import sample_exemplar_path  # noqa: E402
 from barkgen.io import read_image, write_reference  # noqa: E402
@@ -128,7 +128,7 @@ def main() -> int:
         photos = PHOTOS[:4] if a.quick else PHOTOS
         rows = []
         for p in photos:
-            crop = centre_crop(p, 256)
+            crop = read_centre_crop(p, 256)
             for s in ([0] if a.quick else [0, 1]):
                 rows.append(synth_case(f"{p.stem} seed {s}", crop, 1024, True, s))
         table("synth 256x256 crop -> 1024x1024 tiled", header, rows)

@@ -4,7 +4,7 @@
     .venv/bin/python benchmarks/bench_tbn.py [--photos a,b] [--sizes 512,1024] [--runs 5]
                                               [--json out.json] [--skip-quality] [--skip-speed]
 
-Quality (issue 3's acceptance set, ``benchmarks/tbn_cases.py``): for every photo of
+Quality (issue 3's acceptance set, :mod:`barkgen.testing`): for every photo of
 ``../shared/data/bark``, a 256x256 centre crop, its 2- and 3-label maps (NL-means, k-means on
 CIELAB, 3x3 mode filter; laitoch2018 §3.5) and target label maps made of the crop's own label map
 cut into 64-px blocks, shuffled, flipped and assembled to each size. Scored with the team's
@@ -37,7 +37,9 @@ SHARED = Path(os.environ.get("BARKGEN_SHARED", REPO.parent / "shared"))
 sys.path.insert(0, str(REPO / "src"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from tbn_cases import centre_crop, kmeans_label_map, shuffled_blocks  # noqa: E402
+from barkgen.io import read_centre_crop  # noqa: E402
+
+from barkgen.testing import kmeans_label_map, shuffled_blocks  # noqa: E402
 
 from barkgen.synth import synthesize, texture_by_numbers  # noqa: E402
 
@@ -56,7 +58,7 @@ def quality(names: list[str] | None, sizes: list[int]) -> list[dict]:
     for path in photos():
         if names and path.stem not in names:
             continue
-        ex = centre_crop(path, 256)
+        ex = read_centre_crop(path, 256)
         for n_labels in (2, 3):
             a = kmeans_label_map(ex, n_labels)
             ev = texeval.TexEval(ex, labels_in=a)
@@ -86,7 +88,7 @@ def quality(names: list[str] | None, sizes: list[int]) -> list[dict]:
 
 
 def speed(runs: int) -> dict:
-    ex = centre_crop(SHARED / "data" / "bark" / "pine_plated_01.jpg", 256)
+    ex = read_centre_crop(SHARED / "data" / "bark" / "pine_plated_01.jpg", 256)
     a = kmeans_label_map(ex, 3)
     b = shuffled_blocks(a, 1024, seed=1)
     texture_by_numbers(ex, a, shuffled_blocks(a, 128, seed=1))  # compile / load the numba cache

@@ -13,8 +13,6 @@ REPO = Path(__file__).resolve().parents[1]
 SHARED = Path(os.environ.get("BARKGEN_SHARED", REPO.parent / "shared"))
 BARK = SHARED / "data" / "bark"
 EVAL = SHARED / "eval"
-# the benchmark helpers (texture-by-numbers cases) are shared with the tests
-sys.path.insert(0, str(REPO / "benchmarks"))
 
 
 def pytest_configure(config) -> None:
@@ -55,9 +53,9 @@ def seams():
 def bark_exemplar(name: str, size: int) -> np.ndarray:
     """Centre crop of a real bark photo, short side resized to ``size`` (like compare.py)."""
     _need_shared()
-    from tbn_cases import centre_crop
+    from barkgen.io import read_centre_crop
 
-    return centre_crop(next(BARK.glob(name + ".*")), size)
+    return read_centre_crop(next(BARK.glob(name + ".*")), size)
 
 
 @pytest.fixture(scope="session")

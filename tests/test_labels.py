@@ -42,7 +42,7 @@ def _luminance(img):
 @pytest.mark.parametrize("name", PHOTOS)
 def test_color_regions_on_every_photo(name):
     from conftest import bark_exemplar
-    from label_metrics import label_fractions, smallest_region
+    from barkgen.testing import label_fractions, smallest_region
 
     img = bark_exemplar(name, 256)
     for k in (2, 3):
@@ -69,7 +69,7 @@ def test_color_regions_same_seed_same_map_and_16_bit(oak):
 
 
 def test_labels_follow_appearance(oak):
-    from label_metrics import half_split_accuracy
+    from barkgen.testing import half_split_accuracy
 
     lm = color_regions(oak, 2, seed=0)
     assert half_split_accuracy(oak, lm) >= 0.9

@@ -135,3 +135,19 @@ def test_no_new_long_module_function_or_wide_kernel():
     assert long_modules <= LONG_MODULES, long_modules - LONG_MODULES
     assert long_functions <= LONG_FUNCTIONS, long_functions - LONG_FUNCTIONS
     assert wide_kernels <= WIDE_KERNELS, wide_kernels - WIDE_KERNELS
+
+
+def test_no_test_imports_a_benchmark():
+    """Tests import barkgen (its helpers for tests live in :mod:`barkgen.testing`), never the
+    scripts of ``benchmarks/``."""
+    bench = {p.stem for p in (SRC.parent / "benchmarks").glob("*.py")}
+    found = []
+    for path in (SRC.parent / "tests").rglob("*.py"):
+        text = path.read_text()
+        if path.name != "test_layout.py" and "benchmarks" in text and "sys.path." in text:
+            found.append((path.name, "sys.path"))
+        for node in ast.walk(ast.parse(text)):
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import)
+                     else [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
+            found += [(path.name, n) for n in names if n.split(".")[0] in bench | {"benchmarks"}]
+    assert found == []

@@ -20,7 +20,7 @@ def luminance_labels(image: np.ndarray, n: int = 2) -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def case(synthetic_exemplar):
-    from tbn_cases import shuffled_blocks
+    from barkgen.testing import shuffled_blocks
 
     ex = synthetic_exemplar[:40, :40]
     a = luminance_labels(ex)
@@ -180,7 +180,7 @@ def test_start_from_a_reference_map(case):
     ex, a, b = case
     # the answer is known: the target is made of the exemplar label map's blocks; a reference
     # map of exemplar pixels with the target's labels, block-coherent
-    from tbn_cases import shuffled_blocks
+    from barkgen.testing import shuffled_blocks
 
     yy, xx = np.mgrid[0:40, 0:40]
     coords = np.stack([yy, xx], -1)
@@ -217,7 +217,7 @@ def test_label_map_of_another_size_is_refused(case):
 @pytest.fixture(scope="module")
 def bark_case(texeval):
     from conftest import bark_exemplar
-    from tbn_cases import kmeans_label_map, shuffled_blocks
+    from barkgen.testing import kmeans_label_map, shuffled_blocks
 
     ex = bark_exemplar("vertical_fractures_01", 256)
     a = kmeans_label_map(ex, 2)

@@ -303,3 +303,18 @@ def write_png(
     ``bits`` defaults to the array's own depth (uint8 -> 8, uint16 -> 16).
     """
     return write_bytes_atomic(path, encode_png(image, bits=bits, text=text))
+
+
+def read_centre_crop(path: str | os.PathLike, size: int) -> np.ndarray:
+    """The ``size x size`` RGB uint8 centre crop of an image file, its short side resized to
+    ``size`` first with Lanczos (as the team's compare.py prepares exemplars, decoded by Pillow);
+    the benchmarks' and tests' way of reading a photo of ``../shared/data``."""
+    from PIL import Image
+
+    im = Image.open(path).convert("RGB")
+    w, h = im.size
+    s = size / min(w, h)
+    im = im.resize((max(size, round(w * s)), max(size, round(h * s))), Image.LANCZOS)
+    w, h = im.size
+    left, top = (w - size) // 2, (h - size) // 2
+    return np.asarray(im.crop((left, top, left + size, top + size)))
