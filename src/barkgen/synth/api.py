@@ -88,25 +88,60 @@ def synthesize(
 ) -> SynthesisResult:
     """Synthesize a new texture of ``size`` = ``(height, width)`` from ``exemplar``.
 
-    Args:
-        exemplar: ``(h, w)`` or ``(h, w, C)`` array (uint8, uint16 or float), C = 1 or 3.
-        size: output ``(height, width)`` (numpy order) or an int for a square.
-        tile: make the output wrap seamlessly in x and y (toroidal neighbourhoods).
-        seed: seeds the one ``numpy.random.Generator`` behind every random choice.
-        extra: named maps aligned with the exemplar (height, normal, ...); they take part in the
-            matching (weight ``config.extra_weight``) and are returned resolved.
-        config: solver parameters (:class:`SynthesisConfig`).
-        progress: optional ``progress(done, total)`` callback.
-        exemplar_wrap: ``"auto"`` (the exemplar is used as a torus along each axis along which
-            it tiles itself, :func:`barkgen.synth.edges.exemplar_wraps`), ``"yes"``, ``"no"``,
-            or a ``(rows, columns)`` pair of bools.
+    The k-coherence discrete solver (Han et al. 2006) as mazzolini2012 §4.1 and laitoch2018
+    §3.3 describe it, coarse to fine, in appearance space, with an occurrence cost, copy-size
+    control and seam optimisation (see :mod:`barkgen.synth.solver`). The output is an image of
+    references into the exemplar, so it is exactly as sharp as the exemplar.
 
-    Returns:
-        :class:`SynthesisResult` with the image, the references and the extra maps.
+    Parameters
+    ----------
+    exemplar : ndarray
+        ``(h, w)`` or ``(h, w, C)`` array (uint8, uint16 or float), C = 1 or 3.
+    size : int or tuple of int
+        Output ``(height, width)`` (numpy order), or an int for a square.
+    tile : bool, optional
+        Make the output wrap seamlessly in x and y (toroidal neighbourhoods).
+    seed : int, optional
+        Seeds the one ``numpy.random.Generator`` behind every random choice.
+    extra : mapping of str to ndarray, optional
+        Named maps aligned with the exemplar (height, normal, ...); they take part in the
+        matching (weight ``config.extra_weight``) and are returned resolved.
+    config : SynthesisConfig, optional
+        Solver parameters (:class:`SynthesisConfig`); the defaults when None.
+    progress : callable, optional
+        ``progress(done, total)``, called after each unit of work.
+    exemplar_wrap : {"auto", "yes", "no"} or tuple of bool, optional
+        ``"auto"``: the exemplar is used as a torus along each axis along which it tiles itself
+        (:func:`barkgen.synth.edges.exemplar_wraps`); ``"yes"``, ``"no"``, or a
+        ``(rows, columns)`` pair of bools.
 
-    Raises:
-        InvalidInputError: bad shapes, sizes or parameters.
-        MemoryBudgetError: the estimated memory exceeds ``config.max_memory``.
+    Returns
+    -------
+    SynthesisResult
+        The image (same dtype and channels as the exemplar), the ``(H, W, 2)`` references and
+        the extra maps, resolved in the gradient domain.
+
+    Raises
+    ------
+    InvalidInputError
+        Bad shapes, sizes or parameters.
+    MemoryBudgetError
+        The estimated memory exceeds ``config.max_memory``.
+
+    References
+    ----------
+    .. [1] mazzolini2012, §4.1 (the discrete solver of han2006).
+    .. [2] laitoch2018, §3.3 (image of references, extra channels, exact up-sampling).
+    .. [3] lefebvre2006 (appearance space); kaspar2015 §5 (occurrence map); kwatra2003 (seams).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import barkgen
+    >>> exemplar = np.random.default_rng(0).integers(0, 256, (64, 64, 3), dtype=np.uint8)
+    >>> result = barkgen.synthesize(exemplar, (96, 128), tile=True, seed=1)
+    >>> result.image.shape, result.references.shape
+    ((96, 128, 3), (96, 128, 2))
     """
     config = config or SynthesisConfig()
     ex, out_shape, extras = validate_inputs(exemplar, size, seed, extra)
@@ -124,8 +159,40 @@ def synthesize(
 
 
 def apply_references(references: np.ndarray, image: np.ndarray) -> np.ndarray:
-    """Resolve a reference map against any map of the exemplar's size (laitoch2018 §3.3.1):
-    ``out[y, x] = image[references[y, x, 0], references[y, x, 1]]``."""
+    """Resolve a reference map against any map of the exemplar's size.
+
+    ``out[y, x] = image[references[y, x, 0], references[y, x, 1]]``: the exact copy of any
+    aligned map (height, normals, labels) through a synthesis's references.
+
+    Parameters
+    ----------
+    references : ndarray
+        ``(H, W, 2)`` exemplar ``(row, column)`` per output pixel (``SynthesisResult.references``).
+    image : ndarray
+        ``(h, w)`` or ``(h, w, C)`` map of the exemplar's size.
+
+    Returns
+    -------
+    ndarray
+        ``(H, W)`` or ``(H, W, C)``, the dtype of ``image``.
+
+    Raises
+    ------
+    InvalidInputError
+        Wrong shapes, or references that point outside ``image``.
+
+    References
+    ----------
+    .. [1] laitoch2018, §3.3.1 (the image of references).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from barkgen import apply_references
+    >>> refs = np.zeros((2, 3, 2), np.int32)
+    >>> apply_references(refs, np.arange(4).reshape(2, 2)).tolist()
+    [[0, 0, 0], [0, 0, 0]]
+    """
     refs = np.asarray(references)
     img = np.asarray(image)
     if refs.ndim != 3 or refs.shape[2] != 2:

@@ -17,34 +17,50 @@ class SynthesisConfig:
     Defaults are tuned on the bark photos of the team's evaluation set (see the README's
     benchmark section); every field is validated once, here.
 
-    Attributes:
-        k: size of each k-coherence set (Tong 2002).
-        pca_components: appearance-space dimensions (Lefebvre & Hoppe 2006).
-        coarsest_exemplar: short side, in pixels, of the exemplar's coarsest pyramid level.
-        schedule_coarsest, schedule_middle, schedule_finest: ``(size, iterations)`` pairs run at
-            each level: several neighbourhood sizes per level, largest first (Kwatra 2005).
-        vote_radius: the E-step takes votes from matched neighbourhoods centred at most this far
-            from the pixel (all that cover it when the neighbourhood is smaller); 3 is as good as
-            the full 9x9 window on our bark set and 30 % faster.
-        kset_cost: extra cost of a non-coherent candidate, in units of the typical
-            nearest-neighbour distance (favours coherent patches, Ashikhmin 2001).
-        occurrence_weight: weight of the occurrence cost: exemplar regions used more often than
-            the uniform expectation are penalised, unused ones favoured (Kaspar 2015 occurrence
-            maps), same units.
-        max_copy: largest piece copied verbatim from the exemplar, as a fraction of the
-            exemplar's area; larger pieces are cut (1.0 disables the control).
-        jitter: after up-sampling to levels 2 and coarser, every reference is displaced by a
-            seeded random offset of up to ``round(2 * jitter)`` pixels (Lefebvre & Hoppe 2005).
-            Off by default: the random initialisation and per-level random grid offsets already
-            give seeds independent results, and jitter measurably costs coherence.
-        seam_sweeps: sweeps of seam optimisation after each level's iterations (Kwatra et al.
-            2003's seam cost, minimised by local moves: ``_kernels.refine_seams``); 0 disables.
-        seam_cut_run: straight seams at least this long are re-cut along minimum-cost paths
-            (graph cuts, Kwatra et al. 2003: :mod:`barkgen.synth.cuts`); 0 disables.
-        seam_cut_levels: how many of the finest levels get those cuts.
-        extra_weight: weight of the extra channels relative to luminance in the matching.
-        threads: worker threads for numba/faiss (None: all cores).
-        max_memory: refuse jobs whose estimated peak memory exceeds this many bytes.
+    Attributes
+    ----------
+    k
+        size of each k-coherence set (Tong 2002).
+    pca_components
+        appearance-space dimensions (Lefebvre & Hoppe 2006).
+    coarsest_exemplar
+        short side, in pixels, of the exemplar's coarsest pyramid level.
+    schedule_coarsest, schedule_middle, schedule_finest
+        ``(size, iterations)`` pairs run at
+        each level: several neighbourhood sizes per level, largest first (Kwatra 2005).
+    vote_radius
+        the E-step takes votes from matched neighbourhoods centred at most this far
+        from the pixel (all that cover it when the neighbourhood is smaller); 3 is as good as
+        the full 9x9 window on our bark set and 30 % faster.
+    kset_cost
+        extra cost of a non-coherent candidate, in units of the typical
+        nearest-neighbour distance (favours coherent patches, Ashikhmin 2001).
+    occurrence_weight
+        weight of the occurrence cost: exemplar regions used more often than
+        the uniform expectation are penalised, unused ones favoured (Kaspar 2015 occurrence
+        maps), same units.
+    max_copy
+        largest piece copied verbatim from the exemplar, as a fraction of the
+        exemplar's area; larger pieces are cut (1.0 disables the control).
+    jitter
+        after up-sampling to levels 2 and coarser, every reference is displaced by a
+        seeded random offset of up to ``round(2 * jitter)`` pixels (Lefebvre & Hoppe 2005).
+        Off by default: the random initialisation and per-level random grid offsets already
+        give seeds independent results, and jitter measurably costs coherence.
+    seam_sweeps
+        sweeps of seam optimisation after each level's iterations (Kwatra et al.
+        2003's seam cost, minimised by local moves: ``_kernels.refine_seams``); 0 disables.
+    seam_cut_run
+        straight seams at least this long are re-cut along minimum-cost paths
+        (graph cuts, Kwatra et al. 2003: :mod:`barkgen.synth.cuts`); 0 disables.
+    seam_cut_levels
+        how many of the finest levels get those cuts.
+    extra_weight
+        weight of the extra channels relative to luminance in the matching.
+    threads
+        worker threads for numba/faiss (None: all cores).
+    max_memory
+        refuse jobs whose estimated peak memory exceeds this many bytes.
     """
 
     k: int = 6

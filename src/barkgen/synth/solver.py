@@ -44,17 +44,25 @@ from barkgen.synth.pieces import cut_seams, limit_copies, roll_state, unstick_bo
 class SynthesisResult:
     """What :func:`synthesize` returns.
 
-    Attributes:
-        image: the synthesized texture, same dtype and channel count as the exemplar.
-        references: ``(H, W, 2)`` int32, the exemplar (row, col) each output pixel copies.
-        extras: each extra map of the exemplar through the same references, in the gradient
-            domain (:func:`barkgen.synth.gradient.resolve_continuous`: no cliffs where copied
-            pieces meet; :func:`apply_references` gives the exact copy).
-        exemplar_shape: ``(h, w)`` of the exemplar the references point into.
-        exemplar_wrap: ``(rows, columns)``: the exemplar was used as a torus along that axis
-            (a reference may step from its last row to its first inside one piece).
-        seed, tile: as requested.
-        timings: seconds spent in ``analysis`` and ``synthesis``.
+    Attributes
+    ----------
+    image
+        the synthesized texture, same dtype and channel count as the exemplar.
+    references
+        ``(H, W, 2)`` int32, the exemplar (row, col) each output pixel copies.
+    extras
+        each extra map of the exemplar through the same references, in the gradient
+        domain (:func:`barkgen.synth.gradient.resolve_continuous`: no cliffs where copied
+        pieces meet; :func:`apply_references` gives the exact copy).
+    exemplar_shape
+        ``(h, w)`` of the exemplar the references point into.
+    exemplar_wrap
+        ``(rows, columns)``: the exemplar was used as a torus along that axis
+        (a reference may step from its last row to its first inside one piece).
+    seed, tile
+        as requested.
+    timings
+        seconds spent in ``analysis`` and ``synthesis``.
     """
 
     image: np.ndarray

@@ -159,42 +159,81 @@ def texture_by_numbers(
 ) -> SynthesisResult:
     """Synthesize a texture that follows ``target_labels`` from ``exemplar`` and its labels.
 
-    Args:
-        exemplar: ``(h, w)`` or ``(h, w, C)`` array (uint8, uint16 or float), C = 1 or 3.
-        exemplar_labels: label map of the exemplar, same ``(h, w)``; each distinct grey value or
-            colour is a label (at most 64).
-        target_labels: label map of the wanted output; its size is the output size and every
-            label in it must occur in ``exemplar_labels``.
-        label_weight: ``w`` of laitoch2018 eq. 3.1: cost of one mismatching label pixel, in
-            units of the exemplar's colour variance.
-        feature_weight: ``z`` of eq. 3.3: weight of the feature-distance channel, same units.
-        init: ``"smart"`` (§3.4.2, region growing), ``"random"`` (§3.4.1), or an ``(H, W, 2)``
-            reference map (exemplar ``(y, x)`` per output pixel) to start from, e.g. the
-            references of a label map synthesized from ``exemplar_labels``
-            (:class:`barkgen.shapes.LabelMapResult`), whose labels then already match.
-        init_level: the pyramid level (0 = finest) a reference map ``init`` is taken up at;
-            the solver refines it there and below (the coarsest level when the pyramid is
-            shorter).
-        tile: make the output wrap seamlessly (the target label map is read as a torus too).
-        seed: seeds the one ``numpy.random.Generator`` behind every random choice.
-        extra: named maps aligned with the exemplar (height, ...), synthesized along.
-        config: solver parameters; default :data:`TBN_CONFIG`.
-        progress: optional ``progress(done, total)`` callback.
-        debug: optional ``debug(name, image)`` callback receiving the pyramid levels, label maps,
-            the initialisation and each level's result as uint8 images.
-        cache: an :class:`~barkgen.synth.engine.AnalysisCache` holding (or to keep) the
-            exemplar's k-coherence analysis, e.g. from :func:`analyse_texture_by_numbers`.
-        exemplar_wrap: ``"auto"``, ``"yes"``, ``"no"`` or a ``(rows, columns)`` pair: the
-            exemplar is used as a torus along the axes it tiles along
-            (:mod:`barkgen.synth.edges`).
+    Texture-by-numbers (image analogies, A : A' :: B : B'): the discrete solver guided by the
+    label maps of the exemplar and of the wanted output, started from a region-growing
+    initialisation (laitoch2018 §3.4.2), with a feature-distance channel (eq. 3.3).
 
-    Returns:
-        :class:`~barkgen.synth.SynthesisResult` (image, references, extras).
+    Parameters
+    ----------
+    exemplar : ndarray
+        ``(h, w)`` or ``(h, w, C)`` array (uint8, uint16 or float), C = 1 or 3.
+    exemplar_labels : ndarray
+        Label map of the exemplar, same ``(h, w)``; each distinct grey value or colour is a
+        label (at most 64).
+    target_labels : ndarray
+        Label map of the wanted output; its size is the output size and every label in it
+        must occur in ``exemplar_labels``.
+    label_weight : float, optional
+        ``w`` of laitoch2018 eq. 3.1: cost of one mismatching label pixel, in units of the
+        exemplar's colour variance.
+    feature_weight : float, optional
+        ``z`` of eq. 3.3: weight of the feature-distance channel, same units.
+    init : {"smart", "random"} or ndarray, optional
+        ``"smart"`` (§3.4.2, region growing), ``"random"`` (§3.4.1), or an ``(H, W, 2)``
+        reference map (exemplar ``(y, x)`` per output pixel) to start from, e.g. the references
+        of a label map synthesized from ``exemplar_labels``
+        (:class:`barkgen.shapes.LabelMapResult`), whose labels then already match.
+    init_level : int, optional
+        The pyramid level (0 = finest) a reference map ``init`` is taken up at; the solver
+        refines it there and below (the coarsest level when the pyramid is shorter).
+    tile : bool, optional
+        Make the output wrap seamlessly (the target label map is read as a torus too).
+    seed : int, optional
+        Seeds the one ``numpy.random.Generator`` behind every random choice.
+    extra : mapping of str to ndarray, optional
+        Named maps aligned with the exemplar (height, ...), synthesized along.
+    config : SynthesisConfig, optional
+        Solver parameters; default :data:`TBN_CONFIG`.
+    progress : callable, optional
+        ``progress(done, total)``, called after each unit of work.
+    debug : callable, optional
+        ``debug(name, image)`` receiving the pyramid levels, label maps, the initialisation and
+        each level's result as uint8 images.
+    cache : AnalysisCache, optional
+        Holds (or keeps) the exemplar's k-coherence analysis, e.g. from
+        :func:`analyse_texture_by_numbers`.
+    exemplar_wrap : {"auto", "yes", "no"} or tuple of bool, optional
+        The exemplar is used as a torus along the axes it tiles along
+        (:mod:`barkgen.synth.edges`).
 
-    Raises:
-        InvalidInputError: bad shapes, label maps that do not fit (size, label set, more than
-            64 labels) or bad parameters.
-        MemoryBudgetError: the estimated memory exceeds ``config.max_memory``.
+    Returns
+    -------
+    SynthesisResult
+        Image, references and extras.
+
+    Raises
+    ------
+    InvalidInputError
+        Bad shapes, label maps that do not fit (size, label set, more than 64 labels) or bad
+        parameters.
+    MemoryBudgetError
+        The estimated memory exceeds ``config.max_memory``.
+
+    References
+    ----------
+    .. [1] laitoch2018, §3.3-3.4 (texture-by-numbers, eqs. 3.1-3.6).
+    .. [2] bonneel2010 (the region-growing first pass of the smart initialisation).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from barkgen import texture_by_numbers
+    >>> rng = np.random.default_rng(0)
+    >>> exemplar = rng.integers(0, 256, (64, 64, 3), dtype=np.uint8)
+    >>> labels = np.where(np.arange(64)[:, None] < 32, 0, 255).repeat(64, axis=1).astype(np.uint8)
+    >>> target = np.where(np.arange(80)[None, :] < 40, 0, 255).repeat(80, axis=0).astype(np.uint8)
+    >>> texture_by_numbers(exemplar, labels, target, seed=0).image.shape
+    (80, 80, 3)
     """
     config = config or TBN_CONFIG
     if not isinstance(init_level, (int, np.integer)) or init_level < 0:
@@ -275,10 +314,32 @@ def analyse_texture_by_numbers(
     config: SynthesisConfig | None = None,
     exemplar_wrap: str | bool | tuple[bool, bool] = "auto",
 ) -> AnalysisCache:
-    """Run the k-coherence analysis phase (mazzolini2012 §4.1.2) that
-    :func:`texture_by_numbers` needs for outputs of ``size`` into ``cache``, ahead of any
+    """Run the analysis phase :func:`texture_by_numbers` needs for outputs of ``size``.
+
+    The k-coherence analysis (mazzolini2012 §4.1.2) goes into ``cache``, ahead of any
     synthesis. Every later call with the same exemplar, labels, extras, ``feature_weight``,
-    config and output pyramid depth then skips it, whatever its seed or target label map."""
+    config and output pyramid depth then skips it, whatever its seed or target label map.
+
+    Parameters
+    ----------
+    exemplar, exemplar_labels : ndarray
+        As for :func:`texture_by_numbers`.
+    size : int or tuple of int
+        The output ``(height, width)`` the analysis is for (it sets the pyramid depth).
+    cache : AnalysisCache
+        Receives the analysis.
+    feature_weight, extra, config, exemplar_wrap
+        As for :func:`texture_by_numbers`.
+
+    Returns
+    -------
+    AnalysisCache
+        ``cache``, now holding the analysis.
+
+    References
+    ----------
+    .. [1] mazzolini2012, §4.1.2 (the analysis phase of k-coherence search).
+    """
     config = config or TBN_CONFIG
     ex, out_shape, extras = validate_inputs(exemplar, size, 0, extra)
     labels = encode_label_maps(exemplar_labels, exemplar_labels, ex.shape[:2])
