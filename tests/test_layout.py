@@ -151,3 +151,12 @@ def test_no_test_imports_a_benchmark():
                      else [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
             found += [(path.name, n) for n in names if n.split(".")[0] in bench | {"benchmarks"}]
     assert found == []
+
+
+def test_shapes_drive_the_solver_through_its_engine_face():
+    """The label-map engine (:mod:`barkgen.shapes`) reaches the solver only through
+    :mod:`barkgen.synth.engine`, never into the solver's own modules."""
+    graph = import_graph(modules())
+    reach = {(name, t) for name, targets in graph.items() if name.startswith("barkgen.shapes")
+             for t in targets if t.startswith("barkgen.synth")}
+    assert reach and all(t == "barkgen.synth.engine" for _, t in reach), sorted(reach)

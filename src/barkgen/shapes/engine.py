@@ -47,13 +47,20 @@ from collections.abc import Callable
 
 import numpy as np
 
-from barkgen.pyramid import count_levels, gaussian_pyramid, level_shape
-from barkgen.synth.config import SynthesisConfig
-from barkgen.synth.guide import label_pyramid, level_guide
-from barkgen.synth.initialization import smart_initialization
 from barkgen._shared.arrays import ProgressCallback
-from barkgen.synth.engine import AnalysisCache, Guidance, LabelBalance, matching_features, solve
-from barkgen.synth.tbn import guide_channels
+from barkgen.pyramid import count_levels, gaussian_pyramid, level_shape
+from barkgen.synth.engine import (
+    AnalysisCache,
+    Guidance,
+    LabelBalance,
+    SynthesisConfig,
+    guide_channels,
+    label_pyramid,
+    level_guide,
+    matching_features,
+    smart_initialization,
+    solve,
+)
 
 #: the solver for label maps: the pyramid stops where label regions still exist (as for
 #: texture-by-numbers); one-hot channels need few appearance dimensions

@@ -221,3 +221,43 @@ def level_guide(exemplar_labels: np.ndarray, target_labels: np.ndarray, n_labels
                       pool_start=np.asarray(start, np.int32),
                       expected_use=np.ascontiguousarray(expected))
 
+
+#: px of Gaussian blur of the label indicators that make the guide channels
+GUIDE_BLUR = 1.0
+#: a label covering a fraction f of the exemplar weighs up to 1 / sqrt(f * n_labels) more
+RARE_LABEL_BOOST = 16.0
+#: more labels than this are compressed to this many guide channels (PCA)
+MAX_GUIDE_CHANNELS = 8
+
+
+def guide_channels(exemplar_codes: np.ndarray, target_codes: np.ndarray, n_labels: int,
+                   scale: float) -> tuple[np.ndarray, np.ndarray]:
+    """Soft-label guide channels of the exemplar (``A``) and the target (``B``): each label's
+    indicator, blurred by a Gaussian of :data:`GUIDE_BLUR` px (a boundary one pixel off then costs
+    little), weighted up when the label is rare and multiplied by ``scale``; with more than
+    :data:`MAX_GUIDE_CHANNELS` labels, both are projected on the exemplar's first principal
+    axes."""
+    import cv2
+
+    # rare labels weigh more (up to RARE_LABEL_BOOST), so that small features such as lenticels
+    # are not traded away; the mean cost per pixel stays ``scale ** 2``
+    freq = np.bincount(exemplar_codes.ravel(), minlength=n_labels) / exemplar_codes.size
+    boost = np.clip(1.0 / np.sqrt(np.maximum(freq, 1e-9) * n_labels), 1.0, RARE_LABEL_BOOST)
+    boost /= np.sqrt(np.sum(freq * boost**2))
+
+    def soft(codes: np.ndarray) -> np.ndarray:
+        chans = [cv2.GaussianBlur((codes == lab).astype(np.float32), (0, 0), GUIDE_BLUR,
+                                  borderType=cv2.BORDER_REFLECT_101) * np.float32(boost[lab])
+                 for lab in range(n_labels)]
+        return np.stack(chans, axis=-1)
+
+    ga, gb = soft(exemplar_codes), soft(target_codes)
+    if n_labels > MAX_GUIDE_CHANNELS:
+        flat = ga.reshape(-1, n_labels)
+        mean = flat.mean(axis=0)
+        _, _, vt = np.linalg.svd((flat - mean)[:: max(1, len(flat) // 20000)], full_matrices=False)
+        basis = vt[:MAX_GUIDE_CHANNELS].T.astype(np.float32)
+        ga = (ga - mean) @ basis
+        gb = (gb - mean) @ basis
+    return (np.ascontiguousarray(ga * np.float32(scale), dtype=np.float32),
+            np.ascontiguousarray(gb * np.float32(scale), dtype=np.float32))

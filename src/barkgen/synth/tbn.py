@@ -29,7 +29,13 @@ from barkgen.errors import InvalidInputError
 from barkgen.pyramid import count_levels, gaussian_pyramid, level_shape
 from barkgen.synth.config import SynthesisConfig
 from barkgen.synth.edges import resolve_exemplar_wrap
-from barkgen.synth.guide import boundary_distance, encode_label_maps, label_pyramid, level_guide
+from barkgen.synth.guide import (
+    boundary_distance,
+    encode_label_maps,
+    guide_channels,
+    label_pyramid,
+    level_guide,
+)
 from barkgen.synth.initialization import random_initialization, smart_initialization
 from barkgen._shared.arrays import ProgressCallback, as_uint8
 from barkgen.synth.engine import (
@@ -58,13 +64,6 @@ TBN_CONFIG = SynthesisConfig(coarsest_exemplar=32, schedule_coarsest=((9, 3), (7
 #: ``init_level`` says otherwise: its coarser structure is kept, the solver refines the finer levels
 REFERENCE_START_LEVEL = 2
 
-#: px of Gaussian blur of the label indicators that make the guide channels
-GUIDE_BLUR = 1.0
-#: a label covering a fraction f of the exemplar weighs up to 1 / sqrt(f * n_labels) more
-RARE_LABEL_BOOST = 16.0
-#: more labels than this are compressed to this many guide channels (PCA)
-MAX_GUIDE_CHANNELS = 8
-
 #: the feature-distance channel measures up to this many (full-resolution) pixels from an edge
 FEATURE_DISTANCE_CLIP = 16.0
 
@@ -77,39 +76,6 @@ def feature_distance_channel(exemplar_labels: np.ndarray, colour_variance: float
     dist = boundary_distance(exemplar_labels, FEATURE_DISTANCE_CLIP)
     scale = np.sqrt(max(feature_weight, 0.0) * colour_variance) / FEATURE_DISTANCE_CLIP
     return (dist * np.float32(scale))[:, :, None]
-
-
-def guide_channels(exemplar_codes: np.ndarray, target_codes: np.ndarray, n_labels: int,
-                   scale: float) -> tuple[np.ndarray, np.ndarray]:
-    """Soft-label guide channels of the exemplar (``A``) and the target (``B``): each label's
-    indicator, blurred by a Gaussian of :data:`GUIDE_BLUR` px (a boundary one pixel off then costs
-    little), weighted up when the label is rare and multiplied by ``scale``; with more than
-    :data:`MAX_GUIDE_CHANNELS` labels, both are projected on the exemplar's first principal
-    axes."""
-    import cv2
-
-    # rare labels weigh more (up to RARE_LABEL_BOOST), so that small features such as lenticels
-    # are not traded away; the mean cost per pixel stays ``scale ** 2``
-    freq = np.bincount(exemplar_codes.ravel(), minlength=n_labels) / exemplar_codes.size
-    boost = np.clip(1.0 / np.sqrt(np.maximum(freq, 1e-9) * n_labels), 1.0, RARE_LABEL_BOOST)
-    boost /= np.sqrt(np.sum(freq * boost**2))
-
-    def soft(codes: np.ndarray) -> np.ndarray:
-        chans = [cv2.GaussianBlur((codes == lab).astype(np.float32), (0, 0), GUIDE_BLUR,
-                                  borderType=cv2.BORDER_REFLECT_101) * np.float32(boost[lab])
-                 for lab in range(n_labels)]
-        return np.stack(chans, axis=-1)
-
-    ga, gb = soft(exemplar_codes), soft(target_codes)
-    if n_labels > MAX_GUIDE_CHANNELS:
-        flat = ga.reshape(-1, n_labels)
-        mean = flat.mean(axis=0)
-        _, _, vt = np.linalg.svd((flat - mean)[:: max(1, len(flat) // 20000)], full_matrices=False)
-        basis = vt[:MAX_GUIDE_CHANNELS].T.astype(np.float32)
-        ga = (ga - mean) @ basis
-        gb = (gb - mean) @ basis
-    return (np.ascontiguousarray(ga * np.float32(scale), dtype=np.float32),
-            np.ascontiguousarray(gb * np.float32(scale), dtype=np.float32))
 
 
 def _label_colours(n_labels: int) -> np.ndarray:
@@ -159,9 +125,8 @@ def texture_by_numbers(
 ) -> SynthesisResult:
     """Synthesize a texture that follows ``target_labels`` from ``exemplar`` and its labels.
 
-    Texture-by-numbers (image analogies, A : A' :: B : B'): the discrete solver guided by the
-    label maps of the exemplar and of the wanted output, started from a region-growing
-    initialisation (laitoch2018 §3.4.2), with a feature-distance channel (eq. 3.3).
+    Texture-by-numbers (A : A' :: B : B'): the discrete solver guided by both label maps,
+    started by region growing (laitoch2018 §3.4.2), with a feature-distance channel (eq. 3.3).
 
     Parameters
     ----------
@@ -180,16 +145,12 @@ def texture_by_numbers(
         ``z`` of eq. 3.3: weight of the feature-distance channel, same units.
     init : {"smart", "random"} or ndarray, optional
         ``"smart"`` (§3.4.2, region growing), ``"random"`` (§3.4.1), or an ``(H, W, 2)``
-        reference map (exemplar ``(y, x)`` per output pixel) to start from, e.g. the references
-        of a label map synthesized from ``exemplar_labels``
-        (:class:`barkgen.shapes.LabelMapResult`), whose labels then already match.
+        reference map to start from, e.g. a :class:`barkgen.shapes.LabelMapResult`'s.
     init_level : int, optional
         The pyramid level (0 = finest) a reference map ``init`` is taken up at; the solver
         refines it there and below (the coarsest level when the pyramid is shorter).
-    tile : bool, optional
-        Make the output wrap seamlessly (the target label map is read as a torus too).
-    seed : int, optional
-        Seeds the one ``numpy.random.Generator`` behind every random choice.
+    tile, seed
+        As for :func:`barkgen.synthesize` (with ``tile`` the target is read as a torus too).
     extra : mapping of str to ndarray, optional
         Named maps aligned with the exemplar (height, ...), synthesized along.
     config : SynthesisConfig, optional
@@ -197,8 +158,7 @@ def texture_by_numbers(
     progress : callable, optional
         ``progress(done, total)``, called after each unit of work.
     debug : callable, optional
-        ``debug(name, image)`` receiving the pyramid levels, label maps, the initialisation and
-        each level's result as uint8 images.
+        ``debug(name, image)`` receives intermediate images (uint8).
     cache : AnalysisCache, optional
         Holds (or keeps) the exemplar's k-coherence analysis, e.g. from
         :func:`analyse_texture_by_numbers`.
@@ -213,11 +173,8 @@ def texture_by_numbers(
 
     Raises
     ------
-    InvalidInputError
-        Bad shapes, label maps that do not fit (size, label set, more than 64 labels) or bad
-        parameters.
-    MemoryBudgetError
-        The estimated memory exceeds ``config.max_memory``.
+    InvalidInputError, MemoryBudgetError
+        As :func:`barkgen.synthesize`; also label maps that do not fit (size, label set).
 
     References
     ----------
@@ -226,28 +183,11 @@ def texture_by_numbers(
 
     Examples
     --------
-    >>> import numpy as np
-    >>> from barkgen import texture_by_numbers
-    >>> rng = np.random.default_rng(0)
-    >>> exemplar = rng.integers(0, 256, (64, 64, 3), dtype=np.uint8)
-    >>> labels = np.where(np.arange(64)[:, None] < 32, 0, 255).repeat(64, axis=1).astype(np.uint8)
-    >>> target = np.where(np.arange(80)[None, :] < 40, 0, 255).repeat(80, axis=0).astype(np.uint8)
-    >>> texture_by_numbers(exemplar, labels, target, seed=0).image.shape
-    (80, 80, 3)
+    See ``examples/03_texture_by_numbers.py``.
+
     """
     config = config or TBN_CONFIG
-    if not isinstance(init_level, (int, np.integer)) or init_level < 0:
-        raise InvalidInputError(f"init_level must be a pyramid level >= 0, not {init_level!r}")
-    if isinstance(init, str) and init not in INITIALIZATIONS:
-        raise InvalidInputError(f"init must be one of {', '.join(INITIALIZATIONS)} or a reference "
-                                f"map, not {init!r}")
-    for name, value in (("label_weight", label_weight), ("feature_weight", feature_weight)):
-        if not isinstance(value, (int, float, np.number)) or not np.isfinite(value) or value < 0:
-            raise InvalidInputError(f"{name} must be a non-negative number, not {value!r}")
-    target = np.asarray(target_labels)
-    if target.ndim not in (2, 3):
-        raise InvalidInputError(f"target label map must be an (H, W) or (H, W, C) image, not "
-                                f"shape {target.shape}")
+    target = _check_arguments(target_labels, init, init_level, label_weight, feature_weight)
     ex, out_shape, extras = validate_inputs(exemplar, target.shape[:2], seed, extra)
     wrap = resolve_exemplar_wrap(exemplar_wrap, ex)
     labels = encode_label_maps(exemplar_labels, target, ex.shape[:2])
@@ -265,12 +205,7 @@ def texture_by_numbers(
     guides = [level_guide(a, b, labels.n_labels) for a, b in zip(pyr_a, pyr_b)]
 
     if debug is not None:
-        colours = _label_colours(labels.n_labels)
-        for lvl, (a, b) in enumerate(zip(pyr_a, pyr_b)):
-            debug(f"level{lvl}_exemplar_labels", colours[a])
-            debug(f"level{lvl}_target_labels", colours[b])
-        debug("feature_distance", as_uint8(
-            boundary_distance(labels.exemplar, FEATURE_DISTANCE_CLIP) / FEATURE_DISTANCE_CLIP))
+        _show_labels(debug, labels, pyr_a, pyr_b)
 
     start = None
     if not isinstance(init, str):
@@ -290,6 +225,34 @@ def texture_by_numbers(
     if np.asarray(exemplar).ndim == 2:
         result.image = result.image[:, :, 0]
     return result
+
+
+def _check_arguments(target_labels, init, init_level, label_weight: float,
+                     feature_weight: float) -> np.ndarray:
+    """:func:`texture_by_numbers`' own arguments checked; the target label map as an array."""
+    if not isinstance(init_level, (int, np.integer)) or init_level < 0:
+        raise InvalidInputError(f"init_level must be a pyramid level >= 0, not {init_level!r}")
+    if isinstance(init, str) and init not in INITIALIZATIONS:
+        raise InvalidInputError(f"init must be one of {', '.join(INITIALIZATIONS)} or a reference "
+                                f"map, not {init!r}")
+    for name, value in (("label_weight", label_weight), ("feature_weight", feature_weight)):
+        if not isinstance(value, (int, float, np.number)) or not np.isfinite(value) or value < 0:
+            raise InvalidInputError(f"{name} must be a non-negative number, not {value!r}")
+    target = np.asarray(target_labels)
+    if target.ndim not in (2, 3):
+        raise InvalidInputError(f"target label map must be an (H, W) or (H, W, C) image, not "
+                                f"shape {target.shape}")
+    return target
+
+
+def _show_labels(debug: DebugCallback, labels, pyr_a: list, pyr_b: list) -> None:
+    """The label pyramids and the feature-distance map, to the ``debug`` callback."""
+    colours = _label_colours(labels.n_labels)
+    for lvl, (a, b) in enumerate(zip(pyr_a, pyr_b)):
+        debug(f"level{lvl}_exemplar_labels", colours[a])
+        debug(f"level{lvl}_target_labels", colours[b])
+    debug("feature_distance", as_uint8(
+        boundary_distance(labels.exemplar, FEATURE_DISTANCE_CLIP) / FEATURE_DISTANCE_CLIP))
 
 
 def _matching_features(ex: np.ndarray, extras: Mapping[str, np.ndarray], exemplar_codes: np.ndarray,
