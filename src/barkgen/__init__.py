@@ -2,6 +2,37 @@
 
 The public API is imported lazily so that ``import barkgen`` (and the CLI's start-up) stays
 cheap: numba kernels compile (once, cached on disk) only when first used.
+
+Public names
+------------
+Synthesis (:mod:`barkgen.synth`)
+    :func:`synthesize`, :func:`texture_by_numbers`, :func:`apply_references`,
+    :class:`SynthesisConfig`, :class:`SynthesisResult`.
+The one-click pipeline (:mod:`barkgen.pipeline`)
+    :func:`generate`, :class:`GenerateOptions`, :class:`GenerateResult`.
+Label maps (:mod:`barkgen.shapes`, :mod:`barkgen.labels`)
+    :func:`synthesize_label_map`.
+Material maps and the trunk (:mod:`barkgen.material`, :mod:`barkgen.render`)
+    :func:`make_material`, :class:`MaterialOptions`, :class:`MaterialSet`,
+    :class:`HeightEditor`, :func:`render_trunk`, :func:`trunk_mesh`.
+Files (:mod:`barkgen.io`) and data
+    :func:`read_image`, :func:`write_png`, :func:`sample_exemplar_path`.
+Errors (:mod:`barkgen.errors`)
+    :class:`BarkgenError`.
+``__version__``
+    The package version.
+
+More in the subpackages: :mod:`barkgen.labels`, :mod:`barkgen.bilayer`,
+:mod:`barkgen.branching`, :mod:`barkgen.batch` (``[batch]`` extra), :mod:`barkgen.library`;
+``examples/`` in the repository has one script per feature, and ``docs/references.bib`` the
+papers the docstrings cite (laitoch2018, mazzolini2012, wang2003, guingo2017, sibbing2010, ...).
+
+Examples
+--------
+>>> import barkgen
+>>> exemplar = barkgen.read_image(barkgen.sample_exemplar_path())[:64, :64]
+>>> barkgen.synthesize(exemplar, (48, 80), seed=1).image.shape
+(48, 80, 3)
 """
 
 from __future__ import annotations

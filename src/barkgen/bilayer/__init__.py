@@ -1,13 +1,24 @@
 """Bi-layer textures (guingo2017): a structure layer plus spatially varying Gaussian noise,
 analysed from one photo and synthesized window by window over an unbounded plane.
 
-    >>> from barkgen.bilayer import analyze, AnalysisOptions
-    >>> model = analyze(photo, AnalysisOptions(k=2, tloc=8))
-    >>> texture = model.window(0, 0, 1024, 1024, seed=1)
+:func:`analyze` makes a :class:`BilayerModel` (options: :class:`AnalysisOptions`);
+:meth:`BilayerModel.window` synthesizes any window (options: :class:`SynthesisOptions`,
+:class:`Deformation`); :func:`tune_sheet` and :func:`analysis_preview` are pictures for the
+user; the model's file is written and read by :mod:`barkgen.io`.
 
-References:
-    Guingo, Sauvage, Dischler, Cani (2017), Bi-Layer textures: a model for synthesis and
-    deformation of composite textures, Computer Graphics Forum 36(4).
+References
+----------
+.. [1] guingo2017: Guingo, Sauvage, Dischler, Cani (2017), Bi-Layer textures: a model for
+   synthesis and deformation of composite textures, Computer Graphics Forum 36(4).
+
+Examples
+--------
+>>> import barkgen
+>>> from barkgen.bilayer import analyze, AnalysisOptions
+>>> photo = barkgen.read_image(barkgen.sample_exemplar_path())[:64, :64]
+>>> model = analyze(photo, AnalysisOptions(k=2, tloc=8))
+>>> model.window(0, 0, 96, 64, seed=1).shape
+(64, 96, 3)
 """
 
 from barkgen.bilayer.analysis import analyze

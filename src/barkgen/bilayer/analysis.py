@@ -133,9 +133,39 @@ def analyze(exemplar: np.ndarray, options: AnalysisOptions | None = None, *,
             progress: Callable[[int, int], None] | None = None):
     """Instantiate the bi-layer model from one exemplar (guingo2017 Fig. 4, left).
 
-    Returns a :class:`~barkgen.bilayer.BilayerModel`. The colour is analysed through its
-    luminance (CIELAB L): local spectra, masks and the filter's guide come from it; ``P`` and
-    ``N`` are colour layers (§6).
+    The colour is analysed through its luminance (CIELAB L): local spectra, masks and the
+    filter's guide come from it; ``P`` and ``N`` are colour layers (§6).
+
+    Parameters
+    ----------
+    exemplar : ndarray, shape (h, w) or (h, w, C)
+        The photo: uint8, uint16 or float in [0, 1], at least 32 px a side.
+    options : AnalysisOptions, optional
+        ``k``, ``tloc`` and the filter's parameters.
+    progress : callable, optional
+        ``progress(done, total)`` callback over the four steps.
+
+    Returns
+    -------
+    BilayerModel
+        Structure, masks, labels and noise statistics of the exemplar.
+
+    Raises
+    ------
+    InvalidInputError
+        An exemplar that is too small or not an image.
+
+    References
+    ----------
+    .. [1] guingo2017, §3.3 (masks and spectra), §5 (the structure by a joint bilateral filter),
+       §6 (colour, borders, equalisation).
+
+    Examples
+    --------
+    >>> import barkgen
+    >>> photo = barkgen.read_image(barkgen.sample_exemplar_path())[:64, :64]
+    >>> analyze(photo, AnalysisOptions(k=2, tloc=4)).masks.shape
+    (64, 64, 2)
     """
     from barkgen.color import rgb_to_lab
 

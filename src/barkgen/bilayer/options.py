@@ -20,28 +20,47 @@ MASK_KINDS = ("binary", "barycentric")
 class AnalysisOptions:
     """Parameters of the analysis (guingo2017 §5: only ``k`` and ``tloc`` are the user's).
 
-    Attributes:
-        k: number of stationary noises (clusters of local spectra), 1-8.
-        tloc: local spectrum window, one of 2, 4, 8, 16 (``barkgen bilayer tune`` shows them).
-        masks: ``"binary"`` (a pixel belongs to its nearest cluster; sharp noise transitions,
-            the paper's choice for its results) or ``"barycentric"`` (convex weights from the
-            distances to the cluster centres; smooth transitions).
-        spectrum_size: size T of the global spectra (64 in the paper).
-        equalize: store per-cluster, per-channel noise quantiles and equalise the synthesized
-            noise's histogram to them (§6, for non-Gaussian noise).
-        border: width in px of the band along mask borders where ``N`` is forced to 0, so
-            sharp borders stay in ``P`` (§6, Fig. 16); 0 disables it.
-        iterations, radius, sigma_range: the joint bilateral filter (§5: 5 iterations,
-            16 px neighbourhoods). ``sigma_range`` is in the units of
-            :func:`~barkgen.bilayer.local_spectra` (a spectrum's norm is the local RMS of the
-            luminance in [0, 1]); the paper's 0.01 is in units it does not give. 0.001 keeps
-            bark's cracks, fissures and the sharp edges of its plates in ``P`` and leaves the
-            fine grain to ``N`` (at 0.002 the filter softens the edges and their remainder
-            goes into ``N``, where fresh noise cannot line up with them again: fir's finest
-            band loses 12 % of its energy); raise it to move more into the noise.
-        core: fraction of each cluster, closest to its centre, used to estimate its spectrum
-            (§3.3: 90 %).
-        seed: seed of the K-means initialisation.
+    Parameters
+    ----------
+    k : int, default 2
+        Number of stationary noises (clusters of local spectra), 1-8.
+    tloc : {2, 4, 8, 16}, default 4
+        Local spectrum window (``barkgen bilayer tune`` shows them).
+    masks : {"binary", "barycentric"}, default "binary"
+        ``"binary"``: a pixel belongs to its nearest cluster (sharp noise transitions, the
+        paper's choice for its results); ``"barycentric"``: convex weights from the distances to
+        the cluster centres (smooth transitions).
+    spectrum_size : int, default SPECTRUM_SIZE
+        Size T of the global spectra (64 in the paper).
+    equalize : bool, default False
+        Store per-cluster, per-channel noise quantiles and equalise the synthesized noise's
+        histogram to them (§6, for non-Gaussian noise).
+    border : int, default 0
+        Width in px of the band along mask borders where ``N`` is forced to 0, so sharp borders
+        stay in ``P`` (§6, Fig. 16); 0 disables it.
+    iterations, radius : int, default 5, 8
+        The joint bilateral filter (§5: 5 iterations, 16 px neighbourhoods).
+    sigma_range : float, default 0.001
+        The filter's range sigma, in the units of :func:`~barkgen.bilayer.local_spectra` (a
+        spectrum's norm is the local RMS of the luminance in [0, 1]); the paper's 0.01 is in
+        units it does not give. 0.001 keeps bark's cracks, fissures and the sharp edges of its
+        plates in ``P`` and leaves the fine grain to ``N`` (at 0.002 the filter softens the
+        edges and their remainder goes into ``N``, where fresh noise cannot line up with them
+        again: fir's finest band loses 12 % of its energy); raise it to move more into the noise.
+    core : float, default 0.9
+        Fraction of each cluster, closest to its centre, used to estimate its spectrum (§3.3:
+        90 %).
+    seed : int, default 0
+        Seed of the K-means initialisation.
+
+    Raises
+    ------
+    InvalidInputError
+        Any value out of range.
+
+    References
+    ----------
+    .. [1] guingo2017, §3.3, §5, §6.
     """
 
     k: int = 2
@@ -77,22 +96,40 @@ class AnalysisOptions:
 class SynthesisOptions:
     """How the structure is tiled (guingo2017 §4).
 
-    Attributes:
-        tile_size: Wang tile side in px (default: about a quarter of the exemplar's side).
-        colours: edge colours per direction (``colours**4`` tiles).
-        variants: exchanged contents per tile.
-        deformation: rotations and zooms of the structure's samples.
-        warp: turbulence of the structure (Fig. 10): a smooth random displacement of up to
-            ``warp`` tile sizes that bends the straight seams of the tile grid (0: none). It
-            also bends each tile's content, so that no large piece of the output is a
-            pixel-exact copy of the exemplar (texeval's largest copy on four barks, default tile
-            size: 0.038-0.043 of the exemplar at 0.1, 0.050-0.056 at 0).
-        compensate: with a deformation, give the noise the power the deformed structure lost
-            (see :func:`compensated_noise`), so fine detail keeps the photo's scale; ``False``
-            is the paper's synthesis, the noise exactly as analysed.
-        blend: blend the structure's seams inside each tile in the gradient domain
-            (sibbing2010 §5), so a graph cut across a furrow leaves no step; ``False`` keeps
-            the graph cuts alone.
+    Parameters
+    ----------
+    tile_size : int, optional
+        Wang tile side in px, even and >= 8 (default: about a quarter of the exemplar's side).
+    colours : int, default 3
+        Edge colours per direction (``colours**4`` tiles), 1-4.
+    variants : int, default 4
+        Exchanged contents per tile, 1-16.
+    deformation : Deformation, default Deformation()
+        Rotations and zooms of the structure's samples.
+    warp : float, default 0.1
+        Turbulence of the structure (Fig. 10): a smooth random displacement of up to ``warp``
+        tile sizes that bends the straight seams of the tile grid (0: none). It also bends each
+        tile's content, so that no large piece of the output is a pixel-exact copy of the
+        exemplar (texeval's largest copy on four barks, default tile size: 0.038-0.043 of the
+        exemplar at 0.1, 0.050-0.056 at 0).
+    compensate : bool, default True
+        With a deformation, give the noise the power the deformed structure lost (see
+        :func:`compensated_noise`), so fine detail keeps the photo's scale; ``False`` is the
+        paper's synthesis, the noise exactly as analysed.
+    blend : bool, default True
+        Blend the structure's seams inside each tile in the gradient domain (sibbing2010 §5), so
+        a graph cut across a furrow leaves no step; ``False`` keeps the graph cuts alone.
+
+    Raises
+    ------
+    InvalidInputError
+        Any value out of range.
+
+    References
+    ----------
+    .. [1] guingo2017, §4 (synthesis and deformation).
+    .. [2] cohen2003 (Wang tiles); vanhoey2013 (content exchange).
+    .. [3] sibbing2010, §5 (seams blended in the gradient domain, after perez2003).
     """
 
     tile_size: int | None = None

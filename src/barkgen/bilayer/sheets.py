@@ -33,7 +33,24 @@ def spectrum_picture(spectrum: np.ndarray) -> np.ndarray:
 
 
 def analysis_preview(model, synthesized: np.ndarray | None = None) -> np.ndarray:
-    """Exemplar, P, N, masks and every cluster's spectrum (first PCA channel) on one sheet."""
+    """Exemplar, P, N, masks and every cluster's spectrum (first PCA channel) on one sheet.
+
+    Parameters
+    ----------
+    model : BilayerModel
+        The analysed model.
+    synthesized : ndarray, optional
+        A synthesis to show as the last picture.
+
+    Returns
+    -------
+    ndarray of uint8, shape (H, W, 3)
+        The captioned sheet, four pictures a row.
+
+    References
+    ----------
+    .. [1] guingo2017, Fig. 4.
+    """
     from barkgen.labels.preview import contact_sheet
 
     tiles = [_u8(model.exemplar), _u8(model.structure), noise_picture(model.noise_layer),
@@ -50,9 +67,33 @@ def analysis_preview(model, synthesized: np.ndarray | None = None) -> np.ndarray
 
 def tune_sheet(exemplar: np.ndarray, options=None, *, tlocs=TLOC_CHOICES, seed: int = 0,
                progress=None) -> np.ndarray:
-    """guingo2017 Fig. 14: for each T_loc a row of P, N and a synthesized sample of twice the
-    exemplar's width (the same seed for all rows), so the user can pick the largest T_loc
-    whose synthesis still looks right."""
+    """The T_loc choice sheet of guingo2017 Fig. 14.
+
+    For each T_loc a row of P, N and a synthesized sample of twice the exemplar's width (the same
+    seed for all rows), so the user can pick the largest T_loc whose synthesis still looks right.
+
+    Parameters
+    ----------
+    exemplar : ndarray
+        The photo.
+    options : AnalysisOptions, optional
+        The analysis options (``tloc`` is replaced by each of ``tlocs``).
+    tlocs : sequence of int, default TLOC_CHOICES
+        The windows compared.
+    seed : int, default 0
+        Seed of the samples.
+    progress : callable, optional
+        ``progress(done, total)`` over the windows.
+
+    Returns
+    -------
+    ndarray of uint8, shape (H, W, 3)
+        The captioned sheet, one row per T_loc.
+
+    References
+    ----------
+    .. [1] guingo2017, §5 and Fig. 14 (choosing T_loc).
+    """
     from barkgen.bilayer.analysis import analyze
     from barkgen.bilayer.options import AnalysisOptions
     from barkgen.labels.preview import contact_sheet

@@ -35,7 +35,7 @@ def _window(t: int) -> np.ndarray:
 
 
 def local_spectra(luminance: np.ndarray, tloc: int) -> np.ndarray:
-    """Local spectrum of every pixel, ``(H, W, D)`` float32 (guingo2017 §3.3, Fig. 6a).
+    """Local spectrum of every pixel (guingo2017 §3.3, Fig. 6a).
 
     Welch's method: the modified (Hann-tapered) periodograms of all ``tloc x tloc`` windows
     within a ``2 tloc`` neighbourhood of the pixel are averaged. Each of the ``tloc *
@@ -44,6 +44,29 @@ def local_spectra(luminance: np.ndarray, tloc: int) -> np.ndarray:
     is the local mean power (the mean intensity included, as in the paper, which clusters
     ``I`` and not ``N``); Euclidean distances between vectors are distances between full
     spectra.
+
+    Parameters
+    ----------
+    luminance : ndarray, shape (H, W)
+        The image's luminance in [0, 1].
+    tloc : {2, 4, 8, 16}
+        Window size.
+
+    Returns
+    -------
+    ndarray of float32, shape (H, W, D)
+        ``D = tloc * (tloc // 2 + 1)``.
+
+    References
+    ----------
+    .. [1] guingo2017, §3.3 and Fig. 6a (local spectra).
+    .. [2] welch1967 (averaged modified periodograms).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> local_spectra(np.zeros((32, 32)), 4).shape
+    (32, 32, 12)
     """
     import cv2
 
@@ -108,6 +131,29 @@ def estimate_spectrum(signal: np.ndarray, mask: np.ndarray, size: int = SPECTRUM
     instead of ``|M ∩ Y|``, so holes in the mask do not bias long lags towards zero; a Parzen
     lag window (non-negative transform) over lags ``< size / 2`` turns the correlation into a
     smooth, non-negative power spectrum.
+
+    Parameters
+    ----------
+    signal : ndarray, shape (H, W)
+        The noise (one channel).
+    mask : ndarray of bool, shape (H, W)
+        Where the noise is seen.
+    size : int, default SPECTRUM_SIZE
+        Side T of the spectrum.
+
+    Returns
+    -------
+    ndarray, shape (size, size)
+        Magnitudes, zero frequency at ``[0, 0]``; ``mean(S**2)`` is the noise's variance.
+
+    Raises
+    ------
+    InvalidInputError
+        A signal that is not 2-D or a mask of another shape.
+
+    References
+    ----------
+    .. [1] guingo2017, §3.3, eq. 3-5 (spectrum estimation with missing data).
     """
     signal = np.asarray(signal, np.float64)
     mask = np.asarray(mask, bool)

@@ -40,11 +40,34 @@ from barkgen.errors import InvalidInputError
 class Deformation:
     """Deformations of the structure's samples (guingo2017 §4).
 
-    Attributes:
-        rotate: largest rotation of a sample in degrees (0: none; 180: any angle).
-        scale: ``(min, max)`` zoom of a sample (output px per exemplar px).
-        keep_vertical: rotate only about the upright (0° or 180° plus up to ``rotate``
-            degrees), for bark whose furrows run vertically.
+    Parameters
+    ----------
+    rotate : float, default 0.0
+        Largest rotation of a sample in degrees (0: none; 180: any angle).
+    scale : (float, float), default (1.0, 1.0)
+        ``(min, max)`` zoom of a sample (output px per exemplar px), 0.25 <= min <= max <= 4.
+    keep_vertical : bool, default False
+        Rotate only about the upright (0° or 180° plus up to ``rotate`` degrees), for bark whose
+        furrows run vertically.
+
+    Attributes
+    ----------
+    active : bool
+        Any deformation at all.
+
+    Raises
+    ------
+    InvalidInputError
+        Angles or scales out of range.
+
+    References
+    ----------
+    .. [1] guingo2017, §4 (deformations: the structure moves, the noise keeps its scale).
+
+    Examples
+    --------
+    >>> Deformation(rotate=15, scale=(1, 1.5)).active
+    True
     """
 
     rotate: float = 0.0

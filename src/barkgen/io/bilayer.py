@@ -21,7 +21,20 @@ _ARRAYS = ("exemplar", "structure", "masks", "labels", "spectra", "bases", "mean
 
 
 def encode_bilayer_model(model) -> bytes:
-    """The bytes of a model file."""
+    """The bytes of a bi-layer model file: a compressed ``.npz``.
+
+    A JSON header (format name, version, barkgen version, the analysis options) and the model's
+    arrays (exemplar, structure, masks, labels and the noise statistics); no pickles.
+
+    Parameters
+    ----------
+    model : BilayerModel
+        The model (:func:`barkgen.bilayer.analyze`).
+
+    Returns
+    -------
+    bytes
+    """
     from barkgen._version import __version__
 
     header = {"format": FORMAT, "version": VERSION, "barkgen": __version__,
@@ -37,7 +50,20 @@ def encode_bilayer_model(model) -> bytes:
 
 
 def write_bilayer_model(path: str | os.PathLike, model) -> Path:
-    """Write ``model`` (:class:`~barkgen.bilayer.BilayerModel`) to ``path``, atomically."""
+    """Write ``model`` (:class:`~barkgen.bilayer.BilayerModel`) to ``path``, atomically.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        The file (``.npz``).
+    model : BilayerModel
+        The model.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     return write_bytes_atomic(path, encode_bilayer_model(model))
 
 
@@ -46,7 +72,27 @@ def _bad(path, why: str) -> InvalidInputError:
 
 
 def read_bilayer_model(path: str | os.PathLike):
-    """Read and validate a model file; any defect is one clear :class:`InvalidInputError`."""
+    """Read and validate a bi-layer model file.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        A file written by :func:`write_bilayer_model`.
+
+    Returns
+    -------
+    BilayerModel
+
+    Raises
+    ------
+    InvalidInputError
+        A missing file, a file that is not a model, of another version, or with missing or
+        inconsistent arrays (one clear line).
+
+    References
+    ----------
+    .. [1] guingo2017 (the model's layers and statistics).
+    """
     from barkgen.bilayer.model import BilayerModel, NoiseStatistics
     from barkgen.bilayer.options import AnalysisOptions
 

@@ -14,12 +14,26 @@ STAGING_PREFIXES = (".staging-", ".replaced-")
 
 
 def write_folder_atomic(folder: str | os.PathLike, files: dict[str, bytes]) -> Path:
-    """Make ``folder`` hold exactly ``files``, as one step: they are written in full into a
-    staging folder beside it, which is then renamed to ``folder`` (an older ``folder`` is
-    moved aside first and removed after). An interrupt or a killed process leaves either the
-    old folder or the new one, never a mix or a half-written file; what it may leave is a
-    staging folder (``.staging-*`` / ``.replaced-*`` beside ``folder``), which
-    :func:`remove_staging` clears."""
+    """Make ``folder`` hold exactly ``files``, as one step.
+
+    The files are written in full into a staging folder beside it, which is then renamed to
+    ``folder`` (an older ``folder`` is moved aside first and removed after). An interrupt or a
+    killed process leaves either the old folder or the new one, never a mix or a half-written
+    file; what it may leave is a staging folder (``.staging-*`` / ``.replaced-*`` beside
+    ``folder``), which :func:`remove_staging` clears.
+
+    Parameters
+    ----------
+    folder : str or PathLike
+        The folder to make (its parent is made if missing).
+    files : dict of str to bytes
+        File name -> content.
+
+    Returns
+    -------
+    Path
+        ``folder``.
+    """
     folder = Path(folder)
     folder.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(dir=folder.parent, prefix=f"{STAGING_PREFIXES[0]}{folder.name}-"))
@@ -46,8 +60,20 @@ def write_folder_atomic(folder: str | os.PathLike, files: dict[str, bytes]) -> P
 
 
 def remove_staging(parent: str | os.PathLike) -> int:
-    """Remove the staging folders that interrupted :func:`write_folder_atomic` calls left in
-    ``parent``; returns how many. Call it only when no write into ``parent`` is running."""
+    """Remove the staging folders that interrupted :func:`write_folder_atomic` calls left.
+
+    Call it only when no write into ``parent`` is running.
+
+    Parameters
+    ----------
+    parent : str or PathLike
+        The folder holding the targets.
+
+    Returns
+    -------
+    int
+        How many staging folders were removed.
+    """
     parent = Path(parent)
     removed = 0
     if parent.is_dir():

@@ -25,7 +25,7 @@ _PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 
 class AlphaDroppedWarning(UserWarning):
-    """An input image had an alpha channel, which barkgen ignores."""
+    """An input image had an alpha channel, which barkgen ignores (a ``UserWarning``)."""
 
 
 def _check_file(path: Path) -> bytes:
@@ -43,8 +43,22 @@ def _check_file(path: Path) -> bytes:
 
 
 def read_image_bytes(path: str | os.PathLike) -> bytes:
-    """The bytes of an image file, not decoded (with :func:`read_image`'s one-line errors for a
-    missing, empty or unreadable file); :func:`decode_image` decodes them."""
+    """The bytes of an image file, not decoded; :func:`decode_image` decodes them.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        The file.
+
+    Returns
+    -------
+    bytes
+
+    Raises
+    ------
+    ImageReadError
+        A missing, empty or unreadable file (:func:`read_image`'s one-line errors).
+    """
     return _check_file(Path(path))
 
 
@@ -78,9 +92,29 @@ def _png_bit_depth(data: bytes) -> int:
 def read_image(path: str | os.PathLike) -> np.ndarray:
     """Read an image file into an ``(H, W, C)`` uint8/uint16 array (C = 1 or 3).
 
-    Supports PNG, JPEG, TIFF and WebP, 8 and 16 bits per channel, grey, RGB and RGBA (alpha
-    is dropped with an :class:`AlphaDroppedWarning`). Raises :class:`ImageReadError` with a
-    one-line message for a missing, empty, truncated or unreadable file.
+    Supports PNG, JPEG, TIFF and WebP, 8 and 16 bits per channel, grey, RGB and RGBA (alpha is
+    dropped with an :class:`AlphaDroppedWarning`).
+
+    Parameters
+    ----------
+    path : str or PathLike
+        The file; its content decides the format, not its name.
+
+    Returns
+    -------
+    ndarray of uint8 or uint16, shape (H, W, C)
+
+    Raises
+    ------
+    ImageReadError
+        A missing, empty, truncated or unreadable file (one line).
+
+    Examples
+    --------
+    >>> import barkgen
+    >>> photo = read_image(barkgen.sample_exemplar_path())
+    >>> photo.shape, photo.dtype.name
+    ((1024, 1024, 3), 'uint8')
     """
     path = Path(path)
     return decode_image(_check_file(path), path)
@@ -116,10 +150,31 @@ def _image_size(data: bytes, name) -> tuple[int, int]:
 
 def decode_image(data: bytes, name: str | os.PathLike = "image", *,
                  max_pixels: int | None = None) -> np.ndarray:
-    """Decode the bytes of an image file (what :func:`read_image` reads) into an ``(H, W, C)``
-    uint8/uint16 array; ``name`` is what error messages call it. The content decides the
-    format, never a file name. ``max_pixels``: refuse larger images with
-    :class:`ImageTooLargeError`, read from the header before any pixel is decoded."""
+    """Decode the bytes of an image file (what :func:`read_image` reads).
+
+    The content decides the format, never a file name.
+
+    Parameters
+    ----------
+    data : bytes
+        The file's bytes (PNG, JPEG, TIFF or WebP).
+    name : str or PathLike, default "image"
+        What error messages call it.
+    max_pixels : int, optional
+        Refuse larger images with :class:`ImageTooLargeError`, read from the header before any
+        pixel is decoded.
+
+    Returns
+    -------
+    ndarray of uint8 or uint16, shape (H, W, C), C = 1 or 3
+
+    Raises
+    ------
+    ImageReadError
+        Empty, truncated or undecodable data.
+    ImageTooLargeError
+        More than ``max_pixels`` pixels.
+    """
     path = name
     if not data:
         raise ImageReadError(f"{name}: file is empty (0 bytes)")
@@ -184,7 +239,32 @@ def decode_image(data: bytes, name: str | os.PathLike = "image", *,
 
 
 def to_bits(image: np.ndarray, bits: int) -> np.ndarray:
-    """Convert a uint8/uint16 image to ``bits`` (8 or 16) per channel, rounding."""
+    """Convert a uint8/uint16 image to ``bits`` (8 or 16) per channel, rounding.
+
+    Parameters
+    ----------
+    image : ndarray of uint8 or uint16
+        The image.
+    bits : {8, 16}
+        The depth wanted.
+
+    Returns
+    -------
+    ndarray
+        ``image`` itself when it has that depth already, else a converted copy
+        (8 -> 16 multiplies by 257).
+
+    Raises
+    ------
+    InvalidInputError
+        Another depth or pixel type.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> to_bits(np.array([[255]], np.uint8), 16).tolist()
+    [[65535]]
+    """
     if bits not in (8, 16):
         raise InvalidInputError(f"bit depth must be 8 or 16, not {bits}")
     if image.dtype == np.uint8:
@@ -202,10 +282,28 @@ def _png_text_chunk(key: str, value: str) -> bytes:
 
 def encode_png(image: np.ndarray, *, bits: int | None = None, text: dict[str, str] | None = None,
                compression: int = 1) -> bytes:
-    """Encode an ``(H, W[, C])`` uint8/uint16 array as PNG bytes (optional tEXt metadata).
+    """Encode an ``(H, W[, C])`` uint8/uint16 array as PNG bytes.
 
-    ``compression`` is zlib's level (0-9); on photographic textures level 1 gives files within
-    1 % of level 6's size in half the time.
+    Parameters
+    ----------
+    image : ndarray of uint8 or uint16, shape (H, W) or (H, W, C)
+        Grey, grey + alpha, RGB or RGBA.
+    bits : {8, 16}, optional
+        Convert to this depth first (:func:`to_bits`); default: the array's own.
+    text : dict of str to str, optional
+        tEXt metadata (latin-1).
+    compression : int, default 1
+        zlib's level (0-9); on photographic textures level 1 gives files within 1 % of level 6's
+        size in half the time.
+
+    Returns
+    -------
+    bytes
+
+    Raises
+    ------
+    InvalidInputError
+        Another pixel type or shape.
     """
     import cv2
 
@@ -232,7 +330,17 @@ def encode_png(image: np.ndarray, *, bits: int | None = None, text: dict[str, st
 
 
 def read_png_text(path: str | os.PathLike) -> dict[str, str]:
-    """Return the tEXt metadata of a PNG file (empty for other formats)."""
+    """The tEXt metadata of a PNG file (empty for other formats).
+
+    Parameters
+    ----------
+    path : str or PathLike
+        The file.
+
+    Returns
+    -------
+    dict of str to str
+    """
     data = _check_file(Path(path))
     out: dict[str, str] = {}
     if not data.startswith(_PNG_MAGIC):
@@ -257,16 +365,43 @@ def _umask() -> int:
 
 
 def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
-    """Write ``data`` to ``path`` through a temporary file renamed into place."""
+    """Write ``data`` to ``path`` through a temporary file renamed into place.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        The file; its folder is made if missing.
+    data : bytes
+        The content.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     path = Path(path)
     return write_files_atomic(path.parent, {path.name: data})[0]
 
 
 def write_files_atomic(folder: str | os.PathLike, files: dict[str, bytes]) -> list[Path]:
-    """Write several files into ``folder`` as one step: every file is first written in full to
-    a temporary file beside its target, and only when all are on disk are they renamed into
-    place, so a failure or an interrupt while writing leaves the old set of files untouched
-    (and no temporary file)."""
+    """Write several files into ``folder`` as one step.
+
+    Every file is first written in full to a temporary file beside its target, and only when all
+    are on disk are they renamed into place, so a failure or an interrupt while writing leaves
+    the old set of files untouched (and no temporary file).
+
+    Parameters
+    ----------
+    folder : str or PathLike
+        The folder (made if missing).
+    files : dict of str to bytes
+        File name -> content.
+
+    Returns
+    -------
+    list of Path
+        The files written, in the order given.
+    """
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     staged: list[tuple[str, Path]] = []
@@ -300,15 +435,55 @@ def write_png(
 ) -> Path:
     """Write an image as an 8- or 16-bit PNG, atomically.
 
-    ``bits`` defaults to the array's own depth (uint8 -> 8, uint16 -> 16).
+    Parameters
+    ----------
+    path : str or PathLike
+        The file.
+    image : ndarray of uint8 or uint16, shape (H, W) or (H, W, C)
+        The image.
+    bits : {8, 16}, optional
+        Depth of the file; default: the array's own (uint8 -> 8, uint16 -> 16).
+    text : dict of str to str, optional
+        tEXt metadata.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, os
+    >>> out = write_png(os.path.join(tempfile.mkdtemp(), "grey.png"), np.zeros((4, 6), np.uint8))
+    >>> read_image(out).shape
+    (4, 6, 1)
     """
     return write_bytes_atomic(path, encode_png(image, bits=bits, text=text))
 
 
 def read_centre_crop(path: str | os.PathLike, size: int) -> np.ndarray:
-    """The ``size x size`` RGB uint8 centre crop of an image file, its short side resized to
-    ``size`` first with Lanczos (as the team's compare.py prepares exemplars, decoded by Pillow);
-    the benchmarks' and tests' way of reading a photo of ``../shared/data``."""
+    """The ``size x size`` RGB centre crop of an image file, its short side resized to ``size`` first.
+
+    Lanczos resampling, decoded by Pillow, as the team's compare.py prepares exemplars: the
+    benchmarks' and tests' way of reading a photo of ``../shared/data``.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        The image file.
+    size : int
+        Side of the crop in pixels.
+
+    Returns
+    -------
+    ndarray of uint8, shape (size, size, 3)
+
+    Examples
+    --------
+    >>> import barkgen
+    >>> read_centre_crop(barkgen.sample_exemplar_path(), 128).shape
+    (128, 128, 3)
+    """
     from PIL import Image
 
     im = Image.open(path).convert("RGB")

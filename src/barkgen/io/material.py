@@ -24,15 +24,52 @@ MAP_SUFFIXES = ("Color", "NormalGL", "NormalDX", "Displacement", "Roughness", "A
 
 
 def check_material_name(name: str) -> str:
-    """A set name: letters, digits, ``_`` or ``-``, at most 64 (it becomes file names)."""
+    """Check a set name: letters, digits, ``_`` or ``-``, at most 64 (it becomes file names).
+
+    Parameters
+    ----------
+    name : str
+        The name.
+
+    Returns
+    -------
+    str
+        ``name``.
+
+    Raises
+    ------
+    InvalidInputError
+        Any other name.
+    """
     if not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_-]{0,63}", name):
         raise InvalidInputError(f"--name must be letters, digits, _ or - (at most 64), not {name!r}")
     return name
 
 
 def encode_material(material, name: str, **metadata) -> dict[str, bytes]:
-    """Every file of a :class:`~barkgen.material.MaterialSet` as ``{file name: bytes}`` (all
-    encoded before any is written). ``metadata`` goes into ``NAME.json`` (seed, source, ...)."""
+    """Every file of a :class:`~barkgen.material.MaterialSet`, encoded before any is written.
+
+    Parameters
+    ----------
+    material : MaterialSet
+        The set.
+    name : str
+        Its ``NAME`` (:func:`check_material_name`).
+    **metadata
+        Added to ``NAME.json`` (seed, source photo, ...).
+
+    Returns
+    -------
+    dict of str to bytes
+        ``NAME_Color.png``, ``NAME_NormalGL.png``, ``NAME_NormalDX.png``,
+        ``NAME_Displacement.png``, ``NAME_Roughness.png``, ``NAME_AmbientOcclusion.png`` and
+        ``NAME.json``.
+
+    Raises
+    ------
+    InvalidInputError
+        A bad name.
+    """
     check_material_name(name)
     files = {fname: encode_png(pixels) for fname, pixels in material.images(name).items()}
     meta = material.metadata(name=name, **metadata)
@@ -42,8 +79,26 @@ def encode_material(material, name: str, **metadata) -> dict[str, bytes]:
 
 
 def find_material(folder: str | os.PathLike) -> tuple[str, dict]:
-    """The set in ``folder``: its name and ``NAME.json`` (the one JSON with a ``size`` and
-    ``displacement_depth_px``)."""
+    """The material set in ``folder``: its name and its ``NAME.json``.
+
+    The set is the one JSON file with a ``size`` and a ``displacement_depth_px``.
+
+    Parameters
+    ----------
+    folder : str or PathLike
+        The set's folder.
+
+    Returns
+    -------
+    name : str
+    meta : dict
+        The parsed ``NAME.json``.
+
+    Raises
+    ------
+    ImageReadError
+        Not a folder, no set, several sets, or an unreadable record.
+    """
     folder = Path(folder)
     if not folder.is_dir():
         raise ImageReadError(f"{folder}: not a folder")
@@ -80,7 +135,28 @@ def _record_number(meta: dict, key: str, where: str, default: float | None = Non
 
 
 def read_material(folder: str | os.PathLike):
-    """A :class:`~barkgen.material.MaterialSet` read back from a set folder, and its metadata."""
+    """A :class:`~barkgen.material.MaterialSet` read back from a set folder, and its metadata.
+
+    Parameters
+    ----------
+    folder : str or PathLike
+        A folder written from :func:`encode_material`'s files.
+
+    Returns
+    -------
+    material : MaterialSet
+        Colour, height (from the displacement, its depth and midlevel), normals (from
+        ``NAME_NormalGL.png``), AO and roughness.
+    meta : dict
+        The parsed ``NAME.json``.
+
+    Raises
+    ------
+    ImageReadError
+        No readable set in the folder.
+    InvalidInputError
+        Maps of different sizes, a displacement that is not 16-bit, a bad record.
+    """
     from barkgen.material import MaterialSet, decode_normals
 
     folder = Path(folder)
@@ -115,9 +191,32 @@ def read_material(folder: str | os.PathLike):
 
 
 def encode_glb(mesh, material) -> bytes:
-    """The trunk ``mesh`` (:class:`~barkgen.render.TrunkMesh`) with the set's textures as a
-    glTF 2.0 binary: base colour, normal (OpenGL, as glTF fixes) and one occlusion-roughness-
-    metallic image (R = AO, G = roughness, B = metalness 0) used for both slots."""
+    """The trunk as a glTF 2.0 binary with the material set's textures (needs the ``[gltf]`` extra).
+
+    Base colour, normal (OpenGL, as glTF fixes) and one occlusion-roughness-metallic image
+    (R = AO, G = roughness, B = metalness 0) used for both slots.
+
+    Parameters
+    ----------
+    mesh : TrunkMesh
+        The trunk (:func:`barkgen.render.trunk_mesh`).
+    material : MaterialSet
+        The set whose maps become its textures.
+
+    Returns
+    -------
+    bytes
+        The ``.glb`` file.
+
+    Raises
+    ------
+    MissingExtraError
+        trimesh is not installed (``pip install 'barkgen[gltf]'``).
+
+    References
+    ----------
+    .. [1] laitoch2018, §5.4 (bark projected onto a cylinder).
+    """
     from barkgen._shared.extras import require_extra
 
     require_extra("gltf", "glTF export")

@@ -19,7 +19,31 @@ _KEY = "barkgen-reference"
 
 
 def encode_reference(references: np.ndarray, exemplar_shape: tuple[int, int]) -> bytes:
-    """An ``(H, W, 2)`` array of (row, col) exemplar coordinates as the bytes of a 16-bit PNG."""
+    """A reference map as the bytes of a 16-bit PNG.
+
+    Red is the column, green the row, blue 0; the exemplar's size goes into a tEXt chunk
+    (``exemplar=WxH``).
+
+    Parameters
+    ----------
+    references : ndarray of int, shape (H, W, 2)
+        The exemplar ``(row, col)`` each output pixel copies.
+    exemplar_shape : (int, int)
+        ``(h, w)`` of the exemplar, at most 65535 a side.
+
+    Returns
+    -------
+    bytes
+
+    Raises
+    ------
+    InvalidInputError
+        A map of another shape, or an exemplar too large for 16 bits.
+
+    References
+    ----------
+    .. [1] laitoch2018, §3.3.1 (the reference map, applied to any map of the exemplar).
+    """
     refs = np.asarray(references)
     h, w = int(exemplar_shape[0]), int(exemplar_shape[1])
     if refs.ndim != 3 or refs.shape[2] != 2:
@@ -33,12 +57,53 @@ def encode_reference(references: np.ndarray, exemplar_shape: tuple[int, int]) ->
 
 
 def write_reference(path: str | os.PathLike, references: np.ndarray, exemplar_shape: tuple[int, int]) -> Path:
-    """Save an ``(H, W, 2)`` array of (row, col) exemplar coordinates as a 16-bit PNG, atomically."""
+    """Save a reference map as a 16-bit PNG, atomically (see :func:`encode_reference`).
+
+    Parameters
+    ----------
+    path : str or PathLike
+        The file.
+    references : ndarray of int, shape (H, W, 2)
+        The exemplar ``(row, col)`` each output pixel copies.
+    exemplar_shape : (int, int)
+        ``(h, w)`` of the exemplar.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     return write_bytes_atomic(path, encode_reference(references, exemplar_shape))
 
 
 def read_reference(path: str | os.PathLike) -> tuple[np.ndarray, tuple[int, int] | None]:
-    """Load a reference map: ``((H, W, 2) int32 (row, col) array, exemplar (h, w) or None)``."""
+    """Load a reference map written by :func:`write_reference`.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        The 16-bit RGB PNG.
+
+    Returns
+    -------
+    references : ndarray of int32, shape (H, W, 2)
+        ``(row, col)`` per output pixel.
+    exemplar_shape : (int, int) or None
+        ``(h, w)`` of the exemplar, when the file records it.
+
+    Raises
+    ------
+    ImageReadError
+        Not a 16-bit RGB PNG.
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, os
+    >>> refs = np.zeros((2, 3, 2), np.int32)
+    >>> path = write_reference(os.path.join(tempfile.mkdtemp(), "ref.png"), refs, (16, 32))
+    >>> read_reference(path)[1]
+    (16, 32)
+    """
     path = Path(path)
     image = read_image(path)
     if image.dtype != np.uint16 or image.shape[2] != 3:

@@ -19,9 +19,21 @@ def label_colours(n_labels: int) -> np.ndarray:
 
 
 def label_colour_map(label_map: np.ndarray, values: np.ndarray | None = None) -> np.ndarray:
-    """``(h, w, 3)`` uint8: each label of ``label_map`` in its colour (the colours of
-    :func:`label_preview`). ``values``: the grey values of all labels (e.g. of the input label
-    map, so that a synthesized map missing a label keeps the same colours)."""
+    """Each label of ``label_map`` in its colour, the colours of :func:`label_preview`.
+
+    Parameters
+    ----------
+    label_map : ndarray, shape (h, w)
+        A grey label map.
+    values : ndarray, optional
+        The grey values of all labels (e.g. of the input label map, so that a synthesized map
+        missing a label keeps the same colours). Default: the map's own values.
+
+    Returns
+    -------
+    ndarray of uint8, shape (h, w, 3)
+        RGB colours, hues a golden angle apart.
+    """
     codes, own = to_codes(label_map)
     if values is None:
         return label_colours(own.size)[codes]
@@ -30,8 +42,26 @@ def label_colour_map(label_map: np.ndarray, values: np.ndarray | None = None) ->
 
 
 def label_preview(image: np.ndarray, label_map: np.ndarray, *, alpha: float = 0.4) -> np.ndarray:
-    """``(h, 2w + gap, 3)`` uint8: the photo with each label tinted (``alpha``) and region
-    outlines in white, beside the plain photo."""
+    """The photo with each label tinted and the region outlines in white, beside the plain photo.
+
+    Parameters
+    ----------
+    image : ndarray, shape (h, w) or (h, w, C)
+        The photo: uint8, uint16 or float in [0, 1].
+    label_map : ndarray, shape (h, w)
+        Its label map.
+    alpha : float, default 0.4
+        Strength of the tint.
+
+    Returns
+    -------
+    ndarray of uint8, shape (h, 2 * w + 4, 3)
+        Plain photo, a 4 px white gap, the tinted photo.
+
+    References
+    ----------
+    .. [1] wang2003, Fig. 4 (feature masks shown on the photo).
+    """
     rgb = (check_image(image) * 255.0 + 0.5).astype(np.uint8)
     codes, _ = to_codes(label_map)
     colours = label_colours(int(codes.max()) + 1).astype(np.float32)
@@ -46,8 +76,31 @@ def label_preview(image: np.ndarray, label_map: np.ndarray, *, alpha: float = 0.
 
 def contact_sheet(tiles: list[np.ndarray], captions: list[str] | None = None, *,
                   columns: int = 5, tile_size: int = 160) -> np.ndarray:
-    """A grid of images (grey or RGB, any size, scaled to ``tile_size`` px wide) with optional
-    captions, as one uint8 RGB image."""
+    """A grid of images with optional captions, as one image.
+
+    Parameters
+    ----------
+    tiles : list of ndarray
+        Grey ``(h, w)`` or RGB ``(h, w, 3)`` uint8 images of any size, each scaled to
+        ``tile_size`` px wide.
+    captions : list of str, optional
+        One caption per tile, written under it.
+    columns : int, default 5
+        Tiles per row.
+    tile_size : int, default 160
+        Width of every tile in the sheet, in pixels.
+
+    Returns
+    -------
+    ndarray of uint8, shape (H, W, 3)
+        The sheet on a white background.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> contact_sheet([np.zeros((10, 10), np.uint8)] * 3, columns=2, tile_size=20).shape
+    (84, 52, 3)
+    """
     import cv2
 
     cells = []

@@ -105,9 +105,36 @@ def grow_small_labels(codes: np.ndarray, fraction: float, n_labels: int) -> np.n
 
 
 def remove_small_regions(codes: np.ndarray, min_region: int) -> np.ndarray:
-    """laitoch2018 §3.5.4: every 8-connected region smaller than ``min_region`` pixels is
-    dissolved, its pixels taking (layer by layer from the outside) the most common label among
-    their 8 neighbours that are already decided."""
+    """Dissolve every region smaller than ``min_region`` pixels (laitoch2018 §3.5.4).
+
+    Regions are 8-connected. A dissolved region's pixels take, layer by layer from the outside,
+    the most common label among their 8 neighbours that are already decided.
+
+    Parameters
+    ----------
+    codes : ndarray of int, shape (h, w)
+        Label codes ``0 .. n - 1``.
+    min_region : int
+        Smallest region kept, in pixels.
+
+    Returns
+    -------
+    ndarray of int32, shape (h, w)
+        The codes with no region under ``min_region`` pixels (if every region is that small,
+        the largest region of the commonest label is kept and fills the map).
+
+    References
+    ----------
+    .. [1] laitoch2018, §3.5.4 (removing small regions).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> codes = np.zeros((32, 32), np.int32)
+    >>> codes[10, 10] = 1                      # a one-pixel speck
+    >>> int(remove_small_regions(codes, 16).max())
+    0
+    """
     import cv2
 
     codes = np.asarray(codes, np.int32)
@@ -168,19 +195,50 @@ def color_regions(image: np.ndarray, k: int, *, denoise: bool | float = True,
                   seed: int = 0) -> np.ndarray:
     """The photo's label map of ``k`` colour regions (laitoch2018 §3.5).
 
-    Args:
-        image: the photo, ``(h, w)`` or ``(h, w, C)``, uint8, uint16 or float in [0, 1].
-        k: number of labels, 1-16.
-        denoise: non-local means denoising first (§3.5.2): ``True`` (filter strength
-            :data:`DENOISE_STRENGTH`), ``False``, or the strength ``h`` itself.
-        min_region: smallest region kept, in pixels (default: 0.05 % of the photo, >= 16 px).
-        edges: add the label of region edges (§3.5.6); ``True`` for a 3 px band, or its width.
-        seed: seeds the k-means sampling and initialisation.
+    Non-local means denoising, k-means of the CIELAB colours, small regions dissolved, labels
+    ordered from the darkest to the lightest.
 
-    Returns:
-        ``(h, w)`` uint8 label map with ``k`` (``k + 1`` with ``edges``) evenly spaced grey
-        values, the darkest region first (grey 0). Labels covering less than 6 % of the photo are
-        grown to it (:func:`grow_small_labels`), and no region is smaller than ``min_region``.
+    Parameters
+    ----------
+    image : ndarray, shape (h, w) or (h, w, C)
+        The photo: uint8, uint16 or float in [0, 1].
+    k : int
+        Number of labels, 1-16.
+    denoise : bool or float, default True
+        Non-local means denoising first (§3.5.2): ``True`` (filter strength
+        :data:`DENOISE_STRENGTH`), ``False``, or the strength ``h`` itself.
+    min_region : int, optional
+        Smallest region kept, in pixels (default: 0.05 % of the photo, >= 16 px).
+    edges : bool or int, default False
+        Add the label of region edges (§3.5.6): ``True`` for a 3 px band, or its width.
+    seed : int, default 0
+        Seeds the k-means sampling and initialisation.
+
+    Returns
+    -------
+    ndarray of uint8, shape (h, w)
+        Label map with ``k`` (``k + 1`` with ``edges``) evenly spaced grey values, the darkest
+        region first (grey 0). Labels covering less than 6 % of the photo are grown to it
+        (:func:`grow_small_labels`), and no region is smaller than ``min_region``.
+
+    Raises
+    ------
+    InvalidInputError
+        A bad image, ``k``, ``min_region``, ``denoise`` or seed.
+
+    References
+    ----------
+    .. [1] laitoch2018, §3.5 (input label maps: §3.5.2 denoising, §3.5.4 small regions, §3.5.6
+       the edge label).
+    .. [2] buades2011 (non-local means denoising).
+
+    Examples
+    --------
+    >>> import barkgen
+    >>> photo = barkgen.read_image(barkgen.sample_exemplar_path())[:128, :128]
+    >>> labels = color_regions(photo, 3)
+    >>> labels.shape, sorted(set(labels.ravel().tolist()))
+    ((128, 128), [0, 128, 255])
     """
     from sklearn.cluster import MiniBatchKMeans
 
@@ -217,11 +275,42 @@ def color_regions(image: np.ndarray, k: int, *, denoise: bool | float = True,
 
 
 def add_edge_label(label_map: np.ndarray, width: int = 3) -> np.ndarray:
-    """laitoch2018 §3.5.6: one more label for the band along the region edges, for input and
-    output maps alike (the same label values give the same result): every pixel within
-    ``max(1, width // 2)`` px (chessboard distance) of a pixel of another label, a band about
-    ``width`` px wide. The ``n`` labels of ``label_map`` (grey values, darkest first) become the
-    first ``n`` of ``n + 1`` evenly spaced grey values; the edge label is the last (255)."""
+    """Add one more label for the band along the region edges (laitoch2018 §3.5.6).
+
+    Works for input and output maps alike (the same label values give the same result): every
+    pixel within ``max(1, width // 2)`` px (chessboard distance) of a pixel of another label, a
+    band about ``width`` px wide, takes the new label.
+
+    Parameters
+    ----------
+    label_map : ndarray, shape (h, w)
+        A grey label map (every distinct value a label, darkest first).
+    width : int, default 3
+        Width of the edge band in pixels.
+
+    Returns
+    -------
+    ndarray of uint8, shape (h, w)
+        The ``n`` labels of ``label_map`` become the first ``n`` of ``n + 1`` evenly spaced grey
+        values; the edge label is the last (255).
+
+    Raises
+    ------
+    InvalidInputError
+        A width that is not a positive integer, or too many labels.
+
+    References
+    ----------
+    .. [1] laitoch2018, §3.5.6 (the edge label).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> halves = np.zeros((8, 8), np.uint8)
+    >>> halves[:, 4:] = 255
+    >>> sorted(set(add_edge_label(halves, 2).ravel().tolist()))
+    [0, 128, 255]
+    """
     import cv2
 
     if isinstance(width, bool) or not isinstance(width, (int, np.integer)) or width < 1:

@@ -32,9 +32,34 @@ TEXTON_SAMPLES = 50_000
 
 
 def filter_bank(scales=FILTER_SCALES, n_orientations: int = N_ORIENTATIONS) -> list[np.ndarray]:
-    """wang2003 §3.2's bank: for every scale and orientation, the even (second derivative of an
-    elongated Gaussian, aspect 3:1) and odd (first derivative) filter across the orientation;
-    zero mean, unit L1 norm. Ordered phase-major: even filters first, then odd."""
+    """The oriented filter bank of wang2003 §3.2.
+
+    For every scale and orientation, the even (second derivative of an elongated Gaussian,
+    aspect 3:1) and the odd (first derivative) filter across the orientation; zero mean, unit
+    L1 norm.
+
+    Parameters
+    ----------
+    scales : sequence of float, default FILTER_SCALES
+        Gaussian sigmas across the orientation, in pixels.
+    n_orientations : int, default N_ORIENTATIONS
+        Orientations, evenly spaced over 180 degrees.
+
+    Returns
+    -------
+    list of ndarray of float32
+        ``2 * len(scales) * n_orientations`` square kernels, ordered phase-major: even filters
+        first, then odd.
+
+    References
+    ----------
+    .. [1] wang2003, §3.2 (texton channels).
+
+    Examples
+    --------
+    >>> len(filter_bank())
+    36
+    """
     bank: dict[str, list[np.ndarray]] = {"even": [], "odd": []}
     for sigma in scales:
         half = int(np.ceil(3 * 3 * sigma))
@@ -68,12 +93,32 @@ def filter_responses(image: np.ndarray) -> np.ndarray:
 
 def texton_channels(image: np.ndarray, n_textons: int = 25, *,
                     seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """wang2003 §3.2: the photo's texton map and its filter responses.
+    """The photo's texton map and its filter responses (wang2003 §3.2).
 
-    Returns:
-        ``(texton_map, responses)``: ``(h, w)`` uint8 texton index per pixel (textons numbered
-        from the darkest to the lightest mean luminance) and the ``(h, w, 36)`` float32 filter
-        responses.
+    Parameters
+    ----------
+    image : ndarray, shape (h, w) or (h, w, C)
+        The photo: uint8, uint16 or float in [0, 1].
+    n_textons : int, default 25
+        Number of textons (k-means clusters of the filter responses), 2 to :data:`MAX_TEXTONS`.
+    seed : int, default 0
+        Seeds the k-means sampling and initialisation.
+
+    Returns
+    -------
+    texton_map : ndarray of uint8, shape (h, w)
+        Texton index per pixel, textons numbered from the darkest to the lightest mean luminance.
+    responses : ndarray of float32, shape (h, w, 36)
+        The responses to :func:`filter_bank`'s filters.
+
+    Raises
+    ------
+    InvalidInputError
+        A bad image, texton count or seed.
+
+    References
+    ----------
+    .. [1] wang2003, §3.2 (texton channel analysis).
     """
     from sklearn.cluster import MiniBatchKMeans
 
@@ -108,7 +153,28 @@ def _nearest_centre(points: np.ndarray, centres: np.ndarray) -> np.ndarray:
 
 
 def parse_groups(text: str) -> list[list[int]]:
-    """``"0,3,7;1,2;4"`` -> ``[[0, 3, 7], [1, 2], [4]]``, with a clear error otherwise."""
+    """Parse texton groups: ``"0,3,7;1,2;4"`` -> ``[[0, 3, 7], [1, 2], [4]]``.
+
+    Parameters
+    ----------
+    text : str
+        Groups separated by ``;``, texton numbers by ``,``.
+
+    Returns
+    -------
+    list of list of int
+        One list of texton numbers per label.
+
+    Raises
+    ------
+    InvalidInputError
+        An empty group or a number that is not an integer (one clear line).
+
+    Examples
+    --------
+    >>> parse_groups("0,3,7;1,2;4")
+    [[0, 3, 7], [1, 2], [4]]
+    """
     groups: list[list[int]] = []
     for part in (text or "").split(";"):
         part = part.strip()
@@ -124,9 +190,36 @@ def parse_groups(text: str) -> list[list[int]]:
 
 
 def merge_channels(texton_map: np.ndarray, groups) -> np.ndarray:
-    """wang2003 §3.2's user merge: ``groups[i]`` lists the raw texton channels that form label
-    ``i``; every texton of the map must be in exactly one group. Returns the ``(h, w)`` uint8
-    label map (evenly spaced grey values in group order)."""
+    """Merge texton channels into labels, as the user does in wang2003 §3.2.
+
+    Parameters
+    ----------
+    texton_map : ndarray of int, shape (h, w)
+        Texton numbers (:func:`texton_channels`).
+    groups : list of list of int, or str
+        ``groups[i]`` lists the raw texton channels that form label ``i`` (or their text form,
+        :func:`parse_groups`); every texton of the map must be in exactly one group.
+
+    Returns
+    -------
+    ndarray of uint8, shape (h, w)
+        The label map, evenly spaced grey values in group order.
+
+    Raises
+    ------
+    InvalidInputError
+        Not 1-16 groups, a texton in two groups, or a texton of the map in none.
+
+    References
+    ----------
+    .. [1] wang2003, §3.2 (merging texton channels into feature masks).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> merge_channels(np.array([[0, 1], [2, 3]]), "0,3;1,2").tolist()
+    [[0, 255], [255, 0]]
+    """
     tm = np.asarray(texton_map)
     if tm.ndim == 3 and tm.shape[2] == 1:
         tm = tm[..., 0]
@@ -154,13 +247,38 @@ def merge_channels(texton_map: np.ndarray, groups) -> np.ndarray:
 
 
 def auto_merge(texton_map: np.ndarray, image: np.ndarray, k: int) -> list[list[int]]:
-    """Groups of textons for ``k`` labels, so the pipeline needs no user step: agglomerative
-    clustering of the textons by the mean CIELAB colour of their pixels (standardised), with
-    Ward's criterion weighted by pixel counts (merging groups of ``n_a`` and ``n_b`` pixels costs
-    ``n_a n_b / (n_a + n_b)`` times their squared distance), so rare textons join their nearest
-    group before common ones merge and e.g. the dark fissure textons of every orientation form
-    one label. Groups are ordered from the darkest to the lightest; pass them to
-    :func:`merge_channels`."""
+    """Groups of textons for ``k`` labels, so that the pipeline needs no user step.
+
+    Agglomerative clustering of the textons by the mean CIELAB colour of their pixels
+    (standardised), with Ward's criterion weighted by pixel counts (merging groups of ``n_a``
+    and ``n_b`` pixels costs ``n_a n_b / (n_a + n_b)`` times their squared distance), so rare
+    textons join their nearest group before common ones merge and e.g. the dark fissure textons
+    of every orientation form one label.
+
+    Parameters
+    ----------
+    texton_map : ndarray of int, shape (h, w)
+        Texton numbers (:func:`texton_channels`).
+    image : ndarray, shape (h, w) or (h, w, C)
+        The photo the textons belong to.
+    k : int
+        Number of labels wanted, 1-16 and at most the number of textons present.
+
+    Returns
+    -------
+    list of list of int
+        ``k`` groups of texton numbers, ordered from the darkest to the lightest; pass them to
+        :func:`merge_channels`.
+
+    Raises
+    ------
+    InvalidInputError
+        ``k`` out of range or larger than the number of textons.
+
+    References
+    ----------
+    .. [1] wang2003, §3.2 (the merge the user makes by hand there).
+    """
     from barkgen.color import rgb_to_lab
 
     k = check_k(k)
@@ -199,9 +317,35 @@ def auto_merge(texton_map: np.ndarray, image: np.ndarray, k: int) -> list[list[i
 
 def texton_regions(image: np.ndarray, k: int, *, n_textons: int = 25,
                    min_region: int | None = None, seed: int = 0) -> np.ndarray:
-    """A ``k``-label map from texton channels with no user step: :func:`texton_channels`,
-    :func:`auto_merge`, :func:`merge_channels`, then the clean-up of the colour-region maps
-    (small labels grown, regions under ``min_region`` px dissolved; laitoch2018 §3.5.4)."""
+    """A ``k``-label map from texton channels with no user step.
+
+    :func:`texton_channels`, :func:`auto_merge`, :func:`merge_channels`, then the clean-up of the
+    colour-region maps (small labels grown, regions under ``min_region`` px dissolved;
+    laitoch2018 §3.5.4).
+
+    Parameters
+    ----------
+    image : ndarray, shape (h, w) or (h, w, C)
+        The photo: uint8, uint16 or float in [0, 1].
+    k : int
+        Number of labels, 1-16.
+    n_textons : int, default 25
+        Textons before the merge.
+    min_region : int, optional
+        Smallest region kept, in pixels (default: 0.05 % of the photo, >= 16 px).
+    seed : int, default 0
+        Seeds the texton k-means.
+
+    Returns
+    -------
+    ndarray of uint8, shape (h, w)
+        Label map with ``k`` evenly spaced grey values, the darkest label first.
+
+    References
+    ----------
+    .. [1] wang2003, §3.2 (texton channels).
+    .. [2] laitoch2018, §3.5.4 (removing small regions).
+    """
     k = check_k(k)
     textons, _ = texton_channels(image, n_textons, seed=seed)
     merged = merge_channels(textons, auto_merge(textons, image, k))

@@ -70,15 +70,21 @@ SAMPLE_NAME = "Sample pine bark"
 
 
 class LibraryError(BarkgenError):
-    """The library folder or database cannot be used."""
+    """The library folder or database cannot be used (a :class:`~barkgen.errors.BarkgenError`)."""
 
 
 class NotFoundError(LibraryError):
-    """No exemplar or result has the id asked for."""
+    """No exemplar or result has the id asked for (a :class:`LibraryError`)."""
 
 
 def default_library_path() -> Path:
-    """``$BARKGEN_LIBRARY``, else ``barkgen/library`` in the user's data directory."""
+    """The default library folder: ``$BARKGEN_LIBRARY``, else ``barkgen/library`` in the user's data
+    directory (``~/.local/share/barkgen/library`` on Linux).
+
+    Returns
+    -------
+    Path
+    """
     env = os.environ.get("BARKGEN_LIBRARY")
     if env:
         return Path(env).expanduser()
@@ -98,7 +104,20 @@ def canonical_params(params: Mapping) -> str:
 
 @dataclass(frozen=True)
 class Exemplar:
-    """A bark photo of the library."""
+    """A bark photo of the library (a row of ``exemplars``).
+
+    Attributes
+    ----------
+    id, width, height : int
+        Its id and the photo's size in pixels.
+    name : str
+    species, bark_type, licence, source : str or None
+        What the user said about it.
+    image_hash : str
+        SHA-256 of the image file's bytes (its name in ``objects/``).
+    created : str
+        When it was added (ISO 8601, UTC).
+    """
 
     id: int
     name: str
@@ -117,7 +136,21 @@ class Exemplar:
 
 @dataclass(frozen=True)
 class Result:
-    """A generated texture and its files (``files``: file name -> content hash)."""
+    """A generated texture and its files (a row of ``results``).
+
+    Attributes
+    ----------
+    id, exemplar_id, seed : int
+        Its id, the exemplar it was made from and its seed.
+    params, timings : dict
+        The parameters of the run and its seconds per stage.
+    created : str
+        When it was recorded (ISO 8601, UTC).
+    parent_id : int or None
+        The result it was continued from (painted labels), if any.
+    files : dict of str to str
+        File name -> content hash.
+    """
 
     id: int
     exemplar_id: int
@@ -133,7 +166,38 @@ class Result:
 
 
 class Library:
-    """The exemplar library in folder ``path`` (made when missing; see the module doc)."""
+    """The exemplar library in folder ``path`` (made when missing; see the module docstring).
+
+    Parameters
+    ----------
+    path : str or PathLike, optional
+        The folder (default: :func:`default_library_path`).
+    add_sample : bool, default True
+        Add the bundled sample photo the first time the library is opened.
+
+    Attributes
+    ----------
+    path, db_path : Path
+        The folder and its ``library.sqlite``.
+    store : ObjectStore
+        The content-addressed files (``path / "objects"``).
+
+    Raises
+    ------
+    LibraryError
+        The folder cannot be made or used, or the database is not a barkgen library.
+
+    References
+    ----------
+    .. [1] laitoch2018, §1 (the designer picks a bark photo from a library or adds their own).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> library = Library(tempfile.mkdtemp())
+    >>> [e.name for e in library.exemplars()]
+    ['Sample pine bark']
+    """
 
     def __init__(self, path: str | os.PathLike | None = None, *, add_sample: bool = True) -> None:
         self.path = Path(path).expanduser() if path is not None else default_library_path()
@@ -217,9 +281,30 @@ class Library:
     def add_exemplar(self, data: bytes, name: str, *, species: str | None = None,
                      bark_type: str | None = None, licence: str | None = None,
                      source: str | None = None, max_pixels: int | None = None) -> Exemplar:
-        """Add the image file ``data`` (checked by decoding it: any format
-        :func:`barkgen.io.read_image` reads, at most ``max_pixels``). The same bytes added twice
-        give the same exemplar."""
+        """Add the image file ``data``; the same bytes added twice give the same exemplar.
+
+        Parameters
+        ----------
+        data : bytes
+            The image file, checked by decoding it (any format :func:`barkgen.io.read_image` reads).
+        name : str
+            1 to 200 characters.
+        species, bark_type, licence, source : str, optional
+            At most 500 characters each.
+        max_pixels : int, optional
+            Refuse larger images (:class:`~barkgen.errors.ImageTooLargeError`).
+
+        Returns
+        -------
+        Exemplar
+
+        Raises
+        ------
+        InvalidInputError
+            A bad name or field.
+        ImageReadError
+            Bytes that are not a readable image.
+        """
         from barkgen.io import decode_image
 
         name = (name or "").strip()
@@ -251,33 +336,67 @@ class Library:
         return conn.execute("SELECT id FROM exemplars WHERE image_hash = ?", (digest,)).fetchone()[0]
 
     def find_exemplar(self, data: bytes) -> Exemplar | None:
-        """The exemplar of exactly these image-file bytes, if the library has it."""
+        """The :class:`Exemplar` of exactly these image-file bytes, or None."""
         rows = self._read("SELECT * FROM exemplars WHERE image_hash = ?", (content_hash(data),))
         return Exemplar(**dict(rows[0])) if rows else None
 
     def exemplars(self) -> list[Exemplar]:
-        """Every exemplar, oldest first."""
+        """Every exemplar (a list of :class:`Exemplar`), oldest first."""
         return [Exemplar(**dict(row)) for row in self._read("SELECT * FROM exemplars ORDER BY id")]
 
     def exemplar(self, exemplar_id: int) -> Exemplar:
+        """One exemplar by its id.
+
+        Parameters
+        ----------
+        exemplar_id : int
+
+        Returns
+        -------
+        Exemplar
+
+        Raises
+        ------
+        NotFoundError
+            No such exemplar.
+        """
         rows = self._read("SELECT * FROM exemplars WHERE id = ?", (int(exemplar_id),))
         if not rows:
             raise NotFoundError(f"no exemplar {exemplar_id} in the library")
         return Exemplar(**dict(rows[0]))
 
     def photo_bytes(self, exemplar_id: int) -> bytes:
-        """The exemplar's image file as it was added."""
+        """The exemplar's image file (bytes) as it was added."""
         return self.store.get(self.exemplar(exemplar_id).image_hash)
 
     def photo(self, exemplar_id: int) -> np.ndarray:
-        """The exemplar's photo, decoded (:func:`barkgen.io.decode_image`)."""
+        """The exemplar's photo, decoded (:func:`barkgen.io.decode_image`).
+
+        Parameters
+        ----------
+        exemplar_id : int
+
+        Returns
+        -------
+        ndarray of uint8 or uint16, shape (H, W, C)
+        """
         from barkgen.io import decode_image
 
         exemplar = self.exemplar(exemplar_id)
         return decode_image(self.store.get(exemplar.image_hash), exemplar.name)
 
     def remove_exemplar(self, exemplar_id: int) -> None:
-        """Remove an exemplar with its analyses and results (and files nothing else uses)."""
+        """Remove an exemplar with its analyses and results (and the files nothing else uses).
+
+        Parameters
+        ----------
+        exemplar_id : int
+
+        Raises
+        ------
+        NotFoundError
+            No such exemplar.
+        """
         self.exemplar(exemplar_id)
         with self._transaction() as conn:
             conn.execute("DELETE FROM exemplars WHERE id = ?", (int(exemplar_id),))
@@ -285,7 +404,20 @@ class Library:
 
     # -- analyses -------------------------------------------------------------------------
     def analysis(self, exemplar_id: int, kind: str, params: Mapping) -> bytes | None:
-        """The cached analysis file of ``kind`` with ``params``, or None."""
+        """The cached analysis file of ``kind`` with ``params``, or None.
+
+        Parameters
+        ----------
+        exemplar_id : int
+        kind : str
+            What the analysis is (``labels``, ``thumbnail``, ...).
+        params : mapping
+            Its parameters (compared as canonical JSON).
+
+        Returns
+        -------
+        bytes or None
+        """
         rows = self._read("SELECT file_hash FROM analyses WHERE exemplar_id = ? AND kind = ? AND "
                           "params = ?", (int(exemplar_id), kind, canonical_params(params)))
         if not rows or not self.store.exists(rows[0]["file_hash"]):
@@ -293,7 +425,16 @@ class Library:
         return self.store.get(rows[0]["file_hash"])
 
     def put_analysis(self, exemplar_id: int, kind: str, params: Mapping, data: bytes) -> None:
-        """Cache an analysis file of an exemplar (replacing one with the same kind and params)."""
+        """Cache an analysis file of an exemplar, replacing one with the same kind and params.
+
+        Parameters
+        ----------
+        exemplar_id : int
+        kind : str
+        params : mapping
+        data : bytes
+            The file.
+        """
         self.exemplar(exemplar_id)
         with self._transaction() as conn:
             digest = self.store.put(data)
@@ -304,8 +445,32 @@ class Library:
     # -- results --------------------------------------------------------------------------
     def add_result(self, exemplar_id: int, params: Mapping, seed: int, files: Mapping[str, bytes],
                    timings: Mapping | None = None, parent_id: int | None = None) -> Result:
-        """Record a generated result and store its files (all stored before the row exists,
-        so a listed result always has every file)."""
+        """Record a generated result and store its files.
+
+        All files are stored before the row exists, so a listed result always has every file.
+
+        Parameters
+        ----------
+        exemplar_id, seed : int
+            The exemplar it was made from and the run's seed.
+        params : mapping
+            The run's parameters.
+        files : mapping of str to bytes
+            File name -> content.
+        timings : mapping, optional
+            Seconds per stage.
+        parent_id : int, optional
+            The result it continues (dropped if that result was removed meanwhile).
+
+        Returns
+        -------
+        Result
+
+        Raises
+        ------
+        NotFoundError
+            No such exemplar.
+        """
         self.exemplar(exemplar_id)
         with self._transaction() as conn:
             # files are stored under the write lock, so no removal can take one of them
@@ -331,6 +496,21 @@ class Library:
                       parent_id=row["parent_id"], files=files)
 
     def result(self, result_id: int) -> Result:
+        """One result by its id.
+
+        Parameters
+        ----------
+        result_id : int
+
+        Returns
+        -------
+        Result
+
+        Raises
+        ------
+        NotFoundError
+            No such result.
+        """
         rows = self._read("SELECT * FROM results WHERE id = ?", (int(result_id),))
         if not rows:
             raise NotFoundError(f"no result {result_id} in the library")
@@ -340,7 +520,16 @@ class Library:
         return self._result(rows[0], files)
 
     def results(self, exemplar_id: int | None = None) -> list[Result]:
-        """Results, newest first (of one exemplar when given)."""
+        """Results, newest first (of one exemplar when given).
+
+        Parameters
+        ----------
+        exemplar_id : int, optional
+
+        Returns
+        -------
+        list of Result
+        """
         where, args = ("WHERE exemplar_id = ?", (int(exemplar_id),)) if exemplar_id is not None else ("", ())
         rows = self._read(f"SELECT * FROM results {where} ORDER BY id DESC", args)
         files: dict[int, dict] = {}
@@ -349,13 +538,39 @@ class Library:
         return [self._result(row, files.get(row["id"], {})) for row in rows]
 
     def result_file(self, result_id: int, name: str) -> bytes:
-        """One output file of a result by its name (``texture.png``, ...)."""
+        """One output file of a result by its name (``texture.png``, ...).
+
+        Parameters
+        ----------
+        result_id : int
+        name : str
+
+        Returns
+        -------
+        bytes
+
+        Raises
+        ------
+        NotFoundError
+            No such result, or no such file in it.
+        """
         digest = self.result(result_id).files.get(name)
         if digest is None:
             raise NotFoundError(f"result {result_id} has no file {name!r}")
         return self.store.get(digest)
 
     def remove_result(self, result_id: int) -> None:
+        """Remove a result (and the files nothing else uses).
+
+        Parameters
+        ----------
+        result_id : int
+
+        Raises
+        ------
+        NotFoundError
+            No such result.
+        """
         self.result(result_id)
         with self._transaction() as conn:
             conn.execute("DELETE FROM results WHERE id = ?", (int(result_id),))

@@ -32,8 +32,27 @@ EDITS_VERSION = 1
 
 @dataclass(frozen=True)
 class HeightEdit:
-    """One edit: raise (``delta`` > 0) or lower the height at pixel ``(x, y)`` and at every
-    self-similar pixel of its channel, comparing neighbourhoods of ``radius`` px."""
+    """One height edit (wang2003 §3.3).
+
+    Raise (``delta`` > 0) or lower the height at pixel ``(x, y)`` and at every self-similar pixel
+    of its channel, comparing neighbourhoods of ``radius`` px.
+
+    Parameters
+    ----------
+    x, y : int
+        The pixel edited.
+    delta : float
+        Change of the height there, in pixels of height.
+    radius : int, default 4
+        Radius of the circular neighbourhoods compared, 1-64 px.
+    threshold : float, default DEFAULT_THRESHOLD
+        Neighbourhood distance (luminance std units) at which the weight falls to 0.
+
+    Raises
+    ------
+    InvalidInputError
+        A non-finite ``delta``, a radius out of range or a threshold <= 0.
+    """
 
     x: int
     y: int
@@ -51,7 +70,29 @@ class HeightEdit:
 
 
 def parse_edits(document: object) -> list[HeightEdit]:
-    """The edits of a JSON document (see module), validated; errors are one line."""
+    """The edits of a JSON edit list, validated.
+
+    Parameters
+    ----------
+    document : object
+        The parsed JSON: ``{"version": 1, "edits": [{"x": 120, "y": 340, "delta": 2.0,
+        "radius": 4}, ...]}`` (``radius`` and ``threshold`` optional).
+
+    Returns
+    -------
+    list of HeightEdit
+        The edits, in order.
+
+    Raises
+    ------
+    InvalidInputError
+        A wrong version, unknown keys, an empty list or a bad edit (one line naming it).
+
+    Examples
+    --------
+    >>> parse_edits({"version": 1, "edits": [{"x": 3, "y": 4, "delta": 2.0}]})[0].radius
+    4
+    """
     version = document.get("version") if isinstance(document, Mapping) else None
     if type(version) is not int or version != EDITS_VERSION:
         raise InvalidInputError(f'an edit list must be a JSON object with "version": {EDITS_VERSION}')
@@ -84,7 +125,18 @@ def parse_edits(document: object) -> list[HeightEdit]:
 
 
 def edits_document(edits: Iterable[HeightEdit]) -> dict:
-    """The JSON document of a list of edits (what :func:`parse_edits` reads)."""
+    """The JSON document of a list of edits (what :func:`parse_edits` reads).
+
+    Parameters
+    ----------
+    edits : iterable of HeightEdit
+        The edits.
+
+    Returns
+    -------
+    dict
+        ``{"version": 1, "edits": [...]}``, every field of every edit written out.
+    """
     return {"version": EDITS_VERSION,
             "edits": [{"x": e.x, "y": e.y, "delta": e.delta, "radius": e.radius, "threshold": e.threshold}
                       for e in edits]}
@@ -102,7 +154,44 @@ class HeightEditor:
 
     ``HeightEditor(photo, height, label_map)`` keeps a copy of ``height`` (pixels);
     :meth:`edit` changes it and records the edit, :attr:`edits` replays anywhere
-    (:func:`edits_document`). ``tile``: the photo wraps, so do neighbourhoods.
+    (:func:`edits_document`). An edit's weight mask is 1 for neighbourhoods identical to the
+    edited pixel's, falling linearly to 0 at the threshold, and 0 outside its label.
+
+    Parameters
+    ----------
+    photo : ndarray, shape (h, w) or (h, w, 3)
+        The photo (float in [0, 1]); its luminance is compared.
+    height : ndarray, shape (h, w)
+        The height to edit, in pixels (copied).
+    label_map : ndarray, shape (h, w), optional
+        Label codes: an edit spreads only within the edited pixel's label.
+    tile : bool, default False
+        The photo wraps, so do the neighbourhoods.
+
+    Attributes
+    ----------
+    height : ndarray of float32
+        The edited height.
+    edits : list of HeightEdit
+        The edits made, in order.
+
+    Raises
+    ------
+    InvalidInputError
+        The height or label map and the photo differ in size.
+
+    References
+    ----------
+    .. [1] wang2003, §3.3 (height field assignment by similarity-based editing).
+    .. [2] brooks2002 (self-similarity based texture editing).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> editor = HeightEditor(rng.random((32, 32)), np.zeros((32, 32)))
+    >>> float(editor.edit(5, 6, 2.0)[6, 5])
+    2.0
     """
 
     def __init__(self, photo: np.ndarray, height: np.ndarray, label_map: np.ndarray | None = None,

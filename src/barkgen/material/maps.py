@@ -27,8 +27,32 @@ ROUGHNESS_RIDGE = 0.05
 
 
 def normal_map(height: np.ndarray, *, strength: float = 1.0, tile: bool = False) -> np.ndarray:
-    """Unit normals ``(h, w, 3)`` float32 of a height field (pixels), OpenGL convention (+Y up:
-    green is high where the surface faces the top of the image)."""
+    """Unit normals of a height field, OpenGL convention.
+
+    Parameters
+    ----------
+    height : ndarray, shape (h, w)
+        Height in pixels.
+    strength : float, default 1.0
+        Multiplies the slopes.
+    tile : bool, default False
+        The height wraps: slopes are taken across its edges.
+
+    Returns
+    -------
+    ndarray of float32, shape (h, w, 3)
+        Unit normals, +Y up: green is high where the surface faces the top of the image.
+
+    References
+    ----------
+    .. [1] wang2003, §3.4 (normals of the height field, for the shading).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> normal_map(np.zeros((4, 4)))[0, 0].tolist() == [0.0, 0.0, 1.0]
+    True
+    """
     gx, gy = gradient(height, tile=tile)
     normals = np.empty(gx.shape + (3,), np.float32)
     normals[..., 0] = -strength * gx
@@ -39,28 +63,80 @@ def normal_map(height: np.ndarray, *, strength: float = 1.0, tile: bool = False)
 
 
 def to_directx(normals: np.ndarray) -> np.ndarray:
-    """The DirectX convention (+Y down) of OpenGL normals, and back: green flipped."""
+    """The DirectX convention (+Y down) of OpenGL normals, and back: green flipped.
+
+    Parameters
+    ----------
+    normals : ndarray, shape (..., 3)
+        Unit normals (float).
+
+    Returns
+    -------
+    ndarray
+        A copy with ``y`` negated.
+    """
     out = np.array(normals, copy=True)
     out[..., 1] = -out[..., 1]
     return out
 
 
 def encode_normals(normals: np.ndarray) -> np.ndarray:
-    """Unit normals -> the usual uint8 RGB ``round((n + 1) * 127.5)``."""
+    """Unit normals as the usual normal-map pixels, ``round((n + 1) * 127.5)``.
+
+    Parameters
+    ----------
+    normals : ndarray, shape (h, w, 3)
+        Unit normals (float, clipped to [-1, 1]).
+
+    Returns
+    -------
+    ndarray of uint8, shape (h, w, 3)
+        RGB normal-map pixels.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> encode_normals(np.array([[[0.0, 0.0, 1.0]]])).tolist()
+    [[[128, 128, 255]]]
+    """
     n = np.clip(np.asarray(normals, np.float32), -1.0, 1.0)
     return np.floor((n + 1.0) * 127.5 + 0.5).astype(np.uint8)
 
 
 def flip_green(rgb: np.ndarray) -> np.ndarray:
-    """An encoded normal map in the other convention (OpenGL <-> DirectX): ``255 - green``,
-    every other byte unchanged; decoding it gives exactly the normals with ``y`` negated."""
+    """An encoded normal map in the other convention (OpenGL <-> DirectX): ``255 - green``.
+
+    Every other byte is unchanged; decoding the result gives exactly the normals with ``y``
+    negated.
+
+    Parameters
+    ----------
+    rgb : ndarray of uint8, shape (h, w, 3)
+        Encoded normals (:func:`encode_normals`).
+
+    Returns
+    -------
+    ndarray of uint8, shape (h, w, 3)
+        The same normals in the other convention.
+    """
     out = np.array(rgb, copy=True)
     out[..., 1] = 255 - out[..., 1]
     return out
 
 
 def decode_normals(rgb: np.ndarray) -> np.ndarray:
-    """uint8 (or uint16) RGB normal-map pixels -> unit normals float32."""
+    """Normal-map pixels as unit normals.
+
+    Parameters
+    ----------
+    rgb : ndarray of uint8 or uint16, shape (h, w, C), C >= 3
+        Encoded normals (the first three channels are used).
+
+    Returns
+    -------
+    ndarray of float32, shape (h, w, 3)
+        Unit normals.
+    """
     arr = np.asarray(rgb)
     scale = 65535.0 if arr.dtype == np.uint16 else 255.0
     n = arr[..., :3].astype(np.float32) / scale * 2.0 - 1.0
@@ -69,7 +145,28 @@ def decode_normals(rgb: np.ndarray) -> np.ndarray:
 
 def ambient_occlusion(height: np.ndarray, *, radius: int = AO_RADIUS, directions: int = AO_DIRECTIONS,
                       tile: bool = False) -> np.ndarray:
-    """Horizon-based ambient occlusion ``(h, w)`` float32 in [0, 1] (1 = open sky)."""
+    """Horizon-based ambient occlusion of a height field.
+
+    Parameters
+    ----------
+    height : ndarray, shape (h, w)
+        Height in pixels.
+    radius : int, default AO_RADIUS
+        Reach of the horizon search, in pixels.
+    directions : int, default AO_DIRECTIONS
+        Directions searched, evenly spaced.
+    tile : bool, default False
+        The height wraps.
+
+    Returns
+    -------
+    ndarray of float32, shape (h, w)
+        Occlusion in [0, 1], 1 = open sky.
+
+    References
+    ----------
+    .. [1] bavoil2008 (horizon-based ambient occlusion).
+    """
     angles = np.arange(directions) * (2 * np.pi / directions)
     dirs = np.stack([np.sin(angles), np.cos(angles)], axis=1).astype(np.float64)
     return horizon_occlusion(np.ascontiguousarray(height, dtype=np.float32), dirs, int(radius), bool(tile))
@@ -77,14 +174,34 @@ def ambient_occlusion(height: np.ndarray, *, radius: int = AO_RADIUS, directions
 
 def photo_cavities(ao: np.ndarray, lum: np.ndarray, *, weight: float = CAVITY_WEIGHT,
                    scale: float = CAVITY_SCALE, tile: bool = False) -> np.ndarray:
-    """The photo's cavity term of the ambient occlusion ``(h, w)`` float32, to add to the
-    height's AO ``ao``: where the photo is darker than its surroundings (its luminance ``lum``
-    minus a Gaussian blur of ``scale``, in units of its std) the AO is lower, by ``weight``
-    times the spread (std) of ``ao``, so the term scales with the relief and vanishes with it.
+    """The photo's cavity term of the ambient occlusion, to add to the height's AO ``ao``.
 
-    The estimated height is smooth and cautious; the photo's own darkness in cracks and
-    between plates is the detail it leaves out. Against the scanned AO of four barks,
-    leave-one-out, it raises the correlation on all four (``benchmarks/bench_material.py``)."""
+    Where the photo is darker than its surroundings (its luminance ``lum`` minus a Gaussian blur
+    of ``scale``, in units of its std) the AO is lower, by ``weight`` times the spread (std) of
+    ``ao``, so the term scales with the relief and vanishes with it.
+
+    The estimated height is smooth and cautious; the photo's own darkness in cracks and between
+    plates is the detail it leaves out. Against the scanned AO of four barks, leave-one-out, it
+    raises the correlation on all four (``benchmarks/bench_material.py``).
+
+    Parameters
+    ----------
+    ao : ndarray, shape (h, w)
+        The height's AO (:func:`ambient_occlusion`).
+    lum : ndarray, shape (h, w)
+        The photo's luminance.
+    weight : float, default CAVITY_WEIGHT
+        Strength of the term in spreads of ``ao``; 0 gives zeros.
+    scale : float, default CAVITY_SCALE
+        Sigma of the surroundings' blur, in pixels.
+    tile : bool, default False
+        The photo wraps.
+
+    Returns
+    -------
+    ndarray of float32, shape (h, w)
+        The term (mean 0), zeros when ``weight`` is 0 or the photo is flat.
+    """
     lum = np.asarray(lum, np.float32)
     detail = lum - blur(lum, scale, tile=tile)
     spread = float(detail.std())
@@ -94,9 +211,23 @@ def photo_cavities(ao: np.ndarray, lum: np.ndarray, *, weight: float = CAVITY_WE
 
 
 def roughness_map(height: np.ndarray, ao: np.ndarray) -> np.ndarray:
-    """Roughness ``(h, w)`` float32 in [0, 1]: bark is rough (:data:`ROUGHNESS_BASE`),
-    crevices rougher (dust, loose fibre: more where occluded), the highest ridges a little
-    smoother (worn)."""
+    """Roughness of bark from its height and AO.
+
+    Bark is rough (:data:`ROUGHNESS_BASE`), crevices rougher (dust, loose fibre: more where
+    occluded), the highest ridges a little smoother (worn).
+
+    Parameters
+    ----------
+    height : ndarray, shape (h, w)
+        Height in pixels.
+    ao : ndarray, shape (h, w)
+        Ambient occlusion in [0, 1].
+
+    Returns
+    -------
+    ndarray of float32, shape (h, w)
+        Roughness in [0, 1].
+    """
     h = np.asarray(height, np.float32)
     z = (h - h.mean()) / max(float(h.std()), 1e-6)
     rough = ROUGHNESS_BASE + ROUGHNESS_CAVITY * (1.0 - np.asarray(ao, np.float32)) - ROUGHNESS_RIDGE * z

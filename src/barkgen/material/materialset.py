@@ -39,12 +39,33 @@ from barkgen._shared.arrays import as_uint8
 
 @dataclass(frozen=True)
 class MaterialOptions:
-    """Parameters of :func:`make_material`: ``k`` labels of the colour label map used as the
-    height's structure cue; ``light``: the photo's light (``None``: estimated);
-    ``height``: :class:`~barkgen.material.height.HeightConfig`; ``relief``: multiplies its
-    strength (2 = twice as deep); ``ao_radius``: reach of the occlusion in px; ``cavities``:
-    weight of the photo's own cavities in the AO (:func:`~barkgen.material.maps.photo_cavities`;
-    0: the height's AO alone); ``tile``: the photo wraps; ``seed``: the label map's k-means."""
+    """Parameters of :func:`make_material`, validated once here.
+
+    Parameters
+    ----------
+    k : int, default 3
+        Labels of the colour label map used as the height's structure cue.
+    light : Light, optional
+        The photo's light (``None``: estimated, :func:`~barkgen.material.estimate_light`).
+    height : HeightConfig, optional
+        The height's cues (:class:`~barkgen.material.height.HeightConfig`).
+    relief : float, default 1.0
+        Multiplies the height's strength (2 = twice as deep), in (0, 100].
+    ao_radius : int, default AO_RADIUS
+        Reach of the occlusion in px, 1-256.
+    cavities : float, default CAVITY_WEIGHT
+        Weight of the photo's own cavities in the AO
+        (:func:`~barkgen.material.maps.photo_cavities`; 0: the height's AO alone).
+    tile : bool, default False
+        The photo wraps.
+    seed : int, default 0
+        Seeds the label map's k-means.
+
+    Raises
+    ------
+    InvalidInputError
+        Any value out of range.
+    """
 
     k: int = 3
     light: Light | None = None
@@ -70,12 +91,41 @@ class MaterialOptions:
 
 @dataclass
 class MaterialSet:
-    """Aligned maps of one size: ``color`` (albedo, sRGB float ``(h, w, 3)`` in [0, 1]),
-    ``height`` (pixels, float32), ``normals`` (unit, OpenGL), ``ao`` and ``roughness`` (float32
-    in [0, 1]); ``light`` and ``shading_strength``: the shading removed from the colour
-    (:func:`~barkgen.material.shading.remove_shading`); ``ao_cavities``: the photo's cavity
-    term in ``ao`` (:func:`~barkgen.material.maps.photo_cavities`), carried with the height
-    by :func:`transfer_material` (``None``: the AO is the height's alone)."""
+    """The aligned maps of one bark material, all of one size.
+
+    Attributes
+    ----------
+    color : ndarray of float32, shape (h, w, 3)
+        Albedo, sRGB in [0, 1].
+    height : ndarray of float32, shape (h, w)
+        Height in pixels.
+    normals : ndarray of float32, shape (h, w, 3)
+        Unit normals, OpenGL convention.
+    ao, roughness : ndarray of float32, shape (h, w)
+        Ambient occlusion and roughness in [0, 1].
+    tile : bool
+        The maps tile.
+    light : Light or None
+        The light whose shading was removed from the colour
+        (:func:`~barkgen.material.shading.remove_shading`).
+    shading_strength : float or None
+        The strength of that removal.
+    ao_cavities : ndarray or None
+        The photo's cavity term in ``ao`` (:func:`~barkgen.material.maps.photo_cavities`),
+        carried with the height by :func:`transfer_material` (``None``: the AO is the height's
+        alone).
+    shape : tuple of int
+        ``(h, w)``.
+    depth : float
+        Displacement depth scale: the height range in pixels.
+    midlevel : float
+        Where height 0 lies in the normalised displacement.
+
+    References
+    ----------
+    .. [1] wang2003, §3.3-3.4 (height field and texture correction).
+    .. [2] laitoch2018, §3.3.1 (extra maps resolved through the reference map).
+    """
 
     color: np.ndarray
     height: np.ndarray
@@ -142,20 +192,56 @@ class MaterialSet:
 
 
 def derived_maps(height: np.ndarray, *, tile: bool, ao_radius: int = AO_RADIUS) -> tuple[np.ndarray, np.ndarray]:
-    """Normals (OpenGL) and ambient occlusion of a height field."""
+    """Normals (OpenGL) and ambient occlusion of a height field.
+
+    Parameters
+    ----------
+    height : ndarray, shape (h, w)
+        Height in pixels.
+    tile : bool
+        The height wraps.
+    ao_radius : int, default AO_RADIUS
+        Reach of the occlusion in px.
+
+    Returns
+    -------
+    normals : ndarray of float32, shape (h, w, 3)
+    ao : ndarray of float32, shape (h, w)
+    """
     return normal_map(height, tile=tile), ambient_occlusion(height, radius=ao_radius, tile=tile)
 
 
 def make_material(photo: np.ndarray, options: MaterialOptions | None = None, *,
                   label_map: np.ndarray | None = None,
                   edits: Iterable[HeightEdit] = ()) -> MaterialSet:
-    """The material set of a bark photo, from the photo alone (see module).
+    """The material set of a bark photo, from the photo alone (see the module docstring).
 
-    Args:
-        photo: ``(h, w[, C])`` photo (uint8, uint16 or float in [0, 1]).
-        options: :class:`MaterialOptions`.
-        label_map: the photo's label codes (darkest label 0), else a colour label map is made.
-        edits: height edits to replay (:class:`~barkgen.material.editor.HeightEdit`).
+    Parameters
+    ----------
+    photo : ndarray, shape (h, w) or (h, w, C)
+        The photo: uint8, uint16 or float in [0, 1].
+    options : MaterialOptions, optional
+        Labels, light, relief, AO, tiling, seed.
+    label_map : ndarray, shape (h, w), optional
+        The photo's label codes (darkest label 0); else a colour label map is made.
+    edits : iterable of HeightEdit, default ()
+        Height edits to replay (:class:`~barkgen.material.editor.HeightEdit`).
+
+    Returns
+    -------
+    MaterialSet
+        Albedo, height, normals, AO and roughness of the photo.
+
+    References
+    ----------
+    .. [1] wang2003, §3.3-3.4 (height field assignment, texture correction).
+
+    Examples
+    --------
+    >>> import barkgen
+    >>> photo = barkgen.read_image(barkgen.sample_exemplar_path())[:64, :64]
+    >>> make_material(photo).shape
+    (64, 64)
     """
     from barkgen.labels import color_regions
     from barkgen._shared.checks import check_image
@@ -184,12 +270,37 @@ def make_material(photo: np.ndarray, options: MaterialOptions | None = None, *,
 def transfer_material(source: MaterialSet, references: np.ndarray, *, tile: bool,
                       ao_radius: int = AO_RADIUS,
                       exemplar_wrap: tuple[bool, bool] = (False, False)) -> MaterialSet:
-    """The material set of a synthesized texture: the source's albedo through the synthesis's
-    reference map ``(H, W, 2)`` (exemplar ``(y, x)``), exactly as the colour; its height,
-    roughness and the AO's photo cavities through the same references in the gradient domain
-    (:func:`barkgen.synth.gradient.resolve_continuous`: continuous across the borders of the
-    copied pieces, tileable when ``tile``; ``exemplar_wrap``: the photo tiles along that axis);
-    normals and the height's AO recomputed from that height (wrapping when ``tile``)."""
+    """The material set of a texture synthesized from the source's photo.
+
+    The source's albedo goes through the synthesis's reference map exactly, as the colour does;
+    its height, roughness and the AO's photo cavities through the same references in the
+    gradient domain (:func:`barkgen.synth.gradient.resolve_continuous`: continuous across the
+    borders of the copied pieces, tileable when ``tile``); normals and the height's AO are
+    recomputed from that height (wrapping when ``tile``).
+
+    Parameters
+    ----------
+    source : MaterialSet
+        The photo's set (:func:`make_material`).
+    references : ndarray of int, shape (H, W, 2)
+        The synthesis's reference map, exemplar ``(y, x)`` per output pixel.
+    tile : bool
+        The texture tiles.
+    ao_radius : int, default AO_RADIUS
+        Reach of the recomputed occlusion in px.
+    exemplar_wrap : tuple of bool, default (False, False)
+        ``(rows, columns)``: the photo tiles along that axis.
+
+    Returns
+    -------
+    MaterialSet
+        The output's set, of the reference map's size.
+
+    References
+    ----------
+    .. [1] laitoch2018, §3.3.1 (maps resolved through the reference map).
+    .. [2] perez2003 (gradient-domain re-integration).
+    """
     from barkgen.synth import apply_references
     from barkgen.synth.gradient import resolve_continuous
 

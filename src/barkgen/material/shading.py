@@ -34,9 +34,32 @@ STRENGTH_STEPS = 16
 FIT_PIXELS = 262_144
 @dataclass(frozen=True)
 class Light:
-    """A directional light: ``azimuth`` (degrees, counter-clockwise from +x, +y up) and
-    ``elevation`` (degrees above the surface, 0 < el <= 90); ``correlation``: how much of the
-    photo's shading the estimate explains (``None`` when given by the user)."""
+    """A directional light.
+
+    Parameters
+    ----------
+    azimuth : float
+        Degrees counter-clockwise from the image's right (+x), +y up; in [-360, 360].
+    elevation : float
+        Degrees above the surface, in (0, 90].
+    correlation : float, optional
+        How much of the photo's shading the estimate explains (``None`` when given by the user).
+
+    Attributes
+    ----------
+    vector : ndarray of float32, shape (3,)
+        Unit vector ``(x right, y up, z out)``.
+
+    Raises
+    ------
+    InvalidInputError
+        Angles that are not finite or out of range.
+
+    Examples
+    --------
+    >>> Light(0.0, 90.0).vector.round(6).tolist()
+    [0.0, 0.0, 1.0]
+    """
 
     azimuth: float
     elevation: float
@@ -58,7 +81,27 @@ class Light:
 
 
 def parse_light(text: str) -> Light:
-    """``"AZ,EL"`` in degrees -> :class:`Light`, or a one-line error."""
+    """Parse ``"AZ,EL"`` (degrees) into a :class:`Light`.
+
+    Parameters
+    ----------
+    text : str
+        Azimuth and elevation in degrees, comma separated.
+
+    Returns
+    -------
+    Light
+
+    Raises
+    ------
+    InvalidInputError
+        Not two numbers, or angles out of range (one line).
+
+    Examples
+    --------
+    >>> parse_light("135,35")
+    Light(azimuth=135.0, elevation=35.0, correlation=None)
+    """
     parts = text.replace(" ", "").split(",")
     try:
         az, el = (float(p) for p in parts)
@@ -68,11 +111,34 @@ def parse_light(text: str) -> Light:
 
 
 def estimate_light(photo: np.ndarray, normals: np.ndarray) -> Light:
-    """The light under which the normals, rendered Lambertian, look most like the photo: the
-    grid direction maximising the correlation of ``N·L`` with the luminance (wang2003 §3.4's
-    manual light matching, automated). Closed form per direction from the covariances of the
-    luminance with the three normal components. The correlation reported is the best
-    direction's, negative when no light makes the photo brighter where ``N·L`` is larger."""
+    """The light under which the normals, rendered Lambertian, look most like the photo.
+
+    The grid direction maximising the correlation of ``N·L`` with the luminance (wang2003 §3.4's
+    manual light matching, automated), in closed form per direction from the covariances of the
+    luminance with the three normal components.
+
+    Parameters
+    ----------
+    photo : ndarray, shape (h, w, 3) or (h, w)
+        The photo, float in [0, 1].
+    normals : ndarray, shape (h, w, 3)
+        Unit normals of its estimated height (OpenGL).
+
+    Returns
+    -------
+    Light
+        The best direction; its ``correlation`` is negative when no light makes the photo
+        brighter where ``N·L`` is larger, 0 for a flat photo or flat normals.
+
+    Raises
+    ------
+    InvalidInputError
+        The normal map and the photo differ in size.
+
+    References
+    ----------
+    .. [1] wang2003, §3.4 (texture correction: the light matched by hand there).
+    """
     lum = luminance(photo).astype(np.float64).ravel()
     n = np.asarray(normals, np.float64).reshape(-1, 3)
     if n.shape[0] != lum.size:
@@ -100,7 +166,20 @@ def estimate_light(photo: np.ndarray, normals: np.ndarray) -> Light:
 
 
 def shading(normals: np.ndarray, light: Light) -> np.ndarray:
-    """Lambertian ``N·L`` ``(h, w)`` float32 of unit normals (OpenGL convention)."""
+    """Lambertian shading ``N·L`` of unit normals.
+
+    Parameters
+    ----------
+    normals : ndarray, shape (h, w, 3)
+        Unit normals (OpenGL convention).
+    light : Light
+        The light.
+
+    Returns
+    -------
+    ndarray of float32, shape (h, w)
+        ``N·L`` (negative where the surface faces away).
+    """
     return np.tensordot(np.asarray(normals, np.float32), light.vector, axes=([2], [0])).astype(np.float32)
 
 
@@ -147,14 +226,44 @@ def shading_strength(linear: np.ndarray, log_shade: np.ndarray, n_dot_l: np.ndar
 
 def remove_shading(photo: np.ndarray, normals: np.ndarray, light: Light, *,
                    strength: float | None = None, floor: float = SHADING_FLOOR) -> tuple[np.ndarray, float]:
-    """Albedo ``(h, w, 3)`` float32 sRGB in [0, 1] and the shading strength used: the photo
-    divided, in linear light, by ``max(N·L, floor) ** strength`` relative to its geometric mean
-    (wang2003 §3.4's T = I / (N·L), keeping the photo's overall brightness). ``strength``:
-    ``None`` fits it (:func:`shading_strength`), 1 is the paper's division.
+    """The photo's albedo: its shading divided out, and the shading strength used.
 
-    The correlation the fit removes is the one of the albedo's luminance with ``N·L``; on bark photos
-    it is the dark cavities the height model put low that get lightened, as AO-based
-    delighting does (Materialize, AwesomeBump): the AO map puts them back at render time."""
+    The photo is divided, in linear light, by ``max(N·L, floor) ** strength`` relative to its
+    geometric mean (wang2003 §3.4's T = I / (N·L), keeping the photo's overall brightness).
+
+    The correlation the fit removes is the one of the albedo's luminance with ``N·L``; on bark
+    photos it is the dark cavities the height model put low that get lightened, as AO-based
+    delighting does (Materialize, AwesomeBump): the AO map puts them back at render time.
+
+    Parameters
+    ----------
+    photo : ndarray, shape (h, w, 3)
+        The photo, sRGB float in [0, 1].
+    normals : ndarray, shape (h, w, 3)
+        Unit normals of its height (OpenGL).
+    light : Light
+        The photo's light (:func:`estimate_light`).
+    strength : float, optional
+        ``None`` fits it (:func:`shading_strength`); 1 is the paper's division.
+    floor : float, default SHADING_FLOOR
+        Smallest ``N·L`` divided by, > 0 (keeps the division finite).
+
+    Returns
+    -------
+    albedo : ndarray of float32, shape (h, w, 3)
+        sRGB in [0, 1].
+    strength : float
+        The exponent used (0: nothing removed).
+
+    Raises
+    ------
+    InvalidInputError
+        A floor that is not > 0.
+
+    References
+    ----------
+    .. [1] wang2003, §3.4 (texture correction, T = I / (N·L)).
+    """
     if floor <= 0:
         raise InvalidInputError("the shading floor must be > 0")
     n_dot_l = shading(normals, light)

@@ -46,17 +46,48 @@ _STAGES = {"analysis": (0.0, 0.5), "label_map": (0.5, 0.65), "texture": (0.65, 1
 class GenerateOptions:
     """Parameters of :func:`generate`, validated once here.
 
-    ``size``: output ``(height, width)``; ``k``: labels of the input label map; ``method``:
-    ``color`` or ``texton`` label maps; ``strategy``: ``joint`` (default), ``engine`` or
-    ``layered`` output label maps (:mod:`barkgen.shapes`); ``rotations``: boundary-patch
-    rotations of the layered strategy; ``tile``: tileable output; ``seed``: the one seed;
-    ``label_weight`` / ``feature_weight``: texture-by-numbers weights; ``threads`` /
-    ``max_memory``: solver limits; ``material``: also make the material set
-    (:mod:`barkgen.material`) of the output, ``light`` the photo's
-    :class:`~barkgen.material.Light` for its shading removal (``None``: estimated), ``relief``
-    the height's strength (1 = as fitted); ``exemplar_wrap``: ``auto`` (the photo is used as a
-    torus along each axis it tiles along, :func:`barkgen.synth.exemplar_wraps`), ``yes`` or
-    ``no``.
+    Parameters
+    ----------
+    size : (int, int), default (1024, 1024)
+        Output ``(height, width)`` (or anything :func:`parse_output_shape` reads).
+    k : int, default 3
+        Labels of the input label map.
+    method : {"color", "texton"}, default "color"
+        How the input label map is made (:mod:`barkgen.labels`).
+    strategy : {"joint", "engine", "layered"}, default "joint"
+        How the output label map is made (:mod:`barkgen.shapes`).
+    rotations : {"none", "vertical", "all"}, default "vertical"
+        Boundary-patch rotations of the layered strategy.
+    tile : bool, default False
+        Tileable output.
+    seed : int, default 0
+        The one seed behind every random choice of a variant.
+    label_weight, feature_weight : float, default 20.0, 8.0
+        Texture-by-numbers weights (laitoch2018 eq. 3.1, 3.3).
+    threads : int, optional
+        Solver threads (None: all cores).
+    max_memory : int, default 8 GiB
+        Refuse jobs whose estimated memory exceeds this many bytes.
+    material : bool, default False
+        Also make the output's material set (:mod:`barkgen.material`).
+    light : Light, optional
+        The photo's :class:`~barkgen.material.Light` for its shading removal (``None``:
+        estimated).
+    relief : float, default 1.0
+        The height's strength (1 = as fitted).
+    exemplar_wrap : {"auto", "yes", "no"}, default "auto"
+        ``auto``: the photo is used as a torus along each axis it tiles along
+        (:func:`barkgen.synth.exemplar_wraps`).
+
+    Raises
+    ------
+    InvalidInputError
+        Any option out of range (one line).
+
+    Examples
+    --------
+    >>> GenerateOptions(size=256, tile=True).size
+    (256, 256)
     """
 
     size: tuple[int, int] = (1024, 1024)
@@ -102,10 +133,25 @@ class GenerateOptions:
 
 @dataclass
 class GenerateResult:
-    """What :func:`generate` makes: the texture, both label maps, the reference map (output ->
-    photo ``(y, x)``), the extra maps, every level of the output label map (finest first), a
-    JSON-ready report of parameters, label areas and timings, and (``options.material``) the
-    output's :class:`~barkgen.material.MaterialSet`."""
+    """What :func:`generate` makes.
+
+    Attributes
+    ----------
+    texture : ndarray, shape (H, W, C)
+        The new bark, the photo's dtype.
+    labels_in, labels_out : ndarray of uint8
+        The photo's label map and the output's.
+    references : ndarray of int32, shape (H, W, 2)
+        The reference map: output -> photo ``(y, x)``.
+    extras : dict of str to ndarray
+        The extra maps, synthesized along.
+    label_levels : list of ndarray
+        Every level of the output label map, finest first.
+    report : dict
+        JSON-ready parameters, label areas and timings.
+    material : MaterialSet or None
+        With ``options.material``, the output's :class:`~barkgen.material.MaterialSet`.
+    """
 
     texture: np.ndarray
     labels_in: np.ndarray
@@ -139,12 +185,29 @@ ANALYSIS_SEED = 0
 
 @dataclass
 class PhotoAnalysis:
-    """What :func:`generate` needs from a photo whatever the seed (laitoch2018 Figure 1.2's
-    per-photo steps): the input label map, the k-coherence analyses of the label-map and
-    texture solvers (mazzolini2012 §4.1.2, in an :class:`~barkgen.synth.AnalysisCache`), and
-    with ``material`` the photo's own :class:`~barkgen.material.MaterialSet`. Made once by
-    :func:`analyze_photo`, it serves any number of seeds (:mod:`barkgen.batch` ships it to its
-    workers); ``seconds`` is what it cost."""
+    """What :func:`generate` needs from a photo whatever the seed.
+
+    laitoch2018 Figure 1.2's per-photo steps: made once by :func:`analyze_photo`, it serves any
+    number of seeds (:mod:`barkgen.batch` ships it to its workers).
+
+    Attributes
+    ----------
+    labels_in : ndarray of uint8, shape (h, w)
+        The input label map.
+    cache : AnalysisCache
+        The k-coherence analyses of the label-map and texture solvers (mazzolini2012 §4.1.2).
+    material : MaterialSet or None
+        With ``options.material``, the photo's own material set.
+    options : GenerateOptions or None
+        The options it was made with.
+    seconds : float
+        What it cost.
+
+    References
+    ----------
+    .. [1] laitoch2018, Figure 1.2.
+    .. [2] mazzolini2012, §4.1.2 (the k-coherence analysis phase).
+    """
 
     labels_in: np.ndarray
     cache: AnalysisCache
@@ -168,11 +231,49 @@ def analyze_photo(
     labels_in: np.ndarray | None = None,
     progress: ProgressCallback | None = None,
 ) -> PhotoAnalysis:
-    """The per-photo part of :func:`generate`: the input label map (``options.k`` labels by
-    ``options.method``, laitoch2018 §3.5, unless ``labels_in`` is given), the exemplar analyses
-    of the output-label-map and texture-by-numbers solvers for outputs of ``options.size``, and
-    with ``options.material`` the photo's material set (wang2003 §3.3-3.4). The seed plays no
-    part: give the result to :func:`generate` for every seed."""
+    """The per-photo part of :func:`generate`; the seed plays no part.
+
+    The input label map (``options.k`` labels by ``options.method``, laitoch2018 §3.5, unless
+    ``labels_in`` is given), the exemplar analyses of the output-label-map and
+    texture-by-numbers solvers for outputs of ``options.size``, and with ``options.material``
+    the photo's material set (wang2003 §3.3-3.4).
+
+    Parameters
+    ----------
+    photo : ndarray, shape (h, w, 3) or (h, w)
+        The bark photo (uint8, uint16 or float).
+    options : GenerateOptions, optional
+        The options of the runs it will serve (their seeds aside).
+    extra : dict of str to ndarray, optional
+        Maps aligned with the photo, synthesized along.
+    labels_in : ndarray, shape (h, w), optional
+        The photo's label map, when the user has one.
+    progress : callable, optional
+        ``progress(done, total)`` callback.
+
+    Returns
+    -------
+    PhotoAnalysis
+        Give it to :func:`generate` for every seed.
+
+    Raises
+    ------
+    InvalidInputError
+        A label map of another size than the photo, or bad options.
+
+    References
+    ----------
+    .. [1] laitoch2018, Figure 1.2 and §3.5.
+    .. [2] mazzolini2012, §4.1.2 (analysis once, synthesis many times).
+
+    Examples
+    --------
+    >>> import barkgen
+    >>> photo = barkgen.read_image(barkgen.sample_exemplar_path())[:64, :64]
+    >>> analysis = analyze_photo(photo, GenerateOptions(size=(64, 64)))
+    >>> generate(photo, GenerateOptions(size=(64, 64), seed=1), analysis=analysis).texture.shape
+    (64, 64, 3)
+    """
     from barkgen.labels import color_regions, texton_regions
     from barkgen.shapes import analyse_label_map
     from barkgen.synth import AnalysisCache, analyse_texture_by_numbers
@@ -222,19 +323,28 @@ def generate(
 ) -> GenerateResult:
     """Turn a bark photo into new bark of ``options.size`` (laitoch2018 Figure 1.2).
 
-    Args:
-        photo: ``(h, w, 3)`` or ``(h, w)`` bark photo (uint8, uint16 or float).
-        options: :class:`GenerateOptions` (defaults: 1024x1024, k = 3, colour labels, joint
-            label maps, not tileable, seed 0).
-        extra: maps aligned with the photo (height, ...), synthesized along.
-        labels_in: the photo's label map, when the user has one (then ``k`` and ``method`` are
-            not used).
-        resume: an edited level of the output label map to continue from
-            (:func:`barkgen.shapes.synthesize_label_map`).
-        progress: optional ``progress(done, total)`` callback over the whole run.
-        analysis: the photo's :class:`PhotoAnalysis` from :func:`analyze_photo` with the same
-            photo, extras and options (the seed aside), to skip the per-photo work; the result
-            is the same bytes as without it.
+    Parameters
+    ----------
+    photo : ndarray, shape (h, w, 3) or (h, w)
+        The bark photo (uint8, uint16 or float).
+    options : GenerateOptions, optional
+        Default: 1024x1024, k = 3, colour labels, joint label maps, not tileable, seed 0.
+    extra : dict of str to ndarray, optional
+        Maps aligned with the photo (height, ...), synthesized along.
+    labels_in : ndarray, optional
+        The photo's label map, when the user has one (``k`` and ``method`` are then unused).
+    resume : ndarray or (int, ndarray), optional
+        An edited level of the output label map to continue from
+        (:func:`~barkgen.shapes.synthesize_label_map`).
+    progress : callable, optional
+        ``progress(done, total)`` callback over the whole run.
+    analysis : PhotoAnalysis, optional
+        :func:`analyze_photo` of the same photo, extras and options (the seed aside): skips
+        the per-photo work, and the result is the same bytes as without it.
+
+    Returns
+    -------
+    GenerateResult
     """
     from barkgen.shapes import synthesize_label_map
     from barkgen.synth import texture_by_numbers
@@ -333,7 +443,22 @@ def _photo_material(photo: np.ndarray, labels_in: np.ndarray, options: GenerateO
 
 
 def preview_sheet(photo: np.ndarray, result: GenerateResult, tile_size: int = 320) -> np.ndarray:
-    """The contact sheet of a run: photo, input labels, output labels, result."""
+    """The contact sheet of a run: photo, input labels, output labels, result.
+
+    Parameters
+    ----------
+    photo : ndarray
+        The photo of the run.
+    result : GenerateResult
+        What :func:`generate` made of it.
+    tile_size : int, default 320
+        Width of each picture in the sheet, in pixels.
+
+    Returns
+    -------
+    ndarray of uint8, shape (H, 4 * (tile_size + 6), 3)
+        The sheet (:func:`barkgen.labels.contact_sheet`), captioned.
+    """
     from barkgen.labels import contact_sheet, label_colour_map
     from barkgen._shared.arrays import as_uint8
 

@@ -20,11 +20,37 @@ GENERATE_FILES = ("texture", "labels_in", "labels_out", "reference", "preview", 
 
 def encode_generate(photo: np.ndarray, result, source: str, *, name: str = "bark",
                     bits: int | None = None) -> dict[str, bytes]:
-    """Every file of a :class:`~barkgen.pipeline.GenerateResult`: ``texture.png`` (``bits``:
-    8, 16 or the photo's depth), ``labels_in.png``, ``labels_out.png``, ``reference.png``,
-    ``preview.png``, one ``NAME.png`` per extra map, the material set as ``name``
+    """Every file of a :class:`~barkgen.pipeline.GenerateResult`, encoded.
+
+    ``texture.png``, ``labels_in.png``, ``labels_out.png``, ``reference.png``, ``preview.png``,
+    one ``NAME.png`` per extra map, the material set as ``name``
     (:func:`~barkgen.io.encode_material`) when there is one, and ``report.json`` (version, the
-    ``source`` photo, the run's report and the list of files)."""
+    ``source`` photo, the run's report and the list of files): the bytes ``barkgen generate``,
+    ``barkgen batch`` and the web app write.
+
+    Parameters
+    ----------
+    photo : ndarray
+        The photo of the run.
+    result : GenerateResult
+        What :func:`~barkgen.pipeline.generate` made of it.
+    source : str
+        The photo's name or path, as recorded in ``report.json``.
+    name : str, default "bark"
+        The material set's ``NAME``.
+    bits : {8, 16}, optional
+        Bit depth of ``texture.png`` (default: the photo's).
+
+    Returns
+    -------
+    dict of str to bytes
+        File name -> content; write it with :func:`barkgen.io.write_folder_atomic`.
+
+    Raises
+    ------
+    InvalidInputError
+        A material name whose files clash with the run's own.
+    """
     report = {"barkgen": __version__, "photo": source, **result.report}
     files = {"texture.png": encode_png(result.texture, bits=bits),
              "labels_in.png": encode_png(result.labels_in),

@@ -24,11 +24,26 @@ STRATEGIES = ("engine", "joint", "layered")
 
 @dataclass
 class LabelMapResult:
-    """A synthesized label map (``(H, W)``, grey values of the exemplar's palette), every
-    pyramid level's map (``levels[l]`` for level ``l``, 0 = finest; levels above a resumed one
-    are None), the strategy, the layer order (layered strategy, bottom label value first), the
-    reference map ``(H, W, 2)`` of the exemplar label pixels the map copies (engine and joint
-    strategies), the level resumed from (or None) and timings in seconds."""
+    """A synthesized label map and what came with it.
+
+    Attributes
+    ----------
+    label_map : ndarray of uint8, shape (H, W)
+        Grey values of the exemplar's palette.
+    levels : list of ndarray or None
+        Every pyramid level's map (``levels[l]`` for level ``l``, 0 = finest; levels above a
+        resumed one are None).
+    strategy : str
+        The strategy used.
+    layer_order : list of int or None
+        Layered strategy: the layer order, bottom label value first.
+    references : ndarray of int32, shape (H, W, 2), or None
+        Engine and joint strategies: the exemplar label pixels the map copies.
+    resumed_level : int or None
+        The level resumed from.
+    timings : dict
+        Seconds.
+    """
 
     label_map: np.ndarray
     levels: list
@@ -41,7 +56,30 @@ class LabelMapResult:
 
 def label_map_levels(exemplar_shape: tuple[int, int], size, strategy: str = "engine",
                      config: ShapeConfig | None = None) -> list[tuple[int, int]]:
-    """The ``(height, width)`` of every pyramid level of an output label map, finest first."""
+    """The ``(height, width)`` of every pyramid level of an output label map, finest first.
+
+    Parameters
+    ----------
+    exemplar_shape : (int, int)
+        ``(h, w)`` of the exemplar's label map.
+    size : int or (int, int)
+        Output ``(height, width)``.
+    strategy : {"engine", "joint", "layered"}, default "engine"
+        The strategy (their pyramids differ).
+    config : ShapeConfig, optional
+        The layered strategy's parameters.
+
+    Returns
+    -------
+    list of (int, int)
+        Level 0 (the output size) first; an edited level for ``resume=`` must have one of these
+        sizes.
+
+    Examples
+    --------
+    >>> label_map_levels((128, 128), 256, "layered")
+    [(256, 256), (128, 128), (64, 64)]
+    """
     out_shape = parse_output_shape(size)
     if strategy in ("engine", "joint"):
         from barkgen.shapes.engine import engine_levels
@@ -101,32 +139,53 @@ def synthesize_label_map(
     photo: np.ndarray | None = None,
     exemplar_wrap: str | bool | tuple[bool, bool] = "auto",
 ) -> LabelMapResult:
-    """Synthesize a new label map of ``size`` (``(height, width)`` or an int) from the
-    exemplar's ``label_map`` (laitoch2018 §3.6; Figure 1.2's "output label map").
+    """Synthesize a new label map of ``size`` from the exemplar's ``label_map`` (laitoch2018 §3.6).
 
-    Args:
-        label_map: ``(h, w)`` grey label map (every distinct value is a label, at most 64).
-        size: output ``(height, width)``.
-        strategy: ``"engine"`` (default; the core engine on one-hot label channels),
-            ``"joint"`` (the engine matching ``photo``'s colours too) or ``"layered"``
-            (Rosenberger et al.'s layered shape synthesis).
-        tile: the output label map wraps around (toroidal), so the texture made from it can tile.
-        seed: seeds every random choice.
-        rotations: boundary patches may match turned ``"none"``, ``"vertical"`` (180°, the
-            default: bark is vertical) or ``"all"`` four ways (layered strategy, eq. 3.7).
-        layer_order: label values, bottom layer first (layered strategy; automatic when None).
-        resume: an edited pyramid level to continue from: ``(level, label_map)`` or just the
-            label map (its size tells the level, see :func:`label_map_levels`); grey values of
-            the exemplar's labels.
-        config: parameters of the layered strategy.
-        progress: optional ``progress(done, total)`` callback.
-        cache: an :class:`~barkgen.synth.AnalysisCache` holding (or to keep) the engine
-            strategy's exemplar analysis (:func:`analyse_label_map`).
-        photo: the photo ``label_map`` labels (same height and width); the joint strategy
-            needs it, the others do not use it.
-        exemplar_wrap: ``"auto"`` (the photo, or else the label map, decides whether it tiles
-            along each axis: :func:`barkgen.synth.exemplar_wraps`), ``"yes"``, ``"no"`` or a
-            ``(rows, columns)`` pair; the engine strategies use the exemplar as a torus there.
+    Parameters
+    ----------
+    label_map : ndarray, shape (h, w)
+        Grey label map (every distinct value is a label, at most 64).
+    size : int or (int, int)
+        Output ``(height, width)``.
+    strategy : {"engine", "joint", "layered"}, default "engine"
+        The core engine on one-hot label channels; the engine matching ``photo``'s colours too;
+        or Rosenberger et al.'s layered shape synthesis.
+    tile : bool, default False
+        The output label map wraps around, so the texture made from it can tile.
+    seed : int, default 0
+        Seeds every random choice.
+    rotations : {"none", "vertical", "all"}, default "vertical"
+        Boundary patches may match turned 180° or four ways (layered strategy, eq. 3.7).
+    layer_order : list of int, optional
+        Label values, bottom layer first (layered strategy; automatic when None).
+    resume : (int, ndarray) or ndarray, optional
+        An edited pyramid level to continue from: ``(level, label_map)`` or just the map (its
+        size tells the level, :func:`label_map_levels`), in the exemplar's grey values.
+    config : ShapeConfig, optional
+        Parameters of the layered strategy.
+    progress : callable, optional
+        ``progress(done, total)`` callback.
+    cache : AnalysisCache, optional
+        Holds (or keeps) the engine strategies' exemplar analysis (:func:`analyse_label_map`).
+    photo : ndarray, optional
+        The photo ``label_map`` labels (same height and width); the joint strategy needs it.
+    exemplar_wrap : {"auto", "yes", "no"} or (bool, bool), default "auto"
+        Whether the exemplar is used as a torus along each axis (``auto``: the photo, or else
+        the label map, decides: :func:`barkgen.synth.exemplar_wraps`).
+
+    Returns
+    -------
+    LabelMapResult
+
+    Raises
+    ------
+    InvalidInputError
+        A bad strategy, rotations, seed, size, layer order, edited level or photo.
+
+    References
+    ----------
+    .. [1] laitoch2018, §3.6 and Figure 1.2's "output label map"; rosenberger2009 (layered).
+    .. [2] kopf2007 (the label-area histogram matching of the joint strategy).
     """
     if strategy not in STRATEGIES:
         raise InvalidInputError(f"strategy must be one of {', '.join(STRATEGIES)}, not {strategy!r}")
@@ -206,9 +265,33 @@ def _wrap(mode, codes: np.ndarray, photo: np.ndarray | None) -> tuple[bool, bool
 def analyse_label_map(label_map: np.ndarray, size, cache: AnalysisCache, *,
                       photo: np.ndarray | None = None,
                       exemplar_wrap: str | bool | tuple[bool, bool] = "auto") -> AnalysisCache:
-    """Run the engine strategy's (with ``photo``, the joint strategy's) exemplar analysis for
-    outputs of ``size`` into ``cache``, so that every :func:`synthesize_label_map` of this label
-    map and size (any seed) skips it."""
+    """Run the engine strategy's exemplar analysis for outputs of ``size`` into ``cache``.
+
+    With ``photo``, the joint strategy's. Every :func:`synthesize_label_map` of this label map
+    and size (any seed) then skips it.
+
+    Parameters
+    ----------
+    label_map : ndarray, shape (h, w)
+        The exemplar's grey label map.
+    size : int or (int, int)
+        Output ``(height, width)``.
+    cache : AnalysisCache
+        Receives the analysis.
+    photo : ndarray, optional
+        The photo, for the joint strategy.
+    exemplar_wrap : {"auto", "yes", "no"} or (bool, bool), default "auto"
+        As for :func:`synthesize_label_map`.
+
+    Returns
+    -------
+    AnalysisCache
+        ``cache``.
+
+    References
+    ----------
+    .. [1] mazzolini2012, §4.1.2 (the k-coherence analysis phase, once per exemplar).
+    """
     from barkgen.shapes.engine import analyse_codes
 
     codes, palette = to_codes(label_map)

@@ -34,18 +34,37 @@ from barkgen.shapes.patches import (
 
 @dataclass(frozen=True)
 class ShapeConfig:
-    """Parameters of the boundary-patch shape optimisation.
+    """Parameters of the boundary-patch shape optimisation (laitoch2018 §3.6, layered strategy).
 
-    ``patch``: side of the boundary patches (odd). ``iterations_coarsest`` /
-    ``iterations_finest``: optimisation iterations at the coarsest and the finest pyramid level
-    (linear in between; fine levels only refine boundaries). ``candidates``: nearest exemplar
-    patches considered per synthesized patch by the greedy matching. ``max_exemplar_patches``:
-    exemplar boundary patches kept per level (a seeded random subset beyond that).
-    ``falloff_sigma``: the Gaussian falloff of eq. 3.10 in pixels (``patch / 4`` when None).
-    ``tolerance``: stop a level when fewer than this fraction of pixels change.
-    ``threshold_shift``: how far the dynamic threshold may move from 0 to keep the exemplar's
-    area, in units of the mean absolute weight near the boundary.
-    ``coarsest_exemplar``: the coarsest level keeps at least this many exemplar pixels per side.
+    Parameters
+    ----------
+    patch : int, default 9
+        Side of the boundary patches (odd, >= 3).
+    iterations_coarsest, iterations_finest : int, default 8, 2
+        Optimisation iterations at the coarsest and the finest pyramid level (linear in
+        between; fine levels only refine boundaries).
+    candidates : int, default 8
+        Nearest exemplar patches considered per synthesized patch by the greedy matching.
+    max_exemplar_patches : int, default 20000
+        Exemplar boundary patches kept per level (a seeded random subset beyond that).
+    falloff_sigma : float, optional
+        The Gaussian falloff of eq. 3.10 in pixels (``patch / 4`` when None).
+    tolerance : float, default 0.002
+        Stop a level when fewer than this fraction of pixels change.
+    coarsest_exemplar : int, default 32
+        The coarsest level keeps at least this many exemplar pixels per side.
+    threshold_shift : float, default 0.5
+        How far the dynamic threshold may move from 0 to keep the exemplar's area, in units of
+        the mean absolute weight near the boundary.
+
+    Raises
+    ------
+    InvalidInputError
+        A bad patch size, iteration count or candidate count.
+
+    References
+    ----------
+    .. [1] laitoch2018, §3.6 (eq. 3.7-3.10); rosenberger2009.
     """
 
     patch: int = 9

@@ -36,6 +36,31 @@ def automatic_layer_order(codes: np.ndarray, n_labels: int) -> list[int]:
     one that puts the most of the exemplar's label boundaries between successive layers
     (exhaustive for up to 7 labels, greedy beyond); of an order and its reverse, the one whose
     bottom layer covers more of the exemplar (the background) is taken.
+
+    Parameters
+    ----------
+    codes : ndarray of int, shape (h, w)
+        The exemplar's label codes ``0 .. n_labels - 1``.
+    n_labels : int
+        Number of labels.
+
+    Returns
+    -------
+    list of int
+        Label codes, bottom layer first.
+
+    References
+    ----------
+    .. [1] laitoch2018, §3.6.4 (layers); rosenberger2009 (layered shape synthesis).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> codes = np.zeros((8, 8), int)
+    >>> codes[2:6, 2:6] = 1
+    >>> codes[3:5, 3:5] = 2
+    >>> automatic_layer_order(codes, 3)
+    [0, 1, 2]
     """
     adj = adjacency(codes, n_labels)
     area = np.bincount(codes.ravel(), minlength=n_labels)
