@@ -1,8 +1,8 @@
 """Crack networks: extract, grow and render branching structures (:mod:`barkgen.branching`,
 sibbing2010).
 
-The source image is a crop of a dried-mud crack texture from ``/work/shared/data/branching``
-(or of the folder in ``$BARKGEN_BRANCHING_DATA``) when it is there; otherwise the bundled bark
+The source image is a crop of a dried-mud crack texture from the team's
+``../shared/data/branching`` (``$BARKGEN_SHARED/data/branching``) when it is there; otherwise the bundled bark
 sample, whose fissures are given as the darkest label of a 2-label colour map
 (:func:`barkgen.labels.color_regions`, the ``labels=`` route of
 :func:`barkgen.branching.extract_structure`). Then:
@@ -34,7 +34,7 @@ import barkgen
 import barkgen.branching
 import barkgen.labels
 
-DATA = Path(os.environ.get("BARKGEN_BRANCHING_DATA", "/work/shared/data/branching"))
+DATA = Path(os.environ.get("BARKGEN_SHARED", Path(__file__).resolve().parents[2] / "shared")) / "data" / "branching"
 
 
 def source_image() -> tuple[np.ndarray, np.ndarray | None, str]:
