@@ -295,6 +295,42 @@ def test_painted_labels_are_checked_then_continued(client):
     assert after > 0.6 and after > before + 0.3, (before, after)
 
 
+def test_route_functions_answer_without_a_server(library):
+    """The routes' plain functions take the app's state and raise barkgen's errors: no HTTP."""
+    from barkgen.errors import ImageTooLargeError, InvalidInputError
+    from barkgen.library import NotFoundError
+    from barkgen.web.jobs import JobManager
+    from barkgen.web.routes_exemplars import coloured_labels, exemplar_details, store_upload
+    from barkgen.web.routes_jobs import JobRequest, job_snapshot, start_job, stop_job
+    from barkgen.web.state import AppState
+
+    state = AppState(library, JobManager(library), WebLimits(max_upload_bytes=1024**2))
+    added = store_upload(state, _photo_png(seed=11), "../../tmp/oak.png", species="oak")
+    assert added["existing"] is False
+    assert store_upload(state, _photo_png(seed=11), "again.png") == {"id": added["id"], "existing": True}
+    with pytest.raises(ImageTooLargeError, match="1 MB"):
+        store_upload(state, bytes(1024**2 + 1), "big.png")
+    details = exemplar_details(state, added["id"])
+    assert details["name"] == "oak" and details["species"] == "oak" and details["results"] == []
+    assert details["photo_url"] == f"/api/exemplars/{added['id']}/photo"
+    with pytest.raises(InvalidInputError, match="between 2 and 8"):
+        coloured_labels(state, added["id"], 9)
+    # the queue is not running: the job waits, and is cancelled while it waits
+    job = start_job(state, JobRequest(exemplar_id=added["id"], **SMALL, seed=5))
+    snapshot = job_snapshot(state, job["id"])
+    assert snapshot["state"] == "queued" and snapshot["params"]["seed"] == 5
+    assert snapshot["params"]["size"] == [96, 96] and snapshot["params"]["resumed_from"] is None
+    assert stop_job(state, job["id"])["state"] == "cancelled"
+    with pytest.raises(InvalidInputError, match="4096"):
+        start_job(state, JobRequest(exemplar_id=added["id"], **{**SMALL, "size": "9000x100"}))
+    with pytest.raises(InvalidInputError, match="k must be"):  # GenerateOptions' own check
+        start_job(state, JobRequest(exemplar_id=added["id"], **{**SMALL, "k": 99}))
+    with pytest.raises(NotFoundError):
+        start_job(state, JobRequest(exemplar_id=999, **SMALL))
+    with pytest.raises(NotFoundError, match="no job nope"):
+        job_snapshot(state, "nope")
+
+
 def test_ctrl_c_stops_the_server_with_a_job_and_its_event_stream_open(tmp_path):
     """`barkgen serve` stops at once on Ctrl-C even while a page follows a running job."""
     import signal

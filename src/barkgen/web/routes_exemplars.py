@@ -1,0 +1,154 @@
+"""The web app's exemplars: the library's photos listed, uploaded, shown (at display and
+thumbnail size, JPEG) and removed, and each photo's input label map in the label colours (the
+regions synthesis follows, laitoch2018 §1).
+
+Each endpoint wraps a plain function of the same module that takes the app's
+:class:`~barkgen.web.state.AppState`; they raise barkgen's errors, which :mod:`barkgen.web.app`
+answers with their HTTP codes.
+"""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+from fastapi import APIRouter, File, Form, UploadFile
+from fastapi.concurrency import run_in_threadpool
+from fastapi.responses import JSONResponse
+
+from barkgen.errors import ImageTooLargeError, InvalidInputError
+from barkgen.io import decode_image, encode_png
+from barkgen.labels import label_colour_map
+from barkgen.pipeline import ANALYSIS_SEED
+from barkgen.web.routes_results import result_summary
+from barkgen.web.state import DISPLAY_SIDE, THUMBNAIL_SIDE, AppState, State, cached_response, labels_key
+
+router = APIRouter()
+
+
+def exemplar_json(exemplar) -> dict:
+    """An exemplar as the API shows it: its record and the URLs of its pictures."""
+    return {**exemplar.to_dict(), "photo_url": f"/api/exemplars/{exemplar.id}/photo",
+            "thumbnail_url": f"/api/exemplars/{exemplar.id}/thumbnail.jpg"}
+
+
+def all_exemplars(state: AppState) -> list[dict]:
+    return [exemplar_json(e) for e in state.library.exemplars()]
+
+
+def store_upload(state: AppState, data: bytes, filename: str | None, *, name: str | None = None,
+                 species: str | None = None, licence: str | None = None) -> dict:
+    """Add an uploaded photo to the library: ``{"id", "existing"}``, ``existing`` true when the
+    same photo is there already (its entry is answered, nothing is added). The client's file
+    name is only a default display name: it never touches the filesystem."""
+    limits = state.limits
+    if len(data) > limits.max_upload_bytes:
+        raise ImageTooLargeError(limits.upload_too_large)
+    display = (name or Path(filename or "").stem or "uploaded bark").strip()[:200]
+    existing = state.library.find_exemplar(data)
+    if existing is not None:
+        return {"id": existing.id, "existing": True}
+    exemplar = state.library.add_exemplar(data, display, species=species or None, licence=licence or None,
+                                          source="uploaded", max_pixels=limits.max_upload_pixels)
+    return {"id": exemplar.id, "existing": False}
+
+
+def exemplar_details(state: AppState, exemplar_id: int) -> dict:
+    """An exemplar with the summaries of its results."""
+    exemplar = state.library.exemplar(exemplar_id)
+    return {**exemplar_json(exemplar),
+            "results": [result_summary(r) for r in state.library.results(exemplar_id)]}
+
+
+def delete_exemplar(state: AppState, exemplar_id: int) -> dict:
+    """Remove an exemplar, its results and its jobs (queued or running ones are cancelled)."""
+    state.library.exemplar(exemplar_id)
+    state.jobs.cancel_exemplar(exemplar_id)
+    state.library.remove_exemplar(exemplar_id)
+    return {"removed": exemplar_id}
+
+
+def preview_jpeg(state: AppState, exemplar_id: int, side: int) -> bytes:
+    """The photo at most ``side`` px a side as a JPEG, cached in the library's analyses."""
+    library = state.library
+    key = {"side": side, "format": "jpeg"}
+    cached = library.analysis(exemplar_id, "preview", key)
+    if cached is not None:
+        return cached
+    from PIL import Image
+
+    from barkgen._shared.arrays import as_uint8
+
+    image = Image.fromarray(as_uint8(library.photo(exemplar_id)).squeeze())
+    image.thumbnail((side, side))
+    buffer = io.BytesIO()
+    image.convert("RGB").save(buffer, "JPEG", quality=90)
+    library.put_analysis(exemplar_id, "preview", key, buffer.getvalue())
+    return buffer.getvalue()
+
+
+def labels_in(state: AppState, exemplar_id: int, k: int) -> bytes:
+    """The photo's input label map (grey values, as ``barkgen generate`` makes it), cached
+    in the library's analyses (made once however many pages ask at the same time)."""
+    library = state.library
+    with state.label_lock(exemplar_id, k):
+        cached = library.analysis(exemplar_id, "labels_in", labels_key(k))
+        if cached is not None:
+            return cached
+        from barkgen.labels import color_regions
+
+        data = encode_png(color_regions(library.photo(exemplar_id), k, seed=ANALYSIS_SEED))
+        library.put_analysis(exemplar_id, "labels_in", labels_key(k), data)
+        return data
+
+
+def coloured_labels(state: AppState, exemplar_id: int, k: int) -> bytes:
+    """The photo's input label map of ``k`` labels (2 to 8, the page's choice) in the label
+    colours, as a PNG."""
+    if not 2 <= k <= 8:
+        raise InvalidInputError("k must be between 2 and 8")
+    state.library.exemplar(exemplar_id)
+    grey = decode_image(labels_in(state, exemplar_id, k), "labels")
+    return encode_png(label_colour_map(grey[..., 0]))
+
+
+# -- endpoints ------------------------------------------------------------------------------
+@router.get("/api/exemplars")
+def list_exemplars(state: State):
+    return all_exemplars(state)
+
+
+@router.post("/api/exemplars", status_code=201)
+async def add_exemplar(state: State, file: UploadFile = File(...), name: str | None = Form(None),
+                       species: str | None = Form(None), licence: str | None = Form(None)):
+    data = await file.read(state.limits.max_upload_bytes + 1)
+    answer = await run_in_threadpool(store_upload, state, data, file.filename, name=name,
+                                     species=species, licence=licence)
+    if answer["existing"]:  # the same photo again: its entry (the page says so)
+        return JSONResponse(answer, status_code=200)
+    return answer
+
+
+@router.get("/api/exemplars/{exemplar_id}")
+def get_exemplar(exemplar_id: int, state: State):
+    return exemplar_details(state, exemplar_id)
+
+
+@router.delete("/api/exemplars/{exemplar_id}")
+def remove_exemplar(exemplar_id: int, state: State):
+    return delete_exemplar(state, exemplar_id)
+
+
+@router.get("/api/exemplars/{exemplar_id}/photo")
+def exemplar_photo(exemplar_id: int, state: State):
+    return cached_response(preview_jpeg(state, exemplar_id, DISPLAY_SIDE), "image/jpeg")
+
+
+@router.get("/api/exemplars/{exemplar_id}/thumbnail.jpg")
+def exemplar_thumbnail(exemplar_id: int, state: State):
+    return cached_response(preview_jpeg(state, exemplar_id, THUMBNAIL_SIDE), "image/jpeg")
+
+
+@router.get("/api/exemplars/{exemplar_id}/labels.png")
+def exemplar_labels(exemplar_id: int, state: State, k: int = 3):
+    return cached_response(coloured_labels(state, exemplar_id, k), "image/png")

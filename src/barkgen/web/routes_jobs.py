@@ -1,0 +1,202 @@
+"""The web app's jobs: a generate request checked and queued (:func:`start_job`), optionally
+continuing a result from a label-map level the user painted (the large-scale pattern steered
+by hand, laitoch2018 §1), then followed (its JSON, or server-sent events) and cancelled.
+
+Each endpoint wraps a plain function of the same module that takes the app's
+:class:`~barkgen.web.state.AppState`; they raise barkgen's errors, which :mod:`barkgen.web.app`
+answers with their HTTP codes. The request's numbers are checked by
+:class:`~barkgen.pipeline.GenerateOptions`, the server's own limits here.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import base64
+import binascii
+import json
+import re
+import secrets
+import warnings
+from collections.abc import AsyncIterator, Awaitable, Callable
+
+import numpy as np
+from fastapi import APIRouter, Request
+from fastapi.responses import StreamingResponse
+from pydantic import BaseModel, Field
+
+from barkgen._shared.checks import parse_size
+from barkgen.errors import InvalidInputError
+from barkgen.io import AlphaDroppedWarning, decode_image
+from barkgen.labels.preview import label_colours
+from barkgen.library import NotFoundError
+from barkgen.pipeline import GenerateOptions
+from barkgen.web.jobs import FINISHED
+from barkgen.web.state import LABEL_METHOD, AppState, State, WebLimits, labels_key
+
+router = APIRouter()
+
+
+class ResumeRequest(BaseModel):
+    result_id: int
+    level: int = Field(ge=0)
+    labels: str  # data:image/png;base64,...
+
+
+class JobRequest(BaseModel):
+    exemplar_id: int
+    size: str = "512x512"
+    seed: int | None = Field(default=None, ge=0, lt=2**63)
+    k: int = 3
+    tile: bool = True
+    material: bool = True
+    resume: ResumeRequest | None = None
+
+
+def check_size(limits: WebLimits, text: str) -> tuple[int, int]:
+    """``"WxH"`` as ``(height, width)``, within the server's largest output side."""
+    height, width = parse_size(text)
+    if max(width, height) > limits.max_output_side:
+        raise InvalidInputError(f"size {text} is larger than this server's limit of "
+                                f"{limits.max_output_side} px a side")
+    return height, width
+
+
+def _painted_codes(painted: np.ndarray, count: int) -> np.ndarray:
+    """The label index of each painted pixel: its colour's place among the ``count`` label
+    colours; a pixel of any other colour is refused."""
+    if painted.dtype != np.uint8:
+        raise InvalidInputError("the painted labels must be an 8-bit PNG")
+    rgb = np.broadcast_to(painted, painted.shape[:2] + (3,))
+    codes = np.full(rgb.shape[:2], -1, np.int64)
+    for index, colour in enumerate(label_colours(count)):
+        codes[(rgb == colour).all(-1)] = index
+    off = codes < 0
+    if off.any():
+        y, x = np.argwhere(off)[0]
+        raise InvalidInputError(f"the painted pixel at x={x}, y={y} has colour {tuple(int(c) for c in rgb[y, x])}, "
+                                "which is no label's colour; paint with the palette only")
+    return codes
+
+
+def painted_level(state: AppState, request: ResumeRequest, exemplar_id: int,
+                  params: dict) -> tuple[int, np.ndarray]:
+    """The painted level as a label map of the parent result's label values."""
+    library = state.library
+    parent = library.result(request.result_id)
+    if parent.exemplar_id != exemplar_id:
+        raise InvalidInputError(f"result {parent.id} belongs to exemplar {parent.exemplar_id}, not {exemplar_id}")
+    if [params["size"][0], params["size"][1], params["k"]] != [*parent.params["size"], parent.params["k"]]:
+        raise InvalidInputError("continuing a result keeps its size and k")
+    level_name = f"level_{request.level}.png"
+    if level_name not in parent.files:
+        raise InvalidInputError(f"result {parent.id} has no label-map level {request.level}")
+    match = re.fullmatch(r"data:image/png;base64,([A-Za-z0-9+/=\s]+)", request.labels)
+    if not match:
+        raise InvalidInputError("the painted labels must be a PNG data URL (data:image/png;base64,...)")
+    try:
+        data = base64.b64decode(match.group(1), validate=False)
+    except (binascii.Error, ValueError):
+        raise InvalidInputError("the painted labels are not valid base64") from None
+    with warnings.catch_warnings():  # a canvas PNG has alpha, which says nothing here
+        warnings.simplefilter("ignore", AlphaDroppedWarning)
+        painted = decode_image(data, "the painted labels", max_pixels=state.limits.max_upload_pixels)
+    level = decode_image(library.result_file(parent.id, level_name), "level")[..., 0]
+    if painted.shape[:2] != level.shape:
+        raise InvalidInputError(f"the painted labels are {painted.shape[1]}x{painted.shape[0]} px but level "
+                                f"{request.level} is {level.shape[1]}x{level.shape[0]} px")
+    values = np.unique(decode_image(library.result_file(parent.id, "labels_in.png"), "labels"))
+    codes = _painted_codes(painted, values.size)
+    return request.level, values[codes].astype(level.dtype)
+
+
+def start_job(state: AppState, request: JobRequest) -> dict:
+    """Check a generate request and queue it: ``{"id": job id}``. A request without a seed gets
+    a random one (the job's params say which)."""
+    library = state.library
+    exemplar = library.exemplar(request.exemplar_id)
+    height, width = check_size(state.limits, request.size)
+    seed = request.seed if request.seed is not None else secrets.randbelow(100_000)
+    options = GenerateOptions(size=(height, width), k=request.k, tile=request.tile, seed=seed,
+                              material=request.material, method=LABEL_METHOD)
+    params = {"size": [width, height], "k": options.k, "tile": options.tile, "seed": seed,
+              "material": options.material, "resumed_from": None}
+    resume = None
+    if request.resume is not None:
+        resume = painted_level(state, request.resume, exemplar.id, params)
+        params["resumed_from"] = {"result_id": request.resume.result_id, "level": resume[0]}
+    # the photo's label map when a page has made it already (else the worker makes it)
+    grey = library.analysis(exemplar.id, "labels_in", labels_key(options.k))
+    spec = {"source": exemplar.name, "set_name": f"bark{exemplar.id}_seed{seed}",
+            "options": {"size": (height, width), "k": options.k, "tile": options.tile,
+                        "seed": seed, "material": options.material, "method": LABEL_METHOD},
+            "labels_in": grey, "resume": resume}
+    job = state.jobs.submit(exemplar.id, params, spec,
+                            parent_id=request.resume.result_id if request.resume else None,
+                            labels_key=labels_key(options.k) if grey is None else None)
+    return {"id": job.id}
+
+
+def job_snapshot(state: AppState, job_id: str) -> dict:
+    """The job as the API shows it; :class:`~barkgen.library.NotFoundError` when it is unknown."""
+    snapshot = state.jobs.snapshot(job_id)
+    if snapshot is None:
+        raise NotFoundError(f"no job {job_id}")
+    return snapshot
+
+
+def stop_job(state: AppState, job_id: str) -> dict:
+    """Cancel a queued or running job (a finished one stays as it is): the job's JSON."""
+    job_snapshot(state, job_id)
+    return state.jobs.cancel(job_id)
+
+
+async def job_event_stream(state: AppState, snapshot: dict,
+                           is_disconnected: Callable[[], Awaitable[bool]]) -> AsyncIterator[str]:
+    """Server-sent events of a job (``snapshot``: its JSON now): its JSON on every change (or
+    every 10 s, to keep the stream alive) until it is finished, the server stops or the page
+    goes (``is_disconnected``)."""
+    job_id = snapshot["id"]
+    current, sent_at = snapshot, asyncio.get_running_loop().time()
+    yield f"data: {json.dumps(current)}\n\n"
+    while current["state"] not in FINISHED:
+        # poll without holding a thread: any number of pages may watch
+        await asyncio.sleep(0.1)
+        if state.jobs.stopping or state.should_exit() or await is_disconnected():
+            return
+        latest = state.jobs.snapshot(job_id)
+        if latest is None:
+            return
+        now = asyncio.get_running_loop().time()
+        if latest["version"] != current["version"] or now - sent_at > 10:  # or keep-alive
+            current, sent_at = latest, now
+            yield f"data: {json.dumps(current)}\n\n"
+
+
+# -- endpoints ------------------------------------------------------------------------------
+@router.post("/api/jobs", status_code=201)
+def submit_job(request: JobRequest, state: State):
+    return start_job(state, request)
+
+
+@router.get("/api/jobs")
+def list_jobs(state: State):
+    return state.jobs.list()
+
+
+@router.get("/api/jobs/{job_id}")
+def get_job(job_id: str, state: State):
+    return job_snapshot(state, job_id)
+
+
+@router.delete("/api/jobs/{job_id}")
+def cancel_job(job_id: str, state: State):
+    return stop_job(state, job_id)
+
+
+@router.get("/api/jobs/{job_id}/events")
+async def job_events(job_id: str, request: Request, state: State):
+    """Server-sent events: the job's JSON on every change, until it is finished."""
+    snapshot = job_snapshot(state, job_id)
+    return StreamingResponse(job_event_stream(state, snapshot, request.is_disconnected),
+                             media_type="text/event-stream",
+                             headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})

@@ -1,0 +1,209 @@
+"""The web app's results: listed, shown (files, material maps, label-map levels in the label
+colours with a legend of what each label is in the photo) and removed, and downloaded as a zip
+with a README of its files.
+
+Each endpoint wraps a plain function of the same module that takes the app's
+:class:`~barkgen.web.state.AppState`; they raise barkgen's errors, which :mod:`barkgen.web.app`
+answers with their HTTP codes.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import re
+import zipfile
+from pathlib import Path
+
+import numpy as np
+from fastapi import APIRouter
+from fastapi.responses import Response
+
+from barkgen.io import decode_image, encode_png
+from barkgen.labels import label_colour_map
+from barkgen.labels.preview import label_colours
+from barkgen.library import NotFoundError
+from barkgen.web.state import LABEL_METHOD, AppState, State, cached_response
+
+router = APIRouter()
+
+_MEDIA = {".png": "image/png", ".jpg": "image/jpeg", ".json": "application/json"}
+
+_FILE_NOTES = {
+    "_Color.png": "base colour (sRGB), shading removed",
+    "_NormalGL.png": "normal map, OpenGL convention (Y up: Blender, Unity, three.js)",
+    "_NormalDX.png": "normal map, DirectX convention (Y down: Unreal, Substance)",
+    "_Displacement.png": "height, 16-bit, 0 = deepest (depth in the .json)",
+    "_Roughness.png": "roughness (linear)",
+    "_AmbientOcclusion.png": "ambient occlusion (linear)",
+    ".json": "the material set's record: size, tileable, seed, source photo, displacement depth",
+    "texture.png": "the new bark, as synthesized (before shading removal)",
+    "labels_in.png": "the photo's label map (one grey value per region type)",
+    "labels_out.png": "the new bark's label map (same grey values)",
+    "reference.png": "16-bit: for each output pixel, the photo pixel (x, y) it copies "
+                     "(barkgen apply-reference re-applies it to any map of the photo)",
+    "preview.png": "contact sheet: photo, labels in, labels out, result",
+    "report.json": "parameters, seed, label areas and timings of the run",
+}
+
+
+def result_summary(result) -> dict:
+    """A result as lists show it."""
+    return {"id": result.id, "exemplar_id": result.exemplar_id, "created": result.created,
+            "params": result.params, "thumbnail_url": f"/api/results/{result.id}/files/thumbnail.jpg"}
+
+
+def _label_values(state: AppState, result_id: int) -> np.ndarray:
+    """The grey values of a result's labels (those of its input label map)."""
+    return np.unique(decode_image(state.library.result_file(result_id, "labels_in.png"), "labels"))
+
+
+def _levels(state: AppState, result, base: str) -> list[dict]:
+    """The levels of a result's output label map (``level_N.png``): number, size, URL."""
+    from PIL import Image
+
+    levels, sizes = [], []
+    for name in sorted(result.files):
+        m = re.fullmatch(r"level_(\d+)\.png", name)
+        if m:
+            levels.append(int(m.group(1)))
+            with Image.open(io.BytesIO(state.library.result_file(result.id, name))) as header:
+                sizes.append(header.size)
+    return [{"level": n, "width": w, "height": h, "url": f"{base}/labels/level_{n}.png"}
+            for n, (w, h) in sorted(zip(levels, sizes))]
+
+
+def result_json(state: AppState, result) -> dict:
+    """A result as its page shows it: files, material maps, levels, palette and legend."""
+    base = f"/api/results/{result.id}"
+    files = {name: f"{base}/files/{name}" for name in result.files}
+    material_name = next((n[:-len("_Color.png")] for n in result.files if n.endswith("_Color.png")), None)
+    maps = None
+    depth = None
+    if material_name is not None:
+        from barkgen.io import MAP_SUFFIXES
+
+        maps = {suffix: files[f"{material_name}_{suffix}.png"] for suffix in MAP_SUFFIXES}
+        meta = json.loads(state.library.result_file(result.id, f"{material_name}.json"))
+        depth = meta.get("displacement_depth_px")
+    levels = _levels(state, result, base)
+    values = _label_values(state, result.id)
+    return {**result_summary(result), "timings": result.timings, "parent_id": result.parent_id,
+            "files": files, "labels_in_url": f"{base}/labels/labels_in.png",
+            "labels_out_url": f"{base}/labels/labels_out.png", "maps": maps,
+            "displacement_depth_px": depth, "levels": levels,
+            "palette": label_colours(values.size).tolist(),
+            "label_looks": label_looks(state, result.exemplar_id, result.id, values),
+            "download_url": f"{base}/download"}
+
+
+def label_looks(state: AppState, exemplar_id: int, result_id: int, values: np.ndarray) -> list[dict]:
+    """What each label is in the photo: its mean colour and its share of the photo (the
+    legend of the label colours), cached in the library's analyses."""
+    library = state.library
+    key = {"values": [int(v) for v in values], "method": LABEL_METHOD}
+    cached = library.analysis(exemplar_id, "label_looks", key)
+    if cached is not None:
+        return json.loads(cached)
+    from barkgen._shared.arrays import as_uint8
+
+    photo = as_uint8(library.photo(exemplar_id)).astype(np.float64)
+    photo = np.broadcast_to(photo, photo.shape[:2] + (3,))
+    grey = decode_image(library.result_file(result_id, "labels_in.png"), "labels")[..., 0]
+    looks = []
+    for value in values:
+        inside = grey == value
+        mean = photo[inside].mean(axis=0) if inside.any() else np.zeros(3)
+        looks.append({"colour": [int(round(c)) for c in mean], "share": round(float(inside.mean()), 4)})
+    library.put_analysis(exemplar_id, "label_looks", key, json.dumps(looks).encode())
+    return looks
+
+
+def all_results(state: AppState) -> list[dict]:
+    return [result_summary(r) for r in state.library.results()]
+
+
+def result_details(state: AppState, result_id: int) -> dict:
+    return result_json(state, state.library.result(result_id))
+
+
+def delete_result(state: AppState, result_id: int) -> dict:
+    state.library.remove_result(result_id)
+    return {"removed": result_id}
+
+
+def coloured_result_labels(state: AppState, result_id: int, name: str) -> bytes:
+    """A label map of the result (``labels_in.png``, ``labels_out.png``, ``level_N.png``)
+    in the label colours (those of ``palette``), as a PNG."""
+    if not re.fullmatch(r"labels_in\.png|labels_out\.png|level_\d+\.png", name):
+        raise NotFoundError(f"no label map {name!r}")
+    values = _label_values(state, result_id)
+    grey = decode_image(state.library.result_file(result_id, name), name)[..., 0]
+    return encode_png(label_colour_map(grey, values))
+
+
+def zip_readme(photo: str, result, names: list[str]) -> str:
+    """What each file of a downloaded result is."""
+    width, height = result.params["size"]
+    lines = [f"barkgen result {result.id}: {width}x{height} px from \"{photo}\", seed {result.params['seed']}"
+             f"{', tileable' if result.params.get('tile') else ''}.", ""]
+    for name in names:
+        note = next((text for key, text in _FILE_NOTES.items() if name == key or
+                     (key.startswith(("_", ".")) and name.endswith(key) and name != "report.json")), "")
+        lines.append(f"{name:40s} {note}".rstrip())
+    return "\n".join(lines) + "\n"
+
+
+def result_zip(state: AppState, result_id: int) -> tuple[str, bytes]:
+    """The result as a zip and its file name: the material set (ambientCG names) when it has
+    one, the texture, its label maps, reference map, contact sheet and report."""
+    library = state.library
+    result = library.result(result_id)
+    exemplar = library.exemplar(result.exemplar_id)
+    names = [n for n in sorted(result.files) if not n.startswith("level_") and n != "thumbnail.jpg"]
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w", zipfile.ZIP_STORED) as archive:
+        for name in names:
+            archive.writestr(name, library.result_file(result_id, name))
+        archive.writestr("README.txt", zip_readme(exemplar.name, result, names))
+    slug = re.sub(r"[^A-Za-z0-9]+", "-", exemplar.name).strip("-").lower()[:40] or "bark"
+    width, height = result.params["size"]
+    return f"barkgen_{slug}_seed{result.params['seed']}_{width}x{height}.zip", buffer.getvalue()
+
+
+# -- endpoints ------------------------------------------------------------------------------
+@router.get("/api/results")
+def list_results(state: State):
+    return all_results(state)
+
+
+@router.get("/api/results/{result_id}")
+def get_result(result_id: int, state: State):
+    return result_details(state, result_id)
+
+
+@router.delete("/api/results/{result_id}")
+def remove_result(result_id: int, state: State):
+    return delete_result(state, result_id)
+
+
+@router.get("/api/results/{result_id}/files/{name}")
+def result_file(result_id: int, name: str, state: State):
+    data = state.library.result_file(result_id, name)  # a name of the result's own list, or 404
+    return cached_response(data, _MEDIA.get(Path(name).suffix, "application/octet-stream"))
+
+
+@router.get("/api/results/{result_id}/labels/{name}")
+def result_labels(result_id: int, name: str, state: State):
+    """A label map of the result (``labels_in.png``, ``labels_out.png``, ``level_N.png``)
+    in the label colours (those of ``palette``)."""
+    return cached_response(coloured_result_labels(state, result_id, name), "image/png")
+
+
+@router.get("/api/results/{result_id}/download")
+def download(result_id: int, state: State):
+    """The result as a zip: the material set (ambientCG names) when it has one, the texture,
+    its label maps, reference map, contact sheet and report."""
+    filename, data = result_zip(state, result_id)
+    return Response(data, media_type="application/zip", headers={
+        "Content-Disposition": f'attachment; filename="{filename}"'})

@@ -1,0 +1,83 @@
+"""What the web app's routes share: its limits (:class:`WebLimits`), its state (:class:`AppState`:
+the library, the job queue, the limits), the FastAPI dependency that hands the state to an
+endpoint (:func:`get_state`) and the few settings every route module reads.
+
+The routes' plain functions take an :class:`AppState` as their first argument, so tests can call
+them without a server: ``AppState(library, JobManager(library))``.
+"""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Annotated, Callable
+
+from fastapi import Depends, Request
+from fastapi.responses import Response
+
+from barkgen.library import Library
+from barkgen.pipeline import ANALYSIS_SEED
+from barkgen.web.jobs import JobManager
+
+STATIC = Path(__file__).parent / "static"
+#: label maps of the photos are made the way `barkgen generate` makes them
+LABEL_METHOD = "color"
+#: the photo as pages show it, and its thumbnail: at most this many px a side
+DISPLAY_SIDE = 2048
+THUMBNAIL_SIDE = 320
+
+
+@dataclass(frozen=True)
+class WebLimits:
+    """Upload and job limits (defaults: 25 MB and 50 megapixels per upload; outputs up to
+    4096 px a side)."""
+
+    max_upload_bytes: int = 25 * 1024**2
+    max_upload_pixels: int = 50_000_000
+    max_output_side: int = 4096
+
+    @property
+    def upload_too_large(self) -> str:
+        """The one line an upload over :attr:`max_upload_bytes` is answered with."""
+        return f"the upload is larger than the limit of {self.max_upload_bytes // 1024**2} MB"
+
+
+@dataclass
+class AppState:
+    """The app's shared state: its library, its job queue and its limits. ``should_exit``:
+    true once the server is asked to stop (event streams end then; set by
+    :func:`barkgen.web.serve`)."""
+
+    library: Library
+    jobs: JobManager
+    limits: WebLimits = field(default_factory=WebLimits)
+    should_exit: Callable[[], bool] = lambda: False
+    _label_locks: dict[tuple[int, int], threading.Lock] = field(default_factory=dict, repr=False)
+    _label_locks_guard: threading.Lock = field(default_factory=threading.Lock, repr=False)
+
+    def label_lock(self, exemplar_id: int, k: int) -> threading.Lock:
+        """The lock under which one photo's label map for ``k`` labels is made (once, however
+        many pages ask at the same time)."""
+        with self._label_locks_guard:
+            return self._label_locks.setdefault((exemplar_id, k), threading.Lock())
+
+
+def get_state(request: Request) -> AppState:
+    """FastAPI dependency: the :class:`AppState` of the app serving ``request``."""
+    return request.app.state.barkgen
+
+
+#: an endpoint parameter of this type receives the app's state
+State = Annotated[AppState, Depends(get_state)]
+
+
+def labels_key(k: int) -> dict:
+    """The analysis key of a photo's input label map of ``k`` labels in the library."""
+    return {"k": k, "method": LABEL_METHOD, "seed": ANALYSIS_SEED}
+
+
+def cached_response(data: bytes, media_type: str) -> Response:
+    """``data`` as a response the browser may keep for an hour (files of the library never
+    change under their URL)."""
+    return Response(data, media_type=media_type, headers={"Cache-Control": "max-age=3600"})
