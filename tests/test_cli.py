@@ -126,7 +126,7 @@ def test_apply_reference_rejects_a_map_of_another_size(tmp_path, exemplar_png):
 
 @pytest.fixture(scope="module")
 def tbn_files(tmp_path_factory, synthetic_exemplar):
-    from tbn_cases import shuffled_blocks
+    from barkgen.testing import shuffled_blocks
 
     d = tmp_path_factory.mktemp("tbn")
     ex = synthetic_exemplar[:40, :40]
@@ -250,3 +250,63 @@ def test_labels_bad_input_one_line_exit_2_no_output(tmp_path, photo_png, case):
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("barkgen: error: "), r.stderr
     assert list(outdir.iterdir()) == []
+
+
+# --------------------------------------------------------------------------------------------
+# the root and its command groups
+
+#: the top-level commands and groups of ``barkgen --help``, in its order
+HELP_COMMANDS = ["synth", "tbn", "labels", "textons", "merge", "shapes", "generate", "material",
+                 "preview", "export-glb", "apply-reference", "batch", "serve",
+                 "bilayer", "library", "branches"]
+COMMAND_MODULES = ["_common", "synth", "labels", "shapes", "generate", "material", "serve",
+                   "bilayer", "library", "branches"]
+
+
+def test_help_lists_every_command_group_in_order():
+    r = run("--help")
+    assert r.returncode == 0, r.stderr
+    listed = [line.split()[0] for line in r.stdout.split("Commands:")[1].splitlines() if line.strip()]
+    assert listed == HELP_COMMANDS
+    for group, subcommands in (("bilayer", ["analyze", "tune", "synth"]),
+                               ("library", ["add", "list", "show", "rm"]),
+                               ("branches", ["extract", "grow", "render", "stats"])):
+        r = run(group, "--help")
+        assert r.returncode == 0, r.stderr
+        assert [line.split()[0] for line in r.stdout.split("Commands:")[1].splitlines()
+                if line.strip()] == subcommands
+
+
+@pytest.mark.parametrize("module", COMMAND_MODULES)
+def test_each_command_module_imports_alone(module):
+    """A group module needs neither the root nor the other groups."""
+    code = (f"import sys, barkgen.cli.{module}\n"
+            "print(sorted(m for m in sys.modules if m.startswith('barkgen.cli.')))")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    loaded = set(eval(r.stdout.strip().splitlines()[-1]))
+    assert loaded <= {f"barkgen.cli.{module}", "barkgen.cli._common"}, loaded
+
+
+def test_checks_left_to_the_api_are_one_line_exit_2(tmp_path):
+    """Where the CLI leaves a check to the API (an extraction step's range, a label map's size,
+    a height edit outside the photo), the API's error is the one line, exit 2, nothing written."""
+    rng = np.random.default_rng(0)
+    write_png(tmp_path / "p.png", (rng.random((64, 64, 3)) * 255).astype(np.uint8))
+    write_png(tmp_path / "small.png", np.zeros((32, 32), np.uint8))
+    (tmp_path / "edits.json").write_text('{"version": 1, "edits": [{"x": 100, "y": 20, "delta": 1.5, '
+                                         '"radius": 4}]}')
+    out = tmp_path / "out"
+    out.mkdir()
+    photo = str(tmp_path / "p.png")
+    for args, message in (
+            (["branches", "extract", photo, "--step", "100", "-o", str(out / "s.json")], "step"),
+            (["branches", "extract", photo, "--labels", str(tmp_path / "small.png"), "-o",
+              str(out / "s.json")], "label map"),
+            (["material", photo, "--edits", str(tmp_path / "edits.json"), "-o", str(out / "m"), "-q"],
+             "outside")):
+        r = run(*args)
+        assert r.returncode == 2, (args, r.stderr)
+        lines = r.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("barkgen: error: ") and message in lines[0], r.stderr
+        assert list(out.iterdir()) == []

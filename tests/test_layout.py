@@ -16,7 +16,7 @@ MAX_FUNCTION_LINES = 120
 MAX_KERNEL_PARAMETERS = 12
 
 #: still to be split (the architecture issue); the lists may only shrink
-LONG_MODULES = {"barkgen.cli.app", "barkgen.branching.extract", "barkgen.branching.render"}
+LONG_MODULES = {"barkgen.branching.extract", "barkgen.branching.render"}
 LONG_FUNCTIONS = {"barkgen.branching._grow_kernels.extension_candidates",
                   "barkgen.bilayer._kernels.render_window", "barkgen.branching.model.fit_model",
                   "barkgen.branching._kernels.trace_edges"}

@@ -1,0 +1,207 @@
+"""What the command groups share: the one-line error, the progress bar, the parsing of CLI-only
+strings, the checks of output paths, the writing of encoded files, and the options several
+commands take."""
+
+from __future__ import annotations
+
+import re
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from barkgen.errors import InvalidInputError
+
+_MEM_RE = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*([kKmMgGtT]?)i?[bB]?\s*$")
+_LEVEL_NAME = re.compile(r"level_(\d+)\.png$", re.IGNORECASE)
+
+
+def fail(message: str, status: int = 2) -> typer.Exit:
+    """Print ``barkgen: error: MESSAGE`` on stderr; the exit to raise with ``status``."""
+    print(f"barkgen: error: {message}", file=sys.stderr)
+    return typer.Exit(status)
+
+
+@contextmanager
+def progress_bar(enabled: bool, description: str) -> Iterator:
+    """A rich progress bar on stderr when it is a terminal, else a no-op callback."""
+    if not enabled or not sys.stderr.isatty():
+        yield None
+        return
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
+                  TimeElapsedColumn(), console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task(description, total=None)
+
+        def update(done: int, total: int) -> None:
+            bar.update(task, completed=done, total=total)
+
+        yield update
+
+
+# ------------------------------------------------------------------------ CLI-only strings
+
+
+def parse_memory(text: str) -> int:
+    """``"8G"``, ``"512M"``, ``"1.5GB"`` or a byte count -> bytes."""
+    m = _MEM_RE.match(text or "")
+    if not m:
+        raise InvalidInputError(f"invalid memory amount {text!r}: use e.g. 8G or 512M")
+    value = float(m.group(1)) * 1024 ** " KMGT".index((m.group(2) or " ").upper())
+    if value <= 0:
+        raise InvalidInputError(f"invalid memory amount {text!r}: must be positive")
+    return int(value)
+
+
+def parse_extras(items: list[str] | None) -> dict[str, Path]:
+    """``["height=h.png", ...]`` -> ``{"height": Path("h.png")}``."""
+    out: dict[str, Path] = {}
+    for item in items or []:
+        name, sep, path = item.partition("=")
+        name = name.strip()
+        if not sep or not name or not path or not re.fullmatch(r"[A-Za-z0-9_\-]+", name):
+            raise InvalidInputError(f"invalid --extra {item!r}: expected NAME=PATH, e.g. height=h.png")
+        if name in out:
+            raise InvalidInputError(f"--extra {name!r} given twice")
+        out[name] = Path(path)
+    return out
+
+
+def parse_pair(text: str, what: str, kind=float) -> tuple:
+    """``"A,B"`` -> ``(A, B)``; raises :class:`InvalidInputError` with a clear message."""
+    parts = (text or "").split(",")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        return kind(parts[0]), kind(parts[1])
+    except ValueError:
+        raise InvalidInputError(f"invalid {what} {text!r}: expected two numbers A,B") from None
+
+
+def parse_light(text: str | None):
+    """``"AZ,EL"`` -> :class:`barkgen.material.Light`; None (estimated) stays None."""
+    from barkgen.material import parse_light as parse
+
+    return None if text is None else parse(text)
+
+
+def read_resume(path: Path):
+    """An edited level for ``--resume``: ``(level, map)`` when the file name says the level
+    (``level_N.png``), else the map alone (its size tells the level)."""
+    from barkgen.io import read_image
+
+    image = read_image(path)
+    m = _LEVEL_NAME.search(path.name)
+    return (int(m.group(1)), image) if m else image
+
+
+# ------------------------------------------------------------------------ output paths
+
+
+def check_target(path: Path, what: str, suffix: str = ".png") -> None:
+    """An output file named by the user: ``suffix`` (.png, .json) and not a folder."""
+    if path.suffix.lower() != suffix:
+        raise InvalidInputError(f"{what} {str(path)!r} must be a {suffix} file")
+    if path.exists() and path.is_dir():
+        raise InvalidInputError(f"{what} {str(path)!r} is a directory")
+
+
+def check_file_name(path: Path, suffix: str, what: str) -> None:
+    """A binary output (.glb model, .npz bi-layer model): ``suffix`` and not a folder."""
+    if path.suffix.lower() != suffix:
+        raise InvalidInputError(f"{path}: the {what} must end in {suffix}")
+    if path.is_dir():
+        raise InvalidInputError(f"{path} is a folder; give a {suffix} file name")
+
+
+def check_folder(path: Path, what: str) -> None:
+    if path.exists() and not path.is_dir():
+        raise InvalidInputError(f"{what} {str(path)!r} exists and is not a folder")
+
+
+def check_bits(bits: int | None) -> None:
+    """``--bits``, checked before the run (the encoder checks it too, but only once the image
+    is made)."""
+    if bits not in (None, 8, 16):
+        raise InvalidInputError(f"--bits must be 8 or 16, not {bits}")
+
+
+# ------------------------------------------------------------------------ writing
+
+
+def write_files(folder: Path, files: dict[str, bytes]) -> None:
+    """Write encoded files into ``folder`` as one step (:func:`barkgen.io.write_files_atomic`:
+    all are encoded before any is written, all staged before any is renamed into place)."""
+    from barkgen.io import write_files_atomic
+
+    write_files_atomic(folder, files)
+
+
+def write_outputs(files: dict[Path, bytes]) -> None:
+    """Write every encoded output, each folder as one step (nothing is written before all are
+    encoded)."""
+    by_folder: dict[Path, dict[str, bytes]] = {}
+    for path, data in files.items():
+        by_folder.setdefault(path.parent, {})[path.name] = data
+    for folder, group in by_folder.items():
+        write_files(folder, group)
+
+
+def level_files(levels: list) -> dict[str, bytes]:
+    """``level_N.png`` of every computed level of an output label map."""
+    from barkgen.io import encode_png
+
+    return {f"level_{i}.png": encode_png(lvl) for i, lvl in enumerate(levels) if lvl is not None}
+
+
+# ------------------------------------------------------------------------ shared options
+
+OutputOption = Annotated[Path, typer.Option("-o", "--output", help="Output PNG.")]
+SizeOption = Annotated[str, typer.Option("--size", help="Output size WIDTHxHEIGHT.")]
+TileOption = Annotated[bool, typer.Option("--tile", help="Make the output tile seamlessly.")]
+SeedOption = Annotated[int, typer.Option("--seed", min=0, help="Random seed (same seed, same bytes).")]
+KOption = Annotated[int, typer.Option("--k", help="Number of labels (1-16).")]
+ExemplarWrapsOption = Annotated[str, typer.Option(
+    "--exemplar-wraps", help="auto: the photo is used as a torus along each axis along which it "
+    "tiles itself (its last row continues into its first), so pieces run on across its edge; "
+    "yes / no: force it.")]
+ExtraOption = Annotated[Optional[list[str]], typer.Option(
+    "--extra", metavar="NAME=PATH", help="Map aligned with the exemplar (height, normal, ...), "
+    "synthesized along; written as OUTPUT_NAME.png.")]
+SaveReferenceOption = Annotated[Optional[Path], typer.Option(
+    "--save-reference", help="Also write the reference map (16-bit PNG of exemplar x, y).")]
+BitsOption = Annotated[Optional[int], typer.Option(
+    "--bits", help="Bits per channel of the output (8 or 16). Default: the exemplar's.")]
+MaxMemoryOption = Annotated[str, typer.Option(
+    "--max-memory", help="Refuse jobs estimated to need more memory than this.")]
+ThreadsOption = Annotated[Optional[int], typer.Option("--threads", min=1, help="Worker threads.")]
+QuietOption = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")]
+LibraryOption = Annotated[Optional[Path], typer.Option(
+    "--library", help="Library folder (default: $BARKGEN_LIBRARY, else barkgen/library in your "
+    "user data folder).")]
+NameOption = Annotated[str, typer.Option(
+    "--name", help="Material set name: files NAME_Color.png, NAME_NormalGL.png, ..., NAME.json.")]
+ReliefOption = Annotated[float, typer.Option(
+    "--relief", help="Relief strength of the estimated height (1 = as fitted on scanned bark; "
+    "2 doubles its depth and its slopes; normals and AO follow).")]
+LightOption = Annotated[Optional[str], typer.Option(
+    "--light", help="The photo's light AZ,EL in degrees (azimuth counter-clockwise from the "
+    "right, elevation above the surface) for shading removal. Default: estimated.")]
+StrategyOption = Annotated[str, typer.Option(
+    "--strategy", help="Output label maps: joint (the core engine on one-hot label channels and "
+    "the photo's colours; generate's default, shapes needs --photo), engine (label channels alone; "
+    "shapes' default) or layered (Rosenberger et al.'s layered shape synthesis, laitoch2018 §3.6).")]
+RotationsOption = Annotated[str, typer.Option(
+    "--rotations", help="Layered strategy: boundary patches may turn none, vertical (180°) or "
+    "all (90° steps).")]
+SaveLevelsOption = Annotated[Optional[Path], typer.Option(
+    "--save-levels", help="Write every pyramid level of the output label map as "
+    "DIR/level_N.png (0 = full size) to edit and --resume from.")]
+ResumeOption = Annotated[Optional[Path], typer.Option(
+    "--resume", help="Continue the output label map from an edited level (DIR/level_N.png of "
+    "--save-levels, painted with the same grey values).")]

@@ -1,0 +1,181 @@
+"""Photo to new bark: ``generate`` (label map, output label map, texture-by-numbers,
+laitoch2018 Figure 1.2) and ``batch`` (many seeds of many photos on Dask, the same files)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from barkgen._shared.checks import parse_size
+from barkgen.cli._common import (
+    BitsOption,
+    ExemplarWrapsOption,
+    ExtraOption,
+    KOption,
+    LibraryOption,
+    LightOption,
+    MaxMemoryOption,
+    NameOption,
+    QuietOption,
+    ReliefOption,
+    ResumeOption,
+    RotationsOption,
+    SaveLevelsOption,
+    SeedOption,
+    SizeOption,
+    StrategyOption,
+    ThreadsOption,
+    TileOption,
+    check_bits,
+    check_folder,
+    fail,
+    level_files,
+    parse_extras,
+    parse_light,
+    parse_memory,
+    progress_bar,
+    read_resume,
+    write_files,
+)
+from barkgen.errors import InvalidInputError
+
+
+def generate_command(
+    photo: Annotated[Optional[Path], typer.Argument(
+        help="Bark photo (PNG/JPEG/TIFF/WebP). Default: the bundled sample.")] = None,
+    output_dir: Annotated[Path, typer.Option("-o", "--output", help="Output folder.")] = Path("out"),
+    size: SizeOption = "1024x1024",
+    k: KOption = 3,
+    method: Annotated[str, typer.Option(
+        "--method", help="Input label map: color (laitoch2018 §3.5) or texton (wang2003 §3.2).")] = "color",
+    labels: Annotated[Optional[Path], typer.Option(
+        "--labels", help="Use this label map of the photo instead of making one.")] = None,
+    strategy: StrategyOption = "joint",
+    rotations: RotationsOption = "vertical",
+    tile: TileOption = False,
+    seed: SeedOption = 0,
+    extra: ExtraOption = None,
+    save_levels: SaveLevelsOption = None,
+    resume: ResumeOption = None,
+    bits: BitsOption = None,
+    max_memory: MaxMemoryOption = "8G",
+    threads: ThreadsOption = None,
+    material: Annotated[bool, typer.Option(
+        "--material", help="Also write the material set of the new bark (NAME_Color, NormalGL/DX, "
+        "Displacement 16-bit, Roughness, AmbientOcclusion, NAME.json).")] = False,
+    name: NameOption = "bark",
+    light: LightOption = None,
+    relief: ReliefOption = 1.0,
+    exemplar_wraps: ExemplarWrapsOption = "auto",
+    quiet: QuietOption = False,
+) -> None:
+    """Photo to new bark in one step: label map, output label map, texture-by-numbers
+    (laitoch2018 Figure 1.2). Writes texture.png, labels_in.png, labels_out.png, reference.png,
+    report.json and preview.png (+ NAME.png per --extra, + the material set with --material)
+    into the output folder."""
+    from barkgen.data import sample_exemplar_path
+    from barkgen.io import read_image
+    from barkgen.pipeline import GenerateOptions, encode_generate, generate
+
+    check_bits(bits)
+    check_folder(output_dir, "output")
+    _check_generate_names(name, material, light, relief)
+    if save_levels is not None:
+        check_folder(save_levels, "--save-levels")
+    # k, size, seed, method, strategy, rotations, relief and the wrap mode: GenerateOptions
+    options = GenerateOptions(size=parse_size(size), k=k, method=method, strategy=strategy,
+                              rotations=rotations, tile=tile, seed=seed, threads=threads,
+                              max_memory=parse_memory(max_memory), material=material,
+                              light=parse_light(light), relief=relief, exemplar_wrap=exemplar_wraps)
+    extra_paths = _extra_paths(extra)
+    src = photo if photo is not None else sample_exemplar_path()
+    image = read_image(src)
+    extras = {name: read_image(p) for name, p in extra_paths.items()}
+    label_map = read_image(labels) if labels is not None else None
+    edited = read_resume(resume) if resume is not None else None
+    with progress_bar(not quiet, "generating") as progress:
+        result = generate(image, options, extra=extras, labels_in=label_map, resume=edited,
+                          progress=progress)
+        files = encode_generate(image, result, str(src), name=name, bits=bits)
+    write_files(output_dir, files)
+    if save_levels is not None:
+        write_files(save_levels, level_files(result.label_levels))
+    if not quiet:
+        h, w = result.texture.shape[:2]
+        typer.echo(f"wrote {output_dir}/texture.png ({w}x{h}, seed {seed}"
+                   f"{', tileable' if tile else ''}) and its maps in "
+                   f"{result.report['timings_s']['total']:.1f} s", err=True)
+
+
+def _check_generate_names(name: str, material: bool, light: str | None, relief: float) -> None:
+    """The flags generate's run cannot judge before it ends: the material set's name (its files
+    must not take one of generate's) and material flags without --material."""
+    from barkgen.io import check_material_name
+    from barkgen.pipeline import GENERATE_FILES
+
+    check_material_name(name)
+    if not material and (light is not None or relief != 1.0):
+        raise InvalidInputError("--light and --relief apply to the material set: add --material")
+    if material and name in GENERATE_FILES:
+        raise InvalidInputError(f"--name {name!r} would overwrite one of generate's own files; pick another")
+
+
+def _extra_paths(extra: list[str] | None) -> dict[str, Path]:
+    """``--extra NAME=PATH`` maps; each is written as NAME.png beside generate's own files."""
+    from barkgen.pipeline import GENERATE_FILES
+
+    extra_paths = parse_extras(extra)
+    clash = sorted(set(extra_paths) & set(GENERATE_FILES))
+    if clash:
+        raise InvalidInputError(f"--extra name {clash[0]!r} is taken by an output file; pick another")
+    return extra_paths
+
+
+def batch_command(
+    spec_path: Annotated[Path, typer.Argument(
+        metavar="SPEC.yaml", help="Batch spec: exemplars (path, seeds or count + seed_base) and "
+        "generate's options (size, tile, k, method, material, ...).")],
+    output_dir: Annotated[Path, typer.Option("-o", "--output", help="Output folder: OUTDIR/<name>/<seed>/.")],
+    scheduler: Annotated[Optional[str], typer.Option(
+        "--scheduler", help="Address of a running Dask scheduler (tcp://HOST:PORT). "
+        "Default: a local cluster on this machine.")] = None,
+    workers: Annotated[Optional[int], typer.Option(
+        "--workers", help="Worker processes of the local cluster (default: one per core).")] = None,
+    threads: Annotated[Optional[int], typer.Option(
+        "--threads", help="Threads per variant (default: cores / workers locally, all cores of a "
+        "worker with --scheduler).")] = None,
+    quiet: QuietOption = False,
+    library: LibraryOption = None,
+) -> None:
+    """Generate many unique barks on Dask: every seed of every exemplar in SPEC, each photo
+    analysed once and shared with the workers. A re-run makes only what is missing or failed
+    (OUTDIR/manifest.sqlite)."""
+    from barkgen.batch import load_spec, run_batch
+
+    spec = load_spec(spec_path, threads=threads, library=library)
+    check_folder(output_dir, "output")
+    say = (lambda message: None) if quiet else (lambda message: typer.echo(message, err=True))
+    try:
+        with progress_bar(not quiet, "variants") as progress:
+            report = run_batch(spec, output_dir, scheduler=scheduler, workers=workers, threads=threads,
+                               progress=progress, log=say)
+    except KeyboardInterrupt:
+        raise fail(f"interrupted; what finished is in {output_dir} (see manifest.sqlite): run the same "
+                   "command again to make the rest", 130) from None
+    if report.made or report.failed:
+        say(f"made {report.made} variant(s) in {report.seconds:.1f} s"
+            f"{f', {report.skipped} were already done' if report.skipped else ''} -> {output_dir}")
+    if report.failed:
+        for name, seed, error in report.failed[:5]:
+            print(f"barkgen: error: {name} seed {seed}: {error}", file=sys.stderr)
+        raise fail(f"{len(report.failed)} variant(s) failed (run again to retry them)", 1)
+
+
+#: (command name, function) of this group (the root orders ``barkgen --help``)
+COMMANDS = (
+    ("generate", generate_command),
+    ("batch", batch_command),
+)

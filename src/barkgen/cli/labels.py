@@ -1,0 +1,112 @@
+"""Label map commands: ``labels`` (colour regions, laitoch2018 §3.5, or merged texton channels,
+wang2003 §3.2), ``textons`` (the raw texton channels) and ``merge`` (channels -> label map)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Optional
+
+import numpy as np
+import typer
+
+from barkgen.cli._common import (
+    KOption,
+    OutputOption,
+    QuietOption,
+    SeedOption,
+    check_folder,
+    check_target,
+    progress_bar,
+)
+from barkgen.errors import InvalidInputError
+
+
+def labels_command(
+    photo: Annotated[Path, typer.Argument(help="Bark photo (PNG/JPEG/TIFF/WebP).")],
+    output: OutputOption,
+    k: KOption = 3,
+    method: Annotated[str, typer.Option(
+        "--method", help="color: colour regions (laitoch2018 §3.5); texton: texton channels "
+        "merged automatically (wang2003 §3.2).")] = "color",
+    edges: Annotated[bool, typer.Option(
+        "--edges", help="Add a label for the region edges (k + 1 labels).")] = False,
+    edge_width: Annotated[int, typer.Option("--edge-width", help="Width of the edge band, px.")] = 3,
+    seed: SeedOption = 0,
+    preview: Annotated[Optional[Path], typer.Option(
+        "--preview", help="Also write the photo with the label regions tinted and outlined.")] = None,
+    quiet: QuietOption = False,
+) -> None:
+    """Make the label map of a bark photo (input of texture-by-numbers)."""
+    from barkgen.io import read_image, write_png
+    from barkgen.labels import add_edge_label, color_regions, label_preview, texton_regions
+
+    # --method picks the function to call, so it is checked here (k, seed and the edge width
+    # by the functions)
+    if method not in ("color", "texton"):
+        raise InvalidInputError(f"--method must be color or texton, not {method!r}")
+    check_target(output, "output")
+    if preview is not None:
+        check_target(preview, "--preview")
+    image = read_image(photo)
+    with progress_bar(not quiet, "labelling"):
+        regions = color_regions if method == "color" else texton_regions
+        label_map = regions(image, k, seed=seed)
+        if edges:
+            label_map = add_edge_label(label_map, edge_width)
+        sheet = label_preview(image, label_map) if preview is not None else None
+    write_png(output, label_map)
+    if sheet is not None:
+        write_png(preview, sheet)
+    if not quiet:
+        n = len(np.unique(label_map))
+        typer.echo(f"wrote {output} ({label_map.shape[1]}x{label_map.shape[0]}, {n} labels)", err=True)
+
+
+def textons_command(
+    photo: Annotated[Path, typer.Argument(help="Bark photo (PNG/JPEG/TIFF/WebP).")],
+    output_dir: Annotated[Path, typer.Option("-o", "--output", help="Output folder.")],
+    n_textons: Annotated[int, typer.Option("--textons", help="Number of textons (2-64).")] = 25,
+    seed: SeedOption = 0,
+    quiet: QuietOption = False,
+) -> None:
+    """Texton channels of a photo (wang2003 §3.2): OUT/textons.png (texton number per pixel),
+    one mask per texton (OUT/texton_NN.png) and a contact sheet (OUT/sheet.png)."""
+    from barkgen.io import read_image, write_png
+    from barkgen.labels import contact_sheet, texton_channels
+
+    check_folder(output_dir, "output")
+    image = read_image(photo)
+    with progress_bar(not quiet, "textons"):
+        textons, _ = texton_channels(image, n_textons, seed=seed)
+        masks = [np.where(textons == t, 255, 0).astype(np.uint8) for t in range(n_textons)]
+        sheet = contact_sheet(masks, [f"texton {t}" for t in range(n_textons)])
+    output_dir.mkdir(parents=True, exist_ok=True)
+    write_png(output_dir / "textons.png", textons)
+    for t, mask in enumerate(masks):
+        write_png(output_dir / f"texton_{t:02d}.png", mask)
+    write_png(output_dir / "sheet.png", sheet)
+    if not quiet:
+        typer.echo(f"wrote {n_textons} texton channels to {output_dir}", err=True)
+
+
+def merge_command(
+    texton_map: Annotated[Path, typer.Argument(help="textons.png written by 'barkgen textons'.")],
+    output: OutputOption,
+    groups: Annotated[str, typer.Option(
+        "--groups", help="Texton numbers of each label, e.g. \"0,3,7;1,2;4,5,6\".")],
+) -> None:
+    """Merge raw texton channels into a label map (wang2003 §3.2)."""
+    from barkgen.io import read_image, write_png
+    from barkgen.labels import merge_channels, parse_groups
+
+    parsed = parse_groups(groups)
+    check_target(output, "output")
+    write_png(output, merge_channels(read_image(texton_map), parsed))
+
+
+#: (command name, function) of this group (the root orders ``barkgen --help``)
+COMMANDS = (
+    ("labels", labels_command),
+    ("textons", textons_command),
+    ("merge", merge_command),
+)

@@ -1,0 +1,137 @@
+"""Material sets and their trunk: ``material`` (height, normals, AO, roughness and the colour
+with its shading removed, wang2003 §3.3-3.4), ``preview`` (the set rendered on a trunk) and
+``export-glb`` (the trunk as glTF 2.0)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from barkgen._shared.checks import parse_size
+from barkgen.cli._common import (
+    LightOption,
+    NameOption,
+    OutputOption,
+    QuietOption,
+    ReliefOption,
+    SeedOption,
+    check_file_name,
+    check_folder,
+    check_target,
+    parse_light,
+    progress_bar,
+    write_files,
+    write_outputs,
+)
+from barkgen.errors import InvalidInputError
+
+ViewRepeat = Annotated[float, typer.Option("--repeat", help="Times the texture goes round the trunk.")]
+ViewDisplacement = Annotated[float, typer.Option(
+    "--displacement", help="Relief scale (1 = the set's own depth).")]
+
+
+def material_command(
+    photo: Annotated[Optional[Path], typer.Argument(
+        help="Bark photo. Default: the bundled sample.")] = None,
+    output_dir: Annotated[Path, typer.Option("-o", "--output", help="Output folder.")] = Path("material"),
+    name: NameOption = "bark",
+    k: Annotated[int, typer.Option("--k", help="Labels of the structure cue (1-16).")] = 3,
+    light: LightOption = None,
+    relief: ReliefOption = 1.0,
+    edits: Annotated[Optional[Path], typer.Option(
+        "--edits", help="JSON list of height edits to replay (HeightEditor, wang2003 §3.3): "
+        '{"version": 1, "edits": [{"x": 10, "y": 20, "delta": 1.5, "radius": 4}]}.')] = None,
+    tile: Annotated[bool, typer.Option("--tile", help="The photo is a tileable texture: maps wrap.")] = False,
+    seed: SeedOption = 0,
+    quiet: QuietOption = False,
+) -> None:
+    """The material set of a photo: height, normals (OpenGL and DirectX), AO, roughness and the
+    colour with its shading removed (wang2003 §3.3-3.4), in ambientCG names."""
+    import time
+
+    from barkgen.data import sample_exemplar_path
+    from barkgen.io import check_material_name, encode_material, read_image
+    from barkgen.material import MaterialOptions, make_material
+
+    check_material_name(name)
+    check_folder(output_dir, "output")
+    # k, seed and relief: MaterialOptions; edits outside the photo: the height editor
+    options = MaterialOptions(k=k, light=parse_light(light), tile=tile, seed=seed, relief=relief)
+    edit_list = _read_edits(edits) if edits is not None else []
+    src = photo if photo is not None else sample_exemplar_path()
+    image = read_image(src)
+    h, w = image.shape[:2]
+    start = time.perf_counter()
+    with progress_bar(not quiet, "material") as progress:
+        material = make_material(image, options, edits=edit_list)
+        if progress:
+            progress(1, 1)
+    files = encode_material(material, name, seed=seed, source_photo=str(src),
+                            edits=len(edit_list))
+    write_files(output_dir, files)
+    if not quiet:
+        lt = material.light
+        typer.echo(f"wrote {output_dir}/{name}_*.png ({w}x{h}; light {lt.azimuth:g},{lt.elevation:g}; "
+                   f"depth {material.depth:.1f} px) in {time.perf_counter() - start:.1f} s", err=True)
+
+
+def _read_edits(path: Path) -> list:
+    """The height edits of an ``--edits`` JSON file (:func:`barkgen.material.parse_edits`)."""
+    import json
+
+    from barkgen.material import parse_edits
+
+    try:
+        document = json.loads(path.read_text())
+    except OSError as exc:
+        raise InvalidInputError(f"{path}: cannot read the edit list ({exc.strerror})") from None
+    except ValueError as exc:
+        raise InvalidInputError(f"{path}: not JSON ({exc})") from None
+    return parse_edits(document)
+
+
+def preview_command(
+    folder: Annotated[Path, typer.Argument(help="Material set folder (barkgen material / generate --material).")],
+    output: OutputOption = Path("preview.png"),
+    size: Annotated[str, typer.Option("--size", help="Image size WIDTHxHEIGHT.")] = "1024x1024",
+    light: Annotated[str, typer.Option("--light", help="Light AZ,EL in degrees.")] = "135,35",
+    repeat: ViewRepeat = 2.0,
+    displacement: ViewDisplacement = 1.0,
+) -> None:
+    """Render the set on a trunk (displaced cylinder, normal-mapped, lit; CPU only)."""
+    from barkgen.io import encode_png, read_material
+    from barkgen.render import TrunkView, render_trunk
+
+    out_shape = parse_size(size)
+    check_target(output, "output")
+    view = TrunkView(repeat=repeat, displacement=displacement, light=parse_light(light))
+    material, _ = read_material(folder)
+    write_outputs({output: encode_png(render_trunk(material, out_shape, view))})
+
+
+def export_glb_command(
+    folder: Annotated[Path, typer.Argument(help="Material set folder.")],
+    output: Annotated[Path, typer.Option("-o", "--output", help="Output .glb.")] = Path("trunk.glb"),
+    repeat: ViewRepeat = 2.0,
+    displacement: ViewDisplacement = 1.0,
+    segments: Annotated[int, typer.Option("--segments", help="Vertices around the trunk.")] = 256,
+) -> None:
+    """Write a glTF 2.0 trunk: the relief in the geometry, colour, normal and
+    occlusion-roughness-metallic textures."""
+    from barkgen.io import encode_glb, read_material
+    from barkgen.render import TrunkView, trunk_mesh
+
+    check_file_name(output, ".glb", "output")
+    view = TrunkView(repeat=repeat, displacement=displacement)
+    material, _ = read_material(folder)
+    write_outputs({output: encode_glb(trunk_mesh(material, segments=segments, view=view), material)})
+
+
+#: (command name, function) of this group (the root orders ``barkgen --help``)
+COMMANDS = (
+    ("material", material_command),
+    ("preview", preview_command),
+    ("export-glb", export_glb_command),
+)

@@ -1,0 +1,67 @@
+"""``barkgen serve``: the web app (:func:`barkgen.web.serve`) on the exemplar library."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+import typer
+
+from barkgen.cli._common import LibraryOption
+from barkgen.errors import InvalidInputError
+
+
+def serve_command(
+    host: Annotated[str, typer.Option("--host", help="Address to listen on (127.0.0.1: this "
+                                      "machine only; 0.0.0.0 opens it to your network).")] = "127.0.0.1",
+    port: Annotated[int, typer.Option("--port", help="Port to listen on.")] = 8000,
+    library: LibraryOption = None,
+    max_upload_mb: Annotated[int, typer.Option("--max-upload-mb", help="Largest upload in MB.")] = 25,
+    max_upload_mp: Annotated[float, typer.Option("--max-upload-mp", help="Largest upload in megapixels.")] = 50,
+) -> None:
+    """Run the web app: pick or upload bark, generate with one click, paint labels, see it on a
+    trunk, download the material set."""
+    from barkgen.library import Library
+    from barkgen.web import WebLimits, serve
+
+    # neither serve() nor WebLimits checks these: uvicorn would fail with a traceback
+    if not 0 < port < 65536:
+        raise InvalidInputError(f"--port must be 1-65535, not {port}")
+    if max_upload_mb <= 0 or max_upload_mp <= 0:
+        raise InvalidInputError("upload limits must be > 0")
+    lib = Library(library)
+    _check_port_free(host, port)
+    limits = WebLimits(max_upload_bytes=max_upload_mb * 1024**2,
+                       max_upload_pixels=int(max_upload_mp * 1e6))
+
+    from barkgen.web.app import is_loopback
+
+    def ready(url: str) -> None:
+        typer.echo(f"barkgen is running at {url}  (library: {lib.path}; Ctrl-C stops it)", err=True)
+        if not is_loopback(host):
+            typer.echo(f"barkgen: warning: listening on {host}: anyone who can reach this machine "
+                       "can use this server and its library (there is no login)", err=True)
+
+    try:
+        serve(lib, host=host, port=port, limits=limits, on_ready=ready)
+    except KeyboardInterrupt:  # Ctrl-C is how a server is stopped: not an error
+        pass
+    typer.echo("barkgen: server stopped", err=True)
+
+
+def _check_port_free(host: str, port: int) -> None:
+    """A clear line instead of uvicorn's traceback when the port is taken."""
+    import socket
+
+    try:
+        with socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET) as probe:
+            probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            probe.bind((host, port))
+    except OSError as exc:
+        raise InvalidInputError(f"cannot listen on {host}:{port} ({exc.strerror or exc}); "
+                                "try another --port") from None
+
+
+#: (command name, function) of this group (the root orders ``barkgen --help``)
+COMMANDS = (
+    ("serve", serve_command),
+)

@@ -1,0 +1,95 @@
+"""Label map synthesis: ``shapes``, a new label map of any size from an exemplar's
+(laitoch2018 §3.6; the layered strategy of rosenberger2009)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from barkgen._shared.checks import parse_size
+from barkgen.cli._common import (
+    ExemplarWrapsOption,
+    OutputOption,
+    QuietOption,
+    ResumeOption,
+    RotationsOption,
+    SaveLevelsOption,
+    SeedOption,
+    SizeOption,
+    StrategyOption,
+    TileOption,
+    check_folder,
+    check_target,
+    level_files,
+    progress_bar,
+    read_resume,
+    write_files,
+)
+from barkgen.errors import InvalidInputError
+
+
+def shapes_command(
+    labels: Annotated[Path, typer.Argument(help="Label map of the exemplar (lossless, grey).")],
+    output: OutputOption,
+    size: SizeOption = "1024x1024",
+    strategy: StrategyOption = "engine",
+    photo: Annotated[Optional[Path], typer.Option(
+        "--photo", help="The photo the label map belongs to (the joint strategy matches its "
+        "colours too).")] = None,
+    rotations: RotationsOption = "vertical",
+    layer_order: Annotated[Optional[str], typer.Option(
+        "--layer-order", help="Layered strategy: grey values bottom layer first, e.g. "
+        "\"255,0,128\" (default: automatic).")] = None,
+    tile: TileOption = False,
+    seed: SeedOption = 0,
+    save_levels: SaveLevelsOption = None,
+    resume: ResumeOption = None,
+    exemplar_wraps: ExemplarWrapsOption = "auto",
+    quiet: QuietOption = False,
+) -> None:
+    """Synthesize a new label map of any size from an exemplar's label map (laitoch2018 §3.6)."""
+    from barkgen.io import encode_png, read_image
+    from barkgen.shapes import synthesize_label_map
+
+    out_shape = parse_size(size)
+    check_target(output, "output")
+    if save_levels is not None:
+        check_folder(save_levels, "--save-levels")
+    order = _parse_layer_order(layer_order)
+    # synthesize_label_map ignores a photo the strategy does not use: say so instead
+    if photo is not None and strategy != "joint":
+        raise InvalidInputError("--photo is for --strategy joint")
+    label_map = read_image(labels)
+    photo_image = read_image(photo) if photo is not None else None
+    edited = read_resume(resume) if resume is not None else None
+    with progress_bar(not quiet, "label map") as progress:
+        result = synthesize_label_map(label_map, out_shape, strategy=strategy, tile=tile,
+                                      seed=seed, rotations=rotations, layer_order=order,
+                                      resume=edited, progress=progress, photo=photo_image,
+                                      exemplar_wrap=exemplar_wraps)
+    write_files(output.parent, {output.name: encode_png(result.label_map)})
+    if save_levels is not None:
+        write_files(save_levels, level_files(result.levels))
+    if not quiet:
+        typer.echo(f"wrote {output} ({out_shape[1]}x{out_shape[0]}, {strategy}) in "
+                   f"{result.timings['label_map']:.2f} s", err=True)
+
+
+def _parse_layer_order(text: str | None) -> list[int] | None:
+    """``"255,0,128"`` -> ``[255, 0, 128]`` (whether they are the map's labels is the API's
+    check)."""
+    if text is None:
+        return None
+    try:
+        return [int(v) for v in text.split(",")]
+    except ValueError:
+        raise InvalidInputError(
+            f"invalid --layer-order {text!r}: expected grey values such as 255,0,128") from None
+
+
+#: (command name, function) of this group (the root orders ``barkgen --help``)
+COMMANDS = (
+    ("shapes", shapes_command),
+)

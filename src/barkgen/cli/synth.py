@@ -1,0 +1,189 @@
+"""Texture synthesis commands: ``synth`` (laitoch2018 §3.3), ``tbn`` (texture-by-numbers,
+laitoch2018 §3.4) and ``apply-reference`` (a saved reference map re-applied, §3.3.1)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from barkgen._shared.checks import parse_size
+from barkgen.cli._common import (
+    BitsOption,
+    ExemplarWrapsOption,
+    ExtraOption,
+    MaxMemoryOption,
+    OutputOption,
+    QuietOption,
+    SaveReferenceOption,
+    SeedOption,
+    SizeOption,
+    ThreadsOption,
+    TileOption,
+    check_bits,
+    check_folder,
+    check_target,
+    parse_extras,
+    parse_memory,
+    progress_bar,
+)
+from barkgen.errors import InvalidInputError
+
+
+def synth_command(
+    exemplar: Annotated[Optional[Path], typer.Argument(
+        help="Bark photo to learn from (PNG/JPEG/TIFF/WebP). Default: the bundled sample.")] = None,
+    output: OutputOption = Path("barkgen.png"),
+    size: SizeOption = "1024x1024",
+    tile: TileOption = False,
+    seed: SeedOption = 0,
+    extra: ExtraOption = None,
+    save_reference: SaveReferenceOption = None,
+    bits: BitsOption = None,
+    max_memory: MaxMemoryOption = "8G",
+    threads: ThreadsOption = None,
+    exemplar_wraps: ExemplarWrapsOption = "auto",
+    quiet: QuietOption = False,
+) -> None:
+    """Synthesize a new bark texture of any size from one exemplar photo."""
+    from barkgen.data import sample_exemplar_path
+    from barkgen.io import read_image
+    from barkgen.synth import SynthesisConfig, synthesize
+
+    out_shape = parse_size(size)
+    budget = parse_memory(max_memory)
+    extra_paths = parse_extras(extra)
+    _check_outputs(output, save_reference, bits)
+    src = exemplar if exemplar is not None else sample_exemplar_path()
+    image = read_image(src)
+    extras = {name: read_image(p) for name, p in extra_paths.items()}
+    config = SynthesisConfig(threads=threads, max_memory=budget)
+    with progress_bar(not quiet, "synthesizing") as progress:
+        result = synthesize(image, out_shape, tile=tile, seed=seed, extra=extras, config=config,
+                            progress=progress, exemplar_wrap=exemplar_wraps)
+    _write_result(result, output, bits, save_reference, quiet)
+
+
+def tbn_command(
+    exemplar: Annotated[Path, typer.Argument(help="Bark photo to learn from.")],
+    labels: Annotated[Path, typer.Option(
+        "--labels", help="Label map of the exemplar (lossless image, same size; each grey value "
+        "or colour is a label).")],
+    target: Annotated[Path, typer.Option(
+        "--target", help="Label map of the wanted output; sets the output size.")],
+    output: OutputOption = Path("barkgen.png"),
+    init: Annotated[str, typer.Option("--init", help="Initialisation: smart or random.")] = "smart",
+    label_weight: Annotated[float, typer.Option(
+        "--label-weight", help="Weight w of the label term (laitoch2018 eq. 3.1), in units of "
+        "the exemplar's colour variance.")] = 20.0,
+    feature_weight: Annotated[float, typer.Option(
+        "--feature-weight", help="Weight z of the feature-distance channel (eq. 3.3), same "
+        "units.")] = 8.0,
+    tile: TileOption = False,
+    seed: SeedOption = 0,
+    extra: ExtraOption = None,
+    save_reference: SaveReferenceOption = None,
+    debug_dir: Annotated[Optional[Path], typer.Option(
+        "--debug-dir", help="Write the pyramid levels, label maps, initialisation and each "
+        "level's result as PNGs into this folder.")] = None,
+    bits: BitsOption = None,
+    max_memory: MaxMemoryOption = "8G",
+    threads: ThreadsOption = None,
+    exemplar_wraps: ExemplarWrapsOption = "auto",
+    quiet: QuietOption = False,
+) -> None:
+    """Texture-by-numbers: synthesize bark that follows a target label map."""
+    import dataclasses
+
+    from barkgen.io import read_image
+    from barkgen.synth import texture_by_numbers
+    from barkgen.synth.tbn import TBN_CONFIG
+
+    budget = parse_memory(max_memory)
+    extra_paths = parse_extras(extra)
+    _check_outputs(output, save_reference, bits)
+    if debug_dir is not None:
+        check_folder(debug_dir, "--debug-dir")
+    image = read_image(exemplar)
+    label_map = read_image(labels)
+    target_map = read_image(target)
+    extras = {name: read_image(p) for name, p in extra_paths.items()}
+    config = dataclasses.replace(TBN_CONFIG, threads=threads, max_memory=budget)
+    with progress_bar(not quiet, "texture-by-numbers") as progress:
+        result = texture_by_numbers(image, label_map, target_map, label_weight=label_weight,
+                                    feature_weight=feature_weight, init=init, tile=tile,
+                                    seed=seed, extra=extras, config=config, progress=progress,
+                                    debug=_debug_writer(debug_dir), exemplar_wrap=exemplar_wraps)
+    _write_result(result, output, bits, save_reference, quiet)
+
+
+def apply_reference_command(
+    reference: Annotated[Path, typer.Argument(help="Reference map written by --save-reference.")],
+    map_path: Annotated[Path, typer.Argument(metavar="MAP", help="Map of the exemplar's size.")],
+    output: OutputOption,
+    bits: Annotated[Optional[int], typer.Option("--bits", help="8 or 16. Default: the map's.")] = None,
+) -> None:
+    """Re-apply a saved reference map to another map of the exemplar (height, normal, ...)."""
+    from barkgen.io import read_image, read_reference, write_png
+    from barkgen.synth import apply_references
+
+    check_bits(bits)
+    check_target(output, "output")
+    refs, ex_shape = read_reference(reference)
+    image = read_image(map_path)
+    # apply_references only sees that the references fit inside the map; the file also
+    # records the exemplar's size, which a map of another (larger) size must not pass
+    if ex_shape is not None and image.shape[:2] != ex_shape:
+        raise InvalidInputError(
+            f"{map_path} is {image.shape[1]}x{image.shape[0]} px but the reference map was made for "
+            f"a {ex_shape[1]}x{ex_shape[0]} exemplar")
+    write_png(output, apply_references(refs, image), bits=bits)
+
+
+def _check_outputs(output: Path, save_reference: Path | None, bits: int | None) -> None:
+    check_bits(bits)
+    check_target(output, "output")
+    if save_reference is not None:
+        check_target(save_reference, "--save-reference")
+
+
+def _debug_writer(debug_dir: Path | None):
+    """texture_by_numbers' ``debug(name, image)`` writing DIR/NAME.png (None: no pictures)."""
+    if debug_dir is None:
+        return None
+    from barkgen.io import write_png
+
+    def debug(name: str, img) -> None:
+        debug_dir.mkdir(parents=True, exist_ok=True)
+        write_png(debug_dir / f"{name}.png", img)
+
+    return debug
+
+
+def _write_result(result, output: Path, bits: int | None, save_reference: Path | None,
+                  quiet: bool) -> None:
+    """Write a :class:`SynthesisResult`: the image, each extra map beside it, the reference map."""
+    from barkgen.io import write_png, write_reference
+
+    write_png(output, result.image, bits=bits)
+    for name, arr in result.extras.items():
+        write_png(output.with_name(f"{output.stem}_{name}{output.suffix}"), arr)
+    if save_reference is not None:
+        write_reference(save_reference, result.references, result.exemplar_shape)
+    if not quiet:
+        t = result.timings
+        h, w = result.image.shape[:2]
+        wraps = [axis for axis, on in zip(("rows", "columns"), result.exemplar_wrap) if on]
+        typer.echo(f"wrote {output} ({w}x{h}, seed {result.seed}"
+                   f"{', tileable' if result.tile else ''}"
+                   f"{', exemplar wraps ' + ' and '.join(wraps) if wraps else ''}) in "
+                   f"{t['analysis'] + t['synthesis']:.2f} s", err=True)
+
+
+#: (command name, function) of this group (the root orders ``barkgen --help``)
+COMMANDS = (
+    ("synth", synth_command),
+    ("tbn", tbn_command),
+    ("apply-reference", apply_reference_command),
+)
