@@ -249,3 +249,13 @@ def test_generate_bad_input_one_line_exit_2_nothing_written(tmp_path, fir_png, c
     assert len(lines) == 1 and lines[0].startswith("barkgen: error: "), r.stderr
     assert "Traceback" not in r.stderr
     assert not (tmp_path / "out").exists()
+
+
+def test_the_names_a_run_writes_are_checked_once_for_every_front_end():
+    from barkgen.pipeline import check_generate_names
+
+    check_generate_names("bark", extras=["height", "normal"])
+    for bad in ({"material_name": "texture"}, {"material_name": "bad name"},
+                {"extras": ["preview"]}):
+        with pytest.raises(InvalidInputError):
+            check_generate_names(**bad)

@@ -109,9 +109,8 @@ def _int(where: str, key: str, value, minimum: int = 0) -> int:
 
 def _options(where: str, values: dict, threads: int | None) -> tuple[GenerateOptions, int | None, str]:
     """GenerateOptions from a spec's option keys (errors say where)."""
-    from barkgen.io import check_material_name
-    from barkgen.pipeline import GENERATE_FILES
     from barkgen.material import parse_light
+    from barkgen.pipeline import check_generate_names
 
     kwargs = {}
     try:
@@ -141,9 +140,7 @@ def _options(where: str, values: dict, threads: int | None) -> tuple[GenerateOpt
         if bits is not None and (isinstance(bits, bool) or bits not in (8, 16)):
             raise InvalidInputError(f"bits must be 8 or 16, not {bits!r}")
         name = values.get("material_name", "bark")
-        check_material_name(str(name))
-        if name in GENERATE_FILES:
-            raise InvalidInputError(f"material_name {name!r} would overwrite one of generate's own files")
+        check_generate_names(str(name))
         if not values.get("material", False) and ("light" in values or "relief" in values):
             raise InvalidInputError("light and relief apply to the material set: set material: true")
         return GenerateOptions(threads=threads, **kwargs), bits, str(name)

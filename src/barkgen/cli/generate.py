@@ -114,23 +114,22 @@ def _check_generate_names(name: str, material: bool, light: str | None, relief: 
     """The flags generate's run cannot judge before it ends: the material set's name (its files
     must not take one of generate's) and material flags without --material."""
     from barkgen.io import check_material_name
-    from barkgen.pipeline import GENERATE_FILES
+    from barkgen.pipeline import check_generate_names
 
-    check_material_name(name)
     if not material and (light is not None or relief != 1.0):
         raise InvalidInputError("--light and --relief apply to the material set: add --material")
-    if material and name in GENERATE_FILES:
-        raise InvalidInputError(f"--name {name!r} would overwrite one of generate's own files; pick another")
+    if material:
+        check_generate_names(name)
+    else:
+        check_material_name(name)
 
 
 def _extra_paths(extra: list[str] | None) -> dict[str, Path]:
     """``--extra NAME=PATH`` maps; each is written as NAME.png beside generate's own files."""
-    from barkgen.pipeline import GENERATE_FILES
+    from barkgen.pipeline import check_generate_names
 
     extra_paths = parse_extras(extra)
-    clash = sorted(set(extra_paths) & set(GENERATE_FILES))
-    if clash:
-        raise InvalidInputError(f"--extra name {clash[0]!r} is taken by an output file; pick another")
+    check_generate_names(extras=extra_paths)
     return extra_paths
 
 

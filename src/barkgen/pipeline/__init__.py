@@ -13,11 +13,12 @@ from barkgen.pipeline.core import (
     generate,
     preview_sheet,
 )
-from barkgen.pipeline.files import GENERATE_FILES, encode_generate
+from barkgen.pipeline.files import GENERATE_FILES, check_generate_names, encode_generate
 
 __all__ = [
     "ANALYSIS_SEED",
     "GENERATE_FILES",
+    "check_generate_names",
     "LABEL_METHODS",
     "GenerateOptions",
     "GenerateResult",
