@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import subprocess
 import sys
 from pathlib import Path
 
@@ -13,6 +14,12 @@ REPO = Path(__file__).resolve().parents[1]
 SHARED = Path(os.environ.get("BARKGEN_SHARED", REPO.parent / "shared"))
 BARK = SHARED / "data" / "bark"
 EVAL = SHARED / "eval"
+
+
+def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    """``barkgen ARGS`` in a subprocess (this interpreter), its output captured."""
+    return subprocess.run([sys.executable, "-m", "barkgen", *args], capture_output=True, text=True,
+                          cwd=cwd, timeout=600)
 
 
 def pytest_configure(config) -> None:

@@ -37,7 +37,7 @@ it, and no area term pulls against it (the edit sets the areas). Without the gui
 solver drifts back to a layout of its own below the edited level: a stroke painted at level 3 of
 a 512 px map of the oak photo kept 2-39 % of its pixels, 93-97 % with the guide (and 87-89 % of
 the whole level's layout instead of about 50 %), while the boundaries take exemplar detail
-(``tests/test_shapes.py::test_an_edit_keeps_its_layout_down_to_the_finest_level``).
+(``tests/shapes/test_shapes.py::test_an_edit_keeps_its_layout_down_to_the_finest_level``).
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_cli import run
+from conftest import run
 
 from barkgen.errors import InvalidInputError
 from barkgen.io import read_image, write_png

@@ -12,11 +12,7 @@ import pytest
 from PIL import Image
 
 from barkgen.io import read_reference, read_image, write_png
-
-
-def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "barkgen", *args], capture_output=True, text=True,
-                          cwd=cwd, timeout=600)
+from conftest import run
 
 
 @pytest.fixture(scope="module")

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import SHARED
-from test_cli import run
+from conftest import run
 
 from barkgen.errors import InvalidInputError
 from barkgen.io import encode_glb, encode_material, read_image, read_material, write_bytes_atomic, write_png

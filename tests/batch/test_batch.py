@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_cli import run
+from conftest import run
 
 from barkgen.io import read_image, write_png
 
