@@ -78,10 +78,86 @@ def _smooth(t):
     return t * t * (3.0 - 2.0 * t)
 
 
+@njit(cache=True, inline="always")
+def _tile_index(ty, tx, seed, ucol, variants):
+    """The Wang tile of lattice cell ``(ty, tx)``: its four edge colours (hashes of the edges'
+    lattice coordinates, shared with the neighbours) and its content variant."""
+    north = lattice_hash(ty, tx, 0, seed) % ucol
+    south = lattice_hash(ty + 1, tx, 0, seed) % ucol
+    west = lattice_hash(ty, tx, 1, seed) % ucol
+    east = lattice_hash(ty, tx + 1, 1, seed) % ucol
+    var = lattice_hash(ty, tx, 2, seed) % np.uint64(variants)
+    return np.int64((((north * ucol + east) * ucol + south) * ucol + west) * np.uint64(variants) + var)
+
+
+@njit(cache=True, inline="always")
+def _warp_corners(cyw, cxw, seed, vy, vx):
+    """The displacements (in [-1, 1]) of the four corners of warp cell ``(cyw, cxw)``."""
+    for q in range(4):
+        hv = lattice_hash(cyw + (q >> 1), cxw + (q & 1), 5, seed)
+        vy[q] = (hv & np.uint64(0xFFFFFFFF)) / 2147483647.5 - 1.0
+        vx[q] = (hv >> np.uint64(32)) / 2147483647.5 - 1.0
+
+
+@njit(cache=True, inline="always")
+def _warp_displacement(fyw, fxw, vy, vx):
+    """The corners' displacements blended at the smooth position ``(fyw, fxw)`` in the cell."""
+    dy = 0.0
+    dx = 0.0
+    for q in range(4):
+        wq = (fyw if (q >> 1) else 1.0 - fyw) * (fxw if (q & 1) else 1.0 - fxw)
+        dy += wq * vy[q]
+        dx += wq * vx[q]
+    return dy, dx
+
+
+@njit(cache=True, inline="always")
+def _noise_corners(cy, cx, seed, wrap, offy, offx):
+    """The hashed offsets into the periodic noise tiles of the four corners of noise cell
+    ``(cy, cx)``."""
+    for q in range(4):
+        hv = lattice_hash(cy + (q >> 1), cx + (q & 1), 3, seed)
+        offy[q] = np.int64(hv & np.uint64(wrap))
+        offx[q] = np.int64((hv >> np.uint64(32)) & np.uint64(wrap))
+
+
+@njit(cache=True, inline="always")
+def _noise_colour(texel, noise_tiles, bases, means, quantiles, sigmas, wts, ty_idx, tx_idx, nvals, colour):
+    """``sum_k M_k (mean_k + basis_k @ channels_k)`` at one pixel (guingo2017 eq. 2, 6) into
+    ``colour``: per cluster ``k`` whose mask (in the pixel's ``texel``: structure, then masks)
+    is not 0 there, the noise channels read at the four taps (weights ``wts`` at rows
+    ``ty_idx``, columns ``tx_idx`` of the noise tiles), histogram-equalised when there are
+    quantile tables; ``nvals`` is scratch. Arrays, not tuples: this runs per pixel."""
+    k_noise, n_pc, _, _ = noise_tiles.shape
+    n_masks = texel.shape[0] - 3
+    n_q = quantiles.shape[2]
+    for ch in range(3):
+        colour[ch] = 0.0
+    for k in range(k_noise):
+        m = texel[3 + k] if n_masks > 1 else 1.0
+        if m == 0.0:
+            continue  # binary masks: only the pixel's own noise is computed
+        for c in range(n_pc):
+            v = 0.0
+            for q in range(4):
+                v += wts[q] * noise_tiles[k, c, ty_idx[q], tx_idx[q]]
+            if n_q > 1:  # histogram equalisation: Gaussian quantile -> data quantile
+                u = 0.5 * (1.0 + math.erf(v / (sigmas[k, c] * 1.4142135623730951)))
+                pos = u * (n_q - 1)
+                i0 = min(int(pos), n_q - 2)
+                t = pos - i0
+                v = quantiles[k, c, i0] * (1.0 - t) + quantiles[k, c, i0 + 1] * t
+            nvals[k, c] = v
+        for ch in range(3):
+            s = means[k, ch]
+            for c in range(n_pc):
+                s += bases[k, ch, c] * nvals[k, c]
+            colour[ch] += m * s
+
+
 @njit(parallel=True, cache=True)
-def render_window(y0, x0, out, structure_out, noise_out, tiles, colours, variants, seed,
-                  noise_tiles, cell, bases, means, quantiles, sigmas, warp):
-    """Pixels ``[y0, y0 + H) x [x0, x0 + W)`` of the unbounded bi-layer texture.
+def render_window(y0, x0, out, layers, tiles, lattice, noise):
+    """Pixels ``[y0, y0 + H) x [x0, x0 + W)`` of the unbounded bi-layer texture into ``out``.
 
     Structure + masks: Wang tiles (Cohen 2003) laid on a lattice of ``tile`` px cells; the
     colour of each edge and the content variant of each cell are hashes of their lattice
@@ -95,17 +171,22 @@ def render_window(y0, x0, out, structure_out, noise_out, tiles, colours, variant
     quantile tables equalise its histogram (§6). Colour = mean_k + basis_k @ channels
     (per-cluster PCA, §6), blended by the synthesized masks (eq. 2, 6).
 
-    ``structure_out`` / ``noise_out`` receive the two layers when they have the window's
-    size (pass ``(1, 1, C)`` arrays to skip them). The noise period must be a power of two.
+    ``layers = (structure_out, noise_out)`` receive the two layers when they have the window's
+    size (pass ``(1, 1, C)`` arrays to skip them). ``tiles`` (n, size, size, 3 + masks) are the
+    tile set; ``lattice = (colours, variants, seed, warp)`` the edge colours and variants per
+    tile, the hash seed and the warp amplitude in px; ``noise = (noise_tiles, cell, bases,
+    means, quantiles, sigmas)`` the (K, PC, period, period) noise tiles (the period a power of
+    two), the noise cell and the per-cluster PCA and equalisation tables.
     """
+    structure_out, noise_out = layers
+    colours, variants, seed, warp = lattice
+    noise_tiles, cell, bases, means, quantiles, sigmas = noise
     h, w, _ = out.shape
     n_tiles, size, _, n_ch = tiles.shape
     k_noise, n_pc, period, _ = noise_tiles.shape
     wrap = period - 1
-    n_q = quantiles.shape[2]
-    layers = structure_out.shape[0] == h
+    want_layers = structure_out.shape[0] == h
     want_noise = noise_out.shape[0] == h
-    n_masks = n_ch - 3
     ucol = np.uint64(colours)
     wcell = 2 * size
     # everything that depends on the column alone, once per window
@@ -157,17 +238,8 @@ def render_window(y0, x0, out, structure_out, noise_out, tiles, colours, variant
                 cxw = col_cxw[col]
                 if cxw != wx_cur:  # a new warp cell: its corners' displacements
                     wx_cur = cxw
-                    for q in range(4):
-                        hv = lattice_hash(cyw + (q >> 1), cxw + (q & 1), 5, seed)
-                        vy[q] = (hv & np.uint64(0xFFFFFFFF)) / 2147483647.5 - 1.0
-                        vx[q] = (hv >> np.uint64(32)) / 2147483647.5 - 1.0
-                fxw = col_fxw[col]
-                dy = 0.0
-                dx = 0.0
-                for q in range(4):
-                    wq = (fyw if (q >> 1) else 1.0 - fyw) * (fxw if (q & 1) else 1.0 - fxw)
-                    dy += wq * vy[q]
-                    dx += wq * vx[q]
+                    _warp_corners(cyw, cxw, seed, vy, vx)
+                dy, dx = _warp_displacement(fyw, col_fxw[col], vy, vx)
                 sy = gy + np.int64(math.floor(warp * dy + 0.5))
                 sx = gx + np.int64(math.floor(warp * dx + 0.5))
             moved = False
@@ -182,20 +254,11 @@ def render_window(y0, x0, out, structure_out, noise_out, tiles, colours, variant
             iy = sy - ty_lo
             ix = sx - tx_lo
             if moved:  # a new tile: its edge colours and content variant
-                north = lattice_hash(ty, tx, 0, seed) % ucol
-                south = lattice_hash(ty + 1, tx, 0, seed) % ucol
-                west = lattice_hash(ty, tx, 1, seed) % ucol
-                east = lattice_hash(ty, tx + 1, 1, seed) % ucol
-                var = lattice_hash(ty, tx, 2, seed) % np.uint64(variants)
-                idx = np.int64((((north * ucol + east) * ucol + south) * ucol + west)
-                               * np.uint64(variants) + var)
+                idx = _tile_index(ty, tx, seed, ucol, variants)
             cx = col_cx[col]
             if cx != cx_cur:  # a new noise cell: the offsets of its four corners
                 cx_cur = cx
-                for q in range(4):
-                    hv = lattice_hash(cy + (q >> 1), cx + (q & 1), 3, seed)
-                    offy[q] = np.int64(hv & np.uint64(wrap))
-                    offx[q] = np.int64((hv >> np.uint64(32)) & np.uint64(wrap))
+                _noise_corners(cy, cx, seed, wrap, offy, offx)
             fx = col_fx[col]
             norm = ny * col_nx[col]
             px = gx & wrap
@@ -203,32 +266,12 @@ def render_window(y0, x0, out, structure_out, noise_out, tiles, colours, variant
                 wts[q] = wy[q] * (fx if (q & 1) else 1.0 - fx) * norm
                 ty_idx[q] = (py + offy[q]) & wrap
                 tx_idx[q] = (px + offx[q]) & wrap
-            for ch in range(3):
-                colour[ch] = 0.0
-            for k in range(k_noise):
-                m = tiles[idx, iy, ix, 3 + k] if n_masks > 1 else 1.0
-                if m == 0.0:
-                    continue  # binary masks: only the pixel's own noise is computed
-                for c in range(n_pc):
-                    v = 0.0
-                    for q in range(4):
-                        v += wts[q] * noise_tiles[k, c, ty_idx[q], tx_idx[q]]
-                    if n_q > 1:  # histogram equalisation: Gaussian quantile -> data quantile
-                        u = 0.5 * (1.0 + math.erf(v / (sigmas[k, c] * 1.4142135623730951)))
-                        pos = u * (n_q - 1)
-                        i0 = min(int(pos), n_q - 2)
-                        t = pos - i0
-                        v = quantiles[k, c, i0] * (1.0 - t) + quantiles[k, c, i0 + 1] * t
-                    nvals[k, c] = v
-                for ch in range(3):
-                    s = means[k, ch]
-                    for c in range(n_pc):
-                        s += bases[k, ch, c] * nvals[k, c]
-                    colour[ch] += m * s
+            _noise_colour(tiles[idx, iy, ix], noise_tiles, bases, means, quantiles, sigmas, wts, ty_idx, tx_idx,
+                          nvals, colour)
             for ch in range(3):
                 out[r, col, ch] = min(max(tiles[idx, iy, ix, ch] + colour[ch], 0.0), 1.0)
                 if want_noise:
                     noise_out[r, col, ch] = colour[ch]
-            if layers:
+            if want_layers:
                 for ch in range(n_ch):
                     structure_out[r, col, ch] = tiles[idx, iy, ix, ch]

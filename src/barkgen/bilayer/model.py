@@ -83,24 +83,40 @@ class _Synthesizer:
         from barkgen.bilayer._kernels import render_window
 
         stats = self.noise
-        render_window(int(y), int(x), out, structure, noise, self.tiles, self.options.colours,
-                      self.options.variants, self.hash_seed, self.noise_tiles,
-                      self.noise_tiles.shape[2] // 2, stats.bases.astype(np.float64),
-                      stats.means.astype(np.float64), stats.quantiles.astype(np.float64),
-                      stats.sigmas.astype(np.float64), float(self.options.warp * self.tiles.shape[1]))
+        lattice = (self.options.colours, self.options.variants, self.hash_seed,
+                   float(self.options.warp * self.tiles.shape[1]))
+        tables = (self.noise_tiles, self.noise_tiles.shape[2] // 2, stats.bases.astype(np.float64),
+                  stats.means.astype(np.float64), stats.quantiles.astype(np.float64),
+                  stats.sigmas.astype(np.float64))
+        render_window(int(y), int(x), out, (structure, noise), self.tiles, lattice, tables)
 
 
 @dataclass
 class BilayerModel:
     """A texture as structure + spatially varying Gaussian noise (guingo2017 §4).
 
-    Attributes:
-        exemplar: the analysed image, float32 RGB (H, W, 3).
-        structure: ``P`` (H, W, 3).
-        masks: ``M_k`` (H, W, K), summing to 1.
-        labels: the cluster of each pixel (H, W).
-        noise: per-cluster spectra, PCA colour bases, means, deviations, quantiles.
-        options: the analysis parameters.
+    Attributes
+    ----------
+    exemplar : ndarray of float32, shape (H, W, 3)
+        The analysed image, RGB.
+    structure : ndarray of float32, shape (H, W, 3)
+        ``P``.
+    masks : ndarray of float32, shape (H, W, K)
+        ``M_k``, summing to 1.
+    labels : ndarray of uint8, shape (H, W)
+        The cluster of each pixel.
+    noise : NoiseStatistics
+        Per-cluster spectra, PCA colour bases, means, deviations, quantiles.
+    options : AnalysisOptions
+        The analysis parameters.
+    k : int
+        Number of noises.
+    noise_layer : ndarray of float32, shape (H, W, 3)
+        ``N = I - P`` of the exemplar.
+
+    References
+    ----------
+    .. [1] guingo2017, §4, eq. 6 (synthesis ``I' = P' + sum_k M'_k N_k``).
     """
 
     exemplar: np.ndarray
@@ -153,9 +169,45 @@ class BilayerModel:
         """Pixels ``[x, x + width) x [y, y + height)`` of the unbounded synthesized texture.
 
         Deterministic in coordinates: for a given seed and options, overlapping windows agree
-        exactly, whatever their order or size. Returns float32 RGB (height, width, 3) in
-        [0, 1]; with ``layers=True`` a dict with ``texture``, ``structure``, ``masks`` and
-        ``noise`` (the synthesized ``P'``, ``M'_k`` and ``N'``).
+        exactly, whatever their order or size.
+
+        Parameters
+        ----------
+        x, y : int
+            Top-left corner of the window on the plane (``|x|, |y| <= 2**40``).
+        width, height : int
+            Size of the window, > 0.
+        seed : int, default 0
+            Seeds the tiles, the noise and the hashes.
+        options : SynthesisOptions, optional
+            Tiling, warp and deformation.
+        layers : bool, default False
+            Also return the synthesized layers.
+
+        Returns
+        -------
+        ndarray of float32, shape (height, width, 3), or dict
+            RGB in [0, 1]; with ``layers=True`` a dict with ``texture``, ``structure``, ``masks``
+            and ``noise`` (the synthesized ``P'``, ``M'_k`` and ``N'``).
+
+        Raises
+        ------
+        InvalidInputError
+            Non-integer or out-of-range coordinates, sizes or seed, or a window too large for one
+            call.
+
+        References
+        ----------
+        .. [1] guingo2017, §4 (on-the-fly synthesis).
+
+        Examples
+        --------
+        >>> import barkgen
+        >>> from barkgen.bilayer import analyze
+        >>> model = analyze(barkgen.read_image(barkgen.sample_exemplar_path())[:64, :64])
+        >>> left, right = model.window(0, 0, 64, 32, seed=3), model.window(32, 0, 64, 32, seed=3)
+        >>> bool((left[:, 32:] == right[:, :32]).all())
+        True
         """
         for name, v in (("x", x), ("y", y), ("width", width), ("height", height), ("seed", seed)):
             if not isinstance(v, (int, np.integer)) or isinstance(v, bool):
@@ -183,13 +235,47 @@ class BilayerModel:
 
     def synthesize(self, shape: tuple[int, int], *, offset: tuple[int, int] = (0, 0), seed: int = 0,
                    options: SynthesisOptions | None = None) -> np.ndarray:
-        """An ``(height, width)`` texture: the window at ``offset = (x, y)``."""
+        """An ``(height, width)`` texture: the window at ``offset = (x, y)``.
+
+        Parameters
+        ----------
+        shape : (int, int)
+            ``(height, width)``.
+        offset : (int, int), default (0, 0)
+            ``(x, y)`` of the window's top-left corner.
+        seed : int, default 0
+            As for :meth:`window`.
+        options : SynthesisOptions, optional
+            As for :meth:`window`.
+
+        Returns
+        -------
+        ndarray of float32, shape (height, width, 3)
+        """
         return self.window(offset[0], offset[1], shape[1], shape[0], seed=seed, options=options)
 
 
 def single_layer(exemplar: np.ndarray, options: AnalysisOptions | None = None) -> BilayerModel:
-    """The one-layer baseline of guingo2017 Fig. 10: the whole image as structure, no noise,
-    tiled and deformed by the same synthesis (for comparisons)."""
+    """The one-layer baseline of guingo2017 Fig. 10: the whole image as structure, no noise.
+
+    Tiled and deformed by the same synthesis, for comparisons.
+
+    Parameters
+    ----------
+    exemplar : ndarray, shape (h, w) or (h, w, C)
+        The photo.
+    options : AnalysisOptions, optional
+        Only ``spectrum_size`` is used (default ``AnalysisOptions(k=1)``).
+
+    Returns
+    -------
+    BilayerModel
+        One mask of ones, zero noise.
+
+    References
+    ----------
+    .. [1] guingo2017, Fig. 10.
+    """
     image = as_rgb(exemplar)
     options = options or AnalysisOptions(k=1)
     t = min(options.spectrum_size, (min(image.shape[:2]) // 2) * 2)

@@ -2,7 +2,8 @@
 
 - :mod:`~barkgen.branching.structure`: the data model (polylines with thickness, furcations,
   merges) and its JSON form (§3, §4.1);
-- :mod:`~barkgen.branching.extract`: the crack network of an image, automatically;
+- :mod:`~barkgen.branching.extract`: the crack network of an image, automatically (the crack
+  mask in :mod:`~barkgen.branching.mask`, its skeleton graph in :mod:`~barkgen.branching.graph`);
 - :mod:`~barkgen.branching.model` and :mod:`~barkgen.branching.grow`: the statistical model and
   growth (§4) with merges;
 - :mod:`~barkgen.branching.render`: fragment-based image synthesis (§5) with the gaps filled by
@@ -10,7 +11,8 @@
 - :mod:`~barkgen.branching.stats`: the Fig. 7 evaluation as numbers and a plot.
 """
 
-from barkgen.branching.extract import crack_mask, extract_structure, overlay_structure
+from barkgen.branching.extract import extract_structure, overlay_structure
+from barkgen.branching.mask import crack_mask
 from barkgen.branching.grow import GrowOptions, grow_structure
 from barkgen.branching.model import BranchModel, ModelOptions, fit_model
 from barkgen.branching.render import RenderOptions, RenderResult, render_branches

@@ -130,12 +130,8 @@ def path_contacts(x0, y0, theta, step, elements, dist, near_branch, branch, pare
 
 
 @njit(cache=True)
-def extension_candidates(qual, hist_a, hist_r, ha, hr, history_start, branch_end, angles, thickness,
-                         k, m, a_edges, r_edges, a_counts, r_counts, a_target, r_target, h_counts, h_target,
-                         n_t, omega_g,
-                         x0, y0, theta, step, dist, near_branch, density, branch, parent, sx, sy, exempt,
-                         rho, guide, use_guide, eps, c_best, uniforms, join_rate, join_pdf, near_tangent,
-                         cand, qstar, lens, ang, thk, xs, ys, heads, first_hit, first_out, q2, decision):  # pragma: no cover - compiled
+def extension_candidates(histories, recent, k, m, matching, tip, contact, density, choice, qual, out,
+                         decision):  # pragma: no cover - compiled
     """One extension step of sibbing2010 §4.2-4.4 for the ``T = len(cand)`` best histories.
 
     Bending quality of every history against the branch's last ``len(ha)`` elements; the ``T``
@@ -154,7 +150,39 @@ def extension_candidates(qual, hist_a, hist_r, ha, hr, history_start, branch_end
     among the free candidates by ``Q**``. ``decision`` gets ``(code, t, j)``: code 0 = no
     candidate, 1 = grow by candidate ``t`` (``j`` vertices inside the image), 2 = candidate
     ``t`` ends the branch, 3 = merge: candidate ``t`` up to its vertex ``j``.
+
+    The arguments, packed by what they are:
+
+    - ``histories = (hist_a, hist_r, history_start, branch_end, angles, thickness)``: the
+      source's ``k + 1``-element histories (angles, thicknesses), where each starts and its
+      branch ends in the element arrays ``angles``, ``thickness``;
+    - ``recent = (ha, hr)``: the growing branch's last elements; ``k``, ``m``: the history and
+      continuation lengths;
+    - ``matching = (a_edges, r_edges, a_counts, r_counts, a_target, r_target, h_counts,
+      h_target, n_t, omega_g)``: the three histograms of §4.2 (edges, counts so far over
+      ``n_t`` elements, the source's), and the weight of matching them;
+    - ``tip = (x0, y0, theta, step)``: where the branch is, its heading and the step h;
+    - ``contact = (dist, near_branch, branch, parent, sx, sy, exempt)``: see :func:`_contact`;
+    - ``density = (density, guide, use_guide, rho, eps)``: the density map, the optional guide,
+      the space-colonisation ``rho`` and the regulariser of ``Q**``;
+    - ``choice = (c_best, uniforms, join_rate, join_pdf, near_tangent)``;
+    - ``qual``: scratch for every history's quality; ``out = (cand, qstar, lens, ang, thk, xs,
+      ys, heads, first_hit, first_out, q2)``: per candidate (rows ``T``).
     """
+    cand, qstar, lens, ang, thk, xs, ys, heads, first_hit, first_out, q2 = out
+    _bending_qualities(qual, histories[0], histories[1], recent[0], recent[1])
+    _best_histories(qual, cand, qstar)
+    _continuations(histories, k, m, cand, lens, ang, thk, qstar, q2, first_hit, first_out)
+    _match_histograms(matching, tip[2], m, cand, lens, ang, thk, qstar)
+    _trace_candidates(cand, lens, ang, thk, xs, ys, heads, first_hit, first_out, tip, contact)
+    _chord_scores(cand, lens, qstar, xs, ys, q2, tip, density)
+    _decide(choice, cand, qstar, lens, xs, ys, heads, first_hit, first_out, q2, decision)
+
+
+@njit(cache=True, inline="always")
+def _bending_qualities(qual, hist_a, hist_r, ha, hr):  # pragma: no cover - compiled
+    """§4.2's bending quality of every source history against the branch's last elements
+    ``(ha, hr)`` (the histories' last ``len(ha)`` columns)."""
     n_hist = hist_a.shape[0]
     width = hist_a.shape[1]
     q = ha.shape[0]
@@ -168,12 +196,17 @@ def extension_candidates(qual, hist_a, hist_r, ha, hr, history_start, branch_end
             sa += da * da
             sr += dr * dr
         qual[i] = (1.0 / (np.sqrt(sa) + 1.0) + 1.0) * (1.0 / (np.sqrt(sr) + 1.0) + 1.0)
+
+
+@njit(cache=True, inline="always")
+def _best_histories(qual, cand, qstar):  # pragma: no cover - compiled
+    """The ``len(cand)`` best qualities in ``qstar`` and their histories in ``cand`` (-1: none),
+    best first (stable: the lower index wins a tie)."""
     t_count = cand.shape[0]
-    # the T best (stable: the lower index wins a tie)
     for t in range(t_count):
         cand[t] = -1
         qstar[t] = -1.0
-    for i in range(n_hist):
+    for i in range(qual.shape[0]):
         v = qual[i]
         if v <= qstar[t_count - 1]:
             continue
@@ -184,17 +217,15 @@ def extension_candidates(qual, hist_a, hist_r, ha, hr, history_start, branch_end
             p -= 1
         qstar[p] = v
         cand[p] = i
-    bins = a_counts.shape[0]
-    n_now = max(n_t, 1.0)
-    before = 0.0
-    for b in range(bins):
-        before += (a_target[b] - a_counts[b] / n_now) ** 2 + (r_target[b] - r_counts[b] / n_now) ** 2
-        before += (h_target[b] - h_counts[b] / n_now) ** 2
-    before /= bins
-    add_a = np.zeros(bins)
-    add_r = np.zeros(bins)
-    add_h = np.zeros(bins)
-    for t in range(t_count):
+
+
+@njit(cache=True, inline="always")
+def _continuations(histories, k, m, cand, lens, ang, thk, qstar, q2, first_hit,
+                   first_out):  # pragma: no cover - compiled
+    """Each candidate's continuation: the (up to ``m``) source elements after its history, zeros
+    beyond, and its length in ``lens``; rows without a candidate are cleared."""
+    history_start, branch_end, angles, thickness = histories[2], histories[3], histories[4], histories[5]
+    for t in range(cand.shape[0]):
         c = cand[t]
         if c < 0:
             lens[t] = 0
@@ -206,23 +237,46 @@ def extension_candidates(qual, hist_a, hist_r, ha, hr, history_start, branch_end
         c0 = history_start[c] + k + 1
         n_el = min(max(branch_end[c] - c0, 0), m)
         lens[t] = n_el
-        add_a[:] = 0.0
-        add_r[:] = 0.0
-        add_h[:] = 0.0
-        hd = theta
         for j in range(m):
             if j < n_el:
                 ang[t, j] = angles[c0 + j]
                 thk[t, j] = thickness[c0 + j]
-                ba = min(max(np.searchsorted(a_edges, ang[t, j], side="right") - 1, 0), bins - 1)
-                br = min(max(np.searchsorted(r_edges, thk[t, j], side="right") - 1, 0), bins - 1)
-                hd += ang[t, j]
-                add_a[ba] += 1.0
-                add_r[br] += 1.0
-                add_h[heading_bin(hd, bins)] += 1.0
             else:
                 ang[t, j] = 0.0
                 thk[t, j] = 0.0
+
+
+@njit(cache=True, inline="always")
+def _match_histograms(matching, theta, m, cand, lens, ang, thk, qstar):  # pragma: no cover - compiled
+    """§4.2's histogram matching: every candidate's ``Q*`` times ``exp(gain)`` (clipped to
+    ``e^+-50``), the gain being how much appending its continuation from heading ``theta``
+    brings the three histograms nearer the source's, times ``omega_g n_t / m``."""
+    a_edges, r_edges, a_counts, r_counts, a_target, r_target, h_counts, h_target, n_t, omega_g = matching
+    bins = a_counts.shape[0]
+    n_now = max(n_t, 1.0)
+    before = 0.0
+    for b in range(bins):
+        before += (a_target[b] - a_counts[b] / n_now) ** 2 + (r_target[b] - r_counts[b] / n_now) ** 2
+        before += (h_target[b] - h_counts[b] / n_now) ** 2
+    before /= bins
+    add_a = np.zeros(bins)
+    add_r = np.zeros(bins)
+    add_h = np.zeros(bins)
+    for t in range(cand.shape[0]):
+        if cand[t] < 0:
+            continue
+        n_el = lens[t]
+        add_a[:] = 0.0
+        add_r[:] = 0.0
+        add_h[:] = 0.0
+        hd = theta
+        for j in range(n_el):
+            ba = min(max(np.searchsorted(a_edges, ang[t, j], side="right") - 1, 0), bins - 1)
+            br = min(max(np.searchsorted(r_edges, thk[t, j], side="right") - 1, 0), bins - 1)
+            hd += ang[t, j]
+            add_a[ba] += 1.0
+            add_r[br] += 1.0
+            add_h[heading_bin(hd, bins)] += 1.0
         total = max(n_t + n_el, 1.0)
         after = 0.0
         for b in range(bins):
@@ -231,13 +285,24 @@ def extension_candidates(qual, hist_a, hist_r, ha, hr, history_start, branch_end
             after += (h_target[b] - (h_counts[b] + add_h[b]) / total) ** 2
         gain = (before - after / bins) * omega_g * n_now / m
         qstar[t] *= np.exp(min(max(gain, -50.0), 50.0))
-        # geometry, collisions and the border
+
+
+@njit(cache=True, inline="always")
+def _trace_candidates(cand, lens, ang, thk, xs, ys, heads, first_hit, first_out, tip,
+                      contact):  # pragma: no cover - compiled
+    """The vertices every candidate would add from the tip, its first vertex touching a
+    committed branch (before leaving the image) and its first vertex outside the image."""
+    x0, y0, theta, step = tip
+    dist, near_branch, branch, parent, sx, sy, exempt = contact
+    for t in range(cand.shape[0]):
+        if cand[t] < 0:
+            continue
         hx = x0
         hy = y0
         hd = theta
         first_hit[t] = -1
         first_out[t] = -1
-        for j in range(n_el):
+        for j in range(lens[t]):
             hd += ang[t, j]
             hx += step * np.cos(hd)
             hy += step * np.sin(hd)
@@ -251,7 +316,19 @@ def extension_candidates(qual, hist_a, hist_r, ha, hr, history_start, branch_end
                 continue
             if first_hit[t] < 0 and first_out[t] < 0 and touch:
                 first_hit[t] = j
-        # density along the chord (or the current heading for an ending candidate)
+
+
+@njit(cache=True, inline="always")
+def _chord_scores(cand, lens, qstar, xs, ys, q2, tip, density):  # pragma: no cover - compiled
+    """``Q** = Q* / (D + eps)`` (§4.4; divided by ``G + eps`` too with a guide) of every
+    candidate: ``D`` (``G``) the largest density (guide value) at 8 points along its chord (the
+    current heading for an ending candidate) up to three times its length."""
+    x0, y0, theta, step = tip
+    dmap, guide, use_guide, rho, eps = density
+    for t in range(cand.shape[0]):
+        if cand[t] < 0:
+            continue
+        n_el = lens[t]
         if n_el > 0:
             chord = np.arctan2(ys[t, n_el - 1] - y0, xs[t, n_el - 1] - x0)
         else:
@@ -263,7 +340,7 @@ def extension_candidates(qual, hist_a, hist_r, ha, hr, history_start, branch_end
             tt = reach * (0.25 + 0.75 * s / 7.0)
             px = x0 + np.cos(chord) * tt
             py = y0 + np.sin(chord) * tt
-            d, inside = _lookup(density, px, py, np.float32(1e6))
+            d, inside = _lookup(dmap, px, py, np.float32(1e6))
             if inside:
                 dd = max(d, 0.0)
                 dens = max(dens, np.exp(-dd * dd / (rho * rho)))
@@ -274,7 +351,14 @@ def extension_candidates(qual, hist_a, hist_r, ha, hr, history_start, branch_end
             q2[t] = qstar[t] / ((dens + eps) * (g + eps))
         else:
             q2[t] = qstar[t] / (dens + eps)
-    # the choice
+
+
+@njit(cache=True)
+def _decide(choice, cand, qstar, lens, xs, ys, heads, first_hit, first_out, q2,
+            decision):  # pragma: no cover - compiled
+    """The choice of :func:`extension_candidates` into ``decision``, ``choice = (c_best,
+    uniforms, join_rate, join_pdf, near_tangent)``."""
+    c_best, uniforms, join_rate, join_pdf, near_tangent = choice
     decision[0] = 0
     pick = _draw_best(qstar, cand, first_hit, False, c_best, uniforms[0])
     if pick < 0:
@@ -371,11 +455,13 @@ def add_element_counts(a_counts, a_edges, r_counts, r_edges, h_counts, elements,
 
 
 @njit(cache=True)
-def push_elements(xyr, hist, n_v, n_h, elements, xs, ys, heads, n, a_counts, a_edges, r_counts, r_edges,
-                  h_counts):  # pragma: no cover - compiled
-    """Append the first ``n`` element rows (angle, thickness) and their vertices ``xs, ys``
-    to a growing branch's buffers (``xyr`` from row ``n_v``, ``hist`` from row ``n_h``) and
-    count them in the three histograms of §4.2."""
+def push_elements(xyr, hist, n_v, n_h, elements, path, n, counts):  # pragma: no cover - compiled
+    """Append the first ``n`` element rows (angle, thickness) and their vertices ``path = (xs,
+    ys, heads)`` to a growing branch's buffers (``xyr`` from row ``n_v``, ``hist`` from row
+    ``n_h``) and count them in the three histograms of §4.2 (``counts = (a_counts, a_edges,
+    r_counts, r_edges, h_counts)``)."""
+    xs, ys, heads = path
+    a_counts, a_edges, r_counts, r_edges, h_counts = counts
     for j in range(n):
         xyr[n_v + j, 0] = xs[j]
         xyr[n_v + j, 1] = ys[j]

@@ -70,7 +70,7 @@ def trace_edges(skel, node_id, node_py, node_px):
             if qy < 0 or qy >= h or qx < 0 or qx >= w or skel[qy, qx] == 0:
                 continue
             b = node_id[qy, qx]
-            if b >= 0:
+            if b >= 0:  # two adjacent node pixels of different nodes: an edge without pixels
                 if b == a:
                     continue
                 lo = min(a, b)
@@ -86,43 +86,7 @@ def trace_edges(skel, node_id, node_py, node_px):
                 continue
             if visited[qy, qx]:
                 continue
-            # walk along the inner pixels until the next node pixel
-            prev_y = py
-            prev_x = px
-            cy = qy
-            cx = qx
-            end = -1
-            while True:
-                visited[cy, cx] = 1
-                path_y[n_path] = cy
-                path_x[n_path] = cx
-                n_path += 1
-                ny = -1
-                nx = -1
-                for kk in range(8):
-                    yy = cy + _DY[kk]
-                    xx = cx + _DX[kk]
-                    if yy < 0 or yy >= h or xx < 0 or xx >= w or skel[yy, xx] == 0:
-                        continue
-                    if yy == prev_y and xx == prev_x:
-                        continue
-                    if node_id[yy, xx] >= 0:
-                        ny = yy  # a node pixel ends the edge
-                        nx = xx
-                        break
-                    elif visited[yy, xx] == 0:
-                        if ny < 0:
-                            ny = yy
-                            nx = xx
-                if ny < 0:
-                    break
-                if node_id[ny, nx] >= 0:
-                    end = node_id[ny, nx]
-                    break
-                prev_y = cy
-                prev_x = cx
-                cy = ny
-                cx = nx
+            end, n_path = _walk_to_node(skel, node_id, visited, py, px, qy, qx, path_y, path_x, n_path)
             edge_a[n_edges] = a
             edge_b[n_edges] = end
             n_edges += 1
@@ -132,39 +96,93 @@ def trace_edges(skel, node_id, node_py, node_px):
         for x in range(w):
             if skel[y, x] == 0 or node_id[y, x] >= 0 or visited[y, x]:
                 continue
-            prev_y = -5
-            prev_x = -5
-            cy = y
-            cx = x
-            while True:
-                visited[cy, cx] = 1
-                path_y[n_path] = cy
-                path_x[n_path] = cx
-                n_path += 1
-                ny = -1
-                nx = -1
-                for kk in range(8):
-                    yy = cy + _DY[kk]
-                    xx = cx + _DX[kk]
-                    if yy < 0 or yy >= h or xx < 0 or xx >= w or skel[yy, xx] == 0:
-                        continue
-                    if (yy == prev_y and xx == prev_x) or visited[yy, xx]:
-                        continue
-                    ny = yy
-                    nx = xx
-                    break
-                if ny < 0:
-                    break
-                prev_y = cy
-                prev_x = cx
-                cy = ny
-                cx = nx
+            n_path = _walk_loop(skel, visited, y, x, path_y, path_x, n_path)
             edge_a[n_edges] = -1
             edge_b[n_edges] = -1
             n_edges += 1
             offsets[n_edges] = n_path
     return (edge_a[:n_edges].copy(), edge_b[:n_edges].copy(), offsets[:n_edges + 1].copy(),
             path_y[:n_path].copy(), path_x[:n_path].copy())
+
+
+@njit(cache=True, inline="always")
+def _walk_to_node(skel, node_id, visited, py, px, qy, qx, path_y, path_x, n_path):
+    """Walk from node pixel ``(py, px)`` through the inner pixels from ``(qy, qx)`` until the
+    next node pixel, appending them to the path arrays from ``n_path``; returns (the node
+    reached or -1, the new path length)."""
+    h, w = skel.shape
+    prev_y = py
+    prev_x = px
+    cy = qy
+    cx = qx
+    end = -1
+    while True:
+        visited[cy, cx] = 1
+        path_y[n_path] = cy
+        path_x[n_path] = cx
+        n_path += 1
+        ny = -1
+        nx = -1
+        for kk in range(8):
+            yy = cy + _DY[kk]
+            xx = cx + _DX[kk]
+            if yy < 0 or yy >= h or xx < 0 or xx >= w or skel[yy, xx] == 0:
+                continue
+            if yy == prev_y and xx == prev_x:
+                continue
+            if node_id[yy, xx] >= 0:
+                ny = yy  # a node pixel ends the edge
+                nx = xx
+                break
+            elif visited[yy, xx] == 0:
+                if ny < 0:
+                    ny = yy
+                    nx = xx
+        if ny < 0:
+            break
+        if node_id[ny, nx] >= 0:
+            end = node_id[ny, nx]
+            break
+        prev_y = cy
+        prev_x = cx
+        cy = ny
+        cx = nx
+    return end, n_path
+
+
+@njit(cache=True, inline="always")
+def _walk_loop(skel, visited, y, x, path_y, path_x, n_path):
+    """Walk a closed loop of inner pixels from ``(y, x)``, appending them to the path arrays
+    from ``n_path``; returns the new path length."""
+    h, w = skel.shape
+    prev_y = -5
+    prev_x = -5
+    cy = y
+    cx = x
+    while True:
+        visited[cy, cx] = 1
+        path_y[n_path] = cy
+        path_x[n_path] = cx
+        n_path += 1
+        ny = -1
+        nx = -1
+        for kk in range(8):
+            yy = cy + _DY[kk]
+            xx = cx + _DX[kk]
+            if yy < 0 or yy >= h or xx < 0 or xx >= w or skel[yy, xx] == 0:
+                continue
+            if (yy == prev_y and xx == prev_x) or visited[yy, xx]:
+                continue
+            ny = yy
+            nx = xx
+            break
+        if ny < 0:
+            break
+        prev_y = cy
+        prev_x = cx
+        cy = ny
+        cx = nx
+    return n_path
 
 
 @njit(cache=True)

@@ -283,19 +283,31 @@ def _poly_distance(x, y, px, py, pt, ok):
 
 
 @nb.njit(cache=True)
-def seam_setup(x0, y0, new, mapx, mapy, canvas, content, coverage, tgt_cracks, src_cracks, cx, cy, radius,
-               clear, tdist, tthick, spx, spy, spt, sok, own_margin, other_margin, eps):
+def seam_setup(corner, new, maps, layers, cracks, disk, own_target, own_source, margins):
     """Constraints and weights of the graph cut of one fragment (§5.3).
 
-    Per pixel of the box at ``(x0, y0)``: ``take`` (forced to the new fragment: its own crack,
-    within ``own_margin`` of its edge, ``tdist - tthick`` away, empty canvas, the cleared centre of a
-    junction within ``clear`` px), ``keep`` (forced to the old content: outside the disk, its
-    rim, other cracks of the target, source cracks that are not the fragment's own polyline
-    ``sp*``), the graph-cut weights of the edges to the right and down neighbours (the colour
-    difference new/old at both ends, 0 where nothing is placed, + ``eps``), the Poisson
-    boundary values (log ratio old / new where there is old content, else 0), whether they hold, and
-    the number of taken and of free pixels.
+    Per pixel of the box at ``corner = (x0, y0)`` (``new``: the fragment's pixels, ``maps =
+    (mapx, mapy)``: where they come from in the source): ``take`` (forced to the new fragment:
+    its own crack, within ``own_margin`` of its edge, ``tdist - tthick`` away, empty canvas, the
+    cleared centre of a junction within ``clear`` px), ``keep`` (forced to the old content:
+    outside the disk, its rim, other cracks of the target, source cracks that are not the
+    fragment's own polyline ``sp*``), the graph-cut weights of the edges to the right and down
+    neighbours (the colour difference new/old at both ends, 0 where nothing is placed, +
+    ``eps``), the Poisson boundary values (log ratio old / new where there is old content, else
+    0), whether they hold, and the number of taken and of free pixels.
+
+    ``layers = (canvas, content, coverage)``, ``cracks = (tgt_cracks, src_cracks)``, ``disk =
+    (cx, cy, radius, clear)``, ``own_target = (tdist, tthick)`` (:func:`own_distance`),
+    ``own_source = (spx, spy, spt, sok)``, ``margins = (own_margin, other_margin, eps)``.
     """
+    x0, y0 = corner
+    mapx, mapy = maps
+    canvas, content, coverage = layers
+    tgt_cracks, src_cracks = cracks
+    cx, cy, radius, clear = disk
+    tdist, tthick = own_target
+    spx, spy, spt, sok = own_source
+    own_margin, other_margin, eps = margins
     h, w, c = new.shape
     take = np.zeros((h, w), np.bool_)
     keep = np.zeros((h, w), np.bool_)
@@ -354,10 +366,14 @@ def seam_setup(x0, y0, new, mapx, mapy, canvas, content, coverage, tgt_cracks, s
 
 
 @nb.njit(cache=True)
-def blend(x0, y0, newmask, new, fixed, boundary, canvas, content, coverage, fragment_map, index, tol,
-          max_iter, smooth):
+def blend(corner, newmask, new, fixed, boundary, layers, fragment_map, index, poisson):
     """Poisson photometric correction of the new pixels (harmonic offset of the log values, see
-    :func:`harmonic_offset`: a smooth gain) and their write into the canvas."""
+    :func:`harmonic_offset`: a smooth gain, ``poisson = (tol, max_iter, smooth)``) and their
+    write into the canvas (``layers = (canvas, content, coverage)``) at ``corner = (x0, y0)``,
+    ``index`` into ``fragment_map``."""
+    x0, y0 = corner
+    canvas, content, coverage = layers
+    tol, max_iter, smooth = poisson
     off = harmonic_offset(newmask, fixed, boundary, tol, max_iter, smooth)
     h, w, c = new.shape
     for i in range(h):
@@ -451,13 +467,19 @@ def warp_field(green, m, half, qx, qy, vx, vy, i0, i1, j0, j1):
 
 
 @nb.njit(cache=True)
-def colour_costs(src, canvas, content, coverage, tgt_cracks, tx, ty, ox, oy, zx, zy, rc, rs):
+def colour_costs(src, layers, tgt_cracks, probes, placements):
     """Colour consistency of candidate placements (§5.2): mean over the probe pixels
     ``(tx, ty)`` of the canvas that hold content of the squared colour difference to the source
     pixel each candidate (centre ``(zx, zy)``, rotation ``(rc, rs)``) puts there; the probes
     are at offsets ``(ox, oy)`` from the target centre (nearest pixels, rigid placement).
     Probes on cracks that only the fill has painted do not count (its cracks are fainter than
-    the photo's: they would favour fragments with faint cracks)."""
+    the photo's: they would favour fragments with faint cracks).
+
+    ``layers = (canvas, content, coverage)``, ``probes = (tx, ty, ox, oy)``, ``placements =
+    (zx, zy, rc, rs)``."""
+    canvas, content, coverage = layers
+    tx, ty, ox, oy = probes
+    zx, zy, rc, rs = placements
     hs, ws, c = src.shape
     h, w = content.shape
     m = zx.shape[0]
@@ -570,10 +592,13 @@ def arc_setup(points):
 
 
 @nb.njit(cache=True)
-def arc_sample(s, px, py, pt, t0x, t0y, t1x, t1y, start_connected, end_connected, t):
+def arc_sample(arc, t):
     """A branch at arc positions ``t``: ``x, y, half-width, on-branch`` (beyond an end it goes on
     along the end tangent ``t0`` / ``t1``, half-width 0 at a free end, the end's where the end is
-    connected)."""
+    connected). ``arc`` is ``(s, px, py, pt, t0, t1, start_connected, end_connected)``: the arc
+    position, x, y and half-width of the vertices, the unit end tangents and the end links."""
+    s, px, py, pt, t0, t1, start_connected, end_connected = arc
+    t0x, t0y, t1x, t1y = t0[0], t0[1], t1[0], t1[1]
     n = t.shape[0]
     x = np.interp(t, s, px)
     y = np.interp(t, s, py)
@@ -598,11 +623,12 @@ def arc_sample(s, px, py, pt, t0x, t0y, t1x, t1y, start_connected, end_connected
 
 
 @nb.njit(cache=True)
-def fragment_centres(s, pt, t0, r_before, lam, factor, rmin, rmax):
+def fragment_centres(s, pt, t0, r_before, lam, radius_rule):
     """Arc positions of fragment centres along a branch (§5.1): from ``t0`` (or one spacing
     after a fragment of radius ``r_before`` at ``t0`` when it is > 0), ``lam (s_i + s_{i+1})``
-    apart with ``s = clip(factor x half-width, rmin, rmax)``, the last at the end when the one
-    before leaves the tail uncovered."""
+    apart with ``s = clip(factor x half-width, rmin, rmax)`` (``radius_rule = (factor, rmin,
+    rmax)``), the last at the end when the one before leaves the tail uncovered."""
+    factor, rmin, rmax = radius_rule
     length = s[-1]
     out = np.empty(int(length / (2 * lam * rmin)) + 4)
     n = 0
@@ -633,12 +659,14 @@ def fragment_centres(s, pt, t0, r_before, lam, factor, rmin, rmax):
 
 
 @nb.njit(cache=True)
-def regular_samples(s, px, py, pt, t0x, t0y, t1x, t1y, start_connected, end_connected, t, k, factor, rmin,
-                    rmax):
-    """Regular fragments (§5.1) centred at arc positions ``t`` of one branch: their radii
-    (``factor`` x the half-width, clamped to ``[rmin, rmax]``), centres and ``k`` skeleton
-    samples at arc offsets ``-r .. r`` (:func:`arc_sample`). Returns ``r, cx, cy`` (n,) and
-    ``x, y, half-width, on-branch`` (n, k)."""
+def regular_samples(arc, t, k, radius_rule):
+    """Regular fragments (§5.1) centred at arc positions ``t`` of one branch (``arc``, see
+    :func:`arc_sample`): their radii (``factor`` x the half-width, clamped to ``[rmin, rmax]``;
+    ``radius_rule = (factor, rmin, rmax)``), centres and ``k`` skeleton samples at arc offsets
+    ``-r .. r``. Returns ``r, cx, cy`` (n,) and ``x, y, half-width, on-branch`` (n, k)."""
+    factor, rmin, rmax = radius_rule
+    s = arc[0]
+    pt = arc[3]
     n = t.shape[0]
     r = np.empty(n)
     q = np.empty(n * (k + 1))
@@ -647,20 +675,24 @@ def regular_samples(s, px, py, pt, t0x, t0y, t1x, t1y, start_connected, end_conn
         q[i] = t[i]
         for j in range(k):
             q[n + i * k + j] = t[i] + r[i] * (-1.0 + 2.0 * j / (k - 1))
-    x, y, th, real = arc_sample(s, px, py, pt, t0x, t0y, t1x, t1y, start_connected, end_connected, q)
+    x, y, th, real = arc_sample(arc, q)
     return (r, x[:n].copy(), y[:n].copy(), x[n:].reshape(n, k), y[n:].reshape(n, k), th[n:].reshape(n, k),
             real[n:].reshape(n, k))
 
 
 @nb.njit(cache=True)
-def junction_samples(ps, ppx, ppy, ppt, pt0x, pt0y, pt1x, pt1y, psc, pec, a,
-                     cs, cpx, cpy, cpt, ct0x, ct0y, ct1x, ct1y, csc, cec, child_reversed, k, factor, rmin,
-                     rmax):
-    """A junction fragment (§5.1) at arc position ``a`` of a parent branch (``p*``): its radius
-    (the larger of the parent's and the child's regular radius there), centre, the ``k``
-    parent samples at offsets ``-r .. r`` and ``k`` samples along the child (``c*``) going
-    away from the junction (from the child's end when ``child_reversed``). Returns
-    ``r, cx, cy`` and the parent's and the child's ``x, y, half-width, on-branch``."""
+def junction_samples(parent, a, child, child_reversed, k, radius_rule):
+    """A junction fragment (§5.1) at arc position ``a`` of a ``parent`` branch: its radius (the
+    larger of the parent's and the child's regular radius there; ``radius_rule = (factor, rmin,
+    rmax)``), centre, the ``k`` parent samples at offsets ``-r .. r`` and ``k`` samples along the
+    ``child`` going away from the junction (from the child's end when ``child_reversed``); both
+    branches as in :func:`arc_sample`. Returns ``r, cx, cy`` and the parent's and the child's
+    ``x, y, half-width, on-branch``."""
+    factor, rmin, rmax = radius_rule
+    ps = parent[0]
+    ppt = parent[3]
+    cs = child[0]
+    cpt = child[3]
     c_len = cs[-1]
     rp = min(max(factor * np.interp(a, ps, ppt), rmin), rmax)
     rc = min(max(factor * np.interp(c_len if child_reversed else 0.0, cs, cpt), rmin), rmax)
@@ -669,24 +701,30 @@ def junction_samples(ps, ppx, ppy, ppt, pt0x, pt0y, pt1x, pt1y, psc, pec, a,
     q[0] = a
     for j in range(k):
         q[j + 1] = a + r * (-1.0 + 2.0 * j / (k - 1))
-    px, py, pth, preal = arc_sample(ps, ppx, ppy, ppt, pt0x, pt0y, pt1x, pt1y, psc, pec, q)
+    px, py, pth, preal = arc_sample(parent, q)
     steps = np.empty(k)
     for j in range(k):
         steps[j] = r * (j + 1) / k
         if child_reversed:
             steps[j] = c_len - steps[j]
-    qx, qy, qth, qreal = arc_sample(cs, cpx, cpy, cpt, ct0x, ct0y, ct1x, ct1y, csc, cec, steps)
+    qx, qy, qth, qreal = arc_sample(child, steps)
     return r, px[0], py[0], px[1:], py[1:], pth[1:], preal[1:], qx, qy, qth, qreal
 
 
 @nb.njit(cache=True)
-def compose_setup(src, mapx, mapy, given, use_given, x0, y0, canvas, content, coverage, tgt_cracks,
-                  src_cracks, cx, cy, radius, clear, tpx, tpy, tpt, tok, spx, spy, spt, sok,
-                  own_margin, other_margin, eps):
+def compose_setup(src, maps, given, use_given, corner, layers, cracks, disk, own_target, own_source,
+                  margins):
     """Everything of one fragment's composition before the graph cut: the distances to its
-    target skeleton ``tp*`` (:func:`own_distance`), its pixels (``given``, or read by
-    :func:`sample_nearest`), the set-up of :func:`seam_setup` and the cut's graph on the free
-    pixels (:func:`seam_graph`)."""
+    target skeleton ``own_target = (tpx, tpy, tpt, tok)`` (:func:`own_distance`), its pixels
+    (``given``, or read by :func:`sample_nearest` at ``maps = (mapx, mapy)``), the set-up of
+    :func:`seam_setup` (which explains ``corner``, ``layers``, ``cracks``, ``disk``,
+    ``own_source`` and ``margins``) and the cut's graph on the free pixels
+    (:func:`seam_graph`)."""
+    x0, y0 = corner
+    mapx, mapy = maps
+    tpx, tpy, tpt, tok = own_target
+    spx, spy, spt, sok = own_source
+    own_margin = margins[0]
     h, w = mapx.shape
     tdist, tthick = own_distance(x0, y0, h, w, tpx, tpy, tpt, tok)
     if use_given:
@@ -694,8 +732,7 @@ def compose_setup(src, mapx, mapy, given, use_given, x0, y0, canvas, content, co
     else:
         new = sample_nearest(src, mapx, mapy, tdist, tthick, spx, spy, spt, sok, own_margin)
     take, keep, right, down, boundary, fixed, n_take, n_free = seam_setup(
-        x0, y0, new, mapx, mapy, canvas, content, coverage, tgt_cracks, src_cracks, cx, cy, radius,
-        clear, tdist, tthick, spx, spy, spt, sok, own_margin, other_margin, eps)
+        corner, new, maps, layers, cracks, disk, (tdist, tthick), own_source, margins)
     free, ei, ej, cap, src_caps, sink_caps = seam_graph(take, keep, right, down, n_free)
     return new, take, free, ei, ej, cap, src_caps, sink_caps, boundary, fixed, n_take
 
@@ -750,15 +787,24 @@ def seam_graph(take, keep, right, down, n_free):
 
 
 @nb.njit(cache=True)
-def select_candidates(pre, pim, mu, border, qre, qim, nu, weight, omega_s, limit, margin, m,
-                      src, canvas, content, coverage, tgt_cracks, cx, cy, radius, ring_re, ring_im,
-                      cre, cim, omega_c):
+def select_candidates(bank, target, weights, margin, m, src, layers, tgt_cracks, disk, ring):
     """§5.2 for one target fragment: the ``m`` source rows (forward rows, then reversed ones,
     of ``n`` fragments) of lowest shape cost S (:func:`shape_costs`), their rotation (clamped
     to ``limit``) and their total cost ``S + omega_c C`` (:func:`colour_costs` on the probe
     rings ``radius x ring`` around the target centre ``(cx, cy)``; ``omega_c`` already holds the
     colour normalisation). Returns rows, totals and rotations (re, im); no
-    rows when no source fragment is farther than ``margin`` from the border."""
+    rows when no source fragment is farther than ``margin`` from the border.
+
+    ``bank = (pre, pim, mu, border, cre, cim)``: the source rows' sample positions and
+    half-widths, their centres' distance to the border (per row) and the fragments' centres
+    (per fragment); ``target = (qre, qim, nu, weight)``; ``weights = (omega_s, limit,
+    omega_c)``; ``layers = (canvas, content, coverage)``; ``disk = (cx, cy, radius)``; ``ring
+    = (ring_re, ring_im)``."""
+    pre, pim, mu, border, cre, cim = bank
+    qre, qim, nu, weight = target
+    omega_s, limit, omega_c = weights
+    cx, cy, radius = disk
+    ring_re, ring_im = ring
     cost, zre, zim = shape_costs(pre, pim, mu, border, qre, qim, nu, weight, omega_s, limit, margin)
     n_rows = cost.shape[0]
     n = n_rows // 2
@@ -800,7 +846,7 @@ def select_candidates(pre, pim, mu, border, qre, qim, nu, weight, omega_s, limit
     for p in range(ox.shape[0]):
         tx[p] = int(np.floor(cx + ox[p] + 0.5))
         ty[p] = int(np.floor(cy + oy[p] + 0.5))
-    colour = colour_costs(src, canvas, content, coverage, tgt_cracks, tx, ty, ox, oy, zx, zy, rc, rs)
+    colour = colour_costs(src, layers, tgt_cracks, (tx, ty, ox, oy), (zx, zy, rc, rs))
     total = best + omega_c * colour
     return rows, total, rc, rs
 
@@ -838,13 +884,21 @@ def draw_candidate(total, c, u):
 
 
 @nb.njit(cache=True)
-def fragment_maps(green, m, cx, cy, radius, w_out, h_out, gre, gim, greal, fre, fim, freal, zx, zy, rc, rs):
+def fragment_maps(warp, disk, canvas_size, target_samples, source_samples, placement):
     """Where one target fragment reads the source (§5.3): the box around the fragment centre
-    ``(cx, cy)`` (clipped to the ``w_out x h_out`` canvas), the smooth displacement that moves
-    the rotated source samples ``f`` onto the target samples ``g`` (both relative to their
-    centres; only samples on both branches are constraints, :func:`warp_field`) and the source
-    coordinates of every box pixel (:func:`source_map`). Returns ``x0, y0, mapx, mapy``
-    (empty maps when the box misses the canvas)."""
+    ``disk = (cx, cy, radius)`` (clipped to the ``canvas_size = (w_out, h_out)`` canvas), the
+    smooth displacement (``warp = (green, m)``, :func:`warp_field`) that moves the rotated
+    source samples ``f`` onto the target samples ``g`` (``target_samples = (gre, gim, greal)``,
+    ``source_samples = (fre, fim, freal)``: positions relative to their centres and on-branch
+    flags; only samples on both branches are constraints) and the source coordinates of every
+    box pixel (:func:`source_map`, ``placement = (zx, zy, rc, rs)``: the source centre and the
+    rotation). Returns ``x0, y0, mapx, mapy`` (empty maps when the box misses the canvas)."""
+    green, m = warp
+    cx, cy, radius = disk
+    w_out, h_out = canvas_size
+    gre, gim, greal = target_samples
+    fre, fim, freal = source_samples
+    zx, zy, rc, rs = placement
     half = int(np.ceil(radius)) + 1
     icx = int(np.floor(cx + 0.5))
     icy = int(np.floor(cy + 0.5))

@@ -232,8 +232,8 @@ class _Grower:
         if n <= 0:
             return
         m = self.model
-        K.push_elements(tip.xyr, tip.hist, tip.n, tip.n_hist, elements, xs, ys, heads, n, self.a_counts,
-                        m.angle_edges, self.r_counts, m.thickness_edges, self.h_counts)
+        K.push_elements(tip.xyr, tip.hist, tip.n, tip.n_hist, elements, (xs, ys, heads), n,
+                        (self.a_counts, m.angle_edges, self.r_counts, m.thickness_edges, self.h_counts))
         tip.n += n
         tip.n_hist += n
         tip.theta = float(heads[n - 1])
@@ -279,14 +279,16 @@ class _Grower:
         hist = tip.hist[tip.n_hist - q:tip.n_hist]
         x0, y0 = float(tip.xyr[tip.n - 1, 0]), float(tip.xyr[tip.n - 1, 1])
         K.extension_candidates(
-            self._quality, self.hist_a, self.hist_r, hist[:, 0], hist[:, 1], model.history_start, model.branch_end,
-            model.angles, model.thickness, o.k, o.m, model.angle_edges, model.thickness_edges,
-            self.a_counts, self.r_counts, model.angle_hist, model.thickness_hist, self.h_counts,
-            model.heading_hist, float(self.n_t),
-            float(o.omega_g), x0, y0, tip.theta, self.step, self.dist, self.near_branch, self.density, b,
-            -2 if parent is None else parent, float(start[0]), float(start[1]), float(exempt),
-            self.rho, self._guide, self.guide is not None, EPSILON, o.c, self.rng.random(3),
-            self.merge_rate(), self._join_pdf, self.near_tangent, *bufs, self._decision)
+            (self.hist_a, self.hist_r, model.history_start, model.branch_end, model.angles, model.thickness),
+            (hist[:, 0], hist[:, 1]), o.k, o.m,
+            (model.angle_edges, model.thickness_edges, self.a_counts, self.r_counts, model.angle_hist,
+             model.thickness_hist, self.h_counts, model.heading_hist, float(self.n_t), float(o.omega_g)),
+            (x0, y0, tip.theta, self.step),
+            (self.dist, self.near_branch, b, -2 if parent is None else parent, float(start[0]), float(start[1]),
+             float(exempt)),
+            (self.density, self._guide, self.guide is not None, self.rho, EPSILON),
+            (o.c, self.rng.random(3), self.merge_rate(), self._join_pdf, self.near_tangent),
+            self._quality, bufs, self._decision)
         code, t, j = self._decision
         cand, _, lens = bufs[:3]
         xs, ys, heads = bufs[5:8]

@@ -172,6 +172,35 @@ def fit_model(source: Structure, options: ModelOptions | None = None) -> BranchM
     k = options.k
     source.validate("source structure")
     h = float(source.step)
+    branches = _resampled(source, h)
+    flat_a, flat_r, element_end, starts, ends, joined, first_index = _histories(branches, k, h)
+    a_edges, r_edges, a_hist, r_hist, h_hist = _bending_histograms(branches, flat_a, flat_r, options.bins)
+    children, fur_rows, feat_mean, feat_scale, svm_w, svm_b, platt = _furcation_classifier(branches, k)
+    furcations = _furcations(branches, fur_rows, first_index, k)
+    root_heading, root_first, root_thickness = _roots(branches, first_index)
+    join_angles = _join_angles(branches)
+    free_ends = _free_ends(branches, source.width, source.height)
+    n_joins = sum(b.joins is not None for b in branches)
+    join_rate = n_joins / max(n_joins + free_ends, 1)
+
+    area = float(source.width * source.height)
+    length = float(sum(b.length() for b in branches))
+    junctions = sum((b.parent is not None) + (b.joins is not None) for b in branches)
+    rho = _spread(branches, source.width, source.height)
+    return BranchModel(
+        options, h, flat_a, flat_r, element_end, np.asarray(starts, int), np.asarray(ends, int),
+        np.asarray(joined, bool), a_edges, r_edges, a_hist, r_hist, h_hist, svm_w, svm_b, platt, feat_mean,
+        feat_scale, children, furcations, root_heading, root_first, root_thickness,
+        float(join_rate), np.array([b.length() for b in branches]),
+        np.array([b.parent is None for b in branches]), np.array([b.joins is not None for b in branches]),
+        _networks(branches) / max(length, 1e-9),
+        n_joins / max(length, 1e-9), join_angles, length / area, junctions / area, rho,
+        meta={"source_length": length, "branches": len(branches), "vertices": int(sum(len(b.points) for b in branches)),
+              "furcations": len(fur_rows), "merges": n_joins})
+
+
+def _resampled(source: Structure, h: float) -> list[Branch]:
+    """The source's branches resampled at step ``h`` (§4.1), their links moved with them."""
     branches = [Branch(resample_polyline(b.points, h), b.parent, None, b.joins, None)
                 for b in source.branches]
     # vertex indices of links move with the resampling: map them by arc length
@@ -180,7 +209,13 @@ def fit_model(source: Structure, options: ModelOptions | None = None) -> BranchM
             b_new.parent_vertex = _remap_vertex(source.branches[b_old.parent], b_old.parent_vertex, h)
         if b_old.joins is not None:
             b_new.join_vertex = _remap_vertex(source.branches[b_old.joins], b_old.join_vertex, h)
+    return branches
 
+
+def _histories(branches: list[Branch], k: int, h: float):
+    """The elements (turning angle, thickness) of all branches end to end, where each element's
+    branch ends, and the ``k + 1``-element histories (§4.2): their starts, where their branch
+    ends and whether it ends on another; plus each branch's first element (-1: none)."""
     angles, thick, starts, ends, joined, element_end = [], [], [], [], [], []
     offset = 0
     first_index = []
@@ -200,9 +235,13 @@ def fit_model(source: Structure, options: ModelOptions | None = None) -> BranchM
         raise InvalidInputError(
             f"source structure: no branch is long enough to learn from (need at least {k + 3} "
             f"vertices at step {h:g} px; the longest has {max(len(b.points) for b in branches)})")
-    flat_a = np.concatenate(angles)
-    flat_r = np.concatenate(thick)
+    return (np.concatenate(angles), np.concatenate(thick), np.concatenate(element_end), starts, ends, joined,
+            first_index)
 
+
+def _bending_histograms(branches: list[Branch], flat_a: np.ndarray, flat_r: np.ndarray, bins: int):
+    """The bin edges and the source's histograms of turning angle and thickness (§4.2), and of
+    the directions of the edges the elements lead to."""
     all_r = np.concatenate([b.thickness for b in branches])
     a_lo, a_hi = float(flat_a.min()), float(flat_a.max())
     r_lo, r_hi = float(all_r.min()), float(all_r.max())
@@ -210,16 +249,21 @@ def fit_model(source: Structure, options: ModelOptions | None = None) -> BranchM
         a_lo, a_hi = a_lo - 0.1, a_hi + 0.1
     if r_hi - r_lo < 1e-6:
         r_lo, r_hi = r_lo * 0.9, r_hi * 1.1 + 1e-3
-    a_edges = np.linspace(a_lo, a_hi, options.bins + 1)
-    r_edges = np.linspace(r_lo, r_hi, options.bins + 1)
+    a_edges = np.linspace(a_lo, a_hi, bins + 1)
+    r_edges = np.linspace(r_lo, r_hi, bins + 1)
     a_hist = histogram(flat_a, a_edges)
     r_hist = histogram(flat_r, r_edges)
     # directions of the edges that elements lead to (the paper's model is rotation invariant;
     # matching this histogram too keeps upright bark fissures upright)
     headings = np.concatenate([np.arctan2(*np.diff(b.xy, axis=0)[1:, ::-1].T) for b in branches if len(b.points) >= 3])
-    h_hist = histogram(np.mod(headings, np.pi), np.linspace(0, np.pi, options.bins + 1))
+    h_hist = histogram(np.mod(headings, np.pi), np.linspace(0, np.pi, bins + 1))
+    return a_edges, r_edges, a_hist, r_hist, h_hist
 
-    # furcations
+
+def _furcation_classifier(branches: list[Branch], k: int):
+    """The furcations (§4.3): children per branch, ``(parent, vertex, child)`` rows, and the
+    linear SVM on the standardised vertex features (mean, scale, weights, bias) with the Platt
+    scaling of its margin (``None`` weights when every vertex or none is a furcation)."""
     children = np.zeros(len(branches), int)
     furcation_at = [np.zeros(len(b.points), bool) for b in branches]
     fur_rows = []
@@ -227,7 +271,6 @@ def fit_model(source: Structure, options: ModelOptions | None = None) -> BranchM
         if b.parent is None:
             continue
         children[b.parent] += 1
-        parent = branches[b.parent]
         v = int(b.parent_vertex)
         furcation_at[b.parent][v] = True
         fur_rows.append((b.parent, v, ci))
@@ -254,7 +297,14 @@ def fit_model(source: Structure, options: ModelOptions | None = None) -> BranchM
         margin = (standard @ svm_w + svm_b)[:, None]
         lr = LogisticRegression(C=100.0).fit(margin, labels)
         platt = (float(lr.coef_[0, 0]), float(lr.intercept_[0]))
+    return children, fur_rows, feat_mean, feat_scale, svm_w, svm_b, platt
 
+
+def _furcations(branches: list[Branch], fur_rows: list[tuple[int, int, int]], first_index: list[int],
+                k: int) -> Furcations:
+    """Per source furcation (§4.3): the parent's non-causal neighbourhood (2k+1 turning angles
+    and thicknesses), the child's angle to the parent's tangent and start thickness, and where
+    the child's elements start and how many there are."""
     nb_a, nb_r, b_ang, c_thick, c_first, c_len = [], [], [], [], [], []
     for pi, v, ci in fur_rows:
         parent = branches[pi]
@@ -268,17 +318,24 @@ def fit_model(source: Structure, options: ModelOptions | None = None) -> BranchM
         c_thick.append(float(child.points[0, 2]))
         c_first.append(first_index[ci])
         c_len.append(max(len(child.points) - 2, 0))
-    furcations = Furcations(
+    return Furcations(
         np.asarray(nb_a).reshape(-1, 2 * k + 1), np.asarray(nb_r).reshape(-1, 2 * k + 1),
         np.asarray(b_ang, float), np.asarray(c_thick, float), np.asarray(c_first, int),
         np.asarray(c_len, int))
 
+
+def _roots(branches: list[Branch], first_index: list[int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Start heading, first element and start thickness of every branch that has elements."""
     roots = [i for i, b in enumerate(branches) if first_index[i] >= 0]
     root_heading = np.array([np.arctan2(*(branches[i].points[1, 1::-1] - branches[i].points[0, 1::-1]))
                              for i in roots])
     root_first = np.array([first_index[i] for i in roots], int)
     root_thickness = np.array([branches[i].points[0, 2] for i in roots])
+    return root_heading, root_first, root_thickness
 
+
+def _join_angles(branches: list[Branch]) -> np.ndarray:
+    """Incidence angle (0..90 degrees, radians) of every merge on the branch it ends on."""
     join_angles = []
     for b in branches:
         if b.joins is None:
@@ -287,24 +344,7 @@ def fit_model(source: Structure, options: ModelOptions | None = None) -> BranchM
         d = b.points[-1, :2] - b.points[-2, :2]
         inc = abs(_wrap(np.arctan2(d[1], d[0]) - _tangent(target.points, int(b.join_vertex))))
         join_angles.append(min(inc, np.pi - inc))
-    free_ends = _free_ends(branches, source.width, source.height)
-    n_joins = sum(b.joins is not None for b in branches)
-    join_rate = n_joins / max(n_joins + free_ends, 1)
-
-    area = float(source.width * source.height)
-    length = float(sum(b.length() for b in branches))
-    junctions = sum((b.parent is not None) + (b.joins is not None) for b in branches)
-    rho = _spread(branches, source.width, source.height)
-    return BranchModel(
-        options, h, flat_a, flat_r, np.concatenate(element_end), np.asarray(starts, int), np.asarray(ends, int),
-        np.asarray(joined, bool), a_edges, r_edges, a_hist, r_hist, h_hist, svm_w, svm_b, platt, feat_mean,
-        feat_scale, children, furcations, root_heading, root_first, root_thickness,
-        float(join_rate), np.array([b.length() for b in branches]),
-        np.array([b.parent is None for b in branches]), np.array([b.joins is not None for b in branches]),
-        _networks(branches) / max(length, 1e-9),
-        n_joins / max(length, 1e-9), np.asarray(join_angles, float), length / area, junctions / area, rho,
-        meta={"source_length": length, "branches": len(branches), "vertices": int(sum(len(b.points) for b in branches)),
-              "furcations": len(fur_rows), "merges": n_joins})
+    return np.asarray(join_angles, float)
 
 
 def _networks(branches: list[Branch]) -> int:

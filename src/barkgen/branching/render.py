@@ -10,10 +10,10 @@ photo and the *source* structure drawn on it:
    last; here the fill comes first and counts as "previous content" for every fragment, so the
    seams and the photometric correction of the fragments anchor to it (same result where the
    fragments cover the branches, and no hole can be left between them).
-2. **Fragments (§5.1).** Disks centred on the skeletons, radius ``radius_factor`` x the
-   interpolated half-width (clamped to ``[min_radius, max_radius]``), centres
-   ``lambda (s_i + s_{i+1})`` apart along the arc; extra *junction* fragments at furcations
-   (and, beyond the paper, at merges: a branch that ends on another). A fragment's *shape* is
+2. **Fragments (§5.1, :mod:`barkgen.branching.fragments`).** Disks centred on the skeletons,
+   radius ``radius_factor`` x the interpolated half-width (clamped to ``[min_radius,
+   max_radius]``), centres ``lambda (s_i + s_{i+1})`` apart along the arc; extra *junction*
+   fragments at furcations (and, beyond the paper, at merges: a branch that ends on another). A fragment's *shape* is
    ``k`` skeleton samples at arc offsets ``-r .. r`` around its centre (2-D positions relative
    to the centre) and their half-widths; a junction adds ``k`` samples along the child.
    Samples beyond a free branch end have half-width 0 (the crack stops there).
@@ -54,6 +54,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 import barkgen.branching._render_kernels as K
+from barkgen.branching.fragments import Fragment, FragmentBank, FragmentSpec, source_banks, target_plan
 from barkgen.branching.structure import Structure, rasterize
 from barkgen.errors import InvalidInputError
 from barkgen.synth.config import SynthesisConfig
@@ -160,6 +161,12 @@ class RenderOptions:
         if self.fill_config is not None and not isinstance(self.fill_config, SynthesisConfig):
             bad("fill_config", "a SynthesisConfig")
 
+    @property
+    def fragment_spec(self) -> FragmentSpec:
+        """The fragment sampling's part of the options (§5.1)."""
+        return FragmentSpec(self.lambda_spacing, self.radius_factor, self.min_radius, self.max_radius,
+                            self.samples, self.source_density)
+
 
 @dataclass
 class RenderResult:
@@ -184,209 +191,6 @@ class RenderResult:
     n_source_fragments: int = 0
     seed: int = 0
     timings: dict[str, float] = field(default_factory=dict)
-
-
-# ----------------------------------------------------------------------------------------------
-# geometry of one branch: arc-length parametrisation with extrapolation beyond the ends
-
-
-class _Arc:
-    """A branch as a function of arc length; beyond an end it continues along the end tangent,
-    with half-width 0 at a free end and the end's half-width where the end is connected."""
-
-    def __init__(self, points: np.ndarray, start_connected: bool, end_connected: bool):
-        self.vertex_arc, self.s, self.px, self.py, self.pt, self.t0, self.t1 = K.arc_setup(
-            np.ascontiguousarray(points, np.float64))
-        self.length = float(self.s[-1])
-        self.start_connected, self.end_connected = bool(start_connected), bool(end_connected)
-
-
-def _centres(arc: _Arc, t0: float, r_before: float | None, opts: RenderOptions,
-             density: float = 1.0) -> np.ndarray:
-    """Arc positions of fragment centres from ``t0`` (or one spacing after a fragment of radius
-    ``r_before`` at ``t0``) to the end: ``lambda (s_i + s_{i+1}) / density`` apart, the last
-    one at the end when the previous one leaves the tail uncovered."""
-    return K.fragment_centres(arc.s, arc.pt, float(t0), float(r_before or 0.0),
-                              opts.lambda_spacing / density, float(opts.radius_factor),
-                              float(opts.min_radius), float(opts.max_radius))
-
-
-@dataclass
-class _Fragment:
-    """A fragment's shape: centre, radius, samples (complex positions relative to the centre,
-    half-widths, on-branch flags) and the number of leading samples that may be reversed
-    (all of them for a regular fragment, the parent window of a junction); ``own_cols`` is the
-    fragment's own crack as a polyline (x, y, half-width, valid columns) in image coordinates;
-    ``weight`` (target fragments) weighs the samples in the shape cost."""
-
-    centre: complex
-    radius: float
-    pos: np.ndarray
-    thick: np.ndarray
-    real: np.ndarray
-    split: int
-    own_cols: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
-    junction: bool = False
-    weight: np.ndarray | None = None
-    visible: bool = True
-
-    def __post_init__(self) -> None:
-        self.pos_re, self.pos_im = np.ascontiguousarray(self.pos.real), np.ascontiguousarray(self.pos.imag)
-
-
-def _regulars(arc: _Arc, ts: np.ndarray, opts: RenderOptions) -> list[_Fragment]:
-    """Regular fragments centred at arc positions ``ts`` (their radii from the half-width)."""
-    if len(ts) == 0:
-        return []
-    k = opts.samples
-    r, cx, cy, x, y, th, real = K.regular_samples(
-        arc.s, arc.px, arc.py, arc.pt, arc.t0[0], arc.t0[1], arc.t1[0], arc.t1[1], arc.start_connected,
-        arc.end_connected, np.asarray(ts, np.float64), k, float(opts.radius_factor), float(opts.min_radius),
-        float(opts.max_radius))
-    n = len(r)
-    centre = cx + 1j * cy
-    pos = (x + 1j * y) - centre[:, None]
-    return [_Fragment(complex(centre[i]), float(r[i]), pos[i], th[i], real[i], k,
-                      (x[i], y[i], th[i], real[i])) for i in range(n)]
-
-
-def _junction(parent: _Arc, vertex: int, child: _Arc, child_reversed: bool, k: int,
-              opts: RenderOptions) -> _Fragment:
-    """A junction fragment at vertex ``vertex`` of ``parent``: the parent window and ``k``
-    samples along the child going away from the junction (the child's end when reversed)."""
-    r, cx, cy, px, py, pth, preal, qx, qy, qth, qreal = K.junction_samples(
-        parent.s, parent.px, parent.py, parent.pt, parent.t0[0], parent.t0[1], parent.t1[0], parent.t1[1],
-        parent.start_connected, parent.end_connected, float(parent.vertex_arc[vertex]),
-        child.s, child.px, child.py, child.pt, child.t0[0], child.t0[1], child.t1[0], child.t1[1],
-        child.start_connected, child.end_connected, bool(child_reversed), k, float(opts.radius_factor),
-        float(opts.min_radius), float(opts.max_radius))
-    c = complex(cx, cy)
-    pos = np.concatenate([px + 1j * py, qx + 1j * qy]) - c
-    # own crack: the parent window, a break, then the child from the junction point
-    own = (np.concatenate([px, [cx, cx], qx]), np.concatenate([py, [cy, cy], qy]),
-           np.concatenate([pth, [0.0, qth[0]], qth]), np.concatenate([preal, [False, True], qreal]))
-    return _Fragment(c, r, pos, np.concatenate([pth, qth]), np.concatenate([preal, qreal]), k, own,
-                     junction=True)
-
-
-def _arcs(structure: Structure) -> list[_Arc]:
-    return [_Arc(b.points, b.parent is not None, b.joins is not None) for b in structure.branches]
-
-
-def _order(structure: Structure) -> list[int]:
-    """Branch indices with every parent before its children (structure order otherwise)."""
-    done: set[int] = set()
-    out: list[int] = []
-    for i in range(len(structure.branches)):
-        chain = []
-        j: int | None = i
-        while j is not None and j not in done and j not in chain:
-            chain.append(j)
-            j = structure.branches[j].parent
-        for j in reversed(chain):
-            done.add(j)
-            out.append(j)
-    return out
-
-
-class _Bank:
-    """The source fragments of one kind (regular or junction) as stacked arrays."""
-
-    def __init__(self, frags: list[_Fragment]):
-        self.frags = frags
-        self.n = len(frags)
-        if not frags:
-            return
-        self.centre = np.array([f.centre for f in frags])
-        self.radius = np.array([f.radius for f in frags])
-        self.pos = np.stack([f.pos for f in frags])
-        self.thick = np.stack([f.thick for f in frags])
-        self.real = np.stack([f.real for f in frags])
-        split = frags[0].split
-        m = self.pos.shape[1]
-        rev = np.concatenate([np.arange(split)[::-1], np.arange(split, m)])
-        self.orders = (np.arange(m), rev)
-        # per orientation: sample positions and on-branch flags, rows in that order
-        self.oriented = tuple(np.ascontiguousarray(self.pos[:, o]) for o in self.orders)
-        self.oriented_real = tuple(np.ascontiguousarray(self.real[:, o]) for o in self.orders)
-        # both orientations stacked (forward rows first) for the vectorised fit
-        pos = np.concatenate([self.pos[:, o] for o in self.orders])
-        self.pre, self.pim = np.ascontiguousarray(pos.real), np.ascontiguousarray(pos.imag)
-        self.cre, self.cim = np.ascontiguousarray(self.centre.real), np.ascontiguousarray(self.centre.imag)
-        self.thick_all = np.ascontiguousarray(np.concatenate([self.thick[:, o] for o in self.orders]))
-        self.border = np.zeros(self.n)  # set by _source_banks: distance of the centre to the border
-
-
-def _source_banks(source: Structure, width: int, height: int, opts: RenderOptions) -> tuple[_Bank, _Bank]:
-    arcs = _arcs(source)
-    k = opts.samples
-    regular: list[_Fragment] = []
-    junction: list[_Fragment] = []
-
-    def inside(f: _Fragment) -> bool:
-        return (f.radius + 1 <= f.centre.real <= width - 2 - f.radius
-                and f.radius + 1 <= f.centre.imag <= height - 2 - f.radius)
-
-    for arc in arcs:
-        if arc.length <= 0:
-            continue
-        regular.extend(f for f in _regulars(arc, _centres(arc, 0.0, None, opts, opts.source_density), opts)
-                       if inside(f))
-    for i, b in enumerate(source.branches):
-        for ref, vertex, rev in ((b.parent, b.parent_vertex, False), (b.joins, b.join_vertex, True)):
-            if ref is None or arcs[i].length <= 0 or arcs[ref].length <= 0:
-                continue
-            f = _junction(arcs[ref], vertex, arcs[i], rev, k, opts)
-            if inside(f):
-                junction.append(f)
-    banks = _Bank(regular), _Bank(junction)
-    for bank in banks:
-        if bank.n:
-            c = bank.centre
-            border = np.minimum(np.minimum(c.real, width - 1 - c.real),
-                                np.minimum(c.imag, height - 1 - c.imag))
-            bank.border = np.concatenate([border, border])  # both orientations
-    return banks
-
-
-def _target_plan(target: Structure, opts: RenderOptions, with_junctions: bool) -> list[_Fragment]:
-    """Target fragments in synthesis order: branches parents first, a child's junction fragment
-    before its own fragments; the junctions of merges last (both branches exist by then)."""
-    arcs = _arcs(target)
-    k = opts.samples
-    plan: list[_Fragment] = []
-    merges: list[_Fragment] = []
-    for i in _order(target):
-        b, arc = target.branches[i], arcs[i]
-        if arc.length <= 0:
-            continue
-        if b.parent is not None and with_junctions and arcs[b.parent].length > 0:
-            j = _junction(arcs[b.parent], b.parent_vertex, arc, False, k, opts)
-            plan.append(j)
-            ts = _centres(arc, 0.0, j.radius, opts)
-        else:
-            ts = _centres(arc, 0.0, None, opts)
-        plan.extend(_regulars(arc, ts, opts))
-        if b.joins is not None and with_junctions and arcs[b.joins].length > 0:
-            merges.append(_junction(arcs[b.joins], b.join_vertex, arc, True, k, opts))
-    # samples outside the canvas do not count in the shape cost (where the crack goes there is
-    # invisible)
-    w, h = target.size
-    everything = plan + merges
-    for size in {len(g.pos) for g in everything}:
-        group = [g for g in everything if len(g.pos) == size]
-        x = np.stack([g.pos_re for g in group]) + np.array([g.centre.real for g in group])[:, None]
-        y = np.stack([g.pos_im for g in group]) + np.array([g.centre.imag for g in group])[:, None]
-        weight = ((x >= -2) & (x <= w + 1) & (y >= -2) & (y <= h + 1)).astype(np.float64)
-        weight[weight.sum(axis=1) < 2] = 1.0
-        r = np.array([g.radius for g in group])
-        cx = np.array([g.centre.real for g in group])
-        cy = np.array([g.centre.imag for g in group])
-        # the disk must meet the canvas
-        visible = (cx + r >= 0) & (cx - r <= w - 1) & (cy + r >= 0) & (cy - r <= h - 1)
-        for g, wt, vis in zip(group, weight, visible):
-            g.weight, g.visible = wt, bool(vis)
-    return everything
 
 
 # ----------------------------------------------------------------------------------------------
@@ -473,7 +277,7 @@ def _check_inputs(image: object, source: object, target: object) -> tuple[np.nda
 class _Renderer:
     def __init__(self, img: np.ndarray, src_raster: np.ndarray, tgt_raster: np.ndarray,
                  canvas: np.ndarray, content: np.ndarray, opts: RenderOptions,
-                 rng: np.random.Generator, regular: _Bank, junction: _Bank):
+                 rng: np.random.Generator, regular: FragmentBank, junction: FragmentBank):
         import cv2
 
         self.opts, self.rng = opts, rng
@@ -495,21 +299,24 @@ class _Renderer:
         self._no_pixels = np.zeros((1, 1, self.src.shape[2]), np.float32)
         self.coverage = np.zeros((self.h, self.w), bool)
         self.fragment_map = np.full((self.h, self.w), -1, np.int32)
+        # the kernels' views: the canvas being painted, and the cracks no fragment may spoil
+        self.layers = (self.canvas, self.content, self.coverage)
+        self.cracks = (self.tgt_cracks, self.src_cracks)
 
     # -- §5.2: choose a source fragment -------------------------------------------------------
 
-    def choose(self, g: _Fragment) -> tuple[_Bank, int, int, complex] | None:
+    def choose(self, g: Fragment) -> tuple[FragmentBank, int, int, complex] | None:
         bank = self.junction if (g.junction and self.junction.n) else self.regular
         if g.junction and bank is self.regular:
             return None  # no junction in the source: the child's own fragments make the joint
-        args = (bank.pre, bank.pim, bank.thick_all, bank.border, g.pos_re, g.pos_im, g.thick, g.weight,
-                float(self.opts.omega_s), math.radians(self.opts.max_rotation))
-        rest = (self.opts.shortlist, self.src, self.canvas, self.content, self.coverage, self.tgt_cracks,
-                g.centre.real, g.centre.imag, g.radius, self.ring_re, self.ring_im, bank.cre, bank.cim,
-                self.opts.omega_c * g.radius ** 2 / self.var)
-        rows, total, rc, rs = K.select_candidates(*args, g.radius + 2, *rest)
+        target = (g.pos_re, g.pos_im, g.thick, g.weight)
+        weights = (float(self.opts.omega_s), math.radians(self.opts.max_rotation),
+                   self.opts.omega_c * g.radius ** 2 / self.var)
+        args = (self.opts.shortlist, self.src, self.layers, self.tgt_cracks,
+                (g.centre.real, g.centre.imag, g.radius), (self.ring_re, self.ring_im))
+        rows, total, rc, rs = K.select_candidates(bank.kernel, target, weights, g.radius + 2, *args)
         if len(rows) == 0:  # no source fragment fits this radius inside the photo: allow them all
-            rows, total, rc, rs = K.select_candidates(*args, -np.inf, *rest)
+            rows, total, rc, rs = K.select_candidates(bank.kernel, target, weights, -np.inf, *args)
         # rows come sorted by S; the c best by S + omega_c C, drawn with probability ~ 1 / cost
         pick = K.draw_candidate(total, self.opts.candidates, self.rng.random()) if len(rows) else -1
         if pick < 0:
@@ -519,7 +326,7 @@ class _Renderer:
 
     # -- §5.3: compose it ---------------------------------------------------------------------
 
-    def place(self, j: int, g: _Fragment, bank: _Bank, i: int, o: int, rot: complex) -> bool:
+    def place(self, j: int, g: Fragment, bank: FragmentBank, i: int, o: int, rot: complex) -> bool:
         """Compose source fragment ``i`` (orientation ``o``, rotation ``rot``) into target
         fragment ``j``; False when it adds no pixel."""
         import cv2
@@ -529,9 +336,9 @@ class _Renderer:
         fpos = bank.oriented[o][i]
         freal = bank.oriented_real[o][i]
         x0, y0, mapx, mapy = K.fragment_maps(
-            self.warp.green, self.warp.m, g.centre.real, g.centre.imag, g.radius, self.w, self.h,
-            g.pos_re, g.pos_im, g.real, fpos.real, fpos.imag, freal, f.centre.real, f.centre.imag,
-            rot.real, rot.imag)
+            (self.warp.green, self.warp.m), (g.centre.real, g.centre.imag, g.radius), (self.w, self.h),
+            (g.pos_re, g.pos_im, g.real), (fpos.real, fpos.imag, freal),
+            (f.centre.real, f.centre.imag, rot.real, rot.imag))
         if mapx.size == 0:
             return False
         if self.opts.interpolation == "nearest":
@@ -539,11 +346,11 @@ class _Renderer:
         else:
             given = cv2.remap(self.src, mapx, mapy, cv2.INTER_CUBIC, borderMode=cv2.BORDER_REFLECT_101)
             given = np.clip(given.reshape(mapx.shape + (self.src.shape[2],)), 0.0, 255.0)
+        clear = JUNCTION_CLEAR * g.radius if g.junction else 0.0  # a junction clears its centre
         new, take, free, ei, ej, cap, src_caps, sink_caps, boundary, fixed, n_take = K.compose_setup(
-            self.src, mapx, mapy, given, self.opts.interpolation != "nearest", x0, y0, self.canvas,
-            self.content, self.coverage, self.tgt_cracks, self.src_cracks, g.centre.real, g.centre.imag,
-            g.radius, JUNCTION_CLEAR * g.radius if g.junction else 0.0, *g.own_cols, *f.own_cols,
-            OWN_MARGIN, float(OTHER_MARGIN), self.eps)
+            self.src, (mapx, mapy), given, self.opts.interpolation != "nearest", (x0, y0), self.layers,
+            self.cracks, (g.centre.real, g.centre.imag, g.radius, clear), g.own_cols, f.own_cols,
+            (OWN_MARGIN, float(OTHER_MARGIN), self.eps))
         if n_take == 0:
             return False
         newmask = take
@@ -558,9 +365,8 @@ class _Renderer:
             newmask.flat[free] = ~graph.get_grid_segments(nodes)
         # Poisson photometric correction: harmonic offset, seam difference on the boundary,
         # zero where the new pixels touch nothing placed before
-        K.blend(x0, y0, newmask, new, fixed, boundary, self.canvas, self.content, self.coverage,
-                self.fragment_map, j, np.float32(POISSON_TOL), 4 * int(math.ceil(g.radius)) + 24,
-                SEAM_SMOOTH)
+        K.blend((x0, y0), newmask, new, fixed, boundary, self.layers, self.fragment_map, j,
+                (np.float32(POISSON_TOL), 4 * int(math.ceil(g.radius)) + 24, SEAM_SMOOTH))
         return True
 
 
@@ -604,12 +410,12 @@ def render_branches(
     img, grey = _check_inputs(image, source, target)
     sh, sw = img.shape[:2]
     tw, th = target.size
-    regular, junction = _source_banks(source, sw, sh, opts)
+    regular, junction = source_banks(source, sw, sh, opts.fragment_spec)
     if regular.n == 0:
         raise InvalidInputError("the source structure gives no fragment: its branches are too short "
                                 "or too close to the image border for fragments of radius "
                                 f">= {opts.min_radius:g} px")
-    plan = _target_plan(target, opts, junction.n > 0)
+    plan = target_plan(target, opts.fragment_spec, junction.n > 0)
     labels = rasterize(target)
     src_raster = rasterize(source)
 
