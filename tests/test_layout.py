@@ -152,3 +152,17 @@ def test_shapes_drive_the_solver_through_its_engine_face():
     reach = {(name, t) for name, targets in graph.items() if name.startswith("barkgen.shapes")
              for t in targets if t.startswith("barkgen.synth")}
     assert reach and all(t == "barkgen.synth.engine" for _, t in reach), sorted(reach)
+
+
+#: house-wide checks, at the top of tests/
+HOUSE_TESTS = {"test_layout.py", "test_extras.py", "test_examples.py", "test_docs.py"}
+
+
+def test_tests_mirror_the_packages():
+    """A package's tests live in ``tests/PACKAGE/``; only the house-wide checks sit at the top."""
+    tests = SRC.parent / "tests"
+    packages = {p.name for p in (SRC / "barkgen").iterdir() if (p / "__init__.py").is_file()}
+    misplaced = [str(p.relative_to(tests)) for p in tests.rglob("test_*.py")
+                 if not (p.parent == tests and p.name in HOUSE_TESTS)
+                 and not (p.parent.parent == tests and p.parent.name in packages)]
+    assert misplaced == []

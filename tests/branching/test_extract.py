@@ -13,7 +13,7 @@ from barkgen.branching.extract import crack_mask, default_step, extract_structur
 from barkgen.branching.structure import Structure
 from barkgen.errors import InvalidInputError
 
-SHARED = Path(os.environ.get("BARKGEN_SHARED", Path(__file__).resolve().parents[2] / "shared"))
+SHARED = Path(os.environ.get("BARKGEN_SHARED", Path(__file__).resolve().parents[3] / "shared"))
 BRANCHING = SHARED / "data" / "branching"
 REAL = ["mud_crackle_gray_01.png", "cracked_earth_01.jpg", "dried_mud_01.jpg", "dried_mud_02.jpg"]
 
