@@ -67,7 +67,7 @@ def test_generate_is_deterministic(fir128):
 
 
 def test_shared_photo_analysis_gives_the_same_bytes_and_skips_the_analysis(fir128, monkeypatch):
-    import barkgen.synth.analysis as analysis
+    import barkgen.synth.analysis as synth_analysis
     from barkgen.pipeline import analyze_photo
 
     options = GenerateOptions(size=(96, 80), k=3, tile=True, material=True)
@@ -77,7 +77,7 @@ def test_shared_photo_analysis_gives_the_same_bytes_and_skips_the_analysis(fir12
     fresh = [generate(fir128, GenerateOptions(size=(96, 80), k=3, tile=True, material=True, seed=s))
              for s in (1, 2)]
     calls = []
-    monkeypatch.setattr(analysis, "analyse_exemplar",
+    monkeypatch.setattr(synth_analysis, "analyse_exemplar",
                         lambda *a, **k: calls.append(1) or pytest.fail("analysed again"))
     for seed, ref in zip((1, 2), fresh):
         shared = generate(fir128, GenerateOptions(size=(96, 80), k=3, tile=True, material=True, seed=seed),

@@ -140,7 +140,7 @@ def _options(where: str, values: dict, threads: int | None) -> tuple[GenerateOpt
         if bits is not None and (isinstance(bits, bool) or bits not in (8, 16)):
             raise InvalidInputError(f"bits must be 8 or 16, not {bits!r}")
         name = values.get("material_name", "bark")
-        check_generate_names(str(name))
+        check_generate_names(str(name), words=("material_name", "extra"))
         if not values.get("material", False) and ("light" in values or "relief" in values):
             raise InvalidInputError("light and relief apply to the material set: set material: true")
         return GenerateOptions(threads=threads, **kwargs), bits, str(name)

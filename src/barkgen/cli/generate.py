@@ -119,7 +119,7 @@ def _check_generate_names(name: str, material: bool, light: str | None, relief: 
     if not material and (light is not None or relief != 1.0):
         raise InvalidInputError("--light and --relief apply to the material set: add --material")
     if material:
-        check_generate_names(name)
+        check_generate_names(name, words=("--name", "--extra name"))
     else:
         check_material_name(name)
 
@@ -129,7 +129,7 @@ def _extra_paths(extra: list[str] | None) -> dict[str, Path]:
     from barkgen.pipeline import check_generate_names
 
     extra_paths = parse_extras(extra)
-    check_generate_names(extras=extra_paths)
+    check_generate_names(extras=extra_paths, words=("--name", "--extra name"))
     return extra_paths
 
 

@@ -18,20 +18,23 @@ from barkgen.pipeline.core import preview_sheet
 GENERATE_FILES = ("texture", "labels_in", "labels_out", "reference", "preview", "report")
 
 
-def check_generate_names(material_name: str | None = None, extras=()) -> None:
+def check_generate_names(material_name: str | None = None, extras=(), *,
+                         words: tuple[str, str] = ("the material set's name", "the extra map name")
+                         ) -> None:
     """Check, before any work, the names a run of :func:`~barkgen.pipeline.generate` will write
     beside its own files (:data:`GENERATE_FILES`): the material set's (a valid set name,
     :func:`barkgen.io.check_material_name`, that takes none of them) and each extra map's.
-    Raises :class:`~barkgen.errors.InvalidInputError`; the CLI, batch and the web app call it."""
+    ``words`` name the two in the errors as the front end calls them (e.g. ``--name``).
+    Raises :class:`~barkgen.errors.InvalidInputError`; the CLI and batch call it."""
     if material_name is not None:
         check_material_name(material_name)
         if material_name in GENERATE_FILES:
-            raise InvalidInputError(f"the material set's name {material_name!r} would overwrite "
-                                    "one of generate's own files; pick another")
+            raise InvalidInputError(f"{words[0]} {material_name!r} would overwrite one of "
+                                    "generate's own files; pick another")
     clash = sorted(set(extras) & set(GENERATE_FILES))
     if clash:
-        raise InvalidInputError(f"the extra map name {clash[0]!r} is taken by one of generate's "
-                                "own files; pick another")
+        raise InvalidInputError(f"{words[1]} {clash[0]!r} is taken by one of generate's own "
+                                "files; pick another")
 
 
 def encode_generate(photo: np.ndarray, result, source: str, *, name: str = "bark",
