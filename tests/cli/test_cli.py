@@ -253,9 +253,9 @@ def test_labels_bad_input_one_line_exit_2_no_output(tmp_path, photo_png, case):
 
 #: the top-level commands and groups of ``barkgen --help``, in its order
 HELP_COMMANDS = ["synth", "tbn", "labels", "textons", "merge", "shapes", "generate", "material",
-                 "preview", "export-glb", "apply-reference", "batch", "serve",
+                 "preview", "export-glb", "apply-reference", "batch", "serve", "warm-up",
                  "bilayer", "library", "branches"]
-COMMAND_MODULES = ["_common", "synth", "labels", "shapes", "generate", "material", "serve",
+COMMAND_MODULES = ["_common", "synth", "labels", "shapes", "generate", "material", "serve", "warmup",
                    "bilayer", "library", "branches"]
 
 
@@ -306,3 +306,23 @@ def test_checks_left_to_the_api_are_one_line_exit_2(tmp_path):
         lines = r.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith("barkgen: error: ") and message in lines[0], r.stderr
         assert list(out.iterdir()) == []
+
+
+def test_warm_up_leaves_nothing_for_generate_to_compile(tmp_path):
+    """After ``barkgen warm-up``, a tiled generate with its material set and preview finds every
+    kernel in numba's cache: it writes no new cache file."""
+    import barkgen
+
+    src = Path(barkgen.__file__).parent
+    r = run("warm-up", "--quiet")
+    assert r.returncode == 0 and r.stderr == "", r.stderr
+    before = {p: p.stat().st_mtime_ns for p in src.rglob("*.nb[ic]")}
+    assert before
+    r = run("generate", "-o", str(tmp_path / "out"), "--size", "128x128", "--tile", "--material",
+            "--seed", "3", "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert run("preview", str(tmp_path / "out"), "-o", str(tmp_path / "trunk.png")).returncode == 0
+    after = {p: p.stat().st_mtime_ns for p in src.rglob("*.nb[ic]")}
+    assert after == before, sorted(str(p.relative_to(src)) for p in set(after) - set(before))
+    r = run("warm-up", "--stages", "nope")
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "unknown stage" in r.stderr

@@ -4,8 +4,8 @@ This is the root: the typer app and its ``--version``, the translation of every 
 line on stderr (:func:`user_errors`) and the registration of the command groups, one module
 each: :mod:`.synth` (synth, tbn, apply-reference), :mod:`.labels` (labels, textons, merge),
 :mod:`.shapes`, :mod:`.generate` (generate, batch), :mod:`.material` (material, preview,
-export-glb), :mod:`.serve`, and the sub-commands of :mod:`.bilayer`, :mod:`.library` and
-:mod:`.branches`. What they share is in :mod:`._common`.
+export-glb), :mod:`.serve`, :mod:`.warmup` (warm-up), and the sub-commands of
+:mod:`.bilayer`, :mod:`.library` and :mod:`.branches`. What they share is in :mod:`._common`.
 """
 
 from __future__ import annotations
@@ -27,6 +27,7 @@ import barkgen.cli.material as material
 import barkgen.cli.serve as serve
 import barkgen.cli.shapes as shapes
 import barkgen.cli.synth as synth
+import barkgen.cli.warmup as warmup
 from barkgen.cli._common import fail
 from barkgen.errors import BarkgenError
 
@@ -34,9 +35,9 @@ F = TypeVar("F", bound=Callable[..., None])
 
 #: the commands of ``barkgen --help``, in its order (the groups follow them)
 TOP_LEVEL = ("synth", "tbn", "labels", "textons", "merge", "shapes", "generate", "material",
-             "preview", "export-glb", "apply-reference", "batch", "serve")
+             "preview", "export-glb", "apply-reference", "batch", "serve", "warm-up")
 #: the modules that give those commands
-COMMAND_MODULES = (synth, labels, shapes, generate, material, serve)
+COMMAND_MODULES = (synth, labels, shapes, generate, material, serve, warmup)
 #: the groups of sub-commands (``barkgen bilayer analyze`` ...), in the order of ``--help``
 GROUPS = (("bilayer", bilayer), ("library", library), ("branches", branches))
 
