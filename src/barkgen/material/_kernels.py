@@ -9,8 +9,16 @@ from numba import njit, prange
 @njit(cache=True, inline="always")
 def _sample(height: np.ndarray, y: int, x: int, tile: bool) -> float:
     h, w = height.shape
-    if tile:
-        return height[y % h, x % w]
+    if tile:  # round the torus (steps are short: a compare beats a modulo)
+        while y < 0:
+            y += h
+        while y >= h:
+            y -= h
+        while x < 0:
+            x += w
+        while x >= w:
+            x -= w
+        return height[y, x]
     return height[min(max(y, 0), h - 1), min(max(x, 0), w - 1)]
 
 
@@ -25,18 +33,23 @@ def horizon_occlusion(height: np.ndarray, directions: np.ndarray, radius: int, t
     """
     h, w = height.shape
     n_dir = directions.shape[0]
+    # the pixel steps of every direction, rounded once (not once per pixel)
+    step_y = np.empty((n_dir, radius), np.int64)
+    step_x = np.empty((n_dir, radius), np.int64)
+    for d in range(n_dir):
+        for t in range(1, radius + 1):
+            step_y[d, t - 1] = int(round(directions[d, 0] * t))
+            step_x[d, t - 1] = int(round(directions[d, 1] * t))
     out = np.empty((h, w), np.float32)
     for y in prange(h):
         for x in range(w):
             h0 = height[y, x]
             total = 0.0
             for d in range(n_dir):
-                dy = directions[d, 0]
-                dx = directions[d, 1]
                 best = 0.0
                 for t in range(1, radius + 1):
-                    yy = y + int(round(dy * t))
-                    xx = x + int(round(dx * t))
+                    yy = y + step_y[d, t - 1]
+                    xx = x + step_x[d, t - 1]
                     slope = (_sample(height, yy, xx, tile) - h0) / t
                     if slope > best:
                         best = slope
