@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from barkgen.errors import ImageReadError
+from barkgen.errors import ImageReadError, InvalidInputError
 from barkgen.io import AlphaDroppedWarning, read_image, read_png_text, write_png, write_reference
 from barkgen.io import read_reference
 
@@ -128,3 +128,16 @@ def test_write_files_atomic_leaves_the_old_set_on_failure(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.png", "b.png"]
     write_files_atomic(tmp_path, {"a.png": b"new a", "b.png": b"new b"})
     assert (tmp_path / "a.png").read_bytes() == b"new a"
+
+
+def test_concurrent_encoding_gives_each_file_its_own_bytes_in_order(rgb8):
+    from barkgen.io import encode_concurrently, encode_png
+
+    images = {f"m{i}.png": np.roll(rgb8, i, axis=1) for i in range(7)}
+    jobs = {name: (lambda img=img: encode_png(img)) for name, img in images.items()}
+    files = encode_concurrently(jobs)
+    assert list(files) == list(images)
+    assert all(files[name] == encode_png(img) for name, img in images.items())
+    with pytest.raises(InvalidInputError, match="pixel type"):
+        encode_concurrently({"a.png": jobs["m0.png"], "b.png": lambda: encode_png(rgb8 * 0.5)})
+

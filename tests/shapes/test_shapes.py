@@ -153,6 +153,26 @@ def test_joint_strategy_keeps_areas_and_shapes(fir_photo, fir_labels, k):
     assert _mean_dissimilarity(labels, out) <= 1.5 * _halves_dissimilarity(labels)
 
 
+def test_joint_strategy_stops_a_level_above_the_finest(fir_photo, fir_labels):
+    """The joint strategy solves down to level 1 (texture-by-numbers refines the finest level
+    after it): its finest level copies exact 2 x 2 exemplar blocks, the children of level 1's
+    references, and the finest level's analysis of its features is never computed."""
+    from barkgen.synth import AnalysisCache
+
+    labels = fir_labels[3]
+    cache = AnalysisCache()
+    result = synthesize_label_map(labels, (192, 256), strategy="joint", photo=fir_photo, seed=2,
+                                  cache=cache)
+    refs = result.references.astype(np.int64)
+    block = refs[::2, ::2]
+    for dy in (0, 1):
+        for dx in (0, 1):
+            assert np.array_equal(refs[dy::2, dx::2], block + np.array([dy, dx]))
+    assert np.array_equal(result.label_map, labels[refs[..., 0], refs[..., 1]])
+    (levels,) = cache._entries.values()
+    assert levels[0] is None and levels[1] is not None
+
+
 def test_joint_strategy_pieces_fit_in_the_photo(fir_photo, fir_labels):
     """What the joint strategy is for: the photo resolved through its references has fewer
     colour seams than through the label-only engine's (whose pieces only fit in labels)."""

@@ -77,9 +77,18 @@ def test_a_run_stopped_at_a_level_is_that_level_of_the_full_run(synthetic_exempl
         if name.endswith("_result"):
             levels[int(name[5:-7])] = image
 
+    from barkgen.synth import AnalysisCache
+
     args = dict(n_levels=n_levels, config=config, seed=4, tile=True)
-    solve(synthetic_exemplar, {}, features, (96, 96), debug=keep, **args)
-    stopped = solve(synthetic_exemplar, {}, features, (96, 96), stop_level=1, **args)
+    # the stopped run analyses only the levels it solves; the full run then goes on below them
+    cache = AnalysisCache()
+    stopped = solve(synthetic_exemplar, {}, features, (96, 96), stop_level=1, cache=cache, **args)
+    (levels_kept,) = cache._entries.values()
+    assert levels_kept[0] is None and all(la is not None for la in levels_kept[1:])
+    solve(synthetic_exemplar, {}, features, (96, 96), debug=keep, cache=cache, **args)
+    (levels_now,) = cache._entries.values()
+    assert levels_now[0] is not None and all(a is b for a, b in zip(levels_now[1:], levels_kept[1:]))
+    assert len(cache) == 1
     h, w = level_shape(synthetic_exemplar.shape[:2], 1)
     assert stopped.exemplar_shape == (h, w) and stopped.references.shape == (48, 48, 2)
     assert stopped.references[..., 0].max() < h and stopped.references[..., 1].max() < w
@@ -90,6 +99,51 @@ def test_a_run_stopped_at_a_level_is_that_level_of_the_full_run(synthetic_exempl
                                                             resumed.references[..., 1]])
     with pytest.raises(InvalidInputError, match="stop_level"):
         solve(synthetic_exemplar, {}, features, (96, 96), stop_level=n_levels, **args)
+
+
+def test_thread_budget_sizes_every_pool_and_gives_them_back():
+    """Inside a run every library's pool has the run's thread count and BLAS one thread
+    (its spinning pool collapsed beside other busy processes); after it, the counts are back."""
+    import cv2
+    import faiss
+    import numba
+    import scipy.fft
+    from threadpoolctl import threadpool_info
+
+    from barkgen._shared.threads import thread_budget
+
+    def counts():
+        # (an OpenMP build of OpenBLAS, faiss's own, shares OpenMP's count with faiss)
+        blas = sorted({p["num_threads"] for p in threadpool_info()
+                       if p["user_api"] == "blas" and p.get("threading_layer") != "openmp"})
+        return (numba.get_num_threads(), cv2.getNumThreads(), faiss.omp_get_max_threads(),
+                scipy.fft.get_workers(), blas)
+
+    before = counts()
+    with thread_budget(1) as n:
+        assert n == 1 and counts() == (1, 1, 1, 1, [1])
+    assert counts() == before
+    cores = numba.config.NUMBA_NUM_THREADS
+    with thread_budget(None) as n, thread_budget(cores + 5) as m:
+        assert n == m == cores and counts()[:4] == (cores,) * 4 and counts()[4] == [1]
+    assert counts() == before
+
+
+def test_upsampled_references_are_the_childs_of_each_parent():
+    """Exact up-sampling: each output pixel's reference is the child of its parent's with the
+    pixel's own parity; past an odd exemplar's edge it wraps or stays on the last row/column."""
+    from barkgen.synth.engine import upsample_references
+
+    rng = np.random.default_rng(0)
+    coarse = np.stack([rng.integers(0, 5, (4, 6)), rng.integers(0, 7, (4, 6))], axis=-1)
+    fine = upsample_references(coarse, (8, 11), (10, 14))
+    assert fine.shape == (8, 11, 2) and fine.dtype == np.int32
+    ys, xs = np.mgrid[0:8, 0:11]
+    assert np.array_equal(fine[..., 0], 2 * coarse[ys // 2, xs // 2, 0] + ys % 2)
+    assert np.array_equal(fine[..., 1], 2 * coarse[ys // 2, xs // 2, 1] + xs % 2)
+    edge = np.array([[[4, 6]]])  # an exemplar of 9 x 13: children past row 8 and column 12
+    assert upsample_references(edge, (2, 2), (9, 13))[1, 1].tolist() == [8, 12]
+    assert upsample_references(edge, (2, 2), (9, 13), (True, True))[1, 1].tolist() == [0, 0]
 
 
 def test_apply_references_rejects_wrong_size(synthetic_exemplar):

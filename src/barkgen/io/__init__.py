@@ -6,6 +6,7 @@ from barkgen.io.folders import remove_staging, write_folder_atomic
 from barkgen.io.images import (
     AlphaDroppedWarning,
     decode_image,
+    encode_concurrently,
     encode_png,
     read_centre_crop,
     read_image,
@@ -41,6 +42,7 @@ __all__ = [
     "read_material",
     "read_centre_crop",
     "decode_image",
+    "encode_concurrently",
     "encode_png",
     "encode_reference",
     "read_image",

@@ -12,12 +12,13 @@ from __future__ import annotations
 import json
 import os
 import re
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 
 from barkgen.errors import ImageReadError, InvalidInputError
-from barkgen.io.images import encode_png, read_image
+from barkgen.io.images import encode_concurrently, encode_png, read_image
 
 #: the map suffixes of a set, in the order they are listed
 MAP_SUFFIXES = ("Color", "NormalGL", "NormalDX", "Displacement", "Roughness", "AmbientOcclusion")
@@ -71,7 +72,8 @@ def encode_material(material, name: str, **metadata) -> dict[str, bytes]:
         A bad name.
     """
     check_material_name(name)
-    files = {fname: encode_png(pixels) for fname, pixels in material.images(name).items()}
+    files = encode_concurrently({fname: partial(encode_png, pixels)
+                                 for fname, pixels in material.images(name).items()})
     meta = material.metadata(name=name, **metadata)
     meta["files"] = sorted(files)
     files[f"{name}.json"] = (json.dumps(meta, indent=2) + "\n").encode()

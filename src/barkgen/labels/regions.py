@@ -10,7 +10,9 @@ edges (§3.5.6) to input and output maps alike.
 
 from __future__ import annotations
 
+import importlib
 import warnings
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -240,8 +242,6 @@ def color_regions(image: np.ndarray, k: int, *, denoise: bool | float = True,
     >>> labels.shape, sorted(set(labels.ravel().tolist()))
     ((128, 128), [0, 128, 255])
     """
-    from sklearn.cluster import MiniBatchKMeans
-
     from barkgen.color import rgb_to_lab
 
     k = check_k(k)
@@ -254,8 +254,13 @@ def color_regions(image: np.ndarray, k: int, *, denoise: bool | float = True,
         raise InvalidInputError(f"min_region must be a positive number of pixels, not {min_region!r}")
     if not isinstance(denoise, (bool, int, float, np.number)) or denoise < 0:
         raise InvalidInputError(f"denoise must be True, False or a strength >= 0, not {denoise!r}")
-    if denoise is not False and denoise != 0:
-        rgb = nl_means(rgb, DENOISE_STRENGTH if denoise is True else float(denoise))
+    # scikit-learn's import (a second, the first time) runs while OpenCV denoises: OpenCV lets
+    # go of the interpreter while it works
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        loading = pool.submit(importlib.import_module, "sklearn.cluster")
+        if denoise is not False and denoise != 0:
+            rgb = nl_means(rgb, DENOISE_STRENGTH if denoise is True else float(denoise))
+        MiniBatchKMeans = loading.result().MiniBatchKMeans
     lab = rgb_to_lab(rgb).reshape(-1, 3)
     if k == 1:
         codes = np.zeros((h, w), np.int32)

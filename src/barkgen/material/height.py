@@ -97,9 +97,17 @@ def blur(image: np.ndarray, sigma: float, *, tile: bool) -> np.ndarray:
     return out[pad:pad + image.shape[0], pad:pad + image.shape[1]]
 
 
-def band(image: np.ndarray, scale: float, *, tile: bool) -> np.ndarray:
-    """The band-pass octave of ``image`` around ``scale`` px: Gaussian(scale/2) - Gaussian(2 scale)."""
-    return blur(image, scale / 2, tile=tile) - blur(image, scale * 2, tile=tile)
+def band(image: np.ndarray, scale: float, *, tile: bool,
+         blurs: dict[float, np.ndarray] | None = None) -> np.ndarray:
+    """The band-pass octave of ``image`` around ``scale`` px: Gaussian(scale/2) - Gaussian(2 scale).
+
+    ``blurs``: this image's blurs by sigma, filled and reused (bands two octaves apart share
+    one: the five luminance bands need seven blurs, not ten)."""
+    blurs = {} if blurs is None else blurs
+    for sigma in (scale / 2, scale * 2):
+        if sigma not in blurs:
+            blurs[sigma] = blur(image, sigma, tile=tile)
+    return blurs[scale / 2] - blurs[scale * 2]
 
 
 def gradient(image: np.ndarray, *, tile: bool) -> tuple[np.ndarray, np.ndarray]:
@@ -133,7 +141,8 @@ def height_features(photo: np.ndarray, label_map: np.ndarray | None, config: Hei
     if std < 1e-6:
         return []
     lum = (lum - lum.mean()) / std
-    cues = [(w, band(lum, s, tile=tile)) for s, w in config.bands]
+    blurs: dict[float, np.ndarray] = {}
+    cues = [(w, band(lum, s, tile=tile, blurs=blurs)) for s, w in config.bands]
     cues += [(w, band(texture_energy(lum, s, tile=tile), s, tile=tile)) for s, w in config.energy_bands]
     if label_map is not None:
         codes = np.asarray(label_map)

@@ -26,6 +26,7 @@ from barkgen.errors import InvalidInputError
 from barkgen.synth.edges import resolve_exemplar_wrap
 from barkgen._shared.arrays import ProgressCallback
 from barkgen._shared.checks import parse_output_shape
+from barkgen._shared.threads import thread_budget
 
 if TYPE_CHECKING:
     from barkgen.material import Light, MaterialSet
@@ -280,35 +281,36 @@ def analyze_photo(
     from barkgen.synth.tbn import TBN_CONFIG
 
     options = options or GenerateOptions()
-    t0 = time.perf_counter()
-    if labels_in is None:
-        regions = color_regions if options.method == "color" else texton_regions
-        labels_in = regions(photo, options.k, seed=ANALYSIS_SEED)
-    labels_in = np.asarray(labels_in)
-    if labels_in.shape[:2] != np.asarray(photo).shape[:2]:
-        raise InvalidInputError(
-            f"the label map is {labels_in.shape[1]}x{labels_in.shape[0]} px but the photo is "
-            f"{photo.shape[1]}x{photo.shape[0]} px; they must match")
-    if progress:
-        progress(1, 4)
-    wrap = resolve_exemplar_wrap(options.exemplar_wrap, photo)
-    cache = AnalysisCache()
-    if options.strategy in _INIT_LEVELS:
-        analyse_label_map(labels_in, options.size, cache,
-                          photo=photo if options.strategy == "joint" else None, exemplar_wrap=wrap)
-    if progress:
-        progress(2, 4)
-    analyse_texture_by_numbers(photo, labels_in, options.size, cache,
-                               feature_weight=options.feature_weight, extra=extra,
-                               config=dataclasses.replace(TBN_CONFIG, threads=options.threads),
-                               exemplar_wrap=wrap)
-    if progress:
-        progress(3, 4)
-    material = _photo_material(photo, labels_in, options) if options.material else None
-    if progress:
-        progress(4, 4)
-    return PhotoAnalysis(labels_in=labels_in, cache=cache, material=material, options=options,
-                         seconds=time.perf_counter() - t0)
+    with thread_budget(options.threads):  # every pool sized, BLAS at one thread
+        t0 = time.perf_counter()
+        if labels_in is None:
+            regions = color_regions if options.method == "color" else texton_regions
+            labels_in = regions(photo, options.k, seed=ANALYSIS_SEED)
+        labels_in = np.asarray(labels_in)
+        if labels_in.shape[:2] != np.asarray(photo).shape[:2]:
+            raise InvalidInputError(
+                f"the label map is {labels_in.shape[1]}x{labels_in.shape[0]} px but the photo is "
+                f"{photo.shape[1]}x{photo.shape[0]} px; they must match")
+        if progress:
+            progress(1, 4)
+        wrap = resolve_exemplar_wrap(options.exemplar_wrap, photo)
+        cache = AnalysisCache()
+        if options.strategy in _INIT_LEVELS:
+            analyse_label_map(labels_in, options.size, cache,
+                              photo=photo if options.strategy == "joint" else None, exemplar_wrap=wrap)
+        if progress:
+            progress(2, 4)
+        analyse_texture_by_numbers(photo, labels_in, options.size, cache,
+                                   feature_weight=options.feature_weight, extra=extra,
+                                   config=dataclasses.replace(TBN_CONFIG, threads=options.threads),
+                                   exemplar_wrap=wrap)
+        if progress:
+            progress(3, 4)
+        material = _photo_material(photo, labels_in, options) if options.material else None
+        if progress:
+            progress(4, 4)
+        return PhotoAnalysis(labels_in=labels_in, cache=cache, material=material, options=options,
+                             seconds=time.perf_counter() - t0)
 
 
 def generate(
@@ -368,35 +370,36 @@ def generate(
     timings["analysis"] = analysis.seconds
     wrap = resolve_exemplar_wrap(options.exemplar_wrap, photo)
 
-    label_result = synthesize_label_map(
-        labels_in, options.size, strategy=options.strategy, tile=options.tile, seed=options.seed,
-        rotations=options.rotations, resume=resume, progress=_stage_progress(progress, "label_map"),
-        cache=analysis.cache, photo=photo, exemplar_wrap=wrap)
-    t2 = time.perf_counter()
-    timings["labels_out"] = t2 - t1
+    with thread_budget(options.threads):  # every pool sized, BLAS at one thread
+        label_result = synthesize_label_map(
+            labels_in, options.size, strategy=options.strategy, tile=options.tile, seed=options.seed,
+            rotations=options.rotations, resume=resume, progress=_stage_progress(progress, "label_map"),
+            cache=analysis.cache, photo=photo, exemplar_wrap=wrap)
+        t2 = time.perf_counter()
+        timings["labels_out"] = t2 - t1
 
-    config = dataclasses.replace(TBN_CONFIG, threads=options.threads, max_memory=options.max_memory)
-    # the engines' label maps copy exemplar label pieces: the same pieces of the photo are a
-    # label-exact, coherent start for texture-by-numbers (else its smart initialisation)
-    init = label_result.references if label_result.references is not None else "smart"
-    result = texture_by_numbers(
-        photo, labels_in, label_result.label_map, label_weight=options.label_weight,
-        feature_weight=options.feature_weight, init=init,
-        init_level=_INIT_LEVELS.get(options.strategy, 0), tile=options.tile, seed=options.seed,
-        extra=extra, config=config, progress=_stage_progress(progress, "texture"),
-        cache=analysis.cache, exemplar_wrap=wrap)
-    t3 = time.perf_counter()
-    timings["texture"] = t3 - t2
-    material = None
-    if options.material:
-        from barkgen.material import transfer_material
+        config = dataclasses.replace(TBN_CONFIG, threads=options.threads, max_memory=options.max_memory)
+        # the engines' label maps copy exemplar label pieces: the same pieces of the photo are a
+        # label-exact, coherent start for texture-by-numbers (else its smart initialisation)
+        init = label_result.references if label_result.references is not None else "smart"
+        result = texture_by_numbers(
+            photo, labels_in, label_result.label_map, label_weight=options.label_weight,
+            feature_weight=options.feature_weight, init=init,
+            init_level=_INIT_LEVELS.get(options.strategy, 0), tile=options.tile, seed=options.seed,
+            extra=extra, config=config, progress=_stage_progress(progress, "texture"),
+            cache=analysis.cache, exemplar_wrap=wrap)
+        t3 = time.perf_counter()
+        timings["texture"] = t3 - t2
+        material = None
+        if options.material:
+            from barkgen.material import transfer_material
 
-        source = analysis.material
-        if source is None:
-            source = _photo_material(photo, labels_in, options)
-        material = transfer_material(source, result.references, tile=options.tile,
-                                     exemplar_wrap=wrap)
-        timings["material"] = time.perf_counter() - t3
+            source = analysis.material
+            if source is None:
+                source = _photo_material(photo, labels_in, options)
+            material = transfer_material(source, result.references, tile=options.tile,
+                                         exemplar_wrap=wrap)
+            timings["material"] = time.perf_counter() - t3
     # the analysis' own cost counts whether it ran here or was shared
     timings["total"] = analysis.seconds + time.perf_counter() - t1
 

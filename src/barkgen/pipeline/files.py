@@ -4,12 +4,13 @@
 from __future__ import annotations
 
 import json
+from functools import partial
 
 import numpy as np
 
 from barkgen._version import __version__
 from barkgen.errors import InvalidInputError
-from barkgen.io.images import encode_png
+from barkgen.io.images import encode_concurrently, encode_png
 from barkgen.io.material import check_material_name, encode_material
 from barkgen.io.references import encode_reference
 from barkgen.pipeline.core import preview_sheet
@@ -71,12 +72,13 @@ def encode_generate(photo: np.ndarray, result, source: str, *, name: str = "bark
         A material name whose files clash with the run's own.
     """
     report = {"barkgen": __version__, "photo": source, **result.report}
-    files = {"texture.png": encode_png(result.texture, bits=bits),
-             "labels_in.png": encode_png(result.labels_in),
-             "labels_out.png": encode_png(result.labels_out),
-             "reference.png": encode_reference(result.references, photo.shape[:2]),
-             "preview.png": encode_png(preview_sheet(photo, result))}
-    files.update({f"{extra}.png": encode_png(arr) for extra, arr in result.extras.items()})
+    jobs = {"texture.png": partial(encode_png, result.texture, bits=bits),
+            "labels_in.png": partial(encode_png, result.labels_in),
+            "labels_out.png": partial(encode_png, result.labels_out),
+            "reference.png": partial(encode_reference, result.references, photo.shape[:2]),
+            "preview.png": lambda: encode_png(preview_sheet(photo, result))}
+    jobs.update({f"{extra}.png": partial(encode_png, arr) for extra, arr in result.extras.items()})
+    files = encode_concurrently(jobs)
     if result.material is not None:
         material_files = encode_material(result.material, name, seed=result.report["seed"],
                                          source_photo=source)

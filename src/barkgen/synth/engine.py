@@ -17,7 +17,7 @@ from barkgen.synth.edges import resolve_exemplar_wrap
 from barkgen.synth.guide import guide_channels, label_pyramid, level_guide
 from barkgen.synth.initialization import smart_initialization
 from barkgen.synth.occurrence import LabelBalance
-from barkgen.synth.solver import DebugCallback, Guidance, SynthesisResult, solve
+from barkgen.synth.solver import DebugCallback, Guidance, SynthesisResult, solve, upsample_references
 
 __all__ = [
     "AnalysisCache",
@@ -35,5 +35,6 @@ __all__ = [
     "resolve_exemplar_wrap",
     "smart_initialization",
     "solve",
+    "upsample_references",
     "validate_inputs",
 ]

@@ -22,7 +22,6 @@ E-step, extra channels), with these additions:
 
 from __future__ import annotations
 
-import sys
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -30,6 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from barkgen._shared.arrays import ProgressCallback, as_uint8
+from barkgen._shared.threads import thread_budget
 from barkgen.errors import InvalidInputError
 from barkgen.nnf import neighbourhood_pca, project_neighbourhoods
 from barkgen.pyramid import level_shape
@@ -103,18 +103,6 @@ class Guidance:
 
 #: debug(name, image): receives intermediate images (uint8 RGB) when given
 DebugCallback = Callable[[str, np.ndarray], None]
-
-
-def set_threads(config: SynthesisConfig) -> None:
-    import numba
-
-    # set on every call: a previous call's thread count must not leak into this one
-    n_threads = min(config.threads or numba.config.NUMBA_NUM_THREADS, numba.config.NUMBA_NUM_THREADS)
-    numba.set_num_threads(n_threads)
-    if config.threads is not None or "faiss" in sys.modules:
-        import faiss
-
-        faiss.omp_set_num_threads(n_threads)
 
 
 def level_image(ex: np.ndarray, refs: np.ndarray, level: int) -> np.ndarray:
@@ -207,6 +195,27 @@ def _upsampled_state(refs: np.ndarray, forbid: np.ndarray, coarse: LevelAnalysis
     if lvl >= 2:
         refs = jitter_references(refs, la, int(round(config.jitter * 2)), rng)
     return refs, forbid
+
+
+def upsample_references(references: np.ndarray, out_shape: tuple[int, int],
+                        exemplar_shape: tuple[int, int],
+                        exemplar_wrap: tuple[bool, bool] = (False, False)) -> np.ndarray:
+    """A level's reference map brought exactly to the next finer level (laitoch2018 §3.3.2,
+    as the solver does between levels): output pixel ``(y, x)`` of ``out_shape`` takes the
+    child ``(2v + y % 2, 2u + x % 2)`` of its parent's exemplar position ``(v, u)``; on an
+    exemplar of odd side (``exemplar_shape``, the finer level's), a child past its edge is its
+    first row or column when it wraps, else its last. ``(h, w, 2)`` in, ``out_shape + (2,)``
+    int32 out."""
+    refs = np.asarray(references)
+    eh, ew = exemplar_shape
+    ys = np.arange(out_shape[0])[:, None]
+    xs = np.arange(out_shape[1])[None, :]
+    parent = refs[ys // 2, xs // 2]
+    fy = 2 * parent[..., 0] + (ys & 1)
+    fx = 2 * parent[..., 1] + (xs & 1)
+    fy = np.where(fy >= eh, 0 if exemplar_wrap[0] else eh - 1, fy)
+    fx = np.where(fx >= ew, 0 if exemplar_wrap[1] else ew - 1, fx)
+    return np.stack([fy, fx], axis=-1).astype(np.int32)
 
 
 def _iterate(refs: np.ndarray, forbid: np.ndarray, la: LevelAnalysis, lvl: int,
@@ -344,51 +353,52 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
     """
     if not 0 <= stop_level < n_levels:
         raise InvalidInputError(f"stop_level must be in 0..{n_levels - 1}")
-    set_threads(config)
-    rng = np.random.default_rng(int(seed))
-    total = n_levels + sum(it for lvl in range(n_levels) for _, it in config.schedule_for(lvl, n_levels))
-    done = 0
+    with thread_budget(config.threads):  # every pool sized, BLAS at one thread
+        rng = np.random.default_rng(int(seed))
+        total = n_levels - stop_level + sum(it for lvl in range(stop_level, n_levels)
+                                            for _, it in config.schedule_for(lvl, n_levels))
+        done = 0
 
-    def tick() -> None:
-        nonlocal done
-        done += 1
-        if progress:
-            progress(done, total)
+        def tick() -> None:
+            nonlocal done
+            done += 1
+            if progress:
+                progress(done, total)
 
-    t0 = time.perf_counter()
-    cache = cache if cache is not None else AnalysisCache()
-    wrap = (bool(exemplar_wrap[0]), bool(exemplar_wrap[1]))
-    levels = cache.analyse(features, n_levels, config, progress=tick, wrap=wrap)
-    t1 = time.perf_counter()
+        t0 = time.perf_counter()
+        cache = cache if cache is not None else AnalysisCache()
+        wrap = (bool(exemplar_wrap[0]), bool(exemplar_wrap[1]))
+        levels = cache.analyse(features, n_levels, config, progress=tick, wrap=wrap, finest=stop_level)
+        t1 = time.perf_counter()
 
-    refs = forbid = None
-    for lvl in reversed(range(stop_level, n_levels)):
-        la = levels[lvl]
-        shape = level_shape(out_shape, lvl)
-        if start is not None and lvl > start[0]:  # levels above the resumed one are not run
-            for _ in range(sum(it for _, it in config.schedule_for(lvl, n_levels))):
-                tick()
-            continue
-        if debug is not None:
-            debug(f"level{lvl}_exemplar", level_image(ex, np.arange(la.height * la.width).reshape(
-                la.height, la.width), lvl))
-        if start is not None and lvl == start[0]:
-            refs = np.ascontiguousarray(start[1], dtype=np.int32)
-            forbid = np.full(shape, -1, np.int64)
-        elif refs is None:
-            refs = _initial_state(la, shape, guidance, lvl, rng)
-            if debug is not None and guidance is not None:
-                debug("initialization", level_image(ex, refs, lvl))
-            forbid = np.full(shape, -1, np.int64)
-        else:
-            refs, forbid = _upsampled_state(refs, forbid, levels[lvl + 1], la, shape, lvl, tile,
-                                            guidance is not None, config, rng)
-        refs = _solve_level(refs, forbid, la, lvl, n_levels, guidance, balance, config,
-                            seam_channels, tile, rng, tick)
-        if debug is not None:
-            debug(f"level{lvl}_result", level_image(ex, refs, lvl))
-    timings = {"analysis": t1 - t0, "synthesis": time.perf_counter() - t1}
-    return _result(ex, extras, refs, levels, stop_level, out_shape, wrap, seed, tile, timings)
+        refs = forbid = None
+        for lvl in reversed(range(stop_level, n_levels)):
+            la = levels[lvl]
+            shape = level_shape(out_shape, lvl)
+            if start is not None and lvl > start[0]:  # levels above the resumed one are not run
+                for _ in range(sum(it for _, it in config.schedule_for(lvl, n_levels))):
+                    tick()
+                continue
+            if debug is not None:
+                debug(f"level{lvl}_exemplar", level_image(ex, np.arange(la.height * la.width).reshape(
+                    la.height, la.width), lvl))
+            if start is not None and lvl == start[0]:
+                refs = np.ascontiguousarray(start[1], dtype=np.int32)
+                forbid = np.full(shape, -1, np.int64)
+            elif refs is None:
+                refs = _initial_state(la, shape, guidance, lvl, rng)
+                if debug is not None and guidance is not None:
+                    debug("initialization", level_image(ex, refs, lvl))
+                forbid = np.full(shape, -1, np.int64)
+            else:
+                refs, forbid = _upsampled_state(refs, forbid, levels[lvl + 1], la, shape, lvl, tile,
+                                                guidance is not None, config, rng)
+            refs = _solve_level(refs, forbid, la, lvl, n_levels, guidance, balance, config,
+                                seam_channels, tile, rng, tick)
+            if debug is not None:
+                debug(f"level{lvl}_result", level_image(ex, refs, lvl))
+        timings = {"analysis": t1 - t0, "synthesis": time.perf_counter() - t1}
+        return _result(ex, extras, refs, levels, stop_level, out_shape, wrap, seed, tile, timings)
 
 
 def _result(ex: np.ndarray, extras: Mapping[str, np.ndarray], refs: np.ndarray, levels: list,

@@ -1,0 +1,60 @@
+"""The thread pools of the libraries barkgen calls, sized so that they never fight.
+
+A run calls numba kernels, faiss (OpenMP), OpenCV and BLAS one after the other, never at once,
+so each of them may use every core while it works. BLAS is the exception: barkgen gives it only
+small problems (the covariance and the 300 x 300 eigen-decomposition of a neighbourhood PCA, a
+3-column colour product), and OpenBLAS' pool waits for work by spinning; beside other busy
+processes (batch workers, the web app's worker, a desktop) its threads then collapsed: the
+eigen-decomposition that takes 0.013 s on a quiet machine took 1 s a call. One BLAS thread
+costs a quiet run nothing it would notice.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+
+def _cores() -> int:
+    import numba
+
+    return int(numba.config.NUMBA_NUM_THREADS)
+
+
+@contextmanager
+def thread_budget(threads: int | None = None) -> Iterator[int]:
+    """Within the block, numba, faiss, OpenCV and SciPy's FFTs use ``threads`` threads each
+    (default: every core numba may use, at most that many) and BLAS one; the previous counts
+    come back after. (The FFTs' threads share out independent 1-D transforms: the same bytes
+    for any count.)
+
+    Parameters
+    ----------
+    threads : int, optional
+        Threads for the parallel stages.
+
+    Yields
+    ------
+    int
+        The thread count in force.
+    """
+    import cv2
+    import faiss
+    import numba
+    import scipy.fft
+    from threadpoolctl import threadpool_limits
+
+    n = min(threads or _cores(), _cores())
+    saved = numba.get_num_threads(), cv2.getNumThreads(), faiss.omp_get_max_threads()
+    # BLAS first: faiss's own OpenBLAS is an OpenMP build, whose thread count is OpenMP's, so
+    # faiss's count set after it holds for both (faiss's searches are the big problems it gets)
+    with threadpool_limits(limits=1, user_api="blas"), scipy.fft.set_workers(n):
+        numba.set_num_threads(n)
+        cv2.setNumThreads(n)
+        faiss.omp_set_num_threads(n)
+        try:
+            yield n
+        finally:
+            numba.set_num_threads(saved[0])
+            cv2.setNumThreads(saved[1])
+            faiss.omp_set_num_threads(saved[2])
