@@ -94,6 +94,29 @@ def test_shared_photo_analysis_gives_the_same_bytes_and_skips_the_analysis(fir12
         generate(fir128, options, analysis=analysis, labels_in=analysis.labels_in)
 
 
+@pytest.mark.parametrize("material", [False, True])
+def test_progress_moves_forward_by_stage_shares_to_the_end(fir128, material):
+    """Progress is in 1000ths of the whole run, never goes back, ends the analysis at its share
+    of the run's time (two thirds on the quickstart, not the half it was given) and the run at
+    1000; the shares of the stages tile 0..1."""
+    from barkgen.pipeline import analyze_photo, stage_span
+
+    stages = ["analysis", "label_map", "texture"] + (["material"] if material else [])
+    spans = [stage_span(name, material) for name in stages]
+    assert spans[0][0] == 0.0 and spans[-1][1] == pytest.approx(1.0)
+    assert all(a[1] == pytest.approx(b[0]) for a, b in zip(spans, spans[1:]))
+    assert spans[0][1] > 0.6
+    seen, analysis_seen = [], []
+    options = GenerateOptions(size=(96, 96), seed=1, material=material)
+    analysis = analyze_photo(fir128, options, progress=lambda d, t: analysis_seen.append(d / t))
+    assert analysis_seen == sorted(analysis_seen) and analysis_seen[-1] == 1.0
+    assert len(analysis_seen) == (4 if material else 3)
+    generate(fir128, options, progress=lambda d, t: seen.append(d / t))
+    assert seen == sorted(seen) and seen[-1] == 1.0
+    end_of_analysis = max(v for v in seen if v <= spans[0][1] + 1e-9)
+    assert end_of_analysis == pytest.approx(spans[0][1], abs=1e-3)
+
+
 def test_analysis_cache_is_keyed_by_content():
     from barkgen.synth import AnalysisCache, SynthesisConfig
 

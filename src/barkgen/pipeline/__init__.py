@@ -12,6 +12,7 @@ from barkgen.pipeline.core import (
     analyze_photo,
     generate,
     preview_sheet,
+    stage_span,
 )
 from barkgen.pipeline.files import GENERATE_FILES, check_generate_names, encode_generate
 
@@ -27,4 +28,5 @@ __all__ = [
     "encode_generate",
     "generate",
     "preview_sheet",
+    "stage_span",
 ]

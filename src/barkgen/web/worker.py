@@ -64,7 +64,7 @@ def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
     ``("done", id, files, report)`` or ``("failed", id, message)``."""
     from barkgen.errors import BarkgenError
     from barkgen.io import decode_image
-    from barkgen.pipeline import GenerateOptions, analyze_photo, generate
+    from barkgen.pipeline import GenerateOptions, analyze_photo, generate, stage_span
 
     last = [0.0]
 
@@ -83,8 +83,10 @@ def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
         analysis = analyses.get(key)
         if analysis is None:
             # generate() given an analysis reports from the end of its analysis stage on
+            share = stage_span("analysis", options.material)[1]
             analysis = analyze_photo(photo, options, labels_in=labels_in,
-                                     progress=lambda done, total: progress(done, 2 * total))
+                                     progress=lambda done, total: progress(
+                                         round(1000 * share * done / max(total, 1)), 1000))
             analyses[key] = analysis
             while len(analyses) > ANALYSES_KEPT:
                 analyses.popitem(last=False)
