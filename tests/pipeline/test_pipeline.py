@@ -117,6 +117,30 @@ def test_progress_moves_forward_by_stage_shares_to_the_end(fir128, material):
     assert end_of_analysis == pytest.approx(spans[0][1], abs=1e-3)
 
 
+def test_memory_is_checked_before_any_work(fir128, monkeypatch):
+    """generate and analyze_photo refuse a run over the budget before the photo's analysis
+    (which used to run first, the check coming only at the texture stage); a 100-megapixel
+    photo is refused up front under the default budget."""
+    import barkgen.labels
+    from barkgen.errors import MemoryBudgetError
+    from barkgen.pipeline import analyze_photo
+    from barkgen.pipeline.core import check_generate_memory
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("the analysis started")
+
+    monkeypatch.setattr(barkgen.labels, "color_regions", no_work)
+    tight = GenerateOptions(size=(256, 256), material=True, max_memory=200 * 2**20)
+    for run in (generate, analyze_photo):
+        with pytest.raises(MemoryBudgetError, match="needs about .* GiB, more than the memory budget"):
+            run(fir128, tight)
+    small = check_generate_memory(fir128, GenerateOptions(size=(256, 256)))
+    assert check_generate_memory(fir128, GenerateOptions(size=(256, 256), material=True)) > small
+    huge = np.broadcast_to(np.zeros(3, np.uint8), (10_000, 10_000, 3))
+    with pytest.raises(MemoryBudgetError, match="10000x10000 photo"):
+        check_generate_memory(huge, GenerateOptions(size=(1024, 1024)))
+
+
 def test_analysis_cache_is_keyed_by_content():
     from barkgen.synth import AnalysisCache, SynthesisConfig
 
