@@ -218,6 +218,18 @@ def check_generate_memory(photo: np.ndarray, options: GenerateOptions,
     return need
 
 
+def _check_analysis(analysis: PhotoAnalysis, photo: np.ndarray, options: GenerateOptions,
+                    labels_in: np.ndarray | None) -> None:
+    """Refuse a shared :class:`PhotoAnalysis` that does not belong to this photo and options."""
+    if labels_in is not None:
+        raise InvalidInputError("give the label map to analyze_photo, not with an analysis")
+    if analysis.options is not None and _analysis_key(analysis.options) != _analysis_key(options):
+        raise InvalidInputError("the photo analysis was made with other options (k, method, "
+                                "material, light, relief); analyse the photo again")
+    if analysis.labels_in.shape[:2] != np.asarray(photo).shape[:2]:
+        raise InvalidInputError("the photo analysis belongs to a photo of another size")
+
+
 def _stage_progress(progress: ProgressCallback | None, stage: str,
                     material: bool) -> ProgressCallback | None:
     if progress is None:
@@ -419,13 +431,7 @@ def generate(
         analysis = analyze_photo(photo, options, extra=extra, labels_in=labels_in,
                                  progress=_stage_progress(progress, "analysis", options.material))
     else:
-        if labels_in is not None:
-            raise InvalidInputError("give the label map to analyze_photo, not with an analysis")
-        if analysis.options is not None and _analysis_key(analysis.options) != _analysis_key(options):
-            raise InvalidInputError("the photo analysis was made with other options (k, method, "
-                                    "material, light, relief); analyse the photo again")
-        if analysis.labels_in.shape[:2] != np.asarray(photo).shape[:2]:
-            raise InvalidInputError("the photo analysis belongs to a photo of another size")
+        _check_analysis(analysis, photo, options, labels_in)
     labels_in = analysis.labels_in
     t1 = time.perf_counter()
     timings["analysis"] = analysis.seconds

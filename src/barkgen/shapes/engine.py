@@ -92,7 +92,8 @@ JOINT_SELECT_DEPTH = 3
 #: joint strategy: the finest pyramid level it solves; below it its references are up-sampled
 #: exactly (every output pixel an exemplar label pixel, as always) and texture-by-numbers,
 #: which matches colour and labels too, refines the finest level (:mod:`barkgen.pipeline`).
-#: Solving the finest level twice, here and there, cost the quickstart 2 s of its 10
+#: Solving the finest level twice, here and there, cost the quickstart 1.2 s of its 11.8
+#: (its analysis 0.8 s, its iterations 0.4 s), and the ten photos' texture figures are the same
 JOINT_FINEST_LEVEL = 1
 #: weights of the label-area error and of the seams in :func:`start_score` (one percentage
 #: point of area weighs as two of coverage and half a point of seams)
