@@ -98,7 +98,7 @@ def test_shared_photo_analysis_gives_the_same_bytes_and_skips_the_analysis(fir12
 def test_progress_moves_forward_by_stage_shares_to_the_end(fir128, material):
     """Progress is in 1000ths of the whole run, never goes back, ends the analysis at its share
     of the run's time (two thirds on the quickstart, not the half it was given) and the run at
-    1000; the shares of the stages tile 0..1."""
+    1000; the shares of the stages tile 0..1, and each fraction names the stage then running."""
     from barkgen.pipeline import analyze_photo, stage_span
 
     stages = ["analysis", "label_map", "texture"] + (["material"] if material else [])
@@ -115,6 +115,16 @@ def test_progress_moves_forward_by_stage_shares_to_the_end(fir128, material):
     assert seen == sorted(seen) and seen[-1] == 1.0
     end_of_analysis = max(v for v in seen if v <= spans[0][1] + 1e-9)
     assert end_of_analysis == pytest.approx(spans[0][1], abs=1e-3)
+    # the progress bar's text: each stage named in the order they run, the analysis by its steps
+    from barkgen.pipeline import stage_at
+
+    names = list(dict.fromkeys(stage_at(v, material) for v in seen))
+    expected = ["analysing the photo: its label shapes", "analysing the photo: its texture"]
+    expected += ["analysing the photo: its relief"] if material else []
+    expected += ["growing the label map", "texture-by-numbers"]
+    expected += ["making the material set"] if material else []
+    assert names == expected
+    assert stage_at(0.0, material) == "analysing the photo: its label map"
 
 
 def test_memory_is_checked_before_any_work(fir128, monkeypatch):

@@ -215,6 +215,10 @@ def test_events_cancel_and_restart_keeps_results(library):
         assert states[-1]["state"] == "done" and states[-1]["result_id"]
         progress = [s["progress"] for s in states]
         assert progress == sorted(progress)
+        # a running job names its stage (the progress bar's text); a finished one does not
+        stages = [s["stage"] for s in states if s["state"] == "running" and s["progress"] > 0]
+        assert stages and all(isinstance(name, str) and name for name in stages)
+        assert states[-1]["stage"] is None
         # cancel the long one while it runs: the worker is ended, the job says cancelled
         deadline = time.monotonic() + 60
         while client.get(f"/api/jobs/{long_id}").json()["state"] != "running":

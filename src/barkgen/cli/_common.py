@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import re
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated, Optional
@@ -26,8 +26,11 @@ def fail(message: str, status: int = 2) -> typer.Exit:
 
 
 @contextmanager
-def progress_bar(enabled: bool, description: str) -> Iterator:
-    """A rich progress bar on stderr when it is a terminal, else a no-op callback."""
+def progress_bar(enabled: bool, description: str,
+                 describe: Callable[[float], str] | None = None) -> Iterator:
+    """A rich progress bar on stderr when it is a terminal, else a no-op callback. With
+    ``describe``, the bar's text follows the run: ``describe(done / total)`` names what is
+    running (e.g. :func:`barkgen.pipeline.stage_at`)."""
     if not enabled or not sys.stderr.isatty():
         yield None
         return
@@ -36,10 +39,11 @@ def progress_bar(enabled: bool, description: str) -> Iterator:
 
     with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
                   TimeElapsedColumn(), console=Console(stderr=True), transient=True) as bar:
-        task = bar.add_task(description, total=None)
+        task = bar.add_task(describe(0.0) if describe else description, total=None)
 
         def update(done: int, total: int) -> None:
-            bar.update(task, completed=done, total=total)
+            text = describe(done / max(total, 1)) if describe else description
+            bar.update(task, completed=done, total=total, description=text)
 
         yield update
 

@@ -3,6 +3,7 @@ laitoch2018 Figure 1.2) and ``batch`` (many seeds of many photos on Dask, the sa
 
 from __future__ import annotations
 
+import functools
 import sys
 from pathlib import Path
 from typing import Annotated, Optional
@@ -78,7 +79,7 @@ def generate_command(
     into the output folder."""
     from barkgen.data import sample_exemplar_path
     from barkgen.io import read_image
-    from barkgen.pipeline import GenerateOptions, encode_generate, generate
+    from barkgen.pipeline import GenerateOptions, encode_generate, generate, stage_at
 
     check_bits(bits)
     check_folder(output_dir, "output")
@@ -96,7 +97,8 @@ def generate_command(
     extras = {name: read_image(p) for name, p in extra_paths.items()}
     label_map = read_image(labels) if labels is not None else None
     edited = read_resume(resume) if resume is not None else None
-    with progress_bar(not quiet, "generating") as progress:
+    describe = functools.partial(stage_at, material=material)
+    with progress_bar(not quiet, "generating", describe) as progress:
         result = generate(image, options, extra=extras, labels_in=label_map, resume=edited,
                           progress=progress)
         files = encode_generate(image, result, str(src), name=name, bits=bits)

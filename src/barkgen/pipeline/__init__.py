@@ -12,6 +12,7 @@ from barkgen.pipeline.core import (
     analyze_photo,
     generate,
     preview_sheet,
+    stage_at,
     stage_span,
 )
 from barkgen.pipeline.files import GENERATE_FILES, check_generate_names, encode_generate
@@ -28,5 +29,6 @@ __all__ = [
     "encode_generate",
     "generate",
     "preview_sheet",
+    "stage_at",
     "stage_span",
 ]

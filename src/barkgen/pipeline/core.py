@@ -46,15 +46,59 @@ _STAGE_SHARES = {"analysis": 0.67, "label_map": 0.13, "texture": 0.11, "material
 _ANALYSIS_SHARES = {"labels": 0.36, "label_map": 0.16, "texture": 0.25, "material": 0.23}
 
 
+#: what the progress bar says while each stage (and each step of the analysis) runs
+_STAGE_TITLES = {"analysis": "analysing the photo", "label_map": "growing the label map",
+                 "texture": "texture-by-numbers", "material": "making the material set"}
+_ANALYSIS_TITLES = {"labels": "its label map", "label_map": "its label shapes",
+                    "texture": "its texture", "material": "its relief"}
+
+
+#: how far below a stage's end a reported fraction may fall by rounding to 1000ths
+_ROUNDING = 2e-3
+
+
+def _spans(shares: Mapping[str, float], material: bool) -> dict[str, tuple[float, float]]:
+    """Each name's part ``(start, end)`` of 0 to 1 by its share (``material`` only with it)."""
+    names = [name for name in shares if material or name != "material"]
+    total = sum(shares[name] for name in names)
+    spans, start = {}, 0.0
+    for name in names:
+        spans[name] = (start / total, (start + shares[name]) / total)
+        start += shares[name]
+    return spans
+
+
 def stage_span(stage: str, material: bool) -> tuple[float, float]:
     """The part ``(start, end)`` of a run's progress, 0 to 1, that ``stage`` (``"analysis"``,
     ``"label_map"``, ``"texture"`` or ``"material"``) fills: its share of the run's time, so
     that the progress bar moves at the pace of the clock (the material stage only with
     ``material``)."""
-    stages = [name for name in _STAGE_SHARES if material or name != "material"]
-    total = sum(_STAGE_SHARES[name] for name in stages)
-    start = sum(_STAGE_SHARES[name] for name in stages[:stages.index(stage)])
-    return start / total, (start + _STAGE_SHARES[stage]) / total
+    return _spans(_STAGE_SHARES, material)[stage]
+
+
+def stage_at(fraction: float, material: bool) -> str:
+    """What a :func:`generate` run is doing when its progress is at ``fraction`` (0 to 1, the
+    ``done / total`` of its progress callback): the stage's title, and within the analysis the
+    step's, e.g. ``"analysing the photo: its label map"``. Each stage reports the moment it
+    ends, so at a boundary the next stage is named: the one now running.
+
+    Examples
+    --------
+    >>> stage_at(0.0, material=True)
+    'analysing the photo: its label map'
+    >>> stage_at(0.95, material=True)
+    'making the material set'
+    """
+    fraction += _ROUNDING  # progress comes in 1000ths, rounded twice within the analysis
+    spans = _spans(_STAGE_SHARES, material)
+    stage = next((name for name, (_, end) in spans.items() if fraction < end), list(spans)[-1])
+    if stage != "analysis":
+        return _STAGE_TITLES[stage]
+    start, end = spans["analysis"]
+    within = (fraction - start) / (end - start)
+    steps = _spans(_ANALYSIS_SHARES, material)
+    step = next((name for name, (_, stop) in steps.items() if within < stop), list(steps)[-1])
+    return f"{_STAGE_TITLES['analysis']}: {_ANALYSIS_TITLES[step]}"
 
 
 @dataclass(frozen=True)
@@ -237,7 +281,7 @@ def _stage_progress(progress: ProgressCallback | None, stage: str,
     lo, hi = stage_span(stage, material)
 
     def update(done: int, total: int) -> None:
-        progress(int(1000 * (lo + (hi - lo) * done / max(total, 1))), 1000)
+        progress(round(1000 * (lo + (hi - lo) * done / max(total, 1))), 1000)
 
     return update
 
@@ -349,13 +393,11 @@ def analyze_photo(
 
     options = options or GenerateOptions()
     check_generate_memory(photo, options, extra)
-    steps = [name for name in _ANALYSIS_SHARES if options.material or name != "material"]
-    total = sum(_ANALYSIS_SHARES[name] for name in steps)
+    steps = _spans(_ANALYSIS_SHARES, options.material)
 
-    def report(step: str) -> None:  # the steps' shares of the analysis' time, in 1000ths
+    def report(step: str) -> None:  # the end of the step's share of the analysis, in 1000ths
         if progress and step in steps:
-            done = sum(_ANALYSIS_SHARES[name] for name in steps[:steps.index(step) + 1])
-            progress(round(1000 * done / total), 1000)
+            progress(round(1000 * steps[step][1]), 1000)
 
     with thread_budget(options.threads):  # every pool sized, BLAS at one thread
         t0 = time.perf_counter()

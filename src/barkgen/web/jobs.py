@@ -46,6 +46,7 @@ class Job:
     labels_key: dict | None = None  # cache the result's labels_in.png under this analysis key
     state: str = "queued"
     progress: float = 0.0
+    stage: str | None = None  # what the running job is doing (barkgen.pipeline.stage_at)
     result_id: int | None = None
     error: str | None = None
     created: float = field(default_factory=time.time)
@@ -152,6 +153,7 @@ class JobManager:
     def _describe(self, job: Job) -> dict:
         position = self._queue.index(job.id) + (1 if self._running() else 0) if job.state == "queued" else 0
         return {"id": job.id, "number": job.order, "state": job.state, "progress": round(job.progress, 4),
+                "stage": job.stage if job.state == "running" else None,
                 "queue_position": position, "result_id": job.result_id, "error": job.error,
                 "exemplar_id": job.exemplar_id, "params": job.params, "version": job.version,
                 "created": job.created, "started": job.started, "finished": job.finished}
@@ -254,7 +256,8 @@ class JobManager:
             kind = message[0]
             if kind == "progress":
                 with self._lock:
-                    self._set(job, progress=float(message[2]))
+                    self._set(job, progress=float(message[2]),
+                              stage=message[3] if len(message) > 3 else None)
             elif kind == "failed":
                 self._finish(job, state="failed", error=message[2])
                 return

@@ -60,19 +60,21 @@ def encode_result(photo: np.ndarray, result, spec: JobSpec) -> dict[str, bytes]:
 
 
 def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
-    """Run one job, reporting through ``send(message)``: ``("progress", id, fraction)``, then
+    """Run one job, reporting through ``send(message)``: ``("progress", id, fraction, stage)``, then
     ``("done", id, files, report)`` or ``("failed", id, message)``."""
     from barkgen.errors import BarkgenError
     from barkgen.io import decode_image
-    from barkgen.pipeline import GenerateOptions, analyze_photo, generate, stage_span
+    from barkgen.pipeline import GenerateOptions, analyze_photo, generate, stage_at, stage_span
 
     last = [0.0]
+    material = bool(spec.options.get("material", False))
 
     def progress(done: int, total: int) -> None:
         now = time.monotonic()
         if now - last[0] >= PROGRESS_INTERVAL_S or done >= total:
             last[0] = now
-            send(("progress", spec.job_id, done / max(total, 1)))
+            fraction = done / max(total, 1)
+            send(("progress", spec.job_id, fraction, stage_at(fraction, material)))
 
     try:
         photo = decode_image(spec.photo, spec.source)

@@ -25,7 +25,7 @@ export function describeJob(job) {
       return `queued — ${ahead} job${ahead === 1 ? "" : "s"} ahead`;
     }
     case "running":
-      return `running ${pct} %`;
+      return job.stage ? `running ${pct} % — ${job.stage}` : `running ${pct} %`;
     case "done":
       return "done";
     case "failed":
