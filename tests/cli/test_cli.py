@@ -326,3 +326,33 @@ def test_warm_up_leaves_nothing_for_generate_to_compile(tmp_path):
     assert after == before, sorted(str(p.relative_to(src)) for p in set(after) - set(before))
     r = run("warm-up", "--stages", "nope")
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "unknown stage" in r.stderr
+
+
+def test_every_command_checks_its_memory_before_any_work(tmp_path, exemplar_png):
+    """shapes, material and the bi-layer analysis and synthesis estimate their memory from the
+    sizes and refuse a job over --max-memory in one line, exit 2, before reading further or
+    writing anything (they used to run unbounded)."""
+    from barkgen.bilayer import analyze
+    from barkgen.io import write_bilayer_model
+    from barkgen.labels import color_regions
+
+    photo = read_image(exemplar_png)
+    write_png(tmp_path / "labels.png", color_regions(photo, 3, seed=0))
+    write_bilayer_model(tmp_path / "model.npz", analyze(photo[:64, :64]))
+    out = tmp_path / "out"
+    out.mkdir()
+    cases = {
+        "label map 4096x4096": ["shapes", str(tmp_path / "labels.png"), "-o", str(out / "s.png"),
+                                "--size", "4096x4096"],
+        "the material set of a": ["material", str(exemplar_png), "-o", str(out / "set")],
+        "the bi-layer analysis of a": ["bilayer", "analyze", str(exemplar_png), "-o", str(out / "m.npz")],
+        "a 4096x4096 bi-layer window": ["bilayer", "synth", str(tmp_path / "model.npz"), "-o",
+                                        str(out / "b.png"), "--size", "4096x4096"],
+    }
+    for job, args in cases.items():
+        r = run(*args, "--max-memory", "100M")
+        assert r.returncode == 2, (job, r.stderr)
+        lines = r.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith(f"barkgen: error: {job}"), (job, r.stderr)
+        assert "more than the memory budget (0.1 GiB" in lines[0]
+    assert list(out.iterdir()) == []

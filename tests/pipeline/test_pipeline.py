@@ -130,7 +130,7 @@ def test_progress_moves_forward_by_stage_shares_to_the_end(fir128, material):
 def test_memory_is_checked_before_any_work(fir128, monkeypatch):
     """generate and analyze_photo refuse a run over the budget before the photo's analysis
     (which used to run first, the check coming only at the texture stage); a 100-megapixel
-    photo is refused up front under the default budget."""
+    photo is refused up front."""
     import barkgen.labels
     from barkgen.errors import MemoryBudgetError
     from barkgen.pipeline import analyze_photo
@@ -146,9 +146,14 @@ def test_memory_is_checked_before_any_work(fir128, monkeypatch):
             run(fir128, tight)
     small = check_generate_memory(fir128, GenerateOptions(size=(256, 256)))
     assert check_generate_memory(fir128, GenerateOptions(size=(256, 256), material=True)) > small
+    # a 100-megapixel photo is refused up front, whatever the machine has free
+    from barkgen.errors import ImageTooLargeError
+
     huge = np.broadcast_to(np.zeros(3, np.uint8), (10_000, 10_000, 3))
-    with pytest.raises(MemoryBudgetError, match="10000x10000 photo"):
-        check_generate_memory(huge, GenerateOptions(size=(1024, 1024)))
+    with pytest.raises(ImageTooLargeError, match="10000x10000 px .100 megapixels"):
+        check_generate_memory(huge, GenerateOptions(size=(1024, 1024), max_memory=2**50))
+    with pytest.raises(MemoryBudgetError, match="7000x7000 photo"):
+        check_generate_memory(huge[:7000, :7000], GenerateOptions(size=(1024, 1024), max_memory=2**33))
 
 
 def test_analysis_cache_is_keyed_by_content():
@@ -316,3 +321,22 @@ def test_the_names_a_run_writes_are_checked_once_for_every_front_end():
                 {"extras": ["preview"]}):
         with pytest.raises(InvalidInputError):
             check_generate_names(**bad)
+
+
+def test_default_memory_budget_is_what_the_machine_has_free(fir128, monkeypatch):
+    """Without max_memory, a job is checked against the memory free when it starts (psutil's
+    available), not a fixed 8 GiB: on a machine with 64 MiB free the quickstart is refused."""
+    import barkgen._shared.memory as memory
+    from barkgen.errors import InvalidInputError, MemoryBudgetError
+    from barkgen.material import MaterialOptions, make_material
+    from barkgen.synth import synthesize
+
+    assert memory.available_memory() > 0
+    monkeypatch.setattr(memory, "available_memory", lambda: 64 * 2**20)
+    for job in (lambda: generate(fir128, GenerateOptions(size=(1024, 1024), material=True)),
+                lambda: make_material(fir128, MaterialOptions()),
+                lambda: synthesize(fir128, (1024, 1024))):
+        with pytest.raises(MemoryBudgetError, match="more than the memory free on this machine"):
+            job()
+    with pytest.raises(InvalidInputError, match="max_memory must be a positive"):
+        GenerateOptions(max_memory=0)

@@ -13,7 +13,8 @@ from collections.abc import Callable
 import numpy as np
 
 from barkgen.bilayer.model import BilayerModel, NoiseStatistics
-from barkgen.bilayer.options import AnalysisOptions, as_rgb
+from barkgen._shared.memory import check_memory_budget
+from barkgen.bilayer.options import AnalysisOptions, as_rgb, estimate_analysis_memory
 from barkgen.bilayer.spectra import estimate_spectrum, local_spectra
 
 #: quantiles kept per cluster and channel for the noise's histogram equalisation (§6)
@@ -154,6 +155,8 @@ def analyze(exemplar: np.ndarray, options: AnalysisOptions | None = None, *,
     ------
     InvalidInputError
         An exemplar that is too small or not an image.
+    MemoryBudgetError
+        The analysis would not fit ``options.max_memory`` (checked before any work).
 
     References
     ----------
@@ -170,6 +173,9 @@ def analyze(exemplar: np.ndarray, options: AnalysisOptions | None = None, *,
     from barkgen.color import rgb_to_lab
 
     options = options or AnalysisOptions()
+    h, w = np.shape(exemplar)[:2]
+    check_memory_budget(estimate_analysis_memory((h, w)), options.max_memory,
+                        f"the bi-layer analysis of a {w}x{h} photo")
     image = as_rgb(exemplar)
     rng = np.random.default_rng(options.seed)
     steps = 4

@@ -7,7 +7,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from barkgen.bilayer.options import AnalysisOptions, SynthesisOptions, as_rgb
+from barkgen._shared.memory import check_memory_budget
+from barkgen.bilayer.options import AnalysisOptions, SynthesisOptions, as_rgb, estimate_window_memory
 from barkgen.bilayer.spectra import noise_from_white, welch_power
 from barkgen.bilayer.tiles import build_tiles, default_tile_size
 from barkgen.errors import InvalidInputError
@@ -195,6 +196,8 @@ class BilayerModel:
         InvalidInputError
             Non-integer or out-of-range coordinates, sizes or seed, or a window too large for one
             call.
+        MemoryBudgetError
+            The window would not fit ``options.max_memory`` (checked before any work).
 
         References
         ----------
@@ -222,6 +225,9 @@ class BilayerModel:
         if abs(x) > 2**40 or abs(y) > 2**40:
             raise InvalidInputError("window position out of range (|x|, |y| <= 2**40)")
         options = options or SynthesisOptions()
+        check_memory_budget(estimate_window_memory(self.exemplar.shape[:2], (height, width),
+                                                   options.variants), options.max_memory,
+                            f"a {width}x{height} bi-layer window")
         synth = self._synthesizer(seed, options)
         n_ch = synth.tiles.shape[3]
         out = np.empty((height, width, 3), np.float32)

@@ -9,6 +9,7 @@ import numpy as np
 
 from barkgen.bilayer.spectra import SPECTRUM_SIZE, check_tloc
 from barkgen.bilayer.tiles import Deformation
+from barkgen._shared.memory import BASE_BYTES, check_budget_value
 from barkgen.errors import InvalidInputError
 
 #: smallest exemplar side the analysis accepts (the global spectra need 16 px windows)
@@ -52,6 +53,9 @@ class AnalysisOptions:
         90 %).
     seed : int, default 0
         Seed of the K-means initialisation.
+    max_memory : int, optional
+        Refuse a photo whose analysis is estimated (:func:`estimate_analysis_memory`) to need
+        more than this many bytes, before any work (None: what the machine has free).
 
     Raises
     ------
@@ -74,6 +78,7 @@ class AnalysisOptions:
     sigma_range: float = 0.001
     core: float = 0.9
     seed: int = 0
+    max_memory: int | None = None
 
     def __post_init__(self) -> None:
         check_tloc(self.tloc)
@@ -90,6 +95,7 @@ class AnalysisOptions:
             raise InvalidInputError(f"core must be in (0, 1], not {self.core}")
         if self.seed < 0:
             raise InvalidInputError(f"seed must be >= 0, not {self.seed}")
+        check_budget_value(self.max_memory)
 
 
 @dataclass(frozen=True)
@@ -119,6 +125,9 @@ class SynthesisOptions:
     blend : bool, default True
         Blend the structure's seams inside each tile in the gradient domain (sibbing2010 §5), so
         a graph cut across a furrow leaves no step; ``False`` keeps the graph cuts alone.
+    max_memory : int, optional
+        Refuse a window whose synthesis is estimated (:func:`estimate_window_memory`) to need
+        more than this many bytes, before any work (None: what the machine has free).
 
     Raises
     ------
@@ -139,6 +148,7 @@ class SynthesisOptions:
     warp: float = 0.1
     compensate: bool = True
     blend: bool = True
+    max_memory: int | None = None
 
     def __post_init__(self) -> None:
         if self.tile_size is not None and (self.tile_size < 8 or self.tile_size % 2):
@@ -147,6 +157,33 @@ class SynthesisOptions:
             raise InvalidInputError("colours must be 1-4 and variants 1-16")
         if not (0 <= self.warp <= 1):
             raise InvalidInputError(f"warp must be between 0 and 1 tile size, not {self.warp}")
+        check_budget_value(self.max_memory)
+
+
+#: bytes per photo pixel of the analysis: local spectra (T_loc² values a pixel), the joint
+#: bilateral filter's stacks, K-means (measured peaks: 0.85 GiB for a 1024x1024 photo, 2.4 GiB
+#: for 2048x2048, 520 bytes a pixel over the interpreter's base)
+ANALYSIS_BYTES_PER_PIXEL = 600
+#: bytes per exemplar pixel of a window's synthesizer (the deformed variants of the structure,
+#: its tiles and their seams; measured: 1.0 GiB for a 1024x1024 model's windows of 1024x1024
+#: and 2048x2048 alike, 3.8 GiB for a 2048x2048 model's 2048x2048 window: 950 bytes a pixel),
+#: and per window pixel (the texture and, with ``layers``, its layers)
+WINDOW_MODEL_BYTES_PER_PIXEL = 1000
+WINDOW_BYTES_PER_PIXEL = 64
+
+
+def estimate_analysis_memory(photo_shape: tuple[int, int]) -> int:
+    """Estimated peak memory (bytes) of :func:`~barkgen.bilayer.analyze` for a ``(h, w)`` photo."""
+    return BASE_BYTES + ANALYSIS_BYTES_PER_PIXEL * photo_shape[0] * photo_shape[1]
+
+
+def estimate_window_memory(exemplar_shape: tuple[int, int], window_shape: tuple[int, int],
+                           variants: int = 4) -> int:
+    """Estimated peak memory (bytes) of one :meth:`~barkgen.bilayer.BilayerModel.window` of
+    ``(height, width)`` from a model of a ``(h, w)`` exemplar (``variants`` deformed copies)."""
+    n_ex = exemplar_shape[0] * exemplar_shape[1]
+    return int(BASE_BYTES + WINDOW_MODEL_BYTES_PER_PIXEL * n_ex * max(variants, 4) / 4
+               + WINDOW_BYTES_PER_PIXEL * window_shape[0] * window_shape[1])
 
 
 def as_rgb(image: np.ndarray) -> np.ndarray:

@@ -51,9 +51,12 @@ def progress_bar(enabled: bool, description: str,
 # ------------------------------------------------------------------------ CLI-only strings
 
 
-def parse_memory(text: str) -> int:
-    """``"8G"``, ``"512M"``, ``"1.5GB"`` or a byte count -> bytes."""
-    m = _MEM_RE.match(text or "")
+def parse_memory(text: str | None) -> int | None:
+    """``"8G"``, ``"512M"``, ``"1.5GB"`` or a byte count -> bytes; None (what the machine has
+    free) stays None."""
+    if text is None:
+        return None
+    m = _MEM_RE.match(text)
     if not m:
         raise InvalidInputError(f"invalid memory amount {text!r}: use e.g. 8G or 512M")
     value = float(m.group(1)) * 1024 ** " KMGT".index((m.group(2) or " ").upper())
@@ -181,8 +184,9 @@ SaveReferenceOption = Annotated[Optional[Path], typer.Option(
     "--save-reference", help="Also write the reference map (16-bit PNG of exemplar x, y).")]
 BitsOption = Annotated[Optional[int], typer.Option(
     "--bits", help="Bits per channel of the output (8 or 16). Default: the exemplar's.")]
-MaxMemoryOption = Annotated[str, typer.Option(
-    "--max-memory", help="Refuse jobs estimated to need more memory than this.")]
+MaxMemoryOption = Annotated[Optional[str], typer.Option(
+    "--max-memory", help="Refuse jobs estimated to need more memory than this, e.g. 8G "
+    "(default: what the machine has free).")]
 ThreadsOption = Annotated[Optional[int], typer.Option("--threads", min=1, help="Worker threads.")]
 QuietOption = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")]
 LibraryOption = Annotated[Optional[Path], typer.Option(

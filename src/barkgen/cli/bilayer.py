@@ -11,12 +11,14 @@ import typer
 
 from barkgen._shared.checks import parse_size
 from barkgen.cli._common import (
+    MaxMemoryOption,
     OutputOption,
     QuietOption,
     SeedOption,
     check_bits,
     check_file_name,
     check_target,
+    parse_memory,
     parse_pair,
     progress_bar,
     write_outputs,
@@ -46,6 +48,7 @@ def analyze_command(
     sigma: Annotated[float, typer.Option("--sigma", help="Range sigma of the structure filter "
                                          "(larger: more of the grain goes into the noise).")] = 0.001,
     seed: SeedOption = 0,
+    max_memory: MaxMemoryOption = None,
     preview: Annotated[Optional[Path], typer.Option(
         "--preview", help="Also write a PNG of P, N, the masks, the spectra and a synthesized sample.")] = None,
     quiet: QuietOption = False,
@@ -57,7 +60,7 @@ def analyze_command(
 
     # K, T_loc, the masks, the border and sigma: AnalysisOptions
     options = AnalysisOptions(k=k, tloc=tloc, masks=masks, equalize=equalize, border=border,
-                              sigma_range=sigma, seed=seed)
+                              sigma_range=sigma, seed=seed, max_memory=parse_memory(max_memory))
     check_file_name(output, ".npz", "model file")
     if preview is not None:
         check_target(preview, "preview")
@@ -117,6 +120,7 @@ def synth_command(
                                         "gradient domain (--no-blend: graph cuts only).")] = True,
     seed: SeedOption = 0,
     bits: Annotated[int, typer.Option("--bits", help="Bits per channel (8 or 16).")] = 8,
+    max_memory: MaxMemoryOption = None,
 ) -> None:
     """Synthesize a window of the unbounded bi-layer texture of a model."""
     from barkgen.bilayer import Deformation, SynthesisOptions
@@ -129,7 +133,8 @@ def synth_command(
     check_target(output, "output")
     # the tile size, warp and deformation ranges: SynthesisOptions and Deformation
     options = SynthesisOptions(tile_size=tile_size, warp=warp, compensate=compensate, blend=blend,
-                               deformation=Deformation(rotate=rotate, scale=(lo, hi), keep_vertical=keep_vertical))
+                               deformation=Deformation(rotate=rotate, scale=(lo, hi), keep_vertical=keep_vertical),
+                               max_memory=parse_memory(max_memory))
     model = read_bilayer_model(model_path)
     image = model.window(x, y, out_shape[1], out_shape[0], seed=seed, options=options)
     image16 = (image * 65535.0 + 0.5).astype(np.uint16)

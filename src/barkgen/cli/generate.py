@@ -62,7 +62,7 @@ def generate_command(
     save_levels: SaveLevelsOption = None,
     resume: ResumeOption = None,
     bits: BitsOption = None,
-    max_memory: MaxMemoryOption = "8G",
+    max_memory: MaxMemoryOption = None,
     threads: ThreadsOption = None,
     material: Annotated[bool, typer.Option(
         "--material", help="Also write the material set of the new bark (NAME_Color, NormalGL/DX, "

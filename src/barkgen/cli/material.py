@@ -12,6 +12,7 @@ import typer
 from barkgen._shared.checks import parse_size
 from barkgen.cli._common import (
     LightOption,
+    MaxMemoryOption,
     NameOption,
     OutputOption,
     QuietOption,
@@ -21,6 +22,7 @@ from barkgen.cli._common import (
     check_folder,
     check_target,
     parse_light,
+    parse_memory,
     progress_bar,
     write_files,
     write_outputs,
@@ -45,6 +47,7 @@ def material_command(
         '{"version": 1, "edits": [{"x": 10, "y": 20, "delta": 1.5, "radius": 4}]}.')] = None,
     tile: Annotated[bool, typer.Option("--tile", help="The photo is a tileable texture: maps wrap.")] = False,
     seed: SeedOption = 0,
+    max_memory: MaxMemoryOption = None,
     quiet: QuietOption = False,
 ) -> None:
     """The material set of a photo: height, normals (OpenGL and DirectX), AO, roughness and the
@@ -58,7 +61,8 @@ def material_command(
     check_material_name(name)
     check_folder(output_dir, "output")
     # k, seed and relief: MaterialOptions; edits outside the photo: the height editor
-    options = MaterialOptions(k=k, light=parse_light(light), tile=tile, seed=seed, relief=relief)
+    options = MaterialOptions(k=k, light=parse_light(light), tile=tile, seed=seed, relief=relief,
+                              max_memory=parse_memory(max_memory))
     edit_list = _read_edits(edits) if edits is not None else []
     src = photo if photo is not None else sample_exemplar_path()
     image = read_image(src)

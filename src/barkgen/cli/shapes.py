@@ -11,6 +11,7 @@ import typer
 from barkgen._shared.checks import parse_size
 from barkgen.cli._common import (
     ExemplarWrapsOption,
+    MaxMemoryOption,
     OutputOption,
     QuietOption,
     ResumeOption,
@@ -23,6 +24,7 @@ from barkgen.cli._common import (
     check_folder,
     check_target,
     level_files,
+    parse_memory,
     progress_bar,
     read_resume,
     write_files,
@@ -47,6 +49,7 @@ def shapes_command(
     save_levels: SaveLevelsOption = None,
     resume: ResumeOption = None,
     exemplar_wraps: ExemplarWrapsOption = "auto",
+    max_memory: MaxMemoryOption = None,
     quiet: QuietOption = False,
 ) -> None:
     """Synthesize a new label map of any size from an exemplar's label map (laitoch2018 §3.6)."""
@@ -54,6 +57,7 @@ def shapes_command(
     from barkgen.shapes import synthesize_label_map
 
     out_shape = parse_size(size)
+    budget = parse_memory(max_memory)
     check_target(output, "output")
     if save_levels is not None:
         check_folder(save_levels, "--save-levels")
@@ -68,7 +72,7 @@ def shapes_command(
         result = synthesize_label_map(label_map, out_shape, strategy=strategy, tile=tile,
                                       seed=seed, rotations=rotations, layer_order=order,
                                       resume=edited, progress=progress, photo=photo_image,
-                                      exemplar_wrap=exemplar_wraps)
+                                      exemplar_wrap=exemplar_wraps, max_memory=budget)
     write_files(output.parent, {output.name: encode_png(result.label_map)})
     if save_levels is not None:
         write_files(save_levels, level_files(result.levels))

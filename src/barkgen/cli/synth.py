@@ -41,7 +41,7 @@ def synth_command(
     extra: ExtraOption = None,
     save_reference: SaveReferenceOption = None,
     bits: BitsOption = None,
-    max_memory: MaxMemoryOption = "8G",
+    max_memory: MaxMemoryOption = None,
     threads: ThreadsOption = None,
     exemplar_wraps: ExemplarWrapsOption = "auto",
     quiet: QuietOption = False,
@@ -88,7 +88,7 @@ def tbn_command(
         "--debug-dir", help="Write the pyramid levels, label maps, initialisation and each "
         "level's result as PNGs into this folder.")] = None,
     bits: BitsOption = None,
-    max_memory: MaxMemoryOption = "8G",
+    max_memory: MaxMemoryOption = None,
     threads: ThreadsOption = None,
     exemplar_wraps: ExemplarWrapsOption = "auto",
     quiet: QuietOption = False,

@@ -26,6 +26,7 @@ from barkgen.errors import InvalidInputError
 from barkgen.synth.edges import resolve_exemplar_wrap
 from barkgen._shared.arrays import ProgressCallback
 from barkgen._shared.checks import parse_output_shape
+from barkgen._shared.memory import check_budget_value, check_memory_budget
 from barkgen._shared.threads import thread_budget
 
 if TYPE_CHECKING:
@@ -125,8 +126,9 @@ class GenerateOptions:
         Texture-by-numbers weights (laitoch2018 eq. 3.1, 3.3).
     threads : int, optional
         Solver threads (None: all cores).
-    max_memory : int, default 8 GiB
-        Refuse jobs whose estimated memory exceeds this many bytes.
+    max_memory : int, optional
+        Refuse jobs whose estimated memory exceeds this many bytes (None: what the machine
+        has free when the run starts).
     material : bool, default False
         Also make the output's material set (:mod:`barkgen.material`).
     light : Light, optional
@@ -159,7 +161,7 @@ class GenerateOptions:
     label_weight: float = 20.0
     feature_weight: float = 8.0
     threads: int | None = None
-    max_memory: int = 8 * 1024**3
+    max_memory: int | None = None
     material: bool = False
     light: Light | None = None
     relief: float = 1.0
@@ -175,6 +177,7 @@ class GenerateOptions:
         check_k(self.k)
         check_seed(self.seed)
         check_rotations(self.rotations)
+        check_budget_value(self.max_memory)
         if self.method not in LABEL_METHODS:
             raise InvalidInputError(f"method must be one of {', '.join(LABEL_METHODS)}, not {self.method!r}")
         if self.strategy not in STRATEGIES:
@@ -227,22 +230,36 @@ class GenerateResult:
 MATERIAL_BYTES_PER_PIXEL = 48
 
 
+#: the largest photo :func:`generate` analyses (the web app's upload limit too): the analysis
+#: grows with the photo's pixels (5.3 s for 1 megapixel, 2026-12-02; its estimated memory 10 GiB
+#: at 50), so a larger photo is refused before any work
+MAX_PHOTO_PIXELS = 50_000_000
+
+
 def check_generate_memory(photo: np.ndarray, options: GenerateOptions,
                           extra: Mapping[str, np.ndarray] | None = None) -> int:
     """The estimated peak memory of :func:`generate` (bytes), checked against
     ``options.max_memory`` before any work: texture-by-numbers' solver, the largest of the run,
-    and the material set (each stage frees what it made before the next starts).
+    and the material set (each stage frees what it made before the next starts). A photo of
+    more than :data:`MAX_PHOTO_PIXELS` is refused whatever the budget.
 
     Raises
     ------
+    ImageTooLargeError
+        The photo has more than :data:`MAX_PHOTO_PIXELS`.
     MemoryBudgetError
         The run would not fit the budget.
     """
-    from barkgen.errors import MemoryBudgetError
+    from barkgen.errors import ImageTooLargeError
     from barkgen.synth.api import estimate_memory
     from barkgen.synth.tbn import TBN_CONFIG
 
-    shape = np.asarray(photo).shape
+    shape = np.shape(photo)
+    if shape[0] * shape[1] > MAX_PHOTO_PIXELS:
+        raise ImageTooLargeError(
+            f"the photo is {shape[1]}x{shape[0]} px ({shape[0] * shape[1] / 1e6:.0f} megapixels), more "
+            f"than the {MAX_PHOTO_PIXELS / 1e6:.0f} megapixels a photo's analysis takes in bounded "
+            f"time; scale it down (bark's detail rarely needs more than 2 px per mm)")
     channels = 1 if len(shape) == 2 else shape[2]
     extra_channels = sum(1 if np.ndim(e) == 2 else np.shape(e)[2] for e in (extra or {}).values())
     itemsize = max([np.asarray(photo).dtype.itemsize]
@@ -253,13 +270,9 @@ def check_generate_memory(photo: np.ndarray, options: GenerateOptions,
     need += 24 * (n_ex + n_out)  # label pyramids and tables
     if options.material:
         need += MATERIAL_BYTES_PER_PIXEL * (n_ex + n_out)
-    if need > options.max_memory:
-        h, w = options.size
-        raise MemoryBudgetError(
-            f"output {w}x{h} from a {shape[1]}x{shape[0]} photo needs about {need / 2**30:.1f} GiB, "
-            f"more than the memory budget of {options.max_memory / 2**30:.1f} GiB (raise it with "
-            f"--max-memory)")
-    return need
+    h, w = options.size
+    return check_memory_budget(need, options.max_memory,
+                               f"output {w}x{h} from a {shape[1]}x{shape[0]} photo")
 
 
 def _check_analysis(analysis: PhotoAnalysis, photo: np.ndarray, options: GenerateOptions,

@@ -10,7 +10,8 @@ import numpy as np
 
 from barkgen._shared.arrays import ProgressCallback, as_hw_c
 from barkgen._shared.checks import parse_output_shape
-from barkgen.errors import InvalidInputError, MemoryBudgetError
+from barkgen._shared.memory import check_memory_budget
+from barkgen.errors import InvalidInputError
 from barkgen.pyramid import count_levels
 from barkgen.synth.analysis import matching_features
 from barkgen.synth.config import SynthesisConfig
@@ -54,10 +55,7 @@ def check_memory(ex: np.ndarray, extras: Mapping[str, np.ndarray], out_shape: tu
                            feature_channels, config)
     if guided:  # label pyramids and tables
         need += 24 * out_shape[0] * out_shape[1] + 24 * ex.shape[0] * ex.shape[1]
-    if need > config.max_memory:
-        raise MemoryBudgetError(
-            f"output {out_shape[1]}x{out_shape[0]} needs about {need / 2**30:.1f} GiB, more than "
-            f"the memory budget of {config.max_memory / 2**30:.1f} GiB (raise it with --max-memory)")
+    check_memory_budget(need, config.max_memory, f"output {out_shape[1]}x{out_shape[0]}")
 
 
 def estimate_memory(exemplar_shape: tuple[int, int], output_shape: tuple[int, int],

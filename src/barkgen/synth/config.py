@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from barkgen._shared.memory import check_budget_value
 from barkgen.errors import InvalidInputError
 
 #: (neighbourhood size, iterations) pairs run at the coarsest, middle and finest levels.
@@ -60,7 +61,8 @@ class SynthesisConfig:
     threads
         worker threads for numba/faiss (None: all cores).
     max_memory
-        refuse jobs whose estimated peak memory exceeds this many bytes.
+        refuse jobs whose estimated peak memory exceeds this many bytes (None: what the
+        machine has free when the job starts).
     """
 
     k: int = 6
@@ -79,7 +81,7 @@ class SynthesisConfig:
     seam_cut_levels: int = 2
     extra_weight: float = 0.5
     threads: int | None = None
-    max_memory: int = 8 * 1024**3
+    max_memory: int | None = None
 
     def __post_init__(self) -> None:
         if not 1 <= self.k <= 32:
@@ -112,8 +114,7 @@ class SynthesisConfig:
             raise InvalidInputError("max_copy must be in (0, 1]")
         if self.threads is not None and self.threads < 1:
             raise InvalidInputError("threads must be >= 1")
-        if self.max_memory <= 0:
-            raise InvalidInputError("max_memory must be positive")
+        check_budget_value(self.max_memory)
 
     def schedule_for(self, level: int, n_levels: int) -> Schedule:
         """The (size, iterations) pairs of pyramid level ``level`` (0 = finest)."""

@@ -5,13 +5,14 @@ the discrete solver itself and what drives it, without the checks of the public 
 on features made by :func:`matching_features`; a :class:`Guidance` turns it into
 texture-by-numbers, a :class:`LabelBalance` keeps the label areas of a label map, an
 :class:`AnalysisCache` shares the exemplar analysis between runs. :func:`validate_inputs` and
-:func:`check_memory` are the public API's checks, for callers that build their own front;
+:func:`check_memory` are the public API's checks, for callers that build their own front
+(:func:`estimate_memory` the solver's estimate they check);
 :func:`label_pyramid`, :func:`level_guide`, :func:`guide_channels` and
 :func:`smart_initialization` make a guide from label maps (laitoch2018 §3.3-3.4).
 """
 
 from barkgen.synth.analysis import AnalysisCache, LevelAnalysis, matching_features
-from barkgen.synth.api import check_memory, validate_inputs
+from barkgen.synth.api import check_memory, estimate_memory, validate_inputs
 from barkgen.synth.config import SynthesisConfig
 from barkgen.synth.edges import resolve_exemplar_wrap
 from barkgen.synth.guide import guide_channels, label_pyramid, level_guide
@@ -28,6 +29,7 @@ __all__ = [
     "SynthesisConfig",
     "SynthesisResult",
     "check_memory",
+    "estimate_memory",
     "guide_channels",
     "label_pyramid",
     "level_guide",

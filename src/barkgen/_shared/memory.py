@@ -1,0 +1,54 @@
+"""The memory budget every job is checked against before it starts.
+
+A job's peak memory is estimated from its sizes alone (each stage's estimate lives beside its
+code and was measured as peak RSS); :func:`check_memory_budget` compares it with the budget
+and refuses the job in one line. The default budget, ``None``, is what the machine has free
+when the job starts (psutil's ``available``: free memory plus what the kernel can reclaim).
+"""
+
+from __future__ import annotations
+
+from barkgen.errors import InvalidInputError, MemoryBudgetError
+
+#: the interpreter, numpy, numba's and faiss' libraries before any array is made (peak RSS of
+#: the smallest jobs, 2026-12-02)
+BASE_BYTES = 250 * 2**20
+
+
+def available_memory() -> int:
+    """Bytes the machine can give a new job now (psutil's ``virtual_memory().available``)."""
+    import psutil
+
+    return int(psutil.virtual_memory().available)
+
+
+def check_budget_value(max_memory: int | None, what: str = "max_memory") -> None:
+    """A budget is ``None`` (what the machine has free) or a positive byte count."""
+    if max_memory is None:
+        return
+    if isinstance(max_memory, bool) or not isinstance(max_memory, int) or max_memory <= 0:
+        raise InvalidInputError(f"{what} must be a positive number of bytes (or None: what the "
+                                f"machine has free), not {max_memory!r}")
+
+
+def check_memory_budget(need: int, max_memory: int | None, job: str) -> int:
+    """Refuse ``job`` (e.g. ``"output 4096x4096"``) before any work when its estimated peak
+    ``need`` (bytes) exceeds ``max_memory`` (``None``: what the machine has free now).
+
+    Returns
+    -------
+    int
+        ``need``.
+
+    Raises
+    ------
+    MemoryBudgetError
+        One line: the estimate, the budget and how to raise it.
+    """
+    budget = available_memory() if max_memory is None else max_memory
+    if need > budget:
+        what = "the memory budget" if max_memory is not None else "the memory free on this machine"
+        raise MemoryBudgetError(
+            f"{job} needs about {need / 2**30:.1f} GiB, more than {what} "
+            f"({budget / 2**30:.1f} GiB; set it with --max-memory)")
+    return need
