@@ -58,3 +58,11 @@ def thread_budget(threads: int | None = None) -> Iterator[int]:
             numba.set_num_threads(saved[0])
             cv2.setNumThreads(saved[1])
             faiss.omp_set_num_threads(saved[2])
+
+
+def in_budget(threads: int | None, function, /, *args, **kwargs):
+    """``function(*args, **kwargs)`` under :func:`thread_budget` (``threads``): for work handed
+    to another thread, since numba's, OpenMP's and SciPy's FFT thread counts belong to the
+    thread that sets them (a new thread starts with the defaults)."""
+    with thread_budget(threads):
+        return function(*args, **kwargs)
