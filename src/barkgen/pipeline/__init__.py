@@ -12,9 +12,8 @@ from barkgen.pipeline.core import (
     analyze_photo,
     generate,
     preview_sheet,
-    stage_at,
-    stage_span,
 )
+from barkgen.pipeline.progress import stage_at, stage_span
 from barkgen.pipeline.files import GENERATE_FILES, check_generate_names, encode_generate
 
 __all__ = [

@@ -29,6 +29,7 @@ from barkgen._shared.arrays import ProgressCallback
 from barkgen._shared.checks import parse_output_shape
 from barkgen._shared.memory import check_budget_value, check_memory_budget
 from barkgen._shared.threads import in_budget, thread_budget
+from barkgen.pipeline.progress import ANALYSIS_SHARES, share_spans, stage_progress
 
 if TYPE_CHECKING:
     from barkgen.material import Light, MaterialSet
@@ -40,70 +41,6 @@ LABEL_METHODS = ("color", "texton")
 #: (measured on the ten bark photos: joint at level 0/1/2 gave oak coherence 1.21/1.28/1.35x
 #: plain synthesis; the label-only engine's references need two levels to fit in colour)
 _INIT_LEVELS = {"joint": 0, "engine": 2}
-
-#: each stage's share of a run's time, as measured on the quickstart (1024x1024 tileable set from
-#: the 1024x1024 sample, 2026-12-02, this machine: analysis 7.0 s, label map 1.7, texture 1.45,
-#: material 1.1)
-_STAGE_SHARES = {"analysis": 0.62, "label_map": 0.15, "texture": 0.13, "material": 0.10}
-#: within the analysis: the photo's label map, the two solvers' analyses, and the wait for the
-#: photo's material set, made on a second thread beside the solvers' analyses (2.6, 2.7, 1.7, 0 s)
-_ANALYSIS_SHARES = {"labels": 0.37, "label_map": 0.38, "texture": 0.24, "material": 0.01}
-
-
-#: what the progress bar says while each stage (and each step of the analysis) runs
-_STAGE_TITLES = {"analysis": "analysing the photo", "label_map": "growing the label map",
-                 "texture": "texture-by-numbers", "material": "making the material set"}
-_ANALYSIS_TITLES = {"labels": "its label map", "label_map": "its label shapes",
-                    "texture": "its texture", "material": "its relief"}
-
-
-#: how far below a stage's end a reported fraction may fall by rounding to 1000ths
-_ROUNDING = 2e-3
-
-
-def _spans(shares: Mapping[str, float], material: bool) -> dict[str, tuple[float, float]]:
-    """Each name's part ``(start, end)`` of 0 to 1 by its share (``material`` only with it)."""
-    names = [name for name in shares if material or name != "material"]
-    total = sum(shares[name] for name in names)
-    spans, start = {}, 0.0
-    for name in names:
-        spans[name] = (start / total, (start + shares[name]) / total)
-        start += shares[name]
-    return spans
-
-
-def stage_span(stage: str, material: bool) -> tuple[float, float]:
-    """The part ``(start, end)`` of a run's progress, 0 to 1, that ``stage`` (``"analysis"``,
-    ``"label_map"``, ``"texture"`` or ``"material"``) fills: its share of the run's time, so
-    that the progress bar moves at the pace of the clock (the material stage only with
-    ``material``)."""
-    return _spans(_STAGE_SHARES, material)[stage]
-
-
-def stage_at(fraction: float, material: bool) -> str:
-    """What a :func:`generate` run is doing when its progress is at ``fraction`` (0 to 1, the
-    ``done / total`` of its progress callback): the stage's title, and within the analysis the
-    step's, e.g. ``"analysing the photo: its label map"``. Each stage reports the moment it
-    ends, so at a boundary the next stage is named: the one now running.
-
-    Examples
-    --------
-    >>> stage_at(0.0, material=True)
-    'analysing the photo: its label map'
-    >>> stage_at(0.95, material=True)
-    'making the material set'
-    """
-    fraction += _ROUNDING  # progress comes in 1000ths, rounded twice within the analysis
-    spans = _spans(_STAGE_SHARES, material)
-    stage = next((name for name, (_, end) in spans.items() if fraction < end), list(spans)[-1])
-    if stage != "analysis":
-        return _STAGE_TITLES[stage]
-    start, end = spans["analysis"]
-    within = (fraction - start) / (end - start)
-    steps = _spans(_ANALYSIS_SHARES, material)
-    step = next((name for name, (_, stop) in steps.items() if within < stop), list(steps)[-1])
-    return f"{_STAGE_TITLES['analysis']}: {_ANALYSIS_TITLES[step]}"
-
 
 @dataclass(frozen=True)
 class GenerateOptions:
@@ -290,18 +227,6 @@ def _check_analysis(analysis: PhotoAnalysis, photo: np.ndarray, options: Generat
         raise InvalidInputError("the photo analysis belongs to a photo of another size")
 
 
-def _stage_progress(progress: ProgressCallback | None, stage: str,
-                    material: bool) -> ProgressCallback | None:
-    if progress is None:
-        return None
-    lo, hi = stage_span(stage, material)
-
-    def update(done: int, total: int) -> None:
-        progress(round(1000 * (lo + (hi - lo) * done / max(total, 1))), 1000)
-
-    return update
-
-
 def _fractions(label_map: np.ndarray, values: np.ndarray) -> dict[str, float]:
     return {str(int(v)): round(float(np.mean(label_map == v)), 4) for v in values}
 
@@ -409,7 +334,7 @@ def analyze_photo(
 
     options = options or GenerateOptions()
     check_generate_memory(photo, options, extra)
-    steps = _spans(_ANALYSIS_SHARES, options.material)
+    steps = share_spans(ANALYSIS_SHARES, options.material)
 
     def report(step: str) -> None:  # the end of the step's share of the analysis, in 1000ths
         if progress and step in steps:
@@ -493,7 +418,7 @@ def generate(
     check_generate_memory(photo, options, extra)
     if analysis is None:
         analysis = analyze_photo(photo, options, extra=extra, labels_in=labels_in,
-                                 progress=_stage_progress(progress, "analysis", options.material))
+                                 progress=stage_progress(progress, "analysis", options.material))
     else:
         _check_analysis(analysis, photo, options, labels_in)
     labels_in = analysis.labels_in
@@ -504,7 +429,7 @@ def generate(
     with thread_budget(options.threads):  # every pool sized, BLAS at one thread
         label_result = synthesize_label_map(
             labels_in, options.size, strategy=options.strategy, tile=options.tile, seed=options.seed,
-            rotations=options.rotations, resume=resume, progress=_stage_progress(progress, "label_map", options.material),
+            rotations=options.rotations, resume=resume, progress=stage_progress(progress, "label_map", options.material),
             cache=analysis.cache, photo=photo, exemplar_wrap=wrap)
         t2 = time.perf_counter()
         timings["labels_out"] = t2 - t1
@@ -517,7 +442,7 @@ def generate(
             photo, labels_in, label_result.label_map, label_weight=options.label_weight,
             feature_weight=options.feature_weight, init=init,
             init_level=_INIT_LEVELS.get(options.strategy, 0), tile=options.tile, seed=options.seed,
-            extra=extra, config=config, progress=_stage_progress(progress, "texture", options.material),
+            extra=extra, config=config, progress=stage_progress(progress, "texture", options.material),
             cache=analysis.cache, exemplar_wrap=wrap)
         t3 = time.perf_counter()
         timings["texture"] = t3 - t2
