@@ -12,7 +12,7 @@ if ! "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check -e ".
 fi
 rm -f "$log"
 "$VENV/bin/python" -m barkgen.web.assets || true  # three.js for `barkgen serve`'s 3D trunk
-# compile the numba kernels into their cache once, as part of the set-up (about 40 s), so that
+# compile the numba kernels into their cache once, as part of the set-up (about 30 s), so that
 # the first run is as fast as every later one
 "$VENV/bin/barkgen" warm-up --quiet
 "$VENV/bin/barkgen" generate -o out --size 1024x1024 --tile --seed 0 --material --name bark "$@"

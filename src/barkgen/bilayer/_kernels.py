@@ -15,14 +15,14 @@ _PY = np.uint64(0xC2B2AE3D27D4EB4F)
 _PS = np.uint64(0x165667B19E3779F9)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _mix(z):
     z = (z ^ (z >> np.uint64(30))) * _M1
     z = (z ^ (z >> np.uint64(27))) * _M2
     return z ^ (z >> np.uint64(31))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def lattice_hash(i: int, j: int, salt: int, seed: int) -> np.uint64:
     """A well-mixed 64-bit hash of a lattice point (any sign), a salt and the seed."""
     z = np.uint64(np.int64(i)) * _GOLD
@@ -31,7 +31,7 @@ def lattice_hash(i: int, j: int, salt: int, seed: int) -> np.uint64:
     return z
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _reflect(i, n):
     """Index ``i`` reflected into ``[0, n)`` (edge pixel repeated, as OpenCV's BORDER_REFLECT)."""
     if i < 0:
@@ -73,12 +73,12 @@ def joint_bilateral(image, guide, radius, sigma_space, sigma_range):
     return out
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _smooth(t):
     return t * t * (3.0 - 2.0 * t)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _tile_index(ty, tx, seed, ucol, variants):
     """The Wang tile of lattice cell ``(ty, tx)``: its four edge colours (hashes of the edges'
     lattice coordinates, shared with the neighbours) and its content variant."""
@@ -90,7 +90,7 @@ def _tile_index(ty, tx, seed, ucol, variants):
     return np.int64((((north * ucol + east) * ucol + south) * ucol + west) * np.uint64(variants) + var)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _warp_corners(cyw, cxw, seed, vy, vx):
     """The displacements (in [-1, 1]) of the four corners of warp cell ``(cyw, cxw)``."""
     for q in range(4):
@@ -99,7 +99,7 @@ def _warp_corners(cyw, cxw, seed, vy, vx):
         vx[q] = (hv >> np.uint64(32)) / 2147483647.5 - 1.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _warp_displacement(fyw, fxw, vy, vx):
     """The corners' displacements blended at the smooth position ``(fyw, fxw)`` in the cell."""
     dy = 0.0
@@ -111,7 +111,7 @@ def _warp_displacement(fyw, fxw, vy, vx):
     return dy, dx
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _noise_corners(cy, cx, seed, wrap, offy, offx):
     """The hashed offsets into the periodic noise tiles of the four corners of noise cell
     ``(cy, cx)``."""
@@ -121,7 +121,7 @@ def _noise_corners(cy, cx, seed, wrap, offy, offx):
         offx[q] = np.int64((hv >> np.uint64(32)) & np.uint64(wrap))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _noise_colour(texel, noise_tiles, bases, means, quantiles, sigmas, wts, ty_idx, tx_idx, nvals, colour):
     """``sum_k M_k (mean_k + basis_k @ channels_k)`` at one pixel (guingo2017 eq. 2, 6) into
     ``colour``: per cluster ``k`` whose mask (in the pixel's ``texel``: structure, then masks)

@@ -179,7 +179,7 @@ def extension_candidates(histories, recent, k, m, matching, tip, contact, densit
     _decide(choice, cand, qstar, lens, xs, ys, heads, first_hit, first_out, q2, decision)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _bending_qualities(qual, hist_a, hist_r, ha, hr):  # pragma: no cover - compiled
     """§4.2's bending quality of every source history against the branch's last elements
     ``(ha, hr)`` (the histories' last ``len(ha)`` columns)."""
@@ -198,7 +198,7 @@ def _bending_qualities(qual, hist_a, hist_r, ha, hr):  # pragma: no cover - comp
         qual[i] = (1.0 / (np.sqrt(sa) + 1.0) + 1.0) * (1.0 / (np.sqrt(sr) + 1.0) + 1.0)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _best_histories(qual, cand, qstar):  # pragma: no cover - compiled
     """The ``len(cand)`` best qualities in ``qstar`` and their histories in ``cand`` (-1: none),
     best first (stable: the lower index wins a tie)."""
@@ -219,7 +219,7 @@ def _best_histories(qual, cand, qstar):  # pragma: no cover - compiled
         cand[p] = i
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _continuations(histories, k, m, cand, lens, ang, thk, qstar, q2, first_hit,
                    first_out):  # pragma: no cover - compiled
     """Each candidate's continuation: the (up to ``m``) source elements after its history, zeros
@@ -246,7 +246,7 @@ def _continuations(histories, k, m, cand, lens, ang, thk, qstar, q2, first_hit,
                 thk[t, j] = 0.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _match_histograms(matching, theta, m, cand, lens, ang, thk, qstar):  # pragma: no cover - compiled
     """§4.2's histogram matching: every candidate's ``Q*`` times ``exp(gain)`` (clipped to
     ``e^+-50``), the gain being how much appending its continuation from heading ``theta``
@@ -287,7 +287,7 @@ def _match_histograms(matching, theta, m, cand, lens, ang, thk, qstar):  # pragm
         qstar[t] *= np.exp(min(max(gain, -50.0), 50.0))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _trace_candidates(cand, lens, ang, thk, xs, ys, heads, first_hit, first_out, tip,
                       contact):  # pragma: no cover - compiled
     """The vertices every candidate would add from the tip, its first vertex touching a
@@ -318,7 +318,7 @@ def _trace_candidates(cand, lens, ang, thk, xs, ys, heads, first_hit, first_out,
                 first_hit[t] = j
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _chord_scores(cand, lens, qstar, xs, ys, q2, tip, density):  # pragma: no cover - compiled
     """``Q** = Q* / (D + eps)`` (§4.4; divided by ``G + eps`` too with a guide) of every
     candidate: ``D`` (``G``) the largest density (guide value) at 8 points along its chord (the

@@ -105,7 +105,7 @@ def trace_edges(skel, node_id, node_py, node_px):
             path_y[:n_path].copy(), path_x[:n_path].copy())
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _walk_to_node(skel, node_id, visited, py, px, qy, qx, path_y, path_x, n_path):
     """Walk from node pixel ``(py, px)`` through the inner pixels from ``(qy, qx)`` until the
     next node pixel, appending them to the path arrays from ``n_path``; returns (the node
@@ -150,7 +150,7 @@ def _walk_to_node(skel, node_id, visited, py, px, qy, qx, path_y, path_x, n_path
     return end, n_path
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _walk_loop(skel, visited, y, x, path_y, path_x, n_path):
     """Walk a closed loop of inner pixels from ``(y, x)``, appending them to the path arrays
     from ``n_path``; returns the new path length."""

@@ -16,7 +16,7 @@ LOG_BIAS = 8.0
 LOG_CLIP = 0.5
 
 
-@nb.njit(inline="always")
+@nb.njit
 def _window_mean(values, fixed, i, j, r, acc):
     """Mean of ``values`` over the fixed pixels within ``r`` of ``(i, j)`` into ``acc``."""
     h, w, c = values.shape
@@ -235,7 +235,7 @@ def sample_nearest(src, mapx, mapy, tdist, tthick, spx, spy, spt, sok, margin):
     return out
 
 
-@nb.njit(inline="always")
+@nb.njit
 def _segment_projection(x, y, px, py, s):
     """Distance of ``(x, y)`` to segment ``s`` of the polyline and the position ``u`` in [0, 1]
     of its nearest point along the segment."""
@@ -253,7 +253,7 @@ def _segment_projection(x, y, px, py, s):
     return np.sqrt(ex * ex + ey * ey), u
 
 
-@nb.njit(inline="always")
+@nb.njit
 def _poly_nearest(x, y, px, py, pt, ok):
     """Distance of ``(x, y)`` to the polyline and the half-width interpolated there."""
     best = np.inf
@@ -268,7 +268,7 @@ def _poly_nearest(x, y, px, py, pt, ok):
     return best, thick
 
 
-@nb.njit(inline="always")
+@nb.njit
 def _poly_distance(x, y, px, py, pt, ok):
     """Distance of ``(x, y)`` to the polyline's body (distance minus the half-width)."""
     best = np.inf
@@ -386,7 +386,7 @@ def blend(corner, newmask, new, fixed, boundary, layers, fragment_map, index, po
                 fragment_map[y0 + i, x0 + j] = index
 
 
-@nb.njit(inline="always")
+@nb.njit
 def _apply_constraints(idx, wt, mat):
     """``B @ mat`` for the bilinear constraint matrix ``B`` (row ``l``: weights ``wt[l]`` on
     the grid nodes ``idx[l]``), as ``(k, mat.shape[1])``."""

@@ -2,8 +2,8 @@
 
 Numba compiles a kernel the first time it is called with a new type signature and keeps the
 machine code on disk (``cache=True``, in ``__pycache__`` beside the package). On a new install
-the first ``generate`` therefore spends most of its time compiling (the quickstart: 47.5 s cold
-against 11 s warm, 2026-12-02). ``barkgen warm-up`` runs each stage once on a small crop of the
+the first ``generate`` therefore spends most of its time compiling (the quickstart: 31 s cold
+against 7 s warm, 2026-12-03). ``barkgen warm-up`` runs each stage once on a small crop of the
 bundled sample, through the same code and with the same types as a real run (tiled and not,
 an exemplar that wraps and one that does not, the material set, the trunk preview read back
 from its files), so the set-up step pays for the compilation once; the quickstart runs it

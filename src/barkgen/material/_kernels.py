@@ -6,7 +6,7 @@ import numpy as np
 from numba import njit, prange
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _sample(height: np.ndarray, y: int, x: int, tile: bool) -> float:
     h, w = height.shape
     if tile:  # round the torus (steps are short: a compare beats a modulo)

@@ -6,7 +6,7 @@ import numba as nb
 import numpy as np
 
 
-@nb.njit(inline="always")
+@nb.njit
 def _far_from_kept(out, i, got, c, width, radius):
     """True when exemplar pixel ``c`` lies more than ``radius`` (Chebyshev) from each of the
     ``got`` entries already kept in ``out[i]``."""
@@ -21,7 +21,7 @@ def _far_from_kept(out, i, got, c, width, radius):
     return True
 
 
-@nb.njit(inline="always")
+@nb.njit
 def _pad_row(out, i, got, k):
     """Fill the unfilled tail of ``out[i]`` with its last kept entry (or ``i`` itself)."""
     fill = out[i, got - 1] if got > 0 else i

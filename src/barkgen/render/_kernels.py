@@ -6,7 +6,7 @@ import numpy as np
 from numba import njit, prange
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _bilinear(img: np.ndarray, u: float, v: float, c: int) -> float:
     """Sample channel ``c`` of ``img`` (h, w, C) at texture coordinates (u, v) in texels, wrapping."""
     h, w = img.shape[0], img.shape[1]

@@ -49,7 +49,7 @@ def assign_with_capacity(order, query, cand, capacity, out):
     return matched
 
 
-@nb.njit(inline="always")
+@nb.njit
 def _index(v, n, tile):
     """``v`` wrapped into ``0..n-1`` when ``tile``, else ``v`` or -1 when outside."""
     if tile:

@@ -8,7 +8,7 @@ import numpy as np
 from barkgen.synth._kernels import _mix, _wrap_or_clamp
 
 
-@nb.njit(inline="always")
+@nb.njit
 def _load_output(idb, db, by, bx, radius, tile, lab, dist):
     """The output neighbourhood of (by, bx) into ``lab`` / ``dist`` (wrapped when ``tile``)."""
     H, W = idb.shape
@@ -22,7 +22,7 @@ def _load_output(idb, db, by, bx, radius, tile, lab, dist):
             k += 1
 
 
-@nb.njit(inline="always")
+@nb.njit
 def _guide_distance(pad_a, pad_da, ay, ax, lab, dist, radius, label_weight, bound):
     """laitoch2018 eq. 3.6 over the ``(2 radius + 1)^2`` neighbourhood, mean-normalised:
     ``label_weight`` x the fraction of mismatching labels + the RMS difference of the boundary
@@ -48,7 +48,7 @@ def _guide_distance(pad_a, pad_da, ay, ax, lab, dist, radius, label_weight, boun
     return mism + np.sqrt(dd / n)
 
 
-@nb.njit(inline="always")
+@nb.njit
 def _seed_match(pad, pool, seed, salt, neighbourhood, params, usage, cand, dist):
     """The exemplar pixel a seed's region copies: the nearest under eq. 3.6 among at most
     ``max_candidates`` pixels of ``pool`` (the seed's label), and among those within
