@@ -354,5 +354,5 @@ def test_every_command_checks_its_memory_before_any_work(tmp_path, exemplar_png)
         assert r.returncode == 2, (job, r.stderr)
         lines = r.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith(f"barkgen: error: {job}"), (job, r.stderr)
-        assert "more than the memory budget (0.1 GiB" in lines[0]
+        assert "more than the memory budget (100 MiB" in lines[0]
     assert list(out.iterdir()) == []

@@ -142,7 +142,7 @@ def test_memory_is_checked_before_any_work(fir128, monkeypatch):
     monkeypatch.setattr(barkgen.labels, "color_regions", no_work)
     tight = GenerateOptions(size=(256, 256), material=True, max_memory=200 * 2**20)
     for run in (generate, analyze_photo):
-        with pytest.raises(MemoryBudgetError, match="needs about .* GiB, more than the memory budget"):
+        with pytest.raises(MemoryBudgetError, match="needs about .* [MG]iB, more than the memory budget"):
             run(fir128, tight)
     small = check_generate_memory(fir128, GenerateOptions(size=(256, 256)))
     assert check_generate_memory(fir128, GenerateOptions(size=(256, 256), material=True)) > small

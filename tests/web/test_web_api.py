@@ -143,6 +143,17 @@ def test_unknown_ids_are_404(client):
         r = client.get(path)
         assert r.status_code == 404, path
         assert r.json()["detail"]
+    # ids beyond SQLite's 64-bit integers name nothing either (they were HTTP 500, OverflowError)
+    huge = "99999999999999999999"
+    for path in (f"/api/exemplars/{huge}", f"/api/exemplars/{huge}/photo",
+                 f"/api/exemplars/{huge}/thumbnail.jpg", f"/api/exemplars/{huge}/labels.png",
+                 f"/api/results/{huge}", f"/api/results/{huge}/download",
+                 f"/api/results/{huge}/files/texture.png", f"/api/results?exemplar_id={huge}"):
+        r = client.get(path)
+        assert r.status_code in (200, 404), (path, r.status_code)
+        if path.startswith("/api/results?"):
+            assert r.json() == [] or r.json().get("results") == [], path
+    assert client.post("/api/jobs", json={"exemplar_id": int(huge), **SMALL}).status_code in (404, 422)
     # the pages themselves load and say so (from the API's 404)
     for path in ("/exemplars/999", "/results/abc"):
         r = client.get(path)

@@ -31,6 +31,16 @@ def check_budget_value(max_memory: int | None, what: str = "max_memory") -> None
                                 f"machine has free), not {max_memory!r}")
 
 
+def format_bytes(n: int) -> str:
+    """``n`` bytes for a person: GiB with one decimal from 1 GiB, MiB (whole) below, KiB below
+    that (a 10 MiB budget reads "10 MiB", not "0.0 GiB")."""
+    if n >= 2**30:
+        return f"{n / 2**30:.1f} GiB"
+    if n >= 2**20:
+        return f"{n / 2**20:.0f} MiB"
+    return f"{max(n, 0) / 2**10:.0f} KiB"
+
+
 def check_memory_budget(need: int, max_memory: int | None, job: str) -> int:
     """Refuse ``job`` (e.g. ``"output 4096x4096"``) before any work when its estimated peak
     ``need`` (bytes) exceeds ``max_memory`` (``None``: what the machine has free now).
@@ -49,6 +59,6 @@ def check_memory_budget(need: int, max_memory: int | None, job: str) -> int:
     if need > budget:
         what = "the memory budget" if max_memory is not None else "the memory free on this machine"
         raise MemoryBudgetError(
-            f"{job} needs about {need / 2**30:.1f} GiB, more than {what} "
-            f"({budget / 2**30:.1f} GiB; set it with --max-memory)")
+            f"{job} needs about {format_bytes(need)}, more than {what} "
+            f"({format_bytes(budget)}; set it with --max-memory)")
     return need

@@ -1,12 +1,21 @@
 """Command-line entry point of ``barkgen``.
 
 User errors (:class:`barkgen.errors.BarkgenError`) become one line on stderr and exit status 2;
-see :func:`barkgen.cli.app.user_errors`.
+see :func:`barkgen.cli.app.user_errors`. So do the errors the command line's parser finds (an
+unknown option, ``--seed -1``, a missing argument): ``barkgen: error: MESSAGE (see barkgen
+COMMAND --help)``, not the parser's three-line usage.
 """
 
 from __future__ import annotations
 
+import signal
 import sys
+
+
+def _terminate(signum, frame) -> None:
+    """SIGTERM (``kill``, a service manager, a batch scheduler) ends a run as Ctrl-C does: files
+    half-staged are removed, nothing is left under a final name, exit status 130."""
+    raise KeyboardInterrupt
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -19,9 +28,30 @@ def main(argv: list[str] | None = None) -> None:
     except MissingExtraError as exc:
         print(f"barkgen: error: {exc}", file=sys.stderr)
         sys.exit(2)
+    import typer
+
     from barkgen.cli.app import app
 
-    app(args=argv, prog_name="barkgen")
+    try:
+        signal.signal(signal.SIGTERM, _terminate)
+    except ValueError:  # not the main thread (an embedding caller's): its own handlers stand
+        pass
+
+    # click's UsageError, whichever click typer runs on (its own copy, or click itself)
+    usage_error = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "UsageError")
+    try:
+        status = app(args=argv, prog_name="barkgen", standalone_mode=False)
+    except usage_error as exc:
+        if type(exc).__name__ == "NoArgsIsHelpError":  # ``barkgen`` or a group alone: its help
+            exc.show()
+            sys.exit(exc.exit_code)
+        where = exc.ctx.command_path if exc.ctx is not None else "barkgen"
+        print(f"barkgen: error: {exc.format_message()} (see {where} --help)", file=sys.stderr)
+        sys.exit(2)
+    except typer.Abort:
+        print("barkgen: error: interrupted", file=sys.stderr)
+        sys.exit(130)
+    sys.exit(status if isinstance(status, int) else 0)
 
 
 if __name__ == "__main__":  # pragma: no cover

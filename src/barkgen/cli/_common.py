@@ -4,10 +4,12 @@ commands take."""
 
 from __future__ import annotations
 
+import os
 import re
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
+from contextvars import ContextVar
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -138,6 +140,98 @@ def check_bits(bits: int | None) -> None:
         raise InvalidInputError(f"--bits must be 8 or 16, not {bits}")
 
 
+# ------------------------------------------------------------------------ inputs are never outputs
+
+#: the keyword arguments of the commands that name a file they write, and a folder they write into
+OUTPUT_FILE_ARGS = ("output", "save_reference", "preview", "labels_out", "plot")
+OUTPUT_FOLDER_ARGS = ("output_dir", "save_levels", "debug_dir")
+#: the files the running command reads (set by :func:`guard_paths`, checked by :func:`write_files`)
+_INPUTS: ContextVar[tuple[Path, ...]] = ContextVar("barkgen_cli_inputs", default=())
+
+
+def _named_paths(kwargs: Mapping[str, object]) -> Iterator[tuple[str, Path]]:
+    """``(argument, path)`` of every path among a command's arguments (``--extra NAME=PATH``
+    items included)."""
+    for key, value in kwargs.items():
+        items = value if isinstance(value, (list, tuple)) else [value]
+        for item in items:
+            if isinstance(item, Path):
+                yield key, item
+            elif isinstance(item, str) and "=" in item and key == "extra":
+                yield key, Path(item.partition("=")[2])
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def _writable_folder(folder: Path, what: str, path: Path) -> None:
+    """The nearest existing folder at or above ``folder`` takes new files, or one line now
+    (not after the whole computation, naming a temporary)."""
+    probe = folder if str(folder) else Path(".")
+    while not probe.exists() and probe != probe.parent:
+        probe = probe.parent
+    if probe.exists() and (not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK)):
+        raise InvalidInputError(f"{what} {str(path)!r}: cannot write into {str(probe)!r} "
+                                "(not a writable folder)")
+
+
+def _set_files(folder: Path) -> list[Path]:
+    """The files of the material set a command reads from ``folder`` (``preview``,
+    ``export-glb``); none when it holds no set (the command says so itself)."""
+    from barkgen.errors import BarkgenError
+    from barkgen.io import find_material
+
+    try:
+        name, meta = find_material(folder)
+    except BarkgenError:
+        return []
+    listed = meta.get("files") if isinstance(meta.get("files"), list) else []
+    return [folder / f"{name}.json"] + [folder / n for n in listed if isinstance(n, str)]
+
+
+def guard_paths(kwargs: Mapping[str, object]) -> Callable[[], None]:
+    """Before a command works: record the files it reads (every existing file among its path
+    arguments, and the material set of a folder it reads, ``preview``'s), refuse an
+    output that is one of them, and refuse an output whose folder cannot be written. Returns
+    the function that forgets the inputs once the command has ended."""
+    inputs: list[Path] = []
+    for key, path in _named_paths(kwargs):
+        if key in OUTPUT_FILE_ARGS or key in OUTPUT_FOLDER_ARGS:
+            continue
+        if path.is_file():
+            inputs.append(path)
+        elif path.is_dir():
+            inputs.extend(_set_files(path))
+    token = _INPUTS.set(tuple(inputs))
+    try:
+        for key, path in _named_paths(kwargs):
+            what = "--" + key.replace("_dir", "").replace("_", "-")
+            if key in OUTPUT_FILE_ARGS:
+                refuse_inputs([path], what)
+                _writable_folder(path.parent, what, path)
+            elif key in OUTPUT_FOLDER_ARGS:
+                _writable_folder(path, what, path)
+    except BaseException:
+        _INPUTS.reset(token)
+        raise
+    return lambda: _INPUTS.reset(token)
+
+
+def refuse_inputs(targets: Iterable[Path], what: str = "output") -> None:
+    """Refuse (one line) to write any of ``targets`` that is a file the command reads: the
+    photo, a label map, an extra map, a set being previewed. Write elsewhere, then move the
+    result if replacing the input is meant."""
+    for target in targets:
+        for source in _INPUTS.get():
+            if _same_file(target, source):
+                raise InvalidInputError(f"{what} {str(target)!r} is also an input of this command; "
+                                        "it would be overwritten: write it elsewhere")
+
+
 # ------------------------------------------------------------------------ writing
 
 
@@ -146,7 +240,35 @@ def write_files(folder: Path, files: dict[str, bytes]) -> None:
     all are encoded before any is written, all staged before any is renamed into place)."""
     from barkgen.io import write_files_atomic
 
+    refuse_inputs([folder / name for name in files])
     write_files_atomic(folder, files)
+
+
+def previous_run_files(folder: Path, record: str = "report.json") -> list[str]:
+    """The files that the run which last wrote ``folder`` listed in its ``record`` (generate's
+    ``report.json``): plain file names only; none when there is no readable record."""
+    import json
+
+    try:
+        listed = json.loads((folder / record).read_text(encoding="utf-8")).get("files", [])
+    except (OSError, ValueError, AttributeError):
+        return []
+    if not isinstance(listed, list):
+        return []
+    return [n for n in listed if isinstance(n, str) and n and not n.startswith(".")
+            and Path(n).name == n]
+
+
+def write_run(folder: Path, files: dict[str, bytes], stale: Iterable[str]) -> None:
+    """Write a run's files into ``folder`` as one step (:func:`write_files`), then remove the
+    files of the run before it (``stale``, from :func:`previous_run_files` read before the
+    run) that this run did not write: a folder never holds a mix of two runs' sets (a new
+    texture beside an old run's material maps that ``preview`` would then pick up)."""
+    write_files(folder, files)
+    for name in set(stale) - set(files):
+        path = folder / name
+        if path.is_file() and not any(_same_file(path, p) for p in _INPUTS.get()):
+            path.unlink(missing_ok=True)
 
 
 def write_outputs(files: dict[Path, bytes]) -> None:

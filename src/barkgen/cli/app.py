@@ -28,7 +28,7 @@ import barkgen.cli.serve as serve
 import barkgen.cli.shapes as shapes
 import barkgen.cli.synth as synth
 import barkgen.cli.warmup as warmup
-from barkgen.cli._common import fail
+from barkgen.cli._common import fail, guard_paths
 from barkgen.errors import BarkgenError
 
 F = TypeVar("F", bound=Callable[..., None])
@@ -62,7 +62,9 @@ def user_errors(func: F) -> F:
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
         warnings.showwarning = _one_line_warning
+        forget = None
         try:
+            forget = guard_paths(kwargs)  # no output is an input; every output folder writable
             return func(*args, **kwargs)
         except (typer.Exit, typer.Abort):
             raise
@@ -77,6 +79,9 @@ def user_errors(func: F) -> F:
             raise fail("interrupted", 130) from None
         except Exception as exc:  # noqa: BLE001 - last resort: still one line, no traceback
             raise fail(f"internal error: {type(exc).__name__}: {exc}", 1) from None
+        finally:
+            if forget is not None:
+                forget()
 
     return wrapper  # type: ignore[return-value]
 

@@ -37,9 +37,12 @@ from barkgen.cli._common import (
     parse_extras,
     parse_light,
     parse_memory,
+    previous_run_files,
     progress_bar,
     read_resume,
+    refuse_inputs,
     write_files,
+    write_run,
 )
 from barkgen.errors import InvalidInputError
 
@@ -92,6 +95,8 @@ def generate_command(
                               max_memory=parse_memory(max_memory), material=material,
                               light=parse_light(light), relief=relief, exemplar_wrap=exemplar_wraps)
     extra_paths = _extra_paths(extra)
+    stale = previous_run_files(output_dir)
+    refuse_inputs(_run_targets(output_dir, name if material else None, extra_paths, stale))
     src = photo if photo is not None else sample_exemplar_path()
     image = read_image(src)
     extras = {name: read_image(p) for name, p in extra_paths.items()}
@@ -102,7 +107,7 @@ def generate_command(
         result = generate(image, options, extra=extras, labels_in=label_map, resume=edited,
                           progress=progress)
         files = encode_generate(image, result, str(src), name=name, bits=bits)
-    write_files(output_dir, files)
+    write_run(output_dir, files, stale)
     if save_levels is not None:
         write_files(save_levels, level_files(result.label_levels))
     if not quiet:
@@ -110,6 +115,19 @@ def generate_command(
         typer.echo(f"wrote {output_dir}/texture.png ({w}x{h}, seed {seed}"
                    f"{', tileable' if tile else ''}) and its maps in "
                    f"{result.report['timings_s']['total']:.1f} s", err=True)
+
+
+def _run_targets(folder: Path, material_name: str | None, extras, stale) -> list[Path]:
+    """The files of ``folder`` a run will write or remove (its own, the material set's, each
+    extra's, and the previous run's): none may be an input."""
+    from barkgen.pipeline import GENERATE_FILES
+
+    names = {f"{n}.png" for n in GENERATE_FILES} | {"report.json"} | {f"{n}.png" for n in extras}
+    names |= set(stale)
+    if material_name is not None and folder.is_dir():
+        names |= {p.name for p in folder.iterdir()
+                  if p.name.startswith(f"{material_name}_") or p.name == f"{material_name}.json"}
+    return [folder / n for n in sorted(names)]
 
 
 def _check_generate_names(name: str, material: bool, light: str | None, relief: float) -> None:

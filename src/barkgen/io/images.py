@@ -398,6 +398,47 @@ def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
     return write_files_atomic(path.parent, {path.name: data})[0]
 
 
+#: a temporary without its writer's process id (an older barkgen's) is stale after this long
+STALE_TEMPORARY_S = 600.0
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # someone else's process: alive
+        return True
+    return True
+
+
+def remove_stale_temporaries(folder: str | os.PathLike) -> int:
+    """Remove the temporaries of :func:`write_files_atomic` that a killed writer left in
+    ``folder`` (``.NAME.PID.XXXX.tmp``): those whose process is gone, and those of the older
+    naming without a process id once :data:`STALE_TEMPORARY_S` old. A running writer's are
+    kept. Returns how many were removed."""
+    import time
+
+    removed = 0
+    try:
+        candidates = [p for p in Path(folder).iterdir() if p.name.startswith(".")
+                      and p.name.endswith(".tmp") and p.is_file()]
+    except OSError:
+        return 0
+    for path in candidates:
+        parts = path.name[1:-4].rsplit(".", 2)
+        pid = parts[1] if len(parts) == 3 and parts[1].isdigit() else None
+        try:
+            stale = (not _alive(int(pid))) if pid is not None else (
+                time.time() - path.stat().st_mtime > STALE_TEMPORARY_S)
+            if stale:
+                path.unlink()
+                removed += 1
+        except OSError:
+            continue
+    return removed
+
+
 def write_files_atomic(folder: str | os.PathLike, files: dict[str, bytes]) -> list[Path]:
     """Write several files into ``folder`` as one step.
 
@@ -419,10 +460,11 @@ def write_files_atomic(folder: str | os.PathLike, files: dict[str, bytes]) -> li
     """
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
+    remove_stale_temporaries(folder)
     staged: list[tuple[str, Path]] = []
     try:
         for name, data in files.items():
-            fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{name}.", suffix=".tmp")
+            fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{name}.{os.getpid()}.", suffix=".tmp")
             staged.append((tmp, folder / name))
             with os.fdopen(fd, "wb") as fh:
                 fh.write(data)

@@ -74,6 +74,10 @@ def label_preview(image: np.ndarray, label_map: np.ndarray, *, alpha: float = 0.
     return np.concatenate([rgb, gap, tinted.astype(np.uint8)], axis=1)
 
 
+#: a tile of a contact sheet is at most this many times as tall as it is wide
+MAX_TILE_ASPECT = 4
+
+
 def contact_sheet(tiles: list[np.ndarray], captions: list[str] | None = None, *,
                   columns: int = 5, tile_size: int = 160) -> np.ndarray:
     """A grid of images with optional captions, as one image.
@@ -82,7 +86,8 @@ def contact_sheet(tiles: list[np.ndarray], captions: list[str] | None = None, *,
     ----------
     tiles : list of ndarray
         Grey ``(h, w)`` or RGB ``(h, w, 3)`` uint8 images of any size, each scaled to
-        ``tile_size`` px wide.
+        ``tile_size`` px wide (narrower and centred when that would make it more than
+        :data:`MAX_TILE_ASPECT` times as tall).
     captions : list of str, optional
         One caption per tile, written under it.
     columns : int, default 5
@@ -108,10 +113,14 @@ def contact_sheet(tiles: list[np.ndarray], captions: list[str] | None = None, *,
         t = np.asarray(t)
         if t.ndim == 2:
             t = np.repeat(t[:, :, None], 3, axis=2)
-        s = tile_size / t.shape[1]
-        t = cv2.resize(t, (tile_size, max(1, round(t.shape[0] * s))), interpolation=cv2.INTER_AREA)
+        # fitted into a box tile_size wide and MAX_TILE_ASPECT times as tall: a thin strip
+        # (1x100000) stays a thin picture, not an image of millions of rows
+        s = min(tile_size / t.shape[1], MAX_TILE_ASPECT * tile_size / t.shape[0])
+        size = (max(1, round(t.shape[1] * s)), max(1, round(t.shape[0] * s)))
+        t = cv2.resize(t, size, interpolation=cv2.INTER_AREA)
         cell = np.full((t.shape[0] + 22, tile_size + 6, 3), 255, np.uint8)
-        cell[3:3 + t.shape[0], 3:3 + tile_size] = t
+        x0 = 3 + (tile_size - t.shape[1]) // 2
+        cell[3:3 + t.shape[0], x0:x0 + t.shape[1]] = t
         if captions:
             cv2.putText(cell, captions[i], (4, cell.shape[0] - 6), cv2.FONT_HERSHEY_SIMPLEX, 0.45,
                         (0, 0, 0), 1, cv2.LINE_AA)

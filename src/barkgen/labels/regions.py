@@ -330,4 +330,8 @@ def add_edge_label(label_map: np.ndarray, width: int = 3) -> np.ndarray:
     # a pixel is near another label when the largest and smallest codes around it differ
     near = cv2.dilate(c16, kernel, borderType=cv2.BORDER_REPLICATE) != cv2.erode(
         c16, kernel, borderType=cv2.BORDER_REPLICATE)
+    if n > 1 and near.all():
+        raise InvalidInputError(f"an edge band {width} px wide covers the whole "
+                                f"{codes.shape[1]}x{codes.shape[0]} label map; give a narrower "
+                                "edge width")
     return to_label_image(np.where(near, n, codes), n + 1)

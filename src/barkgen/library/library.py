@@ -235,6 +235,8 @@ class Library:
             conn.execute("COMMIT")
 
     def _read(self, sql: str, args: tuple = ()) -> list[sqlite3.Row]:
+        if any(isinstance(a, int) and not -2**63 <= a < 2**63 for a in args):
+            return []  # an id beyond SQLite's 64-bit integers is in no row (not an error)
         with closing(self._connect()) as conn:
             return conn.execute(sql, args).fetchall()
 

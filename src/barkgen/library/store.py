@@ -11,6 +11,10 @@ import tempfile
 from pathlib import Path
 
 
+def _is_digest(text: str) -> bool:
+    return len(text) == 64 and all(c in "0123456789abcdef" for c in text)
+
+
 def content_hash(data: bytes) -> str:
     """The SHA-256 hex digest that names ``data`` in the store."""
     return hashlib.sha256(data).hexdigest()
@@ -23,7 +27,7 @@ class ObjectStore:
         self.root = Path(root)
 
     def path(self, digest: str) -> Path:
-        if len(digest) != 64 or any(c not in "0123456789abcdef" for c in digest):
+        if not _is_digest(digest):
             raise ValueError(f"not a content hash: {digest!r}")
         return self.root / digest[:2] / digest[2:]
 
@@ -56,8 +60,9 @@ class ObjectStore:
         self.path(digest).unlink(missing_ok=True)
 
     def digests(self) -> set[str]:
-        """Every stored hash (temporary files left by a killed writer are not objects)."""
+        """Every stored hash: only files named as objects are (temporary files left by a killed
+        writer, a desktop's ``.DS_Store`` or ``Thumbs.db`` are not)."""
         if not self.root.is_dir():
             return set()
         return {sub.name + path.name for sub in self.root.iterdir() if sub.is_dir()
-                for path in sub.iterdir() if not path.name.startswith(".tmp-")}
+                for path in sub.iterdir() if _is_digest(sub.name + path.name)}

@@ -1,0 +1,164 @@
+"""Nothing lost, nothing runaway (the hostile and clumsy user's cases): an output that is an
+input is refused, a folder never holds two runs' sets, a killed writer's temporaries are
+cleared by the next write, SIGTERM ends a run as Ctrl-C does, a thin strip is sized for its
+shape, and parse errors, huge ids and stray files get one line."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from barkgen.io import read_image, write_files_atomic, write_png
+from conftest import run
+
+
+@pytest.fixture(scope="module")
+def photo(tmp_path_factory, synthetic_exemplar) -> Path:
+    p = tmp_path_factory.mktemp("photo") / "p.png"
+    write_png(p, synthetic_exemplar)
+    return p
+
+
+def _one_line(r: subprocess.CompletedProcess, *words: str) -> None:
+    assert r.returncode == 2, (r.returncode, r.stderr)
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("barkgen: error: "), r.stderr
+    assert "Traceback" not in r.stderr and "Usage:" not in r.stderr
+    for word in words:
+        assert word in lines[0], (word, lines[0])
+
+
+def test_an_output_that_is_an_input_is_refused_and_the_input_kept(tmp_path, photo):
+    src = tmp_path / "p.png"
+    src.write_bytes(photo.read_bytes())
+    before = src.read_bytes()
+    _one_line(run("synth", str(src), "-o", str(src), "--size", "32x32", "-q"), "also an input")
+    _one_line(run("labels", str(src), "-o", str(src), "-q"), "also an input")
+    # the same file by another name (a symbolic link) is the same file
+    (tmp_path / "link.png").symlink_to(src)
+    _one_line(run("synth", str(src), "-o", str(tmp_path / "link.png"), "--size", "32x32", "-q"))
+    # generate OUT/texture.png -o OUT: refused before any work, not after it
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "texture.png").write_bytes(before)
+    t = time.perf_counter()
+    _one_line(run("generate", str(out / "texture.png"), "-o", str(out), "--size", "512x512", "-q"),
+              "texture.png")
+    assert time.perf_counter() - t < 20  # a 512^2 run would take longer than the refusal
+    assert src.read_bytes() == before and (out / "texture.png").read_bytes() == before
+    assert sorted(p.name for p in out.iterdir()) == ["texture.png"]
+    # preview into its own set's files: refused; beside them: fine
+    sets = tmp_path / "set"
+    assert run("generate", str(src), "-o", str(sets), "--size", "32x32", "--material", "-q").returncode == 0
+    colour = (sets / "bark_Color.png").read_bytes()
+    _one_line(run("preview", str(sets), "-o", str(sets / "bark_Color.png")), "bark_Color.png")
+    assert (sets / "bark_Color.png").read_bytes() == colour
+    assert run("preview", str(sets), "-o", str(sets / "trunk.png")).returncode == 0
+
+
+def test_a_rerun_replaces_the_folders_set_as_a_whole(tmp_path, photo):
+    out = tmp_path / "out"
+    assert run("generate", str(photo), "-o", str(out), "--size", "48x48", "--seed", "5",
+               "--material", "-q").returncode == 0
+    assert (out / "bark_Color.png").is_file()
+    (out / "notes.txt").write_text("mine")  # not a run's file: stays
+    assert run("generate", str(photo), "-o", str(out), "--size", "32x32", "--seed", "9",
+               "-q").returncode == 0
+    names = sorted(p.name for p in out.iterdir())
+    assert names == ["labels_in.png", "labels_out.png", "notes.txt", "preview.png",
+                     "reference.png", "report.json", "texture.png"], names
+    assert read_image(out / "texture.png").shape[:2] == (32, 32)
+    # the stale maps are gone, so preview says there is no set instead of using them
+    _one_line(run("preview", str(out), "-o", str(tmp_path / "t.png")), "no material set")
+
+
+def _dead_pid() -> int:
+    pid = 4_000_000
+    while True:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return pid
+        except OSError:
+            pass
+        pid -= 1
+
+
+def test_the_next_write_clears_a_killed_writers_temporaries(tmp_path):
+    folder = tmp_path / "out"
+    folder.mkdir()
+    dead = folder / f".texture.png.{_dead_pid()}.k3j2h1g0.tmp"
+    old = folder / ".preview.png.abc123xy.tmp"  # an older barkgen's naming, no process id
+    live = folder / f".report.json.{os.getpid()}.zz99yy88.tmp"  # a running writer's: kept
+    for path in (dead, old, live):
+        path.write_bytes(b"x" * 1000)
+    os.utime(old, (time.time() - 3600, time.time() - 3600))
+    write_files_atomic(folder, {"a.txt": b"a"})
+    left = sorted(p.name for p in folder.iterdir())
+    assert left == [live.name, "a.txt"], left
+
+
+def test_sigterm_ends_a_run_like_ctrl_c(tmp_path, photo):
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "barkgen", "generate", str(photo), "-o", str(out),
+                             "--size", "2048x2048", "-q"], stderr=subprocess.PIPE, text=True)
+    time.sleep(4)  # started, imported, working (the run takes far longer)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, (proc.returncode, err)
+    assert err.strip() == "barkgen: error: interrupted"
+    assert not out.exists() or not any(out.iterdir())
+
+
+def test_a_thin_strip_is_sized_for_its_shape(tmp_path, photo):
+    out = tmp_path / "strip"
+    r = run("generate", str(photo), "-o", str(out), "--size", "1x20000", "-q")
+    assert r.returncode == 0, r.stderr
+    assert read_image(out / "texture.png").shape[:2] == (20000, 1)
+    sheet = read_image(out / "preview.png")
+    assert sheet.shape[0] < 4 * 320 + 100  # was 320 px wide per tile: 6.4 million rows
+
+
+def test_contact_sheet_fits_every_tile_in_its_box():
+    from barkgen.labels import contact_sheet
+    from barkgen.labels.preview import MAX_TILE_ASPECT
+
+    strip = np.zeros((100_000, 1), np.uint8)
+    sheet = contact_sheet([strip, np.zeros((10, 10), np.uint8)], columns=2, tile_size=50)
+    assert sheet.shape[0] <= MAX_TILE_ASPECT * 50 + 22 + 3
+    # an ordinary tile still spans the whole width
+    assert contact_sheet([np.full((10, 20), 7, np.uint8)], columns=1, tile_size=40)[3:23, 3:43].max() == 7
+
+
+def test_parse_errors_sizes_and_bands_are_one_line(tmp_path, photo):
+    _one_line(run("synth", str(photo), "-o", str(tmp_path / "s.png"), "--seed", "-1"), "--seed")
+    _one_line(run("synth", str(photo), "-o", str(tmp_path / "s.png"), "--threads", "0"), "--threads")
+    _one_line(run("library", "rm", "abc"), "ID")
+    _one_line(run("synth", str(photo), "--no-such-flag"), "--no-such-flag")
+    _one_line(run("generate", str(photo), "-o", str(tmp_path / "m"), "--size", "64x64",
+                  "--max-memory", "10M"), "10 MiB")
+    _one_line(run("labels", str(photo), "-o", str(tmp_path / "e.png"), "--edges", "--edge-width",
+                  "100000"), "edge")
+    assert not (tmp_path / "e.png").exists()
+    assert run("--version").returncode == 0
+
+
+def test_huge_ids_and_stray_files_in_the_library(tmp_path):
+    env = {**os.environ, "BARKGEN_LIBRARY": str(tmp_path / "lib")}
+    cmd = [sys.executable, "-m", "barkgen", "library"]
+    r = subprocess.run(cmd + ["show", "99999999999999999999"], capture_output=True, text=True, env=env)
+    _one_line(r, "no exemplar")
+    # a desktop's stray file among the stored objects is not an object
+    objects = tmp_path / "lib" / "objects"
+    sub = next(p for p in objects.iterdir() if p.is_dir())
+    (sub / ".DS_Store").write_bytes(b"\0")
+    (objects / "Thumbs.db").write_bytes(b"\0")
+    r = subprocess.run(cmd + ["rm", "1"], capture_output=True, text=True, env=env)
+    assert r.returncode == 0, r.stderr
