@@ -315,3 +315,25 @@ def test_bad_photo_or_unreachable_scheduler_one_line_nothing_written(photos, tmp
     result = run("batch", str(good), "-o", str(out), "--scheduler", "tcp://127.0.0.1:9")
     assert result.returncode == 2 and "cannot reach the Dask scheduler" in result.stderr, result.stderr
     assert len(result.stderr.strip().splitlines()) == 1 and not out.exists()
+
+
+def test_hostile_specs_are_refused_in_bounded_time(tmp_path):
+    """A 400-byte YAML alias bomb and a 200,000-seed list used to hang validation for minutes."""
+    from barkgen.batch import load_spec
+    from barkgen.errors import InvalidInputError
+
+    (tmp_path / "p.png").write_bytes(b"")
+    bomb = tmp_path / "bomb.yaml"
+    levels = ["a: &a [x, x, x, x, x, x, x, x, x]"]
+    for i, name in enumerate("bcdefghi"):
+        prev = "abcdefghi"[i]
+        levels.append(f"{name}: &{name} [{', '.join(['*' + prev] * 9)}]")
+    bomb.write_text("\n".join(levels) + "\nexemplars: [{name: a, path: p.png, seeds: *i}]\n")
+    many = tmp_path / "many.yaml"
+    many.write_text(json.dumps({"exemplars": [{"name": "a", "path": "p.png",
+                                               "seeds": list(range(200_000))}]}))
+    for spec, message in ((bomb, "aliases"), (many, "more than 100000")):
+        t = time.perf_counter()
+        with pytest.raises(InvalidInputError, match=message):
+            load_spec(spec)
+        assert time.perf_counter() - t < 5

@@ -162,3 +162,17 @@ def test_huge_ids_and_stray_files_in_the_library(tmp_path):
     (objects / "Thumbs.db").write_bytes(b"\0")
     r = subprocess.run(cmd + ["rm", "1"], capture_output=True, text=True, env=env)
     assert r.returncode == 0, r.stderr
+
+
+def test_an_unwritable_output_folder_is_refused_before_any_work(tmp_path, monkeypatch):
+    from barkgen.cli._common import guard_paths
+    from barkgen.errors import InvalidInputError
+
+    target = tmp_path / "locked"
+    target.mkdir()
+    monkeypatch.setattr(os, "access", lambda path, mode: Path(path) != target)
+    with pytest.raises(InvalidInputError, match="cannot write into"):
+        guard_paths({"output_dir": target / "new" / "deeper"})
+    with pytest.raises(InvalidInputError, match="cannot write into"):
+        guard_paths({"output": target / "x.png"})
+    guard_paths({"output": tmp_path / "x.png"})()  # a writable folder: fine (and forgotten)

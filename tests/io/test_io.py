@@ -141,3 +141,58 @@ def test_concurrent_encoding_gives_each_file_its_own_bytes_in_order(rgb8):
     with pytest.raises(InvalidInputError, match="pixel type"):
         encode_concurrently({"a.png": jobs["m0.png"], "b.png": lambda: encode_png(rgb8 * 0.5)})
 
+
+
+def test_exif_orientation_animations_and_float_ranges_are_honoured_or_said():
+    """A phone photo stands as its orientation tag says; an animation's later frames and float
+    pixels outside 0-1 are named in a warning, not dropped or clipped without a word."""
+    import io as _io
+    import warnings as _warnings
+
+    from PIL import Image
+
+    from barkgen.io import ImageContentWarning, decode_image
+
+    pixels = np.zeros((20, 40, 3), np.uint8)
+    pixels[:, :10] = 255  # a white band on the left of a landscape picture
+    buf = _io.BytesIO()
+    exif = Image.Exif()
+    exif[0x0112] = 6  # "rotate 90 degrees clockwise to view"
+    Image.fromarray(pixels).save(buf, format="JPEG", exif=exif, quality=95)
+    shown = decode_image(buf.getvalue(), "phone.jpg")
+    assert shown.shape[:2] == (40, 20)  # portrait, as the camera meant
+    assert shown[:10, :, 0].mean() > 200 and shown[-10:, :, 0].mean() < 50  # the band on top
+
+    frames = [Image.fromarray(np.full((8, 8, 3), v, np.uint8)) for v in (10, 200)]
+    buf = _io.BytesIO()
+    frames[0].save(buf, format="GIF", save_all=True, append_images=frames[1:])
+    with pytest.warns(ImageContentWarning, match="2 frames"):
+        decode_image(buf.getvalue(), "anim.gif")
+
+    import tifffile
+
+    buf = _io.BytesIO()
+    tifffile.imwrite(buf, np.linspace(-1, 3, 64, dtype=np.float32).reshape(8, 8))
+    with pytest.warns(ImageContentWarning, match="clipped"):
+        decode_image(buf.getvalue(), "height.tif")
+    buf = _io.BytesIO()
+    tifffile.imwrite(buf, np.linspace(0, 1, 64, dtype=np.float32).reshape(8, 8))
+    with _warnings.catch_warnings():
+        _warnings.simplefilter("error")
+        decode_image(buf.getvalue(), "unit.tif")  # in range: no warning
+
+
+def test_a_failed_write_names_the_users_file_not_our_temporary(tmp_path, monkeypatch):
+    import errno
+    import tempfile
+
+    from barkgen.io import write_files_atomic
+
+    def full_disk(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device", str(tmp_path / ".a.png.1.xyz.tmp"))
+
+    monkeypatch.setattr(tempfile, "mkstemp", full_disk)
+    with pytest.raises(OSError) as info:
+        write_files_atomic(tmp_path, {"a.png": b"x"})
+    assert info.value.filename == str(tmp_path / "a.png") and info.value.errno == errno.ENOSPC
+    assert list(tmp_path.iterdir()) == []

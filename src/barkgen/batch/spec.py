@@ -22,6 +22,7 @@ import dataclasses
 import difflib
 import json
 import re
+from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -40,6 +41,10 @@ TOP_KEYS = ("exemplars",)
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,63}$")
 #: most variants one exemplar entry may ask for
 MAX_VARIANTS = 100_000
+#: bounds of a spec file, checked before it is built: its size, its YAML aliases, its exemplars
+MAX_SPEC_BYTES = 4 * 2**20
+MAX_SPEC_ALIASES = 16
+MAX_EXEMPLARS = 10_000
 
 
 @dataclass(frozen=True)
@@ -160,8 +165,10 @@ def _seeds(where: str, entry: dict) -> tuple[int, ...]:
             seeds = [seeds]
         if not isinstance(seeds, list) or not seeds:
             raise InvalidInputError(f"{where}: seeds must be a non-empty list of integers, not {seeds!r}")
+        if len(seeds) > MAX_VARIANTS:
+            raise InvalidInputError(f"{where}: {len(seeds)} seeds is more than {MAX_VARIANTS}")
         seeds = [_int(where, "each seed", s) for s in seeds]
-        dup = sorted({s for s in seeds if seeds.count(s) > 1})
+        dup = sorted(s for s, n in Counter(seeds).items() if n > 1)
         if dup:
             raise InvalidInputError(f"{where}: seed {dup[0]} is listed twice (two variants would "
                                     "write the same folder)")
@@ -228,6 +235,8 @@ def parse_spec(document, root: str | Path = ".", *, threads: int | None = None,
     if not isinstance(entries, list) or not entries:
         raise InvalidInputError("spec: 'exemplars' must be a non-empty list of "
                                 "{name, path, seeds | count} entries")
+    if len(entries) > MAX_EXEMPLARS:
+        raise InvalidInputError(f"spec: {len(entries)} exemplars is more than {MAX_EXEMPLARS}")
     shared = {key: value for key, value in document.items() if key in OPTION_KEYS}
     _options("spec", shared, threads)  # top-level options are checked once, on their own
     jobs: list[ExemplarJob] = []
@@ -263,6 +272,24 @@ def parse_spec(document, root: str | Path = ".", *, threads: int | None = None,
     return BatchSpec(exemplars=tuple(jobs), root=root)
 
 
+def _load_document(text: str, name: str):
+    """The spec's document: JSON when it is JSON (no aliases, parsed at C speed), else YAML
+    (libyaml's safe loader when PyYAML has it), its aliases counted before anything is built:
+    a few hundred bytes of nested aliases (a "billion laughs") expand to billions of entries."""
+    import yaml
+
+    try:
+        return json.loads(text)
+    except ValueError:
+        pass
+    loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+    aliases = sum(isinstance(e, yaml.AliasEvent) for e in yaml.parse(text, Loader=loader))
+    if aliases > MAX_SPEC_ALIASES:
+        raise InvalidInputError(f"spec {name!r} uses {aliases} YAML aliases (*name); at most "
+                                f"{MAX_SPEC_ALIASES}")
+    return yaml.load(text, Loader=loader)  # noqa: S506 - a safe loader
+
+
 def load_spec(path: str | Path, *, threads: int | None = None, library=None) -> BatchSpec:
     """Read and validate a spec file (YAML or JSON); see :func:`parse_spec`."""
     import yaml
@@ -271,8 +298,11 @@ def load_spec(path: str | Path, *, threads: int | None = None, library=None) -> 
     if not path.is_file():
         raise InvalidInputError(f"spec {str(path)!r} not found")
     try:
+        if path.stat().st_size > MAX_SPEC_BYTES:
+            raise InvalidInputError(f"spec {str(path)!r} is over {MAX_SPEC_BYTES // 2**20} MiB; "
+                                    "a spec lists photos and seeds, it is never that long")
         text = path.read_text(encoding="utf-8")
-        document = yaml.safe_load(text)
+        document = _load_document(text, str(path))
     except UnicodeDecodeError:
         raise InvalidInputError(f"spec {str(path)!r} is not a text file") from None
     except yaml.YAMLError as exc:

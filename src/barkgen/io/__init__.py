@@ -5,6 +5,7 @@ from barkgen.io.bilayer import encode_bilayer_model, read_bilayer_model, write_b
 from barkgen.io.folders import remove_staging, write_folder_atomic
 from barkgen.io.images import (
     AlphaDroppedWarning,
+    ImageContentWarning,
     decode_image,
     encode_concurrently,
     encode_png,
@@ -30,6 +31,7 @@ from barkgen.io.references import encode_reference, read_reference, write_refere
 
 __all__ = [
     "AlphaDroppedWarning",
+    "ImageContentWarning",
     "encode_bilayer_model",
     "read_bilayer_model",
     "write_bilayer_model",

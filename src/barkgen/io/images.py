@@ -29,6 +29,15 @@ class AlphaDroppedWarning(UserWarning):
     """An input image had an alpha channel, which barkgen ignores (a ``UserWarning``)."""
 
 
+class ImageContentWarning(UserWarning):
+    """An input image was read with a loss its user should know of: an animation's later frames,
+    floating-point values outside 0-1 (a ``UserWarning``)."""
+
+
+#: the EXIF tag of the camera's orientation (1 = as stored)
+_EXIF_ORIENTATION = 0x0112
+
+
 def _check_file(path: Path) -> bytes:
     if not path.exists():
         raise ImageReadError(f"{path}: no such file")
@@ -66,7 +75,11 @@ def read_image_bytes(path: str | os.PathLike) -> bytes:
 def _normalise(arr: np.ndarray, path, has_alpha: bool) -> np.ndarray:
     """Bring a decoded array to (H, W, 1|3) uint8/uint16, dropping alpha."""
     if arr.dtype.kind == "f":
-        arr = np.round(np.clip(arr, 0.0, 1.0) * 65535.0).astype(np.uint16)
+        finite = np.isfinite(arr)
+        if not finite.all() or (arr[finite].size and (arr[finite].min() < 0 or arr[finite].max() > 1)):
+            warnings.warn(f"{path}: floating-point pixels outside 0-1 (or not finite) were clipped "
+                          "to 0-1", ImageContentWarning, stacklevel=3)
+        arr = np.round(np.clip(np.nan_to_num(arr), 0.0, 1.0) * 65535.0).astype(np.uint16)
     elif arr.dtype == np.bool_:
         arr = arr.astype(np.uint8) * 255
     elif arr.dtype not in (np.uint8, np.uint16):
@@ -134,7 +147,7 @@ def _image_size(data: bytes, name) -> tuple[int, int]:
         if len(shape) == 3 and shape[0] in (1, 3, 4) and shape[2] not in (1, 2, 3, 4):
             return int(shape[2]), int(shape[1])
         return int(shape[1]), int(shape[0])
-    from PIL import Image, UnidentifiedImageError
+    from PIL import Image, ImageOps, UnidentifiedImageError
 
     try:
         with warnings.catch_warnings():
@@ -195,11 +208,17 @@ def decode_image(data: bytes, name: str | os.PathLike = "image", *,
             arr = np.moveaxis(arr, 0, -1)  # planar TIFF
         return _normalise(arr, path, has_alpha=False)
 
-    from PIL import Image, UnidentifiedImageError
+    from PIL import Image, ImageOps, UnidentifiedImageError
 
     try:
-        with Image.open(io.BytesIO(data)) as im:
-            im.load()  # decodes fully: raises on truncated data
+        with Image.open(io.BytesIO(data)) as opened:
+            opened.load()  # decodes fully: raises on truncated data
+            frames = getattr(opened, "n_frames", 1)
+            if frames > 1:
+                warnings.warn(f"{path}: an animation of {frames} frames; its first frame is used",
+                              ImageContentWarning, stacklevel=2)
+            # a phone photo stands as its camera's orientation tag says, not as its sensor read it
+            im = ImageOps.exif_transpose(opened) if opened.getexif().get(_EXIF_ORIENTATION, 1) != 1 else opened
             mode = im.mode
             has_alpha = mode in ("RGBA", "LA", "PA") or (
                 mode == "P" and "transparency" in im.info
@@ -464,13 +483,16 @@ def write_files_atomic(folder: str | os.PathLike, files: dict[str, bytes]) -> li
     staged: list[tuple[str, Path]] = []
     try:
         for name, data in files.items():
-            fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{name}.{os.getpid()}.", suffix=".tmp")
-            staged.append((tmp, folder / name))
-            with os.fdopen(fd, "wb") as fh:
-                fh.write(data)
-                fh.flush()
-                os.fsync(fh.fileno())
-            os.chmod(tmp, 0o666 & ~_umask())
+            try:
+                fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{name}.{os.getpid()}.", suffix=".tmp")
+                staged.append((tmp, folder / name))
+                with os.fdopen(fd, "wb") as fh:
+                    fh.write(data)
+                    fh.flush()
+                    os.fsync(fh.fileno())
+                os.chmod(tmp, 0o666 & ~_umask())
+            except OSError as exc:  # name the file the user asked for, not our temporary
+                raise OSError(exc.errno, exc.strerror, str(folder / name)) from None
         for tmp, target in staged:
             os.replace(tmp, target)
     except BaseException:
