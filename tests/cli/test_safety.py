@@ -176,3 +176,34 @@ def test_an_unwritable_output_folder_is_refused_before_any_work(tmp_path, monkey
     with pytest.raises(InvalidInputError, match="cannot write into"):
         guard_paths({"output": target / "x.png"})
     guard_paths({"output": tmp_path / "x.png"})()  # a writable folder: fine (and forgotten)
+
+
+def test_records_of_a_non_utf8_path_are_valid_json(tmp_path, photo):
+    import json
+
+    folder = Path(os.fsdecode(bytes(tmp_path) + b"/caf\xe9"))  # Latin-1 bytes in the name
+    folder.mkdir()
+    src = folder / "p.png"
+    src.write_bytes(photo.read_bytes())
+    out = tmp_path / "out"
+    assert run("generate", str(src), "-o", str(out), "--size", "32x32", "--material", "-q").returncode == 0
+    for record in ("report.json", "bark.json"):
+        text = (out / record).read_bytes().decode("utf-8")  # strict UTF-8
+        data = json.loads(text)
+        assert "\\ud" not in text and all(not 0xD800 <= ord(c) <= 0xDFFF for c in json.dumps(data, ensure_ascii=False))
+
+
+def test_generate_takes_the_colour_label_maps_tbn_takes(tmp_path, photo):
+    h, w = read_image(photo).shape[:2]
+    colours = np.zeros((h, w, 3), np.uint8)
+    colours[: h // 2] = (200, 30, 30)
+    colours[h // 2:] = (20, 90, 200)
+    write_png(tmp_path / "labels.png", colours)
+    out = tmp_path / "out"
+    r = run("generate", str(photo), "--labels", str(tmp_path / "labels.png"), "-o", str(out),
+            "--size", "32x32", "-q")
+    assert r.returncode == 0, r.stderr
+    labels_in = read_image(out / "labels_in.png")[..., 0]
+    # two labels, the darker colour first (the red: luma 66 against the blue's 83)
+    assert sorted(np.unique(labels_in)) == [0, 255]
+    assert labels_in[0, 0] == 0 and labels_in[-1, 0] == 255

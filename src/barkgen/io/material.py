@@ -47,6 +47,13 @@ def check_material_name(name: str) -> str:
     return name
 
 
+def utf8_text(text: str) -> str:
+    """``text`` as valid UTF-8 for a JSON record: a path's undecodable bytes (which Python keeps
+    as lone surrogates) become U+FFFD, so ``report.json`` and ``NAME.json`` stay valid JSON for
+    every reader."""
+    return text.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
+
+
 def encode_material(material, name: str, **metadata) -> dict[str, bytes]:
     """Every file of a :class:`~barkgen.material.MaterialSet`, encoded before any is written.
 
@@ -72,6 +79,7 @@ def encode_material(material, name: str, **metadata) -> dict[str, bytes]:
         A bad name.
     """
     check_material_name(name)
+    metadata = {k: utf8_text(v) if isinstance(v, str) else v for k, v in metadata.items()}
     files = encode_concurrently({fname: partial(encode_png, pixels)
                                  for fname, pixels in material.images(name).items()})
     meta = material.metadata(name=name, **metadata)

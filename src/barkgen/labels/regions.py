@@ -59,6 +59,26 @@ def to_codes(label_map: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return codes.reshape(arr.shape).astype(np.int32), values
 
 
+def grey_label_map(label_map: np.ndarray) -> np.ndarray:
+    """A label map with one grey value per label, as every stage takes it: a grey map as it
+    is, a colour one (one RGB colour per label, as ``tbn --labels`` accepts) renumbered from
+    its darkest colour to its lightest (Rec. 709 luma) onto evenly spaced grey values."""
+    arr = np.asarray(label_map)
+    if arr.ndim == 3 and arr.shape[2] in (2, 4):
+        arr = arr[:, :, :-1]
+    if arr.ndim != 3 or arr.shape[2] != 3 or (
+            (arr[..., 0] == arr[..., 1]).all() and (arr[..., 0] == arr[..., 2]).all()):
+        return arr
+    values, codes = np.unique(arr.reshape(-1, 3), axis=0, return_inverse=True)
+    if len(values) > MAX_K:
+        raise InvalidInputError(f"the colour label map has {len(values)} distinct colours; at "
+                                f"most {MAX_K} labels (label maps must be lossless: PNG, not JPEG)")
+    order = np.argsort(values.astype(np.float64) @ np.array([0.2126, 0.7152, 0.0722]), kind="stable")
+    rank = np.empty(len(values), np.int64)
+    rank[order] = np.arange(len(values))
+    return to_label_image(rank[codes.reshape(arr.shape[:2])], len(values))
+
+
 def nl_means(rgb: np.ndarray, strength: float = 10.0) -> np.ndarray:
     """Non-local means denoising (laitoch2018 §3.5.2; OpenCV's ``fastNlMeansDenoisingColored``,
     7 px template, 21 px search window) of float RGB in [0, 1]; returns float RGB."""

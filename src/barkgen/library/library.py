@@ -307,6 +307,7 @@ class Library:
         ImageReadError
             Bytes that are not a readable image.
         """
+        from barkgen._shared.checks import MIN_SIDE
         from barkgen.io import decode_image
 
         name = (name or "").strip()
@@ -317,6 +318,9 @@ class Library:
             if value is not None and len(value) > 500:
                 raise InvalidInputError(f"the {what} must be at most 500 characters")
         image = decode_image(data, name, max_pixels=max_pixels)
+        if min(image.shape[:2]) < MIN_SIDE:  # a 1x1 upload is no bark (it failed later)
+            raise InvalidInputError(f"{name}: {image.shape[1]}x{image.shape[0]} px; a bark photo "
+                                    f"needs at least {MIN_SIDE} px on each side")
         with self._transaction() as conn:
             exemplar_id = self._insert_exemplar(conn, data, name, species=species, bark_type=bark_type,
                                                 licence=licence, source=source, shape=image.shape)

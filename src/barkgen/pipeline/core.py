@@ -299,8 +299,9 @@ def analyze_photo(
         The options of the runs it will serve (their seeds aside).
     extra : dict of str to ndarray, optional
         Maps aligned with the photo, synthesized along.
-    labels_in : ndarray, shape (h, w), optional
-        The photo's label map, when the user has one.
+    labels_in : ndarray, shape (h, w) or (h, w, 3), optional
+        The photo's label map, when the user has one: one grey value per label, or one colour
+        per label (renumbered to grey, darkest first).
     progress : callable, optional
         ``progress(done, total)`` callback.
 
@@ -328,6 +329,7 @@ def analyze_photo(
     (64, 64, 3)
     """
     from barkgen.labels import color_regions, texton_regions
+    from barkgen.labels.regions import grey_label_map
     from barkgen.shapes import analyse_label_map
     from barkgen.synth import AnalysisCache, analyse_texture_by_numbers
     from barkgen.synth.tbn import TBN_CONFIG
@@ -346,7 +348,7 @@ def analyze_photo(
         if labels_in is None:
             regions = color_regions if options.method == "color" else texton_regions
             labels_in = regions(photo, options.k, seed=ANALYSIS_SEED)
-        labels_in = np.asarray(labels_in)
+        labels_in = grey_label_map(labels_in)  # a colour map: one grey value per colour
         if labels_in.shape[:2] != np.asarray(photo).shape[:2]:
             raise InvalidInputError(
                 f"the label map is {labels_in.shape[1]}x{labels_in.shape[0]} px but the photo is "

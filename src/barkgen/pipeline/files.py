@@ -11,7 +11,7 @@ import numpy as np
 from barkgen._version import __version__
 from barkgen.errors import InvalidInputError
 from barkgen.io.images import encode_concurrently, encode_png
-from barkgen.io.material import check_material_name, encode_material
+from barkgen.io.material import check_material_name, encode_material, utf8_text
 from barkgen.io.references import encode_reference
 from barkgen.pipeline.core import preview_sheet
 
@@ -71,6 +71,7 @@ def encode_generate(photo: np.ndarray, result, source: str, *, name: str = "bark
     InvalidInputError
         A material name whose files clash with the run's own.
     """
+    source = utf8_text(source)
     report = {"barkgen": __version__, "photo": source, **result.report}
     jobs = {"texture.png": partial(encode_png, result.texture, bits=bits),
             "labels_in.png": partial(encode_png, result.labels_in),

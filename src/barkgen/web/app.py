@@ -74,7 +74,9 @@ def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: b
         yield
         state.jobs.stop()
 
-    app = FastAPI(title="barkgen", lifespan=lifespan,
+    # no /docs or /redoc: FastAPI's pages load their scripts from a CDN, and the app works
+    # offline and loads nothing from elsewhere; the schema itself stays at /openapi.json
+    app = FastAPI(title="barkgen", lifespan=lifespan, docs_url=None, redoc_url=None,
                   description="Bark textures from one photo: library, jobs, results.")
     app.state.barkgen = state
     app.state.library = library
