@@ -101,7 +101,8 @@ def local_cluster(workers: int | None = None, threads: int | None = None):
 
     workers = workers or os.cpu_count() or 1
     threads = threads or max(1, (os.cpu_count() or 1) // workers)
-    environ = {"NUMBA_NUM_THREADS": threads, "OMP_NUM_THREADS": threads}
+    environ = {"NUMBA_NUM_THREADS": threads, "OMP_NUM_THREADS": threads,
+               "BARKGEN_LOCAL_WORKER": 1}  # its Ctrl-C is ours (barkgen.batch.preload)
     # set in each worker process as it starts, before barkgen (and numba) is imported there;
     # not "pre-spawn-environ", which writes them into this process's own environment for good
     # (a later numba compile here then fails: its pool was launched with another size)
