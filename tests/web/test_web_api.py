@@ -123,6 +123,16 @@ def test_hosts_and_cross_site_requests_are_refused(library):
         assert r.status_code == 403
         r = client.delete("/api/exemplars/1", headers={"origin": "http://localhost:9999"})
         assert r.status_code == 403 and client.get("/api/exemplars/1").status_code == 200
+        # GETs start work too (a label map of a large photo): another site's <img> or fetch
+        # of the API is refused, by its Sec-Fetch-Site (an <img> sends no Origin) or its Origin
+        for headers in ({"sec-fetch-site": "cross-site"}, {"sec-fetch-site": "same-site"},
+                        {"origin": "http://evil.example"}):
+            r = client.get("/api/exemplars/1/labels.png", headers=headers)
+            assert r.status_code == 403, headers
+        for headers in ({"sec-fetch-site": "same-origin"}, {"sec-fetch-site": "none"}, {}):
+            assert client.get("/api/exemplars", headers=headers).status_code == 200, headers
+        # a link from elsewhere to a page still opens it
+        assert client.get("/", headers={"sec-fetch-site": "cross-site"}).status_code == 200
         # the app's own pages may
         r = client.post("/api/exemplars", files={"file": ("a.png", _photo_png())},
                         headers={"origin": "http://127.0.0.1:8000"})

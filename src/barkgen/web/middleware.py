@@ -41,8 +41,11 @@ class BodyLimit:
 
 class SameOrigin:
     """ASGI middleware against cross-site requests and DNS rebinding: the ``Host`` header must
-    be one of ``hosts`` (when given), and a request that changes anything (not GET/HEAD) from
-    a browser must come from the app's own origin."""
+    be one of ``hosts`` (when given), a request with an ``Origin`` must come from the app's own
+    (any method: a GET can start heavy work too, a label map of a large photo), and a GET of
+    ``/api/`` that the browser says comes from another site or port (``Sec-Fetch-Site``, sent
+    for an ``<img>`` too, which sends no Origin) is refused. The pages themselves may be linked
+    from anywhere."""
 
     def __init__(self, app, hosts: list[str] | None) -> None:
         self.app, self.hosts = app, hosts
@@ -56,8 +59,13 @@ class SameOrigin:
         if self.hosts is not None and name.strip("[]") not in self.hosts:
             return await JSONResponse({"detail": f"unknown host {host!r}"}, status_code=400)(scope, receive, send)
         origin = headers.get(b"origin")
-        if scope["method"] not in ("GET", "HEAD") and origin is not None:
-            if origin.decode("latin-1").split("://", 1)[-1] != host:
-                return await JSONResponse({"detail": "cross-site requests are not allowed"},
-                                          status_code=403)(scope, receive, send)
+        foreign = origin is not None and origin.decode("latin-1").split("://", 1)[-1] != host
+        # a GET of the API from another page (an <img> or fetch of another site, or of another
+        # port of this machine) sends no Origin for images, but browsers say where it comes
+        # from: only the app's own pages and typed addresses may start the API's work
+        fetched_from = headers.get(b"sec-fetch-site", b"").decode("latin-1")
+        from_elsewhere = fetched_from in ("cross-site", "same-site") and scope["path"].startswith("/api/")
+        if foreign or from_elsewhere:
+            return await JSONResponse({"detail": "cross-site requests are not allowed"},
+                                      status_code=403)(scope, receive, send)
         return await self.app(scope, receive, send)
