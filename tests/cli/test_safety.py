@@ -207,3 +207,20 @@ def test_generate_takes_the_colour_label_maps_tbn_takes(tmp_path, photo):
     # two labels, the darker colour first (the red: luma 66 against the blue's 83)
     assert sorted(np.unique(labels_in)) == [0, 255]
     assert labels_in[0, 0] == 0 and labels_in[-1, 0] == 255
+
+
+def test_an_image_declaring_huge_pixels_is_refused_from_its_header(tmp_path, photo):
+    from PIL import Image
+
+    big = tmp_path / "big.png"
+    Image.new("L", (11000, 11000)).save(big, optimize=True)  # 121 megapixels in ~120 KB
+    assert big.stat().st_size < 300_000
+    for command in (["labels", str(big), "-o", str(tmp_path / "l.png")],
+                    ["synth", str(big), "-o", str(tmp_path / "s.png"), "--size", "64x64"],
+                    ["material", str(big), "-o", str(tmp_path / "m")]):
+        t = time.perf_counter()
+        _one_line(run(*command), "121 megapixels", "--max-pixels")
+        assert time.perf_counter() - t < 10  # it ran 11 minutes
+    # the limit is the user's to set
+    _one_line(run("--max-pixels", "100", "labels", str(photo), "-o", str(tmp_path / "l.png")),
+              "more than the limit of 0.0001")

@@ -16,6 +16,10 @@ from barkgen.errors import InvalidInputError
 MAX_K = 16
 #: smallest photo side accepted
 MIN_SIDE = 16
+#: the largest photo barkgen analyses (generate, the web app's uploads, every CLI input): the
+#: analysis grows with the photo's pixels (5.3 s for 1 megapixel, 2026-12-02; its estimated
+#: memory 10 GiB at 50), so a larger photo is refused before any work
+MAX_PHOTO_PIXELS = 50_000_000
 
 
 def check_image(image: np.ndarray, *, min_side: int = MIN_SIDE, what: str = "photo",

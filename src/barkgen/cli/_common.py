@@ -147,6 +147,26 @@ OUTPUT_FILE_ARGS = ("output", "save_reference", "preview", "labels_out", "plot")
 OUTPUT_FOLDER_ARGS = ("output_dir", "save_levels", "debug_dir")
 #: the files the running command reads (set by :func:`guard_paths`, checked by :func:`write_files`)
 _INPUTS: ContextVar[tuple[Path, ...]] = ContextVar("barkgen_cli_inputs", default=())
+#: the largest input image a command reads, in pixels (``barkgen --max-pixels``)
+MAX_INPUT_PIXELS: ContextVar[int | None] = ContextVar("barkgen_cli_max_pixels", default=None)
+#: the file types whose size in pixels is checked before they are read
+_IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".webp", ".gif", ".bmp")
+
+
+def _check_pixels(path: Path) -> None:
+    """An input image's declared size against the limit, from its header: a 117 KB PNG that
+    declares 121 megapixels is refused in milliseconds, not after minutes of work."""
+    from barkgen._shared.checks import MAX_PHOTO_PIXELS
+    from barkgen.errors import ImageTooLargeError
+    from barkgen.io import image_size
+
+    limit = MAX_INPUT_PIXELS.get() or MAX_PHOTO_PIXELS
+    width, height = image_size(path)
+    if width * height > limit:
+        raise ImageTooLargeError(
+            f"{path}: {width}x{height} px is {width * height / 1e6:.3g} megapixels, more than the "
+            f"limit of {limit / 1e6:g}; scale it down (or raise the limit: barkgen --max-pixels N "
+            "COMMAND ...)")
 
 
 def _named_paths(kwargs: Mapping[str, object]) -> Iterator[tuple[str, Path]]:
@@ -204,6 +224,8 @@ def guard_paths(kwargs: Mapping[str, object]) -> Callable[[], None]:
             continue
         if path.is_file():
             inputs.append(path)
+            if path.suffix.lower() in _IMAGE_SUFFIXES:
+                _check_pixels(path)
         elif path.is_dir():
             inputs.extend(_set_files(path))
     token = _INPUTS.set(tuple(inputs))

@@ -14,7 +14,7 @@ import functools
 import sys
 import warnings
 from collections.abc import Callable
-from typing import Annotated, TypeVar
+from typing import Annotated, Optional, TypeVar
 
 import typer
 
@@ -28,7 +28,7 @@ import barkgen.cli.serve as serve
 import barkgen.cli.shapes as shapes
 import barkgen.cli.synth as synth
 import barkgen.cli.warmup as warmup
-from barkgen.cli._common import fail, guard_paths
+from barkgen.cli._common import MAX_INPUT_PIXELS, fail, guard_paths
 from barkgen.errors import BarkgenError
 
 F = TypeVar("F", bound=Callable[..., None])
@@ -89,7 +89,11 @@ def user_errors(func: F) -> F:
 @app.callback(invoke_without_command=True)
 def _root(
     version: Annotated[bool, typer.Option("--version", help="Print the version and exit.")] = False,
+    max_pixels: Annotated[Optional[int], typer.Option(
+        "--max-pixels", min=1, help="Largest input image any command reads, in pixels (default "
+        "50000000; generate analyses at most that many whatever this says).")] = None,
 ) -> None:
+    MAX_INPUT_PIXELS.set(max_pixels)
     if version:
         from barkgen._version import __version__
 

@@ -162,6 +162,19 @@ def _image_size(data: bytes, name) -> tuple[int, int]:
         raise ImageReadError(f"{name}: truncated or corrupt image ({exc})") from None
 
 
+def image_size(path: str | os.PathLike) -> tuple[int, int]:
+    """``(width, height)`` of an image file from its header, without decoding its pixels (a
+    small file may declare a huge image).
+
+    Raises
+    ------
+    ImageReadError
+        A missing, empty or unreadable file, or not an image.
+    """
+    path = Path(path)
+    return _image_size(_check_file(path), path)
+
+
 def decode_image(data: bytes, name: str | os.PathLike = "image", *,
                  max_pixels: int | None = None) -> np.ndarray:
     """Decode the bytes of an image file (what :func:`read_image` reads).

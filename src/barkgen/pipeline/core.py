@@ -26,7 +26,7 @@ import numpy as np
 from barkgen.errors import InvalidInputError
 from barkgen.synth.edges import resolve_exemplar_wrap
 from barkgen._shared.arrays import ProgressCallback
-from barkgen._shared.checks import parse_output_shape
+from barkgen._shared.checks import MAX_PHOTO_PIXELS, parse_output_shape
 from barkgen._shared.memory import check_budget_value, check_memory_budget
 from barkgen._shared.threads import in_budget, thread_budget
 from barkgen.pipeline.progress import ANALYSIS_SHARES, share_spans, stage_progress
@@ -170,10 +170,6 @@ class GenerateResult:
 MATERIAL_BYTES_PER_PIXEL = 48
 
 
-#: the largest photo :func:`generate` analyses (the web app's upload limit too): the analysis
-#: grows with the photo's pixels (5.3 s for 1 megapixel, 2026-12-02; its estimated memory 10 GiB
-#: at 50), so a larger photo is refused before any work
-MAX_PHOTO_PIXELS = 50_000_000
 
 
 def check_generate_memory(photo: np.ndarray, options: GenerateOptions,
@@ -181,12 +177,12 @@ def check_generate_memory(photo: np.ndarray, options: GenerateOptions,
     """The estimated peak memory of :func:`generate` (bytes), checked against
     ``options.max_memory`` before any work: texture-by-numbers' solver, the largest of the run,
     and the material set (each stage frees what it made before the next starts). A photo of
-    more than :data:`MAX_PHOTO_PIXELS` is refused whatever the budget.
+    more than :data:`~barkgen._shared.checks.MAX_PHOTO_PIXELS` is refused whatever the budget.
 
     Raises
     ------
     ImageTooLargeError
-        The photo has more than :data:`MAX_PHOTO_PIXELS`.
+        The photo has more than :data:`~barkgen._shared.checks.MAX_PHOTO_PIXELS`.
     MemoryBudgetError
         The run would not fit the budget.
     """

@@ -19,6 +19,7 @@ from fastapi.responses import Response
 from barkgen.library import Library
 from barkgen.pipeline import ANALYSIS_SEED
 from barkgen.web.jobs import JobManager
+from barkgen._shared.checks import MAX_PHOTO_PIXELS
 
 STATIC = Path(__file__).parent / "static"
 #: label maps of the photos are made the way `barkgen generate` makes them
@@ -34,7 +35,7 @@ class WebLimits:
     4096 px a side)."""
 
     max_upload_bytes: int = 25 * 1024**2
-    max_upload_pixels: int = 50_000_000
+    max_upload_pixels: int = MAX_PHOTO_PIXELS  # the largest photo a run analyses
     max_output_side: int = 4096
 
     @property
