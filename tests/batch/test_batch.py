@@ -341,3 +341,13 @@ def test_hostile_specs_are_refused_in_bounded_time(tmp_path):
         with pytest.raises(InvalidInputError, match=message):
             load_spec(spec)
         assert time.perf_counter() - t < 5
+
+
+def test_a_damaged_manifest_is_one_line(tmp_path):
+    from barkgen.batch.manifest import Manifest
+    from barkgen.errors import InvalidInputError
+
+    damaged = tmp_path / "manifest.sqlite"
+    damaged.write_bytes(np.random.default_rng(0).bytes(5000))
+    with pytest.raises(InvalidInputError, match="not a readable batch manifest"):
+        Manifest(damaged)

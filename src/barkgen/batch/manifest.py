@@ -38,15 +38,20 @@ class Manifest:
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._db = sqlite3.connect(self.path, timeout=30, isolation_level=None)
-        self._db.execute("PRAGMA journal_mode=WAL")
-        version = self._db.execute("PRAGMA user_version").fetchone()[0]
-        if version > SCHEMA_VERSION:
-            from barkgen.errors import InvalidInputError
+        from barkgen.errors import InvalidInputError
 
-            raise InvalidInputError(f"{self.path} was written by a newer barkgen (schema {version})")
-        self._db.execute(_SCHEMA)
-        self._db.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
+        try:
+            self._db = sqlite3.connect(self.path, timeout=30, isolation_level=None)
+            self._db.execute("PRAGMA journal_mode=WAL")
+            version = self._db.execute("PRAGMA user_version").fetchone()[0]
+            if version > SCHEMA_VERSION:
+                raise InvalidInputError(f"{self.path} was written by a newer barkgen (schema {version})")
+            self._db.execute(_SCHEMA)
+            self._db.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
+        except sqlite3.DatabaseError as exc:  # a damaged file, or another program's
+            raise InvalidInputError(
+                f"{self.path}: not a readable batch manifest ({exc}); move it away to start the "
+                "batch afresh (the variants already in the folder are made again)") from None
 
     def close(self) -> None:
         self._db.close()
