@@ -337,6 +337,14 @@ def test_route_functions_answer_without_a_server(library):
     added = store_upload(state, _photo_png(seed=11), "../../tmp/oak.png", species="oak")
     assert added["existing"] is False
     assert store_upload(state, _photo_png(seed=11), "again.png") == {"id": added["id"], "existing": True}
+    # ten uploads of one new photo at once: one adds it, nine are told it was there
+    from concurrent.futures import ThreadPoolExecutor
+
+    photo = _photo_png(seed=12)
+    with ThreadPoolExecutor(10) as pool:
+        answers = list(pool.map(lambda i: store_upload(state, photo, f"same{i}.png"), range(10)))
+    assert sorted(a["existing"] for a in answers) == [False] + [True] * 9
+    assert len({a["id"] for a in answers}) == 1
     with pytest.raises(ImageTooLargeError, match="1 MB"):
         store_upload(state, bytes(1024**2 + 1), "big.png")
     details = exemplar_details(state, added["id"])

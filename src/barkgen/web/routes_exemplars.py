@@ -45,11 +45,13 @@ def store_upload(state: AppState, data: bytes, filename: str | None, *, name: st
     if len(data) > limits.max_upload_bytes:
         raise ImageTooLargeError(limits.upload_too_large)
     display = (name or Path(filename or "").stem or "uploaded bark").strip()[:200]
-    existing = state.library.find_exemplar(data)
-    if existing is not None:
-        return {"id": existing.id, "existing": True}
-    exemplar = state.library.add_exemplar(data, display, species=species or None, licence=licence or None,
-                                          source="uploaded", max_pixels=limits.max_upload_pixels)
+    with state.upload_lock:
+        existing = state.library.find_exemplar(data)
+        if existing is not None:
+            return {"id": existing.id, "existing": True}
+        exemplar = state.library.add_exemplar(data, display, species=species or None,
+                                              licence=licence or None, source="uploaded",
+                                              max_pixels=limits.max_upload_pixels)
     return {"id": exemplar.id, "existing": False}
 
 
