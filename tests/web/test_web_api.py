@@ -279,6 +279,40 @@ def test_events_cancel_and_restart_keeps_results(library):
             assert "reference.png" in archive.read("README.txt").decode()
 
 
+def test_label_maps_are_made_by_jobs_in_the_worker_never_in_a_request(library):
+    """A photo's label map is a label job (queued ahead of generate jobs, shared, cancellable);
+    a GET only reads it (it was computed inside the GET, in the server process)."""
+    with TestClient(create_app(library, run_jobs=False)) as client:
+        r = client.get("/api/exemplars/1/labels.png?k=3")
+        assert r.status_code == 404 and "not made yet" in r.json()["detail"]
+        generate = client.post("/api/jobs", json={"exemplar_id": 1, **SMALL}).json()
+        first = client.post("/api/exemplars/1/labels?k=3").json()
+        assert first["url"] == "/api/exemplars/1/labels.png?k=3"
+        assert first["job"]["kind"] == "labels" and first["job"]["state"] == "queued"
+        # asked again (another tab, a reload): the same job, not a second one
+        assert client.post("/api/exemplars/1/labels?k=3").json()["job"]["id"] == first["job"]["id"]
+        other = client.post("/api/exemplars/1/labels?k=4").json()["job"]
+        positions = {job["id"]: job["queue_position"] for job in client.get("/api/jobs").json()}
+        assert positions[first["job"]["id"]] == 0 and positions[other["id"]] == 1
+        assert positions[generate["id"]] == 2  # label maps take seconds: they go first
+        assert client.delete(f"/api/jobs/{other['id']}").json()["state"] == "cancelled"
+        assert client.post("/api/exemplars/1/labels?k=9").status_code == 400
+        assert client.post("/api/exemplars/999/labels?k=3").status_code == 404
+        # another site cannot start one: a POST from a foreign Origin is refused
+        r = client.post("/api/exemplars/1/labels?k=5", headers={"origin": "http://evil.example"})
+        assert r.status_code == 403
+    with TestClient(create_app(Library(library.path))) as client:
+        job = client.post("/api/exemplars/1/labels?k=3").json()["job"]
+        assert _wait(client, job["id"], timeout=120)["state"] == "done"
+        assert client.post("/api/exemplars/1/labels?k=3").json()["job"] is None  # made once
+        picture = client.get("/api/exemplars/1/labels.png?k=3")
+        assert picture.status_code == 200
+        from barkgen.io import decode_image
+
+        colours = np.unique(decode_image(picture.content).reshape(-1, 3), axis=0)
+        assert len(colours) == 3
+
+
 def test_painted_labels_are_checked_then_continued(client):
     exemplar_id = client.post("/api/exemplars", files={"file": ("a.png", _photo_png(seed=5))}).json()["id"]
     job = _wait(client, client.post("/api/jobs", json={"exemplar_id": exemplar_id, **SMALL,
@@ -368,8 +402,11 @@ def test_route_functions_answer_without_a_server(library):
         job_snapshot(state, "nope")
 
 
-def test_ctrl_c_stops_the_server_with_a_job_and_its_event_stream_open(tmp_path):
-    """`barkgen serve` stops at once on Ctrl-C even while a page follows a running job."""
+@pytest.mark.parametrize("kind", ["generate", "labels"])
+def test_ctrl_c_stops_the_server_with_a_job_and_its_event_stream_open(tmp_path, kind):
+    """`barkgen serve` stops at once on Ctrl-C even while a page follows a running job, a
+    generate job or the label map of a large photo (that one ran inside the server and held
+    a Ctrl-C for minutes)."""
     import signal
     import socket
     import subprocess
@@ -390,7 +427,12 @@ def test_ctrl_c_stops_the_server_with_a_job_and_its_event_stream_open(tmp_path):
         while "running at" not in log.read_text():
             assert process.poll() is None and time.monotonic() < deadline, log.read_text()
             time.sleep(0.1)
-        job = httpx.post(f"{base}/api/jobs", json={"exemplar_id": 1, "size": "2048x2048", "seed": 1}).json()
+        if kind == "generate":
+            job = httpx.post(f"{base}/api/jobs", json={"exemplar_id": 1, "size": "2048x2048", "seed": 1}).json()
+        else:  # a 6 MP photo: its label map takes seconds
+            big = httpx.post(f"{base}/api/exemplars", files={"file": ("big.png", _photo_png(2400, seed=8))},
+                             timeout=60).json()["id"]
+            job = httpx.post(f"{base}/api/exemplars/{big}/labels?k=5").json()["job"]
         lines: list[str] = []
 
         def follow() -> None:

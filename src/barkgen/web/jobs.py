@@ -1,5 +1,8 @@
 """The web app's job queue: generate requests run one at a time (both cores go to the solver),
 in order, in a worker process (:mod:`.worker`); each finished job becomes a library result.
+A photo's label map (the page shows it before any result exists) is a job too, of kind
+``labels``: it goes ahead of the waiting generate jobs and its PNG goes into the library's
+analyses. No request computes anything heavy itself.
 
 A job is ``queued`` (with its position), ``running`` (with its progress), then ``done`` (with
 its result id), ``failed`` (with a one-line error) or ``cancelled``. Jobs live in the server's
@@ -20,8 +23,9 @@ from dataclasses import dataclass, field
 
 from barkgen.errors import BarkgenError
 from barkgen.library import Library, NotFoundError
-from barkgen.web.worker import JobSpec, worker_main
+from barkgen.web.worker import JobSpec, LabelSpec, worker_main
 
+KINDS = ("generate", "labels")
 STATES = ("queued", "running", "done", "failed", "cancelled")
 FINISHED = ("done", "failed", "cancelled")
 #: finished jobs kept in memory (their results stay in the library)
@@ -44,6 +48,7 @@ class Job:
     spec: dict | None  # the JobSpec fields but the photo and job id (read when the job starts)
     parent_id: int | None = None
     labels_key: dict | None = None  # cache the result's labels_in.png under this analysis key
+    kind: str = "generate"  # or "labels": the photo's label map of params["k"] labels
     state: str = "queued"
     progress: float = 0.0
     stage: str | None = None  # what the running job is doing (barkgen.pipeline.stage_at)
@@ -110,6 +115,28 @@ class JobManager:
             self._lock.notify_all()
         return job
 
+    def submit_labels(self, exemplar_id: int, k: int, labels_key: dict) -> Job:
+        """Queue the making of a photo's label map of ``k`` labels, ahead of the waiting
+        generate jobs (it takes seconds); the PNG is stored as the library analysis
+        ``labels_in`` under ``labels_key``. A label job of the same photo and ``k`` that is
+        queued or running is returned instead of a second one."""
+        with self._lock:
+            for job in self._jobs.values():
+                if (job.kind == "labels" and job.exemplar_id == exemplar_id
+                        and job.params["k"] == k and job.state not in FINISHED):
+                    return job
+            if len(self._queue) >= MAX_QUEUED:
+                raise QueueFullError(f"the queue is full ({MAX_QUEUED} jobs waiting); try again when "
+                                     "some are done")
+            job = Job(id=secrets.token_hex(8), exemplar_id=exemplar_id, params={"k": k}, spec={},
+                      labels_key=labels_key, kind="labels", order=next(self._counter))
+            self._jobs[job.id] = job
+            ahead = sum(1 for queued in self._queue if self._jobs[queued].kind == "labels")
+            self._queue.insert(ahead, job.id)
+            self._forget_old()
+            self._lock.notify_all()
+            return job
+
     def get(self, job_id: str) -> Job | None:
         with self._lock:
             return self._jobs.get(job_id)
@@ -152,7 +179,7 @@ class JobManager:
     # -- internals (call with the lock held) ------------------------------------------------
     def _describe(self, job: Job) -> dict:
         position = self._queue.index(job.id) + (1 if self._running() else 0) if job.state == "queued" else 0
-        return {"id": job.id, "number": job.order, "state": job.state, "progress": round(job.progress, 4),
+        return {"id": job.id, "kind": job.kind, "number": job.order, "state": job.state, "progress": round(job.progress, 4),
                 "stage": job.stage if job.state == "running" else None,
                 "queue_position": position, "result_id": job.result_id, "error": job.error,
                 "exemplar_id": job.exemplar_id, "params": job.params, "version": job.version,
@@ -189,8 +216,11 @@ class JobManager:
                 fields = job.spec
             try:
                 exemplar = self.library.exemplar(job.exemplar_id)
-                spec = JobSpec(job_id=job.id, photo=self.library.photo_bytes(exemplar.id),
-                               photo_hash=exemplar.image_hash, **fields)
+                photo = self.library.photo_bytes(exemplar.id)
+                if job.kind == "labels":
+                    spec = LabelSpec(job_id=job.id, photo=photo, k=job.params["k"])
+                else:
+                    spec = JobSpec(job_id=job.id, photo=photo, photo_hash=exemplar.image_hash, **fields)
             except (NotFoundError, OSError) as exc:
                 self._finish(job, state="failed", error=f"the photo is gone ({exc})")
                 continue
@@ -260,6 +290,15 @@ class JobManager:
                               stage=message[3] if len(message) > 3 else None)
             elif kind == "failed":
                 self._finish(job, state="failed", error=message[2])
+                return
+            elif kind == "done" and job.kind == "labels":
+                try:
+                    self.library.put_analysis(job.exemplar_id, "labels_in", job.labels_key,
+                                              message[2]["labels_in.png"])
+                except Exception as exc:  # the exemplar was removed, disk full, ...
+                    self._finish(job, state="failed", error=f"could not store the label map ({exc})")
+                    return
+                self._finish(job, state="done", progress=1.0)
                 return
             elif kind == "done":
                 files, report = message[2], message[3]

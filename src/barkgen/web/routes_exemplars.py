@@ -1,6 +1,7 @@
 """The web app's exemplars: the library's photos listed, uploaded, shown (at display and
 thumbnail size, JPEG) and removed, and each photo's input label map in the label colours (the
-regions synthesis follows, laitoch2018 §1).
+regions synthesis follows, laitoch2018 §1), made by a label job in the worker when first
+asked for (``POST .../labels``), never inside a request.
 
 Each endpoint wraps a plain function of the same module that takes the app's
 :class:`~barkgen.web.state.AppState`; they raise barkgen's errors, which :mod:`barkgen.web.app`
@@ -19,7 +20,7 @@ from fastapi.responses import JSONResponse
 from barkgen.errors import ImageTooLargeError, InvalidInputError
 from barkgen.io import decode_image, encode_png
 from barkgen.labels import label_colour_map
-from barkgen.pipeline import ANALYSIS_SEED
+from barkgen.library import NotFoundError
 from barkgen.web.routes_results import result_summary
 from barkgen.web.state import DISPLAY_SIDE, THUMBNAIL_SIDE, AppState, State, cached_response, labels_key
 
@@ -89,29 +90,35 @@ def preview_jpeg(state: AppState, exemplar_id: int, side: int) -> bytes:
     return buffer.getvalue()
 
 
-def labels_in(state: AppState, exemplar_id: int, k: int) -> bytes:
-    """The photo's input label map (grey values, as ``barkgen generate`` makes it), cached
-    in the library's analyses (made once however many pages ask at the same time)."""
-    library = state.library
-    with state.label_lock(exemplar_id, k):
-        cached = library.analysis(exemplar_id, "labels_in", labels_key(k))
-        if cached is not None:
-            return cached
-        from barkgen.labels import color_regions
+def _check_k(k: int) -> None:
+    if not 2 <= k <= 8:
+        raise InvalidInputError("k must be between 2 and 8")
 
-        data = encode_png(color_regions(library.photo(exemplar_id), k, seed=ANALYSIS_SEED))
-        library.put_analysis(exemplar_id, "labels_in", labels_key(k), data)
-        return data
+
+def request_labels(state: AppState, exemplar_id: int, k: int) -> dict:
+    """Ask for the photo's input label map of ``k`` labels (2 to 8, the page's choice): its
+    ``url`` and, while it is being made, its label ``job`` (queued in the worker, cancellable;
+    None once the map is in the library's analyses). Asking again while it is made returns
+    the same job."""
+    _check_k(k)
+    state.library.exemplar(exemplar_id)
+    url = f"/api/exemplars/{exemplar_id}/labels.png?k={k}"
+    if state.library.analysis(exemplar_id, "labels_in", labels_key(k)) is not None:
+        return {"k": k, "url": url, "job": None}
+    job = state.jobs.submit_labels(exemplar_id, k, labels_key(k))
+    return {"k": k, "url": url, "job": state.jobs.snapshot(job.id)}
 
 
 def coloured_labels(state: AppState, exemplar_id: int, k: int) -> bytes:
-    """The photo's input label map of ``k`` labels (2 to 8, the page's choice) in the label
-    colours, as a PNG."""
-    if not 2 <= k <= 8:
-        raise InvalidInputError("k must be between 2 and 8")
+    """The photo's input label map of ``k`` labels in the label colours, as a PNG, once it is
+    made (:func:`request_labels`; :class:`~barkgen.library.NotFoundError` before)."""
+    _check_k(k)
     state.library.exemplar(exemplar_id)
-    grey = decode_image(labels_in(state, exemplar_id, k), "labels")
-    return encode_png(label_colour_map(grey[..., 0]))
+    grey = state.library.analysis(exemplar_id, "labels_in", labels_key(k))
+    if grey is None:
+        raise NotFoundError(f"the label map of {k} labels is not made yet: "
+                            f"POST /api/exemplars/{exemplar_id}/labels?k={k} first")
+    return encode_png(label_colour_map(decode_image(grey, "labels")[..., 0]))
 
 
 # -- endpoints ------------------------------------------------------------------------------
@@ -149,6 +156,11 @@ def exemplar_photo(exemplar_id: int, state: State):
 @router.get("/api/exemplars/{exemplar_id}/thumbnail.jpg")
 def exemplar_thumbnail(exemplar_id: int, state: State):
     return cached_response(preview_jpeg(state, exemplar_id, THUMBNAIL_SIDE), "image/jpeg")
+
+
+@router.post("/api/exemplars/{exemplar_id}/labels")
+def exemplar_labels_request(exemplar_id: int, state: State, k: int = 3):
+    return request_labels(state, exemplar_id, k)
 
 
 @router.get("/api/exemplars/{exemplar_id}/labels.png")

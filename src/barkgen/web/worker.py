@@ -1,5 +1,6 @@
 """The process that runs the web app's jobs: :func:`barkgen.pipeline.generate` on a library
-photo, its files encoded as ``barkgen generate`` writes them.
+photo, its files encoded as ``barkgen generate`` writes them, and the photos' label maps
+(:class:`LabelSpec`: the label map a page shows before any result exists).
 
 It lives in its own process so that the server stays responsive while the solvers keep both
 cores busy, and so that cancelling a running job is immediate (the process is ended and a new
@@ -34,6 +35,37 @@ class JobSpec:
     set_name: str
     labels_in: bytes | None = None
     resume: tuple[int, np.ndarray] | None = None
+
+
+@dataclass(frozen=True)
+class LabelSpec:
+    """A label-map job: the photo's input label map of ``k`` labels, made as ``barkgen
+    generate`` makes it (picklable; made by the server)."""
+
+    job_id: str
+    photo: bytes
+    k: int
+
+
+def run_labels(spec: LabelSpec, send) -> None:
+    """Make one photo's label map, reporting ``("done", id, {"labels_in.png": PNG}, {})`` or
+    ``("failed", id, message)`` through ``send``."""
+    from barkgen.errors import BarkgenError
+    from barkgen.io import decode_image, encode_png
+    from barkgen.labels import color_regions
+    from barkgen.pipeline import ANALYSIS_SEED
+
+    send(("progress", spec.job_id, 0.0, "label map"))
+    try:
+        photo = decode_image(spec.photo, "photo")
+        data = encode_png(color_regions(photo, spec.k, seed=ANALYSIS_SEED))
+    except BarkgenError as exc:
+        send(("failed", spec.job_id, str(exc)))
+        return
+    except MemoryError:
+        send(("failed", spec.job_id, "out of memory while making the label map"))
+        return
+    send(("done", spec.job_id, {"labels_in.png": data}, {}))
 
 
 def encode_result(photo: np.ndarray, result, spec: JobSpec) -> dict[str, bytes]:
@@ -123,4 +155,7 @@ def worker_main(conn) -> None:
             return
         if spec is None:
             return
-        run_job(spec, analyses, conn.send)
+        if isinstance(spec, LabelSpec):
+            run_labels(spec, conn.send)
+        else:
+            run_job(spec, analyses, conn.send)

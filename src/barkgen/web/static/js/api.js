@@ -109,7 +109,9 @@ export const api = {
   listExemplars: () => getJSON("/api/exemplars"),
   getExemplar: (id) => getJSON(`/api/exemplars/${encodeURIComponent(id)}`),
   uploadExemplar: (formData, onProgress) => postForm("/api/exemplars", formData, onProgress),
-  labelsUrl: (id, k) => `/api/exemplars/${encodeURIComponent(id)}/labels.png?k=${encodeURIComponent(k)}`,
+  // the photo's label map: {url, job} (job: the label job making it, null once it is made)
+  requestLabels: (id, k) =>
+    postJSON(`/api/exemplars/${encodeURIComponent(id)}/labels?k=${encodeURIComponent(k)}`, {}),
   listJobs: () => getJSON("/api/jobs"),
   getJob: (id) => getJSON(`/api/jobs/${encodeURIComponent(id)}`),
   createJob: (body) => postJSON("/api/jobs", body),

@@ -9,6 +9,8 @@ const $ = (testid) => document.querySelector(`[data-testid="${testid}"]`);
 const SIZES = ["256x256", "512x512", "1024x1024", "2048x2048"];
 const K_MIN = 2;
 const K_MAX = 5;
+/** How often a label job is checked while the label map is made (ms). */
+const LABEL_POLL_MS = 300;
 
 const exemplarId = idFromPath();
 
@@ -73,7 +75,15 @@ function setupLabels() {
   const errorBox = $("labels-error");
   let shownK = null;
 
-  const load = () => {
+  const fail = (message) => {
+    loading.hidden = true;
+    showError(errorBox, message);
+    shownK = null; // allow a retry with the same k
+  };
+
+  // The label map is made by a label job in the server's worker (it takes seconds on a large
+  // photo): ask for it, follow the job, then show the picture.
+  const load = async () => {
     const k = currentK();
     if (k === null || k === shownK) return;
     shownK = k;
@@ -81,7 +91,21 @@ function setupLabels() {
     showError(errorBox, "");
     loading.hidden = false;
     img.classList.add("is-loading");
-    img.src = api.labelsUrl(exemplarId, k);
+    try {
+      const answer = await api.requestLabels(exemplarId, k);
+      let job = answer.job;
+      while (job && job.state !== "done") {
+        if (job.state === "failed" || job.state === "cancelled") {
+          throw new Error(job.error || `the label job was ${job.state}`);
+        }
+        await new Promise((resolve) => setTimeout(resolve, LABEL_POLL_MS));
+        if (shownK !== k) return; // k changed meanwhile: that load takes over
+        job = await api.getJob(job.id);
+      }
+      if (shownK === k) img.src = answer.url;
+    } catch (err) {
+      if (shownK === k) fail(`Could not compute the label map for k = ${k}: ${err.message}`);
+    }
   };
   img.addEventListener("load", () => {
     loading.hidden = true;
@@ -89,9 +113,7 @@ function setupLabels() {
   });
   img.addEventListener("error", () => {
     if (!img.getAttribute("src")) return;
-    loading.hidden = true;
-    showError(errorBox, `Could not compute the label map for k = ${shownK}.`);
-    shownK = null; // allow a retry with the same k
+    fail(`Could not load the label map for k = ${shownK}.`);
   });
 
   // Typing in a number field fires many input events: wait for a pause.

@@ -113,7 +113,8 @@ function jobItem(job) {
     "li",
     { class: "job-item", "data-testid": "job-item", dataset: { state: job.state } },
     el("a", { href: `/exemplars/${job.exemplar_id}?job=${encodeURIComponent(job.id)}` }, name),
-    el("span", { class: "job-params", text: describeParams(job.params) }),
+    el("span", { class: "job-params",
+                 text: job.kind === "labels" ? `label map · k=${job.params.k}` : describeParams(job.params) }),
     el("progress", { max: 1, value: Number(job.progress) || 0 }),
     el("span", { class: "job-text", text: describeJob(job) })
   );
