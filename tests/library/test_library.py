@@ -168,3 +168,44 @@ def test_batch_spec_takes_library_ids(tmp_path):
                            ({"library": oak.id, "path": "x.jpg", "count": 1}, "not both")):
         with pytest.raises(InvalidInputError, match=message):
             parse_spec({"exemplars": [entry]}, tmp_path, library=lib.path)
+
+
+def test_a_read_only_library_is_listed_and_refuses_changes(tmp_path, capsys, monkeypatch):
+    """A library on a read-only disk or folder (a shared asset server, a DVD) lists and shows
+    as it stands, and a change is one clear line (`list` said "not a barkgen library")."""
+    import os
+    import stat
+
+    lib = Library(tmp_path / "lib")
+    oak = lib.add_exemplar(_png(), "oak", species="oak")
+    # an older barkgen's library (schema 1, no job queue): read as it stands, not upgraded
+    with sqlite3.connect(lib.db_path) as conn:
+        conn.execute("DROP TABLE jobs")
+        conn.execute("PRAGMA user_version = 1")
+    folders = [tmp_path / "lib", *(p for p in (tmp_path / "lib").rglob("*") if p.is_dir())]
+    files = [p for p in (tmp_path / "lib").rglob("*") if p.is_file()]
+    for path in files + folders:
+        path.chmod(path.stat().st_mode & ~(stat.S_IWUSR | stat.S_IWGRP | stat.S_IWOTH))
+    real_access = os.access
+    if os.geteuid() == 0:  # root writes anywhere: let the library see what another user sees
+        monkeypatch.setattr(os, "access", lambda path, mode, **kw: (
+            False if mode & os.W_OK and str(path).startswith(str(tmp_path / "lib"))
+            else real_access(path, mode, **kw)))
+    try:
+        before = {p: p.read_bytes() for p in files}
+        code, out, err = run(["library", "list", "--library", str(tmp_path / "lib")], capsys)
+        assert code == 0 and "oak" in out and "Sample pine bark" in out, err
+        code, out, err = run(["library", "show", str(oak.id), "--library", str(tmp_path / "lib")], capsys)
+        assert code == 0 and json.loads(out)["species"] == "oak"
+        code, out, err = run(["library", "rm", str(oak.id), "--library", str(tmp_path / "lib")], capsys)
+        assert code == 2 and "read-only" in err and len(err.strip().splitlines()) == 1, err
+        readonly = Library(tmp_path / "lib")
+        assert readonly.read_only and [e.name for e in readonly.exemplars()] == ["Sample pine bark", "oak"]
+        with pytest.raises(LibraryError, match="read-only"):
+            readonly.add_exemplar(_png(7), "pine")
+        assert {p: p.read_bytes() for p in files} == before  # nothing was written
+        assert sorted((tmp_path / "lib").iterdir()) == sorted(p for p in folders + files
+                                                              if p.parent == tmp_path / "lib")
+    finally:
+        for path in files + folders:
+            path.chmod(path.stat().st_mode | stat.S_IWUSR)

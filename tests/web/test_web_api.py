@@ -313,6 +313,47 @@ def test_label_maps_are_made_by_jobs_in_the_worker_never_in_a_request(library):
         assert len(colours) == 3
 
 
+def test_the_job_queue_is_kept_in_the_library_across_restarts(library):
+    """Waiting jobs wait again after a restart, in their order (label jobs first) and with
+    their painted labels; a job that was running is failed, visibly; then they run."""
+    from barkgen.web.jobs import INTERRUPTED, JobManager, spec_from_json, spec_to_json
+
+    with TestClient(create_app(library, run_jobs=False)) as client:
+        first = client.post("/api/jobs", json={"exemplar_id": 1, **SMALL, "seed": 1}).json()["id"]
+        second = client.post("/api/jobs", json={"exemplar_id": 1, **SMALL, "seed": 2}).json()["id"]
+        labels = client.post("/api/exemplars/1/labels?k=2").json()["job"]["id"]
+        gone = client.post("/api/jobs", json={"exemplar_id": 1, **SMALL, "seed": 3}).json()["id"]
+        client.delete(f"/api/jobs/{gone}")
+        order = [job["id"] for job in client.get("/api/jobs").json()]
+    # a server killed while a job ran left it "running" in the library
+    record = next(r for r in library.saved_jobs() if r["id"] == first)
+    library.save_job({**record, "state": "running", "started": time.time()})
+    manager = JobManager(Library(library.path))
+    assert manager.snapshot(first)["state"] == "failed" and manager.snapshot(first)["error"] == INTERRUPTED
+    assert manager.snapshot(gone)["state"] == "cancelled"
+    assert [manager.snapshot(i)["queue_position"] for i in (labels, second)] == [0, 1]
+    assert order[:3] == [labels, first, second]  # the list follows the queue
+    newer = manager.submit(1, {"seed": 9}, {})  # a job the next server cannot run (no spec)
+    assert newer.order > max(manager.snapshot(i)["number"] for i in (first, second, labels, gone))
+    # a spec round-trips exactly (a painted level is an array, the label map PNG bytes)
+    painted = (np.arange(12, dtype=np.uint8).reshape(3, 4), b"\x89PNG...")
+    spec = {"source": "a", "set_name": "b", "options": {"size": (3, 4), "k": 2}, "labels_in": painted[1],
+            "resume": (1, painted[0])}
+    back = spec_from_json(json.loads(json.dumps(spec_to_json(spec))))
+    assert back["options"]["size"] == (3, 4) and back["labels_in"] == painted[1]
+    assert back["resume"][0] == 1 and np.array_equal(back["resume"][1], painted[0])
+    assert back["resume"][1].dtype == np.uint8
+    with TestClient(create_app(Library(library.path))) as client:
+        for job_id in (labels, second):
+            assert _wait(client, job_id)["state"] == "done", job_id
+        assert client.get(f"/api/jobs/{first}").json()["error"] == INTERRUPTED
+        # a kept job that cannot run fails in one line, and the queue goes on
+        broken = _wait(client, newer.id)
+        assert broken["state"] == "failed" and "cannot be run" in broken["error"]
+        after = client.post("/api/jobs", json={"exemplar_id": 1, **SMALL, "seed": 4}).json()["id"]
+        assert _wait(client, after)["state"] == "done"
+
+
 def test_painted_labels_are_checked_then_continued(client):
     exemplar_id = client.post("/api/exemplars", files={"file": ("a.png", _photo_png(seed=5))}).json()["id"]
     job = _wait(client, client.post("/api/jobs", json={"exemplar_id": exemplar_id, **SMALL,
@@ -429,6 +470,7 @@ def test_ctrl_c_stops_the_server_with_a_job_and_its_event_stream_open(tmp_path, 
             time.sleep(0.1)
         if kind == "generate":
             job = httpx.post(f"{base}/api/jobs", json={"exemplar_id": 1, "size": "2048x2048", "seed": 1}).json()
+            waiting = httpx.post(f"{base}/api/jobs", json={"exemplar_id": 1, **SMALL, "seed": 2}).json()
         else:  # a 6 MP photo: its label map takes seconds
             big = httpx.post(f"{base}/api/exemplars", files={"file": ("big.png", _photo_png(2400, seed=8))},
                              timeout=60).json()["id"]
@@ -459,3 +501,12 @@ def test_ctrl_c_stops_the_server_with_a_job_and_its_event_stream_open(tmp_path, 
     finally:
         if process.poll() is None:
             process.kill()
+    # the queue outlives the server: the next one says the running job was interrupted, and
+    # the job that waited waits again (they answered 404 after a restart)
+    from barkgen.web.jobs import INTERRUPTED
+
+    with TestClient(create_app(Library(tmp_path / "lib"), run_jobs=False)) as client:
+        again = client.get(f"/api/jobs/{job['id']}").json()
+        assert again["state"] == "failed" and again["error"] == INTERRUPTED, again
+        if kind == "generate":
+            assert client.get(f"/api/jobs/{waiting['id']}").json()["state"] == "queued"

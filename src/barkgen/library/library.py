@@ -8,63 +8,18 @@ import os
 import sqlite3
 from collections.abc import Mapping
 from contextlib import closing, contextmanager
-from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
 
 from barkgen.errors import BarkgenError, InvalidInputError
+from barkgen.library.records import Exemplar, Result
+from barkgen.library.schema import MIGRATIONS, SCHEMA_VERSION
 from barkgen.library.store import ObjectStore, content_hash
 
 __all__ = ["Exemplar", "Library", "LibraryError", "NotFoundError", "Result", "default_library_path",
            "SCHEMA_VERSION"]
-
-#: what the migrations below bring a database to
-SCHEMA_VERSION = 1
-
-_MIGRATIONS = {
-    1: """
-    CREATE TABLE exemplars (
-        id INTEGER PRIMARY KEY,
-        name TEXT NOT NULL,
-        species TEXT,
-        bark_type TEXT,
-        licence TEXT,
-        source TEXT,
-        image_hash TEXT NOT NULL UNIQUE,
-        width INTEGER NOT NULL,
-        height INTEGER NOT NULL,
-        created TEXT NOT NULL
-    );
-    CREATE TABLE analyses (
-        id INTEGER PRIMARY KEY,
-        exemplar_id INTEGER NOT NULL REFERENCES exemplars(id) ON DELETE CASCADE,
-        kind TEXT NOT NULL,
-        params TEXT NOT NULL,
-        file_hash TEXT NOT NULL,
-        created TEXT NOT NULL,
-        UNIQUE (exemplar_id, kind, params)
-    );
-    CREATE TABLE results (
-        id INTEGER PRIMARY KEY,
-        exemplar_id INTEGER NOT NULL REFERENCES exemplars(id) ON DELETE CASCADE,
-        params TEXT NOT NULL,
-        seed INTEGER NOT NULL,
-        timings TEXT NOT NULL,
-        parent_id INTEGER REFERENCES results(id) ON DELETE SET NULL,
-        created TEXT NOT NULL
-    );
-    CREATE TABLE result_files (
-        result_id INTEGER NOT NULL REFERENCES results(id) ON DELETE CASCADE,
-        name TEXT NOT NULL,
-        file_hash TEXT NOT NULL,
-        PRIMARY KEY (result_id, name)
-    );
-    CREATE INDEX results_by_exemplar ON results(exemplar_id);
-    CREATE TABLE settings (key TEXT PRIMARY KEY, value TEXT NOT NULL);
-    """,
-}
 
 SAMPLE_NAME = "Sample pine bark"
 
@@ -75,6 +30,10 @@ class LibraryError(BarkgenError):
 
 class NotFoundError(LibraryError):
     """No exemplar or result has the id asked for (a :class:`LibraryError`)."""
+
+
+class _ReadOnly(Exception):
+    """The database cannot be written (raised while migrating; the library is then read-only)."""
 
 
 def default_library_path() -> Path:
@@ -100,69 +59,6 @@ def _now() -> str:
 def canonical_params(params: Mapping) -> str:
     """The one JSON text of a parameter dict (sorted keys), used as a key."""
     return json.dumps(dict(params), sort_keys=True, separators=(",", ":"))
-
-
-@dataclass(frozen=True)
-class Exemplar:
-    """A bark photo of the library (a row of ``exemplars``).
-
-    Attributes
-    ----------
-    id, width, height : int
-        Its id and the photo's size in pixels.
-    name : str
-    species, bark_type, licence, source : str or None
-        What the user said about it.
-    image_hash : str
-        SHA-256 of the image file's bytes (its name in ``objects/``).
-    created : str
-        When it was added (ISO 8601, UTC).
-    """
-
-    id: int
-    name: str
-    species: str | None
-    bark_type: str | None
-    licence: str | None
-    source: str | None
-    image_hash: str
-    width: int
-    height: int
-    created: str
-
-    def to_dict(self) -> dict:
-        return {k: getattr(self, k) for k in self.__dataclass_fields__}
-
-
-@dataclass(frozen=True)
-class Result:
-    """A generated texture and its files (a row of ``results``).
-
-    Attributes
-    ----------
-    id, exemplar_id, seed : int
-        Its id, the exemplar it was made from and its seed.
-    params, timings : dict
-        The parameters of the run and its seconds per stage.
-    created : str
-        When it was recorded (ISO 8601, UTC).
-    parent_id : int or None
-        The result it was continued from (painted labels), if any.
-    files : dict of str to str
-        File name -> content hash.
-    """
-
-    id: int
-    exemplar_id: int
-    params: dict
-    seed: int
-    timings: dict
-    created: str
-    parent_id: int | None = None
-    files: dict = field(default_factory=dict)
-
-    def to_dict(self) -> dict:
-        return {k: getattr(self, k) for k in self.__dataclass_fields__}
 
 
 class Library:
@@ -209,12 +105,50 @@ class Library:
             raise LibraryError(f"{self.path}: cannot make the library folder ({exc.strerror or exc})") from None
         self.db_path = self.path / "library.sqlite"
         self.store = ObjectStore(self.path / "objects")
-        self._migrate()
-        if add_sample:
+        #: why the library can only be read (a read-only folder, file or disk), else None
+        self.read_only: str | None = self._read_only_reason()
+        if self.read_only is None:
+            try:
+                self._migrate()
+            except _ReadOnly as exc:  # the OS said yes, the disk said no (a read-only mount)
+                self.read_only = str(exc)
+        if self.read_only is not None:
+            self._check_readable()
+        elif add_sample:
             self._add_sample_once()
 
     # -- database -------------------------------------------------------------------------
+    def _read_only_reason(self) -> str | None:
+        if not os.access(self.path, os.W_OK):
+            return "its folder is read-only"
+        if self.db_path.exists() and not os.access(self.db_path, os.W_OK):
+            return "library.sqlite is read-only"
+        return None
+
+    def _check_readable(self) -> None:
+        """A read-only library is listed as it is: no migration, no sample added."""
+        if not self.db_path.exists():
+            raise LibraryError(f"{self.path}: no library here, and {self.read_only}")
+        try:
+            with closing(self._connect()) as conn:
+                version = conn.execute("PRAGMA user_version").fetchone()[0]
+        except sqlite3.DatabaseError as exc:
+            raise LibraryError(f"{self.db_path}: not a barkgen library database ({exc})") from None
+        if not 1 <= version <= SCHEMA_VERSION:
+            raise LibraryError(f"{self.db_path}: not a barkgen library this barkgen can read "
+                               f"(schema {version}; it is read-only, so it cannot be upgraded)")
+
     def _connect(self) -> sqlite3.Connection:
+        if self.read_only is not None:
+            # a WAL database in a folder that cannot be written: read it as it stands
+            mode = "immutable=1" if not os.access(self.path, os.W_OK) else "mode=ro"
+            uri = f"{self.db_path.resolve().as_uri()}?{mode}"
+            try:
+                conn = sqlite3.connect(uri, uri=True, timeout=30.0, isolation_level=None)
+            except sqlite3.Error as exc:
+                raise LibraryError(f"{self.db_path}: cannot open the library database ({exc})") from None
+            conn.row_factory = sqlite3.Row
+            return conn
         try:
             conn = sqlite3.connect(self.db_path, timeout=30.0, isolation_level=None)
         except sqlite3.Error as exc:
@@ -225,6 +159,9 @@ class Library:
 
     @contextmanager
     def _transaction(self):
+        if self.read_only is not None:
+            raise LibraryError(f"{self.path}: the library is read-only ({self.read_only}); "
+                               "copy it somewhere writable to change it")
         with closing(self._connect()) as conn:
             conn.execute("BEGIN IMMEDIATE")
             try:
@@ -252,7 +189,7 @@ class Library:
                         raise LibraryError(f"{self.db_path}: made by a newer barkgen (schema {version}, "
                                            f"this one knows {SCHEMA_VERSION}); upgrade barkgen")
                     for target in range(version + 1, SCHEMA_VERSION + 1):
-                        for statement in _MIGRATIONS[target].split(";"):
+                        for statement in MIGRATIONS[target].split(";"):
                             if statement.strip():
                                 conn.execute(statement)
                         conn.execute(f"PRAGMA user_version = {target}")
@@ -260,6 +197,10 @@ class Library:
                     conn.execute("ROLLBACK")
                     raise
                 conn.execute("COMMIT")
+        except sqlite3.OperationalError as exc:
+            if "readonly" in str(exc) or "read-only" in str(exc):
+                raise _ReadOnly(f"the disk is read-only ({exc})") from None
+            raise LibraryError(f"{self.db_path}: not a barkgen library database ({exc})") from None
         except sqlite3.DatabaseError as exc:
             raise LibraryError(f"{self.db_path}: not a barkgen library database ({exc})") from None
 
@@ -581,6 +522,31 @@ class Library:
         with self._transaction() as conn:
             conn.execute("DELETE FROM results WHERE id = ?", (int(result_id),))
             self._sweep(conn)
+
+    # -- the web app's job queue ------------------------------------------------------------
+    _JOB_COLUMNS = ("id", "number", "kind", "exemplar_id", "params", "state", "spec", "parent_id",
+                    "labels_key", "result_id", "error", "created", "started", "finished")
+    _JOB_JSON = ("params", "spec", "labels_key")
+
+    def save_job(self, record: Mapping) -> None:
+        """Keep (or update) one web job: a mapping of the ``jobs`` columns (:mod:`.schema`);
+        ``params``, ``spec`` and ``labels_key`` are JSON values."""
+        values = [json.dumps(record.get(c)) if c in self._JOB_JSON else record.get(c)
+                  for c in self._JOB_COLUMNS]
+        with self._transaction() as conn:
+            conn.execute(f"INSERT OR REPLACE INTO jobs ({', '.join(self._JOB_COLUMNS)}) "
+                         f"VALUES ({', '.join('?' * len(self._JOB_COLUMNS))})", values)
+
+    def saved_jobs(self) -> list[dict]:
+        """Every kept web job, in submission order (:meth:`save_job`'s mappings)."""
+        rows = self._read("SELECT * FROM jobs ORDER BY number")
+        return [{c: json.loads(row[c]) if c in self._JOB_JSON else row[c] for c in self._JOB_COLUMNS}
+                for row in rows]
+
+    def forget_jobs(self, job_ids) -> None:
+        """Drop web jobs from the kept queue (old finished ones)."""
+        with self._transaction() as conn:
+            conn.executemany("DELETE FROM jobs WHERE id = ?", [(str(i),) for i in job_ids])
 
     # -- housekeeping ---------------------------------------------------------------------
     def _sweep(self, conn) -> int:

@@ -5,24 +5,32 @@ A photo's label map (the page shows it before any result exists) is a job too, o
 analyses. No request computes anything heavy itself.
 
 A job is ``queued`` (with its position), ``running`` (with its progress), then ``done`` (with
-its result id), ``failed`` (with a one-line error) or ``cancelled``. Jobs live in the server's
-memory, so a page reload finds its job again; their results live in the library, so they
-outlive the server. Cancelling a running job ends the worker process at once; the next job
-starts a new one.
+its result id), ``failed`` (with a one-line error) or ``cancelled``. The queue is kept in the
+library database (table ``jobs``) on every change of state, so a page reload or a restarted
+server finds its job again: jobs that were waiting wait again, in order, and a job that was
+running when the server stopped (Ctrl-C, a crash, a kill) is ``failed`` with the error
+:data:`INTERRUPTED`. Results live in the library too. Cancelling a running job ends the worker
+process at once; the next job starts a new one.
 """
 
 from __future__ import annotations
 
+import base64
+import io
 import itertools
+import logging
 import multiprocessing
 import secrets
+import sqlite3
 import threading
 import time
 from collections import deque
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from barkgen.errors import BarkgenError
-from barkgen.library import Library, NotFoundError
+from barkgen.library import Library, LibraryError, NotFoundError
 from barkgen.web.worker import JobSpec, LabelSpec, worker_main
 
 KINDS = ("generate", "labels")
@@ -32,6 +40,10 @@ FINISHED = ("done", "failed", "cancelled")
 JOBS_KEPT = 500
 #: most jobs waiting at once (more are refused: the queue holds requests, not photos)
 MAX_QUEUED = 20
+#: the error of a job that was running when its server stopped
+INTERRUPTED = "interrupted: the server stopped while this job ran; start it again"
+
+_log = logging.getLogger("barkgen.web")
 
 
 class QueueFullError(BarkgenError):
@@ -61,6 +73,39 @@ class Job:
     version: int = 0  # bumped on every change (event streams watch it)
 
 
+def spec_to_json(spec: dict | None) -> dict | None:
+    """A job's spec fields as JSON values (the photo's label map and a painted level as
+    base64), to keep in the library."""
+    if spec is None:
+        return None
+    out = dict(spec)
+    if "options" in out:
+        out["options"] = {**out["options"], "size": list(out["options"]["size"])}
+    if out.get("labels_in") is not None:
+        out["labels_in"] = base64.b64encode(out["labels_in"]).decode("ascii")
+    if out.get("resume") is not None:
+        level, labels = out["resume"]
+        buffer = io.BytesIO()
+        np.save(buffer, labels, allow_pickle=False)
+        out["resume"] = [int(level), base64.b64encode(buffer.getvalue()).decode("ascii")]
+    return out
+
+
+def spec_from_json(data: dict | None) -> dict | None:
+    """The inverse of :func:`spec_to_json`."""
+    if data is None:
+        return None
+    spec = dict(data)
+    if "options" in spec:
+        spec["options"] = {**spec["options"], "size": tuple(spec["options"]["size"])}
+    if spec.get("labels_in") is not None:
+        spec["labels_in"] = base64.b64decode(spec["labels_in"])
+    if spec.get("resume") is not None:
+        level, encoded = spec["resume"]
+        spec["resume"] = (int(level), np.load(io.BytesIO(base64.b64decode(encoded)), allow_pickle=False))
+    return spec
+
+
 class JobManager:
     """A queue of jobs served by one worker process at a time (``start()`` / ``stop()``)."""
 
@@ -75,6 +120,8 @@ class JobManager:
         self._thread: threading.Thread | None = None
         self._process = None
         self._conn = None
+        with self._lock:
+            self._restore()
 
     # -- public ---------------------------------------------------------------------------
     def start(self) -> None:
@@ -111,6 +158,7 @@ class JobManager:
                                      "some are done")
             self._jobs[job_id] = job
             self._queue.append(job_id)
+            self._save(job)
             self._forget_old()
             self._lock.notify_all()
         return job
@@ -133,6 +181,7 @@ class JobManager:
             self._jobs[job.id] = job
             ahead = sum(1 for queued in self._queue if self._jobs[queued].kind == "labels")
             self._queue.insert(ahead, job.id)
+            self._save(job)
             self._forget_old()
             self._lock.notify_all()
             return job
@@ -150,8 +199,9 @@ class JobManager:
     def list(self) -> list[dict]:
         """Queued and running jobs first (in queue order), then finished ones, newest first."""
         with self._lock:
-            jobs = sorted(self._jobs.values(),
-                          key=lambda j: (j.state in FINISHED, j.order if j.state not in FINISHED else -j.order))
+            place = {job_id: i for i, job_id in enumerate(self._queue)}
+            jobs = sorted(self._jobs.values(), key=lambda j: (
+                j.state in FINISHED, place.get(j.id, -1) if j.state not in FINISHED else -j.order))
             return [self._describe(j) for j in jobs]
 
     def cancel(self, job_id: str) -> dict | None:
@@ -192,6 +242,8 @@ class JobManager:
         for key, value in changes.items():
             setattr(job, key, value)
         job.version += 1
+        if "state" in changes:
+            self._save(job)
         # a move in the queue changes the others' positions: wake every watcher
         for other in self._jobs.values():
             if other is not job and other.state == "queued" and "state" in changes:
@@ -200,8 +252,48 @@ class JobManager:
 
     def _forget_old(self) -> None:
         finished = [j for j in self._jobs.values() if j.state in FINISHED]
-        for job in sorted(finished, key=lambda j: j.order)[:max(0, len(finished) - JOBS_KEPT)]:
+        old = sorted(finished, key=lambda j: j.order)[:max(0, len(finished) - JOBS_KEPT)]
+        for job in old:
             del self._jobs[job.id]
+        if old:
+            self._keep(self.library.forget_jobs, [job.id for job in old])
+
+    def _save(self, job: Job) -> None:
+        """Keep the job's state in the library (its spec only while it may still run)."""
+        self._keep(self.library.save_job, {
+            "id": job.id, "number": job.order, "kind": job.kind, "exemplar_id": job.exemplar_id,
+            "params": job.params, "state": job.state,
+            "spec": spec_to_json(job.spec) if job.state not in FINISHED else None,
+            "parent_id": job.parent_id, "labels_key": job.labels_key, "result_id": job.result_id,
+            "error": job.error, "created": job.created, "started": job.started, "finished": job.finished})
+
+    @staticmethod
+    def _keep(write, argument) -> None:
+        try:
+            write(argument)
+        except (LibraryError, sqlite3.Error, OSError) as exc:  # a read-only or full disk:
+            _log.warning("the job queue is not kept in the library (%s)", exc)  # it runs on
+
+    def _restore(self) -> None:
+        """The queue kept in the library: waiting jobs wait again (label jobs first, as they
+        were queued), a job that was running is failed with :data:`INTERRUPTED`."""
+        try:
+            records = self.library.saved_jobs()
+        except (LibraryError, sqlite3.Error) as exc:
+            _log.warning("the kept job queue cannot be read (%s)", exc)
+            return
+        for record in records:
+            job = Job(id=record["id"], exemplar_id=record["exemplar_id"], params=record["params"],
+                      spec=spec_from_json(record["spec"]), parent_id=record["parent_id"],
+                      labels_key=record["labels_key"], kind=record["kind"], state=record["state"],
+                      result_id=record["result_id"], error=record["error"], created=record["created"],
+                      started=record["started"], finished=record["finished"], order=record["number"])
+            self._jobs[job.id] = job
+            if job.state == "running":
+                self._set(job, state="failed", error=INTERRUPTED, spec=None, finished=time.time())
+        waiting = [j for j in self._jobs.values() if j.state == "queued"]
+        self._queue.extend(j.id for j in sorted(waiting, key=lambda j: (j.kind != "labels", j.order)))
+        self._counter = itertools.count(max((j.order for j in self._jobs.values()), default=0) + 1)
 
     # -- the dispatcher thread --------------------------------------------------------------
     def _run(self) -> None:
@@ -223,6 +315,9 @@ class JobManager:
                     spec = JobSpec(job_id=job.id, photo=photo, photo_hash=exemplar.image_hash, **fields)
             except (NotFoundError, OSError) as exc:
                 self._finish(job, state="failed", error=f"the photo is gone ({exc})")
+                continue
+            except (TypeError, KeyError, ValueError) as exc:  # a kept job of another version
+                self._finish(job, state="failed", error=f"the job cannot be run ({exc})")
                 continue
             try:
                 self._execute(job, spec)
@@ -268,7 +363,10 @@ class JobManager:
                 cancelled = job.id in self._cancel or self._stopping
             if cancelled:
                 self._end_worker()
-                self._finish(job, state="cancelled")
+                if self._stopping and job.id not in self._cancel:
+                    self._finish(job, state="failed", error=INTERRUPTED)
+                else:
+                    self._finish(job, state="cancelled")
                 return
             try:
                 ready = self._conn.poll(0.1)

@@ -1,0 +1,71 @@
+"""The library's records as Python values: an :class:`Exemplar` (a row of ``exemplars``) and a
+:class:`Result` (a row of ``results`` with its files)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+__all__ = ["Exemplar", "Result"]
+
+
+@dataclass(frozen=True)
+class Exemplar:
+    """A bark photo of the library (a row of ``exemplars``).
+
+    Attributes
+    ----------
+    id, width, height : int
+        Its id and the photo's size in pixels.
+    name : str
+    species, bark_type, licence, source : str or None
+        What the user said about it.
+    image_hash : str
+        SHA-256 of the image file's bytes (its name in ``objects/``).
+    created : str
+        When it was added (ISO 8601, UTC).
+    """
+
+    id: int
+    name: str
+    species: str | None
+    bark_type: str | None
+    licence: str | None
+    source: str | None
+    image_hash: str
+    width: int
+    height: int
+    created: str
+
+    def to_dict(self) -> dict:
+        return {k: getattr(self, k) for k in self.__dataclass_fields__}
+
+
+@dataclass(frozen=True)
+class Result:
+    """A generated texture and its files (a row of ``results``).
+
+    Attributes
+    ----------
+    id, exemplar_id, seed : int
+        Its id, the exemplar it was made from and its seed.
+    params, timings : dict
+        The parameters of the run and its seconds per stage.
+    created : str
+        When it was recorded (ISO 8601, UTC).
+    parent_id : int or None
+        The result it was continued from (painted labels), if any.
+    files : dict of str to str
+        File name -> content hash.
+    """
+
+    id: int
+    exemplar_id: int
+    params: dict
+    seed: int
+    timings: dict
+    created: str
+    parent_id: int | None = None
+    files: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {k: getattr(self, k) for k in self.__dataclass_fields__}
