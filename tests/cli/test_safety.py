@@ -176,6 +176,11 @@ def test_an_unwritable_output_folder_is_refused_before_any_work(tmp_path, monkey
     with pytest.raises(InvalidInputError, match="cannot write into"):
         guard_paths({"output": target / "x.png"})
     guard_paths({"output": tmp_path / "x.png"})()  # a writable folder: fine (and forgotten)
+    # the bits say yes, the file system says no (root under /proc): asked before any work too
+    monkeypatch.undo()
+    with pytest.raises(InvalidInputError, match="cannot write into '/proc'"):
+        guard_paths({"output_dir": Path("/proc/barkgen-out/set")})
+    assert not list(tmp_path.glob(".barkgen-probe*"))
 
 
 def test_records_of_a_non_utf8_path_are_valid_json(tmp_path, photo):

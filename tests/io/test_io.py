@@ -162,6 +162,9 @@ def test_exif_orientation_animations_and_float_ranges_are_honoured_or_said():
     shown = decode_image(buf.getvalue(), "phone.jpg")
     assert shown.shape[:2] == (40, 20)  # portrait, as the camera meant
     assert shown[:10, :, 0].mean() > 200 and shown[-10:, :, 0].mean() < 50  # the band on top
+    from barkgen.io.images import _image_size
+
+    assert _image_size(buf.getvalue(), "phone.jpg") == (20, 40)  # the header's size, turned too
 
     frames = [Image.fromarray(np.full((8, 8, 3), v, np.uint8)) for v in (10, 200)]
     buf = _io.BytesIO()

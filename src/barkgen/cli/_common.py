@@ -197,6 +197,16 @@ def _writable_folder(folder: Path, what: str, path: Path) -> None:
     if probe.exists() and (not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK)):
         raise InvalidInputError(f"{what} {str(path)!r}: cannot write into {str(probe)!r} "
                                 "(not a writable folder)")
+    if probe.is_dir():  # the permission bits say yes; ask the file system (root, /proc, a full disk)
+        import tempfile
+
+        try:
+            handle, name = tempfile.mkstemp(prefix=f".barkgen-probe.{os.getpid()}.", suffix=".tmp", dir=probe)
+        except OSError as exc:
+            raise InvalidInputError(f"{what} {str(path)!r}: cannot write into {str(probe)!r} "
+                                    f"({exc.strerror or exc})") from None
+        os.close(handle)
+        os.unlink(name)
 
 
 def _set_files(folder: Path) -> list[Path]:

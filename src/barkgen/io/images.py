@@ -153,7 +153,9 @@ def _image_size(data: bytes, name) -> tuple[int, int]:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
             with Image.open(io.BytesIO(data)) as im:
-                return im.size
+                width, height = im.size
+                # as read: a photo its EXIF says to turn a quarter is read turned
+                return (height, width) if im.getexif().get(0x0112) in (5, 6, 7, 8) else (width, height)
     except Image.DecompressionBombError as exc:  # over twice Pillow's own limit
         raise ImageTooLargeError(f"{name}: image too large ({exc})") from None
     except UnidentifiedImageError:
@@ -164,7 +166,8 @@ def _image_size(data: bytes, name) -> tuple[int, int]:
 
 def image_size(path: str | os.PathLike) -> tuple[int, int]:
     """``(width, height)`` of an image file from its header, without decoding its pixels (a
-    small file may declare a huge image).
+    small file may declare a huge image), turned as :func:`read_image` turns it (EXIF
+    orientation).
 
     Raises
     ------

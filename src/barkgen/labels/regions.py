@@ -344,7 +344,8 @@ def add_edge_label(label_map: np.ndarray, width: int = 3) -> np.ndarray:
     n = len(values)
     if n + 1 > MAX_K + 1:
         raise InvalidInputError(f"label map has {n} labels; at most {MAX_K} before the edge label")
-    r = max(1, int(width) // 2)
+    # a band wider than the map is the same band as one as wide as it (and cheap to find)
+    r = max(1, min(int(width) // 2, max(codes.shape)))
     kernel = np.ones((2 * r + 1, 2 * r + 1), np.uint8)
     c16 = codes.astype(np.uint16)
     # a pixel is near another label when the largest and smallest codes around it differ

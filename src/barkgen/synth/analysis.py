@@ -29,6 +29,10 @@ from barkgen.synth.config import SynthesisConfig
 #: exemplar levels with at most this many pixels get an exact k-NN search (faiss); larger
 #: ones refine their parent's k-coherence sets
 DIRECT_SEARCH_LIMIT = 2048
+#: a coarsest level larger than this (a thin or tiny output of a large photo: few levels) is
+#: not searched directly either (a million-pixel k-NN search took 14 s); its sets come down
+#: from coarser levels analysed for that alone (:func:`_guide_sets`)
+GUIDED_SEARCH_LIMIT = 262_144
 
 
 @dataclass
@@ -88,6 +92,9 @@ def analyse_exemplar(features: np.ndarray, n_levels: int, config: SynthesisConfi
     pyramid = gaussian_pyramid(features, n_levels, wrap)
     levels: list[LevelAnalysis | None] = list(known) if known is not None else [None] * n_levels
     parent: LevelAnalysis | None = None
+    coarsest = pyramid[-1]
+    if levels[-1] is None and coarsest.shape[0] * coarsest.shape[1] > GUIDED_SEARCH_LIMIT:
+        parent = _guide_sets(coarsest, max(schedule_sizes(config, n_levels - 1, n_levels)), config, wrap)
     for lvl in reversed(range(finest, n_levels)):
         if levels[lvl] is not None:
             parent = levels[lvl]
@@ -114,6 +121,29 @@ def analyse_exemplar(features: np.ndarray, n_levels: int, config: SynthesisConfi
         if progress:
             progress()
     return levels  # type: ignore[return-value]
+
+
+def _guide_sets(image: np.ndarray, size: int, config: SynthesisConfig,
+                wrap: tuple[bool, bool]) -> LevelAnalysis:
+    """k-coherence sets of the levels coarser than ``image`` (down to
+    :data:`DIRECT_SEARCH_LIMIT` pixels), each refined from the next coarser one; the finest
+    of them is the parent from which ``image``'s own sets are refined. Only the sets and the
+    shape are filled in: no solver reads these levels."""
+    chain = [image]
+    while chain[-1].shape[0] * chain[-1].shape[1] > DIRECT_SEARCH_LIMIT and min(chain[-1].shape[:2]) > 8:
+        chain.append(gaussian_pyramid(chain[-1], 2, wrap)[1])
+    parent: LevelAnalysis | None = None
+    wide = max(4 * config.k, 16)  # more proposals per pixel than a set holds: sets as good as a search
+    for img in reversed(chain[1:]):
+        h, w = img.shape[:2]
+        feats = neighbourhood_pca(img, size, config.pca_components, wrap=wrap).features
+        if parent is None:
+            ksets, scale = k_coherence_sets(feats, w, wide, radius=2)
+        else:
+            ksets, scale = k_coherence_sets_from_parent(parent.ksets, (parent.height, parent.width),
+                                                        feats, (h, w), wide, radius=2)
+        parent = LevelAnalysis(h, w, None, None, None, {}, {}, ksets, scale, wrap)
+    return parent
 
 
 class AnalysisCache:

@@ -1,0 +1,822 @@
+"""Hostile and clumsy use, replayed: every case of the reliability issue (inputs overwritten,
+mixed sets, temporaries left, runaway sizes and specs, work started by other sites, Ctrl-C,
+huge ids, damaged or read-only databases, lost web jobs, EXIF, late errors, the smaller ones)
+and the cases that already held (bad files, decompression bombs, path tricks, foreign hosts
+and origins, the bounded queue, kill -9, batch resume, same seed same bytes), on the CLI, the
+web app (in process, and a real server for Ctrl-C), the library and batch.
+
+    .venv/bin/python benchmarks/bench_abuse.py [--only WORD] [--json FILE]
+
+Each case runs in a fresh folder, with its own time budget: a heavy request must be refused
+within 2 s (whole command, Python's start included), a run that is allowed finishes within
+the budget it states. A case holds when its check passes within its budget. Prints one row per
+case (group, case, seconds, budget, held or what went wrong) and ``cases tried / held``; exits
+1 when a case did not hold. About 4 minutes on 2 cores.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import traceback
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "src"))
+
+from barkgen.io import read_image, write_png  # noqa: E402
+
+ENV = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(REPO / "src"),
+                                                                  os.environ.get("PYTHONPATH")]))}
+REFUSE_S = 2.0  # a heavy request is refused within this, whole command
+
+
+@dataclass
+class Case:
+    group: str
+    name: str
+    check: Callable[[Path], str | None]  # None: held; else what went wrong
+    budget_s: float
+
+
+CASES: list[Case] = []
+
+
+def case(group: str, name: str, budget_s: float = REFUSE_S):
+    def register(check):
+        CASES.append(Case(group, name, check, budget_s))
+        return check
+    return register
+
+
+# -- helpers ---------------------------------------------------------------------------------
+def cli(*args: str, timeout: float = 300, env: dict | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "barkgen", *args], capture_output=True, text=True,
+                          timeout=timeout, env=env or ENV)
+
+
+def one_line(r: subprocess.CompletedProcess, *words: str) -> str | None:
+    """None when ``r`` exited 2 with one ``barkgen: error:`` line holding every word."""
+    lines = r.stderr.strip().splitlines()
+    if r.returncode != 2:
+        return f"exit {r.returncode}: {r.stderr.strip()[-160:]!r}"
+    if len(lines) != 1 or not lines[0].startswith("barkgen: error: "):
+        return f"{len(lines)} lines on stderr: {r.stderr.strip()[:160]!r}"
+    missing = [w for w in words if w not in lines[0]]
+    return f"{missing} not in {lines[0]!r}" if missing else None
+
+
+def ok(r: subprocess.CompletedProcess) -> str | None:
+    return None if r.returncode == 0 else f"exit {r.returncode}: {r.stderr.strip()[-200:]!r}"
+
+
+def first_problem(*answers: str | None) -> str | None:
+    return next((a for a in answers if a), None)
+
+
+_PHOTO: list[bytes] = []
+
+
+def photo(folder: Path, name: str = "p.png") -> Path:
+    """A 128x128 crop of the bundled sample bark in ``folder``."""
+    if not _PHOTO:
+        from barkgen.data import sample_exemplar_path
+        from barkgen.io import encode_png
+
+        _PHOTO.append(encode_png(read_image(sample_exemplar_path())[:128, :128]))
+    path = folder / name
+    path.write_bytes(_PHOTO[0])
+    return path
+
+
+def material_set(folder: Path, size: str = "48x48", seed: str = "5") -> tuple[Path, str | None]:
+    out = folder / "set"
+    return out, ok(cli("generate", str(photo(folder)), "-o", str(out), "--size", size, "--seed", seed,
+                       "--material", "-q"))
+
+
+def web_client(library_path: Path, **kwargs):
+    from fastapi.testclient import TestClient
+
+    from barkgen.library import Library
+    from barkgen.web import WebLimits, create_app
+
+    limits = WebLimits(max_upload_bytes=25 * 1024**2, max_upload_pixels=50_000_000)
+    return TestClient(create_app(Library(library_path), limits=limits, **kwargs))
+
+
+def wait_job(client, job_id: str, timeout: float) -> dict:
+    deadline = time.monotonic() + timeout
+    while True:
+        job = client.get(f"/api/jobs/{job_id}").json()
+        if job.get("state") in ("done", "failed", "cancelled") or time.monotonic() > deadline:
+            return job
+        time.sleep(0.05)
+
+
+def dead_pid() -> int:
+    pid = 4_000_000
+    while True:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return pid
+        except OSError:
+            pass
+        pid -= 1
+
+
+def png_bytes(image: np.ndarray) -> bytes:
+    from barkgen.io import encode_png
+
+    return encode_png(image)
+
+
+# -- 1-3: data loss and integrity ------------------------------------------------------------
+@case("data loss", "1 synth p.png -o p.png refused, photo kept")
+def _(tmp):
+    p = photo(tmp)
+    before = p.read_bytes()
+    return first_problem(one_line(cli("synth", str(p), "-o", str(p), "--size", "32x32", "-q"), "also an input"),
+                         None if p.read_bytes() == before else "the photo changed")
+
+
+@case("data loss", "1 labels p.png -o p.png refused")
+def _(tmp):
+    p = photo(tmp)
+    return one_line(cli("labels", str(p), "-o", str(p), "-q"), "also an input")
+
+
+@case("data loss", "1 output through a symbolic link to the input refused")
+def _(tmp):
+    p = photo(tmp)
+    (tmp / "link.png").symlink_to(p)
+    return one_line(cli("synth", str(p), "-o", str(tmp / "link.png"), "--size", "32x32", "-q"))
+
+
+@case("data loss", "1 generate OUT/texture.png -o OUT refused before any work")
+def _(tmp):
+    out = tmp / "out"
+    out.mkdir()
+    src = photo(out, "texture.png")
+    before = src.read_bytes()
+    return first_problem(one_line(cli("generate", str(src), "-o", str(out), "--size", "512x512", "-q"),
+                                  "texture.png"),
+                         None if src.read_bytes() == before else "the photo changed")
+
+
+@case("data loss", "1 preview into its own set's colour map refused", 30)
+def _(tmp):
+    sets, problem = material_set(tmp)
+    if problem:
+        return problem
+    colour = (sets / "bark_Color.png").read_bytes()
+    return first_problem(one_line(cli("preview", str(sets), "-o", str(sets / "bark_Color.png")), "bark_Color.png"),
+                         None if (sets / "bark_Color.png").read_bytes() == colour else "the map changed")
+
+
+@case("data loss", "2 a re-run replaces the folder's set whole (no stale bark_* maps)", 40)
+def _(tmp):
+    sets, problem = material_set(tmp)
+    if problem:
+        return problem
+    (sets / "notes.txt").write_text("mine")
+    problem = ok(cli("generate", str(tmp / "p.png"), "-o", str(sets), "--size", "32x32", "--seed", "9", "-q"))
+    names = sorted(p.name for p in sets.iterdir())
+    stale = [n for n in names if n.startswith("bark")]
+    return first_problem(problem, f"stale maps left: {stale}" if stale else None,
+                         None if "notes.txt" in names else "the user's own file went",
+                         one_line(cli("preview", str(sets), "-o", str(tmp / "t.png")), "no material set"))
+
+
+@case("data loss", "3 SIGTERM mid-run: exit 130, one line, nothing left", 30)
+def _(tmp):
+    out = tmp / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "barkgen", "generate", str(photo(tmp)), "-o", str(out),
+                             "--size", "2048x2048", "-q"], stderr=subprocess.PIPE, text=True, env=ENV)
+    time.sleep(3)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    left = sorted(p.name for p in out.rglob("*")) if out.exists() else []
+    return first_problem(None if proc.returncode == 130 else f"exit {proc.returncode}",
+                         None if err.strip() == "barkgen: error: interrupted" else repr(err[-200:]),
+                         f"left {left}" if left else None)
+
+
+@case("data loss", "3 a killed writer's temporaries go at the next write there", 10)
+def _(tmp):
+    out = tmp / "out"
+    out.mkdir()
+    dead = out / f".l.png.{dead_pid()}.k3j2h1g0.tmp"
+    dead.write_bytes(b"x" * 100_000)
+    problem = ok(cli("labels", str(photo(tmp)), "-o", str(out / "l.png"), "-q"))
+    return first_problem(problem, f"{dead.name} left" if dead.exists() else None)
+
+
+@case("data loss", "3 kill -9 mid-run, then a run there: no temporary of ours left", 40)
+def _(tmp):
+    out = tmp / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "barkgen", "generate", str(photo(tmp)), "-o", str(out),
+                             "--size", "96x96", "--material", "-q"], env=ENV, stderr=subprocess.DEVNULL)
+    time.sleep(2.5)
+    proc.kill()
+    proc.wait()
+    problem = ok(cli("generate", str(tmp / "p.png"), "-o", str(out), "--size", "32x32", "-q"))
+    left = [p.name for p in out.iterdir() if p.name.endswith(".tmp")]
+    return first_problem(problem, f"left {left}" if left else None)
+
+
+# -- 4-9: runaway work -----------------------------------------------------------------------
+@case("runaway", "4 generate --size 1x20000: made, preview sized for a strip", 40)
+def _(tmp):
+    out = tmp / "strip"
+    problem = ok(cli("generate", str(photo(tmp)), "-o", str(out), "--size", "1x20000", "-q"))
+    if problem:
+        return problem
+    sheet = read_image(out / "preview.png")
+    return None if sheet.shape[0] < 1400 else f"preview {sheet.shape[1]}x{sheet.shape[0]}"
+
+
+@case("runaway", "4 web size 1x4096: a job that finishes (was 14 GB, failed)", 60)
+def _(tmp):
+    with web_client(tmp / "lib") as client:
+        job = client.post("/api/jobs", json={"exemplar_id": 1, "size": "1x4096", "k": 2, "seed": 1})
+        if job.status_code != 201:
+            return f"HTTP {job.status_code}"
+        answer = wait_job(client, job.json()["id"], 55)
+        return None if answer["state"] == "done" else f"{answer['state']}: {answer.get('error')}"
+
+
+@case("runaway", "5 labels.png from another site (img tag, fetch) refused")
+def _(tmp):
+    with web_client(tmp / "lib", run_jobs=False) as client:
+        codes = [client.get("/api/exemplars/1/labels.png?k=3", headers=h).status_code
+                 for h in ({"sec-fetch-site": "cross-site"}, {"sec-fetch-site": "same-site"},
+                           {"origin": "http://evil.example"})]
+        codes.append(client.post("/api/exemplars/1/labels?k=3", headers={"origin": "http://evil.example"})
+                     .status_code)
+        return None if codes == [403] * 4 else f"codes {codes}"
+
+
+@case("runaway", "5 a GET never computes; a 6 MP label map is a job, cancelled at once", 20)
+def _(tmp):
+    rng = np.random.default_rng(0)
+    big = np.clip(rng.normal(120, 40, (2400, 2400, 3)), 0, 255).astype(np.uint8)
+    with web_client(tmp / "lib") as client:
+        added = client.post("/api/exemplars", files={"file": ("big.png", png_bytes(big))}).json()["id"]
+        t = time.perf_counter()
+        r = client.get(f"/api/exemplars/{added}/labels.png?k=5")
+        get_s = time.perf_counter() - t
+        job = client.post(f"/api/exemplars/{added}/labels?k=5").json()["job"]
+        deadline = time.monotonic() + 10
+        while client.get(f"/api/jobs/{job['id']}").json()["state"] != "running" and time.monotonic() < deadline:
+            time.sleep(0.05)
+        t = time.perf_counter()
+        client.delete(f"/api/jobs/{job['id']}")
+        state = wait_job(client, job["id"], 5)["state"]
+        cancel_s = time.perf_counter() - t
+        return first_problem(None if r.status_code == 404 and get_s < 1 else f"GET {r.status_code} in {get_s:.1f} s",
+                             None if state == "cancelled" and cancel_s < 2 else f"{state} after {cancel_s:.1f} s")
+
+
+def _huge_png(tmp: Path, side: int = 11000) -> Path:
+    from PIL import Image
+
+    path = tmp / "big.png"
+    Image.new("L", (side, side)).save(path, optimize=True)
+    return path
+
+
+for _command in ("labels", "synth", "material", "generate"):
+    def _declared(tmp, command=_command):
+        big = _huge_png(tmp)
+        args = {"labels": ["-o", str(tmp / "l.png")], "synth": ["-o", str(tmp / "s.png"), "--size", "64x64"],
+                "material": ["-o", str(tmp / "m")], "generate": ["-o", str(tmp / "g"), "--size", "64x64"]}[command]
+        t = time.perf_counter()
+        problem = one_line(cli(command, str(big), *args), "121 megapixels")
+        return problem or (None if time.perf_counter() - t < REFUSE_S else "too slow")
+    case("runaway", f"6 {_command}: a 120 KB PNG declaring 121 MP refused from its header", 8)(_declared)
+
+
+@case("runaway", "6 a TIFF declaring 400 MP refused from its header", 8)
+def _(tmp):
+    from PIL import Image
+
+    tiff = tmp / "big.tif"
+    Image.new("1", (20000, 20000)).save(tiff, compression="group4")
+    return one_line(cli("labels", str(tiff), "-o", str(tmp / "l.png")), "400 megapixels")
+
+
+@case("runaway", "6 --max-pixels sets the limit")
+def _(tmp):
+    return one_line(cli("--max-pixels", "100", "labels", str(photo(tmp)), "-o", str(tmp / "l.png")),
+                    "--max-pixels")
+
+
+for _command, _size in (("generate", "99999x99999"), ("synth", "99999x99999"), ("shapes", "99999x99999"),
+                        ("bilayer synth", "99999x99999"), ("branches grow", "99999x99999"),
+                        ("preview", "99999x99999")):
+    def _huge(tmp, command=_command, size=_size):
+        p = photo(tmp)
+        first = {"generate": [str(p), "-o", str(tmp / "g")], "synth": [str(p), "-o", str(tmp / "s.png")],
+                 "shapes": [str(p), "-o", str(tmp / "s.png")], "bilayer synth": [str(tmp / "m.npz"), "-o", "w.png"],
+                 "branches grow": [str(tmp / "s.json"), "-o", str(tmp / "g.json")],
+                 "preview": [str(tmp / "set"), "-o", str(tmp / "t.png")]}[command]
+        if command == "shapes":  # a label map of the photo first
+            labels = tmp / "l.png"
+            write_png(labels, (read_image(p)[..., 0] > 110).astype(np.uint8) * 255)
+            first[0] = str(labels)
+        if command == "bilayer synth":
+            cli("bilayer", "analyze", str(p), "-o", str(tmp / "m.npz"), "-q")
+        if command == "branches grow":
+            cli("branches", "extract", str(p), "-o", str(tmp / "s.json"))
+        if command == "preview":
+            material_set(tmp, size="32x32")
+        t = time.perf_counter()
+        problem = one_line(cli(*command.split(), *first, "--size", size))
+        seconds = time.perf_counter() - t
+        return problem or (None if seconds < REFUSE_S else f"refused after {seconds:.1f} s")
+    case("runaway", f"7 {_command} --size {_size} refused before any work", 30)(_huge)
+
+
+@case("runaway", "7 export-glb --segments 100000000 refused", 30)
+def _(tmp):
+    sets, problem = material_set(tmp, size="32x32")
+    return problem or one_line(cli("export-glb", str(sets), "-o", str(tmp / "t.glb"), "--segments", "100000000"),
+                               "segments")
+
+
+@case("runaway", "7 --max-memory 10M: refused, said in MiB")
+def _(tmp):
+    return one_line(cli("generate", str(photo(tmp)), "-o", str(tmp / "m"), "--size", "64x64", "--max-memory", "10M"),
+                    "10 MiB")
+
+
+def _batch_spec_case(tmp: Path, text: str, word: str) -> str | None:
+    photo(tmp)
+    spec = tmp / "spec.yaml"
+    spec.write_text(text)
+    return one_line(cli("batch", str(spec), "-o", str(tmp / "out")), word)
+
+
+@case("runaway", "8 batch: a 431-byte YAML alias bomb refused")
+def _(tmp):
+    levels = ["a: &a [x, x, x, x, x, x, x, x, x]"]
+    for i, name in enumerate("bcdefghi"):
+        levels.append(f"{name}: &{name} [{', '.join(['*' + 'abcdefghi'[i]] * 9)}]")
+    return _batch_spec_case(tmp, "\n".join(levels) + "\nexemplars: [{name: a, path: p.png, seeds: *i}]\n",
+                            "aliases")
+
+
+@case("runaway", "8 batch: a 200,000-seed list refused")
+def _(tmp):
+    return _batch_spec_case(tmp, json.dumps({"exemplars": [{"name": "a", "path": "p.png",
+                                                            "seeds": list(range(200_000))}]}), "100000")
+
+
+@case("runaway", "8 batch: a 5 MB spec refused")
+def _(tmp):
+    return _batch_spec_case(tmp, "# " + "x" * (5 * 1024**2) + "\n", "MiB")
+
+
+def _serve(tmp: Path) -> tuple[subprocess.Popen, str, Path]:
+    import socket
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    log = tmp / "serve.log"
+    with open(log, "w") as out:
+        process = subprocess.Popen([sys.executable, "-m", "barkgen", "serve", "--port", str(port),
+                                    "--library", str(tmp / "lib")], stdout=out, stderr=subprocess.STDOUT,
+                                   env=ENV)
+    deadline = time.monotonic() + 60
+    while "running at" not in log.read_text():
+        if process.poll() is not None or time.monotonic() > deadline:
+            raise RuntimeError(log.read_text())
+        time.sleep(0.1)
+    return process, f"http://127.0.0.1:{port}", log
+
+
+@case("runaway", "9 Ctrl-C on the server while a label map is made: stops at once", 40)
+def _(tmp):
+    import httpx
+
+    process, base, log = _serve(tmp)
+    try:
+        rng = np.random.default_rng(1)
+        big = np.clip(rng.normal(120, 40, (2400, 2400, 3)), 0, 255).astype(np.uint8)
+        added = httpx.post(f"{base}/api/exemplars", files={"file": ("big.png", png_bytes(big))}, timeout=60).json()
+        job = httpx.post(f"{base}/api/exemplars/{added['id']}/labels?k=5").json()["job"]
+        deadline = time.monotonic() + 10
+        while httpx.get(f"{base}/api/jobs/{job['id']}").json()["state"] != "running":
+            if time.monotonic() > deadline:
+                return "the label job never ran"
+            time.sleep(0.05)
+        process.send_signal(signal.SIGINT)
+        t = time.perf_counter()
+        code = process.wait(timeout=20)
+        seconds = time.perf_counter() - t
+        left = subprocess.run(["pgrep", "-f", f"--library {tmp / 'lib'}"], capture_output=True, text=True).stdout
+        return first_problem(None if code == 0 and seconds < 10 else f"exit {code} after {seconds:.1f} s",
+                             "a process was left" if left.strip() else None,
+                             "traceback in the log" if "Traceback" in log.read_text() else None)
+    finally:
+        if process.poll() is None:
+            process.kill()
+
+
+# -- 10-17: crashes and unclear errors -------------------------------------------------------
+@case("errors", "10 huge integer ids: no HTTP 500 in any route")
+def _(tmp):
+    huge = "99999999999999999999"
+    with web_client(tmp / "lib", run_jobs=False) as client:
+        paths = [f"/api/exemplars/{huge}", f"/api/exemplars/{huge}/photo", f"/api/exemplars/{huge}/thumbnail.jpg",
+                 f"/api/exemplars/{huge}/labels.png", f"/api/results/{huge}", f"/api/results/{huge}/download",
+                 f"/api/results/{huge}/files/texture.png", f"/api/results?exemplar_id={huge}"]
+        codes = {p: client.get(p).status_code for p in paths}
+        codes["POST /api/jobs"] = client.post("/api/jobs", json={"exemplar_id": int(huge), "size": "64x64"}).status_code
+        codes["DELETE"] = client.delete(f"/api/exemplars/{huge}").status_code
+    bad = {p: c for p, c in codes.items() if c >= 500}
+    return f"server errors: {bad}" if bad else None
+
+
+@case("errors", "10 library show 99999999999999999999: one line")
+def _(tmp):
+    env = {**ENV, "BARKGEN_LIBRARY": str(tmp / "lib")}
+    return one_line(cli("library", "show", "99999999999999999999", env=env), "no exemplar")
+
+
+@case("errors", "10 batch {library: huge}: one line")
+def _(tmp):
+    spec = tmp / "spec.yaml"
+    spec.write_text(json.dumps({"exemplars": [{"library": 99999999999999999999, "seeds": [0]}]}))
+    return one_line(cli("batch", str(spec), "-o", str(tmp / "out"), "--library", str(tmp / "lib")))
+
+
+@case("errors", "11 library rm with stray files among the objects")
+def _(tmp):
+    env = {**ENV, "BARKGEN_LIBRARY": str(tmp / "lib")}
+    cli("library", "list", env=env)
+    objects = tmp / "lib" / "objects"
+    sub = next(p for p in objects.iterdir() if p.is_dir())
+    (sub / ".DS_Store").write_bytes(b"\0")
+    (objects / "Thumbs.db").write_bytes(b"\0")
+    return ok(cli("library", "rm", "1", env=env))
+
+
+@case("errors", "12 a corrupt library.sqlite: one line")
+def _(tmp):
+    (tmp / "lib").mkdir()
+    (tmp / "lib" / "library.sqlite").write_bytes(np.random.default_rng(0).bytes(8192))
+    return one_line(cli("library", "list", "--library", str(tmp / "lib")), "library")
+
+
+@case("errors", "12 a corrupt manifest.sqlite: one line")
+def _(tmp):
+    photo(tmp)
+    spec = tmp / "spec.yaml"
+    spec.write_text(json.dumps({"size": "32x32", "exemplars": [{"name": "a", "path": "p.png", "seeds": [0]}]}))
+    (tmp / "out").mkdir()
+    (tmp / "out" / "manifest.sqlite").write_bytes(np.random.default_rng(0).bytes(8192))
+    return one_line(cli("batch", str(spec), "-o", str(tmp / "out")), "manifest")
+
+
+@case("errors", "12 a read-only library lists and shows; a change is one line", 10)
+def _(tmp):
+    import stat
+    from unittest import mock
+
+    from barkgen.library import Library, LibraryError
+
+    Library(tmp / "lib").add_exemplar(photo(tmp).read_bytes(), "oak")
+    paths = [tmp / "lib", *(tmp / "lib").rglob("*")]
+    for path in paths:
+        path.chmod(path.stat().st_mode & ~(stat.S_IWUSR | stat.S_IWGRP | stat.S_IWOTH))
+    real_access = os.access
+    lib = str(tmp / "lib")
+    try:  # as root the mode bits do not stop a write: let the library see what a user sees
+        with mock.patch.object(os, "access", lambda p, mode, **kw: False if mode & os.W_OK and
+                               str(p).startswith(lib) else real_access(p, mode, **kw)):
+            readonly = Library(tmp / "lib")
+            names = [e.name for e in readonly.exemplars()]
+            try:
+                readonly.remove_exemplar(2)
+                refused = None
+            except LibraryError as exc:
+                refused = str(exc)
+        return first_problem(None if names == ["Sample pine bark", "oak"] else f"listed {names}",
+                             None if refused and "read-only" in refused else f"the change said {refused!r}")
+    finally:
+        for path in paths:
+            path.chmod(path.stat().st_mode | stat.S_IWUSR)
+
+
+@case("errors", "13 Ctrl-C on batch: exit 130 in at most 3 lines, workers gone", 90)
+def _(tmp):
+    photo(tmp)
+    spec = tmp / "spec.yaml"
+    spec.write_text(json.dumps({"size": "256x256", "exemplars": [{"name": "a", "path": "p.png", "count": 12}]}))
+    proc = subprocess.Popen([sys.executable, "-m", "barkgen", "batch", str(spec), "-o", str(tmp / "out"),
+                             "--workers", "2", "-q"], stderr=subprocess.PIPE, text=True, env=ENV,
+                            start_new_session=True)
+    try:
+        deadline = time.monotonic() + 60
+        while not list((tmp / "out").glob("a/*/report.json")):
+            if time.monotonic() > deadline or proc.poll() is not None:
+                return "no variant was made"
+            time.sleep(0.2)
+        os.killpg(proc.pid, signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    return first_problem(None if proc.returncode == 130 else f"exit {proc.returncode}",
+                         None if len(err.splitlines()) <= 3 and "Traceback" not in err else
+                         f"{len(err.splitlines())} lines")
+
+
+@case("errors", "14 web jobs outlive a restart: waiting ones wait, the running one says interrupted", 10)
+def _(tmp):
+    from barkgen.library import Library
+    from barkgen.web.jobs import INTERRUPTED, JobManager
+
+    with web_client(tmp / "lib", run_jobs=False) as client:
+        ids = [client.post("/api/jobs", json={"exemplar_id": 1, "size": "64x64", "seed": s}).json()["id"]
+               for s in (1, 2)]
+    library = Library(tmp / "lib")
+    record = next(r for r in library.saved_jobs() if r["id"] == ids[0])
+    library.save_job({**record, "state": "running"})  # as a killed server leaves it
+    manager = JobManager(Library(tmp / "lib"))
+    first, second = manager.snapshot(ids[0]), manager.snapshot(ids[1])
+    return first_problem(None if first and first["error"] == INTERRUPTED else f"first: {first}",
+                         None if second and second["state"] == "queued" else f"second: {second}")
+
+
+@case("errors", "15 EXIF orientation: a sideways phone photo is turned upright")
+def _(tmp):
+    from PIL import Image
+
+    from barkgen.io import image_size
+
+    image = Image.fromarray(np.zeros((40, 100, 3), np.uint8))
+    exif = Image.Exif()
+    exif[0x0112] = 6  # "rotate 90 CW to view"
+    path = tmp / "phone.jpg"
+    image.save(path, exif=exif)
+    shape = read_image(path).shape[:2]
+    return first_problem(None if shape == (100, 40) else f"read as {shape}",
+                         None if image_size(path) == (40, 100) else f"header size {image_size(path)}")
+
+
+@case("errors", "16 an unwritable output folder is refused before any work")
+def _(tmp):
+    return one_line(cli("generate", str(photo(tmp)), "-o", "/proc/barkgen-out/set", "--size", "2048x2048"))
+
+
+@case("errors", "17 a 1x1 upload refused at once")
+def _(tmp):
+    with web_client(tmp / "lib", run_jobs=False) as client:
+        r = client.post("/api/exemplars", files={"file": ("dot.png", png_bytes(np.zeros((1, 1, 3), np.uint8)))})
+        return None if r.status_code == 400 else f"HTTP {r.status_code}"
+
+
+for _args, _word in ((("synth", "{p}", "-o", "{t}/s.png", "--seed", "-1"), "--seed"),
+                     (("synth", "{p}", "-o", "{t}/s.png", "--threads", "0"), "--threads"),
+                     (("library", "rm", "abc"), "ID"),
+                     (("synth", "{p}", "--no-such-flag"), "--no-such-flag"),
+                     (("labels", "{p}", "-o", "{t}/e.png", "--edges", "--edge-width", "100000"), "edge")):
+    def _usage(tmp, args=_args, word=_word):
+        p = photo(tmp)
+        return one_line(cli(*(a.format(p=p, t=tmp) for a in args)), word)
+    case("errors", f"17 {' '.join(_args[:1] + _args[-2:])}: one line")(_usage)
+
+
+@case("errors", "17 ten concurrent uploads of one photo: one adds it", 15)
+def _(tmp):
+    from concurrent.futures import ThreadPoolExecutor
+
+    data = png_bytes(np.random.default_rng(3).integers(0, 255, (64, 64, 3), dtype=np.uint8))
+    with web_client(tmp / "lib", run_jobs=False) as client:
+        with ThreadPoolExecutor(10) as pool:
+            codes = list(pool.map(lambda i: client.post("/api/exemplars", files={"file": (f"{i}.png", data)})
+                                  .status_code, range(10)))
+    return None if sorted(codes) == [200] * 9 + [201] else f"codes {sorted(codes)}"
+
+
+@case("errors", "17 report.json of a non-UTF-8 path is valid UTF-8 JSON", 15)
+def _(tmp):
+    folder = Path(os.fsdecode(bytes(tmp) + b"/caf\xe9"))
+    folder.mkdir()
+    problem = ok(cli("generate", str(photo(folder)), "-o", str(tmp / "out"), "--size", "32x32", "-q"))
+    if problem:
+        return problem
+    try:
+        json.loads((tmp / "out" / "report.json").read_bytes().decode("utf-8"))
+    except (UnicodeDecodeError, ValueError) as exc:
+        return str(exc)
+    return None
+
+
+@case("errors", "17 an animated GIF and a float TIFF out of 0-1 are said so", 10)
+def _(tmp):
+    from PIL import Image
+
+    frames = [Image.fromarray(np.full((32, 32), v, np.uint8)) for v in (0, 255)]
+    frames[0].save(tmp / "a.gif", save_all=True, append_images=frames[1:])
+    Image.fromarray(np.full((32, 32), 3.5, np.float32)).save(tmp / "f.tif")
+    said = [cli("labels", str(tmp / name), "-o", str(tmp / f"{name}.png"), "-q").stderr
+            for name in ("a.gif", "f.tif")]
+    return first_problem(None if "frame" in said[0] else f"gif: {said[0][-160:]!r}",
+                         None if "0" in said[1] and "1" in said[1] and said[1].strip() else f"tiff: {said[1]!r}")
+
+
+@case("errors", "17 generate --labels takes a colour label map", 20)
+def _(tmp):
+    p = photo(tmp)
+    colours = np.zeros((128, 128, 3), np.uint8)
+    colours[:64] = (200, 30, 30)
+    colours[64:] = (20, 90, 200)
+    write_png(tmp / "labels.png", colours)
+    return ok(cli("generate", str(p), "--labels", str(tmp / "labels.png"), "-o", str(tmp / "out"),
+                  "--size", "32x32", "-q"))
+
+
+@case("errors", "17 no page loads scripts from a CDN (/docs, /redoc off)")
+def _(tmp):
+    with web_client(tmp / "lib", run_jobs=False) as client:
+        codes = [client.get(p).status_code for p in ("/docs", "/redoc")]
+    return None if codes == [404, 404] else f"codes {codes}"
+
+
+# -- what held before ------------------------------------------------------------------------
+for _name, _data in (("not an image", b"hello, this is text"), ("empty file", b""),
+                     ("truncated PNG", None)):
+    def _bad_file(tmp, data=_data):
+        path = tmp / "bad.png"
+        path.write_bytes(data if data is not None else photo(tmp).read_bytes()[:300])
+        return one_line(cli("synth", str(path), "-o", str(tmp / "s.png"), "--size", "32x32"))
+    case("held", f"a bad file ({_name}): one line")(_bad_file)
+
+
+@case("held", "a missing file and a bad --size: one line")
+def _(tmp):
+    return first_problem(one_line(cli("synth", str(tmp / "nope.png"), "-o", str(tmp / "s.png"))),
+                         one_line(cli("synth", str(photo(tmp)), "-o", str(tmp / "s.png"), "--size", "12xx")))
+
+
+@case("held", "an upload decompression bomb refused in milliseconds")
+def _(tmp):
+    big = _huge_png(tmp, 12000).read_bytes()
+    with web_client(tmp / "lib", run_jobs=False) as client:
+        t = time.perf_counter()
+        r = client.post("/api/exemplars", files={"file": ("bomb.png", big)})
+        seconds = time.perf_counter() - t
+    return None if r.status_code == 413 and seconds < 0.5 else f"HTTP {r.status_code} in {seconds:.2f} s"
+
+
+@case("held", "upload file names never become paths")
+def _(tmp):
+    with web_client(tmp / "lib", run_jobs=False) as client:
+        r = client.post("/api/exemplars", files={"file": ("../../../../tmp/evil.png", photo(tmp).read_bytes())})
+    written = [p for p in (tmp / "lib").rglob("*evil*")]
+    return first_problem(None if r.status_code == 201 else f"HTTP {r.status_code}",
+                         f"wrote {written}" if written or Path("/tmp/evil.png").exists() else None)
+
+
+@case("held", "a foreign Host (DNS rebinding) and a foreign Origin refused")
+def _(tmp):
+    from fastapi.testclient import TestClient
+
+    from barkgen.library import Library
+    from barkgen.web import create_app
+
+    app = create_app(Library(tmp / "lib"), hosts=["127.0.0.1", "localhost"], run_jobs=False)
+    with TestClient(app, base_url="http://127.0.0.1:8000") as client:
+        codes = [client.get("/api/exemplars", headers={"host": "evil.example"}).status_code,
+                 client.delete("/api/exemplars/1", headers={"origin": "http://evil.example"}).status_code]
+    return None if codes == [400, 403] else f"codes {codes}"
+
+
+@case("held", "the web queue is bounded (429)")
+def _(tmp):
+    from barkgen.web.jobs import MAX_QUEUED
+
+    with web_client(tmp / "lib", run_jobs=False) as client:
+        codes = [client.post("/api/jobs", json={"exemplar_id": 1, "size": "64x64", "seed": i}).status_code
+                 for i in range(MAX_QUEUED + 1)]
+    return None if codes == [201] * MAX_QUEUED + [429] else f"codes {codes[-3:]}"
+
+
+@case("held", "Ctrl-C on generate leaves nothing behind", 30)
+def _(tmp):
+    out = tmp / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "barkgen", "generate", str(photo(tmp)), "-o", str(out),
+                             "--size", "2048x2048", "-q"], stderr=subprocess.PIPE, text=True, env=ENV)
+    time.sleep(3)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    left = sorted(p.name for p in out.rglob("*")) if out.exists() else []
+    return first_problem(None if proc.returncode == 130 else f"exit {proc.returncode}",
+                         f"left {left}" if left else None)
+
+
+@case("held", "the library survives kill -9 in the middle of adds", 30)
+def _(tmp):
+    from barkgen.library import Library
+
+    script = ("import sys, numpy as np\nfrom barkgen.library import Library\nfrom barkgen.io import encode_png\n"
+              "lib = Library(sys.argv[1])\nrng = np.random.default_rng(0)\n"
+              "while True:\n    lib.add_exemplar(encode_png(rng.integers(0, 255, (256, 256, 3), dtype=np.uint8)), 'x')\n")
+    proc = subprocess.Popen([sys.executable, "-c", script, str(tmp / "lib")], env=ENV)
+    time.sleep(4)
+    proc.kill()
+    proc.wait()
+    library = Library(tmp / "lib")
+    exemplars = library.exemplars()
+    missing = [e.id for e in exemplars if not library.store.exists(e.image_hash)]
+    half = [p for p in (tmp / "lib" / "objects").rglob("*") if p.is_file() and p.name.endswith(".tmp")]
+    return first_problem(None if len(exemplars) > 2 else f"only {len(exemplars)} exemplars",
+                         f"rows without files: {missing}" if missing else None,
+                         f"half-written objects: {half}" if half and library.store.digests() else None)
+
+
+@case("held", "batch resumes: a finished batch run again makes nothing", 90)
+def _(tmp):
+    photo(tmp)
+    spec = tmp / "spec.yaml"
+    spec.write_text(json.dumps({"size": "48x48", "exemplars": [{"name": "a", "path": "p.png", "count": 2}]}))
+    problem = ok(cli("batch", str(spec), "-o", str(tmp / "out"), "--workers", "1", "-q"))
+    if problem:
+        return problem
+    stamps = {p: p.stat().st_mtime_ns for p in (tmp / "out").glob("a/*/texture.png")}
+    problem = ok(cli("batch", str(spec), "-o", str(tmp / "out"), "--workers", "1", "-q"))
+    again = {p: p.stat().st_mtime_ns for p in (tmp / "out").glob("a/*/texture.png")}
+    return first_problem(problem, None if len(stamps) == 2 and again == stamps else "variants were made again")
+
+
+@case("held", "the same seed gives the same bytes", 20)
+def _(tmp):
+    p = photo(tmp)
+    outputs = []
+    for name in ("a.png", "b.png"):
+        problem = ok(cli("synth", str(p), "-o", str(tmp / name), "--size", "96x96", "--seed", "3", "-q"))
+        if problem:
+            return problem
+        outputs.append((tmp / name).read_bytes())
+    return None if outputs[0] == outputs[1] else "the bytes differ"
+
+
+# -- the runner ------------------------------------------------------------------------------
+def run_case(item: Case) -> tuple[float, str | None]:
+    with tempfile.TemporaryDirectory(prefix="barkgen-abuse-") as folder:
+        t = time.perf_counter()
+        try:
+            problem = item.check(Path(folder))
+        except Exception as exc:  # noqa: BLE001 - a case that crashes did not hold
+            problem = f"{type(exc).__name__}: {exc}"
+            traceback.print_exc(limit=3)
+        seconds = time.perf_counter() - t
+    if problem is None and seconds > item.budget_s:
+        problem = f"over its budget of {item.budget_s:g} s"
+    return seconds, problem
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--only", help="run the cases whose name holds this word")
+    parser.add_argument("--json", type=Path, help="also write the rows as JSON here")
+    args = parser.parse_args()
+    os.environ.setdefault("BARKGEN_LIBRARY", tempfile.mkdtemp(prefix="barkgen-abuse-library-") + "/lib")
+    ENV["BARKGEN_LIBRARY"] = os.environ["BARKGEN_LIBRARY"]
+    chosen = [c for c in CASES if not args.only or args.only in c.name]
+    rows = []
+    started = time.perf_counter()
+    print(f"| group | case | s | budget s | held |\n|---|---|---:|---:|---|")
+    for item in chosen:
+        seconds, problem = run_case(item)
+        rows.append({"group": item.group, "case": item.name, "seconds": round(seconds, 2),
+                     "budget_s": item.budget_s, "held": problem is None, "problem": problem})
+        print(f"| {item.group} | {item.name} | {seconds:.2f} | {item.budget_s:g} | "
+              f"{'held' if problem is None else 'NO: ' + problem} |", flush=True)
+    held = sum(r["held"] for r in rows)
+    print(f"\ncases tried {len(rows)}, held {held}, in {time.perf_counter() - started:.0f} s")
+    if args.json:
+        args.json.write_text(json.dumps(rows, indent=2))
+    return 0 if held == len(rows) else 1
+
+
+if __name__ == "__main__":
+    threading.current_thread().name = "bench-abuse"
+    sys.exit(main())
