@@ -63,3 +63,40 @@ def test_hierarchical_sets_close_to_direct_search(pine64):
     d_h = ((pf.features[hier[:, 0]] - pf.features) ** 2).sum(1)
     d_d = ((pf.features[direct[:, 0]] - pf.features) ** 2).sum(1)
     assert np.median(d_h) < 2.5 * np.median(d_d)  # hierarchical: coarse-level ANN, same order
+
+
+def test_a_large_coarsest_level_is_seeded_from_coarser_ones_close_to_a_search(monkeypatch):
+    """A thin or tiny output of a large photo has few levels, so its coarsest exemplar level is
+    large: its sets are refined from a coarser level searched for that alone, then propagated
+    (a million-pixel search took 14 s), and stay close to a direct search's."""
+    from barkgen.data import sample_exemplar_path
+    from barkgen.io import read_image
+    from barkgen.synth import analysis
+    from barkgen.synth.config import SynthesisConfig
+
+    photo = read_image(sample_exemplar_path())[:128, :128]
+    feats = matching_features(photo, None, 0.5)
+    config = SynthesisConfig()
+    monkeypatch.setattr(analysis, "GUIDED_SEARCH_LIMIT", 64 * 64)  # 128^2 is "large" here
+    searched = []
+    real_search = analysis.k_coherence_sets
+    monkeypatch.setattr(analysis, "k_coherence_sets",
+                        lambda f, *a, **k: searched.append(len(f)) or real_search(f, *a, **k))
+    (level,) = analysis.analyse_exemplar(feats, 1, config)
+    assert searched == [64 * 64]  # one search, at 64^2: none at 128^2
+    size = max(analysis.schedule_sizes(config, 0, 1))
+    features = level.projections[size].features
+    direct, _ = real_search(features, 128, config.k, radius=2)
+    guided = ((features[level.ksets[:, 0]] - features) ** 2).sum(1)
+    exact = ((features[direct[:, 0]] - features) ** 2).sum(1)
+    # as close as a level refined from its parent in any run (2.5x there), closer thanks to
+    # the propagation passes
+    coarse = gaussian_pyramid(feats, 2)[1]
+    parent, _ = real_search(neighbourhood_pca(coarse, size, config.pca_components).features, 64, config.k)
+    refined, _ = k_coherence_sets_from_parent(parent, (64, 64), features, (128, 128), config.k)
+    plain = ((features[refined[:, 0]] - features) ** 2).sum(1)
+    assert np.median(guided) < 2.0 * np.median(exact), (np.median(guided), np.median(exact))
+    assert np.median(guided) < 0.8 * np.median(plain), (np.median(guided), np.median(plain))
+    ys, xs = np.divmod(np.arange(128 * 128), 128)
+    sy, sx = np.divmod(level.ksets, 128)
+    assert np.all(np.maximum(np.abs(sy - ys[:, None]), np.abs(sx - xs[:, None])) > 2)

@@ -131,3 +131,63 @@ def refine_child_sets(parent_sets, coarse_w, coarse_h, features, height, width, 
                         break
             _pad_row(out, i, got, k)
     return out
+
+
+@nb.njit(parallel=True, cache=True, fastmath=True)
+def propagate_sets(sets, features, height, width, radius):  # pragma: no cover - compiled
+    """One pass of k-coherence propagation (Tong et al. 2002) over a level's sets: each pixel
+    takes the best spread ``k`` of its own set and its 8 neighbours' sets shifted back by the
+    neighbour's offset (a neighbour's match, one step over, matches this pixel). Reads
+    ``sets``, writes a new array (the same result whatever the thread order)."""
+    n, k = sets.shape
+    D = features.shape[1]
+    out = np.empty((n, k), np.int32)
+    for y in nb.prange(height):
+        cand = np.empty(9 * k, np.int32)
+        dist = np.empty(9 * k, np.float32)
+        for x in range(width):
+            i = y * width + x
+            m = 0
+            for oy in range(-1, 2):
+                ny = y + oy
+                if ny < 0 or ny >= height:
+                    continue
+                for ox in range(-1, 2):
+                    nx = x + ox
+                    if nx < 0 or nx >= width:
+                        continue
+                    for t in range(k):
+                        c = sets[ny * width + nx, t]
+                        cy = c // width - oy
+                        cx = c - (c // width) * width - ox
+                        if cy < 0 or cy >= height or cx < 0 or cx >= width:
+                            continue
+                        if abs(cy - y) <= radius and abs(cx - x) <= radius:
+                            continue
+                        u = cy * width + cx
+                        d2 = 0.0
+                        for d in range(D):
+                            diff = features[u, d] - features[i, d]
+                            d2 += diff * diff
+                        cand[m] = u
+                        dist[m] = d2
+                        m += 1
+            got = 0
+            for _ in range(m):
+                jbest = -1
+                dbest = np.inf
+                for j in range(m):
+                    if dist[j] < dbest:
+                        dbest = dist[j]
+                        jbest = j
+                if jbest < 0:
+                    break
+                dist[jbest] = np.inf
+                c = cand[jbest]
+                if _far_from_kept(out, i, got, c, width, radius):
+                    out[i, got] = c
+                    got += 1
+                    if got == k:
+                        break
+            _pad_row(out, i, got, k)
+    return out

@@ -23,6 +23,7 @@ from barkgen.nnf import (
     k_coherence_sets_from_parent,
     neighbourhood_pca,
 )
+from barkgen.nnf.kcoherence import propagate_k_coherence
 from barkgen.pyramid import gaussian_pyramid
 from barkgen.synth.config import SynthesisConfig
 
@@ -30,8 +31,8 @@ from barkgen.synth.config import SynthesisConfig
 #: ones refine their parent's k-coherence sets
 DIRECT_SEARCH_LIMIT = 2048
 #: a coarsest level larger than this (a thin or tiny output of a large photo: few levels) is
-#: not searched directly either (a million-pixel k-NN search took 14 s); its sets come down
-#: from coarser levels analysed for that alone (:func:`_guide_sets`)
+#: not searched directly either (a million-pixel k-NN search took 14 s): its sets come from a
+#: coarser level's, searched for that alone (:func:`_guide_sets`), refined and propagated
 GUIDED_SEARCH_LIMIT = 262_144
 
 
@@ -112,6 +113,8 @@ def analyse_exemplar(features: np.ndarray, n_levels: int, config: SynthesisConfi
             ksets, scale = k_coherence_sets_from_parent(
                 parent.ksets, (parent.height, parent.width), largest.features, (h, w),
                 config.k, radius=2)
+            if parent.features is None:  # seeded by _guide_sets: no solve checks these sets
+                ksets, scale = propagate_k_coherence(ksets, largest.features, (h, w))
         cy, cx = np.divmod(np.arange(h * w, dtype=np.int32), np.int32(w))
         kernel_weights = {size: np.ascontiguousarray(p.weights.transpose(1, 2, 3, 0))
                           for size, p in projections.items()}
@@ -125,25 +128,17 @@ def analyse_exemplar(features: np.ndarray, n_levels: int, config: SynthesisConfi
 
 def _guide_sets(image: np.ndarray, size: int, config: SynthesisConfig,
                 wrap: tuple[bool, bool]) -> LevelAnalysis:
-    """k-coherence sets of the levels coarser than ``image`` (down to
-    :data:`DIRECT_SEARCH_LIMIT` pixels), each refined from the next coarser one; the finest
-    of them is the parent from which ``image``'s own sets are refined. Only the sets and the
-    shape are filled in: no solver reads these levels."""
-    chain = [image]
-    while chain[-1].shape[0] * chain[-1].shape[1] > DIRECT_SEARCH_LIMIT and min(chain[-1].shape[:2]) > 8:
-        chain.append(gaussian_pyramid(chain[-1], 2, wrap)[1])
-    parent: LevelAnalysis | None = None
-    wide = max(4 * config.k, 16)  # more proposals per pixel than a set holds: sets as good as a search
-    for img in reversed(chain[1:]):
-        h, w = img.shape[:2]
-        feats = neighbourhood_pca(img, size, config.pca_components, wrap=wrap).features
-        if parent is None:
-            ksets, scale = k_coherence_sets(feats, w, wide, radius=2)
-        else:
-            ksets, scale = k_coherence_sets_from_parent(parent.ksets, (parent.height, parent.width),
-                                                        feats, (h, w), wide, radius=2)
-        parent = LevelAnalysis(h, w, None, None, None, {}, {}, ksets, scale, wrap)
-    return parent
+    """The k-coherence sets of the first level coarser than ``image`` with at most
+    :data:`GUIDED_SEARCH_LIMIT` pixels, by a direct search: the parent from which ``image``'s
+    own sets are refined (and then propagated). Only the sets and the shape are filled in: no
+    solver reads this level."""
+    level = image
+    while level.shape[0] * level.shape[1] > GUIDED_SEARCH_LIMIT and min(level.shape[:2]) > 8:
+        level = gaussian_pyramid(level, 2, wrap)[1]
+    h, w = level.shape[:2]
+    features = neighbourhood_pca(level, size, config.pca_components, wrap=wrap).features
+    ksets, scale = k_coherence_sets(features, w, config.k, radius=2)
+    return LevelAnalysis(h, w, None, None, None, {}, {}, ksets, scale, wrap)
 
 
 class AnalysisCache:
