@@ -61,7 +61,11 @@ def case(group: str, name: str, budget_s: float = REFUSE_S):
 
 
 # -- helpers ---------------------------------------------------------------------------------
-def cli(*args: str, timeout: float = 300, env: dict | None = None) -> subprocess.CompletedProcess:
+#: a command still running after this long is stopped (and the case did not hold)
+CLI_TIMEOUT_S = 60
+
+
+def cli(*args: str, timeout: float = CLI_TIMEOUT_S, env: dict | None = None) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "barkgen", *args], capture_output=True, text=True,
                           timeout=timeout, env=env or ENV)
 
@@ -784,6 +788,8 @@ def run_case(item: Case) -> tuple[float, str | None]:
         t = time.perf_counter()
         try:
             problem = item.check(Path(folder))
+        except subprocess.TimeoutExpired as exc:
+            problem = f"still running after {exc.timeout:g} s (stopped)"
         except Exception as exc:  # noqa: BLE001 - a case that crashes did not hold
             problem = f"{type(exc).__name__}: {exc}"
             traceback.print_exc(limit=3)

@@ -6,8 +6,9 @@ folder.
 user_version``, :mod:`.schema`): ``exemplars`` (name, species, bark type, licence, source, image
 hash, size), ``analyses`` (label maps, thumbnails and other cached analysis of an exemplar, keyed
 by kind and parameters), ``results`` (exemplar, parameters, seed, timings, created, and the
-output files in ``result_files``) and ``jobs`` (the web app's queue, kept across restarts). The bytes live once each in ``LIBRARY/objects`` (:mod:`.store`). The
-bundled sample photo is added on first use. The folder is ``--library PATH``,
+output files in ``result_files``) and ``jobs`` (the web app's queue, kept across restarts).
+The bytes live once each in ``LIBRARY/objects`` (:mod:`.store`). The bundled sample photo is
+added on first use. The folder is ``--library PATH``,
 ``$BARKGEN_LIBRARY`` or, by default, ``barkgen/library`` under the user's data directory.
 
 Every method opens its own connection, so one :class:`Library` serves any number of threads;

@@ -33,7 +33,6 @@ from barkgen.errors import BarkgenError
 from barkgen.library import Library, LibraryError, NotFoundError
 from barkgen.web.worker import JobSpec, LabelSpec, worker_main
 
-KINDS = ("generate", "labels")
 STATES = ("queued", "running", "done", "failed", "cancelled")
 FINISHED = ("done", "failed", "cancelled")
 #: finished jobs kept in memory (their results stay in the library)
@@ -229,7 +228,8 @@ class JobManager:
     # -- internals (call with the lock held) ------------------------------------------------
     def _describe(self, job: Job) -> dict:
         position = self._queue.index(job.id) + (1 if self._running() else 0) if job.state == "queued" else 0
-        return {"id": job.id, "kind": job.kind, "number": job.order, "state": job.state, "progress": round(job.progress, 4),
+        return {"id": job.id, "kind": job.kind, "number": job.order, "state": job.state,
+                "progress": round(job.progress, 4),
                 "stage": job.stage if job.state == "running" else None,
                 "queue_position": position, "result_id": job.result_id, "error": job.error,
                 "exemplar_id": job.exemplar_id, "params": job.params, "version": job.version,

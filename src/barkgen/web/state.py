@@ -54,17 +54,9 @@ class AppState:
     jobs: JobManager
     limits: WebLimits = field(default_factory=WebLimits)
     should_exit: Callable[[], bool] = lambda: False
-    _label_locks: dict[tuple[int, int], threading.Lock] = field(default_factory=dict, repr=False)
-    _label_locks_guard: threading.Lock = field(default_factory=threading.Lock, repr=False)
     #: uploads look up and add their photo under it, so one photo uploaded ten times at once
     #: is added once and nine answers say it was there
     upload_lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
-
-    def label_lock(self, exemplar_id: int, k: int) -> threading.Lock:
-        """The lock under which one photo's label map for ``k`` labels is made (once, however
-        many pages ask at the same time)."""
-        with self._label_locks_guard:
-            return self._label_locks.setdefault((exemplar_id, k), threading.Lock())
 
 
 def get_state(request: Request) -> AppState:
