@@ -361,6 +361,16 @@ def _(tmp):
                                "segments")
 
 
+@case("runaway", "7 branches grow at its largest size estimates 5.2 GiB and keeps to --max-memory", 10)
+def _(tmp):
+    cli("branches", "extract", str(photo(tmp)), "-o", str(tmp / "s.json"))
+    t = time.perf_counter()
+    problem = one_line(cli("branches", "grow", str(tmp / "s.json"), "-o", str(tmp / "g.json"),
+                           "--size", "16384x16384", "--max-memory", "2G"), "5.2 GiB")
+    seconds = time.perf_counter() - t
+    return problem or (None if seconds < REFUSE_S else f"refused after {seconds:.1f} s")
+
+
 @case("runaway", "7 --max-memory 10M: refused, said in MiB")
 def _(tmp):
     return one_line(cli("generate", str(photo(tmp)), "-o", str(tmp / "m"), "--size", "64x64", "--max-memory", "10M"),

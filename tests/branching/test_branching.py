@@ -180,6 +180,16 @@ def test_a_guide_map_draws_the_branches_into_its_valley(mud_source):
         grow_structure(model, (w, h), guide=guide[:, :-1])
 
 
+def test_growth_estimates_its_memory_before_any_work(mud_source):
+    from barkgen.branching.grow import estimate_grow_memory
+    from barkgen.errors import MemoryBudgetError
+
+    with pytest.raises(MemoryBudgetError, match="2048x2048"):
+        grow_structure(fit_model(mud_source), (2048, 2048), options=GrowOptions(max_memory=50 * 2**20))
+    assert estimate_grow_memory((2048, 2048), guide=True) > estimate_grow_memory((2048, 2048))
+    assert estimate_grow_memory((16384, 16384)) / 2**30 > 5  # measured 5.3 GiB peak
+
+
 def test_growth_stops_at_the_requested_length(mud_source):
     grown = grow_structure(fit_model(mud_source), (512, 512), seed=0, options=GrowOptions(total_length=800))
     assert 800 <= grown.total_length() < 800 + 400
@@ -206,6 +216,9 @@ def test_branches_cli_bad_input_is_one_line_and_writes_nothing(tmp_path, mud_sou
         (("branches", "extract", str(flat), "-o", str(out), "--quiet"), "no cracks"),
         (("branches", "stats", str(src), str(bad)), "malformed JSON"),
         (("branches", "grow", str(tmp_path / "missing.json"), "-o", str(out)), "no such file"),
+        # growth's maps are 20 bytes a pixel: 16384^2 is 5.2 GiB, refused before any work
+        (("branches", "grow", str(src), "-o", str(out), "--size", "16384x16384", "--max-memory", "2G"),
+         "5.2 GiB"),
     ]
     for args, message in cases:
         r = run(*args)

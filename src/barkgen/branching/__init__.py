@@ -13,7 +13,7 @@
 
 from barkgen.branching.extract import extract_structure, overlay_structure
 from barkgen.branching.mask import crack_mask
-from barkgen.branching.grow import GrowOptions, grow_structure
+from barkgen.branching.grow import GrowOptions, check_grow_size, estimate_grow_memory, grow_structure
 from barkgen.branching.model import BranchModel, ModelOptions, fit_model
 from barkgen.branching.render import RenderOptions, RenderResult, render_branches
 from barkgen.branching.stats import (
@@ -41,9 +41,11 @@ __all__ = [
     "RenderResult",
     "Structure",
     "StructureComparison",
+    "check_grow_size",
     "compare_structures",
     "comparison_plot",
     "crack_mask",
+    "estimate_grow_memory",
     "extract_structure",
     "fit_model",
     "grow_structure",

@@ -10,7 +10,16 @@ import numpy as np
 import typer
 
 from barkgen._shared.checks import parse_size
-from barkgen.cli._common import OutputOption, QuietOption, SeedOption, check_target, progress_bar, write_outputs
+from barkgen.cli._common import (
+    MaxMemoryOption,
+    OutputOption,
+    QuietOption,
+    SeedOption,
+    check_target,
+    parse_memory,
+    progress_bar,
+    write_outputs,
+)
 
 #: help of the ``branches`` group
 HELP = ("Branching structures (cracks, fissures, dried mud; sibbing2010): extract a network "
@@ -72,17 +81,19 @@ def grow_command(
         "pixel times the output area).")] = None,
     levels: Annotated[int, typer.Option("--levels", help="Maximum branch generations.")] = 64,
     seed: SeedOption = 0,
+    max_memory: MaxMemoryOption = None,
     quiet: QuietOption = False,
 ) -> None:
     """Grow a new structure with the source's bending, furcation and merge statistics."""
-    from barkgen.branching import GrowOptions, fit_model, grow_structure
+    from barkgen.branching import GrowOptions, check_grow_size, fit_model, grow_structure
     from barkgen.io import read_image
     from barkgen.io.branches import encode_structure, read_structure
 
     check_target(output, "output", ".json")
     h, w = parse_size(size)
     # the options, the size's range and the guide map's size: grow_structure
-    options = GrowOptions(total_length=length, max_levels=levels)
+    options = GrowOptions(total_length=length, max_levels=levels, max_memory=parse_memory(max_memory))
+    check_grow_size((w, h), options.validate(), guide is not None)  # before the model is fitted
     source = read_structure(source_path)
     guide_map = _grey_unit(read_image(guide)) if guide is not None else None
     model = fit_model(source)
