@@ -204,18 +204,24 @@ def _(tmp):
                          one_line(cli("preview", str(sets), "-o", str(tmp / "t.png")), "no material set"))
 
 
-@case("data loss", "3 SIGTERM mid-run: exit 130, one line, nothing left", 30)
-def _(tmp):
+def interrupted_generate(tmp: Path, signum: int) -> str | None:
+    """None when a 2048² generate sent ``signum`` after 3 s exits 130 with one line and leaves
+    nothing in its folder."""
     out = tmp / "out"
     proc = subprocess.Popen([sys.executable, "-m", "barkgen", "generate", str(photo(tmp)), "-o", str(out),
                              "--size", "2048x2048", "-q"], stderr=subprocess.PIPE, text=True, env=ENV)
     time.sleep(3)
-    proc.send_signal(signal.SIGTERM)
+    proc.send_signal(signum)
     _, err = proc.communicate(timeout=60)
     left = sorted(p.name for p in out.rglob("*")) if out.exists() else []
     return first_problem(None if proc.returncode == 130 else f"exit {proc.returncode}",
                          None if err.strip() == "barkgen: error: interrupted" else repr(err[-200:]),
                          f"left {left}" if left else None)
+
+
+@case("data loss", "3 SIGTERM mid-run: exit 130, one line, nothing left", 30)
+def _(tmp):
+    return interrupted_generate(tmp, signal.SIGTERM)
 
 
 @case("data loss", "3 a killed writer's temporaries go at the next write there", 10)
@@ -735,15 +741,7 @@ def _(tmp):
 
 @case("held", "Ctrl-C on generate leaves nothing behind", 30)
 def _(tmp):
-    out = tmp / "out"
-    proc = subprocess.Popen([sys.executable, "-m", "barkgen", "generate", str(photo(tmp)), "-o", str(out),
-                             "--size", "2048x2048", "-q"], stderr=subprocess.PIPE, text=True, env=ENV)
-    time.sleep(3)
-    proc.send_signal(signal.SIGINT)
-    _, err = proc.communicate(timeout=60)
-    left = sorted(p.name for p in out.rglob("*")) if out.exists() else []
-    return first_problem(None if proc.returncode == 130 else f"exit {proc.returncode}",
-                         f"left {left}" if left else None)
+    return interrupted_generate(tmp, signal.SIGINT)
 
 
 @case("held", "the library survives kill -9 in the middle of adds", 30)

@@ -147,7 +147,7 @@ def _image_size(data: bytes, name) -> tuple[int, int]:
         if len(shape) == 3 and shape[0] in (1, 3, 4) and shape[2] not in (1, 2, 3, 4):
             return int(shape[2]), int(shape[1])
         return int(shape[1]), int(shape[0])
-    from PIL import Image, ImageOps, UnidentifiedImageError
+    from PIL import Image, UnidentifiedImageError
 
     try:
         with warnings.catch_warnings():
@@ -155,7 +155,8 @@ def _image_size(data: bytes, name) -> tuple[int, int]:
             with Image.open(io.BytesIO(data)) as im:
                 width, height = im.size
                 # as read: a photo its EXIF says to turn a quarter is read turned
-                return (height, width) if im.getexif().get(0x0112) in (5, 6, 7, 8) else (width, height)
+                turned = im.getexif().get(_EXIF_ORIENTATION) in (5, 6, 7, 8)
+                return (height, width) if turned else (width, height)
     except Image.DecompressionBombError as exc:  # over twice Pillow's own limit
         raise ImageTooLargeError(f"{name}: image too large ({exc})") from None
     except UnidentifiedImageError:

@@ -29,6 +29,30 @@ def _pad_row(out, i, got, k):
         out[i, t] = fill
 
 
+@nb.njit
+def _keep_nearest_spread(out, i, cand, dist, m, width, k, radius):
+    """Fill ``out[i]`` with the nearest of the ``m`` candidates ``cand`` (squared distances
+    ``dist``, consumed) that lie more than ``radius`` from each one already kept; pad the rest."""
+    got = 0
+    for _ in range(m):
+        jbest = -1
+        dbest = np.inf
+        for j in range(m):
+            if dist[j] < dbest:
+                dbest = dist[j]
+                jbest = j
+        if jbest < 0:
+            break
+        dist[jbest] = np.inf
+        c = cand[jbest]
+        if _far_from_kept(out, i, got, c, width, radius):
+            out[i, got] = c
+            got += 1
+            if got == k:
+                break
+    _pad_row(out, i, got, k)
+
+
 @nb.njit(parallel=True, cache=True)
 def select_spread_neighbours(knn, width, k, radius):  # pragma: no cover - compiled
     """Keep, per row of ``knn`` (nearest first), the first ``k`` exemplar pixels that lie more than
@@ -112,24 +136,7 @@ def refine_child_sets(parent_sets, coarse_w, coarse_h, features, height, width, 
                     cand[m] = ubest
                     dist[m] = dbest
                     m += 1
-            got = 0
-            for _ in range(m):
-                jbest = -1
-                dbest = np.inf
-                for j in range(m):
-                    if dist[j] < dbest:
-                        dbest = dist[j]
-                        jbest = j
-                if jbest < 0:
-                    break
-                dist[jbest] = np.inf
-                c = cand[jbest]
-                if _far_from_kept(out, i, got, c, width, radius):
-                    out[i, got] = c
-                    got += 1
-                    if got == k:
-                        break
-            _pad_row(out, i, got, k)
+            _keep_nearest_spread(out, i, cand, dist, m, width, k, radius)
     return out
 
 
@@ -172,22 +179,5 @@ def propagate_sets(sets, features, height, width, radius):  # pragma: no cover -
                         cand[m] = u
                         dist[m] = d2
                         m += 1
-            got = 0
-            for _ in range(m):
-                jbest = -1
-                dbest = np.inf
-                for j in range(m):
-                    if dist[j] < dbest:
-                        dbest = dist[j]
-                        jbest = j
-                if jbest < 0:
-                    break
-                dist[jbest] = np.inf
-                c = cand[jbest]
-                if _far_from_kept(out, i, got, c, width, radius):
-                    out[i, got] = c
-                    got += 1
-                    if got == k:
-                        break
-            _pad_row(out, i, got, k)
+            _keep_nearest_spread(out, i, cand, dist, m, width, k, radius)
     return out

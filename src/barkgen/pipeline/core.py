@@ -170,8 +170,6 @@ class GenerateResult:
 MATERIAL_BYTES_PER_PIXEL = 48
 
 
-
-
 def check_generate_memory(photo: np.ndarray, options: GenerateOptions,
                           extra: Mapping[str, np.ndarray] | None = None) -> int:
     """The estimated peak memory of :func:`generate` (bytes), checked against

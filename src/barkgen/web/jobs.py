@@ -152,9 +152,7 @@ class JobManager:
         job = Job(id=job_id, exemplar_id=exemplar_id, params=params, spec=spec, parent_id=parent_id,
                   labels_key=labels_key, order=next(self._counter))
         with self._lock:
-            if len(self._queue) >= MAX_QUEUED:
-                raise QueueFullError(f"the queue is full ({MAX_QUEUED} jobs waiting); try again when "
-                                     "some are done")
+            self._check_room()
             self._jobs[job_id] = job
             self._queue.append(job_id)
             self._save(job)
@@ -172,9 +170,7 @@ class JobManager:
                 if (job.kind == "labels" and job.exemplar_id == exemplar_id
                         and job.params["k"] == k and job.state not in FINISHED):
                     return job
-            if len(self._queue) >= MAX_QUEUED:
-                raise QueueFullError(f"the queue is full ({MAX_QUEUED} jobs waiting); try again when "
-                                     "some are done")
+            self._check_room()
             job = Job(id=secrets.token_hex(8), exemplar_id=exemplar_id, params={"k": k}, spec={},
                       labels_key=labels_key, kind="labels", order=next(self._counter))
             self._jobs[job.id] = job
@@ -226,6 +222,11 @@ class JobManager:
             self.cancel(job_id)
 
     # -- internals (call with the lock held) ------------------------------------------------
+    def _check_room(self) -> None:
+        if len(self._queue) >= MAX_QUEUED:
+            raise QueueFullError(f"the queue is full ({MAX_QUEUED} jobs waiting); try again when "
+                                 "some are done")
+
     def _describe(self, job: Job) -> dict:
         position = self._queue.index(job.id) + (1 if self._running() else 0) if job.state == "queued" else 0
         return {"id": job.id, "kind": job.kind, "number": job.order, "state": job.state,

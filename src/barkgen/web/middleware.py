@@ -42,7 +42,7 @@ class BodyLimit:
 class SameOrigin:
     """ASGI middleware against cross-site requests and DNS rebinding: the ``Host`` header must
     be one of ``hosts`` (when given), a request with an ``Origin`` must come from the app's own
-    (any method: a GET can start heavy work too, a label map of a large photo), and a GET of
+    (any method: a GET reads the library's photos and results), and a GET of
     ``/api/`` that the browser says comes from another site or port (``Sec-Fetch-Site``, sent
     for an ``<img>`` too, which sends no Origin) is refused. The pages themselves may be linked
     from anywhere."""
@@ -62,7 +62,7 @@ class SameOrigin:
         foreign = origin is not None and origin.decode("latin-1").split("://", 1)[-1] != host
         # a GET of the API from another page (an <img> or fetch of another site, or of another
         # port of this machine) sends no Origin for images, but browsers say where it comes
-        # from: only the app's own pages and typed addresses may start the API's work
+        # from: only the app's own pages and typed addresses may read the API
         fetched_from = headers.get(b"sec-fetch-site", b"").decode("latin-1")
         from_elsewhere = fetched_from in ("cross-site", "same-site") and scope["path"].startswith("/api/")
         if foreign or from_elsewhere:
