@@ -153,22 +153,41 @@ def test_joint_strategy_keeps_areas_and_shapes(fir_photo, fir_labels, k):
     assert _mean_dissimilarity(labels, out) <= 1.5 * _halves_dissimilarity(labels)
 
 
-def test_joint_strategy_stops_a_level_above_the_finest(fir_photo, fir_labels):
+def test_joint_strategy_stops_a_level_above_the_finest(fir_photo, fir_labels, monkeypatch):
     """The joint strategy solves down to level 1 (texture-by-numbers refines the finest level
     after it): its finest level copies exact 2 x 2 exemplar blocks, the children of level 1's
-    references, and the finest level's analysis of its features is never computed."""
+    references, whose borders expansion moves then shift onto the photo's low-error paths (a
+    pixel only takes the offset of a piece within the moves' reach); the finest level's analysis
+    of its features is never computed."""
+    import barkgen.shapes.engine as engine
     from barkgen.synth import AnalysisCache
 
+    seen = {}
+    expand = engine._expand_pieces
+
+    def spy(references, *args):
+        seen["up-sampled"] = references.copy()
+        return expand(references, *args)
+
+    monkeypatch.setattr(engine, "_expand_pieces", spy)
     labels = fir_labels[3]
     cache = AnalysisCache()
     result = synthesize_label_map(labels, (192, 256), strategy="joint", photo=fir_photo, seed=2,
                                   cache=cache)
-    refs = result.references.astype(np.int64)
-    block = refs[::2, ::2]
-    for dy in (0, 1):
-        for dx in (0, 1):
-            assert np.array_equal(refs[dy::2, dx::2], block + np.array([dy, dx]))
-    assert np.array_equal(result.label_map, labels[refs[..., 0], refs[..., 1]])
+    position = np.stack(np.mgrid[:192, :256], axis=-1)
+    # offsets on the exemplar's torus (the photo may wrap)
+    up = (seen["up-sampled"].astype(np.int64) - position) % np.array(labels.shape)
+    out = (result.references.astype(np.int64) - position) % np.array(labels.shape)
+    assert np.array_equal(up, np.repeat(np.repeat(up[::2, ::2], 2, axis=0), 2, axis=1))
+    moved = (up != out).any(axis=-1)
+    assert 0.02 < moved.mean() < 0.4
+    reach = engine.JOINT_CONFIG.seam_expansion_band * engine.JOINT_CONFIG.seam_expansion_rounds
+    padded = np.pad(up, ((reach, reach), (reach, reach), (0, 0)), mode="edge")
+    for y, x in zip(*np.nonzero(moved)):
+        window = padded[y:y + 2 * reach + 1, x:x + 2 * reach + 1].reshape(-1, 2)
+        assert (window == out[y, x]).all(axis=-1).any()
+    assert np.array_equal(result.label_map, labels[result.references[..., 0],
+                                                   result.references[..., 1]])
     (levels,) = cache._entries.values()
     assert levels[0] is None and levels[1] is not None
 

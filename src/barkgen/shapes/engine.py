@@ -54,6 +54,8 @@ from barkgen.synth.engine import (
     Guidance,
     LabelBalance,
     SynthesisConfig,
+    exemplar_grid,
+    expand_pieces,
     guide_channels,
     label_pyramid,
     level_guide,
@@ -64,14 +66,19 @@ from barkgen.synth.engine import (
 )
 
 #: the solver for label maps: the pyramid stops where label regions still exist (as for
-#: texture-by-numbers); one-hot channels need few appearance dimensions
-LABEL_ENGINE_CONFIG = SynthesisConfig(coarsest_exemplar=32, pca_components=6)
+#: texture-by-numbers); one-hot channels need few appearance dimensions; no expansion moves
+#: (one-hot borders have one cost wherever they run)
+LABEL_ENGINE_CONFIG = SynthesisConfig(coarsest_exemplar=32, pca_components=6,
+                                      seam_expansion_band=0)
 #: weight of the label-area term (:class:`barkgen.synth.engine.LabelBalance`)
 BALANCE_WEIGHT = 64.0
 #: side of the squares of the coarsest level's random patchwork start
 INIT_BLOCK = 8
-#: the joint strategy's solver: plain synthesis' configuration (it is a synthesis of the photo)
-JOINT_CONFIG = SynthesisConfig()
+#: the joint strategy's solver: plain synthesis' configuration (it is a synthesis of the photo),
+#: with two rounds of expansion moves on the finest level's up-sampled references
+#: (:func:`_expand_pieces`; generate's texture step ratio across seams on the sample, seed 0:
+#: 1.56 without them, 1.43 with two rounds)
+JOINT_CONFIG = SynthesisConfig(seam_expansion_rounds=2)
 #: joint strategy: the label channels' total variance, in units of the photo's colour variance
 JOINT_LABEL_WEIGHT = 1.0
 #: joint strategy: weight of the label-area term (:class:`~barkgen.synth.engine.LabelBalance`)
@@ -210,10 +217,29 @@ def synthesize_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int
     for lvl in reversed(range(finest)):
         references = upsample_references(references, level_shape(out_shape, lvl),
                                          level_shape(codes.shape, lvl), exemplar_wrap)
+    if finest > 0 and joint and config.seam_expansion_band:
+        references = _expand_pieces(references, features[..., :features.shape[2] - n_labels],
+                                    tile, exemplar_wrap, config)
     out_codes = codes[references[..., 0], references[..., 1]].astype(np.int32)
     if finest > 0 and on_level is not None:
         on_level(0, out_codes)
     return out_codes, references
+
+
+def _expand_pieces(references: np.ndarray, colour: np.ndarray, tile: bool,
+                   exemplar_wrap: tuple[bool, bool], config: SynthesisConfig) -> np.ndarray:
+    """The finest level's reference map, up-sampled from the level above, with its seams moved
+    off the up-sampling's 2x2 grid onto the photo's low-error paths (expansion moves on the
+    photo's colour, :func:`barkgen.synth.expansion.expand_pieces`): the label map's piece
+    borders are then the photo's own, and texture-by-numbers, which follows them, need not cut
+    the bark along a staircase."""
+    h, w = colour.shape[:2]
+    flat = references[..., 0] * w + references[..., 1]
+    unguided = (np.zeros(1, np.int32), np.zeros((1, 1), np.int32))
+    moved = expand_pieces(flat, exemplar_grid((h, w), exemplar_wrap), colour, tile,
+                          np.full(flat.shape, -1, np.int64), unguided,
+                          band=config.seam_expansion_band, rounds=config.seam_expansion_rounds)
+    return np.stack(np.divmod(moved, w), axis=-1).astype(np.int32)
 
 
 def start_score(references: np.ndarray, exemplar_width: int, shares: np.ndarray,

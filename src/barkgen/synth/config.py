@@ -56,6 +56,12 @@ class SynthesisConfig:
         (graph cuts, Kwatra et al. 2003: :mod:`barkgen.synth.cuts`); 0 disables.
     seam_cut_levels
         how many of the finest levels get those cuts.
+    seam_expansion_band
+        at the finest level, every copied piece may move its border this far (pixels) where
+        that lowers the seam cost (expansion moves, Boykov et al. 2001:
+        :mod:`barkgen.synth.expansion`); 0 disables.
+    seam_expansion_rounds
+        how many times every piece gets such a move.
     extra_weight
         weight of the extra channels relative to luminance in the matching.
     threads
@@ -79,6 +85,8 @@ class SynthesisConfig:
     seam_sweeps: int = 4
     seam_cut_run: int = 24
     seam_cut_levels: int = 2
+    seam_expansion_band: int = 8
+    seam_expansion_rounds: int = 1
     extra_weight: float = 0.5
     threads: int | None = None
     max_memory: int | None = None
@@ -110,6 +118,10 @@ class SynthesisConfig:
             raise InvalidInputError("seam_cut_run must be 0 (off) or between 4 and 4096")
         if not 0 <= self.seam_cut_levels <= 16:
             raise InvalidInputError("seam_cut_levels must be between 0 and 16")
+        if not 0 <= self.seam_expansion_band <= 64:
+            raise InvalidInputError("seam_expansion_band must be between 0 and 64")
+        if not 1 <= self.seam_expansion_rounds <= 16:
+            raise InvalidInputError("seam_expansion_rounds must be between 1 and 16")
         if not 0.0 < self.max_copy <= 1.0:
             raise InvalidInputError("max_copy must be in (0, 1]")
         if self.threads is not None and self.threads < 1:

@@ -8,13 +8,16 @@ texture-by-numbers, a :class:`LabelBalance` keeps the label areas of a label map
 :func:`check_memory` are the public API's checks, for callers that build their own front
 (:func:`estimate_memory` the solver's estimate they check);
 :func:`label_pyramid`, :func:`level_guide`, :func:`guide_channels` and
-:func:`smart_initialization` make a guide from label maps (laitoch2018 §3.3-3.4).
+:func:`smart_initialization` make a guide from label maps (laitoch2018 §3.3-3.4);
+:func:`expand_pieces` moves a reference map's seams onto low-error paths (kwatra2003 §3,
+boykov2001), on an exemplar grid made by :func:`exemplar_grid`.
 """
 
 from barkgen.synth.analysis import AnalysisCache, LevelAnalysis, matching_features
 from barkgen.synth.api import check_memory, estimate_memory, validate_inputs
 from barkgen.synth.config import SynthesisConfig
 from barkgen.synth.edges import resolve_exemplar_wrap
+from barkgen.synth.expansion import exemplar_grid, expand_pieces
 from barkgen.synth.guide import guide_channels, label_pyramid, level_guide
 from barkgen.synth.initialization import smart_initialization
 from barkgen.synth.occurrence import LabelBalance
@@ -30,6 +33,8 @@ __all__ = [
     "SynthesisResult",
     "check_memory",
     "estimate_memory",
+    "exemplar_grid",
+    "expand_pieces",
     "guide_channels",
     "label_pyramid",
     "level_guide",

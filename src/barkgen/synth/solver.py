@@ -36,6 +36,7 @@ from barkgen.pyramid import level_shape
 from barkgen.synth.analysis import AnalysisCache, LevelAnalysis, schedule_sizes
 from barkgen.synth.config import SynthesisConfig
 from barkgen.synth.gradient import resolve_continuous
+from barkgen.synth.expansion import expand_pieces
 from barkgen.synth.occurrence import LabelBalance, jitter_references, occurrence_penalty
 from barkgen.synth.pieces import cut_seams, limit_copies, roll_state, unstick_border_seams
 
@@ -133,6 +134,10 @@ class _LevelGuide:
     guide_out: dict
     guided: bool
 
+
+#: at the finest level, how many more iterations a straight seam stuck at the exemplar's
+#: border (:func:`~barkgen.synth.pieces.unstick_border_seams`) is given to be replaced
+STUCK_RETRIES = 2
 
 _NO_LABELS = np.zeros(1, np.int32)
 _NO_TARGET = np.zeros((1, 1), np.int32)
@@ -295,6 +300,22 @@ def _enforce_labels(refs: np.ndarray, la: LevelAnalysis, guide: _LevelGuide, pas
     return refs
 
 
+def _move_seams(refs: np.ndarray, forbid: np.ndarray, la: LevelAnalysis, lvl: int,
+                seam_image: np.ndarray, guide: _LevelGuide, config: SynthesisConfig, tile: bool,
+                rng: np.random.Generator) -> np.ndarray:
+    """The level's seams moved onto low-error paths: local sweeps, at the finest level the
+    pieces' expansion moves (:mod:`barkgen.synth.expansion`), and at the finest levels the
+    graph cuts of the straight stretches left (:mod:`barkgen.synth.cuts`)."""
+    refs = _refine_seams(refs, forbid, la, seam_image, guide, config.seam_sweeps, tile)
+    if config.seam_expansion_band and lvl == 0:
+        refs = expand_pieces(refs, la.grid, seam_image, tile, forbid, (guide.ex_labels, guide.target),
+                             band=config.seam_expansion_band, rounds=config.seam_expansion_rounds)
+    if config.seam_cut_run and lvl <= config.seam_cut_levels - 1:
+        refs = cut_seams(refs, la, seam_image, tile, config.seam_cut_run,
+                         (guide.ex_labels, guide.target) if guide.guided else None, rng)
+    return refs
+
+
 def _solve_level(refs: np.ndarray, forbid: np.ndarray, la: LevelAnalysis, lvl: int,
                  n_levels: int, guidance: Guidance | None, balance: LabelBalance | None,
                  config: SynthesisConfig, seam_channels: int | None, tile: bool,
@@ -313,10 +334,15 @@ def _solve_level(refs: np.ndarray, forbid: np.ndarray, la: LevelAnalysis, lvl: i
 
     schedule = [size for size, iters in config.schedule_for(lvl, n_levels) for _ in range(iters)]
     refs = _iterate(refs, forbid, la, lvl, schedule, guide, occurrence, config, tile, rng, tick)
-    refs = _refine_seams(refs, forbid, la, seam_image, guide, config.seam_sweeps, tile)
-    if config.seam_cut_run and lvl <= config.seam_cut_levels - 1:
-        refs = cut_seams(refs, la, seam_image, tile, config.seam_cut_run,
-                         (guide.ex_labels, guide.target) if guide.guided else None, rng)
+    refs = _move_seams(refs, forbid, la, lvl, seam_image, guide, config, tile, rng)
+    if lvl == 0 and config.seam_cut_run and not all(la.wrap):
+        # the last iteration's stuck border seams have no iteration after it to be handed to
+        for _ in range(STUCK_RETRIES):
+            if unstick_border_seams(refs, la, forbid, tile, max(4, config.seam_cut_run)) == 0:
+                break
+            refs = _iterate(refs, forbid, la, lvl, schedule[-1:], guide, occurrence, config,
+                            tile, rng, lambda: None)
+            refs = _move_seams(refs, forbid, la, lvl, seam_image, guide, config, tile, rng)
     if guide.guided and lvl == 0:
         refs = _enforce_labels(refs, la, guide, guidance.cleanup_passes, tile)
     return refs
