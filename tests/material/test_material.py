@@ -469,3 +469,60 @@ def test_cli_material_bad_input(tmp_path, pine_png, pine_set, args, message):
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and message in lines[0], r.stderr
     assert not (tmp_path / "out").exists()
+
+
+# ------------------------------------------------------------------ maps that wrap with the photo
+
+def _tiling_photo(size: int = 96) -> np.ndarray:
+    """The bundled sample (which tiles along both axes) scaled down: a photo that wraps."""
+    import cv2
+
+    from barkgen.data import sample_exemplar_path
+
+    photo = read_image(sample_exemplar_path())
+    return cv2.resize(photo, (size, size), interpolation=cv2.INTER_AREA).astype(np.float32) / 255.0
+
+
+@pytest.mark.parametrize("wrap", [(True, True), (False, True), (True, False)])
+def test_material_maps_follow_the_photo_wrap(wrap):
+    """A photo that wraps along an axis is a torus there: every map of its set (height and its
+    blurs, normals, AO rays, cavities, roughness) is shift-equivariant along that axis, so the
+    maps tile exactly where the photo does; along an axis that does not wrap, they are not."""
+    photo = _tiling_photo()
+    shift = (37 if wrap[0] else 0, 53 if wrap[1] else 0)
+    labels = (photo.mean(axis=2) > photo.mean()).astype(np.uint8)
+    base = make_material(photo, MaterialOptions(exemplar_wrap=wrap, light=Light(135, 45)),
+                         label_map=labels)
+    moved = make_material(np.roll(photo, shift, axis=(0, 1)),
+                          MaterialOptions(exemplar_wrap=wrap, light=Light(135, 45)),
+                          label_map=np.roll(labels, shift, axis=(0, 1)))
+    assert base.wraps == wrap and base.tile == all(wrap)
+    for name in ("height", "normals", "ao", "roughness", "color"):
+        a = np.roll(getattr(base, name), shift, axis=(0, 1))
+        b = getattr(moved, name)
+        assert np.abs(a - b).max() < 1e-3, name
+    # the same shift of a photo taken as a rectangle moves its mirrored borders: the maps differ
+    flat = make_material(photo, MaterialOptions(exemplar_wrap="no", light=Light(135, 45)),
+                         label_map=labels)
+    flat_moved = make_material(np.roll(photo, shift, axis=(0, 1)),
+                               MaterialOptions(exemplar_wrap="no", light=Light(135, 45)),
+                               label_map=np.roll(labels, shift, axis=(0, 1)))
+    assert np.abs(np.roll(flat.height, shift, axis=(0, 1)) - flat_moved.height).max() > 0.05
+
+
+def test_material_cli_records_the_wrap(tmp_path):
+    """``barkgen material`` on a photo that tiles asks the photo (auto) and says so in NAME.json."""
+    run("material", "-o", str(tmp_path / "auto"), "-q")  # the bundled sample tiles
+    run("material", "-o", str(tmp_path / "no"), "--exemplar-wraps", "no", "-q")
+    auto = json.loads((tmp_path / "auto" / "bark.json").read_text())
+    assert auto["wraps"] == [True, True] and auto["tileable"] and auto["exemplar_wrap_mode"] == "auto"
+    assert json.loads((tmp_path / "no" / "bark.json").read_text())["wraps"] == [False, False]
+    height = read_image(tmp_path / "auto" / "bark_Displacement.png").astype(np.float64)
+    flat = read_image(tmp_path / "no" / "bark_Displacement.png").astype(np.float64)
+    # the displacement steps from its last column to its first about as the photo does across
+    # its own wrap (1.5x its inner step on the sample), and ten times more when the photo
+    # is taken as a rectangle
+    for disp, most in ((height, 2.5), (flat, None)):
+        inner = np.abs(np.diff(disp, axis=1)).mean()
+        edge = np.abs(disp[:, 0] - disp[:, -1]).mean()
+        assert edge < most * inner if most else edge > 5 * inner

@@ -11,6 +11,7 @@ import typer
 
 from barkgen._shared.checks import parse_size
 from barkgen.cli._common import (
+    ExemplarWrapsOption,
     LightOption,
     MaxMemoryOption,
     NameOption,
@@ -45,7 +46,9 @@ def material_command(
     edits: Annotated[Optional[Path], typer.Option(
         "--edits", help="JSON list of height edits to replay (HeightEditor, wang2003 §3.3): "
         '{"version": 1, "edits": [{"x": 10, "y": 20, "delta": 1.5, "radius": 4}]}.')] = None,
-    tile: Annotated[bool, typer.Option("--tile", help="The photo is a tileable texture: maps wrap.")] = False,
+    exemplar_wraps: ExemplarWrapsOption = "auto",
+    tile: Annotated[bool, typer.Option("--tile", help="The photo is a tileable texture: maps wrap "
+                                       "(as --exemplar-wraps yes).")] = False,
     seed: SeedOption = 0,
     max_memory: MaxMemoryOption = None,
     quiet: QuietOption = False,
@@ -61,7 +64,8 @@ def material_command(
     check_material_name(name)
     check_folder(output_dir, "output")
     # k, seed and relief: MaterialOptions; edits outside the photo: the height editor
-    options = MaterialOptions(k=k, light=parse_light(light), tile=tile, seed=seed, relief=relief,
+    options = MaterialOptions(k=k, light=parse_light(light), seed=seed, relief=relief,
+                              exemplar_wrap="yes" if tile else exemplar_wraps,
                               max_memory=parse_memory(max_memory))
     edit_list = _read_edits(edits) if edits is not None else []
     src = photo if photo is not None else sample_exemplar_path()
@@ -73,12 +77,18 @@ def material_command(
         if progress:
             progress(1, 1)
     files = encode_material(material, name, seed=seed, source_photo=str(src),
-                            edits=len(edit_list))
+                            edits=len(edit_list), exemplar_wrap_mode=options.exemplar_wrap)
     write_files(output_dir, files)
     if not quiet:
         lt = material.light
         typer.echo(f"wrote {output_dir}/{name}_*.png ({w}x{h}; light {lt.azimuth:g},{lt.elevation:g}; "
-                   f"depth {material.depth:.1f} px) in {time.perf_counter() - start:.1f} s", err=True)
+                   f"depth {material.depth:.1f} px{_wrap_note(material.wraps)}) in {time.perf_counter() - start:.1f} s", err=True)
+
+
+def _wrap_note(wraps: tuple[bool, bool]) -> str:
+    """``; wraps left-right`` and the like: the axes along which the maps tile."""
+    names = [name for name, on in zip(("top-bottom", "left-right"), wraps) if on]
+    return f"; wraps {' and '.join(names)}" if names else ""
 
 
 def _read_edits(path: Path) -> list:

@@ -7,29 +7,37 @@ from numba import njit, prange
 
 
 @njit(cache=True)
-def _sample(height: np.ndarray, y: int, x: int, tile: bool) -> float:
+def _sample(height: np.ndarray, y: int, x: int, wrap_y: bool, wrap_x: bool) -> float:
     h, w = height.shape
-    if tile:  # round the torus (steps are short: a compare beats a modulo)
+    # round the torus along a wrapping axis (steps are short: a compare beats a modulo), else
+    # clamped to the border
+    if wrap_y:
         while y < 0:
             y += h
         while y >= h:
             y -= h
+    else:
+        y = min(max(y, 0), h - 1)
+    if wrap_x:
         while x < 0:
             x += w
         while x >= w:
             x -= w
-        return height[y, x]
-    return height[min(max(y, 0), h - 1), min(max(x, 0), w - 1)]
+    else:
+        x = min(max(x, 0), w - 1)
+    return height[y, x]
 
 
 @njit(parallel=True, cache=True)
-def horizon_occlusion(height: np.ndarray, directions: np.ndarray, radius: int, tile: bool) -> np.ndarray:
+def horizon_occlusion(height: np.ndarray, directions: np.ndarray, radius: int, wrap_y: bool,
+                      wrap_x: bool) -> np.ndarray:
     """Horizon-based ambient occlusion of a height field (heights in pixels).
 
     For each pixel and each unit ``direction`` ``(dy, dx)``, the horizon is the steepest
     elevation ``(h(p + t d) - h(p)) / t`` for ``t = 1..radius``; the pixel's visibility in that
     direction is ``1 - sin(horizon angle)``, averaged over the directions (Bavoil et al. 2008's
-    horizon-based AO, on a height field).
+    horizon-based AO, on a height field). The height wraps along the axes ``wrap_y`` /
+    ``wrap_x`` say, and is clamped at the other borders.
     """
     h, w = height.shape
     n_dir = directions.shape[0]
@@ -50,7 +58,7 @@ def horizon_occlusion(height: np.ndarray, directions: np.ndarray, radius: int, t
                 for t in range(1, radius + 1):
                     yy = y + step_y[d, t - 1]
                     xx = x + step_x[d, t - 1]
-                    slope = (_sample(height, yy, xx, tile) - h0) / t
+                    slope = (_sample(height, yy, xx, wrap_y, wrap_x) - h0) / t
                     if slope > best:
                         best = slope
                 total += best / np.sqrt(1.0 + best * best)

@@ -21,7 +21,7 @@ import cv2
 import numpy as np
 
 from barkgen.errors import InvalidInputError
-from barkgen.material.height import luminance
+from barkgen.material.height import Wrap, luminance, pad_wrapped, wrap_axes
 
 #: the largest neighbourhood radius compared at full resolution; larger ones use a coarser level
 MAX_LEVEL_RADIUS = 4
@@ -165,8 +165,8 @@ class HeightEditor:
         The height to edit, in pixels (copied).
     label_map : ndarray, shape (h, w), optional
         Label codes: an edit spreads only within the edited pixel's label.
-    tile : bool, default False
-        The photo wraps, so do the neighbourhoods.
+    tile : bool or (bool, bool), default False
+        The photo wraps (both axes, or ``(rows, columns)``), so do the neighbourhoods.
 
     Attributes
     ----------
@@ -195,7 +195,7 @@ class HeightEditor:
     """
 
     def __init__(self, photo: np.ndarray, height: np.ndarray, label_map: np.ndarray | None = None,
-                 *, tile: bool = False):
+                 *, tile: Wrap = False):
         lum = luminance(photo).astype(np.float32)
         if lum.shape != np.asarray(height).shape:
             raise InvalidInputError("the height map and the photo sizes differ")
@@ -205,7 +205,7 @@ class HeightEditor:
         self._lum = (lum - lum.mean()) / std
         self.height = np.array(height, np.float32, copy=True)
         self.label_map = None if label_map is None else np.asarray(label_map)
-        self.tile = bool(tile)
+        self.tile = wrap_axes(tile)
         self.edits: list[HeightEdit] = []
 
     @property
@@ -226,7 +226,7 @@ class HeightEditor:
         offsets = _disc_offsets(max(1, radius // factor))
         ly, lx = min(y // factor, lum.shape[0] - 1), min(x // factor, lum.shape[1] - 1)
         pad = int(np.abs(offsets).max())
-        padded = np.pad(lum, pad, mode="wrap" if self.tile else "reflect")
+        padded = pad_wrapped(lum, pad, self.tile)
         ref = padded[ly + pad + offsets[:, 0], lx + pad + offsets[:, 1]]
         dist = np.zeros(lum.shape, np.float32)
         for (dy, dx), v in zip(offsets, ref):

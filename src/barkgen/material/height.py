@@ -87,17 +87,46 @@ def luminance(rgb: np.ndarray) -> np.ndarray:
     return rgb[..., :3] @ np.array([0.2126, 0.7152, 0.0722], np.float32)
 
 
-def blur(image: np.ndarray, sigma: float, *, tile: bool) -> np.ndarray:
-    """Gaussian blur (float32, OpenCV), mirrored at the borders or wrapping when ``tile``."""
+#: ``tile`` of the map functions: ``True``/``False`` for both axes, or ``(rows, columns)``
+Wrap = bool | tuple[bool, bool]
+
+
+def wrap_axes(tile: Wrap) -> tuple[bool, bool]:
+    """``(rows, columns)`` of a ``tile`` setting: a bool (both axes) or a pair. A photo that
+    tiles along one axis only (:func:`barkgen.synth.exemplar_wraps`) wraps along that one."""
+    if isinstance(tile, (tuple, list)):
+        return bool(tile[0]), bool(tile[1])
+    return bool(tile), bool(tile)
+
+
+def pad_wrapped(image: np.ndarray, pad: int, tile: Wrap, other: str = "reflect") -> np.ndarray:
+    """``image`` padded by ``pad`` px on both sides of its first two axes: wrapping along an
+    axis it wraps along (``tile``), ``other`` (a :func:`numpy.pad` mode) along the others."""
+    wy, wx = wrap_axes(tile)
+    rest = [(0, 0)] * (np.ndim(image) - 2)
+    out = np.asarray(image)
+    for axis, wraps in ((0, wy), (1, wx)):
+        widths = [(0, 0), (0, 0)] + rest
+        widths[axis] = (pad, pad)
+        out = np.pad(out, widths, mode="wrap" if wraps else other)
+    return out
+
+
+def blur(image: np.ndarray, sigma: float, *, tile: Wrap) -> np.ndarray:
+    """Gaussian blur (float32, OpenCV), wrapping along the axes ``tile`` wraps along
+    (:func:`wrap_axes`), mirrored at the other borders."""
     image = np.asarray(image, np.float32)
-    if not tile:
+    wy, wx = wrap_axes(tile)
+    if not (wy or wx):
         return cv2.GaussianBlur(image, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
     pad = int(np.ceil(4 * sigma)) + 1  # numpy wraps again when the pad exceeds the image
-    out = cv2.GaussianBlur(np.pad(image, pad, mode="wrap"), (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
-    return out[pad:pad + image.shape[0], pad:pad + image.shape[1]]
+    py, px = pad if wy else 0, pad if wx else 0
+    widths = ((py, py), (px, px)) + ((0, 0),) * (image.ndim - 2)
+    out = cv2.GaussianBlur(np.pad(image, widths, mode="wrap"), (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
+    return out[py:py + image.shape[0], px:px + image.shape[1]]
 
 
-def band(image: np.ndarray, scale: float, *, tile: bool,
+def band(image: np.ndarray, scale: float, *, tile: Wrap,
          blurs: dict[float, np.ndarray] | None = None) -> np.ndarray:
     """The band-pass octave of ``image`` around ``scale`` px: Gaussian(scale/2) - Gaussian(2 scale).
 
@@ -110,22 +139,23 @@ def band(image: np.ndarray, scale: float, *, tile: bool,
     return blurs[scale / 2] - blurs[scale * 2]
 
 
-def gradient(image: np.ndarray, *, tile: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Central differences ``(d/dx, d/drow)`` float32: wrapping when ``tile``, else one-sided at
-    the borders; zero along an axis one pixel long."""
+def gradient(image: np.ndarray, *, tile: Wrap) -> tuple[np.ndarray, np.ndarray]:
+    """Central differences ``(d/dx, d/drow)`` float32: wrapping along the axes ``tile`` wraps
+    along, one-sided at the other borders; zero along an axis one pixel long."""
     img = np.asarray(image, np.float32)
+    wraps = wrap_axes(tile)
     grads = []
     for axis in (1, 0):
         if img.shape[axis] < 2:
             grads.append(np.zeros_like(img))
-        elif tile:
+        elif wraps[axis]:
             grads.append((np.roll(img, -1, axis) - np.roll(img, 1, axis)) * np.float32(0.5))
         else:
             grads.append(np.gradient(img, axis=axis).astype(np.float32))
     return grads[0], grads[1]
 
 
-def texture_energy(lum: np.ndarray, scale: float, *, tile: bool) -> np.ndarray:
+def texture_energy(lum: np.ndarray, scale: float, *, tile: Wrap) -> np.ndarray:
     """Local mean (Gaussian, ``scale / 2``) of the gradient magnitude, in units of its std."""
     gx, gy = gradient(lum, tile=tile)
     energy = blur(np.hypot(gx, gy), scale / 2, tile=tile)
@@ -133,7 +163,7 @@ def texture_energy(lum: np.ndarray, scale: float, *, tile: bool) -> np.ndarray:
 
 
 def height_features(photo: np.ndarray, label_map: np.ndarray | None, config: HeightConfig, *,
-                    tile: bool) -> list[tuple[float, np.ndarray]]:
+                    tile: Wrap) -> list[tuple[float, np.ndarray]]:
     """The weighted cues of :func:`estimate_height` as ``(weight, feature)`` pairs (each feature
     in units of its own std), so that fitting and estimating use one code path."""
     lum = luminance(photo).astype(np.float32)
@@ -156,7 +186,7 @@ def height_features(photo: np.ndarray, label_map: np.ndarray | None, config: Hei
 
 
 def estimate_height(photo: np.ndarray, label_map: np.ndarray | None = None, *,
-                    config: HeightConfig | None = None, tile: bool = False) -> np.ndarray:
+                    config: HeightConfig | None = None, tile: Wrap = False) -> np.ndarray:
     """Height field estimated from a photo alone.
 
     A weighted sum of luminance octaves, texture-energy octaves and the label map, weights as
@@ -171,8 +201,9 @@ def estimate_height(photo: np.ndarray, label_map: np.ndarray | None = None, *,
         labels are fissures, hence low.
     config : HeightConfig, optional
         The cues' scales and weights.
-    tile : bool, default False
-        The photo wraps (a synthesized tileable texture): filters wrap around.
+    tile : bool or (bool, bool), default False
+        The photo wraps (a photo that tiles, a synthesized tileable texture): filters wrap
+        around, along both axes or along ``(rows, columns)``.
 
     Returns
     -------

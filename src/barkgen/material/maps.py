@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from barkgen.material._kernels import horizon_occlusion
-from barkgen.material.height import blur, gradient
+from barkgen.material.height import Wrap, blur, gradient, wrap_axes
 
 #: directions and reach (px) of the horizon-based ambient occlusion
 AO_DIRECTIONS = 8
@@ -26,7 +26,7 @@ ROUGHNESS_CAVITY = 0.6
 ROUGHNESS_RIDGE = 0.05
 
 
-def normal_map(height: np.ndarray, *, strength: float = 1.0, tile: bool = False) -> np.ndarray:
+def normal_map(height: np.ndarray, *, strength: float = 1.0, tile: Wrap = False) -> np.ndarray:
     """Unit normals of a height field, OpenGL convention.
 
     Parameters
@@ -35,8 +35,9 @@ def normal_map(height: np.ndarray, *, strength: float = 1.0, tile: bool = False)
         Height in pixels.
     strength : float, default 1.0
         Multiplies the slopes.
-    tile : bool, default False
-        The height wraps: slopes are taken across its edges.
+    tile : bool or (bool, bool), default False
+        The height wraps (both axes, or ``(rows, columns)``): slopes are taken across those
+        edges.
 
     Returns
     -------
@@ -144,7 +145,7 @@ def decode_normals(rgb: np.ndarray) -> np.ndarray:
 
 
 def ambient_occlusion(height: np.ndarray, *, radius: int = AO_RADIUS, directions: int = AO_DIRECTIONS,
-                      tile: bool = False) -> np.ndarray:
+                      tile: Wrap = False) -> np.ndarray:
     """Horizon-based ambient occlusion of a height field.
 
     Parameters
@@ -155,8 +156,8 @@ def ambient_occlusion(height: np.ndarray, *, radius: int = AO_RADIUS, directions
         Reach of the horizon search, in pixels.
     directions : int, default AO_DIRECTIONS
         Directions searched, evenly spaced.
-    tile : bool, default False
-        The height wraps.
+    tile : bool or (bool, bool), default False
+        The height wraps (both axes, or ``(rows, columns)``).
 
     Returns
     -------
@@ -169,11 +170,12 @@ def ambient_occlusion(height: np.ndarray, *, radius: int = AO_RADIUS, directions
     """
     angles = np.arange(directions) * (2 * np.pi / directions)
     dirs = np.stack([np.sin(angles), np.cos(angles)], axis=1).astype(np.float64)
-    return horizon_occlusion(np.ascontiguousarray(height, dtype=np.float32), dirs, int(radius), bool(tile))
+    wy, wx = wrap_axes(tile)
+    return horizon_occlusion(np.ascontiguousarray(height, dtype=np.float32), dirs, int(radius), wy, wx)
 
 
 def photo_cavities(ao: np.ndarray, lum: np.ndarray, *, weight: float = CAVITY_WEIGHT,
-                   scale: float = CAVITY_SCALE, tile: bool = False) -> np.ndarray:
+                   scale: float = CAVITY_SCALE, tile: Wrap = False) -> np.ndarray:
     """The photo's cavity term of the ambient occlusion, to add to the height's AO ``ao``.
 
     Where the photo is darker than its surroundings (its luminance ``lum`` minus a Gaussian blur
@@ -194,8 +196,8 @@ def photo_cavities(ao: np.ndarray, lum: np.ndarray, *, weight: float = CAVITY_WE
         Strength of the term in spreads of ``ao``; 0 gives zeros.
     scale : float, default CAVITY_SCALE
         Sigma of the surroundings' blur, in pixels.
-    tile : bool, default False
-        The photo wraps.
+    tile : bool or (bool, bool), default False
+        The photo wraps (both axes, or ``(rows, columns)``).
 
     Returns
     -------

@@ -57,8 +57,11 @@ class MaterialOptions:
     cavities : float, default CAVITY_WEIGHT
         Weight of the photo's own cavities in the AO
         (:func:`~barkgen.material.maps.photo_cavities`; 0: the height's AO alone).
-    tile : bool, default False
-        The photo wraps.
+    exemplar_wrap : {"auto", "yes", "no"}, bool or (bool, bool), default "auto"
+        Along which axes the photo wraps, so its maps (every blur, gradient, AO ray and edit
+        neighbourhood) wrap there too and tile where the photo tiles: ``auto`` asks the photo
+        (:func:`barkgen.synth.exemplar_wraps`), ``yes``/``True`` both axes (a tileable texture),
+        ``no``/``False`` neither, or ``(rows, columns)``.
     seed : int, default 0
         Seeds the label map's k-means.
     max_memory : int, optional
@@ -77,13 +80,15 @@ class MaterialOptions:
     relief: float = 1.0
     ao_radius: int = AO_RADIUS
     cavities: float = CAVITY_WEIGHT
-    tile: bool = False
+    exemplar_wrap: str | bool | tuple[bool, bool] = "auto"
     seed: int = 0
     max_memory: int | None = None
 
     def __post_init__(self) -> None:
         from barkgen._shared.checks import check_k, check_seed
+        from barkgen.synth.edges import check_wrap_mode
 
+        check_wrap_mode(self.exemplar_wrap)
         check_k(self.k)
         check_seed(self.seed)
         check_budget_value(self.max_memory)
@@ -110,7 +115,7 @@ class MaterialSet:
     ao, roughness : ndarray of float32, shape (h, w)
         Ambient occlusion and roughness in [0, 1].
     tile : bool
-        The maps tile.
+        The maps tile (along both axes).
     light : Light or None
         The light whose shading was removed from the colour
         (:func:`~barkgen.material.shading.remove_shading`).
@@ -120,6 +125,9 @@ class MaterialSet:
         The photo's cavity term in ``ao`` (:func:`~barkgen.material.maps.photo_cavities`),
         carried with the height by :func:`transfer_material` (``None``: the AO is the height's
         alone).
+    wrap : (bool, bool) or None
+        ``(rows, columns)``: the axes along which the maps wrap (a photo that tiles along one
+        axis only); ``None``: as ``tile`` says, both or neither.
     shape : tuple of int
         ``(h, w)``.
     depth : float
@@ -142,6 +150,7 @@ class MaterialSet:
     light: Light | None = None
     shading_strength: float | None = None
     ao_cavities: np.ndarray | None = None
+    wrap: tuple[bool, bool] | None = None
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -176,6 +185,11 @@ class MaterialSet:
             f"{name}_AmbientOcclusion.png": as_uint8(self.ao),
         }
 
+    @property
+    def wraps(self) -> tuple[bool, bool]:
+        """``(rows, columns)``: the axes along which the maps wrap."""
+        return self.wrap if self.wrap is not None else (bool(self.tile), bool(self.tile))
+
     def metadata(self, **extra) -> dict:
         """The ``NAME.json`` record (size, tileable, depth scale, light; plus ``extra``)."""
         from barkgen._version import __version__
@@ -183,6 +197,7 @@ class MaterialSet:
         meta = {
             "size": [int(self.shape[1]), int(self.shape[0])],
             "tileable": bool(self.tile),
+            "wraps": list(self.wraps),
             "displacement_depth_px": round(self.depth, 6),
             "displacement_depth": round(self.depth / self.shape[1], 6),
             "displacement_midlevel": round(self.midlevel, 8),
@@ -268,28 +283,30 @@ def make_material(photo: np.ndarray, options: MaterialOptions | None = None, *,
     from barkgen.labels import color_regions
     from barkgen._shared.checks import check_image
     from barkgen.labels.regions import to_codes
+    from barkgen.synth.edges import resolve_exemplar_wrap
 
     options = options or MaterialOptions()
     h, w = np.shape(photo)[:2]
     check_memory_budget(estimate_material_memory((h, w)), options.max_memory,
                         f"the material set of a {w}x{h} photo")
     rgb = check_image(photo)
+    wrap = resolve_exemplar_wrap(options.exemplar_wrap, photo)
     if label_map is None:
         label_map, _ = to_codes(color_regions(rgb, options.k, seed=options.seed))
     config = dataclasses.replace(options.height, strength=options.height.strength * options.relief)
-    height = estimate_height(rgb, label_map, config=config, tile=options.tile)
+    height = estimate_height(rgb, label_map, config=config, tile=wrap)
     edits = list(edits)
     if edits:
-        editor = HeightEditor(rgb, height, label_map, tile=options.tile)
+        editor = HeightEditor(rgb, height, label_map, tile=wrap)
         height = editor.apply(edits)
-    normals, ao = derived_maps(height, tile=options.tile, ao_radius=options.ao_radius)
-    cavities = photo_cavities(ao, luminance(rgb), weight=options.cavities, tile=options.tile)
+    normals, ao = derived_maps(height, tile=wrap, ao_radius=options.ao_radius)
+    cavities = photo_cavities(ao, luminance(rgb), weight=options.cavities, tile=wrap)
     ao = np.clip(ao + cavities, 0.0, 1.0)
     light = options.light or estimate_light(rgb, normals)
     albedo, strength = remove_shading(rgb, normals, light)
     return MaterialSet(color=albedo, height=height, normals=normals, ao=ao,
-                       roughness=roughness_map(height, ao), tile=options.tile, light=light,
-                       shading_strength=strength, ao_cavities=cavities)
+                       roughness=roughness_map(height, ao), tile=all(wrap), light=light,
+                       shading_strength=strength, ao_cavities=cavities, wrap=wrap)
 
 
 def transfer_material(source: MaterialSet, references: np.ndarray, *, tile: bool,

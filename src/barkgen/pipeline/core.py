@@ -351,9 +351,9 @@ def analyze_photo(
         # the photo's material set needs only the photo and its labels: it is made on the
         # second thread while the two solvers analyse the photo, which keep 1.3 of 2 cores busy
         # (the quickstart's analysis without its label map: 5.3 s one after the other, 4.2 s so)
-        material = (pool.submit(in_budget, options.threads, _photo_material, photo, labels_in, options)
-                    if options.material else None)
         wrap = resolve_exemplar_wrap(options.exemplar_wrap, photo)
+        material = (pool.submit(in_budget, options.threads, _photo_material, photo, labels_in, options, wrap)
+                    if options.material else None)
         cache = AnalysisCache()
         if options.strategy in _INIT_LEVELS:
             analyse_label_map(labels_in, options.size, cache,
@@ -448,7 +448,7 @@ def generate(
 
             source = analysis.material
             if source is None:
-                source = _photo_material(photo, labels_in, options)
+                source = _photo_material(photo, labels_in, options, wrap)
             material = transfer_material(source, result.references, tile=options.tile,
                                          exemplar_wrap=wrap)
             timings["material"] = time.perf_counter() - t3
@@ -489,13 +489,16 @@ def generate(
                           material=material)
 
 
-def _photo_material(photo: np.ndarray, labels_in: np.ndarray, options: GenerateOptions):
-    """The photo's own material set, its label map as the height's structure cue."""
+def _photo_material(photo: np.ndarray, labels_in: np.ndarray, options: GenerateOptions,
+                    wrap: tuple[bool, bool]):
+    """The photo's own material set, its label map as the height's structure cue; wrapping
+    along the axes the photo wraps along (``wrap``), as the solvers use it, so the maps carried
+    through the reference map meet where the pieces run on across the photo's edge."""
     from barkgen.labels.regions import to_codes
     from barkgen.material import MaterialOptions, make_material
 
     return make_material(photo, MaterialOptions(k=options.k, light=options.light, seed=ANALYSIS_SEED,
-                                                relief=options.relief),
+                                                relief=options.relief, exemplar_wrap=wrap),
                          label_map=to_codes(labels_in)[0])
 
 
