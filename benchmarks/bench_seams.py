@@ -1,164 +1,492 @@
 #!/usr/bin/env python3
-"""Straight seams and map cliffs where copied pieces meet, in one run.
+"""Visible lines and seams in every map barkgen writes, from whole CLI commands (issue 55).
 
-    .venv/bin/python benchmarks/bench_seams.py [--quick] [--cases synth,big,crops,generate,maps]
+    .venv/bin/python benchmarks/bench_seams.py [--quick] [--cases sample,crops,extra,untiled,synth]
+        [--json OUT.json] [--cache DIR] [--fresh]
 
-Uses ``../shared/eval/seams.py`` on the reference maps barkgen writes: the longest straight seam
-(a run of neighbouring output pixels along one row or column whose references are not
-neighbours) and, for the material sets, each map's step ratio (mean step across piece borders
-over mean step inside pieces; a photo has 1.0). An exemplar that tiles is measured with
-``--wrap-exemplar`` (a reference stepping from its last row to its first continues the piece),
-the others without. Cases:
+Each run is a whole ``python -m barkgen ...`` command, as a user would type it, writing into a
+temporary folder; the files it wrote are then measured with the team's tools in
+``../shared/eval`` (``$BARKGEN_SHARED/eval``):
 
-1. ``synth``: 1024x1024 tiled from the bundled sample, seeds 0-3;
-2. ``big``: 2048x2048 untiled from the sample, seed 0;
-3. ``crops``: 256x256 centre crops of the shared photos -> 1024x1024 tiled, seeds 0 and 1;
-4. ``generate``: ``generate`` 1024x1024 tiled from the sample, seeds 0-3 (longest seam);
-5. ``maps``: ``generate --tile --material`` 1024x1024: step ratio of the texture and of
-   Displacement, NormalGL, AO and Roughness, on the sample (seeds 0-3) and four shared photos.
+- ``lines.py`` (pixels alone): the longest straight line (px) of every map, with ``--tile`` for
+  tiled outputs; beside it the same figure for the input photo (with ``--tile`` when the photo
+  wraps on both axes), since bark has its own straight furrows;
+- ``seams.py`` (reference map): the longest straight seam, and every map's step ratio (mean
+  step across seams over mean step inside pieces; a photo has 1.0), with ``--wrap-exemplar``
+  when the exemplar wraps on either axis (``report.json``'s ``exemplar_wrap`` for generate,
+  ``barkgen.synth.exemplar_wraps`` of the exemplar for synth).
 
-Prints one table per case with the worst case and the median.
+Maps of ``generate --material``: texture, bark_Color (the albedo), bark_Displacement (16-bit),
+bark_NormalGL, bark_AmbientOcclusion, bark_Roughness; bark_NormalDX only when it is not
+NormalGL with its green flipped (then its figures are NormalGL's). Files with identical bytes
+are measured once. Cases:
+
+1. ``sample``: ``generate --tile --material`` 1024x1024 from the bundled sample, seeds 0-3;
+2. ``crops``: the same, seed 0, from 512x512 centre crops (``read_centre_crop``, written as PNG
+   into the cache folder) of the ten shared photos ``data/bark/*_01.*``;
+3. ``extra``: ``synth --tile --extra height=H.png`` 1024x1024 from the sample, seed 0, where H.png
+   is the sample's Displacement from ``material --exemplar-wraps no`` (a height whose own edges
+   do not meet: the case that wrote a 503 px line), then from plain ``material`` (auto); seconds
+   are the synth command's; "own" is lines.py on H.png itself (tiled as the photo), and below
+   the table, on each map of the photo's own material set;
+4. ``untiled``: ``generate --material`` (no --tile) 2048x2048 from the sample, seed 0;
+5. ``synth``: ``synth --tile --save-reference`` 1024x1024 (colour only) from the sample, seeds
+   0-3, and from the ten 512x512 crops, seed 0.
+
+``--quick`` (about 3 minutes): sample seed 0, four crops, the first row of extra, synth from the
+sample seed 0; no untiled.
+
+One table per case; map cells are "longest line px / step ratio". After each table, worst and
+median over its rows of (a) the longest line over all maps of a row, (b) the longest seam,
+(c) the colour step ratio (texture and bark_Color), (d) the worst step ratio of the other maps,
+and of the photo's own longest line. At the end, the acceptance of issue 55 over all cases:
+longest line <= 96 px, longest seam <= 48 px, colour step ratio <= 1.25, map step ratios <= 1.5.
+
+Every measured row is kept in ``--cache`` (default ``benchmarks/.cache/seams``), keyed by its
+commands, its input files, the tools' source and the state of ``src/`` (HEAD, ``git diff`` and
+untracked files), so an interrupted run resumes where it stopped; ``--fresh`` ignores the cache.
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
+import json
 import os
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED = Path(os.environ.get("BARKGEN_SHARED", REPO.parent / "shared"))
 sys.path.insert(0, str(SHARED / "eval"))
-sys.path.insert(0, str(REPO / "benchmarks"))
+sys.path.insert(0, str(REPO / "src"))
 
-import seams  # noqa: E402  (../shared/eval/seams.py)
-from barkgen.io import read_centre_crop  # noqa: E402
+import lines  # noqa: E402, RUF100  (../shared/eval/lines.py)
+import seams  # noqa: E402, RUF100  (../shared/eval/seams.py)
 
-from barkgen.data import sample_exemplar_path  # noqa: E402
-from barkgen.io import read_image, write_reference  # noqa: E402
-from barkgen.synth import SynthesisConfig, exemplar_wraps, synthesize  # noqa: E402
+from barkgen.data import sample_exemplar_path  # noqa: E402, RUF100
+from barkgen.io import read_centre_crop, read_image, write_png  # noqa: E402, RUF100
+from barkgen.synth import exemplar_wraps  # noqa: E402, RUF100
 
+BARKGEN = [sys.executable, "-m", "barkgen"]
 PHOTOS = sorted((SHARED / "data" / "bark").glob("*_01.*"))
-MAP_PHOTOS = ("birch_smooth_lenticels_01.jpg", "oak_furrowed_moss_01.jpg",
-              "pine_plated_01.jpg", "willow_furrowed_01.jpg")
+QUICK_PHOTOS = ("birch_smooth_lenticels_01", "oak_furrowed_moss_01", "pine_plated_01",
+                "willow_furrowed_01")
+CASES = ("sample", "crops", "extra", "untiled", "synth")
+CROP = 512
+MEASURE_VERSION = 2  # bump when what a row holds changes
+TARGETS = {"line": 96, "seam": 48, "colour": 1.25, "maps": 1.5}
+# generate --material: short label -> file in the output folder (NormalDX is checked apart)
+GENERATE_MAPS = {"tex": "texture.png", "color": "bark_Color.png", "disp": "bark_Displacement.png",
+                 "nGL": "bark_NormalGL.png", "ao": "bark_AmbientOcclusion.png",
+                 "rough": "bark_Roughness.png"}
+COLOUR_MAPS = ("tex", "color")
 
 
-def longest_seam(references: np.ndarray, exemplar_shape, tile: bool, wraps) -> dict:
-    """seams.py's measure of one reference map (written to a temporary PNG, as a user would)."""
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "ref.png"
-        write_reference(path, references, exemplar_shape)
-        return seams.measure(path, tile=tile, wrap_exemplar=bool(any(wraps)))
+@dataclass
+class Run:
+    """One row: barkgen commands (``{tmp}`` stands for the temporary folder), the last measured."""
+
+    case: str
+    name: str
+    kind: str  # "generate" or "synth"
+    cmds: list[list[str]]
+    tile: bool
+    photo: Path  # the exemplar (the bundled sample when the command names none)
+    inputs: list[Path] = field(default_factory=list)  # files the commands read besides src/
+    extra_own: str | None = None  # {tmp}-relative map whose own lines are shown ("own")
 
 
-def row(name: str, m: dict, seconds: float) -> tuple:
-    return (name, m["longest"], f"{m['where'][0]} {m['where'][1]}", f"{m['seam_share']:.3f}",
-            f"{seconds:.1f}")
+# ---------------------------------------------------------------------------------- cache keys
+
+def _sha(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
 
 
-def table(title: str, header: tuple, rows: list, value_col: int = 1) -> None:
-    print(f"\n{title}")
-    widths = [max(len(str(r[i])) for r in rows + [header]) for i in range(len(header))]
-    print("  ".join(str(h).ljust(w) for h, w in zip(header, widths)))
-    for r in rows:
-        print("  ".join(str(v).ljust(w) for v, w in zip(r, widths)))
-    values = [float(r[value_col]) for r in rows]
-    print(f"worst {max(values):g}  median {statistics.median(values):g}")
+def file_sha(path: Path) -> str:
+    return _sha(Path(path).read_bytes())
 
 
-def synth_case(name: str, exemplar: np.ndarray, size: int, tile: bool, seed: int) -> tuple:
-    wraps = exemplar_wraps(exemplar)
-    t0 = time.perf_counter()
-    res = synthesize(exemplar, size, tile=tile, seed=seed, config=SynthesisConfig())
-    dt = time.perf_counter() - t0
-    m = longest_seam(res.references, res.exemplar_shape, tile, res.exemplar_wrap)
-    return row(name + (" (wraps)" if any(wraps) else ""), m, dt)
+def source_state() -> str:
+    """HEAD plus a hash of ``git diff HEAD -- src`` and of the untracked files under src/."""
+    def git(*args: str) -> bytes:
+        return subprocess.run(["git", "-C", str(REPO), *args], capture_output=True,
+                              check=True).stdout
+    h = hashlib.sha256(git("diff", "HEAD", "--binary", "--", "src"))
+    for name in sorted(git("ls-files", "--others", "--exclude-standard", "-z", "--", "src")
+                       .split(b"\0")):
+        if name:
+            h.update(name + b"\0")
+            p = REPO / name.decode()
+            h.update(p.read_bytes() if p.is_file() else b"")
+    return git("rev-parse", "HEAD").decode().strip() + "+" + h.hexdigest()[:16]
 
 
-def generate_case(name: str, photo: np.ndarray, seed: int, material: bool, size: int = 1024):
-    from barkgen.pipeline import GenerateOptions, generate
-
-    t0 = time.perf_counter()
-    res = generate(photo, GenerateOptions(size=(size, size), tile=True, seed=seed,
-                                          material=material))
-    return res, time.perf_counter() - t0
+def tools_state() -> str:
+    return _sha(b"".join(Path(m.__file__).read_bytes() for m in (lines, seams))
+                + str(MEASURE_VERSION).encode())[:16]
 
 
-def step_ratios(res, tile: bool = True) -> dict:
-    """Step ratio of the texture and each map of the material set across the seams."""
-    y, x = res.references[..., 0].astype(np.int64), res.references[..., 1].astype(np.int64)
-    ex = res.report["photo_size"][::-1]
-    hs, vs = seams.seam_masks(y, x, tuple(ex), tile, any(res.report["exemplar_wrap"]))
-    mat = res.material
-    maps = {"texture": res.texture, "Displacement": mat.height, "NormalGL": mat.normals,
-            "AO": mat.ao, "Roughness": mat.roughness}
-    out = {}
-    for key, img in maps.items():
-        img = np.asarray(img)
-        scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(img.dtype, 1.0)
-        img = img.astype(np.float64) / scale
-        out[key] = seams.step_ratio(img if img.ndim == 3 else img[..., None], hs, vs, tile)
+def run_key(run: Run, src: str) -> str:
+    return _sha(json.dumps({"cmds": run.cmds, "tile": run.tile, "kind": run.kind,
+                            "inputs": {str(p): file_sha(p) for p in run.inputs},
+                            "photo": file_sha(run.photo), "src": src,
+                            "tools": tools_state()}).encode())[:24]
+
+
+# ---------------------------------------------------------------------------------- measuring
+
+_LINES: dict = {}
+
+
+def measure_lines(path: Path, tile: bool) -> dict:
+    """lines.py on one file, once per (content, tile)."""
+    key = (file_sha(path), tile)
+    if key not in _LINES:
+        m = lines.measure(path, tile=tile, window=64, thr=3.0)
+        _LINES[key] = {"lines": int(m["longest"]), "lines_where": m["longest_where"],
+                       "contrast": m["contrast"]}
+    return dict(_LINES[key])
+
+
+def photo_lines(photo: Path) -> dict:
+    """The input photo's own longest line (tiled when it wraps on both axes)."""
+    tile = all(exemplar_wraps(read_image(photo)))
+    return {"path": str(photo), "tile": tile, **measure_lines(photo, tile)}
+
+
+def normal_dx_is_flip(gl: Path, dx: Path) -> bool:
+    a, b = (cv2.imread(str(p), cv2.IMREAD_UNCHANGED) for p in (gl, dx))
+    if a is None or b is None or a.shape != b.shape or a.dtype != b.dtype or a.ndim != 3:
+        return False
+    top = np.iinfo(a.dtype).max
+    flip = b.copy()
+    flip[..., 1] = top - b[..., 1]  # BGR: green is channel 1
+    return bool(np.array_equal(a, flip))
+
+
+def expand(cmd: list[str], tmp: Path) -> list[str]:
+    return [s.replace("{tmp}", str(tmp)) for s in cmd]
+
+
+def execute(run: Run) -> dict:
+    """Run the commands in a temporary folder and measure what the last one wrote."""
+    with tempfile.TemporaryDirectory(prefix="bench_seams_") as d:
+        tmp = Path(d)
+        seconds = []
+        for cmd in run.cmds:
+            t0 = time.perf_counter()
+            proc = subprocess.run(BARKGEN + expand(cmd, tmp), capture_output=True, text=True,
+                                  check=False, cwd=tmp)
+            seconds.append(time.perf_counter() - t0)
+            if proc.returncode:
+                tail = "\n".join((proc.stderr or proc.stdout).strip().splitlines()[-6:])
+                raise RuntimeError(f"barkgen {' '.join(cmd)} exited {proc.returncode}:\n{tail}")
+        if run.kind == "generate":
+            out = tmp / "out"
+            ref = out / "reference.png"
+            files = {k: out / f for k, f in GENERATE_MAPS.items()}
+            dx = out / "bark_NormalDX.png"
+            dx_flip = normal_dx_is_flip(files["nGL"], dx)
+            if not dx_flip:
+                files["nDX"] = dx
+            wrap = [bool(v) for v in json.loads((out / "report.json").read_text())["exemplar_wrap"]]
+        else:
+            ref = tmp / "ref.png"
+            files = {"tex": tmp / "out.png"}
+            if (tmp / "out_height.png").exists():
+                files["height"] = tmp / "out_height.png"
+            dx_flip = None
+            wrap = [bool(v) for v in exemplar_wraps(read_image(run.photo))]
+        missing = [str(p) for p in [ref, *files.values()] if not p.exists()]
+        if missing:
+            raise RuntimeError(f"not written: {', '.join(missing)}")
+        # seams.py: one call, each distinct file once
+        unique: dict[str, Path] = {}
+        for p in files.values():
+            unique.setdefault(file_sha(p), p)
+        s = seams.measure(ref, tile=run.tile, wrap_exemplar=any(wrap),
+                          maps=list(unique.values()))
+        steps = {h: s["step_ratio"][str(p)] for h, p in unique.items()}
+        maps = {}
+        for k, p in files.items():
+            maps[k] = {"file": p.name, **measure_lines(p, run.tile), "step": steps[file_sha(p)]}
+        row = {"case": run.case, "name": run.name,
+               "cmds": [" ".join(["barkgen", *c]) for c in run.cmds],
+               "seconds": round(seconds[-1], 2), "seconds_all": [round(t, 2) for t in seconds],
+               "tile": run.tile, "exemplar_wrap": wrap,
+               "seam": {"longest": int(s["longest"]), "where": list(s["where"]),
+                        "seam_share": s["seam_share"]},
+               "maps": maps, "normal_dx_is_gl_flipped": dx_flip,
+               "photo": photo_lines(run.photo)}
+        if run.extra_own:
+            own = tmp / run.extra_own
+            row["own"] = {"file": own.name, "tile": row["photo"]["tile"],
+                          **measure_lines(own, row["photo"]["tile"])}
+            # the photo's whole material set beside it: lines a map has on the photo itself
+            row["own_maps"] = {k: {"file": f, **measure_lines(own.parent / f, row["own"]["tile"])}
+                               for k, f in GENERATE_MAPS.items() if (own.parent / f).exists()}
+        return row
+
+
+def summarise(row: dict) -> dict:
+    """(a) longest line over all maps, (b) seam, (c) colour step, (d) other maps' worst step."""
+    maps = row["maps"]
+    worst_line = max(maps, key=lambda k: maps[k]["lines"])
+    colour = [(maps[k]["step"], k) for k in COLOUR_MAPS
+              if k in maps and maps[k]["step"] is not None]
+    other = [(m["step"], k) for k, m in maps.items()
+             if k not in COLOUR_MAPS and m["step"] is not None]
+    return {"line": (maps[worst_line]["lines"], worst_line),
+            "seam": (row["seam"]["longest"], None),
+            "colour": max(colour) if colour else (None, None),
+            "maps": max(other) if other else (None, None),
+            "photo": (row["photo"]["lines"], None)}
+
+
+# ---------------------------------------------------------------------------------- cases
+
+def crop_path(photo: Path, cache: Path) -> Path:
+    out = cache / "crops" / f"{photo.stem}_{CROP}.png"
+    if not out.exists():
+        out.parent.mkdir(parents=True, exist_ok=True)
+        write_png(out, read_centre_crop(photo, CROP))
     return out
 
 
+def short(photo: Path) -> str:
+    return photo.stem.removesuffix(f"_{CROP}").removesuffix("_01")
+
+
+def generate_cmd(photo: Path | None, size: int, tile: bool, seed: int) -> list[str]:
+    return ["generate", *([str(photo)] if photo else []), "-o", "{tmp}/out",
+            "--size", f"{size}x{size}", *(["--tile"] if tile else []), "--seed", str(seed),
+            "--material", "--name", "bark", "-q"]
+
+
+def synth_cmd(photo: Path | None, seed: int, extra: str | None = None) -> list[str]:
+    return ["synth", *([str(photo)] if photo else []), "-o", "{tmp}/out.png",
+            "--size", "1024x1024", "--tile", "--seed", str(seed),
+            "--save-reference", "{tmp}/ref.png",
+            *(["--extra", f"height={extra}"] if extra else []), "-q"]
+
+
+def plan(case: str, quick: bool, cache: Path) -> list[Run]:
+    sample = sample_exemplar_path()
+    seeds = [0] if quick else [0, 1, 2, 3]
+    photos = [p for p in PHOTOS if p.stem in QUICK_PHOTOS] if quick else PHOTOS
+    if case == "sample":
+        return [Run(case, f"sample seed {s}", "generate", [generate_cmd(None, 1024, True, s)],
+                    True, sample) for s in seeds]
+    if case == "crops":
+        runs = []
+        for p in photos:
+            c = crop_path(p, cache)
+            runs.append(Run(case, f"{short(c)} seed 0", "generate",
+                            [generate_cmd(c, 1024, True, 0)], True, c, [c]))
+        return runs
+    if case == "extra":
+        runs = []
+        for mode in (["no"] if quick else ["no", "auto"]):
+            mat = ["material", "-o", "{tmp}/mat", *(["--exemplar-wraps", mode] if mode != "auto"
+                                                    else []), "-q"]
+            h = "{tmp}/mat/bark_Displacement.png"
+            runs.append(Run(case, f"height wraps {mode}", "synth", [mat, synth_cmd(None, 0, h)],
+                            True, sample, extra_own="mat/bark_Displacement.png"))
+        return runs
+    if case == "untiled":
+        return [Run(case, "sample 2048 seed 0", "generate", [generate_cmd(None, 2048, False, 0)],
+                    False, sample)]
+    if case == "synth":
+        runs = [Run(case, f"sample seed {s}", "synth", [synth_cmd(None, s)], True, sample)
+                for s in seeds]
+        if not quick:
+            for p in photos:
+                c = crop_path(p, cache)
+                runs.append(Run(case, f"{short(c)} seed 0", "synth", [synth_cmd(c, 0)], True, c,
+                                [c]))
+        return runs
+    raise ValueError(case)
+
+
+TITLES = {
+    "sample": "sample: generate --tile --material 1024x1024 from the bundled sample",
+    "crops": f"crops: generate --tile --material 1024x1024 from {CROP}x{CROP} centre crops, seed 0",
+    "extra": "extra: synth --tile --extra height=H.png 1024x1024 from the sample, seed 0 "
+             "(H = material's Displacement)",
+    "untiled": "untiled: generate --material (no --tile) 2048x2048 from the sample",
+    "synth": "synth: synth --tile --save-reference 1024x1024, colour only",
+}
+
+
+# ---------------------------------------------------------------------------------- output
+
+def where(w) -> str:
+    """(axis, boundary/index, start) -> 'col 505 @36'."""
+    return f"{w[0]} {w[1]} @{w[2]}" if w else "-"
+
+
+def cell(m: dict) -> str:
+    return f"{m['lines']}/{'-' if m['step'] is None else format(m['step'], '.2f')}"
+
+
+def table(case: str, rows: list[dict]) -> None:
+    print(f"\n{TITLES[case]}")
+    labels = []
+    for r in rows:
+        labels += [k for k in r["maps"] if k not in labels]
+    own = any("own" in r for r in rows)
+    header = ("case", "s", "seam", "photo", *(["own"] if own else []), *labels)
+    body = []
+    for r in rows:
+        body.append((r["name"], f"{r['seconds']:.1f}", str(r["seam"]["longest"]),
+                     str(r["photo"]["lines"]), *([str(r["own"]["lines"])] if own else []),
+                     *(cell(r["maps"][k]) if k in r["maps"] else "" for k in labels)))
+    widths = [max(len(x[i]) for x in body + [header]) for i in range(len(header))]
+    print("  ".join(h.ljust(w) if i == 0 else h.rjust(w)
+                    for i, (h, w) in enumerate(zip(header, widths))))
+    for x in body:
+        print("  ".join(v.ljust(w) if i == 0 else v.rjust(w)
+                        for i, (v, w) in enumerate(zip(x, widths))))
+    print("(seam, photo, own: longest px; map cells: longest line px / step ratio across seams)")
+    for r in rows:
+        if r.get("own_maps"):
+            print(f"{r['name']}: the photo's own material set, longest line px: "
+                  + "  ".join(f"{k} {m['lines']}" for k, m in r["own_maps"].items()))
+    summary(rows)
+
+
+def stats(rows: list[dict], metric: str):
+    """(worst value, its row, its map, median) of one metric over rows, or None."""
+    vals = [(summarise(r)[metric], r) for r in rows]
+    vals = [((v, k), r) for (v, k), r in vals if v is not None]
+    if not vals:
+        return None
+    (v, k), r = max(vals, key=lambda t: t[0][0])
+    return v, r, k, statistics.median(x[0][0] for x in vals)
+
+
+def fmt(metric: str, v: float) -> str:
+    return f"{v:.2f}" if metric in ("colour", "maps") else f"{v:g}"
+
+
+def summary(rows: list[dict]) -> None:
+    names = {"line": "(a) longest line, all maps", "seam": "(b) longest seam",
+             "colour": "(c) colour step ratio", "maps": "(d) worst other map step ratio",
+             "photo": "    beside the photo's own line"}
+    for metric, label in names.items():
+        s = stats(rows, metric)
+        if s is None:
+            print(f"{label:<32} -")
+            continue
+        v, r, k, med = s
+        at = where(r["maps"][k]["lines_where"]) if metric == "line" else (
+            where(r["seam"]["where"]) if metric == "seam" else "")
+        print(f"{label:<32} worst {fmt(metric, v)}  median {fmt(metric, med)}"
+              f"   ({r['name']}{' ' + k if k else ''}{' ' + at if at else ''})")
+
+
+def acceptance(rows: list[dict], failed: list[str]) -> bool:
+    print("\nacceptance (issue 55), worst over all cases:")
+    names = {"line": ("longest line", "px"), "seam": ("longest seam", "px"),
+             "colour": ("colour step ratio", ""), "maps": ("map step ratios", "")}
+    ok = not failed
+    for metric, (label, unit) in names.items():
+        s = stats(rows, metric)
+        target = TARGETS[metric]
+        if s is None:
+            print(f"  {label:<18} {'-':>6}      target <= {target:<5}  n/a")
+            continue
+        v, r, k, _ = s
+        good = v <= target
+        ok &= good
+        print(f"  {label:<18} {fmt(metric, v):>6} {unit:<3}  target <= {target:<5}  "
+              f"{'PASS' if good else 'FAIL'}   ({r['case']}: {r['name']}{' ' + k if k else ''})")
+    s = stats(rows, "photo")
+    if s:
+        print(f"  (the photos' own longest line: worst {s[0]} px, {s[1]['case']}: {s[1]['name']})")
+    if failed:
+        print(f"  {len(failed)} run(s) failed, not measured: {', '.join(failed)}  FAIL")
+    print(f"  overall: {'PASS' if ok else 'FAIL'}")
+    return ok
+
+
+# ---------------------------------------------------------------------------------- main
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--cases", default="synth,big,crops,generate,maps")
-    ap.add_argument("--quick", action="store_true", help="seed 0 only, four photos for crops")
+    ap.add_argument("--cases", default=",".join(CASES),
+                    help=f"comma list of {', '.join(CASES)} (default: all)")
+    ap.add_argument("--quick", action="store_true",
+                    help="about 3 minutes: sample seed 0, four crops, extra's first row, synth "
+                         "from the sample seed 0; no untiled")
+    ap.add_argument("--json", metavar="OUT.json", help="write every measured row")
+    ap.add_argument("--cache", type=Path, default=REPO / "benchmarks" / ".cache" / "seams",
+                    metavar="DIR", help="measured rows and crops (default: %(default)s)")
+    ap.add_argument("--fresh", action="store_true", help="ignore cached rows (and replace them)")
     a = ap.parse_args()
-    cases = set(a.cases.split(","))
-    sample = read_image(sample_exemplar_path())
-    seeds = [0] if a.quick else [0, 1, 2, 3]
-    print(f"sample {sample.shape[1]}x{sample.shape[0]}, exemplar_wraps (y, x) = "
-          f"{exemplar_wraps(sample)}")
-    header = ("case", "longest px", "where", "seam share", "s")
-    if "synth" in cases:
-        rows = [synth_case(f"sample 1024 tiled seed {s}", sample, 1024, True, s) for s in seeds]
-        table("synth 1024x1024 tiled from the sample", header, rows)
-    if "big" in cases:
-        rows = [synth_case("sample 2048 untiled seed 0", sample, 2048, False, 0)]
-        table("synth 2048x2048 untiled from the sample", header, rows)
-    if "crops" in cases:
-        photos = PHOTOS[:4] if a.quick else PHOTOS
+    sys.stdout.reconfigure(line_buffering=True)  # tables and stderr progress in order
+    cases = [c for c in a.cases.split(",") if c]
+    unknown = sorted(set(cases) - set(CASES))
+    if unknown:
+        ap.error(f"unknown case(s) {', '.join(unknown)}; choose from {', '.join(CASES)}")
+    if a.quick:
+        cases = [c for c in cases if c != "untiled"]
+    cases = [c for c in CASES if c in cases]
+    rows_dir = a.cache / "rows"
+    rows_dir.mkdir(parents=True, exist_ok=True)
+    sample = sample_exemplar_path()
+    print(f"barkgen {source_state()}; sample {sample.name}: exemplar_wraps (rows, cols) = "
+          f"{exemplar_wraps(read_image(sample))}; {len(PHOTOS)} shared photos")
+    t_start = time.perf_counter()
+    all_rows: list[dict] = []
+    failed: list[str] = []
+    for case in cases:
+        runs = plan(case, a.quick, a.cache)
         rows = []
-        for p in photos:
-            crop = read_centre_crop(p, 256)
-            for s in ([0] if a.quick else [0, 1]):
-                rows.append(synth_case(f"{p.stem} seed {s}", crop, 1024, True, s))
-        table("synth 256x256 crop -> 1024x1024 tiled", header, rows)
-    if "generate" in cases or "maps" in cases:
-        grows, mrows = [], []
-        for s in seeds:
-            res, dt = generate_case(f"sample seed {s}", sample, s, material="maps" in cases)
-            m = longest_seam(res.references, sample.shape[:2], True, res.report["exemplar_wrap"])
-            grows.append(row(f"sample seed {s}", m, dt))
-            if "maps" in cases:
-                r = step_ratios(res)
-                mrows.append((f"sample seed {s}", *(f"{r[k]:.2f}" for k in r)))
-        if "generate" in cases:
-            table("generate 1024x1024 tiled from the sample", header, grows)
-        if "maps" in cases:
-            for name in MAP_PHOTOS[:1] if a.quick else MAP_PHOTOS:
-                photo = read_image(SHARED / "data" / "bark" / name)
-                res, _ = generate_case(name, photo, 0, material=True)
-                r = step_ratios(res)
-                mrows.append((Path(name).stem + " seed 0", *(f"{r[k]:.2f}" for k in r)))
-            head = ("case", "texture", "Displacement", "NormalGL", "AO", "Roughness")
-            print("\nstep ratio across seams, generate --tile --material 1024x1024 (photo = 1.0)")
-            widths = [max(len(str(r[i])) for r in mrows + [head]) for i in range(len(head))]
-            print("  ".join(str(h).ljust(w) for h, w in zip(head, widths)))
-            for r in mrows:
-                print("  ".join(str(v).ljust(w) for v, w in zip(r, widths)))
-            for i, h in enumerate(head[1:], start=1):
-                vals = [float(r[i]) for r in mrows]
-                print(f"{h}: worst {max(vals):.2f}  median {statistics.median(vals):.2f}")
-    return 0
+        for i, run in enumerate(runs, 1):
+            state = source_state()  # per row: the other engineer may edit src/ meanwhile
+            key = run_key(run, state)
+            path = rows_dir / f"{key}.json"
+            tag = f"[{case} {i}/{len(runs)}] {run.name}"
+            if path.exists() and not a.fresh:
+                row = json.loads(path.read_text())
+                print(f"{tag}: cached ({row['seconds']:.1f} s when run)", file=sys.stderr)
+            else:
+                try:
+                    row = execute(run)
+                except (RuntimeError, OSError, subprocess.SubprocessError) as e:
+                    print(f"{tag}: FAILED\n{e}", file=sys.stderr)
+                    failed.append(f"{case}: {run.name}")
+                    continue
+                row["key"], row["src"] = key, state
+                tmp_path = path.with_suffix(".tmp")
+                tmp_path.write_text(json.dumps(row, indent=1))
+                tmp_path.replace(path)
+                print(f"{tag}: {row['seconds']:.1f} s", file=sys.stderr)
+            rows.append(row)
+        if rows:
+            table(case, rows)
+            sys.stdout.flush()
+        all_rows += rows
+    if all_rows:
+        acceptance(all_rows, failed)
+    states = {r.get("src") for r in all_rows}
+    if len(states) > 1:
+        print(f"note: the rows were measured on {len(states)} states of src/ "
+              "(it changed between runs; 'src' in --json)")
+    print(f"\n{len(all_rows)} rows, {time.perf_counter() - t_start:.0f} s")
+    if a.json:
+        Path(a.json).write_text(json.dumps(all_rows, indent=1))
+    return 1 if failed else 0
 
 
 if __name__ == "__main__":

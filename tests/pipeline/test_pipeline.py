@@ -39,12 +39,15 @@ def test_generate_api_outputs_and_report(fir128):
     assert result.labels_in.shape == (128, 128) and result.labels_out.shape == (96, 160)
     assert set(np.unique(result.labels_out)) <= set(np.unique(result.labels_in))
     assert result.extras["height"].shape == (96, 160, 1)
-    # the texture is the photo's pixels at the references, the height map goes through them in
-    # the gradient domain
-    from conftest import assert_continuous_copy
+    # the texture is the photo's pixels at the references, its seams blended (a few px either
+    # side of the borders between pieces); the height map goes through them in the gradient
+    # domain
+    from conftest import assert_continuous_copy, border_distance
 
     ry, rx = result.references[..., 0], result.references[..., 1]
-    assert np.array_equal(result.texture, fir128[ry, rx])
+    far = border_distance(result.references, fir128.shape[:2], tile=False) >= 8
+    diff = np.abs(result.texture.astype(int) - fir128[ry, rx].astype(int)).max(axis=-1)
+    assert far.any() and np.mean(diff[far] <= 1) > 0.9 and result.report["blend"] == "gradient"
     assert_continuous_copy(result.extras["height"][..., 0], height, result.references, tolerance=0.35)
     # ... whose labels are the output label map's, nearly everywhere
     assert np.mean(result.labels_in[ry, rx] == result.labels_out) > 0.95

@@ -18,18 +18,34 @@ def test_any_size_non_square_tileable(synthetic_exemplar):
 
 
 def test_output_pixels_are_exemplar_pixels(synthetic_exemplar):
-    """Discrete solver: every output pixel is copied from the exemplar, never averaged."""
-    res = synthesize(synthetic_exemplar, 80, seed=1)
-    refs = res.references
+    """Discrete solver: with ``blend="none"`` every output pixel is copied from the exemplar,
+    never averaged; by default only the pixels next to a border between pieces change (the
+    colour's seams blended in the gradient domain), and the borders step less."""
+    from conftest import border_distance, border_step_ratio
+
+    exact = synthesize(synthetic_exemplar, 80, seed=1, config=SynthesisConfig(blend="none"))
+    refs = exact.references
     assert refs[..., 0].max() < synthetic_exemplar.shape[0] and refs.min() >= 0
-    assert np.array_equal(res.image, synthetic_exemplar[refs[..., 0], refs[..., 1]])
+    copy = synthetic_exemplar[refs[..., 0], refs[..., 1]]
+    assert np.array_equal(exact.image, copy) and exact.blend == "none"
+    blended = synthesize(synthetic_exemplar, 80, seed=1)
+    assert blended.blend == "gradient" and np.array_equal(blended.references, refs)
+    far = border_distance(refs, synthetic_exemplar.shape[:2], tile=False) >= 8
+    assert far.mean() > 0.02
+    diff = np.abs(blended.image.astype(int) - copy.astype(int)).max(axis=-1)
+    assert np.mean(diff[far] <= 1) > 0.9 and diff[far].mean() < 0.25 * diff[~far].mean()
+    assert (border_step_ratio(blended.image, refs, synthetic_exemplar.shape[:2])
+            < 0.9 * border_step_ratio(copy, refs, synthetic_exemplar.shape[:2]))
 
 
 def test_grey_and_16_bit_exemplars(synthetic_exemplar):
     grey16 = synthetic_exemplar[:, :, 0].astype(np.uint16) * 257
-    res = synthesize(grey16, (50, 60), seed=0)
+    res = synthesize(grey16, (50, 60), seed=0, config=SynthesisConfig(blend="none"))
     assert res.image.shape == (50, 60) and res.image.dtype == np.uint16
     assert set(np.unique(res.image)) <= set(np.unique(grey16))
+    blended = synthesize(grey16, (50, 60), seed=0)  # blended in 16 bits, not rounded to 8
+    assert blended.image.shape == (50, 60) and blended.image.dtype == np.uint16
+    assert not set(np.unique(blended.image)) <= set(np.unique(grey16))
 
 
 def test_same_seed_same_bytes_different_seed_different(synthetic_exemplar):
@@ -67,7 +83,7 @@ def test_a_run_stopped_at_a_level_is_that_level_of_the_full_run(synthetic_exempl
     from barkgen.pyramid import count_levels, level_shape
     from barkgen.synth.engine import matching_features, solve
 
-    config = SynthesisConfig(coarsest_exemplar=8)
+    config = SynthesisConfig(coarsest_exemplar=8, blend="none")
     features = matching_features(synthetic_exemplar, None, 0.0)
     n_levels = count_levels(synthetic_exemplar.shape[:2], (96, 96), config.coarsest_exemplar)
     assert n_levels >= 3

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -9,6 +11,7 @@ from barkgen.errors import InvalidInputError
 from barkgen.synth import SynthesisConfig, synthesize, texture_by_numbers
 from barkgen.synth.guide import boundary_distance, encode_label_maps, label_pyramid
 from barkgen.synth.initialization import random_initialization, smart_initialization
+from barkgen.synth.tbn import TBN_CONFIG
 
 
 def luminance_labels(image: np.ndarray, n: int = 2) -> np.ndarray:
@@ -122,8 +125,11 @@ def test_output_follows_the_target_labels(case):
     res = texture_by_numbers(ex, a, b, seed=1)
     assert res.image.shape == b.shape + (3,) and res.image.dtype == ex.dtype
     assert (source_labels(res, a) == b).mean() > 0.9
-    # the image is exemplar pixels, resolved through the references (nothing blurred)
-    assert np.array_equal(res.image, ex[res.references[..., 0], res.references[..., 1]])
+    # without the seam blending, the image is exemplar pixels resolved through the references
+    # (nothing blurred); the blending changes the colour only, never the references
+    exact = texture_by_numbers(ex, a, b, seed=1, config=dataclasses.replace(TBN_CONFIG, blend="none"))
+    assert np.array_equal(exact.references, res.references)
+    assert np.array_equal(exact.image, ex[res.references[..., 0], res.references[..., 1]])
     unguided = synthesize(ex, b.shape, seed=1)
     assert (source_labels(res, a) == b).mean() > (source_labels(unguided, a) == b).mean() + 0.2
 
@@ -230,7 +236,9 @@ def test_label_fidelity_and_sharpness_on_bark(bark_case):
     smart = ev.evaluate(texture_by_numbers(ex, a, b, seed=0).image, labels_out=b)
     assert smart["label_fidelity_ratio"] >= 0.9
     assert smart["label_fidelity_balanced"] >= 0.85
-    assert 0.9 <= smart["sharpness_ratio"] <= 1.1
+    # the seams' colour steps blended away cost some sharpness on this label map of small
+    # blocks (dense seams): 0.918 -> 0.870, while coherence improves 2.06 -> 1.96
+    assert 0.85 <= smart["sharpness_ratio"] <= 1.1
     unguided = ev.evaluate(synthesize(ex, 512, seed=0).image, labels_out=b)
     assert unguided["label_fidelity_ratio"] < smart["label_fidelity_ratio"] - 0.15
     # coherence: the known answer (the exemplar's own blocks, flipped) scores far worse than the

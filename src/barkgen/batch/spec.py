@@ -32,7 +32,7 @@ from barkgen._shared.checks import parse_size
 
 #: pipeline options a spec may set at the top level or per exemplar, as GenerateOptions fields
 OPTION_KEYS = ("size", "k", "method", "strategy", "rotations", "tile", "material", "relief", "light",
-               "label_weight", "feature_weight", "bits", "material_name", "exemplar_wrap")
+               "label_weight", "feature_weight", "bits", "material_name", "exemplar_wrap", "blend")
 #: keys of an exemplar entry besides the options
 EXEMPLAR_KEYS = ("name", "path", "library", "labels", "seeds", "count", "seed_base")
 #: top-level keys besides the options
@@ -136,7 +136,7 @@ def _options(where: str, values: dict, threads: int | None) -> tuple[GenerateOpt
                 if isinstance(value, bool) or not isinstance(value, (int, float)):
                     raise InvalidInputError(f"{key} must be a number, not {value!r}")
                 kwargs[key] = float(value)
-            elif key in ("method", "strategy", "rotations"):
+            elif key in ("method", "strategy", "rotations", "blend"):
                 kwargs[key] = str(value)
             elif key == "exemplar_wrap":  # YAML reads yes / no as booleans
                 kwargs[key] = ({True: "yes", False: "no"}[value] if isinstance(value, bool)

@@ -331,6 +331,9 @@ ExemplarWrapsOption = Annotated[str, typer.Option(
     "--exemplar-wraps", help="auto: the photo is used as a torus along each axis along which it "
     "tiles itself (its last row continues into its first), so pieces run on across its edge; "
     "yes / no: force it.")]
+BlendOption = Annotated[str, typer.Option(
+    "--blend", help="gradient: the colour's seams between copied pieces blended in the gradient "
+    "domain (Pérez et al. 2003); none: every pixel an exact copy of the photo's.")]
 ExtraOption = Annotated[Optional[list[str]], typer.Option(
     "--extra", metavar="NAME=PATH", help="Map aligned with the exemplar (height, normal, ...), "
     "synthesized along; written as OUTPUT_NAME.png.")]

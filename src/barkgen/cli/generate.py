@@ -13,6 +13,7 @@ import typer
 from barkgen._shared.checks import parse_size
 from barkgen.cli._common import (
     BitsOption,
+    BlendOption,
     ExemplarWrapsOption,
     ExtraOption,
     KOption,
@@ -74,6 +75,7 @@ def generate_command(
     light: LightOption = None,
     relief: ReliefOption = 1.0,
     exemplar_wraps: ExemplarWrapsOption = "auto",
+    blend: BlendOption = "gradient",
     quiet: QuietOption = False,
 ) -> None:
     """Photo to new bark in one step: label map, output label map, texture-by-numbers
@@ -89,11 +91,12 @@ def generate_command(
     _check_generate_names(name, material, light, relief)
     if save_levels is not None:
         check_folder(save_levels, "--save-levels")
-    # k, size, seed, method, strategy, rotations, relief and the wrap mode: GenerateOptions
+    # k, size, seed, method, strategy, rotations, relief, the wrap mode, blend: GenerateOptions
     options = GenerateOptions(size=parse_size(size), k=k, method=method, strategy=strategy,
                               rotations=rotations, tile=tile, seed=seed, threads=threads,
                               max_memory=parse_memory(max_memory), material=material,
-                              light=parse_light(light), relief=relief, exemplar_wrap=exemplar_wraps)
+                              light=parse_light(light), relief=relief, exemplar_wrap=exemplar_wraps,
+                              blend=blend)
     extra_paths = _extra_paths(extra)
     stale = previous_run_files(output_dir)
     refuse_inputs(_run_targets(output_dir, name if material else None, extra_paths, stale))

@@ -11,6 +11,7 @@ import typer
 from barkgen._shared.checks import parse_size
 from barkgen.cli._common import (
     BitsOption,
+    BlendOption,
     ExemplarWrapsOption,
     ExtraOption,
     MaxMemoryOption,
@@ -44,6 +45,7 @@ def synth_command(
     max_memory: MaxMemoryOption = None,
     threads: ThreadsOption = None,
     exemplar_wraps: ExemplarWrapsOption = "auto",
+    blend: BlendOption = "gradient",
     quiet: QuietOption = False,
 ) -> None:
     """Synthesize a new bark texture of any size from one exemplar photo."""
@@ -58,7 +60,7 @@ def synth_command(
     src = exemplar if exemplar is not None else sample_exemplar_path()
     image = read_image(src)
     extras = {name: read_image(p) for name, p in extra_paths.items()}
-    config = SynthesisConfig(threads=threads, max_memory=budget)
+    config = SynthesisConfig(threads=threads, max_memory=budget, blend=blend)
     with progress_bar(not quiet, "synthesizing") as progress:
         result = synthesize(image, out_shape, tile=tile, seed=seed, extra=extras, config=config,
                             progress=progress, exemplar_wrap=exemplar_wraps)
@@ -91,6 +93,7 @@ def tbn_command(
     max_memory: MaxMemoryOption = None,
     threads: ThreadsOption = None,
     exemplar_wraps: ExemplarWrapsOption = "auto",
+    blend: BlendOption = "gradient",
     quiet: QuietOption = False,
 ) -> None:
     """Texture-by-numbers: synthesize bark that follows a target label map."""
@@ -109,7 +112,7 @@ def tbn_command(
     label_map = read_image(labels)
     target_map = read_image(target)
     extras = {name: read_image(p) for name, p in extra_paths.items()}
-    config = dataclasses.replace(TBN_CONFIG, threads=threads, max_memory=budget)
+    config = dataclasses.replace(TBN_CONFIG, threads=threads, max_memory=budget, blend=blend)
     with progress_bar(not quiet, "texture-by-numbers") as progress:
         result = texture_by_numbers(image, label_map, target_map, label_weight=label_weight,
                                     feature_weight=feature_weight, init=init, tile=tile,
@@ -175,9 +178,12 @@ def _write_result(result, output: Path, bits: int | None, save_reference: Path |
         t = result.timings
         h, w = result.image.shape[:2]
         wraps = [axis for axis, on in zip(("rows", "columns"), result.exemplar_wrap) if on]
+        flat = [name for name, axes in result.extra_wraps.items()
+                if any(e and not m for e, m in zip(result.exemplar_wrap, axes))]
         typer.echo(f"wrote {output} ({w}x{h}, seed {result.seed}"
                    f"{', tileable' if result.tile else ''}"
-                   f"{', exemplar wraps ' + ' and '.join(wraps) if wraps else ''}) in "
+                   f"{', exemplar wraps ' + ' and '.join(wraps) if wraps else ''}"
+                   f"{', not wrapped for ' + ', '.join(flat) + ' (its edges do not meet)' if flat else ''}) in "
                    f"{t['analysis'] + t['synthesis']:.2f} s", err=True)
 
 

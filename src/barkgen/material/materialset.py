@@ -311,10 +311,13 @@ def make_material(photo: np.ndarray, options: MaterialOptions | None = None, *,
 
 def transfer_material(source: MaterialSet, references: np.ndarray, *, tile: bool,
                       ao_radius: int = AO_RADIUS,
-                      exemplar_wrap: tuple[bool, bool] = (False, False)) -> MaterialSet:
+                      exemplar_wrap: tuple[bool, bool] = (False, False),
+                      blend: str = "gradient") -> MaterialSet:
     """The material set of a texture synthesized from the source's photo.
 
-    The source's albedo goes through the synthesis's reference map exactly, as the colour does;
+    The source's albedo goes through the synthesis's reference map as the colour does (its
+    seams blended in the gradient domain, :func:`barkgen.synth.gradient.blend_seams`, unless
+    ``blend`` is ``"none"``: then exactly);
     its height, roughness and the AO's photo cavities through the same references in the
     gradient domain (:func:`barkgen.synth.gradient.resolve_continuous`: continuous across the
     borders of the copied pieces, tileable when ``tile``); normals and the height's AO are
@@ -332,6 +335,8 @@ def transfer_material(source: MaterialSet, references: np.ndarray, *, tile: bool
         Reach of the recomputed occlusion in px.
     exemplar_wrap : tuple of bool, default (False, False)
         ``(rows, columns)``: the photo tiles along that axis.
+    blend : {"gradient", "none"}, default "gradient"
+        How the albedo is carried (as the texture's colour).
 
     Returns
     -------
@@ -344,7 +349,9 @@ def transfer_material(source: MaterialSet, references: np.ndarray, *, tile: bool
     .. [2] perez2003 (gradient-domain re-integration).
     """
     from barkgen.synth import apply_references
-    from barkgen.synth.gradient import resolve_continuous
+    from barkgen.synth.gradient import blend_seams, check_blend, resolve_continuous
+
+    check_blend(blend)
 
     refs = np.asarray(references)
 
@@ -359,6 +366,8 @@ def transfer_material(source: MaterialSet, references: np.ndarray, *, tile: bool
     if source.ao_cavities is not None:
         cavities = carry(source.ao_cavities)
         ao = np.clip(ao + cavities, 0.0, 1.0)
-    return MaterialSet(color=apply_references(refs, source.color), height=height, normals=normals, ao=ao,
+    color = (blend_seams(source.color, refs, tile=tile, wrap=exemplar_wrap) if blend == "gradient"
+             else apply_references(refs, source.color))
+    return MaterialSet(color=color, height=height, normals=normals, ao=ao,
                        roughness=carry(source.roughness), tile=tile, light=source.light,
                        shading_strength=source.shading_strength, ao_cavities=cavities)

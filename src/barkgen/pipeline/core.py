@@ -79,6 +79,10 @@ class GenerateOptions:
     exemplar_wrap : {"auto", "yes", "no"}, default "auto"
         ``auto``: the photo is used as a torus along each axis it tiles along
         (:func:`barkgen.synth.exemplar_wraps`).
+    blend : {"gradient", "none"}, default "gradient"
+        ``gradient``: the colour's seams between copied pieces (and the albedo's) blended in
+        the gradient domain (:func:`barkgen.synth.gradient.blend_seams`); ``none``: every
+        pixel an exact copy of its reference.
 
     Raises
     ------
@@ -106,13 +110,16 @@ class GenerateOptions:
     light: Light | None = None
     relief: float = 1.0
     exemplar_wrap: str = "auto"
+    blend: str = "gradient"
 
     def __post_init__(self) -> None:
         from barkgen._shared.checks import check_k, check_seed
         from barkgen.shapes import STRATEGIES, check_rotations
         from barkgen.synth.edges import check_wrap_mode
+        from barkgen.synth.gradient import check_blend
 
         check_wrap_mode(self.exemplar_wrap)
+        check_blend(self.blend)
         object.__setattr__(self, "size", parse_output_shape(self.size))
         check_k(self.k)
         check_seed(self.seed)
@@ -430,7 +437,8 @@ def generate(
         t2 = time.perf_counter()
         timings["labels_out"] = t2 - t1
 
-        config = dataclasses.replace(TBN_CONFIG, threads=options.threads, max_memory=options.max_memory)
+        config = dataclasses.replace(TBN_CONFIG, threads=options.threads, max_memory=options.max_memory,
+                                     blend=options.blend)
         # the engines' label maps copy exemplar label pieces: the same pieces of the photo are a
         # label-exact, coherent start for texture-by-numbers (else its smart initialisation)
         init = label_result.references if label_result.references is not None else "smart"
@@ -450,7 +458,7 @@ def generate(
             if source is None:
                 source = _photo_material(photo, labels_in, options, wrap)
             material = transfer_material(source, result.references, tile=options.tile,
-                                         exemplar_wrap=wrap)
+                                         exemplar_wrap=wrap, blend=options.blend)
             timings["material"] = time.perf_counter() - t3
             if progress:
                 progress(1000, 1000)
@@ -473,7 +481,9 @@ def generate(
         "label_weight": options.label_weight,
         "feature_weight": options.feature_weight,
         "texture_init": "label map references" if label_result.references is not None else "smart",
+        "blend": options.blend,
         "extras": sorted(result.extras),
+        "extra_wraps": {name: list(axes) for name, axes in sorted(result.extra_wraps.items())},
         "resumed_from_level": label_result.resumed_level,
         "label_fractions_in": _fractions(labels_in, values),
         "label_fractions_out": _fractions(label_result.label_map, values),

@@ -69,6 +69,8 @@ def estimate_memory(exemplar_shape: tuple[int, int], output_shape: tuple[int, in
     per_ex = (feature_channels * 4 * 3 + config.pca_components * 4 * len(sizes) * 1.4
               + config.k * 4 * 1.4 + 8)
     per_out = 100 + 3 * channels * bytes_per_channel
+    if config.blend == "gradient":  # one channel's screened Poisson solve at a time (float64)
+        per_out += 80
     search = min(n_ex, 262_144) * max(4 * config.k + 8, 32) * 12
     return int(200e6 + n_ex * per_ex + n_out * per_out + search)
 

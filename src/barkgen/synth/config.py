@@ -64,6 +64,10 @@ class SynthesisConfig:
         how many times every piece gets such a move.
     extra_weight
         weight of the extra channels relative to luminance in the matching.
+    blend
+        how the output's colour is made from its references: ``"gradient"`` blends the seams
+        between pieces in the gradient domain (:func:`barkgen.synth.gradient.blend_seams`),
+        ``"none"`` copies every pixel exactly (as :func:`apply_references` does).
     threads
         worker threads for numba/faiss (None: all cores).
     max_memory
@@ -88,6 +92,7 @@ class SynthesisConfig:
     seam_expansion_band: int = 8
     seam_expansion_rounds: int = 1
     extra_weight: float = 0.5
+    blend: str = "gradient"
     threads: int | None = None
     max_memory: int | None = None
 
@@ -124,6 +129,9 @@ class SynthesisConfig:
             raise InvalidInputError("seam_expansion_rounds must be between 1 and 16")
         if not 0.0 < self.max_copy <= 1.0:
             raise InvalidInputError("max_copy must be in (0, 1]")
+        from barkgen.synth.gradient import check_blend
+
+        check_blend(self.blend)
         if self.threads is not None and self.threads < 1:
             raise InvalidInputError("threads must be >= 1")
         check_budget_value(self.max_memory)

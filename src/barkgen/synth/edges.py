@@ -69,6 +69,18 @@ def exemplar_wraps(image: np.ndarray) -> tuple[bool, bool]:
     return bool(sy <= WRAP_EDGE_SHARE), bool(sx <= WRAP_EDGE_SHARE)
 
 
+def map_wraps(image: np.ndarray, wrap: tuple[bool, bool]) -> tuple[bool, bool]:
+    """``(rows, columns)``: the axes along which a map aligned with the exemplar (an extra map:
+    height, normals, ...) is taken as a torus: those the exemplar wraps along (``wrap``) where
+    the map's own edges meet too (:func:`exemplar_wraps`). A map made from the photo as a
+    rectangle (its mirrored borders) has a cliff from its last column to its first even where
+    the photo has none; carried across that edge it would draw a straight line through the
+    output, so along such an axis it is not wrapped: a piece that runs on across the photo's
+    edge takes the map's last step there instead (:func:`barkgen.synth.gradient.exemplar_steps`)."""
+    own = exemplar_wraps(image)
+    return bool(wrap[0] and own[0]), bool(wrap[1] and own[1])
+
+
 def check_wrap_mode(mode: str | bool | tuple[bool, bool]) -> None:
     """Raise :class:`InvalidInputError` unless ``mode`` is an ``exemplar_wrap`` setting:
     ``"auto"``, ``"yes"``, ``"no"``, a bool (both axes) or a ``(rows, columns)`` pair of bools."""

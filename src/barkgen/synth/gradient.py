@@ -28,6 +28,16 @@ import numpy as np
 #: 1 / sqrt(lambda) px (here ~30), far below the size of a copied piece
 SCREENING = 1e-3
 
+#: ``blend`` settings of the colour: ``gradient`` (:func:`blend_seams`) or ``none`` (the exact copy)
+BLEND_MODES = ("none", "gradient")
+
+#: lambda of the colour's seam blending: a colour step at a border spreads over about
+#: 1 / sqrt(lambda) px (~3). Measured on a 512^2 crop of the shared peeling photo -> 1024^2
+#: tiled synth (texeval): lambda 0.01 / 0.05 / 0.2 took the colour step ratio 3.01 -> 1.14 /
+#: 1.17 / 1.27 and coherence 0.94 -> 1.41 / 1.08 / 0.95: a weaker anchor lets the seams'
+#: mismatches add up into a drift of the colour (W1 0.47 -> 0.90), a stronger one leaves steps
+BLEND_SCREENING = 0.1
+
 
 def exemplar_steps(source: np.ndarray, wrap: tuple[bool, bool] = (False, False)
                    ) -> tuple[np.ndarray, np.ndarray]:
@@ -107,6 +117,44 @@ def _integrate(source: np.ndarray, references: np.ndarray, tile: bool, wrap: tup
     return screened_poisson(plain, gy, gx, tile=tile, screening=screening)
 
 
+def check_blend(mode: str) -> str:
+    """Raise :class:`~barkgen.errors.InvalidInputError` unless ``mode`` is one of
+    :data:`BLEND_MODES`; return it."""
+    from barkgen.errors import InvalidInputError
+
+    if mode not in BLEND_MODES:
+        raise InvalidInputError(f"blend must be one of {', '.join(BLEND_MODES)}, not {mode!r}")
+    return mode
+
+
+def blend_seams(source: np.ndarray, references: np.ndarray, *, tile: bool,
+                wrap: tuple[bool, bool] = (False, False),
+                screening: float = BLEND_SCREENING) -> np.ndarray:
+    """The colour (or any local map) of the exemplar through a reference map, its seams blended
+    in the gradient domain.
+
+    The copy of every pixel's reference keeps whatever low-frequency mismatch two pieces have
+    (light falloff, a shadow, a colour cast) as a step at their border. Here the texture is
+    composed from the exemplar's gradients at each pixel's reference and re-integrated
+    (screened Poisson, FFT on the torus when ``tile``; Pérez et al. 2003, as Kwatra et al.
+    2003 suggest for the seams a cut leaves), anchored to the copied colour by ``screening``,
+    so the step at a border spreads over a few pixels either side and nothing drifts: inside
+    a piece, a few pixels from its border, the pixels are the photo's own (to rounding).
+    :func:`resolve_continuous` with a strong anchor; same dtype and shape.
+
+    References
+    ----------
+    .. [1] perez2003 (Poisson image editing).
+    .. [2] kwatra2003, §3 (gradient-domain blending of residual seams).
+    """
+    src = np.asarray(source)
+    if src.ndim == 2:
+        return resolve_continuous(src, references, tile=tile, wrap=wrap, screening=screening)
+    # channel by channel: the solve's float64 transforms of one channel at a time
+    return np.stack([resolve_continuous(src[..., c], references, tile=tile, wrap=wrap,
+                                        screening=screening) for c in range(src.shape[2])], axis=-1)
+
+
 def resolve_continuous(source: np.ndarray, references: np.ndarray, *, tile: bool,
                        wrap: tuple[bool, bool] = (False, False),
                        screening: float = SCREENING, smooth_slopes: bool = False) -> np.ndarray:
@@ -131,3 +179,4 @@ def resolve_continuous(source: np.ndarray, references: np.ndarray, *, tile: bool
             u = np.clip(u, 0.0, 1.0)
         u = u.astype(src.dtype)
     return u[:, :, 0] if flat else u
+

@@ -35,7 +35,8 @@ from barkgen.nnf import neighbourhood_pca, project_neighbourhoods
 from barkgen.pyramid import level_shape
 from barkgen.synth.analysis import AnalysisCache, LevelAnalysis, schedule_sizes
 from barkgen.synth.config import SynthesisConfig
-from barkgen.synth.gradient import resolve_continuous
+from barkgen.synth.edges import map_wraps
+from barkgen.synth.gradient import blend_seams, resolve_continuous
 from barkgen.synth.expansion import expand_pieces
 from barkgen.synth.occurrence import LabelBalance, jitter_references, occurrence_penalty
 from barkgen.synth.pieces import cut_seams, limit_copies, roll_state, unstick_border_seams
@@ -60,6 +61,14 @@ class SynthesisResult:
     exemplar_wrap
         ``(rows, columns)``: the exemplar was used as a torus along that axis
         (a reference may step from its last row to its first inside one piece).
+    extra_wraps
+        ``(rows, columns)`` of each extra map: the axes along which it was carried as a torus
+        (:func:`barkgen.synth.edges.map_wraps`: where the exemplar wraps and the map's own
+        edges meet).
+    blend
+        how the image was made from the references: ``"gradient"`` (its seams blended,
+        :func:`barkgen.synth.gradient.blend_seams`) or ``"none"`` (the exact copy,
+        :func:`apply_references`).
     seed, tile
         as requested.
     timings
@@ -74,6 +83,8 @@ class SynthesisResult:
     seed: int = 0
     tile: bool = False
     timings: dict[str, float] = field(default_factory=dict)
+    extra_wraps: dict[str, tuple[bool, bool]] = field(default_factory=dict)
+    blend: str = "none"
 
 
 @dataclass
@@ -424,12 +435,13 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
             if debug is not None:
                 debug(f"level{lvl}_result", level_image(ex, refs, lvl))
         timings = {"analysis": t1 - t0, "synthesis": time.perf_counter() - t1}
-        return _result(ex, extras, refs, levels, stop_level, out_shape, wrap, seed, tile, timings)
+        return _result(ex, extras, refs, levels, stop_level, out_shape, wrap, seed, tile, timings,
+                       config.blend)
 
 
 def _result(ex: np.ndarray, extras: Mapping[str, np.ndarray], refs: np.ndarray, levels: list,
             stop_level: int, out_shape: tuple[int, int], wrap: tuple[bool, bool], seed: int,
-            tile: bool, timings: dict[str, float]) -> SynthesisResult:
+            tile: bool, timings: dict[str, float], blend: str) -> SynthesisResult:
     """The :class:`SynthesisResult` of the last level solved (see :func:`solve`)."""
     if stop_level > 0:
         la = levels[stop_level]
@@ -438,13 +450,20 @@ def _result(ex: np.ndarray, extras: Mapping[str, np.ndarray], refs: np.ndarray, 
                                exemplar_shape=(la.height, la.width), exemplar_wrap=wrap,
                                seed=int(seed), tile=bool(tile), timings=timings)
     h, w = ex.shape[:2]
-    image = ex.reshape(h * w, ex.shape[2])[refs].reshape(out_shape + (ex.shape[2],))
     ry, rx = levels[0].coords_y[refs], levels[0].coords_x[refs]
     references = np.stack([ry, rx], axis=-1).astype(np.int32)
+    t0 = time.perf_counter()
+    if blend == "gradient":  # the colour's seams blended in the gradient domain
+        image = blend_seams(ex, references, tile=tile, wrap=wrap)
+    else:
+        image = ex.reshape(h * w, ex.shape[2])[refs].reshape(out_shape + (ex.shape[2],))
     # extra maps are continuous (height, normals, roughness): resolved in the gradient domain,
-    # so the borders of the copied pieces leave no cliffs in them
-    out_extras = {name: resolve_continuous(e, references, tile=tile, wrap=wrap)
+    # so the borders of the copied pieces leave no cliffs in them; each wraps only where its
+    # own edges meet
+    extra_wraps = {name: map_wraps(e, wrap) for name, e in extras.items()}
+    out_extras = {name: resolve_continuous(e, references, tile=tile, wrap=extra_wraps[name])
                   for name, e in extras.items()}
+    timings["synthesis"] += time.perf_counter() - t0
     return SynthesisResult(image=image, references=references, extras=out_extras,
                            exemplar_shape=(h, w), exemplar_wrap=wrap, seed=int(seed),
-                           tile=bool(tile), timings=timings)
+                           tile=bool(tile), timings=timings, extra_wraps=extra_wraps, blend=blend)
