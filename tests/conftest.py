@@ -57,6 +57,12 @@ def seams():
     return _eval_module("seams")
 
 
+@pytest.fixture(scope="session")
+def lines():
+    """The lines module of ../shared/eval (straight lines in any map, from the pixels alone)."""
+    return _eval_module("lines")
+
+
 def bark_exemplar(name: str, size: int) -> np.ndarray:
     """Centre crop of a real bark photo, short side resized to ``size`` (like compare.py)."""
     _need_shared()

@@ -427,3 +427,66 @@ def test_generated_texture_steps_little_more_across_seams_than_inside(seams):
         hs, vs = seams.seam_masks(y, x, (512, 512), True, True)
         ratio = seams.step_ratio(res.texture.astype(np.float64), hs, vs, True)
         assert ratio <= 1.45, (seed, ratio)
+
+
+# ------------------------------------------------------------------ no line in any map, no step
+
+def longest_line(lines, image: np.ndarray, folder, *, tile: bool = True) -> int:
+    """``lines.py``'s longest straight line (px) in a map, written as a 16-bit PNG first (as a
+    user's file would be measured)."""
+    from barkgen.io import write_png
+
+    img = np.asarray(image, np.float64)
+    lo, hi = float(img.min()), float(img.max())
+    path = folder / "map.png"
+    write_png(path, np.round((img - lo) / max(hi - lo, 1e-12) * 65535).astype(np.uint16))
+    return lines.measure(path, tile=tile)["longest"]
+
+
+def test_an_extra_map_whose_edges_do_not_meet_draws_no_line(lines, sample256, tmp_path):
+    """``synth --tile --extra height=H`` from a photo that wraps, H made from the photo taken as
+    a rectangle (its own edges do not meet): H is not wrapped, so no straight line runs through
+    the output's height; carried round the photo's wrap as the colour is, it draws one."""
+    from barkgen.material import MaterialOptions, make_material
+
+    assert exemplar_wraps(sample256) == (True, True)
+    height = make_material(sample256, MaterialOptions(exemplar_wrap="no")).height
+    res = synthesize(sample256, 384, tile=True, seed=0, extra={"height": height})
+    assert res.extra_wraps == {"height": (False, False)}
+    forced = resolve_continuous(height, res.references, tile=True, wrap=(True, True))
+    assert longest_line(lines, forced, tmp_path) > 150
+    assert longest_line(lines, res.extras["height"], tmp_path) <= 96
+    # a height that wraps with the photo is wrapped with it
+    wrapped = make_material(sample256).height
+    again = synthesize(sample256, 384, tile=True, seed=0, extra={"height": wrapped})
+    assert again.extra_wraps == {"height": (True, True)}
+    assert longest_line(lines, again.extras["height"], tmp_path) <= 96
+
+
+def test_no_line_in_any_map_of_a_tiled_material_set(lines, sample256, tmp_path):
+    """``generate --tile --material`` from a photo that wraps: no straight line (``lines.py``,
+    window 64, threshold 3, the output's own wrap included) longer than 96 px in the texture
+    or any map of its set; the photo's own maps wrap with it."""
+    from barkgen.pipeline import GenerateOptions, generate
+
+    result = generate(sample256, GenerateOptions(size=(384, 384), tile=True, material=True, seed=1))
+    mat = result.material
+    maps = {"texture": result.texture, "albedo": mat.color, "height": mat.height,
+            "normals": mat.normals, "ao": mat.ao, "roughness": mat.roughness}
+    found = {name: longest_line(lines, img, tmp_path) for name, img in maps.items()}
+    assert max(found.values()) <= 96, found
+
+
+def test_colour_steps_little_more_across_seams_on_a_lit_structured_photo():
+    """The shared peeling photo (strong light, plates and shadows): with the seams blended the
+    colour steps at most 1.25x as much across the borders between pieces as inside them;
+    copied exactly it steps far more. The references are the same."""
+    from conftest import bark_exemplar, border_step_ratio
+
+    photo = bark_exemplar("peeling_patchy_01", 192)
+    blended = synthesize(photo, 384, tile=True, seed=0)
+    exact = synthesize(photo, 384, tile=True, seed=0, config=SynthesisConfig(blend="none"))
+    assert np.array_equal(blended.references, exact.references)
+    ratio = border_step_ratio(blended.image, blended.references, photo.shape[:2])
+    before = border_step_ratio(exact.image, exact.references, photo.shape[:2])
+    assert ratio <= 1.25 and before >= 1.5, (ratio, before)
