@@ -2,7 +2,9 @@
 
 The exemplar is a 128 px crop of the bundled pine bark (``barkgen.sample_exemplar_path()``);
 the output is a new, larger texture of the same bark, resolved pixel for pixel from the photo
-(no blur), plus its reference map (which photo pixel each output pixel copies).
+(no blur) through its reference map (which photo pixel each output pixel copies), with the
+colour steps where copied pieces meet blended away in the gradient domain (``blend="gradient"``,
+the default; ``blend="none"`` keeps the exact copy).
 
 Run::
 

@@ -38,8 +38,12 @@ def check_01(out: Path) -> None:
     assert texture.shape == (160, 224, 3) and exemplar.shape == (128, 128, 3)
     refs, exemplar_shape = read_reference(out / "reference.png")
     assert exemplar_shape == (128, 128)
-    # the texture is the exemplar resolved through its references, pixel for pixel
-    assert np.array_equal(exemplar[refs[:, :, 0], refs[:, :, 1]], texture)
+    # the texture is the exemplar resolved through its references; only the seams' colour
+    # steps are blended, so it stays within a few grey levels of the exact copy
+    copied = exemplar[refs[:, :, 0], refs[:, :, 1]].astype(np.float64)
+    change = np.abs(copied - texture)
+    assert change.mean() < 2.0 and np.percentile(change, 99) < 16
+    assert not np.array_equal(copied, texture)
 
 
 def check_02(out: Path) -> None:
