@@ -156,20 +156,20 @@ def test_joint_strategy_keeps_areas_and_shapes(fir_photo, fir_labels, k):
 def test_joint_strategy_stops_a_level_above_the_finest(fir_photo, fir_labels, monkeypatch):
     """The joint strategy solves down to level 1 (texture-by-numbers refines the finest level
     after it): its finest level copies exact 2 x 2 exemplar blocks, the children of level 1's
-    references, whose borders expansion moves then shift onto the photo's low-error paths (a
-    pixel only takes the offset of a piece within the moves' reach); the finest level's analysis
-    of its features is never computed."""
+    references, whose borders expansion moves and straight-seam cuts then shift onto the
+    photo's low-error paths (a pixel only takes the offset of a piece within the moves' and the
+    cuts' reach); the finest level's analysis of its features is never computed."""
     import barkgen.shapes.engine as engine
     from barkgen.synth import AnalysisCache
 
     seen = {}
-    expand = engine._expand_pieces
+    move = engine._move_finest_seams
 
     def spy(references, *args):
         seen["up-sampled"] = references.copy()
-        return expand(references, *args)
+        return move(references, *args)
 
-    monkeypatch.setattr(engine, "_expand_pieces", spy)
+    monkeypatch.setattr(engine, "_move_finest_seams", spy)
     labels = fir_labels[3]
     cache = AnalysisCache()
     result = synthesize_label_map(labels, (192, 256), strategy="joint", photo=fir_photo, seed=2,
@@ -181,7 +181,9 @@ def test_joint_strategy_stops_a_level_above_the_finest(fir_photo, fir_labels, mo
     assert np.array_equal(up, np.repeat(np.repeat(up[::2, ::2], 2, axis=0), 2, axis=1))
     moved = (up != out).any(axis=-1)
     assert 0.02 < moved.mean() < 0.4
-    reach = engine.JOINT_CONFIG.seam_expansion_band * engine.JOINT_CONFIG.seam_expansion_rounds
+    from barkgen.synth.cuts import BAND
+
+    reach = engine.JOINT_CONFIG.seam_expansion_band * engine.JOINT_CONFIG.seam_expansion_rounds + BAND
     padded = np.pad(up, ((reach, reach), (reach, reach), (0, 0)), mode="edge")
     for y, x in zip(*np.nonzero(moved)):
         window = padded[y:y + 2 * reach + 1, x:x + 2 * reach + 1].reshape(-1, 2)

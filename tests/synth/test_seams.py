@@ -429,6 +429,24 @@ def test_generated_texture_steps_little_more_across_seams_than_inside(seams):
         assert ratio <= 1.45, (seed, ratio)
 
 
+
+def test_generate_leaves_no_straight_seam_where_a_piece_ends_at_the_photos_edge(seams):
+    """A photo that does not tile ends each copied piece with its own straight edge. In the
+    joint label map such a border survives the coarser level's cuts and is doubled by the
+    up-sampling; texture-by-numbers may not move a label border, so the texture kept it. The
+    lit peeling photo, 320 px crop -> 640 px tiled: straight seams of 47 / 70 px (seeds 0 / 1)
+    before the label map's finest level was cut too, 28 / 35 px after."""
+    from barkgen.pipeline import GenerateOptions, generate
+    from conftest import bark_exemplar
+
+    photo = bark_exemplar("peeling_patchy_01", 320)
+    for seed in (0, 1):
+        res = generate(photo, GenerateOptions(size=(640, 640), tile=True, seed=seed))
+        wrap = tuple(res.report["exemplar_wrap"])
+        assert wrap == (False, False)
+        assert longest(seams, res.references, photo.shape[:2], tile=True, wrap=wrap) <= 48, seed
+
+
 # ------------------------------------------------------------------ no line in any map, no step
 
 def longest_line(lines, image: np.ndarray, folder, *, tile: bool = True) -> int:

@@ -54,6 +54,7 @@ from barkgen.synth.engine import (
     Guidance,
     LabelBalance,
     SynthesisConfig,
+    cut_straight_seams,
     exemplar_grid,
     expand_pieces,
     guide_channels,
@@ -76,7 +77,7 @@ BALANCE_WEIGHT = 64.0
 INIT_BLOCK = 8
 #: the joint strategy's solver: plain synthesis' configuration (it is a synthesis of the photo),
 #: with two rounds of expansion moves on the finest level's up-sampled references
-#: (:func:`_expand_pieces`; generate's texture step ratio across seams on the sample, seed 0:
+#: (:func:`_move_finest_seams`; generate's texture step ratio across seams on the sample, seed 0:
 #: 1.56 without them, 1.43 with two rounds)
 JOINT_CONFIG = SynthesisConfig(seam_expansion_rounds=2)
 #: joint strategy: the label channels' total variance, in units of the photo's colour variance
@@ -217,29 +218,40 @@ def synthesize_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int
     for lvl in reversed(range(finest)):
         references = upsample_references(references, level_shape(out_shape, lvl),
                                          level_shape(codes.shape, lvl), exemplar_wrap)
-    if finest > 0 and joint and config.seam_expansion_band:
-        references = _expand_pieces(references, features[..., :features.shape[2] - n_labels],
-                                    tile, exemplar_wrap, config)
+    if finest > 0 and joint:
+        references = _move_finest_seams(references, features[..., :features.shape[2] - n_labels],
+                                        tile, exemplar_wrap, config, rng)
     out_codes = codes[references[..., 0], references[..., 1]].astype(np.int32)
     if finest > 0 and on_level is not None:
         on_level(0, out_codes)
     return out_codes, references
 
 
-def _expand_pieces(references: np.ndarray, colour: np.ndarray, tile: bool,
-                   exemplar_wrap: tuple[bool, bool], config: SynthesisConfig) -> np.ndarray:
+def _move_finest_seams(references: np.ndarray, colour: np.ndarray, tile: bool,
+                       exemplar_wrap: tuple[bool, bool], config: SynthesisConfig,
+                       rng: np.random.Generator) -> np.ndarray:
     """The finest level's reference map, up-sampled from the level above, with its seams moved
-    off the up-sampling's 2x2 grid onto the photo's low-error paths (expansion moves on the
-    photo's colour, :func:`barkgen.synth.expansion.expand_pieces`): the label map's piece
-    borders are then the photo's own, and texture-by-numbers, which follows them, need not cut
-    the bark along a staircase."""
+    onto the photo's low-error paths: expansion moves on the photo's colour
+    (:func:`barkgen.synth.expansion.expand_pieces`) take them off the up-sampling's 2x2 grid,
+    then graph cuts re-cut the straight stretches left (:func:`cut_straight_seams`, with
+    meanders). The label map's piece borders are then the photo's own, and texture-by-numbers,
+    which follows them and may not move a label border, need not cut the bark along a staircase
+    or a straight line. The straight ones are mostly where a piece ends at the photo's edge
+    (its last row or column is straight and nothing continues it); the coarser level's cuts
+    leave them half as long, and the up-sampling doubles them (peeling crop, 1024x1024, seed 0:
+    79 px before this level's cuts)."""
     h, w = colour.shape[:2]
-    flat = references[..., 0] * w + references[..., 1]
-    unguided = (np.zeros(1, np.int32), np.zeros((1, 1), np.int32))
-    moved = expand_pieces(flat, exemplar_grid((h, w), exemplar_wrap), colour, tile,
-                          np.full(flat.shape, -1, np.int64), unguided,
-                          band=config.seam_expansion_band, rounds=config.seam_expansion_rounds)
-    return np.stack(np.divmod(moved, w), axis=-1).astype(np.int32)
+    if config.seam_expansion_band:
+        flat = references[..., 0] * w + references[..., 1]
+        unguided = (np.zeros(1, np.int32), np.zeros((1, 1), np.int32))
+        moved = expand_pieces(flat, exemplar_grid((h, w), exemplar_wrap), colour, tile,
+                              np.full(flat.shape, -1, np.int64), unguided,
+                              band=config.seam_expansion_band, rounds=config.seam_expansion_rounds)
+        references = np.stack(np.divmod(moved, w), axis=-1).astype(np.int32)
+    if config.seam_cut_run:
+        references = cut_straight_seams(references, colour, tile=tile, wrap=exemplar_wrap,
+                                        min_run=config.seam_cut_run, rng=rng)
+    return references
 
 
 def start_score(references: np.ndarray, exemplar_width: int, shares: np.ndarray,

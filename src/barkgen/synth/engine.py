@@ -10,12 +10,14 @@ texture-by-numbers, a :class:`LabelBalance` keeps the label areas of a label map
 :func:`label_pyramid`, :func:`level_guide`, :func:`guide_channels` and
 :func:`smart_initialization` make a guide from label maps (laitoch2018 §3.3-3.4);
 :func:`expand_pieces` moves a reference map's seams onto low-error paths (kwatra2003 §3,
-boykov2001), on an exemplar grid made by :func:`exemplar_grid`.
+boykov2001), on an exemplar grid made by :func:`exemplar_grid`, and :func:`cut_straight_seams`
+re-cuts the straight stretches left (kwatra2003 §3).
 """
 
 from barkgen.synth.analysis import AnalysisCache, LevelAnalysis, matching_features
 from barkgen.synth.api import check_memory, estimate_memory, validate_inputs
 from barkgen.synth.config import SynthesisConfig
+from barkgen.synth.cuts import cut_straight_seams
 from barkgen.synth.edges import resolve_exemplar_wrap
 from barkgen.synth.expansion import exemplar_grid, expand_pieces
 from barkgen.synth.guide import guide_channels, label_pyramid, level_guide
@@ -32,6 +34,7 @@ __all__ = [
     "SynthesisConfig",
     "SynthesisResult",
     "check_memory",
+    "cut_straight_seams",
     "estimate_memory",
     "exemplar_grid",
     "expand_pieces",
