@@ -1,4 +1,5 @@
-"""Array conventions shared by barkgen's packages: image shapes and dtypes, progress callbacks."""
+"""Array conventions shared by barkgen's packages: image shapes and dtypes, progress callbacks,
+and images that wrap round (a photo that tiles along an axis is a torus along it)."""
 
 from __future__ import annotations
 
@@ -10,6 +11,48 @@ from barkgen.errors import InvalidInputError
 
 #: progress(done, total): called after each unit of work.
 ProgressCallback = Callable[[int, int], None]
+#: how an image wraps round: a bool (both axes) or ``(rows, columns)``
+Wrap = bool | tuple[bool, bool]
+
+
+def wrap_axes(tile: Wrap) -> tuple[bool, bool]:
+    """``(rows, columns)`` of a ``tile`` setting: a bool (both axes) or a pair. A photo that
+    tiles along one axis only (:func:`barkgen.synth.exemplar_wraps`) wraps along that one."""
+    if isinstance(tile, (tuple, list)):
+        return bool(tile[0]), bool(tile[1])
+    return bool(tile), bool(tile)
+
+
+def pad_wrapped(image: np.ndarray, pad: int, tile: Wrap, other: str | None = "reflect") -> np.ndarray:
+    """``image`` padded by ``pad`` px on both sides of its first two axes: wrapping along an
+    axis it wraps along (``tile``), ``other`` (a :func:`numpy.pad` mode, or None: not padded)
+    along the others."""
+    wy, wx = wrap_axes(tile)
+    rest = [(0, 0)] * (np.ndim(image) - 2)
+    out = np.asarray(image)
+    for axis, wraps in ((0, wy), (1, wx)):
+        if not wraps and other is None:
+            continue
+        widths = [(0, 0), (0, 0)] + rest
+        widths[axis] = (pad, pad)
+        out = np.pad(out, widths, mode="wrap" if wraps else other)
+    return out
+
+
+def on_torus(func: Callable[[np.ndarray], np.ndarray], image: np.ndarray, pad: int,
+             tile: Wrap) -> np.ndarray:
+    """``func(image)`` of a local operation (a filter, a distance transform, a denoising) whose
+    reach is at most ``pad`` px, computed as if ``image`` wrapped round along the axes ``tile``
+    wraps along: padded there with its own opposite edge, then cropped back. Along the other
+    axes ``func`` sees the image as it is, so an image that wraps nowhere gives ``func(image)``
+    itself, to the byte. ``func`` keeps the first two axes' size."""
+    wy, wx = wrap_axes(tile)
+    if not (wy or wx):
+        return func(image)
+    h, w = np.shape(image)[:2]
+    py, px = (pad if wy else 0), (pad if wx else 0)
+    out = func(pad_wrapped(image, pad, (wy, wx), other=None))
+    return out[py:py + h, px:px + w]
 
 
 def as_hw_c(name: str, array: np.ndarray) -> np.ndarray:

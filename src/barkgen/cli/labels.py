@@ -10,6 +10,7 @@ import numpy as np
 import typer
 
 from barkgen.cli._common import (
+    ExemplarWrapsOption,
     KOption,
     OutputOption,
     QuietOption,
@@ -31,6 +32,7 @@ def labels_command(
     edges: Annotated[bool, typer.Option(
         "--edges", help="Add a label for the region edges (k + 1 labels).")] = False,
     edge_width: Annotated[int, typer.Option("--edge-width", help="Width of the edge band, px.")] = 3,
+    exemplar_wraps: ExemplarWrapsOption = "auto",
     seed: SeedOption = 0,
     preview: Annotated[Optional[Path], typer.Option(
         "--preview", help="Also write the photo with the label regions tinted and outlined.")] = None,
@@ -39,6 +41,7 @@ def labels_command(
     """Make the label map of a bark photo (input of texture-by-numbers)."""
     from barkgen.io import read_image, write_png
     from barkgen.labels import add_edge_label, color_regions, label_preview, texton_regions
+    from barkgen.synth.edges import resolve_exemplar_wrap
 
     # --method picks the function to call, so it is checked here (k, seed and the edge width
     # by the functions)
@@ -48,9 +51,10 @@ def labels_command(
     if preview is not None:
         check_target(preview, "--preview")
     image = read_image(photo)
+    wrap = resolve_exemplar_wrap(exemplar_wraps, image)
     with progress_bar(not quiet, "labelling"):
         regions = color_regions if method == "color" else texton_regions
-        label_map = regions(image, k, seed=seed)
+        label_map = regions(image, k, seed=seed, wrap=wrap)
         if edges:
             label_map = add_edge_label(label_map, edge_width)
         sheet = label_preview(image, label_map) if preview is not None else None
@@ -66,6 +70,7 @@ def textons_command(
     photo: Annotated[Path, typer.Argument(help="Bark photo (PNG/JPEG/TIFF/WebP).")],
     output_dir: Annotated[Path, typer.Option("-o", "--output", help="Output folder.")],
     n_textons: Annotated[int, typer.Option("--textons", help="Number of textons (2-64).")] = 25,
+    exemplar_wraps: ExemplarWrapsOption = "auto",
     seed: SeedOption = 0,
     quiet: QuietOption = False,
 ) -> None:
@@ -73,11 +78,13 @@ def textons_command(
     one mask per texton (OUT/texton_NN.png) and a contact sheet (OUT/sheet.png)."""
     from barkgen.io import read_image, write_png
     from barkgen.labels import contact_sheet, texton_channels
+    from barkgen.synth.edges import resolve_exemplar_wrap
 
     check_folder(output_dir, "output")
     image = read_image(photo)
+    wrap = resolve_exemplar_wrap(exemplar_wraps, image)
     with progress_bar(not quiet, "textons"):
-        textons, _ = texton_channels(image, n_textons, seed=seed)
+        textons, _ = texton_channels(image, n_textons, seed=seed, wrap=wrap)
         masks = [np.where(textons == t, 255, 0).astype(np.uint8) for t in range(n_textons)]
         sheet = contact_sheet(masks, [f"texton {t}" for t in range(n_textons)])
     output_dir.mkdir(parents=True, exist_ok=True)

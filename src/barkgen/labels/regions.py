@@ -16,6 +16,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from barkgen._shared.arrays import Wrap, on_torus, wrap_axes
 from barkgen._shared.checks import MAX_K, check_image, check_k, check_seed
 from barkgen.errors import InvalidInputError
 
@@ -28,6 +29,8 @@ MIN_REGION_PX = 16
 DENOISE_STRENGTH = 10.0
 #: pixels sampled to fit k-means (all are then assigned)
 KMEANS_SAMPLES = 60_000
+#: how far (px) the non-local means denoising looks: half its template plus half its search window
+NL_MEANS_REACH = 3 + 10
 
 
 def grey_values(n_labels: int) -> np.ndarray:
@@ -100,12 +103,13 @@ def order_by_luminance(codes: np.ndarray, luminance: np.ndarray, n_labels: int) 
     return rank[codes]
 
 
-def grow_small_labels(codes: np.ndarray, fraction: float, n_labels: int) -> np.ndarray:
+def grow_small_labels(codes: np.ndarray, fraction: float, n_labels: int,
+                      wrap: Wrap = False) -> np.ndarray:
     """Grow every label that covers less than ``fraction`` of the pixels by rings of one pixel
-    around its regions (3x3 dilation), taking pixels only from labels that stay above the
-    fraction, until it reaches the fraction: a label of small features (lenticels, specks) keeps
-    its places and becomes large enough to be learnt from. A label absent from the map stays
-    absent."""
+    around its regions (3x3 dilation, across the map's edge where it wraps: ``wrap``), taking
+    pixels only from labels that stay above the fraction, until it reaches the fraction: a label
+    of small features (lenticels, specks) keeps its places and becomes large enough to be learnt
+    from. A label absent from the map stays absent."""
     import cv2
 
     out = np.asarray(codes, np.int32).copy()
@@ -117,7 +121,7 @@ def grow_small_labels(codes: np.ndarray, fraction: float, n_labels: int) -> np.n
             if counts[lab] >= need or counts[lab] == 0:
                 break
             mask = (out == lab).astype(np.uint8)
-            ring = (cv2.dilate(mask, kernel) > 0) & (mask == 0)
+            ring = (on_torus(lambda m: cv2.dilate(m, kernel), mask, 1, wrap) > 0) & (mask == 0)
             ring &= counts[out] > need  # donors stay above the fraction
             if not ring.any():
                 break
@@ -126,11 +130,45 @@ def grow_small_labels(codes: np.ndarray, fraction: float, n_labels: int) -> np.n
     return out
 
 
-def remove_small_regions(codes: np.ndarray, min_region: int) -> np.ndarray:
+def _components(mask: np.ndarray, wrap: Wrap) -> tuple[np.ndarray, np.ndarray]:
+    """The 8-connected components of ``mask`` on the map's torus along the axes it wraps
+    along: ``(component per pixel, 0 off the mask; pixels per component)``. A region that runs
+    across the map's edge is one component, as it is in the texture that tiles."""
+    import cv2
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    n, comp, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
+    sizes = stats[:, cv2.CC_STAT_AREA].astype(np.int64)
+    wy, wx = wrap_axes(wrap)
+    if not (wy or wx) or n <= 2:
+        return comp, sizes
+    pairs = []
+    for axis, wraps in ((0, wy), (1, wx)):
+        if not wraps:
+            continue
+        last, first = (comp[-1], comp[0]) if axis == 0 else (comp[:, -1], comp[:, 0])
+        across = wx if axis == 0 else wy  # the edge's own axis wraps: its diagonals go round
+        for shift in (-1, 0, 1):
+            other = np.roll(first, shift) if across else np.pad(first, 1)[1 + shift:1 + shift + first.size]
+            both = (last > 0) & (other > 0)
+            pairs.append(np.stack([last[both], other[both]]))
+    ij = np.concatenate(pairs, axis=1)
+    graph = coo_matrix((np.ones(ij.shape[1]), (ij[0], ij[1])), shape=(n, n))
+    _, group = connected_components(graph, directed=False)
+    group = group.astype(np.int64) + 1
+    group[0] = 0  # the mask's background stays apart
+    merged = np.bincount(group, weights=sizes, minlength=group.max() + 1).astype(np.int64)
+    merged[0] = sizes[0]
+    return group[comp], merged
+
+
+def remove_small_regions(codes: np.ndarray, min_region: int, wrap: Wrap = False) -> np.ndarray:
     """Dissolve every region smaller than ``min_region`` pixels (laitoch2018 §3.5.4).
 
-    Regions are 8-connected. A dissolved region's pixels take, layer by layer from the outside,
-    the most common label among their 8 neighbours that are already decided.
+    Regions are 8-connected, across the map's edge along the axes it wraps along (``wrap``: a
+    bool or ``(rows, columns)``). A dissolved region's pixels take, layer by layer from the
+    outside, the most common label among their 8 neighbours that are already decided.
 
     Parameters
     ----------
@@ -163,9 +201,8 @@ def remove_small_regions(codes: np.ndarray, min_region: int) -> np.ndarray:
     n_labels = int(codes.max()) + 1
     keep = np.zeros(codes.shape, bool)
     for lab in range(n_labels):
-        mask = (codes == lab).astype(np.uint8)
-        n, comp, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
-        big = stats[:, cv2.CC_STAT_AREA] >= min_region
+        comp, sizes = _components(codes == lab, wrap)
+        big = sizes >= min_region
         big[0] = False  # background of the mask
         keep |= big[comp]
     if not keep.any():  # everything tiny: keep the largest region of the commonest label
@@ -176,8 +213,8 @@ def remove_small_regions(codes: np.ndarray, min_region: int) -> np.ndarray:
     out = np.where(keep, codes, -1)
     kernel = np.ones((3, 3), np.float32)
     while (out < 0).any():
-        votes = np.stack([cv2.filter2D((out == lab).astype(np.float32), -1, kernel,
-                                       borderType=cv2.BORDER_CONSTANT) for lab in range(n_labels)])
+        votes = np.stack([on_torus(lambda m: cv2.filter2D(m, -1, kernel, borderType=cv2.BORDER_CONSTANT),
+                                   (out == lab).astype(np.float32), 1, wrap) for lab in range(n_labels)])
         undecided = out < 0
         has_vote = votes.max(axis=0) > 0
         fill = undecided & has_vote
@@ -185,13 +222,15 @@ def remove_small_regions(codes: np.ndarray, min_region: int) -> np.ndarray:
     return out
 
 
-def clean_regions(codes: np.ndarray, n_labels: int, min_region: int) -> np.ndarray:
+def clean_regions(codes: np.ndarray, n_labels: int, min_region: int, wrap: Wrap = False) -> np.ndarray:
     """Small labels grown to :data:`MIN_LABEL_FRACTION` of the map, then regions smaller than
     ``min_region`` dissolved (§3.5.4); growing the survivors once more restores labels the
-    removal shrank, and a last removal tidies what that split."""
-    codes = grow_small_labels(codes, MIN_LABEL_FRACTION, n_labels)
-    codes = remove_small_regions(codes, min_region)
-    return remove_small_regions(grow_small_labels(codes, MIN_LABEL_FRACTION, n_labels), min_region)
+    removal shrank, and a last removal tidies what that split. All on the map's torus along
+    the axes it wraps along (``wrap``)."""
+    codes = grow_small_labels(codes, MIN_LABEL_FRACTION, n_labels, wrap)
+    codes = remove_small_regions(codes, min_region, wrap)
+    return remove_small_regions(grow_small_labels(codes, MIN_LABEL_FRACTION, n_labels, wrap),
+                                min_region, wrap)
 
 
 def finish_label_map(codes: np.ndarray, k: int) -> np.ndarray:
@@ -214,7 +253,7 @@ def default_min_region(shape: tuple[int, int]) -> int:
 
 def color_regions(image: np.ndarray, k: int, *, denoise: bool | float = True,
                   min_region: int | None = None, edges: bool | int = False,
-                  seed: int = 0) -> np.ndarray:
+                  seed: int = 0, wrap: Wrap = False) -> np.ndarray:
     """The photo's label map of ``k`` colour regions (laitoch2018 §3.5).
 
     Non-local means denoising, k-means of the CIELAB colours, small regions dissolved, labels
@@ -235,6 +274,10 @@ def color_regions(image: np.ndarray, k: int, *, denoise: bool | float = True,
         Add the label of region edges (§3.5.6): ``True`` for a 3 px band, or its width.
     seed : int, default 0
         Seeds the k-means sampling and initialisation.
+    wrap : bool or (bool, bool), default False
+        The photo tiles (both axes, or ``(rows, columns)``,
+        :func:`barkgen.synth.exemplar_wraps`): the denoising and the regions run across its
+        edge there, so the label map tiles as the photo does.
 
     Returns
     -------
@@ -279,7 +322,8 @@ def color_regions(image: np.ndarray, k: int, *, denoise: bool | float = True,
     with ThreadPoolExecutor(max_workers=1) as pool:
         loading = pool.submit(importlib.import_module, "sklearn.cluster")
         if denoise is not False and denoise != 0:
-            rgb = nl_means(rgb, DENOISE_STRENGTH if denoise is True else float(denoise))
+            strength = DENOISE_STRENGTH if denoise is True else float(denoise)
+            rgb = on_torus(lambda im: nl_means(im, strength), rgb, NL_MEANS_REACH, wrap)
         MiniBatchKMeans = loading.result().MiniBatchKMeans
     lab = rgb_to_lab(rgb).reshape(-1, 3)
     if k == 1:
@@ -291,7 +335,7 @@ def color_regions(image: np.ndarray, k: int, *, denoise: bool | float = True,
                              random_state=int(rng.integers(0, 2**31 - 1))).fit(sample)
         dist = ((lab[:, None, :] - km.cluster_centers_[None].astype(np.float32)) ** 2).sum(-1)
         codes = dist.argmin(axis=1).reshape(h, w).astype(np.int32)
-        codes = clean_regions(codes, k, int(min_region))
+        codes = clean_regions(codes, k, int(min_region), wrap)
         codes = order_by_luminance(codes, lab[:, 0].reshape(h, w), k)
     label_map = finish_label_map(codes, k)
     if edges:

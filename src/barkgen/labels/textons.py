@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from barkgen.errors import InvalidInputError
+from barkgen._shared.arrays import Wrap, on_torus
 from barkgen._shared.checks import check_image, check_k, check_seed
 from barkgen.labels.regions import (
     clean_regions,
@@ -76,23 +77,29 @@ def filter_bank(scales=FILTER_SCALES, n_orientations: int = N_ORIENTATIONS) -> l
     return bank["even"] + bank["odd"]
 
 
-def filter_responses(image: np.ndarray) -> np.ndarray:
+def filter_responses(image: np.ndarray, *, wrap: Wrap = False) -> np.ndarray:
     """``(h, w, 36)`` float32 responses of the photo's luminance (CIELAB L / 100) to
-    :func:`filter_bank`."""
+    :func:`filter_bank`; across the photo's edge along the axes it wraps along (``wrap``: a
+    bool or ``(rows, columns)``), mirrored at the others."""
     import cv2
 
     from barkgen.color import rgb_to_lab
 
     lum = rgb_to_lab(check_image(image))[..., 0] / np.float32(100.0)
     bank = filter_bank()
-    out = np.empty(lum.shape + (len(bank),), np.float32)
-    for i, f in enumerate(bank):
-        out[..., i] = cv2.filter2D(lum, cv2.CV_32F, f, borderType=cv2.BORDER_REFLECT_101)
-    return out
+    reach = max(f.shape[0] for f in bank) // 2
+
+    def respond(lum: np.ndarray) -> np.ndarray:
+        out = np.empty(lum.shape + (len(bank),), np.float32)
+        for i, f in enumerate(bank):
+            out[..., i] = cv2.filter2D(lum, cv2.CV_32F, f, borderType=cv2.BORDER_REFLECT_101)
+        return out
+
+    return np.ascontiguousarray(on_torus(respond, lum, reach, wrap))
 
 
 def texton_channels(image: np.ndarray, n_textons: int = 25, *,
-                    seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+                    seed: int = 0, wrap: Wrap = False) -> tuple[np.ndarray, np.ndarray]:
     """The photo's texton map and its filter responses (wang2003 §3.2).
 
     Parameters
@@ -103,6 +110,9 @@ def texton_channels(image: np.ndarray, n_textons: int = 25, *,
         Number of textons (k-means clusters of the filter responses), 2 to :data:`MAX_TEXTONS`.
     seed : int, default 0
         Seeds the k-means sampling and initialisation.
+    wrap : bool or (bool, bool), default False
+        The photo tiles along both axes (or ``(rows, columns)``): the filters run across its
+        edge there (:func:`filter_responses`).
 
     Returns
     -------
@@ -130,7 +140,7 @@ def texton_channels(image: np.ndarray, n_textons: int = 25, *,
                                 f"not {n_textons!r}")
     check_seed(seed)
     rgb = check_image(image)
-    responses = filter_responses(rgb)
+    responses = filter_responses(rgb, wrap=wrap)
     h, w, d = responses.shape
     flat = responses.reshape(-1, d)
     rng = np.random.default_rng(seed)
@@ -316,7 +326,7 @@ def auto_merge(texton_map: np.ndarray, image: np.ndarray, k: int) -> list[list[i
 
 
 def texton_regions(image: np.ndarray, k: int, *, n_textons: int = 25,
-                   min_region: int | None = None, seed: int = 0) -> np.ndarray:
+                   min_region: int | None = None, seed: int = 0, wrap: Wrap = False) -> np.ndarray:
     """A ``k``-label map from texton channels with no user step.
 
     :func:`texton_channels`, :func:`auto_merge`, :func:`merge_channels`, then the clean-up of the
@@ -335,6 +345,9 @@ def texton_regions(image: np.ndarray, k: int, *, n_textons: int = 25,
         Smallest region kept, in pixels (default: 0.05 % of the photo, >= 16 px).
     seed : int, default 0
         Seeds the texton k-means.
+    wrap : bool or (bool, bool), default False
+        The photo tiles (both axes, or ``(rows, columns)``): filters and regions run across its
+        edge there.
 
     Returns
     -------
@@ -347,9 +360,9 @@ def texton_regions(image: np.ndarray, k: int, *, n_textons: int = 25,
     .. [2] laitoch2018, §3.5.4 (removing small regions).
     """
     k = check_k(k)
-    textons, _ = texton_channels(image, n_textons, seed=seed)
+    textons, _ = texton_channels(image, n_textons, seed=seed, wrap=wrap)
     merged = merge_channels(textons, auto_merge(textons, image, k))
     codes, _ = to_codes(merged)
     if min_region is None:
         min_region = default_min_region(codes.shape)
-    return finish_label_map(clean_regions(codes, k, int(min_region)), k)
+    return finish_label_map(clean_regions(codes, k, int(min_region), wrap), k)

@@ -21,7 +21,8 @@ import cv2
 import numpy as np
 
 from barkgen.errors import InvalidInputError
-from barkgen.material.height import Wrap, luminance, pad_wrapped, wrap_axes
+from barkgen._shared.arrays import Wrap, pad_wrapped, wrap_axes
+from barkgen.material.height import luminance
 
 #: the largest neighbourhood radius compared at full resolution; larger ones use a coarser level
 MAX_LEVEL_RADIUS = 4

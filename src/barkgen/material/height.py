@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from barkgen._shared.arrays import Wrap, wrap_axes
 from barkgen.errors import InvalidInputError
 
 #: (octave scale in px, weight) of the luminance bands; luminance in units of its std
@@ -85,31 +86,6 @@ def luminance(rgb: np.ndarray) -> np.ndarray:
     if rgb.ndim == 2:
         return rgb
     return rgb[..., :3] @ np.array([0.2126, 0.7152, 0.0722], np.float32)
-
-
-#: ``tile`` of the map functions: ``True``/``False`` for both axes, or ``(rows, columns)``
-Wrap = bool | tuple[bool, bool]
-
-
-def wrap_axes(tile: Wrap) -> tuple[bool, bool]:
-    """``(rows, columns)`` of a ``tile`` setting: a bool (both axes) or a pair. A photo that
-    tiles along one axis only (:func:`barkgen.synth.exemplar_wraps`) wraps along that one."""
-    if isinstance(tile, (tuple, list)):
-        return bool(tile[0]), bool(tile[1])
-    return bool(tile), bool(tile)
-
-
-def pad_wrapped(image: np.ndarray, pad: int, tile: Wrap, other: str = "reflect") -> np.ndarray:
-    """``image`` padded by ``pad`` px on both sides of its first two axes: wrapping along an
-    axis it wraps along (``tile``), ``other`` (a :func:`numpy.pad` mode) along the others."""
-    wy, wx = wrap_axes(tile)
-    rest = [(0, 0)] * (np.ndim(image) - 2)
-    out = np.asarray(image)
-    for axis, wraps in ((0, wy), (1, wx)):
-        widths = [(0, 0), (0, 0)] + rest
-        widths[axis] = (pad, pad)
-        out = np.pad(out, widths, mode="wrap" if wraps else other)
-    return out
 
 
 def blur(image: np.ndarray, sigma: float, *, tile: Wrap) -> np.ndarray:

@@ -11,7 +11,8 @@ from __future__ import annotations
 import numpy as np
 
 from barkgen.material._kernels import horizon_occlusion
-from barkgen.material.height import Wrap, blur, gradient, wrap_axes
+from barkgen._shared.arrays import Wrap, wrap_axes
+from barkgen.material.height import blur, gradient
 
 #: directions and reach (px) of the horizon-based ambient occlusion
 AO_DIRECTIONS = 8

@@ -292,7 +292,7 @@ def make_material(photo: np.ndarray, options: MaterialOptions | None = None, *,
     rgb = check_image(photo)
     wrap = resolve_exemplar_wrap(options.exemplar_wrap, photo)
     if label_map is None:
-        label_map, _ = to_codes(color_regions(rgb, options.k, seed=options.seed))
+        label_map, _ = to_codes(color_regions(rgb, options.k, seed=options.seed, wrap=wrap))
     config = dataclasses.replace(options.height, strength=options.height.strength * options.relief)
     height = estimate_height(rgb, label_map, config=config, tile=wrap)
     edits = list(edits)

@@ -346,9 +346,11 @@ def analyze_photo(
     # every pool sized, BLAS at one thread; a second thread for the photo's material set
     with thread_budget(options.threads), ThreadPoolExecutor(max_workers=1) as pool:
         t0 = time.perf_counter()
+        # every analysis of the photo runs across its edges where it tiles
+        wrap = resolve_exemplar_wrap(options.exemplar_wrap, photo)
         if labels_in is None:
             regions = color_regions if options.method == "color" else texton_regions
-            labels_in = regions(photo, options.k, seed=ANALYSIS_SEED)
+            labels_in = regions(photo, options.k, seed=ANALYSIS_SEED, wrap=wrap)
         labels_in = grey_label_map(labels_in)  # a colour map: one grey value per colour
         if labels_in.shape[:2] != np.asarray(photo).shape[:2]:
             raise InvalidInputError(
@@ -358,7 +360,6 @@ def analyze_photo(
         # the photo's material set needs only the photo and its labels: it is made on the
         # second thread while the two solvers analyse the photo, which keep 1.3 of 2 cores busy
         # (the quickstart's analysis without its label map: 5.3 s one after the other, 4.2 s so)
-        wrap = resolve_exemplar_wrap(options.exemplar_wrap, photo)
         material = (pool.submit(in_budget, options.threads, _photo_material, photo, labels_in, options, wrap)
                     if options.material else None)
         cache = AnalysisCache()

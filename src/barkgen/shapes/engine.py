@@ -170,7 +170,7 @@ def synthesize_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int
     columns)``: the exemplar tiles along that axis (:mod:`barkgen.synth.edges`).
     """
     joint = photo is not None
-    features, config = _solver_inputs(codes, n_labels, photo, config)
+    features, config = _solver_inputs(codes, n_labels, photo, config, exemplar_wrap)
     n_levels = engine_levels(codes.shape, out_shape, config)
     ex = codes.astype(np.uint8)[:, :, None]
     rng = np.random.default_rng([int(seed), 1])
@@ -183,7 +183,7 @@ def synthesize_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int
         resume = (level, smart_initialization(ex_levels[level], edited.astype(np.int32), rng, tile=tile))
         guidance = edit_guidance(codes, features, upsample_codes(edited, out_shape, n_labels, tile=tile),
                                  n_labels, n_levels, tile=tile, softness=EDIT_SOFTNESS * 2.0**level,
-                                 exemplar_levels=ex_levels)
+                                 exemplar_levels=ex_levels, exemplar_wrap=exemplar_wrap)
         balance = None
     else:
         shares = label_shares(codes, n_labels, n_levels)
@@ -354,15 +354,19 @@ def upsample_codes(edited: np.ndarray, out_shape: tuple[int, int], n_labels: int
 
 def edit_guidance(codes: np.ndarray, features: np.ndarray, target: np.ndarray, n_labels: int,
                   n_levels: int, *, tile: bool, softness: float = 0.0,
-                  exemplar_levels: list | None = None) -> Guidance:
+                  exemplar_levels: list | None = None,
+                  exemplar_wrap: tuple[bool, bool] = (False, False)) -> Guidance:
     """The :class:`~barkgen.synth.engine.Guidance` that makes the label engine follow a target
     label map (texture-by-numbers of the label map itself, laitoch2018 §3.3) as a soft guide:
     the target's channels are blurred by ``softness`` px (boundaries may move that much to take
-    exemplar shapes), votes of other labels count, and no label is enforced afterwards."""
+    exemplar shapes), votes of other labels count, and no label is enforced afterwards. The
+    exemplar's channels wrap round where it tiles (``exemplar_wrap``), the target's where the
+    output does (``tile``)."""
     import cv2
 
     variance = float(features.reshape(-1, features.shape[-1]).var(axis=0).sum())
-    guide_a, guide_b = guide_channels(codes, target, n_labels, np.sqrt(EDIT_WEIGHT * variance / 2.0))
+    guide_a, guide_b = guide_channels(codes, target, n_labels, np.sqrt(EDIT_WEIGHT * variance / 2.0),
+                                      exemplar_wrap=exemplar_wrap, target_wrap=tile)
     if softness > 0:
         pad = int(np.ceil(3 * softness)) if tile else 0  # OpenCV blurs cannot wrap: pad first
         padded = np.pad(guide_b, ((pad, pad), (pad, pad), (0, 0)), mode="wrap") if pad else guide_b
@@ -375,7 +379,7 @@ def edit_guidance(codes: np.ndarray, features: np.ndarray, target: np.ndarray, n
     pyr_b = label_pyramid(target, n_labels, n_levels)
 
     def initial(a: np.ndarray, b: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        return smart_initialization(a, b, rng, tile=tile)
+        return smart_initialization(a, b, rng, tile=tile, exemplar_wrap=exemplar_wrap)
 
     return Guidance(levels=[level_guide(a, b, n_labels) for a, b in zip(pyr_a, pyr_b)],
                     exemplar_guides=gaussian_pyramid(guide_a, n_levels),
@@ -397,17 +401,19 @@ def estimate_engine_memory(exemplar_shape: tuple[int, int], out_shape: tuple[int
     return estimate_memory(exemplar_shape, out_shape, 1, 1, features, config) + 24 * (n_ex + n_out)
 
 
-def _features(codes: np.ndarray, n_labels: int) -> np.ndarray:
-    """What the engine matches: the soft one-hot label channels."""
-    return guide_channels(codes, codes[:1, :1], n_labels, 1.0)[0]
+def _features(codes: np.ndarray, n_labels: int, wrap: tuple[bool, bool]) -> np.ndarray:
+    """What the engine matches: the soft one-hot label channels (blurred round the exemplar's
+    ``wrap``)."""
+    return guide_channels(codes, codes[:1, :1], n_labels, 1.0, exemplar_wrap=wrap)[0]
 
 
-def joint_features(codes: np.ndarray, n_labels: int, photo: np.ndarray) -> np.ndarray:
+def joint_features(codes: np.ndarray, n_labels: int, photo: np.ndarray,
+                   wrap: tuple[bool, bool] = (False, False)) -> np.ndarray:
     """What the joint strategy matches: the photo's CIELAB colour and the soft one-hot label
-    channels, scaled so that their total variance is :data:`JOINT_LABEL_WEIGHT` times the
-    colour's."""
+    channels (blurred round the photo's ``wrap``), scaled so that their total variance is
+    :data:`JOINT_LABEL_WEIGHT` times the colour's."""
     colour = matching_features(photo, None, 0.0)
-    labels = _features(codes, n_labels)
+    labels = _features(codes, n_labels, wrap)
     colour_var = float(colour.reshape(-1, colour.shape[-1]).var(axis=0).sum())
     label_var = float(labels.reshape(-1, labels.shape[-1]).var(axis=0).sum())
     scale = np.sqrt(JOINT_LABEL_WEIGHT * colour_var / max(label_var, 1e-12))
@@ -422,7 +428,7 @@ def analyse_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int], 
     """The k-coherence analysis that :func:`synthesize_codes` needs for outputs of
     ``out_shape`` (with ``photo``: the joint strategy's), run into ``cache`` ahead of any
     synthesis."""
-    features, config = _solver_inputs(codes, n_labels, photo, config)
+    features, config = _solver_inputs(codes, n_labels, photo, config, exemplar_wrap)
     n_levels = engine_levels(codes.shape, out_shape, config)
     cache.analyse(features, n_levels, config, wrap=exemplar_wrap,
                   finest=finest_level(n_levels, joint=photo is not None))
@@ -430,9 +436,10 @@ def analyse_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int], 
 
 
 def _solver_inputs(codes: np.ndarray, n_labels: int, photo: np.ndarray | None,
-                   config: SynthesisConfig | None) -> tuple[np.ndarray, SynthesisConfig]:
+                   config: SynthesisConfig | None,
+                   wrap: tuple[bool, bool]) -> tuple[np.ndarray, SynthesisConfig]:
     """What the solver matches and its configuration: the engine's (no ``photo``) or the joint
-    strategy's, unless ``config`` is given."""
+    strategy's, unless ``config`` is given; round the exemplar's ``wrap``."""
     if photo is None:
-        return _features(codes, n_labels), config or LABEL_ENGINE_CONFIG
-    return joint_features(codes, n_labels, photo), config or JOINT_CONFIG
+        return _features(codes, n_labels, wrap), config or LABEL_ENGINE_CONFIG
+    return joint_features(codes, n_labels, photo, wrap), config or JOINT_CONFIG

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from barkgen._shared.arrays import Wrap, on_torus, wrap_axes
 from barkgen.errors import InvalidInputError
 
 #: most labels a label map may have (more usually means a lossy JPEG or a photo, not labels)
@@ -154,10 +155,16 @@ def label_pyramid(codes: np.ndarray, n_labels: int, n_levels: int) -> list[np.nd
     return levels + best[1:]
 
 
-def boundary_distance(codes: np.ndarray, clip: float | None = None) -> np.ndarray:
+def boundary_distance(codes: np.ndarray, clip: float | None = None, *,
+                      wrap: Wrap = False) -> np.ndarray:
     """Distance, in pixels, from every pixel to the nearest label boundary (a pixel with a
     4-neighbour of another label), by the 3x3 chamfer distance transform with Borgefors'
-    weights (the 3-4 DT of laitoch2018 §3.4.2, as computed by OpenCV). ``clip`` caps it."""
+    weights (the 3-4 DT of laitoch2018 §3.4.2, as computed by OpenCV). ``clip`` caps it.
+    ``wrap`` (a bool or ``(rows, columns)``): the map wraps round along that axis, so a
+    boundary across its edge is near (:func:`barkgen._shared.arrays.on_torus`)."""
+    if any(wrap_axes(wrap)):
+        reach = int(np.ceil(clip)) + 2 if clip is not None else max(np.shape(codes)[:2])
+        return on_torus(lambda c: boundary_distance(c, clip), np.asarray(codes), reach, wrap)
     import cv2
 
     c = np.asarray(codes)
@@ -231,12 +238,14 @@ MAX_GUIDE_CHANNELS = 8
 
 
 def guide_channels(exemplar_codes: np.ndarray, target_codes: np.ndarray, n_labels: int,
-                   scale: float) -> tuple[np.ndarray, np.ndarray]:
+                   scale: float, *, exemplar_wrap: Wrap = False,
+                   target_wrap: Wrap = False) -> tuple[np.ndarray, np.ndarray]:
     """Soft-label guide channels of the exemplar (``A``) and the target (``B``): each label's
     indicator, blurred by a Gaussian of :data:`GUIDE_BLUR` px (a boundary one pixel off then costs
     little), weighted up when the label is rare and multiplied by ``scale``; with more than
     :data:`MAX_GUIDE_CHANNELS` labels, both are projected on the exemplar's first principal
-    axes."""
+    axes. Each map is blurred round its own wrap (``exemplar_wrap``: the photo tiles;
+    ``target_wrap``: the output does)."""
     import cv2
 
     # rare labels weigh more (up to RARE_LABEL_BOOST), so that small features such as lenticels
@@ -245,13 +254,16 @@ def guide_channels(exemplar_codes: np.ndarray, target_codes: np.ndarray, n_label
     boost = np.clip(1.0 / np.sqrt(np.maximum(freq, 1e-9) * n_labels), 1.0, RARE_LABEL_BOOST)
     boost /= np.sqrt(np.sum(freq * boost**2))
 
-    def soft(codes: np.ndarray) -> np.ndarray:
-        chans = [cv2.GaussianBlur((codes == lab).astype(np.float32), (0, 0), GUIDE_BLUR,
-                                  borderType=cv2.BORDER_REFLECT_101) * np.float32(boost[lab])
+    def soft(codes: np.ndarray, wrap: Wrap) -> np.ndarray:
+        def blurred(indicator: np.ndarray) -> np.ndarray:
+            return cv2.GaussianBlur(indicator, (0, 0), GUIDE_BLUR, borderType=cv2.BORDER_REFLECT_101)
+
+        reach = int(np.ceil(4 * GUIDE_BLUR)) + 1
+        chans = [on_torus(blurred, (codes == lab).astype(np.float32), reach, wrap) * np.float32(boost[lab])
                  for lab in range(n_labels)]
         return np.stack(chans, axis=-1)
 
-    ga, gb = soft(exemplar_codes), soft(target_codes)
+    ga, gb = soft(exemplar_codes, exemplar_wrap), soft(target_codes, target_wrap)
     if n_labels > MAX_GUIDE_CHANNELS:
         flat = ga.reshape(-1, n_labels)
         mean = flat.mean(axis=0)

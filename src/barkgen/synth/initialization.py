@@ -37,7 +37,8 @@ def random_initialization(exemplar_labels: np.ndarray, target_labels: np.ndarray
 
 def smart_initialization(exemplar_labels: np.ndarray, target_labels: np.ndarray,
                          rng: np.random.Generator, *, tile: bool = False,
-                         label_weight: float = SMART_LABEL_WEIGHT) -> np.ndarray:
+                         label_weight: float = SMART_LABEL_WEIGHT,
+                         exemplar_wrap: tuple[bool, bool] = (False, False)) -> np.ndarray:
     """Texture-synthesis-based initialisation (laitoch2018 §3.4.2; the first pass of Bonneel et
     al. 2010 as Fan et al. 2012 use it).
 
@@ -46,14 +47,15 @@ def smart_initialization(exemplar_labels: np.ndarray, target_labels: np.ndarray,
     piece of the exemplar whose labels and boundary distances match (eq. 3.6, stop rule
     ``d < (d(pA, pB) + 5) * 1.25``). Seeds are visited in a random order drawn from ``rng``;
     among near-equal matches the least used exemplar pixel is taken, which spreads the copies
-    over the whole exemplar (laitoch2018 §4.2).
+    over the whole exemplar (laitoch2018 §4.2). The distances run across the exemplar's edge
+    where it wraps (``exemplar_wrap``) and across the output's where it tiles (``tile``).
     """
     import barkgen.synth._init_kernels as K
 
     ida = np.ascontiguousarray(exemplar_labels, dtype=np.int32)
     idb = np.ascontiguousarray(target_labels, dtype=np.int32)
-    da = boundary_distance(ida, SMART_DISTANCE_CLIP)
-    db = boundary_distance(idb, SMART_DISTANCE_CLIP)
+    da = boundary_distance(ida, SMART_DISTANCE_CLIP, wrap=exemplar_wrap)
+    db = boundary_distance(idb, SMART_DISTANCE_CLIP, wrap=tile)
     guide = level_guide(ida, idb, int(max(ida.max(), idb.max())) + 1)
     order = rng.permutation(idb.size).astype(np.int64)
     salt = np.uint64(rng.integers(0, 2**63))

@@ -72,11 +72,12 @@ FEATURE_DISTANCE_CLIP = 16.0
 
 
 def feature_distance_channel(exemplar_labels: np.ndarray, colour_variance: float,
-                             feature_weight: float) -> np.ndarray:
+                             feature_weight: float, wrap: tuple[bool, bool] = (False, False)) -> np.ndarray:
     """The feature-distance map as a matching channel (laitoch2018 eq. 3.3): distance to the
-    nearest label boundary, capped at :data:`FEATURE_DISTANCE_CLIP` px and scaled so a
-    difference of the full cap costs ``feature_weight`` times the exemplar's colour variance."""
-    dist = boundary_distance(exemplar_labels, FEATURE_DISTANCE_CLIP)
+    nearest label boundary (across the photo's edge where it wraps, ``wrap``), capped at
+    :data:`FEATURE_DISTANCE_CLIP` px and scaled so a difference of the full cap costs
+    ``feature_weight`` times the exemplar's colour variance."""
+    dist = boundary_distance(exemplar_labels, FEATURE_DISTANCE_CLIP, wrap=wrap)
     scale = np.sqrt(max(feature_weight, 0.0) * colour_variance) / FEATURE_DISTANCE_CLIP
     return (dist * np.float32(scale))[:, :, None]
 
@@ -197,10 +198,12 @@ def texture_by_numbers(
     n_feat = (3 if ex.shape[2] == 3 else 1) + 1 + sum(e.shape[2] for e in extras.values())
     check_memory(ex, extras, out_shape, n_feat, config, guided=True)
 
-    feats, colour_variance = _matching_features(ex, extras, labels.exemplar, feature_weight, config)
+    feats, colour_variance = _matching_features(ex, extras, labels.exemplar, feature_weight, config,
+                                                wrap)
     # a pixel whose soft label differs completely costs label_weight x the colour variance
     guide_a, guide_b = guide_channels(labels.exemplar, labels.target, labels.n_labels,
-                                      np.sqrt(label_weight * colour_variance / 2.0))
+                                      np.sqrt(label_weight * colour_variance / 2.0),
+                                      exemplar_wrap=wrap, target_wrap=tile)
 
     n_levels = count_levels(ex.shape[:2], out_shape, config.coarsest_exemplar)
     pyr_a = label_pyramid(labels.exemplar, labels.n_labels, n_levels)
@@ -208,7 +211,7 @@ def texture_by_numbers(
     guides = [level_guide(a, b, labels.n_labels) for a, b in zip(pyr_a, pyr_b)]
 
     if debug is not None:
-        _show_labels(debug, labels, pyr_a, pyr_b)
+        _show_labels(debug, labels, pyr_a, pyr_b, wrap)
 
     start = None
     if not isinstance(init, str):
@@ -217,11 +220,12 @@ def texture_by_numbers(
         initial = random_initialization  # not used: the solver starts from ``start``
     elif init == "smart":
         def initial(a: np.ndarray, b: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-            return smart_initialization(a, b, rng, tile=tile)
+            return smart_initialization(a, b, rng, tile=tile, exemplar_wrap=wrap)
     else:
         initial = random_initialization
     guidance = Guidance(levels=guides, exemplar_guides=gaussian_pyramid(guide_a, n_levels, wrap),
-                        target_guides=gaussian_pyramid(guide_b, n_levels), initial_references=initial)
+                        target_guides=gaussian_pyramid(guide_b, n_levels, (tile, tile)),
+                        initial_references=initial)
     result = solve(ex, extras, feats, out_shape, n_levels=n_levels, config=config, seed=seed,
                    tile=tile, guidance=guidance, progress=progress, debug=debug, start=start,
                    cache=cache, exemplar_wrap=wrap, seam_channels=3 if ex.shape[2] == 3 else 1)
@@ -248,24 +252,27 @@ def _check_arguments(target_labels, init, init_level, label_weight: float,
     return target
 
 
-def _show_labels(debug: DebugCallback, labels, pyr_a: list, pyr_b: list) -> None:
+def _show_labels(debug: DebugCallback, labels, pyr_a: list, pyr_b: list,
+                 wrap: tuple[bool, bool]) -> None:
     """The label pyramids and the feature-distance map, to the ``debug`` callback."""
     colours = _label_colours(labels.n_labels)
     for lvl, (a, b) in enumerate(zip(pyr_a, pyr_b)):
         debug(f"level{lvl}_exemplar_labels", colours[a])
         debug(f"level{lvl}_target_labels", colours[b])
     debug("feature_distance", as_uint8(
-        boundary_distance(labels.exemplar, FEATURE_DISTANCE_CLIP) / FEATURE_DISTANCE_CLIP))
+        boundary_distance(labels.exemplar, FEATURE_DISTANCE_CLIP, wrap=wrap) / FEATURE_DISTANCE_CLIP))
 
 
 def _matching_features(ex: np.ndarray, extras: Mapping[str, np.ndarray], exemplar_codes: np.ndarray,
-                       feature_weight: float, config: SynthesisConfig) -> tuple[np.ndarray, float]:
+                       feature_weight: float, config: SynthesisConfig,
+                       wrap: tuple[bool, bool]) -> tuple[np.ndarray, float]:
     """What texture-by-numbers matches in the exemplar: colour (+ extras) and the
-    feature-distance channel; returns them and the exemplar's colour variance."""
+    feature-distance channel (round the exemplar's ``wrap``); returns them and the exemplar's
+    colour variance."""
     feats = matching_features(ex, extras, config.extra_weight)
     n_colour = 3 if ex.shape[2] == 3 else 1
     colour_variance = float(feats[:, :, :n_colour].reshape(-1, n_colour).var(axis=0).sum())
-    fdm = feature_distance_channel(exemplar_codes, colour_variance, feature_weight)
+    fdm = feature_distance_channel(exemplar_codes, colour_variance, feature_weight, wrap)
     return np.ascontiguousarray(np.concatenate([feats, fdm], axis=2), dtype=np.float32), colour_variance
 
 
@@ -309,7 +316,8 @@ def analyse_texture_by_numbers(
     config = config or TBN_CONFIG
     ex, out_shape, extras = validate_inputs(exemplar, size, 0, extra)
     labels = encode_label_maps(exemplar_labels, exemplar_labels, ex.shape[:2])
-    feats, _ = _matching_features(ex, extras, labels.exemplar, feature_weight, config)
+    wrap = resolve_exemplar_wrap(exemplar_wrap, ex)
+    feats, _ = _matching_features(ex, extras, labels.exemplar, feature_weight, config, wrap)
     cache.analyse(feats, count_levels(ex.shape[:2], out_shape, config.coarsest_exemplar), config,
-                  wrap=resolve_exemplar_wrap(exemplar_wrap, ex))
+                  wrap=wrap)
     return cache

@@ -53,12 +53,15 @@ def run_labels(spec: LabelSpec, send) -> None:
     from barkgen.errors import BarkgenError
     from barkgen.io import decode_image, encode_png
     from barkgen.labels import color_regions
-    from barkgen.pipeline import ANALYSIS_SEED
+    from barkgen.pipeline import ANALYSIS_SEED, GenerateOptions
+    from barkgen.synth.edges import resolve_exemplar_wrap
 
     send(("progress", spec.job_id, 0.0, "label map"))
     try:
         photo = decode_image(spec.photo, "photo")
-        data = encode_png(color_regions(photo, spec.k, seed=ANALYSIS_SEED))
+        # the label map generate makes of this photo: across its edges where it tiles
+        wrap = resolve_exemplar_wrap(GenerateOptions().exemplar_wrap, photo)
+        data = encode_png(color_regions(photo, spec.k, seed=ANALYSIS_SEED, wrap=wrap))
     except BarkgenError as exc:
         send(("failed", spec.job_id, str(exc)))
         return
