@@ -213,16 +213,7 @@ def texture_by_numbers(
     if debug is not None:
         _show_labels(debug, labels, pyr_a, pyr_b, wrap)
 
-    start = None
-    if not isinstance(init, str):
-        level = min(int(init_level), n_levels - 1)
-        start = (level, _level_references(init, out_shape, ex.shape[:2], level))
-        initial = random_initialization  # not used: the solver starts from ``start``
-    elif init == "smart":
-        def initial(a: np.ndarray, b: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-            return smart_initialization(a, b, rng, tile=tile, exemplar_wrap=wrap)
-    else:
-        initial = random_initialization
+    start, initial = _start(init, init_level, n_levels, out_shape, ex.shape[:2], tile, wrap)
     guidance = Guidance(levels=guides, exemplar_guides=gaussian_pyramid(guide_a, n_levels, wrap),
                         target_guides=gaussian_pyramid(guide_b, n_levels, (tile, tile)),
                         initial_references=initial)
@@ -232,6 +223,22 @@ def texture_by_numbers(
     if np.asarray(exemplar).ndim == 2:
         result.image = result.image[:, :, 0]
     return result
+
+
+def _start(init, init_level: int, n_levels: int, out_shape: tuple[int, int],
+           exemplar_shape: tuple[int, int], tile: bool, wrap: tuple[bool, bool]):
+    """``(start, initial)``: the level and reference map a given ``init`` starts from (else
+    None), and the initialisation of the coarsest level otherwise (laitoch2018 §3.4)."""
+    if not isinstance(init, str):
+        level = min(int(init_level), n_levels - 1)
+        # (the initialisation is not used: the solver starts from the given level)
+        return (level, _level_references(init, out_shape, exemplar_shape, level)), random_initialization
+    if init == "smart":
+        def initial(a: np.ndarray, b: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+            return smart_initialization(a, b, rng, tile=tile, exemplar_wrap=wrap)
+
+        return None, initial
+    return None, random_initialization
 
 
 def _check_arguments(target_labels, init, init_level, label_weight: float,
