@@ -141,6 +141,102 @@ def unstick_border_seams(refs: np.ndarray, level: LevelAnalysis, forbid: np.ndar
     return treated
 
 
+#: a stack (:func:`unstack_lines`) is treated when its two pieces run on along the column
+#: for at least this many output pixels together
+STACK_SPAN = 64
+#: rows (or columns) along which the exemplar's step across a column boundary is averaged
+#: when its lines are found (:func:`exemplar_lines`, as ``lines.py`` does); a line is marked
+#: this far along its column beyond where it was found
+LINE_WINDOW = 64
+#: a column boundary is on a line where its step is this many times its neighbours' (2-6 px
+#: away). Lower than ``lines.py``'s 3: the maps made from the colour (AO above all) sharpen
+#: the photo's edges, and a colour edge of 2x is a line of 3x there (the peeling crop)
+LINE_CONTRAST = 2.0
+
+
+def exemplar_lines(features: np.ndarray) -> np.ndarray:
+    """``(h, w)`` bool: the exemplar's vertical straight lines, marked on the pixels left of
+    each line. The step across a column boundary, averaged over :data:`LINE_WINDOW` rows, is
+    at least :data:`LINE_CONTRAST` times the mean step of the boundaries 2 to 6 px either side
+    (the rule of the team's ``lines.py``), and :data:`LINE_WINDOW` rows on along the column
+    either way. The horizontal lines are those of the transpose."""
+    f = np.asarray(features, np.float32)
+    f = f.reshape(f.shape[0], f.shape[1], -1)
+    h, w = f.shape[:2]
+    step = np.zeros((h, w), np.float32)
+    step[:, :-1] = np.abs(np.diff(f, axis=1)).sum(axis=2)
+    step = cv2.blur(step, (1, LINE_WINDOW), borderType=cv2.BORDER_REFLECT)
+    near = np.zeros_like(step)
+    for d in (2, 3, 4, 5, 6):
+        near += np.pad(step, ((0, 0), (d, 0)), mode="edge")[:, :w] + np.pad(step, ((0, 0), (0, d)), mode="edge")[:, d:]
+    near /= 10.0
+    line = (step > LINE_CONTRAST * np.maximum(near, 1e-6)).astype(np.uint8)
+    return cv2.dilate(line, np.ones((2 * LINE_WINDOW + 1, 1), np.uint8),
+                      borderType=cv2.BORDER_CONSTANT, borderValue=0) > 0
+
+
+def _run_lengths(cont: np.ndarray) -> np.ndarray:
+    """Per pixel, the rows of the run of ``cont`` (row continues the one above) ending there."""
+    idx = np.broadcast_to(np.arange(cont.shape[0])[:, None], cont.shape)
+    start = np.maximum.accumulate(np.where(cont, 0, idx), axis=0)
+    return idx - start + 1
+
+
+def unstack_lines(refs: np.ndarray, level: LevelAnalysis, lines: tuple[np.ndarray, np.ndarray],
+                  forbid: np.ndarray, tile: bool) -> int:
+    """Where the output stacks two pieces of the same exemplar column on a line of the exemplar,
+    forbid the lower piece. The same for rows.
+
+    Bark is self-similar along its fissures, so the solver likes to continue a piece of one
+    exemplar column by another piece of the same column a few rows back: invisible by seam
+    cost, but a straight edge of the photo is then copied twice in a row, and a 72 px line of
+    the photo becomes a 104 px line of the output (the fissured crop's texture, the peeling
+    crop's AO: 137 -> 157 px). A seam between rows ``i`` and ``i + 1`` whose pieces have the
+    same exemplar column, a row jump, and run on along the column for at least
+    :data:`STACK_SPAN` output pixels together, where the exemplar has a line beside that
+    column (``lines``: :func:`exemplar_lines` of the exemplar and of its transpose), has the
+    lower piece's offset forbidden on all of that piece (``_kernels.label_pieces``), so the next
+    iterations put another piece there (forbidden on a few rows only, the same column came
+    back a few rows further down). Returns the pieces treated."""
+    import barkgen.synth._kernels as K
+
+    ry = np.ascontiguousarray(level.coords_y[refs], dtype=np.int32)
+    rx = np.ascontiguousarray(level.coords_x[refs], dtype=np.int32)
+    pieces = np.empty(refs.shape, np.int32)
+    bad = np.zeros(K.label_pieces(refs, level.grid, tile, pieces).size, bool)
+    for axis in (0, 1):
+        if axis == 0:
+            a, b, line, n_ex = ry, rx, lines[0], level.height
+        else:  # transposed frame: rows of the output are its columns
+            a, b, line, n_ex = rx.T, ry.T, lines[1], level.width
+        H = a.shape[0]
+        below_a, below_b = (np.roll(a, -1, 0), np.roll(b, -1, 0)) if tile else (
+            np.vstack([a[1:], a[-1:]]), np.vstack([b[1:], b[-1:]]))
+        nxt = (a + 1) % n_ex if level.wrap[axis] else a + 1
+        cont_down = (below_b == b) & (below_a == nxt)  # row i + 1 continues row i
+        stack = (below_b == b) & ~cont_down
+        if not tile:
+            stack[-1] = False
+        if not stack.any():
+            continue
+        cont = np.vstack([np.zeros((1, a.shape[1]), bool), cont_down[:-1]])  # row i continues i - 1
+        up = _run_lengths(cont)
+        down = _run_lengths(cont_down[::-1])[::-1]  # rows from i down its run (i included)
+        span = up + np.vstack([down[1:], down[:1]])
+        on_line = (line[a, b] | line[a, np.maximum(b - 1, 0)]
+                   | line[below_a, below_b] | line[below_a, np.maximum(below_b - 1, 0)])
+        ys, xs = np.nonzero(stack & (span >= STACK_SPAN) & on_line)
+        if ys.size:
+            lower = ((ys + 1) % H, xs) if axis == 0 else (xs, (ys + 1) % H)
+            bad[np.unique(pieces[lower])] = True
+    if not bad.any():
+        return 0
+    ys, xs = np.nonzero(bad[pieces])
+    e = refs[ys, xs]
+    forbid[ys, xs] = offset_codes(level.coords_y[e] - ys, level.coords_x[e] - xs)
+    return int(bad.sum())
+
+
 def _circular_centre(lab: np.ndarray, pos: np.ndarray, period: int, n: np.ndarray) -> np.ndarray:
     """Per label, the circular mean of the positions ``pos`` on a circle of ``period`` pixels."""
     angle = pos * (2 * np.pi / period)
