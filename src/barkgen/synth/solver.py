@@ -39,14 +39,7 @@ from barkgen.synth.edges import map_wraps
 from barkgen.synth.gradient import blend_seams, resolve_continuous
 from barkgen.synth.expansion import expand_pieces
 from barkgen.synth.occurrence import LabelBalance, jitter_references, occurrence_penalty
-from barkgen.synth.pieces import (
-    cut_seams,
-    exemplar_lines,
-    limit_copies,
-    roll_state,
-    unstack_lines,
-    unstick_border_seams,
-)
+from barkgen.synth.pieces import cut_seams, limit_copies, roll_state, unstick_border_seams
 
 
 @dataclass
@@ -353,15 +346,10 @@ def _solve_level(refs: np.ndarray, forbid: np.ndarray, la: LevelAnalysis, lvl: i
     schedule = [size for size, iters in config.schedule_for(lvl, n_levels) for _ in range(iters)]
     refs = _iterate(refs, forbid, la, lvl, schedule, guide, occurrence, config, tile, rng, tick)
     refs = _move_seams(refs, forbid, la, lvl, seam_image, guide, config, tile, rng)
-    if lvl == 0 and config.seam_cut_run:
-        # the last iteration's stuck border seams and stacked lines have no iteration after it
-        # to be handed to
-        lines = (exemplar_lines(seam_image), exemplar_lines(seam_image.transpose(1, 0, 2)))
+    if lvl == 0 and config.seam_cut_run and not all(la.wrap):
+        # the last iteration's stuck border seams have no iteration after it to be handed to
         for _ in range(STUCK_RETRIES):
-            treated = unstack_lines(refs, la, lines, forbid, tile)
-            if not all(la.wrap):
-                treated += unstick_border_seams(refs, la, forbid, tile, max(4, config.seam_cut_run))
-            if treated == 0:
+            if unstick_border_seams(refs, la, forbid, tile, max(4, config.seam_cut_run)) == 0:
                 break
             refs = _iterate(refs, forbid, la, lvl, schedule[-1:], guide, occurrence, config,
                             tile, rng, lambda: None)
