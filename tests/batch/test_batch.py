@@ -351,3 +351,21 @@ def test_a_damaged_manifest_is_one_line(tmp_path):
     damaged.write_bytes(np.random.default_rng(0).bytes(5000))
     with pytest.raises(InvalidInputError, match="not a readable batch manifest"):
         Manifest(damaged)
+
+
+def test_a_variant_folder_holding_the_users_files_is_refused_before_any_work(photos, tmp_path):
+    """An exemplar named like a folder of the user's under the output (its photo and notes in
+    OUT/<name>/<seed>/): refused in one line before the cluster starts, nothing touched."""
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(json.dumps({"size": "64x64", "exemplars": [
+        {"name": "fir", "path": str(photos / "photos" / "fir.png"), "seeds": [0]}]}))
+    mine = tmp_path / "out" / "fir" / "0"
+    mine.mkdir(parents=True)
+    (mine / "fir.jpg").write_bytes(b"the user's photo")
+    (mine / "notes.txt").write_text("mine")
+    t = time.perf_counter()
+    result = run("batch", str(spec), "-o", str(tmp_path / "out"))
+    assert result.returncode == 2 and "barkgen did not write" in result.stderr, result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1 and time.perf_counter() - t < 20
+    assert sorted(p.name for p in mine.iterdir()) == ["fir.jpg", "notes.txt"]
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["fir"]

@@ -91,18 +91,78 @@ def _dead_pid() -> int:
         pid -= 1
 
 
-def test_the_next_write_clears_a_killed_writers_temporaries(tmp_path):
+def test_a_run_removes_only_what_it_can_prove_a_run_wrote(tmp_path, photo):
+    """Another program's report.json listing the user's files, or a run's file the user has
+    edited since: neither is removed by the next run. What the last run provably wrote (its
+    record's SHA-256 still matches) and the new run does not write, is."""
+    import json
+
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "holiday.jpg").write_bytes(b"\xff\xd8 a photo")
+    (out / "notes.txt").write_text("mine")
+    (out / "report.json").write_text(json.dumps({"files": ["holiday.jpg", "notes.txt"]}))
+    assert run("generate", str(photo), "-o", str(out), "--size", "32x32", "--material", "-q").returncode == 0
+    assert (out / "holiday.jpg").is_file() and (out / "notes.txt").read_text() == "mine"
+    # a forged record naming the user's file with a wrong hash proves nothing either
+    record = json.loads((out / "report.json").read_text())
+    assert record["file_sha256"]["texture.png"] and "holiday.jpg" not in record["files"]
+    (out / "bark_Roughness.png").write_bytes(b"edited by the user")
+    assert run("generate", str(photo), "-o", str(out), "--size", "32x32", "-q").returncode == 0
+    names = {p.name for p in out.iterdir()}
+    assert {"holiday.jpg", "notes.txt", "bark_Roughness.png"} <= names  # the user's, kept
+    assert "bark_Color.png" not in names and "bark.json" not in names  # the last run's, removed
+
+
+def test_a_folder_is_replaced_whole_only_when_a_run_wrote_all_of_it(tmp_path, photo):
+    """write_folder_atomic (batch's variants) replaces a folder only if it is missing, empty,
+    or holds nothing but a run barkgen wrote; else one line, and nothing is touched."""
+    from barkgen.errors import InvalidInputError
+    from barkgen.io import write_folder_atomic
+    from barkgen.pipeline import GenerateOptions, encode_generate, generate
+
+    image = read_image(photo)
+    files = encode_generate(image, generate(image, GenerateOptions(size=(32, 32))), "p.png")
+    target = tmp_path / "bark" / "0"
+    write_folder_atomic(target, files)
+    write_folder_atomic(target, files)  # a run's folder: replaced
+    (target / "notes.txt").write_text("mine")
+    with pytest.raises(InvalidInputError, match="notes.txt"):
+        write_folder_atomic(target, files)
+    assert (target / "notes.txt").read_text() == "mine" and (target / "texture.png").is_file()
+    users = tmp_path / "photos"
+    users.mkdir()
+    (users / "p.jpg").write_bytes(b"a photo")
+    with pytest.raises(InvalidInputError, match="p.jpg"):
+        write_folder_atomic(users, files)
+    assert sorted(p.name for p in users.iterdir()) == ["p.jpg"]
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".barkgen")]
+
+
+def test_the_next_write_clears_a_killed_writers_temporaries_and_nothing_else(tmp_path):
+    """Only barkgen's own temporaries (``.barkgen.PID.XXXX.tmp``) whose writer is gone are
+    removed: a running writer's stay, and so does every file of the user's, however much it
+    looks like one (a dead process id in its name, an hour old, an older barkgen's naming)."""
     folder = tmp_path / "out"
     folder.mkdir()
-    dead = folder / f".texture.png.{_dead_pid()}.k3j2h1g0.tmp"
-    old = folder / ".preview.png.abc123xy.tmp"  # an older barkgen's naming, no process id
-    live = folder / f".report.json.{os.getpid()}.zz99yy88.tmp"  # a running writer's: kept
-    for path in (dead, old, live):
+    dead = folder / f".barkgen.{_dead_pid()}.k3j2h1g0.tmp"
+    live = folder / f".barkgen.{os.getpid()}.zz99yy88.tmp"  # a running writer's: kept
+    users = [folder / ".thesis.32000.bak.tmp", folder / ".backup.tmp",
+             folder / f".texture.png.{_dead_pid()}.k3j2h1g0.tmp", folder / ".preview.png.abc123xy.tmp"]
+    for path in [dead, live, *users]:
         path.write_bytes(b"x" * 1000)
-    os.utime(old, (time.time() - 3600, time.time() - 3600))
+        os.utime(path, (time.time() - 3600, time.time() - 3600))
     write_files_atomic(folder, {"a.txt": b"a"})
     left = sorted(p.name for p in folder.iterdir())
-    assert left == [live.name, "a.txt"], left
+    assert left == sorted([live.name, "a.txt"] + [p.name for p in users]), left
+
+
+def test_a_temporarys_name_is_short_whatever_the_targets(tmp_path):
+    """A target whose name is as long as the file system allows still gets written: the
+    temporary beside it does not carry the target's name."""
+    name = "n" * 240 + ".png"
+    write_files_atomic(tmp_path, {name: b"data"})
+    assert (tmp_path / name).read_bytes() == b"data"
 
 
 def test_sigterm_ends_a_run_like_ctrl_c(tmp_path, photo):

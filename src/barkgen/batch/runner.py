@@ -152,7 +152,7 @@ def run_batch(
         client: an existing ``distributed.Client`` to run on (left open), instead of
             ``scheduler`` / a new LocalCluster.
     """
-    from barkgen.io import remove_staging, write_folder_atomic
+    from barkgen.io import check_replaceable, remove_staging, write_folder_atomic
 
     say = log or (lambda message: None)
     cores = os.cpu_count() or 1
@@ -189,8 +189,12 @@ def run_batch(
         say(f"nothing to do: all {report.total} variants are already in {output_dir}")
         report.seconds = time.perf_counter() - t0
         return report
-    # every photo is read and checked before any work starts (or any file is written)
+    # every photo is read and checked before any work starts (or any file is written), and
+    # every variant's folder may be replaced: missing, empty, or a run barkgen wrote
     inputs = {job.name: _read_inputs(job) for job, _ in todo}
+    for job, seeds in todo:
+        for seed in seeds:
+            check_replaceable(output_dir / job.name / str(seed))
     if report.skipped:
         say(f"{report.skipped} of {report.total} variants already done; making the other {n_todo}")
     own = client is None

@@ -277,18 +277,13 @@ def write_files(folder: Path, files: dict[str, bytes]) -> None:
 
 
 def previous_run_files(folder: Path, record: str = "report.json") -> list[str]:
-    """The files that the run which last wrote ``folder`` listed in its ``record`` (generate's
-    ``report.json``): plain file names only; none when there is no readable record."""
-    import json
+    """The files of ``folder`` that the run which last wrote it provably made: those its
+    ``record`` (generate's ``report.json``) lists whose content still has the recorded SHA-256
+    (:func:`barkgen.io.owned_files`); none when there is no barkgen record. Another program's
+    ``report.json``, or a file edited since, never makes barkgen remove a file."""
+    from barkgen.io import owned_files
 
-    try:
-        listed = json.loads((folder / record).read_text(encoding="utf-8")).get("files", [])
-    except (OSError, ValueError, AttributeError):
-        return []
-    if not isinstance(listed, list):
-        return []
-    return [n for n in listed if isinstance(n, str) and n and not n.startswith(".")
-            and Path(n).name == n]
+    return [n for n in owned_files(folder, record) or [] if n != record]
 
 
 def write_run(folder: Path, files: dict[str, bytes], stale: Iterable[str]) -> None:

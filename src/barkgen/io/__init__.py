@@ -2,7 +2,13 @@
 written as one step (the only place where barkgen touches files)."""
 
 from barkgen.io.bilayer import encode_bilayer_model, read_bilayer_model, write_bilayer_model
-from barkgen.io.folders import remove_staging, write_folder_atomic
+from barkgen.io.folders import (
+    check_replaceable,
+    file_record,
+    owned_files,
+    remove_staging,
+    write_folder_atomic,
+)
 from barkgen.io.images import (
     AlphaDroppedWarning,
     ImageContentWarning,
@@ -31,6 +37,9 @@ from barkgen.io.material import (
 from barkgen.io.references import encode_reference, read_reference, write_reference
 
 __all__ = [
+    "check_replaceable",
+    "file_record",
+    "owned_files",
     "AlphaDroppedWarning",
     "ImageContentWarning",
     "encode_bilayer_model",

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import io
 import os
+import re
 import struct
 import tempfile
 import warnings
@@ -434,8 +435,10 @@ def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
     return write_files_atomic(path.parent, {path.name: data})[0]
 
 
-#: a temporary without its writer's process id (an older barkgen's) is stale after this long
-STALE_TEMPORARY_S = 600.0
+#: the name of every temporary barkgen writes: ``.barkgen.PID.RANDOM.tmp`` (short whatever the
+#: target's name, so a target of the longest name the file system allows still has one), and
+#: the only names :func:`remove_stale_temporaries` ever removes
+TEMPORARY_NAME = re.compile(r"^\.barkgen\.(\d+)\.[A-Za-z0-9_]+\.tmp$")
 
 
 def _alive(pid: int) -> bool:
@@ -450,24 +453,19 @@ def _alive(pid: int) -> bool:
 
 def remove_stale_temporaries(folder: str | os.PathLike) -> int:
     """Remove the temporaries of :func:`write_files_atomic` that a killed writer left in
-    ``folder`` (``.NAME.PID.XXXX.tmp``): those whose process is gone, and those of the older
-    naming without a process id once :data:`STALE_TEMPORARY_S` old. A running writer's are
-    kept. Returns how many were removed."""
-    import time
-
+    ``folder``: only files named as barkgen names its own (:data:`TEMPORARY_NAME`) whose
+    process is gone. A running writer's are kept, and so is every other file, whatever it is
+    called (a user's ``.thesis.32000.bak.tmp`` or ``.backup.tmp`` is not barkgen's to remove).
+    Returns how many were removed."""
     removed = 0
     try:
-        candidates = [p for p in Path(folder).iterdir() if p.name.startswith(".")
-                      and p.name.endswith(".tmp") and p.is_file()]
+        candidates = [p for p in Path(folder).iterdir() if TEMPORARY_NAME.match(p.name)]
     except OSError:
         return 0
     for path in candidates:
-        parts = path.name[1:-4].rsplit(".", 2)
-        pid = parts[1] if len(parts) == 3 and parts[1].isdigit() else None
         try:
-            stale = (not _alive(int(pid))) if pid is not None else (
-                time.time() - path.stat().st_mtime > STALE_TEMPORARY_S)
-            if stale:
+            if path.is_file() and not path.is_symlink() and not _alive(
+                    int(TEMPORARY_NAME.match(path.name).group(1))):
                 path.unlink()
                 removed += 1
         except OSError:
@@ -501,7 +499,7 @@ def write_files_atomic(folder: str | os.PathLike, files: dict[str, bytes]) -> li
     try:
         for name, data in files.items():
             try:
-                fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{name}.{os.getpid()}.", suffix=".tmp")
+                fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".barkgen.{os.getpid()}.", suffix=".tmp")
                 staged.append((tmp, folder / name))
                 with os.fdopen(fd, "wb") as fh:
                     fh.write(data)

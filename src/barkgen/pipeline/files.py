@@ -10,6 +10,7 @@ import numpy as np
 
 from barkgen._version import __version__
 from barkgen.errors import InvalidInputError
+from barkgen.io.folders import RECORD_HASHES, file_record
 from barkgen.io.images import encode_concurrently, encode_png
 from barkgen.io.material import check_material_name, encode_material, utf8_text
 from barkgen.io.references import encode_reference
@@ -45,8 +46,9 @@ def encode_generate(photo: np.ndarray, result, source: str, *, name: str = "bark
     ``texture.png``, ``labels_in.png``, ``labels_out.png``, ``reference.png``, ``preview.png``,
     one ``NAME.png`` per extra map, the material set as ``name``
     (:func:`~barkgen.io.encode_material`) when there is one, and ``report.json`` (version, the
-    ``source`` photo, the run's report and the list of files): the bytes ``barkgen generate``,
-    ``barkgen batch`` and the web app write.
+    ``source`` photo, the run's report, the list of files and each one's SHA-256, by which a
+    later run proves which files of the folder are barkgen's, :func:`barkgen.io.owned_files`):
+    the bytes ``barkgen generate``, ``barkgen batch`` and the web app write.
 
     Parameters
     ----------
@@ -88,5 +90,7 @@ def encode_generate(photo: np.ndarray, result, source: str, *, name: str = "bark
             raise InvalidInputError(f"--name {name!r} makes {clash[0]}, which is taken; pick another")
         files.update(material_files)
     report["files"] = sorted(files) + ["report.json"]
+    # what barkgen may later replace or remove of this folder: only these files, unchanged
+    report[RECORD_HASHES] = file_record(files)
     files["report.json"] = (json.dumps(report, indent=2) + "\n").encode()
     return files
