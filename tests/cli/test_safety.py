@@ -139,6 +139,62 @@ def test_a_folder_is_replaced_whole_only_when_a_run_wrote_all_of_it(tmp_path, ph
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".barkgen")]
 
 
+@pytest.mark.parametrize("case", ["extra is OUT_NAME", "photo is OUT_NAME", "tbn extra",
+                                  "debug dir", "textons", "save-levels and resume",
+                                  "material colour", "material edits"])
+def test_every_file_a_command_will_write_is_checked_before_any_work(tmp_path, photo, case):
+    """The derived names (OUT_NAME.png of an --extra, the debug pictures, the texton masks, the
+    pyramid levels, a material set's maps) are outputs like -o: none may be an input. Refused in
+    one line before any work, and nothing is written or changed."""
+    d = tmp_path / "d"
+    d.mkdir()
+    data = photo.read_bytes()
+    labels = tmp_path / "labels.png"
+    write_png(labels, (read_image(photo)[..., 0] > 128).astype(np.uint8) * 255)
+    args = {
+        "extra is OUT_NAME": ("synth", str(photo), "-o", str(d / "o.png"), "--size", "32x32",
+                              "--extra", f"height={d / 'o_height.png'}"),
+        "photo is OUT_NAME": ("synth", str(d / "q_height.png"), "-o", str(d / "q.png"),
+                              "--size", "32x32", "--extra", f"height={photo}"),
+        "tbn extra": ("tbn", str(photo), "--labels", str(labels), "--target", str(labels),
+                      "-o", str(d / "t.png"), "--extra", f"height={d / 't_height.png'}"),
+        "debug dir": ("tbn", str(d / "feature_distance.png"), "--labels", str(labels), "--target",
+                      str(labels), "-o", str(tmp_path / "t.png"), "--debug-dir", str(d)),
+        "textons": ("textons", str(d / "textons.png"), "-o", str(d), "--textons", "4"),
+        "save-levels and resume": ("generate", str(photo), "-o", str(tmp_path / "out"), "--size",
+                                   "64x64", "--resume", str(d / "level_1.png"), "--save-levels", str(d)),
+        "material colour": ("material", str(d / "bark_Color.png"), "-o", str(d)),
+        "material edits": ("material", str(photo), "--edits", str(d / "bark.json"), "-o", str(d)),
+    }[case]
+    named = {"extra is OUT_NAME": "o_height.png", "photo is OUT_NAME": "q_height.png",
+             "tbn extra": "t_height.png", "debug dir": "feature_distance.png",
+             "textons": "textons.png", "save-levels and resume": "level_1.png",
+             "material colour": "bark_Color.png", "material edits": "bark.json"}[case]
+    if named == "level_1.png":
+        write_png(d / named, (read_image(photo)[::4, ::4, 0] > 128).astype(np.uint8) * 255)
+    elif named == "bark.json":
+        (d / named).write_text('{"version": 1, "edits": []}')
+    else:
+        (d / named).write_bytes(data)
+    before = {p.name: p.read_bytes() for p in d.iterdir()}
+    t = time.perf_counter()
+    _one_line(run(*args, "-q"), named)
+    assert time.perf_counter() - t < 2.0  # the issue's bound for a refusal
+    assert {p.name: p.read_bytes() for p in d.iterdir()} == before
+    assert not (tmp_path / "out").exists() and not (tmp_path / "t.png").exists()
+
+
+def test_outputs_in_several_folders_are_written_together_or_not_at_all(tmp_path):
+    """A failure on the last output (here its folder cannot be made; a full disk alike) leaves
+    none of the others, and no temporary."""
+    from barkgen.cli._common import write_outputs
+
+    (tmp_path / "blocker").write_text("a file where a folder should be")
+    with pytest.raises(OSError):
+        write_outputs({tmp_path / "a" / "x.png": b"x", tmp_path / "blocker" / "y.png": b"y"})
+    assert list((tmp_path / "a").iterdir()) == []
+
+
 def test_the_next_write_clears_a_killed_writers_temporaries_and_nothing_else(tmp_path):
     """Only barkgen's own temporaries (``.barkgen.PID.XXXX.tmp``) whose writer is gone are
     removed: a running writer's stay, and so does every file of the user's, however much it

@@ -286,12 +286,14 @@ def previous_run_files(folder: Path, record: str = "report.json") -> list[str]:
     return [n for n in owned_files(folder, record) or [] if n != record]
 
 
-def write_run(folder: Path, files: dict[str, bytes], stale: Iterable[str]) -> None:
-    """Write a run's files into ``folder`` as one step (:func:`write_files`), then remove the
-    files of the run before it (``stale``, from :func:`previous_run_files` read before the
-    run) that this run did not write: a folder never holds a mix of two runs' sets (a new
-    texture beside an old run's material maps that ``preview`` would then pick up)."""
-    write_files(folder, files)
+def write_run(folder: Path, files: dict[str, bytes], stale: Iterable[str],
+              also: dict[Path, bytes] | None = None) -> None:
+    """Write a run's files into ``folder``, and ``also`` (e.g. its pyramid levels elsewhere), as
+    one step (:func:`write_outputs`), then remove the files of the run before it (``stale``,
+    from :func:`previous_run_files` read before the run) that this run did not write: a folder
+    never holds a mix of two runs' sets (a new texture beside an old run's material maps that
+    ``preview`` would then pick up)."""
+    write_outputs({folder / name: data for name, data in files.items()} | dict(also or {}))
     for name in set(stale) - set(files):
         path = folder / name
         if path.is_file() and not any(_same_file(path, p) for p in _INPUTS.get()):
@@ -299,13 +301,47 @@ def write_run(folder: Path, files: dict[str, bytes], stale: Iterable[str]) -> No
 
 
 def write_outputs(files: dict[Path, bytes]) -> None:
-    """Write every encoded output, each folder as one step (nothing is written before all are
-    encoded)."""
+    """Write every encoded output as one step, whatever folders they go to: nothing is written
+    before all are encoded, and nothing renamed into place before all are staged in full (a
+    full disk leaves none of them, :func:`barkgen.io.stage_files`)."""
+    from barkgen.io import commit_staged, discard_staged, stage_files
+
+    refuse_inputs(list(files))
     by_folder: dict[Path, dict[str, bytes]] = {}
     for path, data in files.items():
         by_folder.setdefault(path.parent, {})[path.name] = data
-    for folder, group in by_folder.items():
-        write_files(folder, group)
+    staged: list = []
+    try:
+        for folder, group in by_folder.items():
+            stage_files(folder, group, staged)
+        commit_staged(staged)
+    except BaseException:
+        discard_staged(staged)
+        raise
+
+
+def refuse_targets(targets: Mapping[str, Path]) -> None:
+    """Before any work: none of a command's outputs (``{what: path}``, derived names
+    included) is one of its inputs, and no two are the same file; one line otherwise."""
+    seen: dict[str, str] = {}
+    for what, path in targets.items():
+        refuse_inputs([path], what)
+        key = os.path.normcase(os.path.abspath(path))
+        if key in seen:
+            raise InvalidInputError(f"{what} and {seen[key]} would both write {str(path)!r}; "
+                                    "name them apart")
+        seen[key] = what
+
+
+def refuse_input_folder(folder: Path, what: str) -> None:
+    """Before any work: a folder the command fills with files of its own naming (debug
+    pictures, pyramid levels) holds none of its inputs, which a file of that naming could
+    overwrite; one line otherwise."""
+    for source in _INPUTS.get():
+        if folder.is_dir() and _same_file(source.parent, folder):
+            raise InvalidInputError(f"{what} {str(folder)!r} holds {source.name!r}, an input of "
+                                    "this command, which its files could overwrite: give "
+                                    "another folder")
 
 
 def level_files(levels: list) -> dict[str, bytes]:

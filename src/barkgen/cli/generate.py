@@ -41,8 +41,8 @@ from barkgen.cli._common import (
     previous_run_files,
     progress_bar,
     read_resume,
+    refuse_input_folder,
     refuse_inputs,
-    write_files,
     write_run,
 )
 from barkgen.errors import InvalidInputError
@@ -91,6 +91,7 @@ def generate_command(
     _check_generate_names(name, material, light, relief)
     if save_levels is not None:
         check_folder(save_levels, "--save-levels")
+        refuse_input_folder(save_levels, "--save-levels")
     # k, size, seed, method, strategy, rotations, relief, the wrap mode, blend: GenerateOptions
     options = GenerateOptions(size=parse_size(size), k=k, method=method, strategy=strategy,
                               rotations=rotations, tile=tile, seed=seed, threads=threads,
@@ -110,9 +111,8 @@ def generate_command(
         result = generate(image, options, extra=extras, labels_in=label_map, resume=edited,
                           progress=progress)
         files = encode_generate(image, result, str(src), name=name, bits=bits)
-    write_run(output_dir, files, stale)
-    if save_levels is not None:
-        write_files(save_levels, level_files(result.label_levels))
+    levels = {} if save_levels is None else level_files(result.label_levels)
+    write_run(output_dir, files, stale, {save_levels / n: data for n, data in levels.items()})
     if not quiet:
         h, w = result.texture.shape[:2]
         typer.echo(f"wrote {output_dir}/texture.png ({w}x{h}, seed {seed}"

@@ -18,6 +18,9 @@ from barkgen.cli._common import (
     check_folder,
     check_target,
     progress_bar,
+    refuse_targets,
+    write_files,
+    write_outputs,
 )
 from barkgen.errors import InvalidInputError
 
@@ -39,7 +42,7 @@ def labels_command(
     quiet: QuietOption = False,
 ) -> None:
     """Make the label map of a bark photo (input of texture-by-numbers)."""
-    from barkgen.io import read_image, write_png
+    from barkgen.io import encode_png, read_image
     from barkgen.labels import add_edge_label, color_regions, label_preview, texton_regions
     from barkgen.synth.edges import resolve_exemplar_wrap
 
@@ -50,6 +53,7 @@ def labels_command(
     check_target(output, "output")
     if preview is not None:
         check_target(preview, "--preview")
+        refuse_targets({"output": output, "--preview": preview})
     image = read_image(photo)
     wrap = resolve_exemplar_wrap(exemplar_wraps, image)
     with progress_bar(not quiet, "labelling"):
@@ -58,9 +62,10 @@ def labels_command(
         if edges:
             label_map = add_edge_label(label_map, edge_width)
         sheet = label_preview(image, label_map) if preview is not None else None
-    write_png(output, label_map)
+    files = {output: encode_png(label_map)}
     if sheet is not None:
-        write_png(preview, sheet)
+        files[preview] = encode_png(sheet)
+    write_outputs(files)  # both or neither (a full disk)
     if not quiet:
         n = len(np.unique(label_map))
         typer.echo(f"wrote {output} ({label_map.shape[1]}x{label_map.shape[0]}, {n} labels)", err=True)
@@ -76,22 +81,24 @@ def textons_command(
 ) -> None:
     """Texton channels of a photo (wang2003 §3.2): OUT/textons.png (texton number per pixel),
     one mask per texton (OUT/texton_NN.png) and a contact sheet (OUT/sheet.png)."""
-    from barkgen.io import read_image, write_png
+    from barkgen.io import encode_png, read_image
     from barkgen.labels import contact_sheet, texton_channels
+    from barkgen.labels.textons import MAX_TEXTONS
     from barkgen.synth.edges import resolve_exemplar_wrap
 
     check_folder(output_dir, "output")
+    n_files = min(max(n_textons, 0), MAX_TEXTONS)  # (the count itself is checked with the photo)
+    names = ["textons.png", "sheet.png"] + [f"texton_{t:02d}.png" for t in range(n_files)]
+    refuse_targets({f"output {n}": output_dir / n for n in names})
     image = read_image(photo)
     wrap = resolve_exemplar_wrap(exemplar_wraps, image)
     with progress_bar(not quiet, "textons"):
         textons, _ = texton_channels(image, n_textons, seed=seed, wrap=wrap)
         masks = [np.where(textons == t, 255, 0).astype(np.uint8) for t in range(n_textons)]
         sheet = contact_sheet(masks, [f"texton {t}" for t in range(n_textons)])
-    output_dir.mkdir(parents=True, exist_ok=True)
-    write_png(output_dir / "textons.png", textons)
-    for t, mask in enumerate(masks):
-        write_png(output_dir / f"texton_{t:02d}.png", mask)
-    write_png(output_dir / "sheet.png", sheet)
+    files = {"textons.png": encode_png(textons), "sheet.png": encode_png(sheet)}
+    files.update({f"texton_{t:02d}.png": encode_png(mask) for t, mask in enumerate(masks)})
+    write_files(output_dir, files)
     if not quiet:
         typer.echo(f"wrote {n_textons} texton channels to {output_dir}", err=True)
 

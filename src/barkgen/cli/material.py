@@ -25,6 +25,7 @@ from barkgen.cli._common import (
     parse_light,
     parse_memory,
     progress_bar,
+    refuse_targets,
     write_files,
     write_outputs,
 )
@@ -59,10 +60,12 @@ def material_command(
 
     from barkgen.data import sample_exemplar_path
     from barkgen.io import check_material_name, encode_material, read_image
+    from barkgen.io.material import material_file_names
     from barkgen.material import MaterialOptions, make_material
 
     check_material_name(name)
     check_folder(output_dir, "output")
+    refuse_targets({f"output {n}": output_dir / n for n in material_file_names(name)})
     # k, seed and relief: MaterialOptions; edits outside the photo: the height editor
     options = MaterialOptions(k=k, light=parse_light(light), seed=seed, relief=relief,
                               exemplar_wrap="yes" if tile else exemplar_wraps,

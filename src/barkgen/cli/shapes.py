@@ -27,7 +27,8 @@ from barkgen.cli._common import (
     parse_memory,
     progress_bar,
     read_resume,
-    write_files,
+    refuse_input_folder,
+    write_outputs,
 )
 from barkgen.errors import InvalidInputError
 
@@ -61,6 +62,7 @@ def shapes_command(
     check_target(output, "output")
     if save_levels is not None:
         check_folder(save_levels, "--save-levels")
+        refuse_input_folder(save_levels, "--save-levels")
     order = _parse_layer_order(layer_order)
     # synthesize_label_map ignores a photo the strategy does not use: say so instead
     if photo is not None and strategy != "joint":
@@ -73,9 +75,8 @@ def shapes_command(
                                       seed=seed, rotations=rotations, layer_order=order,
                                       resume=edited, progress=progress, photo=photo_image,
                                       exemplar_wrap=exemplar_wraps, max_memory=budget)
-    write_files(output.parent, {output.name: encode_png(result.label_map)})
-    if save_levels is not None:
-        write_files(save_levels, level_files(result.levels))
+    levels = {} if save_levels is None else level_files(result.levels)
+    write_outputs({output: encode_png(result.label_map)} | {save_levels / n: d for n, d in levels.items()})
     if not quiet:
         typer.echo(f"wrote {output} ({out_shape[1]}x{out_shape[0]}, {strategy}) in "
                    f"{result.timings['label_map']:.2f} s", err=True)

@@ -28,6 +28,9 @@ from barkgen.cli._common import (
     parse_extras,
     parse_memory,
     progress_bar,
+    refuse_input_folder,
+    refuse_targets,
+    write_outputs,
 )
 from barkgen.errors import InvalidInputError
 
@@ -56,7 +59,7 @@ def synth_command(
     out_shape = parse_size(size)
     budget = parse_memory(max_memory)
     extra_paths = parse_extras(extra)
-    _check_outputs(output, save_reference, bits)
+    _check_outputs(output, save_reference, bits, extra_paths)
     src = exemplar if exemplar is not None else sample_exemplar_path()
     image = read_image(src)
     extras = {name: read_image(p) for name, p in extra_paths.items()}
@@ -105,9 +108,10 @@ def tbn_command(
 
     budget = parse_memory(max_memory)
     extra_paths = parse_extras(extra)
-    _check_outputs(output, save_reference, bits)
+    _check_outputs(output, save_reference, bits, extra_paths)
     if debug_dir is not None:
         check_folder(debug_dir, "--debug-dir")
+        refuse_input_folder(debug_dir, "--debug-dir")
     image = read_image(exemplar)
     label_map = read_image(labels)
     target_map = read_image(target)
@@ -144,11 +148,23 @@ def apply_reference_command(
     write_png(output, apply_references(refs, image), bits=bits)
 
 
-def _check_outputs(output: Path, save_reference: Path | None, bits: int | None) -> None:
+def _extra_output(output: Path, name: str) -> Path:
+    """Where an extra map ``name`` of ``output`` is written: OUT_NAME.png beside it."""
+    return output.with_name(f"{output.stem}_{name}{output.suffix}")
+
+
+def _check_outputs(output: Path, save_reference: Path | None, bits: int | None,
+                   extras: dict[str, Path]) -> None:
+    """Before any work: every file the run will write, the extras' derived names included,
+    is a .png, none is an input and no two are the same file."""
     check_bits(bits)
     check_target(output, "output")
+    targets = {"output": output}
+    targets.update({f"the --extra {name} map's output": _extra_output(output, name) for name in extras})
     if save_reference is not None:
         check_target(save_reference, "--save-reference")
+        targets["--save-reference"] = save_reference
+    refuse_targets(targets)
 
 
 def _debug_writer(debug_dir: Path | None):
@@ -166,14 +182,15 @@ def _debug_writer(debug_dir: Path | None):
 
 def _write_result(result, output: Path, bits: int | None, save_reference: Path | None,
                   quiet: bool) -> None:
-    """Write a :class:`SynthesisResult`: the image, each extra map beside it, the reference map."""
-    from barkgen.io import write_png, write_reference
+    """Write a :class:`SynthesisResult`: the image, each extra map beside it, the reference map,
+    all encoded first and written as one step."""
+    from barkgen.io import encode_png, encode_reference
 
-    write_png(output, result.image, bits=bits)
-    for name, arr in result.extras.items():
-        write_png(output.with_name(f"{output.stem}_{name}{output.suffix}"), arr)
+    files = {output: encode_png(result.image, bits=bits)}
+    files.update({_extra_output(output, name): encode_png(arr) for name, arr in result.extras.items()})
     if save_reference is not None:
-        write_reference(save_reference, result.references, result.exemplar_shape)
+        files[save_reference] = encode_reference(result.references, result.exemplar_shape)
+    write_outputs(files)
     if not quiet:
         t = result.timings
         h, w = result.image.shape[:2]

@@ -20,10 +20,7 @@ from barkgen.io.images import (
     read_image,
     read_image_bytes,
     read_png_text,
-    remove_stale_temporaries,
     to_bits,
-    write_bytes_atomic,
-    write_files_atomic,
     write_png,
 )
 from barkgen.io.material import (
@@ -35,6 +32,14 @@ from barkgen.io.material import (
     read_material,
 )
 from barkgen.io.references import encode_reference, read_reference, write_reference
+from barkgen.io.staging import (
+    commit_staged,
+    discard_staged,
+    remove_stale_temporaries,
+    stage_files,
+    write_bytes_atomic,
+    write_files_atomic,
+)
 
 __all__ = [
     "check_replaceable",
@@ -66,6 +71,9 @@ __all__ = [
     "read_reference",
     "to_bits",
     "write_bytes_atomic",
+    "commit_staged",
+    "discard_staged",
+    "stage_files",
     "write_files_atomic",
     "write_png",
     "write_reference",

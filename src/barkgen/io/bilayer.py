@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from barkgen.errors import InvalidInputError
-from barkgen.io.images import write_bytes_atomic
+from barkgen.io.staging import write_bytes_atomic
 
 FORMAT = "barkgen-bilayer"
 VERSION = 1

@@ -18,7 +18,7 @@ import tempfile
 from pathlib import Path
 
 from barkgen.errors import InvalidInputError
-from barkgen.io.images import _alive, _umask
+from barkgen.io.staging import _alive, _umask
 
 #: prefixes of the staging folders of :func:`write_folder_atomic`, followed by the writer's
 #: process id (stale ones, whose writer is gone, may be removed: :func:`remove_staging`)

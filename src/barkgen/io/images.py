@@ -10,9 +10,7 @@ from __future__ import annotations
 
 import io
 import os
-import re
 import struct
-import tempfile
 import warnings
 import zlib
 from collections.abc import Callable
@@ -21,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from barkgen.errors import ImageReadError, ImageTooLargeError, InvalidInputError
+from barkgen.io.staging import write_bytes_atomic
 
 _TIFF_MAGIC = (b"II*\x00", b"MM\x00*")
 _PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -408,116 +407,6 @@ def read_png_text(path: str | os.PathLike) -> dict[str, str]:
             break
         pos += 12 + length
     return out
-
-
-def _umask() -> int:
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
-
-
-def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
-    """Write ``data`` to ``path`` through a temporary file renamed into place.
-
-    Parameters
-    ----------
-    path : str or PathLike
-        The file; its folder is made if missing.
-    data : bytes
-        The content.
-
-    Returns
-    -------
-    Path
-        ``path``.
-    """
-    path = Path(path)
-    return write_files_atomic(path.parent, {path.name: data})[0]
-
-
-#: the name of every temporary barkgen writes: ``.barkgen.PID.RANDOM.tmp`` (short whatever the
-#: target's name, so a target of the longest name the file system allows still has one), and
-#: the only names :func:`remove_stale_temporaries` ever removes
-TEMPORARY_NAME = re.compile(r"^\.barkgen\.(\d+)\.[A-Za-z0-9_]+\.tmp$")
-
-
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except OSError:  # someone else's process: alive
-        return True
-    return True
-
-
-def remove_stale_temporaries(folder: str | os.PathLike) -> int:
-    """Remove the temporaries of :func:`write_files_atomic` that a killed writer left in
-    ``folder``: only files named as barkgen names its own (:data:`TEMPORARY_NAME`) whose
-    process is gone. A running writer's are kept, and so is every other file, whatever it is
-    called (a user's ``.thesis.32000.bak.tmp`` or ``.backup.tmp`` is not barkgen's to remove).
-    Returns how many were removed."""
-    removed = 0
-    try:
-        candidates = [p for p in Path(folder).iterdir() if TEMPORARY_NAME.match(p.name)]
-    except OSError:
-        return 0
-    for path in candidates:
-        try:
-            if path.is_file() and not path.is_symlink() and not _alive(
-                    int(TEMPORARY_NAME.match(path.name).group(1))):
-                path.unlink()
-                removed += 1
-        except OSError:
-            continue
-    return removed
-
-
-def write_files_atomic(folder: str | os.PathLike, files: dict[str, bytes]) -> list[Path]:
-    """Write several files into ``folder`` as one step.
-
-    Every file is first written in full to a temporary file beside its target, and only when all
-    are on disk are they renamed into place, so a failure or an interrupt while writing leaves
-    the old set of files untouched (and no temporary file).
-
-    Parameters
-    ----------
-    folder : str or PathLike
-        The folder (made if missing).
-    files : dict of str to bytes
-        File name -> content.
-
-    Returns
-    -------
-    list of Path
-        The files written, in the order given.
-    """
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    remove_stale_temporaries(folder)
-    staged: list[tuple[str, Path]] = []
-    try:
-        for name, data in files.items():
-            try:
-                fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".barkgen.{os.getpid()}.", suffix=".tmp")
-                staged.append((tmp, folder / name))
-                with os.fdopen(fd, "wb") as fh:
-                    fh.write(data)
-                    fh.flush()
-                    os.fsync(fh.fileno())
-                os.chmod(tmp, 0o666 & ~_umask())
-            except OSError as exc:  # name the file the user asked for, not our temporary
-                raise OSError(exc.errno, exc.strerror, str(folder / name)) from None
-        for tmp, target in staged:
-            os.replace(tmp, target)
-    except BaseException:
-        for tmp, _ in staged:
-            try:
-                os.unlink(tmp)
-            except OSError:
-                pass
-        raise
-    return [target for _, target in staged]
 
 
 def write_png(

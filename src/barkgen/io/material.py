@@ -54,6 +54,12 @@ def utf8_text(text: str) -> str:
     return text.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
 
 
+def material_file_names(name: str) -> list[str]:
+    """The files of a set called ``name`` (:func:`encode_material` writes exactly these), known
+    before the set is made: a command refuses, before any work, to write one that is an input."""
+    return [f"{name}_{suffix}.png" for suffix in MAP_SUFFIXES] + [f"{name}.json"]
+
+
 def encode_material(material, name: str, **metadata) -> dict[str, bytes]:
     """Every file of a :class:`~barkgen.material.MaterialSet`, encoded before any is written.
 

@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 
 from barkgen.errors import ImageReadError, InvalidInputError
-from barkgen.io.images import encode_png, read_image, read_png_text, write_bytes_atomic
+from barkgen.io.images import encode_png, read_image, read_png_text
+from barkgen.io.staging import write_bytes_atomic
 
 _KEY = "barkgen-reference"
 
