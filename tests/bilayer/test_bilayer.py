@@ -402,3 +402,14 @@ def test_cli_analyze_synth_tune_and_errors(tmp_path):
         assert message in res.output and "Traceback" not in res.output
         assert len(res.output.strip().splitlines()) == 1
     assert not (tmp_path / "x.npz").exists() and not (tmp_path / "x.png").exists()
+
+
+def test_a_one_row_window_is_the_row_of_a_larger_one(composite_model):
+    """A window one pixel high (or wide) and thousands long: its kernel once took the (1, 1, C)
+    placeholders of the layers it was not asked for as full layers and wrote past them (a
+    segmentation fault for ``bilayer synth --size 60000x1``)."""
+    row = composite_model.window(5, 7, 3000, 1, seed=2)
+    block = composite_model.window(5, 7, 3000, 3, seed=2)
+    assert np.array_equal(row[0], block[0])
+    column = composite_model.window(5, 7, 1, 3000, seed=2)
+    assert np.array_equal(column[:, 0], composite_model.window(5, 7, 2, 3000, seed=2)[:, 0])

@@ -7,6 +7,7 @@ every front end reports the same words.
 from __future__ import annotations
 
 import re
+from contextvars import ContextVar
 
 import numpy as np
 
@@ -77,15 +78,25 @@ def parse_output_shape(size: int | tuple[int, int]) -> tuple[int, int]:
     return shape
 
 
-_SIZE_RE = re.compile(r"^\s*(-?\d+)\s*[xX×]\s*(-?\d+)\s*$")
+_SIZE_RE = re.compile(r"^\s*(-?\d{1,12})\s*[xX×]\s*(-?\d{1,12})\s*$")
+#: the largest output (pixels) a size may ask for unless the limit is raised (8192²)
+MAX_OUTPUT_PIXELS = 8192 * 8192
+#: the limit in force when raised or lowered (the CLI's ``barkgen --max-pixels N``)
+OUTPUT_PIXEL_LIMIT: ContextVar[int | None] = ContextVar("barkgen_output_pixels", default=None)
 
 
 def parse_size(text: str) -> tuple[int, int]:
     """``"WxH"`` -> ``(height, width)``; raises :class:`InvalidInputError` with a clear message."""
     m = _SIZE_RE.match(text if isinstance(text, str) else "")
     if not m:
-        raise InvalidInputError(f"invalid size {text!r}: expected WIDTHxHEIGHT, e.g. 1024x1024")
+        shown = repr(text) if len(repr(text)) <= 40 else repr(text)[:37] + "..."
+        raise InvalidInputError(f"invalid size {shown}: expected WIDTHxHEIGHT, e.g. 1024x1024 "
+                                "(at most 12 digits each)")
     w, h = int(m.group(1)), int(m.group(2))
     if w <= 0 or h <= 0:
         raise InvalidInputError(f"invalid size {text!r}: width and height must be positive")
+    limit = OUTPUT_PIXEL_LIMIT.get() or MAX_OUTPUT_PIXELS
+    if w * h > limit:
+        raise InvalidInputError(f"size {w}x{h} is {w * h / 1e6:.3g} megapixels, more than the limit "
+                                f"of {limit / 1e6:.3g} (raise it: barkgen --max-pixels N COMMAND ...)")
     return h, w

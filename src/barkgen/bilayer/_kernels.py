@@ -172,7 +172,7 @@ def render_window(y0, x0, out, layers, tiles, lattice, noise):
     (per-cluster PCA, §6), blended by the synthesized masks (eq. 2, 6).
 
     ``layers = (structure_out, noise_out)`` receive the two layers when they have the window's
-    size (pass ``(1, 1, C)`` arrays to skip them). ``tiles`` (n, size, size, 3 + masks) are the
+    size (pass ``(0, 0, C)`` arrays to skip them). ``tiles`` (n, size, size, 3 + masks) are the
     tile set; ``lattice = (colours, variants, seed, warp)`` the edge colours and variants per
     tile, the hash seed and the warp amplitude in px; ``noise = (noise_tiles, cell, bases,
     means, quantiles, sigmas)`` the (K, PC, period, period) noise tiles (the period a power of
@@ -185,8 +185,9 @@ def render_window(y0, x0, out, layers, tiles, lattice, noise):
     n_tiles, size, _, n_ch = tiles.shape
     k_noise, n_pc, period, _ = noise_tiles.shape
     wrap = period - 1
-    want_layers = structure_out.shape[0] == h
-    want_noise = noise_out.shape[0] == h
+    # (both sides: a one-row window with (1, 1, C) placeholders must not write past them)
+    want_layers = structure_out.shape[0] == h and structure_out.shape[1] == w
+    want_noise = noise_out.shape[0] == h and noise_out.shape[1] == w
     ucol = np.uint64(colours)
     wcell = 2 * size
     # everything that depends on the column alone, once per window

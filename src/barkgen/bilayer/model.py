@@ -231,8 +231,8 @@ class BilayerModel:
         synth = self._synthesizer(seed, options)
         n_ch = synth.tiles.shape[3]
         out = np.empty((height, width, 3), np.float32)
-        structure = np.empty((height, width, n_ch) if layers else (1, 1, n_ch), np.float32)
-        noise = np.empty((height, width, 3) if layers else (1, 1, 3), np.float32)
+        structure = np.empty((height, width, n_ch) if layers else (0, 0, n_ch), np.float32)
+        noise = np.empty((height, width, 3) if layers else (0, 0, 3), np.float32)
         synth.render(x, y, out, structure, noise)
         if not layers:
             return out

@@ -155,13 +155,21 @@ _IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".webp", ".gif", ".
 
 def _check_pixels(path: Path) -> None:
     """An input image's declared size against the limit, from its header: a 117 KB PNG that
-    declares 121 megapixels is refused in milliseconds, not after minutes of work."""
+    declares 121 megapixels is refused in milliseconds, not after minutes of work. Every input
+    file is looked at, whatever its name: an image is known by its content."""
     from barkgen._shared.checks import MAX_PHOTO_PIXELS
     from barkgen.errors import ImageTooLargeError
     from barkgen.io import image_size
 
+    from barkgen.errors import ImageReadError
+
     limit = MAX_INPUT_PIXELS.get() or MAX_PHOTO_PIXELS
-    width, height = image_size(path)
+    try:
+        width, height = image_size(path)
+    except ImageReadError:
+        if path.suffix.lower() in _IMAGE_SUFFIXES:
+            raise
+        return  # not an image by its content (a spec, an edit list): its own reader judges it
     if width * height > limit:
         raise ImageTooLargeError(
             f"{path}: {width}x{height} px is {width * height / 1e6:.3g} megapixels, more than the "
@@ -234,8 +242,7 @@ def guard_paths(kwargs: Mapping[str, object]) -> Callable[[], None]:
             continue
         if path.is_file():
             inputs.append(path)
-            if path.suffix.lower() in _IMAGE_SUFFIXES:
-                _check_pixels(path)
+            _check_pixels(path)  # by its content, whatever its name (.dat, .raw, no suffix)
         elif path.is_dir():
             inputs.extend(_set_files(path))
     token = _INPUTS.set(tuple(inputs))

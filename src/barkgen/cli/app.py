@@ -28,6 +28,7 @@ import barkgen.cli.serve as serve
 import barkgen.cli.shapes as shapes
 import barkgen.cli.synth as synth
 import barkgen.cli.warmup as warmup
+from barkgen._shared.checks import OUTPUT_PIXEL_LIMIT
 from barkgen.cli._common import MAX_INPUT_PIXELS, fail, guard_paths
 from barkgen.errors import BarkgenError
 
@@ -90,10 +91,12 @@ def user_errors(func: F) -> F:
 def _root(
     version: Annotated[bool, typer.Option("--version", help="Print the version and exit.")] = False,
     max_pixels: Annotated[Optional[int], typer.Option(
-        "--max-pixels", min=1, help="Largest input image any command reads, in pixels (default "
-        "50000000; generate analyses at most that many whatever this says).")] = None,
+        "--max-pixels", min=1, help="Largest input image any command reads and largest output it "
+        "makes, in pixels (default 50000000 in, 8192x8192 out; generate analyses at most "
+        "50000000 whatever this says).")] = None,
 ) -> None:
     MAX_INPUT_PIXELS.set(max_pixels)
+    OUTPUT_PIXEL_LIMIT.set(max_pixels)
     if version:
         from barkgen._version import __version__
 

@@ -38,17 +38,65 @@ class ImageContentWarning(UserWarning):
 _EXIF_ORIENTATION = 0x0112
 
 
-def _check_file(path: Path) -> bytes:
-    if not path.exists():
-        raise ImageReadError(f"{path}: no such file")
-    if path.is_dir():
-        raise ImageReadError(f"{path}: is a directory, not an image")
+#: the largest image file barkgen reads, in bytes (a 144-megapixel 16-bit TIFF, uncompressed,
+#: is 0.9 GiB)
+MAX_IMAGE_BYTES = 1 << 30
+#: the first bytes of the formats barkgen reads (WebP: ``RIFF....WEBP``, checked apart)
+_IMAGE_MAGICS = (_PNG_MAGIC, b"\xff\xd8\xff", *_TIFF_MAGIC, b"GIF87a", b"GIF89a", b"BM")
+#: how much of a file is read to tell whether it is an image at all
+_SNIFF_BYTES = 16
+#: how much of a file :func:`image_size` reads first for the image's size
+_HEADER_BYTES = 1 << 16
+
+
+def _is_image_start(head: bytes) -> bool:
+    return head.startswith(_IMAGE_MAGICS) or (head[:4] == b"RIFF" and head[8:12] == b"WEBP")
+
+
+def _open_checked(path: Path):
+    """``path`` opened for reading once it is known to be a regular, non-empty file of at most
+    :data:`MAX_IMAGE_BYTES` that starts as an image does (by its content, whatever its name):
+    a device (``/dev/zero``), a pipe, a 2 GB file of zeros named ``.png`` are refused before
+    more than its first bytes are read. Returns ``(file, size)``."""
+    import stat
+
     try:
-        data = path.read_bytes()
+        info = path.stat()
+    except FileNotFoundError:
+        raise ImageReadError(f"{path}: no such file") from None
     except OSError as exc:
         raise ImageReadError(f"{path}: cannot read ({exc.strerror or exc})") from None
-    if not data:
+    if stat.S_ISDIR(info.st_mode):
+        raise ImageReadError(f"{path}: is a directory, not an image")
+    if not stat.S_ISREG(info.st_mode):
+        raise ImageReadError(f"{path}: not a regular file (a device, a pipe or a socket)")
+    if info.st_size == 0:
         raise ImageReadError(f"{path}: file is empty (0 bytes)")
+    if info.st_size > MAX_IMAGE_BYTES:
+        raise ImageTooLargeError(f"{path}: {info.st_size / 2**30:.3g} GiB is more than the "
+                                 f"{MAX_IMAGE_BYTES / 2**30:g} GiB an image file may be")
+    try:
+        fh = open(path, "rb")
+    except OSError as exc:
+        raise ImageReadError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    if not _is_image_start(fh.read(_SNIFF_BYTES)):
+        fh.close()
+        raise ImageReadError(f"{path}: not an image (PNG, JPEG, TIFF, WebP, GIF or BMP by its "
+                             "content)")
+    fh.seek(0)
+    return fh, info.st_size
+
+
+def _check_file(path: Path) -> bytes:
+    fh, size = _open_checked(path)
+    with fh:
+        try:
+            data = fh.read(size + 1)
+        except OSError as exc:
+            raise ImageReadError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    if len(data) > MAX_IMAGE_BYTES:  # (it grew while read)
+        raise ImageTooLargeError(f"{path}: more than the {MAX_IMAGE_BYTES / 2**30:g} GiB an image "
+                                 "file may be")
     return data
 
 
@@ -176,7 +224,15 @@ def image_size(path: str | os.PathLike) -> tuple[int, int]:
         A missing, empty or unreadable file, or not an image.
     """
     path = Path(path)
-    return _image_size(_check_file(path), path)
+    fh, size = _open_checked(path)
+    with fh:  # the header is enough: a 117 KB file may declare a huge image
+        head = fh.read(min(size, _HEADER_BYTES))
+    try:
+        return _image_size(head, path)
+    except ImageReadError:
+        if size <= _HEADER_BYTES:
+            raise
+    return _image_size(_check_file(path), path)  # a header past the first bytes (EXIF, TIFF IFD)
 
 
 def decode_image(data: bytes, name: str | os.PathLike = "image", *,
