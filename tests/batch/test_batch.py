@@ -275,7 +275,12 @@ BAD_SPECS = [
     ({"exemplars": []}, "non-empty list"),
     ({"k": 99}, "spec: k"),
     ({"tile": "yes"}, "tile must be true or false"),
-    ({"exemplars": [{"name": "fir", "path": "photos/fir.png", "seeds": [-1]}]}, "each seed must be an integer >= 0"),
+    ({"exemplars": [{"name": "fir", "path": "photos/fir.png", "seeds": [-1]}]}, "seed must be an integer from 0 to 2**63 - 1"),
+    # issue 56: refused up front, not after the work or inside a worker
+    ({"exemplars": [{"name": "fir", "path": "photos/fir.png", "seeds": [2**64]}]}, "2**63 - 1"),
+    ({"exemplars": [{"name": "fir", "path": "photos/fir.png", "count": 60000},
+                    {"name": "pine", "path": "photos/pine.png", "count": 60000}]}, "120000 variants"),
+    ({"size": "99999x99999"}, "more than the limit"),
 ]
 
 
@@ -369,3 +374,17 @@ def test_a_variant_folder_holding_the_users_files_is_refused_before_any_work(pho
     assert len(result.stderr.strip().splitlines()) == 1 and time.perf_counter() - t < 20
     assert sorted(p.name for p in mine.iterdir()) == ["fir.jpg", "notes.txt"]
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["fir"]
+
+
+@pytest.mark.parametrize("address,message", [
+    ("tcp://256.1.1.1:99999", "port 99999"), ("tcp://256.1.1.1:8786", "not an IP address"),
+    ("not-a-url", "tcp://HOST:PORT"), ("", "tcp://HOST:PORT"), ("http://host:8786", "tcp://HOST:PORT")])
+def test_a_malformed_scheduler_address_is_refused_at_once(photos, tmp_path, address, message):
+    """Not after a 20 s connection timeout (tcp://256.1.1.1:99999 took 21 s), and never as an
+    internal error."""
+    spec = write_spec(photos, "64x64", name="addr.yaml")
+    t = time.perf_counter()
+    result = run("batch", str(spec), "-o", str(tmp_path / "out"), "--scheduler", address)
+    assert result.returncode == 2 and message in result.stderr, result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1 and time.perf_counter() - t < 5
+    assert not (tmp_path / "out").exists()

@@ -345,3 +345,40 @@ def test_an_image_declaring_huge_pixels_is_refused_from_its_header(tmp_path, pho
     # the limit is the user's to set
     _one_line(run("--max-pixels", "100", "labels", str(photo), "-o", str(tmp_path / "l.png")),
               "more than the limit of 0.0001")
+
+
+@pytest.mark.parametrize("case", ["png named .dat", "png with no suffix", "device", "zeros named .png",
+                                  "huge output", "5000-digit size", "200,000 edits", "nested edits"])
+def test_every_input_is_bounded_before_it_is_read_and_every_output_before_it_is_made(tmp_path, photo, case):
+    """An image is known by its content, not its name; a reader is bounded in bytes and pixels
+    before it decodes; an output is bounded in pixels like an input; one line, within 2 s."""
+    import json
+
+    import cv2
+
+    big = tmp_path / "big.png"
+    cv2.imwrite(str(big), np.zeros((8000, 8000), np.uint8))  # 64 MP, 60 KB
+    if case in ("png named .dat", "png with no suffix"):
+        target = tmp_path / ("big.dat" if case == "png named .dat" else "big")
+        target.write_bytes(big.read_bytes())
+        args, word = ("labels", str(target), "-o", str(tmp_path / "l.png")), "megapixels"
+    elif case == "device":
+        args, word = ("labels", "/dev/zero", "-o", str(tmp_path / "l.png")), "not a regular file"
+    elif case == "zeros named .png":
+        (tmp_path / "z.png").write_bytes(bytes(50_000_000))
+        args, word = ("synth", str(tmp_path / "z.png"), "-o", str(tmp_path / "s.png")), "not an image"
+    elif case == "huge output":
+        args, word = ("synth", str(photo), "-o", str(tmp_path / "s.png"), "--size", "1x99999999"), "--max-pixels"
+    elif case == "5000-digit size":
+        args, word = ("synth", str(photo), "-o", str(tmp_path / "s.png"), "--size", "1x" + "9" * 5000), "invalid size"
+    else:
+        edits = tmp_path / "e.json"
+        if case == "200,000 edits":
+            edits.write_text(json.dumps({"version": 1, "edits": [{"x": 1, "y": 1, "delta": 0.5}] * 200_000}))
+        else:
+            edits.write_text("[" * 100_000 + "]" * 100_000)
+        args, word = ("material", str(photo), "--edits", str(edits), "-o", str(tmp_path / "m")), str(edits.name)
+    t = time.perf_counter()
+    _one_line(run(*args, "-q"), word)
+    assert time.perf_counter() - t < 2.0
+    assert not [p for p in tmp_path.iterdir() if p.name in ("l.png", "s.png", "m")]

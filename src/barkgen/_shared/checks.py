@@ -57,9 +57,14 @@ def check_k(k: int, name: str = "k") -> int:
     return int(k)
 
 
+#: the largest seed (it is recorded as a 64-bit integer: report.json, batch's manifest)
+MAX_SEED = 2**63 - 1
+
+
 def check_seed(seed: int) -> int:
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise InvalidInputError(f"seed must be a non-negative integer, not {seed!r}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed <= MAX_SEED:
+        shown = repr(seed) if len(repr(seed)) <= 40 else repr(seed)[:37] + "..."
+        raise InvalidInputError(f"seed must be an integer from 0 to 2**63 - 1, not {shown}")
     return int(seed)
 
 

@@ -17,6 +17,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import os
+import re
 import time
 import warnings
 from collections.abc import Callable
@@ -112,6 +113,33 @@ def local_cluster(workers: int | None = None, threads: int | None = None):
                             preload=["barkgen.batch.preload"])
 
 
+#: a scheduler address: PROTOCOL://HOST:PORT
+_ADDRESS = re.compile(r"^(tcp|tls)://(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9.-]{1,253}):(\d{1,5})$")
+
+
+def check_scheduler_address(address: str) -> str:
+    """A Dask scheduler's address as ``tcp://HOST:PORT`` (or ``tls://``), checked before any
+    work: a port from 1 to 65535, a host that is an IP address or a host name. A malformed one
+    (``tcp://256.1.1.1:99999``, ``not-a-url``, ``http://...``) is refused at once instead of
+    after a 20 s connection timeout. Raises :class:`InvalidInputError`."""
+    import ipaddress
+
+    m = _ADDRESS.match(address) if isinstance(address, str) else None
+    shown = repr(address)[:60]
+    if not m:
+        raise InvalidInputError(f"--scheduler {shown}: give the scheduler's address as "
+                                "tcp://HOST:PORT (e.g. tcp://10.0.0.5:8786)")
+    host, port = m.group(2).strip("[]"), int(m.group(3))
+    if not 1 <= port <= 65535:
+        raise InvalidInputError(f"--scheduler {shown}: port {port} is not 1-65535")
+    if re.fullmatch(r"[0-9.]+", host) or ":" in host:
+        try:
+            ipaddress.ip_address(host)
+        except ValueError:
+            raise InvalidInputError(f"--scheduler {shown}: {host!r} is not an IP address") from None
+    return address
+
+
 def _client(scheduler: str | None, workers: int | None, threads: int | None):
     """A Dask client of ``scheduler``, or of a new :func:`local_cluster` (returned too, to close)."""
     from distributed import Client
@@ -155,6 +183,8 @@ def run_batch(
     from barkgen.io import check_replaceable, remove_staging, write_folder_atomic
 
     say = log or (lambda message: None)
+    if scheduler is not None:
+        check_scheduler_address(scheduler)
     cores = os.cpu_count() or 1
     if workers is not None and not 1 <= workers <= 1024:
         raise InvalidInputError(f"workers must be 1..1024, not {workers}")
@@ -223,13 +253,19 @@ def run_batch(
 
 def _read_inputs(job: ExemplarJob):
     """A job's photo (and label map), read and checked as the pipeline will check them."""
-    from barkgen.errors import BarkgenError
-    from barkgen.io import read_image
-    from barkgen._shared.checks import check_image
+    from barkgen.errors import BarkgenError, ImageTooLargeError
+    from barkgen.io import image_size, read_image
+    from barkgen._shared.checks import MAX_PHOTO_PIXELS, check_image
+    from barkgen.pipeline.core import check_generate_memory
 
     try:
+        width, height = image_size(job.path)  # from the header: a 144 MP photo is not decoded
+        if width * height > MAX_PHOTO_PIXELS:
+            raise ImageTooLargeError(f"{width}x{height} px is more than the {MAX_PHOTO_PIXELS / 1e6:g} "
+                                     "megapixels a photo may be; scale it down")
         photo = read_image(job.path)
         check_image(photo)
+        check_generate_memory(photo, job.options)  # before the cluster, not inside a worker
         labels = None if job.labels is None else read_image(job.labels)
         if labels is not None and labels.shape[:2] != photo.shape[:2]:
             raise InvalidInputError(f"the label map is {labels.shape[1]}x{labels.shape[0]} px but the "

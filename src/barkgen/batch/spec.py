@@ -106,6 +106,15 @@ def _check_keys(where: str, mapping: dict, allowed) -> None:
                                     f"allowed: {', '.join(allowed)}")
 
 
+def _seed(where: str, value) -> int:
+    from barkgen._shared.checks import check_seed
+
+    try:
+        return check_seed(value)
+    except InvalidInputError as exc:
+        raise InvalidInputError(f"{where}: {exc}") from None
+
+
 def _int(where: str, key: str, value, minimum: int = 0) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
         raise InvalidInputError(f"{where}: {key} must be an integer >= {minimum}, not {value!r}")
@@ -167,7 +176,7 @@ def _seeds(where: str, entry: dict) -> tuple[int, ...]:
             raise InvalidInputError(f"{where}: seeds must be a non-empty list of integers, not {seeds!r}")
         if len(seeds) > MAX_VARIANTS:
             raise InvalidInputError(f"{where}: {len(seeds)} seeds is more than {MAX_VARIANTS}")
-        seeds = [_int(where, "each seed", s) for s in seeds]
+        seeds = [_seed(where, s) for s in seeds]
         dup = sorted(s for s, n in Counter(seeds).items() if n > 1)
         if dup:
             raise InvalidInputError(f"{where}: seed {dup[0]} is listed twice (two variants would "
@@ -179,7 +188,8 @@ def _seeds(where: str, entry: dict) -> tuple[int, ...]:
     count = _int(where, "count", entry["count"], 1)
     if count > MAX_VARIANTS:
         raise InvalidInputError(f"{where}: count {count} is more than {MAX_VARIANTS}")
-    base = _int(where, "seed_base", entry.get("seed_base", 0))
+    base = _seed(where, entry.get("seed_base", 0))
+    _seed(where, base + count - 1)
     return tuple(range(base, base + count))
 
 
@@ -269,6 +279,10 @@ def parse_spec(document, root: str | Path = ".", *, threads: int | None = None,
             where, {**shared, **{k: v for k, v in entry.items() if k in OPTION_KEYS}}, threads)
         jobs.append(ExemplarJob(name=name, path=path, seeds=_seeds(where, entry), options=options,
                                 labels=labels, bits=bits, material_name=material_name, source=source))
+    total = sum(len(job.seeds) for job in jobs)
+    if total > MAX_VARIANTS:
+        raise InvalidInputError(f"spec: {total} variants; at most {MAX_VARIANTS} in one "
+                                "batch (split it)")
     return BatchSpec(exemplars=tuple(jobs), root=root)
 
 
@@ -305,6 +319,8 @@ def load_spec(path: str | Path, *, threads: int | None = None, library=None) -> 
         document = _load_document(text, str(path))
     except UnicodeDecodeError:
         raise InvalidInputError(f"spec {str(path)!r} is not a text file") from None
+    except RecursionError:
+        raise InvalidInputError(f"spec {str(path)!r} is nested too deeply") from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""

@@ -94,6 +94,10 @@ def _wrap_note(wraps: tuple[bool, bool]) -> str:
     return f"; wraps {' and '.join(names)}" if names else ""
 
 
+#: the largest --edits file read (10,000 edits of JSON are under 1 MiB)
+MAX_EDITS_BYTES = 4 * 2**20
+
+
 def _read_edits(path: Path) -> list:
     """The height edits of an ``--edits`` JSON file (:func:`barkgen.material.parse_edits`)."""
     import json
@@ -101,11 +105,16 @@ def _read_edits(path: Path) -> list:
     from barkgen.material import parse_edits
 
     try:
-        document = json.loads(path.read_text())
+        if path.stat().st_size > MAX_EDITS_BYTES:
+            raise InvalidInputError(f"{path}: over {MAX_EDITS_BYTES // 2**20} MiB; an edit list is "
+                                    "never that long")
+        document = json.loads(path.read_text(encoding="utf-8"))
     except OSError as exc:
         raise InvalidInputError(f"{path}: cannot read the edit list ({exc.strerror})") from None
-    except ValueError as exc:
-        raise InvalidInputError(f"{path}: not JSON ({exc})") from None
+    except RecursionError:
+        raise InvalidInputError(f"{path}: nested too deeply to be an edit list") from None
+    except ValueError as exc:  # (a UnicodeDecodeError too)
+        raise InvalidInputError(f"{path}: not JSON ({str(exc)[:80]})") from None
     return parse_edits(document)
 
 

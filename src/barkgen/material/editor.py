@@ -70,6 +70,10 @@ class HeightEdit:
             raise InvalidInputError("an edit's threshold must be > 0")
 
 
+#: the most edits an edit list may hold (each is replayed over its neighbourhood)
+MAX_EDITS = 10_000
+
+
 def parse_edits(document: object) -> list[HeightEdit]:
     """The edits of a JSON edit list, validated.
 
@@ -103,6 +107,9 @@ def parse_edits(document: object) -> list[HeightEdit]:
     items = document.get("edits")
     if not isinstance(items, list) or not items:
         raise InvalidInputError('the edit list is empty: "edits" must list at least one edit')
+    if len(items) > MAX_EDITS:
+        raise InvalidInputError(f"the edit list has {len(items)} edits; at most {MAX_EDITS} (an "
+                                "artist's session is a few hundred)")
     edits = []
     for i, item in enumerate(items):
         if not isinstance(item, Mapping) or not {"x", "y", "delta"} <= set(item):
