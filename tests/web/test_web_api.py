@@ -510,3 +510,14 @@ def test_ctrl_c_stops_the_server_with_a_job_and_its_event_stream_open(tmp_path, 
         assert again["state"] == "failed" and again["error"] == INTERRUPTED, again
         if kind == "generate":
             assert client.get(f"/api/jobs/{waiting['id']}").json()["state"] == "queued"
+
+
+def test_numbers_json_cannot_hold_are_a_422_not_a_500(client):
+    """A NaN seed, an exemplar id of 1e400, a 5000-digit size: one clear answer each (the
+    validation error used to echo the NaN, which JSON cannot hold: a 500 and a traceback)."""
+    for body, status, word in (('{"exemplar_id": 1e400}', 422, "finite"),
+                               ('{"exemplar_id": 1, "seed": NaN}', 422, "finite"),
+                               ('{"exemplar_id": 1, "size": "1x' + "9" * 5000 + '"}', 400, "invalid size"),
+                               ('{"exemplar_id": 1, "size": "1x99999999"}', 400, "megapixels")):
+        r = client.post("/api/jobs", content=body, headers={"content-type": "application/json"})
+        assert r.status_code == status and word in r.text and len(r.text) < 400, (body[:40], r.text[:200])

@@ -26,8 +26,11 @@ def serve_command(
     # neither serve() nor WebLimits checks these: uvicorn would fail with a traceback
     if not 0 < port < 65536:
         raise InvalidInputError(f"--port must be 1-65535, not {port}")
-    if max_upload_mb <= 0 or max_upload_mp <= 0:
-        raise InvalidInputError("upload limits must be > 0")
+    import math
+
+    for flag, value in (("--max-upload-mb", max_upload_mb), ("--max-upload-mp", max_upload_mp)):
+        if not math.isfinite(value) or not 0 < value <= 1e6:
+            raise InvalidInputError(f"{flag} must be a number above 0 (and at most 1000000), not {value}")
     lib = Library(library)
     _check_port_free(host, port)
     limits = WebLimits(max_upload_bytes=max_upload_mb * 1024**2,

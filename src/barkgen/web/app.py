@@ -18,6 +18,7 @@ import ipaddress
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from fastapi.staticfiles import StaticFiles
 
@@ -60,6 +61,15 @@ def _answer_error(status: int):
     return answer
 
 
+async def _answer_invalid_request(request, exc) -> JSONResponse:
+    """422 with FastAPI's own detail, minus the values it echoes: a NaN seed or an exemplar id
+    of 1e400 cannot be written as JSON, and the default answer to them was a 500 (and a
+    traceback in the log). Each error keeps where and what; the input is left out."""
+    detail = [{key: value for key, value in error.items() if key in ("loc", "msg", "type")}
+              for error in exc.errors()]
+    return JSONResponse(status_code=422, content={"detail": detail})
+
+
 def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: bool = True,
                hosts: list[str] | None = None) -> FastAPI:
     """The app on ``library``. ``run_jobs=False`` queues jobs without running them (tests);
@@ -89,6 +99,7 @@ def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: b
     app.add_middleware(SameOrigin, hosts=hosts)
     for error, status in ERROR_STATUS.items():
         app.add_exception_handler(error, _answer_error(status))
+    app.add_exception_handler(RequestValidationError, _answer_invalid_request)
 
     for router in (page_routes, exemplar_routes, job_routes, result_routes):
         app.include_router(router)
