@@ -388,3 +388,18 @@ def test_a_malformed_scheduler_address_is_refused_at_once(photos, tmp_path, addr
     assert result.returncode == 2 and message in result.stderr, result.stderr
     assert len(result.stderr.strip().splitlines()) == 1 and time.perf_counter() - t < 5
     assert not (tmp_path / "out").exists()
+
+
+def test_another_programs_manifest_is_neither_changed_nor_trusted(photos, tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    db = sqlite3.connect(out / "manifest.sqlite")
+    db.execute("CREATE TABLE variants (foo TEXT)")
+    db.execute("CREATE TABLE other (x)")
+    db.commit()
+    db.close()
+    before = (out / "manifest.sqlite").read_bytes()
+    result = run("batch", str(write_spec(photos, "64x64", name="m.yaml")), "-o", str(out))
+    assert result.returncode == 2 and "not a barkgen batch manifest" in result.stderr, result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1
+    assert (out / "manifest.sqlite").read_bytes() == before and sorted(p.name for p in out.iterdir()) == ["manifest.sqlite"]

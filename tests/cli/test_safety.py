@@ -382,3 +382,9 @@ def test_every_input_is_bounded_before_it_is_read_and_every_output_before_it_is_
     _one_line(run(*args, "-q"), word)
     assert time.perf_counter() - t < 2.0
     assert not [p for p in tmp_path.iterdir() if p.name in ("l.png", "s.png", "m")]
+
+
+def test_a_library_name_is_one_line(tmp_path, photo):
+    """A name with a newline broke `library list`'s table: refused, like any control character."""
+    r = run("library", "add", str(photo), "--name", "two\nlines", "--library", str(tmp_path / "lib"))
+    _one_line(r, "one line")

@@ -12,6 +12,8 @@ MANIFEST_NAME = "manifest.sqlite"
 SCHEMA_VERSION = 1
 STATES = ("pending", "running", "done", "failed")
 
+#: the columns of barkgen's manifest (a database without them is another program's)
+_COLUMNS = {"exemplar", "seed", "fingerprint", "state", "attempts", "error", "seconds", "worker", "updated"}
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS variants (
     exemplar    TEXT    NOT NULL,
@@ -42,16 +44,31 @@ class Manifest:
 
         try:
             self._db = sqlite3.connect(self.path, timeout=30, isolation_level=None)
-            self._db.execute("PRAGMA journal_mode=WAL")
             version = self._db.execute("PRAGMA user_version").fetchone()[0]
             if version > SCHEMA_VERSION:
                 raise InvalidInputError(f"{self.path} was written by a newer barkgen (schema {version})")
+            self._check_own()  # before anything is written into it
+            self._db.execute("PRAGMA journal_mode=WAL")
             self._db.execute(_SCHEMA)
             self._db.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
         except sqlite3.DatabaseError as exc:  # a damaged file, or another program's
             raise InvalidInputError(
                 f"{self.path}: not a readable batch manifest ({exc}); move it away to start the "
                 "batch afresh (the variants already in the folder are made again)") from None
+
+    def _check_own(self) -> None:
+        """Refuse a database that holds anything but barkgen's manifest (another program's
+        ``manifest.sqlite``): it is neither changed nor trusted."""
+        from barkgen.errors import InvalidInputError
+
+        tables = {r[0] for r in self._db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+        if not tables:
+            return
+        columns = {r[1] for r in self._db.execute("PRAGMA table_info(variants)")}
+        if tables != {"variants"} or not _COLUMNS <= columns:
+            self._db.close()
+            raise InvalidInputError(f"{self.path} is not a barkgen batch manifest (it holds "
+                                    f"{', '.join(sorted(tables))[:80]}); give another output folder")
 
     def close(self) -> None:
         self._db.close()

@@ -254,10 +254,12 @@ class Library:
         name = (name or "").strip()
         if not name or len(name) > 200:
             raise InvalidInputError("an exemplar needs a name of 1 to 200 characters")
-        for what, value in (("species", species), ("bark type", bark_type), ("licence", licence),
-                            ("source", source)):
+        for what, value in (("name", name), ("species", species), ("bark type", bark_type),
+                            ("licence", licence), ("source", source)):
             if value is not None and len(value) > 500:
                 raise InvalidInputError(f"the {what} must be at most 500 characters")
+            if value is not None and not value.isprintable():  # a newline would break a listing
+                raise InvalidInputError(f"the {what} must be one line of printable text")
         image = decode_image(data, name, max_pixels=max_pixels)
         if min(image.shape[:2]) < MIN_SIDE:  # a 1x1 upload is no bark (it failed later)
             raise InvalidInputError(f"{name}: {image.shape[1]}x{image.shape[0]} px; a bark photo "
