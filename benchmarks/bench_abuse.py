@@ -807,6 +807,234 @@ def run_case(item: Case) -> tuple[float, str | None]:
     return seconds, problem
 
 
+# -- issue 56: nothing of the user's is touched, every input bounded ----------------------------
+
+def _unchanged(folder: Path, before: dict[str, bytes]) -> str | None:
+    now = {q.name: q.read_bytes() for q in folder.iterdir()}
+    return None if now == before else f"the folder changed: {sorted(set(now) ^ set(before)) or 'contents'}"
+
+
+def _refused_untouched(folder: Path, *args: str, word: str) -> str | None:
+    before = {q.name: q.read_bytes() for q in folder.iterdir()}
+    return first_problem(one_line(cli(*args, "-q"), word), _unchanged(folder, before))
+
+
+@case("no loss", "56.1 synth -o o.png --extra height=o_height.png refused before the work")
+def _(tmp):
+    p = photo(tmp)
+    (tmp / "o_height.png").write_bytes(p.read_bytes())
+    return _refused_untouched(tmp, "synth", str(p), "-o", str(tmp / "o.png"), "--size", "32x32",
+                              "--extra", f"height={tmp / 'o_height.png'}", word="o_height.png")
+
+
+@case("no loss", "56.1 synth q_height.png -o q.png --extra height=h.png refused (the photo)")
+def _(tmp):
+    q = photo(tmp, "q_height.png")
+    h = photo(tmp, "h.png")
+    return _refused_untouched(tmp, "synth", str(q), "-o", str(tmp / "q.png"), "--size", "32x32",
+                              "--extra", f"height={h}", word="q_height.png")
+
+
+@case("no loss", "56.1 tbn D/feature_distance.png --debug-dir D refused")
+def _(tmp):
+    d = tmp / "d"
+    d.mkdir()
+    src = photo(d, "feature_distance.png")
+    labels = tmp / "a.png"
+    write_png(labels, (read_image(src)[..., 0] > 100).astype(np.uint8) * 255)
+    return _refused_untouched(d, "tbn", str(src), "--labels", str(labels), "--target", str(labels),
+                              "-o", str(tmp / "t.png"), "--debug-dir", str(d), word="feature_distance.png")
+
+
+@case("no loss", "56.1 textons D/textons.png -o D refused")
+def _(tmp):
+    src = photo(tmp, "textons.png")
+    return _refused_untouched(tmp, "textons", str(src), "-o", str(tmp), word="textons.png")
+
+
+@case("no loss", "56.2 generate keeps what another program's report.json lists", 30)
+def _(tmp):
+    out = tmp / "out"
+    out.mkdir()
+    (out / "holiday.jpg").write_bytes(b"a photo")
+    (out / "notes.txt").write_text("notes")
+    (out / "report.json").write_text(json.dumps({"files": ["holiday.jpg", "notes.txt"]}))
+    r = cli("generate", str(photo(tmp)), "-o", str(out), "--size", "32x32", "-q")
+    kept = (out / "holiday.jpg").is_file() and (out / "notes.txt").is_file()
+    return first_problem(ok(r), None if kept else "the user's files were removed")
+
+
+@case("no loss", "56.2 batch refuses a variant folder holding the user's files")
+def _(tmp):
+    p = photo(tmp)
+    spec = tmp / "spec.json"
+    spec.write_text(json.dumps({"size": "32x32", "exemplars": [{"name": "a", "path": str(p), "seeds": [0]}]}))
+    mine = tmp / "out" / "a" / "0"
+    mine.mkdir(parents=True)
+    (mine / "notes.txt").write_text("notes")
+    return _refused_untouched(mine, "batch", str(spec), "-o", str(tmp / "out"), word="did not write")
+
+
+@case("no loss", "56.2 the temporary sweep keeps the user's .tmp files", 30)
+def _(tmp):
+    out = tmp / "out"
+    out.mkdir()
+    users = [out / ".thesis.32000.bak.tmp", out / ".backup.tmp"]
+    for q in users:
+        q.write_text("mine")
+        os.utime(q, (time.time() - 3600, time.time() - 3600))
+    r = cli("generate", str(photo(tmp)), "-o", str(out), "--size", "32x32", "-q")
+    return first_problem(ok(r), None if all(q.is_file() for q in users) else "a user's .tmp file was removed")
+
+
+@case("no loss", "56.3 --resume D/level_1.png --save-levels D refused before writing")
+def _(tmp):
+    d = tmp / "d"
+    d.mkdir()
+    write_png(d / "level_1.png", np.zeros((32, 32), np.uint8))
+    r = one_line(cli("generate", str(photo(tmp)), "-o", str(tmp / "out"), "--size", "64x64",
+                     "--resume", str(d / "level_1.png"), "--save-levels", str(d), "-q"), "level_1.png")
+    return first_problem(r, None if not (tmp / "out").exists() else "OUT's set was written")
+
+
+@case("no loss", "56.3 material D/bark_Color.png -o D refused before the work")
+def _(tmp):
+    photo(tmp, "bark_Color.png")
+    return _refused_untouched(tmp, "material", str(tmp / "bark_Color.png"), "-o", str(tmp), word="bark_Color.png")
+
+
+@case("no loss", "56.4 outputs in two folders: all or none (a folder that cannot be made)")
+def _(tmp):
+    (tmp / "blocker").write_text("a file where a folder should be")
+    r = cli("labels", str(photo(tmp)), "-o", str(tmp / "a.png"), "--preview", str(tmp / "blocker" / "p.png"), "-q")
+    return first_problem(None if r.returncode != 0 else "exit 0",
+                         None if not (tmp / "a.png").exists() else "the label map was written alone")
+
+
+@case("bounds", "56.5 a 64 MP PNG named .dat refused from its header")
+def _(tmp):
+    import cv2
+
+    cv2.imwrite(str(tmp / "big.png"), np.zeros((8000, 8000), np.uint8))
+    os.replace(tmp / "big.png", tmp / "big.dat")
+    return one_line(cli("labels", str(tmp / "big.dat"), "-o", str(tmp / "l.png"), "-q"), "megapixels")
+
+
+@case("bounds", "56.5 /dev/zero as a photo refused")
+def _(tmp):
+    return one_line(cli("labels", "/dev/zero", "-o", str(tmp / "l.png"), "-q"), "not a regular file")
+
+
+@case("bounds", "56.5 a 1 GB file of zeros named .png refused before it is read")
+def _(tmp):
+    with open(tmp / "z.png", "wb") as fh:
+        fh.truncate(2**30)  # sparse: no disk used
+    return one_line(cli("synth", str(tmp / "z.png"), "-o", str(tmp / "s.png"), "-q"), "not an image")
+
+
+@case("bounds", "56.6 bilayer synth --size 60000x1 runs (was a segmentation fault)", 30)
+def _(tmp):
+    model = tmp / "m.npz"
+    r = cli("bilayer", "analyze", str(photo(tmp)), "-o", str(model))
+    return first_problem(ok(r), ok(cli("bilayer", "synth", str(model), "-o", str(tmp / "b.png"), "--size", "60000x1")))
+
+
+@case("bounds", "56.7 synth --size 1x99999999 refused (--max-pixels bounds outputs)")
+def _(tmp):
+    return one_line(cli("synth", str(photo(tmp)), "-o", str(tmp / "s.png"), "--size", "1x99999999", "-q"),
+                    "--max-pixels")
+
+
+@case("bounds", "56.8 material --edits with 200,000 edits refused")
+def _(tmp):
+    e = tmp / "e.json"
+    e.write_text(json.dumps({"version": 1, "edits": [{"x": 1, "y": 1, "delta": 0.5}] * 200_000}))
+    return one_line(cli("material", str(photo(tmp)), "--edits", str(e), "-o", str(tmp / "m"), "-q"), "e.json")
+
+
+@case("bounds", "56.8 a batch spec of 300 photos x 100,000 seeds refused")
+def _(tmp):
+    p = photo(tmp)
+    spec = tmp / "spec.json"
+    spec.write_text(json.dumps({"size": "32x32", "exemplars": [
+        {"name": f"e{i}", "path": str(p), "count": 100_000} for i in range(300)]}))
+    return one_line(cli("batch", str(spec), "-o", str(tmp / "out")), "variants")
+
+
+@case("bounds", "56.8 --scheduler tcp://256.1.1.1:99999 refused at once")
+def _(tmp):
+    p = photo(tmp)
+    spec = tmp / "spec.json"
+    spec.write_text(json.dumps({"size": "32x32", "exemplars": [{"name": "a", "path": str(p), "seeds": [0]}]}))
+    return one_line(cli("batch", str(spec), "-o", str(tmp / "out"), "--scheduler", "tcp://256.1.1.1:99999"),
+                    "port")
+
+
+@case("errors", "56 --size 1x<5000 digits> is one line")
+def _(tmp):
+    return one_line(cli("synth", str(photo(tmp)), "-o", str(tmp / "s.png"), "--size", "1x" + "9" * 5000, "-q"),
+                    "invalid size")
+
+
+@case("errors", "56 deeply nested JSON edits and specs are one line")
+def _(tmp):
+    deep = tmp / "deep.json"
+    deep.write_text("[" * 100_000 + "]" * 100_000)
+    return first_problem(one_line(cli("material", str(photo(tmp)), "--edits", str(deep), "-o", str(tmp / "m"), "-q"),
+                                  "nested"),
+                         one_line(cli("batch", str(deep), "-o", str(tmp / "out")), "nested"))
+
+
+@case("errors", "56 serve --max-upload-mp nan is one line")
+def _(tmp):
+    return one_line(cli("serve", "--max-upload-mp", "nan"), "--max-upload-mp")
+
+
+@case("errors", "56 batch seeds [2**64] refused before the work")
+def _(tmp):
+    p = photo(tmp)
+    spec = tmp / "spec.json"
+    spec.write_text(json.dumps({"size": "32x32", "exemplars": [{"name": "a", "path": str(p), "seeds": [2**64]}]}))
+    return one_line(cli("batch", str(spec), "-o", str(tmp / "out")), "2**63")
+
+
+@case("errors", "56 another program's manifest.sqlite is one line, unchanged")
+def _(tmp):
+    import sqlite3
+
+    out = tmp / "out"
+    out.mkdir()
+    db = sqlite3.connect(out / "manifest.sqlite")
+    db.execute("CREATE TABLE other (x)")
+    db.commit()
+    db.close()
+    p = photo(tmp)
+    spec = tmp / "spec.json"
+    spec.write_text(json.dumps({"size": "32x32", "exemplars": [{"name": "a", "path": str(p), "seeds": [0]}]}))
+    return _refused_untouched(out, "batch", str(spec), "-o", str(out), word="not a barkgen batch manifest")
+
+
+@case("errors", "56 the web answers a NaN seed and an id of 1e400 with a 422")
+def _(tmp):
+    client = web_client(tmp / "lib")
+    for body in ('{"exemplar_id": 1e400}', '{"exemplar_id": 1, "seed": NaN}'):
+        r = client.post("/api/jobs", content=body, headers={"content-type": "application/json"})
+        if r.status_code != 422:
+            return f"{body}: {r.status_code}"
+    return None
+
+
+@case("errors", "56 a library name with a newline refused")
+def _(tmp):
+    return one_line(cli("library", "add", str(photo(tmp)), "--name", "two\nlines", "--library", str(tmp / "lib")),
+                    "one line")
+
+
+@case("errors", "56 -o with a 240-character name is written", 30)
+def _(tmp):
+    return ok(cli("synth", str(photo(tmp)), "-o", str(tmp / ("n" * 240 + ".png")), "--size", "32x32", "-q"))
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--only", help="run the cases whose name holds this word")
