@@ -216,9 +216,11 @@ def test_branches_cli_bad_input_is_one_line_and_writes_nothing(tmp_path, mud_sou
         (("branches", "extract", str(flat), "-o", str(out), "--quiet"), "no cracks"),
         (("branches", "stats", str(src), str(bad)), "malformed JSON"),
         (("branches", "grow", str(tmp_path / "missing.json"), "-o", str(out)), "no such file"),
-        # growth's maps are 20 bytes a pixel: 16384^2 is 5.2 GiB, refused before any work
-        (("branches", "grow", str(src), "-o", str(out), "--size", "16384x16384", "--max-memory", "2G"),
-         "5.2 GiB"),
+        # growth's maps are 20 bytes a pixel: 16384^2 is 5.2 GiB, refused before any work (with
+        # the output bound raised past its default of 8192^2, which refuses it first)
+        (("--max-pixels", "300000000", "branches", "grow", str(src), "-o", str(out), "--size",
+          "16384x16384", "--max-memory", "2G"), "5.2 GiB"),
+        (("branches", "grow", str(src), "-o", str(out), "--size", "16384x16384"), "--max-pixels"),
     ]
     for args, message in cases:
         r = run(*args)
