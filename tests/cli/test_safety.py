@@ -388,3 +388,14 @@ def test_a_library_name_is_one_line(tmp_path, photo):
     """A name with a newline broke `library list`'s table: refused, like any control character."""
     r = run("library", "add", str(photo), "--name", "two\nlines", "--library", str(tmp_path / "lib"))
     _one_line(r, "one line")
+
+
+def test_a_damaged_library_is_one_line(tmp_path, photo):
+    """A torn page in library.sqlite made `library list` an internal error (exit 1)."""
+    lib = tmp_path / "lib"
+    assert run("library", "add", str(photo), "--name", "a", "--library", str(lib)).returncode == 0
+    db = lib / "library.sqlite"
+    data = bytearray(db.read_bytes())
+    data[4096:3 * 4096] = b"\x5a" * (2 * 4096)
+    db.write_bytes(bytes(data))
+    _one_line(run("library", "list", "--library", str(lib)), "damaged")

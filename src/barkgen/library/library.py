@@ -162,7 +162,7 @@ class Library:
         if self.read_only is not None:
             raise LibraryError(f"{self.path}: the library is read-only ({self.read_only}); "
                                "copy it somewhere writable to change it")
-        with closing(self._connect()) as conn:
+        with closing(self._connect()) as conn, self._damage_said():
             conn.execute("BEGIN IMMEDIATE")
             try:
                 yield conn
@@ -171,10 +171,23 @@ class Library:
                 raise
             conn.execute("COMMIT")
 
+    @contextmanager
+    def _damage_said(self):
+        """A damaged database file (a torn page, another program's writes) as one line, not
+        an internal error."""
+        try:
+            yield
+        except sqlite3.DatabaseError as exc:
+            if not any(word in str(exc) for word in ("malformed", "not a database", "corrupt")):
+                raise  # (a busy database, a constraint: not damage)
+            raise LibraryError(f"{self.db_path}: the library database is damaged ({exc}); restore "
+                               "it from a backup, or move the library folder away to start a new "
+                               "one") from None
+
     def _read(self, sql: str, args: tuple = ()) -> list[sqlite3.Row]:
         if any(isinstance(a, int) and not -2**63 <= a < 2**63 for a in args):
             return []  # an id beyond SQLite's 64-bit integers is in no row (not an error)
-        with closing(self._connect()) as conn:
+        with closing(self._connect()) as conn, self._damage_said():
             return conn.execute(sql, args).fetchall()
 
     def _migrate(self) -> None:
