@@ -100,7 +100,7 @@ def write_files_atomic(folder: str | os.PathLike, files: dict[str, bytes]) -> li
     except BaseException:
         discard_staged(staged)
         raise
-    return [target for _, target in staged]
+    return [target for tmp, target in staged if tmp]
 
 
 def stage_files(folder: str | os.PathLike, files: dict[str, bytes],
@@ -109,9 +109,12 @@ def stage_files(folder: str | os.PathLike, files: dict[str, bytes],
     missing), appending ``(temporary, target)`` to ``staged`` as it goes, so that a failure
     part-way leaves the caller every temporary to discard (:func:`discard_staged`); nothing is
     renamed into place (:func:`commit_staged`). Several folders staged first and committed
-    after are written as one step (a full disk on the last file leaves none of them)."""
+    after are written as one step (a full disk on the last file leaves none of them, nor a
+    folder made for them: ``staged`` lists those too, as ``("", folder)``)."""
     folder = Path(folder)
+    missing = [f for f in (folder, *folder.parents) if not f.exists()]
     folder.mkdir(parents=True, exist_ok=True)
+    staged.extend(("", f) for f in reversed(missing))  # made here: removed again on a failure
     remove_stale_temporaries(folder)
     for name, data in files.items():
         try:
@@ -129,13 +132,21 @@ def stage_files(folder: str | os.PathLike, files: dict[str, bytes],
 def commit_staged(staged: list[tuple[str, Path]]) -> None:
     """Rename every staged temporary (:func:`stage_files`) onto its target."""
     for tmp, target in staged:
-        os.replace(tmp, target)
+        if tmp:
+            os.replace(tmp, target)
 
 
 def discard_staged(staged: list[tuple[str, Path]]) -> None:
     """Remove the staged temporaries not yet renamed into place."""
     for tmp, _ in staged:
         try:
-            os.unlink(tmp)
+            if tmp:
+                os.unlink(tmp)
         except OSError:
             pass
+    for tmp, folder in reversed(staged):  # the folders staging made, innermost first, if empty
+        if not tmp:
+            try:
+                os.rmdir(folder)
+            except OSError:
+                pass
