@@ -158,10 +158,8 @@ def _check_pixels(path: Path) -> None:
     declares 121 megapixels is refused in milliseconds, not after minutes of work. Every input
     file is looked at, whatever its name: an image is known by its content."""
     from barkgen._shared.checks import MAX_PHOTO_PIXELS
-    from barkgen.errors import ImageTooLargeError
+    from barkgen.errors import ImageReadError, ImageTooLargeError
     from barkgen.io import image_size
-
-    from barkgen.errors import ImageReadError
 
     limit = MAX_INPUT_PIXELS.get() or MAX_PHOTO_PIXELS
     try:
