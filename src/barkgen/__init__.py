@@ -66,11 +66,13 @@ _LAZY = {
 
 __all__ = sorted(_LAZY) + ["__version__"]
 
-if TYPE_CHECKING:  # pragma: no cover
+if TYPE_CHECKING:  # pragma: no cover (the same names as _LAZY: tests/test_layout.py checks)
     from barkgen.data import sample_exemplar_path
     from barkgen.errors import BarkgenError
     from barkgen.io import read_image, write_png
+    from barkgen.material import HeightEditor, MaterialOptions, MaterialSet, make_material
     from barkgen.pipeline import GenerateOptions, GenerateResult, generate
+    from barkgen.render import render_trunk, trunk_mesh
     from barkgen.shapes import synthesize_label_map
     from barkgen.synth import (
         SynthesisConfig,
