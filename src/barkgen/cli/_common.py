@@ -273,12 +273,8 @@ def refuse_inputs(targets: Iterable[Path], what: str = "output") -> None:
 
 
 def write_files(folder: Path, files: dict[str, bytes]) -> None:
-    """Write encoded files into ``folder`` as one step (:func:`barkgen.io.write_files_atomic`:
-    all are encoded before any is written, all staged before any is renamed into place)."""
-    from barkgen.io import write_files_atomic
-
-    refuse_inputs([folder / name for name in files])
-    write_files_atomic(folder, files)
+    """Write encoded files into ``folder`` as one step (:func:`write_outputs`)."""
+    write_outputs({folder / name: data for name, data in files.items()})
 
 
 def previous_run_files(folder: Path, record: str = "report.json") -> list[str]:

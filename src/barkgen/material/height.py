@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from barkgen._shared.arrays import Wrap, wrap_axes
+from barkgen._shared.arrays import Wrap, on_torus, wrap_axes
 from barkgen.errors import InvalidInputError
 
 #: (octave scale in px, weight) of the luminance bands; luminance in units of its std
@@ -92,14 +92,9 @@ def blur(image: np.ndarray, sigma: float, *, tile: Wrap) -> np.ndarray:
     """Gaussian blur (float32, OpenCV), wrapping along the axes ``tile`` wraps along
     (:func:`wrap_axes`), mirrored at the other borders."""
     image = np.asarray(image, np.float32)
-    wy, wx = wrap_axes(tile)
-    if not (wy or wx):
-        return cv2.GaussianBlur(image, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
-    pad = int(np.ceil(4 * sigma)) + 1  # numpy wraps again when the pad exceeds the image
-    py, px = pad if wy else 0, pad if wx else 0
-    widths = ((py, py), (px, px)) + ((0, 0),) * (image.ndim - 2)
-    out = cv2.GaussianBlur(np.pad(image, widths, mode="wrap"), (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
-    return out[py:py + image.shape[0], px:px + image.shape[1]]
+    pad = int(np.ceil(4 * sigma)) + 1  # (numpy wraps again when the pad exceeds the image)
+    return on_torus(lambda im: cv2.GaussianBlur(im, (0, 0), sigma, borderType=cv2.BORDER_REFLECT),
+                    image, pad, tile)
 
 
 def band(image: np.ndarray, scale: float, *, tile: Wrap,
