@@ -435,8 +435,10 @@ def test_route_functions_answer_without_a_server(library):
     assert stop_job(state, job["id"])["state"] == "cancelled"
     with pytest.raises(InvalidInputError, match="4096"):
         start_job(state, JobRequest(exemplar_id=added["id"], **{**SMALL, "size": "9000x100"}))
-    with pytest.raises(InvalidInputError, match="k must be"):  # GenerateOptions' own check
-        start_job(state, JobRequest(exemplar_id=added["id"], **{**SMALL, "k": 99}))
+    with pytest.raises(InvalidInputError, match="material set"):  # GenerateOptions' own rule
+        start_job(state, JobRequest(exemplar_id=added["id"], **SMALL, relief=2.0))
+    with pytest.raises(ValueError, match="less than or equal to 16"):  # the range, in the schema
+        JobRequest(exemplar_id=added["id"], **{**SMALL, "k": 99})
     with pytest.raises(NotFoundError):
         start_job(state, JobRequest(exemplar_id=999, **SMALL))
     with pytest.raises(NotFoundError, match="no job nope"):

@@ -8,7 +8,11 @@ when the job starts (psutil's ``available``: free memory plus what the kernel ca
 
 from __future__ import annotations
 
+import re
+
 from barkgen.errors import InvalidInputError, MemoryBudgetError
+
+_MEM_RE = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*([kKmMgGtT]?)i?[bB]?\s*$")
 
 #: the interpreter, numpy, numba's and faiss' libraries before any array is made (peak RSS of
 #: the smallest jobs, 2026-12-02)
@@ -62,3 +66,17 @@ def check_memory_budget(need: int, max_memory: int | None, job: str) -> int:
             f"{job} needs about {format_bytes(need)}, more than {what} "
             f"({format_bytes(budget)}; set it with --max-memory)")
     return need
+
+
+def parse_memory(text: str | None) -> int | None:
+    """``"8G"``, ``"512M"``, ``"1.5GB"`` or a byte count -> bytes; None (what the machine has
+    free) stays None."""
+    if text is None:
+        return None
+    m = _MEM_RE.match(text)
+    if not m:
+        raise InvalidInputError(f"invalid memory amount {text!r}: use e.g. 8G or 512M")
+    value = float(m.group(1)) * 1024 ** " KMGT".index((m.group(2) or " ").upper())
+    if value <= 0:
+        raise InvalidInputError(f"invalid memory amount {text!r}: must be positive")
+    return int(value)

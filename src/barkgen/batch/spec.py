@@ -28,11 +28,14 @@ from pathlib import Path
 
 from barkgen.errors import BarkgenError, InvalidInputError
 from barkgen.pipeline import GenerateOptions
-from barkgen._shared.checks import parse_size
+from barkgen._shared.options import OptionField, option_fields
 
-#: pipeline options a spec may set at the top level or per exemplar, as GenerateOptions fields
-OPTION_KEYS = ("size", "k", "method", "strategy", "rotations", "tile", "material", "relief", "light",
-               "label_weight", "feature_weight", "bits", "material_name", "exemplar_wrap", "blend")
+#: keys a spec may set at the top level or per exemplar besides GenerateOptions' fields: the
+#: texture's bits and the material set's file name
+FILE_KEYS = ("bits", "material_name")
+#: every option key: the GenerateOptions fields batch offers (barkgen._shared.options), and
+#: FILE_KEYS
+OPTION_KEYS = tuple(f.name for f in option_fields(GenerateOptions, "batch")) + FILE_KEYS
 #: keys of an exemplar entry besides the options
 EXEMPLAR_KEYS = ("name", "path", "library", "labels", "seeds", "count", "seed_base")
 #: top-level keys besides the options
@@ -121,43 +124,42 @@ def _int(where: str, key: str, value, minimum: int = 0) -> int:
     return value
 
 
-def _options(where: str, values: dict, threads: int | None) -> tuple[GenerateOptions, int | None, str]:
-    """GenerateOptions from a spec's option keys (errors say where)."""
-    from barkgen.material import parse_light
+def _option_value(where: str, field: OptionField, value):
+    """A spec's value of one GenerateOptions field, read as its kind (YAML reads ``yes`` and
+    ``no`` as booleans; a size may be one number, a square)."""
+    kind, key = field.info.kind, field.name
+    if kind is bool:
+        if not isinstance(value, bool):
+            raise InvalidInputError(f"{key} must be true or false, not {value!r}")
+        return value
+    if kind is int:
+        minimum = field.info.minimum
+        return _int(where, key, value, -2**63 if minimum is None else int(minimum))
+    if kind is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise InvalidInputError(f"{key} must be a number, not {value!r}")
+        return float(value)
+    if isinstance(value, bool) and field.info.choices and "yes" in field.info.choices:
+        value = "yes" if value else "no"
+    elif isinstance(value, int) and not isinstance(value, bool) and key == "size":
+        value = f"{value}x{value}"
+    return field.read(str(value))
+
+
+def _options(where: str, values: dict, threads: int | None,
+             options_class: type = GenerateOptions) -> tuple[GenerateOptions, int | None, str]:
+    """GenerateOptions (or ``options_class``) from a spec's option keys (errors say where)."""
     from barkgen.pipeline import check_generate_names
 
-    kwargs = {}
     try:
-        for key, value in values.items():
-            if key == "size":
-                if isinstance(value, int) and not isinstance(value, bool):
-                    value = f"{value}x{value}"
-                kwargs["size"] = parse_size(value)
-            elif key in ("tile", "material"):
-                if not isinstance(value, bool):
-                    raise InvalidInputError(f"{key} must be true or false, not {value!r}")
-                kwargs[key] = value
-            elif key in ("k",):
-                kwargs[key] = _int(where, key, value, 1)
-            elif key == "light":
-                kwargs[key] = parse_light(str(value))
-            elif key in ("relief", "label_weight", "feature_weight"):
-                if isinstance(value, bool) or not isinstance(value, (int, float)):
-                    raise InvalidInputError(f"{key} must be a number, not {value!r}")
-                kwargs[key] = float(value)
-            elif key in ("method", "strategy", "rotations", "blend"):
-                kwargs[key] = str(value)
-            elif key == "exemplar_wrap":  # YAML reads yes / no as booleans
-                kwargs[key] = ({True: "yes", False: "no"}[value] if isinstance(value, bool)
-                               else str(value))
+        kwargs = {f.name: _option_value(where, f, values[f.name])
+                  for f in option_fields(options_class, "batch") if f.name in values}
         bits = values.get("bits")
         if bits is not None and (isinstance(bits, bool) or bits not in (8, 16)):
             raise InvalidInputError(f"bits must be 8 or 16, not {bits!r}")
         name = values.get("material_name", "bark")
         check_generate_names(str(name), words=("material_name", "extra"))
-        if not values.get("material", False) and ("light" in values or "relief" in values):
-            raise InvalidInputError("light and relief apply to the material set: set material: true")
-        return GenerateOptions(threads=threads, **kwargs), bits, str(name)
+        return options_class(threads=threads, **kwargs), bits, str(name)
     except BarkgenError as exc:
         message = str(exc)
         if message.startswith(where):

@@ -17,7 +17,6 @@ import typer
 
 from barkgen.errors import InvalidInputError
 
-_MEM_RE = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*([kKmMgGtT]?)i?[bB]?\s*$")
 _LEVEL_NAME = re.compile(r"level_(\d+)\.png$", re.IGNORECASE)
 
 
@@ -51,20 +50,6 @@ def progress_bar(enabled: bool, description: str,
 
 
 # ------------------------------------------------------------------------ CLI-only strings
-
-
-def parse_memory(text: str | None) -> int | None:
-    """``"8G"``, ``"512M"``, ``"1.5GB"`` or a byte count -> bytes; None (what the machine has
-    free) stays None."""
-    if text is None:
-        return None
-    m = _MEM_RE.match(text)
-    if not m:
-        raise InvalidInputError(f"invalid memory amount {text!r}: use e.g. 8G or 512M")
-    value = float(m.group(1)) * 1024 ** " KMGT".index((m.group(2) or " ").upper())
-    if value <= 0:
-        raise InvalidInputError(f"invalid memory amount {text!r}: must be positive")
-    return int(value)
 
 
 def parse_extras(items: list[str] | None) -> dict[str, Path]:

@@ -10,6 +10,7 @@ import numpy as np
 import typer
 
 from barkgen._shared.checks import parse_size
+from barkgen._shared.memory import parse_memory
 from barkgen.cli._common import (
     MaxMemoryOption,
     OutputOption,
@@ -18,7 +19,6 @@ from barkgen.cli._common import (
     check_bits,
     check_file_name,
     check_target,
-    parse_memory,
     parse_pair,
     progress_bar,
     write_outputs,

@@ -10,13 +10,13 @@ import numpy as np
 import typer
 
 from barkgen._shared.checks import parse_size
+from barkgen._shared.memory import parse_memory
 from barkgen.cli._common import (
     MaxMemoryOption,
     OutputOption,
     QuietOption,
     SeedOption,
     check_target,
-    parse_memory,
     progress_bar,
     write_outputs,
 )

@@ -10,34 +10,19 @@ from typing import Annotated, Optional
 
 import typer
 
-from barkgen._shared.checks import parse_size
 from barkgen.cli._common import (
     BitsOption,
-    BlendOption,
-    ExemplarWrapsOption,
     ExtraOption,
-    KOption,
     LibraryOption,
-    LightOption,
-    MaxMemoryOption,
     NameOption,
     QuietOption,
-    ReliefOption,
     ResumeOption,
-    RotationsOption,
     SaveLevelsOption,
-    SeedOption,
-    SizeOption,
-    StrategyOption,
-    ThreadsOption,
-    TileOption,
     check_bits,
     check_folder,
     fail,
     level_files,
     parse_extras,
-    parse_light,
-    parse_memory,
     previous_run_files,
     progress_bar,
     read_resume,
@@ -45,38 +30,25 @@ from barkgen.cli._common import (
     refuse_inputs,
     write_run,
 )
-from barkgen.errors import InvalidInputError
+from barkgen.cli._options import with_options
+from barkgen.pipeline import GenerateOptions
 
 
+@with_options(GenerateOptions)
 def generate_command(
     photo: Annotated[Optional[Path], typer.Argument(
         help="Bark photo (PNG/JPEG/TIFF/WebP). Default: the bundled sample.")] = None,
     output_dir: Annotated[Path, typer.Option("-o", "--output", help="Output folder.")] = Path("out"),
-    size: SizeOption = "1024x1024",
-    k: KOption = 3,
-    method: Annotated[str, typer.Option(
-        "--method", help="Input label map: color (laitoch2018 §3.5) or texton (wang2003 §3.2).")] = "color",
     labels: Annotated[Optional[Path], typer.Option(
         "--labels", help="Use this label map of the photo instead of making one.")] = None,
-    strategy: StrategyOption = "joint",
-    rotations: RotationsOption = "vertical",
-    tile: TileOption = False,
-    seed: SeedOption = 0,
     extra: ExtraOption = None,
     save_levels: SaveLevelsOption = None,
     resume: ResumeOption = None,
     bits: BitsOption = None,
-    max_memory: MaxMemoryOption = None,
-    threads: ThreadsOption = None,
-    material: Annotated[bool, typer.Option(
-        "--material", help="Also write the material set of the new bark (NAME_Color, NormalGL/DX, "
-        "Displacement 16-bit, Roughness, AmbientOcclusion, NAME.json).")] = False,
     name: NameOption = "bark",
-    light: LightOption = None,
-    relief: ReliefOption = 1.0,
-    exemplar_wraps: ExemplarWrapsOption = "auto",
-    blend: BlendOption = "gradient",
     quiet: QuietOption = False,
+    *,
+    options: GenerateOptions,
 ) -> None:
     """Photo to new bark in one step: label map, output label map, texture-by-numbers
     (laitoch2018 Figure 1.2). Writes texture.png, labels_in.png, labels_out.png, reference.png,
@@ -84,29 +56,23 @@ def generate_command(
     into the output folder."""
     from barkgen.data import sample_exemplar_path
     from barkgen.io import read_image
-    from barkgen.pipeline import GenerateOptions, encode_generate, generate, stage_at
+    from barkgen.pipeline import encode_generate, generate, stage_at
 
     check_bits(bits)
     check_folder(output_dir, "output")
-    _check_generate_names(name, material, light, relief)
+    _check_generate_names(name, options.material)
     if save_levels is not None:
         check_folder(save_levels, "--save-levels")
         refuse_input_folder(save_levels, "--save-levels")
-    # k, size, seed, method, strategy, rotations, relief, the wrap mode, blend: GenerateOptions
-    options = GenerateOptions(size=parse_size(size), k=k, method=method, strategy=strategy,
-                              rotations=rotations, tile=tile, seed=seed, threads=threads,
-                              max_memory=parse_memory(max_memory), material=material,
-                              light=parse_light(light), relief=relief, exemplar_wrap=exemplar_wraps,
-                              blend=blend)
     extra_paths = _extra_paths(extra)
     stale = previous_run_files(output_dir)
-    refuse_inputs(_run_targets(output_dir, name if material else None, extra_paths, stale))
+    refuse_inputs(_run_targets(output_dir, name if options.material else None, extra_paths, stale))
     src = photo if photo is not None else sample_exemplar_path()
     image = read_image(src)
     extras = {name: read_image(p) for name, p in extra_paths.items()}
     label_map = read_image(labels) if labels is not None else None
     edited = read_resume(resume) if resume is not None else None
-    describe = functools.partial(stage_at, material=material)
+    describe = functools.partial(stage_at, material=options.material)
     with progress_bar(not quiet, "generating", describe) as progress:
         result = generate(image, options, extra=extras, labels_in=label_map, resume=edited,
                           progress=progress)
@@ -115,8 +81,8 @@ def generate_command(
     write_run(output_dir, files, stale, {save_levels / n: data for n, data in levels.items()})
     if not quiet:
         h, w = result.texture.shape[:2]
-        typer.echo(f"wrote {output_dir}/texture.png ({w}x{h}, seed {seed}"
-                   f"{', tileable' if tile else ''}) and its maps in "
+        typer.echo(f"wrote {output_dir}/texture.png ({w}x{h}, seed {options.seed}"
+                   f"{', tileable' if options.tile else ''}) and its maps in "
                    f"{result.report['timings_s']['total']:.1f} s", err=True)
 
 
@@ -133,14 +99,12 @@ def _run_targets(folder: Path, material_name: str | None, extras, stale) -> list
     return [folder / n for n in sorted(names)]
 
 
-def _check_generate_names(name: str, material: bool, light: str | None, relief: float) -> None:
-    """The flags generate's run cannot judge before it ends: the material set's name (its files
-    must not take one of generate's) and material flags without --material."""
+def _check_generate_names(name: str, material: bool) -> None:
+    """The name generate's run cannot judge before it ends: the material set's (its files must
+    not take one of generate's)."""
     from barkgen.io import check_material_name
     from barkgen.pipeline import check_generate_names
 
-    if not material and (light is not None or relief != 1.0):
-        raise InvalidInputError("--light and --relief apply to the material set: add --material")
     if material:
         check_generate_names(name, words=("--name", "--extra name"))
     else:

@@ -10,6 +10,7 @@ from typing import Annotated, Optional
 import typer
 
 from barkgen._shared.checks import parse_size
+from barkgen._shared.memory import parse_memory
 from barkgen.cli._common import (
     ExemplarWrapsOption,
     LightOption,
@@ -23,7 +24,6 @@ from barkgen.cli._common import (
     check_folder,
     check_target,
     parse_light,
-    parse_memory,
     progress_bar,
     refuse_targets,
     write_files,

@@ -9,6 +9,7 @@ from typing import Annotated, Optional
 import typer
 
 from barkgen._shared.checks import parse_size
+from barkgen._shared.memory import parse_memory
 from barkgen.cli._common import (
     ExemplarWrapsOption,
     MaxMemoryOption,
@@ -24,7 +25,6 @@ from barkgen.cli._common import (
     check_folder,
     check_target,
     level_files,
-    parse_memory,
     progress_bar,
     read_resume,
     refuse_input_folder,

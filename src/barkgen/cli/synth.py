@@ -9,6 +9,7 @@ from typing import Annotated, Optional
 import typer
 
 from barkgen._shared.checks import parse_size
+from barkgen._shared.memory import parse_memory
 from barkgen.cli._common import (
     BitsOption,
     BlendOption,
@@ -26,7 +27,6 @@ from barkgen.cli._common import (
     check_folder,
     check_target,
     parse_extras,
-    parse_memory,
     progress_bar,
     refuse_input_folder,
     refuse_targets,

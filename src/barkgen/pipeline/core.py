@@ -26,8 +26,9 @@ import numpy as np
 from barkgen.errors import InvalidInputError
 from barkgen.synth.edges import resolve_exemplar_wrap
 from barkgen._shared.arrays import ProgressCallback
-from barkgen._shared.checks import MAX_PHOTO_PIXELS, parse_output_shape
-from barkgen._shared.memory import check_budget_value, check_memory_budget
+from barkgen._shared.checks import MAX_PHOTO_PIXELS, parse_output_shape, parse_size
+from barkgen._shared.memory import check_budget_value, check_memory_budget, parse_memory
+from barkgen._shared.options import option, option_fields
 from barkgen._shared.threads import in_budget, thread_budget
 from barkgen.pipeline.progress import ANALYSIS_SHARES, share_spans, stage_progress
 
@@ -36,6 +37,24 @@ if TYPE_CHECKING:
     from barkgen.synth import AnalysisCache
 
 LABEL_METHODS = ("color", "texton")
+#: the options the web app does not offer: its label maps are cached per k, made with colour
+#: labels across the photo's wrap as generate's defaults make them
+_NOT_WEB = ("cli", "batch")
+
+
+def _size_text(size: tuple[int, int]) -> str:
+    return f"{size[1]}x{size[0]}"
+
+
+def _parse_light(text: str) -> Light:
+    from barkgen.material import parse_light
+
+    return parse_light(text)
+
+
+def _light_text(light: Light) -> str:
+    return f"{light.azimuth:g},{light.elevation:g}"
+
 
 #: the pyramid level texture-by-numbers takes up each strategy's label-map references at
 #: (measured on the ten bark photos: joint at level 0/1/2 gave oak coherence 1.21/1.28/1.35x
@@ -95,22 +114,54 @@ class GenerateOptions:
     (256, 256)
     """
 
-    size: tuple[int, int] = (1024, 1024)
-    k: int = 3
-    method: str = "color"
-    strategy: str = "joint"
-    rotations: str = "vertical"
-    tile: bool = False
-    seed: int = 0
-    label_weight: float = 20.0
-    feature_weight: float = 8.0
-    threads: int | None = None
-    max_memory: int | None = None
-    material: bool = False
-    light: Light | None = None
-    relief: float = 1.0
-    exemplar_wrap: str = "auto"
-    blend: str = "gradient"
+    size: tuple[int, int] = option(
+        (1024, 1024), "Output size WIDTHxHEIGHT.", parse=parse_size, text=_size_text,
+        analysis=True)
+    k: int = option(3, "Number of labels of the photo's label map (1-16).", kind=int,
+                    minimum=1, maximum=16, analysis=True)
+    method: str = option(
+        "color", "Input label map: color (laitoch2018 §3.5) or texton (wang2003 §3.2).",
+        choices=LABEL_METHODS, analysis=True, fronts=_NOT_WEB)
+    strategy: str = option(
+        "joint", "Output label maps: joint (the core engine on one-hot label channels and the "
+        "photo's colours), engine (label channels alone) or layered (Rosenberger et al.'s layered "
+        "shape synthesis, laitoch2018 §3.6).", choices=("joint", "engine", "layered"), analysis=True)
+    rotations: str = option(
+        "vertical", "Layered strategy: boundary patches may turn none, vertical (180°) or all "
+        "(90° steps).", choices=("none", "vertical", "all"))
+    tile: bool = option(False, "Make the output tile seamlessly.", kind=bool)
+    seed: int = option(0, "Random seed (same seed, same bytes).", kind=int, minimum=0,
+                       fronts=("cli", "web"))  # a batch spec's seeds are its entries' own
+    label_weight: float = option(20.0, "Texture-by-numbers' label weight (laitoch2018 eq. 3.1).",
+                                 kind=float, minimum=0)
+    feature_weight: float = option(
+        8.0, "Texture-by-numbers' feature-distance weight (laitoch2018 eq. 3.3).", kind=float,
+        minimum=0, analysis=True)
+    threads: int | None = option(None, "Worker threads (default: all cores).", kind=int,
+                                 minimum=1, fronts=("cli",))
+    max_memory: int | None = option(
+        None, "Refuse jobs estimated to need more memory than this, e.g. 8G (default: what the "
+        "machine has free).", parse=parse_memory, fronts=("cli",))
+    material: bool = option(
+        False, "Also make the material set of the new bark (NAME_Color, NormalGL/DX, Displacement "
+        "16-bit, Roughness, AmbientOcclusion, NAME.json).", kind=bool, analysis=True)
+    light: Light | None = option(
+        None, "The photo's light AZ,EL in degrees (azimuth counter-clockwise from the right, "
+        "elevation above the surface) for shading removal; needs material. Default: estimated.",
+        parse=_parse_light, text=_light_text, analysis=True)
+    relief: float = option(
+        1.0, "Relief strength of the estimated height (1 = as fitted on scanned bark; 2 doubles "
+        "its depth and its slopes; normals and AO follow); needs material.", kind=float,
+        minimum=0, maximum=100, analysis=True)
+    exemplar_wrap: str = option(
+        "auto", "auto: the photo is used as a torus along each axis along which it tiles itself "
+        "(its last row continues into its first), so pieces run on across its edge; yes / no: "
+        "force it.", flag="--exemplar-wraps", choices=("auto", "yes", "no"), analysis=True,
+        fronts=_NOT_WEB)
+    blend: str = option(
+        "gradient", "gradient: the colour's seams between copied pieces blended in the gradient "
+        "domain (Pérez et al. 2003); none: every pixel an exact copy of the photo's.",
+        choices=("gradient", "none"))
 
     def __post_init__(self) -> None:
         from barkgen._shared.checks import check_k, check_seed
@@ -133,6 +184,8 @@ class GenerateOptions:
             raise InvalidInputError("label and feature weights must be >= 0")
         if not (np.isfinite(self.relief) and 0 < self.relief <= 100):
             raise InvalidInputError(f"relief must be in (0, 100], not {self.relief:g}")
+        if not self.material and (self.light is not None or self.relief != 1.0):
+            raise InvalidInputError("light and relief apply to the material set: turn material on")
         if self.light is not None:
             from barkgen.material import Light
 
@@ -221,9 +274,10 @@ def _check_analysis(analysis: PhotoAnalysis, photo: np.ndarray, options: Generat
     """Refuse a shared :class:`PhotoAnalysis` that does not belong to this photo and options."""
     if labels_in is not None:
         raise InvalidInputError("give the label map to analyze_photo, not with an analysis")
-    if analysis.options is not None and _analysis_key(analysis.options) != _analysis_key(options):
-        raise InvalidInputError("the photo analysis was made with other options (k, method, "
-                                "material, light, relief); analyse the photo again")
+    if analysis.options is not None and analysis_key(analysis.options) != analysis_key(options):
+        names = ", ".join(f.name for f in option_fields(GenerateOptions) if f.info.analysis)
+        raise InvalidInputError(f"the photo analysis was made with other options (of {names}); "
+                                "analyse the photo again")
     if analysis.labels_in.shape[:2] != np.asarray(photo).shape[:2]:
         raise InvalidInputError("the photo analysis belongs to a photo of another size")
 
@@ -270,11 +324,11 @@ class PhotoAnalysis:
     seconds: float = 0.0
 
 
-def _analysis_key(options: GenerateOptions) -> tuple:
-    """The options a :class:`PhotoAnalysis` depends on."""
-    light = None if options.light is None else (options.light.azimuth, options.light.elevation)
-    return (options.k, options.method, options.material, light, options.relief,
-            options.exemplar_wrap)
+def analysis_key(options: GenerateOptions) -> tuple:
+    """The options a :class:`PhotoAnalysis` depends on (the fields declared ``analysis=True``),
+    as a hashable tuple: two runs whose keys agree may share one analysis."""
+    return tuple((f.name, getattr(options, f.name))
+                 for f in option_fields(type(options)) if f.info.analysis)
 
 
 def analyze_photo(

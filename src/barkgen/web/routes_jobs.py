@@ -18,13 +18,15 @@ import re
 import secrets
 import warnings
 from collections.abc import AsyncIterator, Awaitable, Callable
+from typing import Literal
 
 import numpy as np
 from fastapi import APIRouter, Request
 from fastapi.responses import StreamingResponse
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, Field, create_model
 
 from barkgen._shared.checks import parse_size
+from barkgen._shared.options import OptionField, option_fields
 from barkgen.errors import InvalidInputError
 from barkgen.io import AlphaDroppedWarning, decode_image
 from barkgen.labels.preview import label_colours
@@ -42,14 +44,41 @@ class ResumeRequest(BaseModel):
     labels: str  # data:image/png;base64,...
 
 
-class JobRequest(BaseModel):
-    exemplar_id: int
-    size: str = "512x512"
-    seed: int | None = Field(default=None, ge=0, lt=2**63)
-    k: int = 3
-    tile: bool = True
-    material: bool = True
-    resume: ResumeRequest | None = None
+#: the web app's defaults where they are not GenerateOptions' own (a seed of None: a random one)
+WEB_DEFAULTS = {"size": "512x512", "tile": True, "material": True, "seed": None}
+
+
+def job_request_model(options_class: type = GenerateOptions) -> type[BaseModel]:
+    """The generate request's schema: the exemplar, a painted level to continue from, and every
+    field of ``options_class`` the web offers (:mod:`barkgen._shared.options`) with its help,
+    range and the web's default."""
+    fields: dict = {"exemplar_id": (int, ...), "resume": (ResumeRequest | None, None)}
+    for f in option_fields(options_class, "web"):
+        default = WEB_DEFAULTS.get(f.name, f.default_text)
+        kind = Literal[f.info.choices] if f.info.choices else f.info.kind
+        kind = kind if default is not None else kind | None
+        limits = {}
+        if f.info.kind in (int, float):
+            limits = {"ge": f.info.minimum, "le": f.info.maximum}
+        if f.name == "seed":
+            limits["lt"] = 2**63
+        fields[f.name] = (kind, Field(default=default, description=f.info.help, **limits))
+    return create_model("JobRequest", **fields)
+
+
+JobRequest = job_request_model()
+
+
+def _shown(field: OptionField, value):
+    """An option's value as the job's JSON shows it (a light as ``"AZ,EL"``)."""
+    return field.info.text(value) if field.info.text is not None and value is not None else value
+
+
+def request_options(request: BaseModel, options_class: type = GenerateOptions, **given) -> dict:
+    """The ``options_class`` keywords of a request: each web field read from its text (a size,
+    a light), ``given`` in place of the request's own."""
+    return {f.name: given[f.name] if f.name in given else f.read(getattr(request, f.name))
+            for f in option_fields(options_class, "web")}
 
 
 def check_size(limits: WebLimits, text: str) -> tuple[int, int]:
@@ -116,10 +145,14 @@ def start_job(state: AppState, request: JobRequest) -> dict:
     exemplar = library.exemplar(request.exemplar_id)
     height, width = check_size(state.limits, request.size)
     seed = request.seed if request.seed is not None else secrets.randbelow(100_000)
-    options = GenerateOptions(size=(height, width), k=request.k, tile=request.tile, seed=seed,
-                              material=request.material, method=LABEL_METHOD)
+    values = {**request_options(request, size=(height, width), seed=seed), "method": LABEL_METHOD}
+    options = GenerateOptions(**values)
     params = {"size": [width, height], "k": options.k, "tile": options.tile, "seed": seed,
               "material": options.material, "resumed_from": None}
+    # the other options, where the request changed them
+    params.update({f.name: _shown(f, getattr(options, f.name))
+                   for f in option_fields(GenerateOptions, "web")
+                   if f.name not in params and getattr(options, f.name) != f.default})
     resume = None
     if request.resume is not None:
         resume = painted_level(state, request.resume, exemplar.id, params)
@@ -127,8 +160,7 @@ def start_job(state: AppState, request: JobRequest) -> dict:
     # the photo's label map when a page has made it already (else the worker makes it)
     grey = library.analysis(exemplar.id, "labels_in", labels_key(options.k))
     spec = {"source": exemplar.name, "set_name": f"bark{exemplar.id}_seed{seed}",
-            "options": {"size": (height, width), "k": options.k, "tile": options.tile,
-                        "seed": seed, "material": options.material, "method": LABEL_METHOD},
+            "options": values,
             "labels_in": grey, "resume": resume}
     job = state.jobs.submit(exemplar.id, params, spec,
                             parent_id=request.resume.result_id if request.resume else None,

@@ -99,7 +99,14 @@ def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
     ``("done", id, files, report)`` or ``("failed", id, message)``."""
     from barkgen.errors import BarkgenError
     from barkgen.io import decode_image
-    from barkgen.pipeline import GenerateOptions, analyze_photo, generate, stage_at, stage_span
+    from barkgen.pipeline import (
+        GenerateOptions,
+        analysis_key,
+        analyze_photo,
+        generate,
+        stage_at,
+        stage_span,
+    )
 
     last = [0.0]
     material = bool(spec.options.get("material", False))
@@ -115,8 +122,7 @@ def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
         photo = decode_image(spec.photo, spec.source)
         options = GenerateOptions(**spec.options)
         labels_in = decode_image(spec.labels_in, "labels") if spec.labels_in is not None else None
-        key = (spec.photo_hash, options.k, options.method, options.strategy, options.material,
-               options.size, options.relief)
+        key = (spec.photo_hash, analysis_key(options))
         analysis = analyses.get(key)
         if analysis is None:
             # generate() given an analysis reports from the end of its analysis stage on
