@@ -40,8 +40,10 @@ def assets_present(folder: Path = VENDOR) -> bool:
             and all((folder / target).is_file() for target in THREE_FILES.values()))
 
 
-def missing_warning(folder: Path = VENDOR) -> str | None:
-    """The line ``barkgen serve`` prints at start when three.js is not in ``folder``, or None."""
+def missing_warning(folder: Path | None = None) -> str | None:
+    """The line ``barkgen serve`` prints at start when three.js is not in ``folder`` (default
+    :data:`VENDOR`), or None."""
+    folder = VENDOR if folder is None else folder
     if assets_present(folder):
         return None
     return (f"barkgen: warning: three.js {THREE_VERSION} is missing from {folder}, so the web "
