@@ -9,7 +9,9 @@ Synthesis (:mod:`barkgen.synth`)
     :func:`synthesize`, :func:`texture_by_numbers`, :func:`apply_references`,
     :class:`SynthesisConfig`, :class:`SynthesisResult`.
 The one-click pipeline (:mod:`barkgen.pipeline`)
-    :func:`generate`, :class:`GenerateOptions`, :class:`GenerateResult`.
+    :func:`generate`, :class:`GenerateOptions`, :class:`GenerateResult`; :func:`warm_up`
+    compiles the numba kernels ahead (about 30 s once per install; the first run that has to
+    compile them logs a warning on the ``barkgen`` logger naming it).
 Label maps (:mod:`barkgen.shapes`, :mod:`barkgen.labels`)
     :func:`synthesize_label_map`.
 Material maps and the trunk (:mod:`barkgen.material`, :mod:`barkgen.render`)
@@ -62,6 +64,7 @@ _LAZY = {
     "HeightEditor": "barkgen.material",
     "render_trunk": "barkgen.render",
     "trunk_mesh": "barkgen.render",
+    "warm_up": "barkgen.pipeline",
 }
 
 __all__ = sorted(_LAZY) + ["__version__"]
@@ -71,7 +74,7 @@ if TYPE_CHECKING:  # pragma: no cover (the same names as _LAZY: tests/test_layou
     from barkgen.errors import BarkgenError
     from barkgen.io import read_image, write_png
     from barkgen.material import HeightEditor, MaterialOptions, MaterialSet, make_material
-    from barkgen.pipeline import GenerateOptions, GenerateResult, generate
+    from barkgen.pipeline import GenerateOptions, GenerateResult, generate, warm_up
     from barkgen.render import render_trunk, trunk_mesh
     from barkgen.shapes import synthesize_label_map
     from barkgen.synth import (
@@ -89,5 +92,12 @@ def __dir__() -> list[str]:
 
 def __getattr__(name: str) -> Any:
     if name in _LAZY:
-        return getattr(import_module(_LAZY[name]), name)
+        import sys
+
+        value = getattr(import_module(_LAZY[name]), name)
+        if "numba" in sys.modules:  # its module has kernels: a word if they compile
+            from barkgen._shared.compile_notice import watch
+
+            watch()
+        return value
     raise AttributeError(f"module 'barkgen' has no attribute {name!r}")

@@ -44,6 +44,9 @@ def thread_budget(threads: int | None = None) -> Iterator[int]:
     import scipy.fft
     from threadpoolctl import threadpool_limits
 
+    from barkgen._shared.compile_notice import watch
+
+    watch()  # a word when the kernels about to run compile (a cold cache)
     n = min(threads or _cores(), _cores())
     saved = numba.get_num_threads(), cv2.getNumThreads(), faiss.omp_get_max_threads()
     # BLAS first: faiss's own OpenBLAS is an OpenMP build, whose thread count is OpenMP's, so

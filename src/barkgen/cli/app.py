@@ -11,6 +11,7 @@ export-glb), :mod:`.serve`, :mod:`.warmup` (warm-up), and the sub-commands of
 from __future__ import annotations
 
 import functools
+import logging
 import sys
 import warnings
 from collections.abc import Callable
@@ -56,6 +57,25 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
     print(f"barkgen: warning: {message}", file=sys.stderr)
 
 
+class _NoteLine(logging.Handler):
+    """The library's word that its kernels compile (the ``barkgen.kernels`` logger, once per
+    process on a cold cache) as one line on stderr like the others, where the progress bar
+    would show: on a terminal, without ``--quiet``."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        print(f"barkgen: note: {record.getMessage()}", file=sys.stderr)
+
+
+_NOTES = _NoteLine()
+
+
+def _show_notes(show: bool) -> None:
+    logger = logging.getLogger("barkgen.kernels")
+    if _NOTES not in logger.handlers:
+        logger.addHandler(_NOTES)
+    _NOTES.setLevel(logging.NOTSET if show else logging.CRITICAL + 1)
+
+
 def user_errors(func: F) -> F:
     """Run a command so that every failure is one line on stderr, never a traceback:
     user errors exit with status 2, interruptions with 130, anything unexpected with 1."""
@@ -63,6 +83,7 @@ def user_errors(func: F) -> F:
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
         warnings.showwarning = _one_line_warning
+        _show_notes(not kwargs.get("quiet") and getattr(sys.stderr, "isatty", bool)())
         forget = None
         try:
             forget = guard_paths(kwargs)  # no output is an input; every output folder writable

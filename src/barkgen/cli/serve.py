@@ -37,9 +37,12 @@ def serve_command(
                        max_upload_pixels=int(max_upload_mp * 1e6))
 
     from barkgen.web.app import is_loopback
+    from barkgen.web.assets import missing_warning
 
     def ready(url: str) -> None:
         typer.echo(f"barkgen is running at {url}  (library: {lib.path}; Ctrl-C stops it)", err=True)
+        if (missing := missing_warning()) is not None:
+            typer.echo(missing, err=True)
         if not is_loopback(host):
             typer.echo(f"barkgen: warning: listening on {host}: anyone who can reach this machine "
                        "can use this server and its library (there is no login)", err=True)

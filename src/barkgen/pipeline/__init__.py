@@ -1,7 +1,8 @@
 """The one-click pipeline, photo -> new bark (laitoch2018 §1): :func:`generate` (arrays in,
 arrays out; :mod:`barkgen.pipeline.core`) and the files of one run, encoded
 (:func:`encode_generate`; :mod:`barkgen.pipeline.files`), which ``barkgen generate``,
-``barkgen batch`` and the web app write."""
+``barkgen batch`` and the web app write, and :func:`warm_up`, which compiles the numba kernels
+of a run ahead (:mod:`barkgen.pipeline.warmup`)."""
 
 from barkgen.pipeline.core import (
     ANALYSIS_SEED,
@@ -16,6 +17,7 @@ from barkgen.pipeline.core import (
 )
 from barkgen.pipeline.progress import stage_at, stage_span
 from barkgen.pipeline.files import GENERATE_FILES, check_generate_names, encode_generate
+from barkgen.pipeline.warmup import warm_up
 
 __all__ = [
     "ANALYSIS_SEED",
@@ -32,4 +34,5 @@ __all__ = [
     "preview_sheet",
     "stage_at",
     "stage_span",
+    "warm_up",
 ]

@@ -1,8 +1,11 @@
 """The web app's third-party browser assets, from the npm registry: three.js (MIT) for the
 WebGL trunk. They are not kept in the repository; ``python -m barkgen.web.assets`` (run by the
-README's set-up scripts) downloads the pinned release, checks it against the registry's
-published SHA-512 integrity, and unpacks the files the pages use, with three.js' licence, into
-``static/vendor/three/``. Without them the pages work and the 3D panel says what is missing."""
+README's set-up scripts, and by the wheel's build: ``setup.py``) downloads the pinned release,
+checks it against the registry's published SHA-512 integrity, and unpacks the files the pages
+use, with three.js' licence, into ``static/vendor/three/``. Without them the pages work, the 3D
+panel says what is missing and ``barkgen serve`` says so at start (:func:`missing_warning`).
+
+This module uses the standard library only: the build loads it from its file."""
 
 from __future__ import annotations
 
@@ -35,6 +38,16 @@ def assets_present(folder: Path = VENDOR) -> bool:
     stamp = folder / "VERSION"
     return (stamp.is_file() and stamp.read_text().strip() == THREE_VERSION
             and all((folder / target).is_file() for target in THREE_FILES.values()))
+
+
+def missing_warning(folder: Path | None = None) -> str | None:
+    """The line ``barkgen serve`` prints at start when three.js is not in ``folder`` (default
+    :data:`VENDOR`), or None."""
+    folder = VENDOR if folder is None else folder
+    if assets_present(folder):
+        return None
+    return (f"barkgen: warning: three.js {THREE_VERSION} is missing from {folder}, so the web "
+            "app's 3D trunk view is off; `python -m barkgen.web.assets` fetches it")
 
 
 def fetch_three(folder: Path = VENDOR, *, url: str = THREE_TARBALL, timeout: float = 60.0) -> Path:
