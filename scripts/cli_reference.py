@@ -35,11 +35,12 @@ commands go before the command (`barkgen --max-pixels N generate ...`). What the
 with examples, is in [Getting started](getting-started.md) and [How it works](how-it-works.md).
 """
 
-_MD_SPECIAL = re.compile(r"([\\`*_\[\]<>|#])")
+_MD_SPECIAL = re.compile(r"([\\`*_\[\]|#])")
 
 
 def escape(text: str) -> str:
     """Markdown-safe text: the characters Markdown or HTML would read as markup, escaped."""
+    text = text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
     return _MD_SPECIAL.sub(r"\\\1", text)
 
 
