@@ -17,7 +17,8 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 DOCS = REPO / "docs"
 PAGES = sorted([REPO / "README.md", REPO / "CONTRIBUTING.md", REPO / "CHANGELOG.md",
-                REPO / "benchmarks" / "README.md", *DOCS.rglob("*.md")])
+                REPO / "benchmarks" / "README.md", REPO / "examples" / "README.md",
+                *DOCS.rglob("*.md")])
 #: [text](target) and ![alt](target), the target up to a space or the closing parenthesis
 LINK = re.compile(r"!?\[(?:[^\[\]]|\[[^\]]*\])*\]\(\s*<?([^)\s>]+)>?(?:\s+\"[^\"]*\")?\s*\)")
 FENCE = re.compile(r"^(```|~~~).*?^\1[^\n]*$", re.MULTILINE | re.DOTALL)
