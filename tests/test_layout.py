@@ -155,7 +155,8 @@ def test_shapes_drive_the_solver_through_its_engine_face():
 
 
 #: house-wide checks, at the top of tests/
-HOUSE_TESTS = {"test_layout.py", "test_extras.py", "test_examples.py", "test_docs.py", "test_wheel.py"}
+HOUSE_TESTS = {"test_layout.py", "test_extras.py", "test_examples.py", "test_docs.py",
+               "test_docs_site.py", "test_wheel.py"}
 
 
 def test_tests_mirror_the_packages():
