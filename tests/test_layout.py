@@ -185,3 +185,32 @@ def test_the_public_names_are_one_list_seen_by_type_checkers_too():
                 typed.update({alias.name: imp.module for alias in imp.names})
     assert typed == barkgen._LAZY
     assert (init.parent / "py.typed").is_file()
+
+
+#: private top-level modules every package may use (the shared helpers, the version)
+SHARED_PRIVATE = ("barkgen._shared", "barkgen._version")
+
+
+def private_imports_across_packages(graph: dict[str, set[str]]) -> list[tuple[str, str]]:
+    """(importer, private module) pairs where a package imports another package's private
+    module (one whose dotted path has a part starting with ``_``, e.g. ``barkgen.synth._kernels``
+    or ``barkgen.cli._common``)."""
+    found = []
+    for name, targets in graph.items():
+        own = ".".join(name.split(".")[:2])
+        for target in targets:
+            parts = target.split(".")
+            if target.startswith(SHARED_PRIVATE) or not any(p.startswith("_") for p in parts[1:]):
+                continue
+            if ".".join(parts[:2]) != own:
+                found.append((name, target))
+    return sorted(found)
+
+
+def test_no_package_imports_another_packages_private_module():
+    assert private_imports_across_packages(import_graph(modules())) == []
+    # the check finds one when there is one
+    assert private_imports_across_packages({"barkgen.cli.synth": {"barkgen.synth._kernels"},
+                                            "barkgen.synth.solver": {"barkgen.synth._kernels",
+                                                                     "barkgen._shared.arrays"}}) \
+        == [("barkgen.cli.synth", "barkgen.synth._kernels")]

@@ -326,8 +326,8 @@ def test_the_job_queue_is_kept_in_the_library_across_restarts(library):
         client.delete(f"/api/jobs/{gone}")
         order = [job["id"] for job in client.get("/api/jobs").json()]
     # a server killed while a job ran left it "running" in the library
-    record = next(r for r in library.saved_jobs() if r["id"] == first)
-    library.save_job({**record, "state": "running", "started": time.time()})
+    record = next(r for r in library.jobs.saved() if r["id"] == first)
+    library.jobs.save({**record, "state": "running", "started": time.time()})
     manager = JobManager(Library(library.path))
     assert manager.snapshot(first)["state"] == "failed" and manager.snapshot(first)["error"] == INTERRUPTED
     assert manager.snapshot(gone)["state"] == "cancelled"

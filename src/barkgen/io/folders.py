@@ -18,7 +18,7 @@ import tempfile
 from pathlib import Path
 
 from barkgen.errors import InvalidInputError
-from barkgen.io.staging import _alive, _umask
+from barkgen.io.staging import current_umask, process_alive
 
 #: prefixes of the staging folders of :func:`write_folder_atomic`, followed by the writer's
 #: process id (stale ones, whose writer is gone, may be removed: :func:`remove_staging`)
@@ -119,8 +119,8 @@ def write_folder_atomic(folder: str | os.PathLike, files: dict[str, bytes]) -> P
                 fh.write(data)
                 fh.flush()
                 os.fsync(fh.fileno())
-            os.chmod(path, 0o666 & ~_umask())
-        os.chmod(staging, 0o777 & ~_umask())
+            os.chmod(path, 0o666 & ~current_umask())
+        os.chmod(staging, 0o777 & ~current_umask())
         old = None
         if folder.exists():
             old = Path(tempfile.mkdtemp(dir=folder.parent, prefix=f"{STAGING_PREFIXES[1]}{os.getpid()}."))
@@ -154,7 +154,7 @@ def remove_staging(parent: str | os.PathLike) -> int:
     if parent.is_dir():
         for path in parent.iterdir():
             match = _STAGING_NAME.match(path.name)
-            if match and path.is_dir() and not path.is_symlink() and not _alive(int(match.group(1))):
+            if match and path.is_dir() and not path.is_symlink() and not process_alive(int(match.group(1))):
                 shutil.rmtree(path, ignore_errors=True)
                 removed += 1
     return removed

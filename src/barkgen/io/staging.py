@@ -11,7 +11,8 @@ import tempfile
 from pathlib import Path
 
 
-def _umask() -> int:
+def current_umask() -> int:
+    """The process's umask (the mode a new file gets is ``0o666 & ~umask``)."""
     mask = os.umask(0o022)
     os.umask(mask)
     return mask
@@ -42,7 +43,8 @@ def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
 TEMPORARY_NAME = re.compile(r"^\.barkgen\.(\d+)\.[A-Za-z0-9_]+\.tmp$")
 
 
-def _alive(pid: int) -> bool:
+def process_alive(pid: int) -> bool:
+    """Whether process ``pid`` runs (another user's counts as running)."""
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
@@ -65,7 +67,7 @@ def remove_stale_temporaries(folder: str | os.PathLike) -> int:
         return 0
     for path in candidates:
         try:
-            if path.is_file() and not path.is_symlink() and not _alive(
+            if path.is_file() and not path.is_symlink() and not process_alive(
                     int(TEMPORARY_NAME.match(path.name).group(1))):
                 path.unlink()
                 removed += 1
@@ -124,7 +126,7 @@ def stage_files(folder: str | os.PathLike, files: dict[str, bytes],
                 fh.write(data)
                 fh.flush()
                 os.fsync(fh.fileno())
-            os.chmod(tmp, 0o666 & ~_umask())
+            os.chmod(tmp, 0o666 & ~current_umask())
         except OSError as exc:  # name the file the user asked for, not our temporary
             raise OSError(exc.errno, exc.strerror, str(folder / name)) from None
 

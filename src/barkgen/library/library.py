@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from barkgen.errors import BarkgenError, InvalidInputError
+from barkgen.library.jobs import JobTable
 from barkgen.library.records import Exemplar, Result
 from barkgen.library.schema import MIGRATIONS, SCHEMA_VERSION
 from barkgen.library.store import ObjectStore, content_hash
@@ -538,30 +539,10 @@ class Library:
             conn.execute("DELETE FROM results WHERE id = ?", (int(result_id),))
             self._sweep(conn)
 
-    # -- the web app's job queue ------------------------------------------------------------
-    _JOB_COLUMNS = ("id", "number", "kind", "exemplar_id", "params", "state", "spec", "parent_id",
-                    "labels_key", "result_id", "error", "created", "started", "finished")
-    _JOB_JSON = ("params", "spec", "labels_key")
-
-    def save_job(self, record: Mapping) -> None:
-        """Keep (or update) one web job: a mapping of the ``jobs`` columns (:mod:`.schema`);
-        ``params``, ``spec`` and ``labels_key`` are JSON values."""
-        values = [json.dumps(record.get(c)) if c in self._JOB_JSON else record.get(c)
-                  for c in self._JOB_COLUMNS]
-        with self._transaction() as conn:
-            conn.execute(f"INSERT OR REPLACE INTO jobs ({', '.join(self._JOB_COLUMNS)}) "
-                         f"VALUES ({', '.join('?' * len(self._JOB_COLUMNS))})", values)
-
-    def saved_jobs(self) -> list[dict]:
-        """Every kept web job, in submission order (:meth:`save_job`'s mappings)."""
-        rows = self._read("SELECT * FROM jobs ORDER BY number")
-        return [{c: json.loads(row[c]) if c in self._JOB_JSON else row[c] for c in self._JOB_COLUMNS}
-                for row in rows]
-
-    def forget_jobs(self, job_ids) -> None:
-        """Drop web jobs from the kept queue (old finished ones)."""
-        with self._transaction() as conn:
-            conn.executemany("DELETE FROM jobs WHERE id = ?", [(str(i),) for i in job_ids])
+    @property
+    def jobs(self) -> JobTable:
+        """The web app's job queue kept in this library (:class:`~barkgen.library.jobs.JobTable`)."""
+        return JobTable(self._transaction, self._read)
 
     # -- housekeeping ---------------------------------------------------------------------
     def _sweep(self, conn) -> int:

@@ -31,7 +31,7 @@ import numpy as np
 
 from barkgen.errors import BarkgenError
 from barkgen.library import Library, LibraryError, NotFoundError
-from barkgen.web.worker import JobSpec, LabelSpec, worker_main
+from barkgen.web.worker import Done, Failed, JobSpec, LabelSpec, Progress, worker_main
 
 STATES = ("queued", "running", "done", "failed", "cancelled")
 FINISHED = ("done", "failed", "cancelled")
@@ -257,11 +257,11 @@ class JobManager:
         for job in old:
             del self._jobs[job.id]
         if old:
-            self._keep(self.library.forget_jobs, [job.id for job in old])
+            self._keep(self.library.jobs.forget, [job.id for job in old])
 
     def _save(self, job: Job) -> None:
         """Keep the job's state in the library (its spec only while it may still run)."""
-        self._keep(self.library.save_job, {
+        self._keep(self.library.jobs.save, {
             "id": job.id, "number": job.order, "kind": job.kind, "exemplar_id": job.exemplar_id,
             "params": job.params, "state": job.state,
             "spec": spec_to_json(job.spec) if job.state not in FINISHED else None,
@@ -279,7 +279,7 @@ class JobManager:
         """The queue kept in the library: waiting jobs wait again (label jobs first, as they
         were queued), a job that was running is failed with :data:`INTERRUPTED`."""
         try:
-            records = self.library.saved_jobs()
+            records = self.library.jobs.saved()
         except (LibraryError, sqlite3.Error) as exc:
             _log.warning("the kept job queue cannot be read (%s)", exc)
             return
@@ -382,25 +382,23 @@ class JobManager:
                 return
             if message is None:
                 continue
-            kind = message[0]
-            if kind == "progress":
+            if isinstance(message, Progress):
                 with self._lock:
-                    self._set(job, progress=float(message[2]),
-                              stage=message[3] if len(message) > 3 else None)
-            elif kind == "failed":
-                self._finish(job, state="failed", error=message[2])
+                    self._set(job, progress=float(message.fraction), stage=message.stage)
+            elif isinstance(message, Failed):
+                self._finish(job, state="failed", error=message.error)
                 return
-            elif kind == "done" and job.kind == "labels":
+            elif isinstance(message, Done) and job.kind == "labels":
                 try:
                     self.library.put_analysis(job.exemplar_id, "labels_in", job.labels_key,
-                                              message[2]["labels_in.png"])
+                                              message.files["labels_in.png"])
                 except Exception as exc:  # the exemplar was removed, disk full, ...
                     self._finish(job, state="failed", error=f"could not store the label map ({exc})")
                     return
                 self._finish(job, state="done", progress=1.0)
                 return
-            elif kind == "done":
-                files, report = message[2], message[3]
+            elif isinstance(message, Done):
+                files, report = message.files, message.report
                 try:
                     result = self.library.add_result(job.exemplar_id, job.params, job.params["seed"],
                                                      files, report.get("timings_s", {}),

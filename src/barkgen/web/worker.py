@@ -17,6 +17,38 @@ from dataclasses import dataclass
 
 import numpy as np
 
+
+
+@dataclass(frozen=True)
+class Progress:
+    """A job's progress: the fraction done and the stage it is in."""
+
+    job_id: str
+    fraction: float
+    stage: str | None = None
+
+
+@dataclass(frozen=True)
+class Done:
+    """A job's files (name -> bytes) and its report (generate's ``report``; empty for a label
+    map)."""
+
+    job_id: str
+    files: dict[str, bytes]
+    report: dict
+
+
+@dataclass(frozen=True)
+class Failed:
+    """A job that failed, in one line."""
+
+    job_id: str
+    error: str
+
+
+#: what the worker sends back for a job (picklable)
+WorkerMessage = Progress | Done | Failed
+
 #: photo analyses kept in the worker (each is tens of MB for a 1024 px photo)
 ANALYSES_KEPT = 3
 #: at most one progress message per this many seconds
@@ -48,27 +80,27 @@ class LabelSpec:
 
 
 def run_labels(spec: LabelSpec, send) -> None:
-    """Make one photo's label map, reporting ``("done", id, {"labels_in.png": PNG}, {})`` or
-    ``("failed", id, message)`` through ``send``."""
+    """Make one photo's label map, reporting :class:`Done` (``{"labels_in.png": PNG}``) or
+    :class:`Failed` through ``send``."""
     from barkgen.errors import BarkgenError
     from barkgen.io import decode_image, encode_png
     from barkgen.labels import color_regions
     from barkgen.pipeline import ANALYSIS_SEED, GenerateOptions
     from barkgen.synth.edges import resolve_exemplar_wrap
 
-    send(("progress", spec.job_id, 0.0, "label map"))
+    send(Progress(spec.job_id, 0.0, "label map"))
     try:
         photo = decode_image(spec.photo, "photo")
         # the label map generate makes of this photo: across its edges where it tiles
         wrap = resolve_exemplar_wrap(GenerateOptions().exemplar_wrap, photo)
         data = encode_png(color_regions(photo, spec.k, seed=ANALYSIS_SEED, wrap=wrap))
     except BarkgenError as exc:
-        send(("failed", spec.job_id, str(exc)))
+        send(Failed(spec.job_id, str(exc)))
         return
     except MemoryError:
-        send(("failed", spec.job_id, "out of memory while making the label map"))
+        send(Failed(spec.job_id, "out of memory while making the label map"))
         return
-    send(("done", spec.job_id, {"labels_in.png": data}, {}))
+    send(Done(spec.job_id, {"labels_in.png": data}, {}))
 
 
 def encode_result(photo: np.ndarray, result, spec: JobSpec) -> dict[str, bytes]:
@@ -95,8 +127,8 @@ def encode_result(photo: np.ndarray, result, spec: JobSpec) -> dict[str, bytes]:
 
 
 def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
-    """Run one job, reporting through ``send(message)``: ``("progress", id, fraction, stage)``, then
-    ``("done", id, files, report)`` or ``("failed", id, message)``."""
+    """Run one job, reporting through ``send(message)``: :class:`Progress` messages, then
+    :class:`Done` or :class:`Failed`."""
     from barkgen.errors import BarkgenError
     from barkgen.io import decode_image
     from barkgen.pipeline import (
@@ -116,7 +148,7 @@ def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
         if now - last[0] >= PROGRESS_INTERVAL_S or done >= total:
             last[0] = now
             fraction = done / max(total, 1)
-            send(("progress", spec.job_id, fraction, stage_at(fraction, material)))
+            send(Progress(spec.job_id, fraction, stage_at(fraction, material)))
 
     try:
         photo = decode_image(spec.photo, spec.source)
@@ -138,19 +170,19 @@ def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
         result = generate(photo, options, analysis=analysis, resume=spec.resume, progress=progress)
         files = encode_result(photo, result, spec)
     except BarkgenError as exc:
-        send(("failed", spec.job_id, str(exc)))
+        send(Failed(spec.job_id, str(exc)))
         return
     except MemoryError:
-        send(("failed", spec.job_id, "out of memory: try a smaller size"))
+        send(Failed(spec.job_id, "out of memory: try a smaller size"))
         return
     except Exception as exc:  # a bug: report it in one line, keep the worker alive
         traceback.print_exc()
-        send(("failed", spec.job_id, f"internal error ({type(exc).__name__}: {exc})"))
+        send(Failed(spec.job_id, f"internal error ({type(exc).__name__}: {exc})"))
         return
     try:
-        send(("done", spec.job_id, files, result.report))
+        send(Done(spec.job_id, files, result.report))
     except (OSError, ValueError, TypeError) as exc:  # a pipe error, a report that does not pickle
-        send(("failed", spec.job_id, f"could not send the result ({exc})"))
+        send(Failed(spec.job_id, f"could not send the result ({exc})"))
 
 
 def worker_main(conn) -> None:
