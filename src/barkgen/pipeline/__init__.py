@@ -6,15 +6,13 @@ of a run ahead (:mod:`barkgen.pipeline.warmup`)."""
 
 from barkgen.pipeline.core import (
     ANALYSIS_SEED,
-    LABEL_METHODS,
-    GenerateOptions,
     GenerateResult,
     PhotoAnalysis,
-    analysis_key,
     analyze_photo,
     generate,
     preview_sheet,
 )
+from barkgen.pipeline.options import LABEL_METHODS, GenerateOptions, analysis_key
 from barkgen.pipeline.progress import stage_at, stage_span
 from barkgen.pipeline.files import GENERATE_FILES, check_generate_names, encode_generate
 from barkgen.pipeline.warmup import warm_up

@@ -56,7 +56,8 @@ def _synth(crop) -> None:
 
 def _generate(crop, folder: Path) -> None:
     from barkgen.io import write_folder_atomic
-    from barkgen.pipeline.core import GenerateOptions, generate
+    from barkgen.pipeline.core import generate
+    from barkgen.pipeline.options import GenerateOptions
     from barkgen.pipeline.files import encode_generate
 
     for wrap in ("no", "yes"):

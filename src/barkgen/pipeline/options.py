@@ -1,0 +1,176 @@
+"""The options of :func:`barkgen.pipeline.generate`, one source for every front end: each
+field's default, range, help and front ends (:func:`barkgen._shared.options.option`), the
+cross-field rules, and the key of what a photo's analysis depends on."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from barkgen._shared.checks import parse_output_shape, parse_size
+from barkgen._shared.memory import check_budget_value, parse_memory
+from barkgen._shared.options import option, option_fields
+from barkgen.errors import InvalidInputError
+
+if TYPE_CHECKING:
+    from barkgen.material import Light
+
+LABEL_METHODS = ("color", "texton")
+#: the options the web app does not offer: its label maps are cached per k, made with colour
+#: labels across the photo's wrap as generate's defaults make them
+_NOT_WEB = ("cli", "batch")
+
+
+def _size_text(size: tuple[int, int]) -> str:
+    return f"{size[1]}x{size[0]}"
+
+
+def _parse_light(text: str) -> Light:
+    from barkgen.material import parse_light
+
+    return parse_light(text)
+
+
+def _light_text(light: Light) -> str:
+    return f"{light.azimuth:g},{light.elevation:g}"
+
+
+@dataclass(frozen=True)
+class GenerateOptions:
+    """Parameters of :func:`generate`, validated once here.
+
+    Parameters
+    ----------
+    size : (int, int), default (1024, 1024)
+        Output ``(height, width)`` (or anything :func:`parse_output_shape` reads).
+    k : int, default 3
+        Labels of the input label map.
+    method : {"color", "texton"}, default "color"
+        How the input label map is made (:mod:`barkgen.labels`).
+    strategy : {"joint", "engine", "layered"}, default "joint"
+        How the output label map is made (:mod:`barkgen.shapes`).
+    rotations : {"none", "vertical", "all"}, default "vertical"
+        Boundary-patch rotations of the layered strategy.
+    tile : bool, default False
+        Tileable output.
+    seed : int, default 0
+        The one seed behind every random choice of a variant.
+    label_weight, feature_weight : float, default 20.0, 8.0
+        Texture-by-numbers weights (laitoch2018 eq. 3.1, 3.3).
+    threads : int, optional
+        Solver threads (None: all cores).
+    max_memory : int, optional
+        Refuse jobs whose estimated memory exceeds this many bytes (None: what the machine
+        has free when the run starts).
+    material : bool, default False
+        Also make the output's material set (:mod:`barkgen.material`).
+    light : Light, optional
+        The photo's :class:`~barkgen.material.Light` for its shading removal (``None``:
+        estimated).
+    relief : float, default 1.0
+        The height's strength (1 = as fitted).
+    exemplar_wrap : {"auto", "yes", "no"}, default "auto"
+        ``auto``: the photo is used as a torus along each axis it tiles along
+        (:func:`barkgen.synth.exemplar_wraps`).
+    blend : {"gradient", "none"}, default "gradient"
+        ``gradient``: the colour's seams between copied pieces (and the albedo's) blended in
+        the gradient domain (:func:`barkgen.synth.gradient.blend_seams`); ``none``: every
+        pixel an exact copy of its reference.
+
+    Raises
+    ------
+    InvalidInputError
+        Any option out of range (one line).
+
+    Examples
+    --------
+    >>> GenerateOptions(size=256, tile=True).size
+    (256, 256)
+    """
+
+    size: tuple[int, int] = option(
+        (1024, 1024), "Output size WIDTHxHEIGHT.", parse=parse_size, text=_size_text,
+        analysis=True)
+    k: int = option(3, "Number of labels of the photo's label map (1-16).", kind=int,
+                    minimum=1, maximum=16, analysis=True)
+    method: str = option(
+        "color", "Input label map: color (laitoch2018 §3.5) or texton (wang2003 §3.2).",
+        choices=LABEL_METHODS, analysis=True, fronts=_NOT_WEB)
+    strategy: str = option(
+        "joint", "Output label maps: joint (the core engine on one-hot label channels and the "
+        "photo's colours), engine (label channels alone) or layered (Rosenberger et al.'s layered "
+        "shape synthesis, laitoch2018 §3.6).", choices=("joint", "engine", "layered"), analysis=True)
+    rotations: str = option(
+        "vertical", "Layered strategy: boundary patches may turn none, vertical (180°) or all "
+        "(90° steps).", choices=("none", "vertical", "all"))
+    tile: bool = option(False, "Make the output tile seamlessly.", kind=bool)
+    seed: int = option(0, "Random seed (same seed, same bytes).", kind=int, minimum=0,
+                       fronts=("cli", "web"))  # a batch spec's seeds are its entries' own
+    label_weight: float = option(20.0, "Texture-by-numbers' label weight (laitoch2018 eq. 3.1).",
+                                 kind=float, minimum=0)
+    feature_weight: float = option(
+        8.0, "Texture-by-numbers' feature-distance weight (laitoch2018 eq. 3.3).", kind=float,
+        minimum=0, analysis=True)
+    threads: int | None = option(None, "Worker threads (default: all cores).", kind=int,
+                                 minimum=1, fronts=("cli",))
+    max_memory: int | None = option(
+        None, "Refuse jobs estimated to need more memory than this, e.g. 8G (default: what the "
+        "machine has free).", parse=parse_memory, fronts=("cli",))
+    material: bool = option(
+        False, "Also make the material set of the new bark (NAME_Color, NormalGL/DX, Displacement "
+        "16-bit, Roughness, AmbientOcclusion, NAME.json).", kind=bool, analysis=True)
+    light: Light | None = option(
+        None, "The photo's light AZ,EL in degrees (azimuth counter-clockwise from the right, "
+        "elevation above the surface) for shading removal; needs material. Default: estimated.",
+        parse=_parse_light, text=_light_text, analysis=True)
+    relief: float = option(
+        1.0, "Relief strength of the estimated height (1 = as fitted on scanned bark; 2 doubles "
+        "its depth and its slopes; normals and AO follow); needs material.", kind=float,
+        minimum=0, maximum=100, analysis=True)
+    exemplar_wrap: str = option(
+        "auto", "auto: the photo is used as a torus along each axis along which it tiles itself "
+        "(its last row continues into its first), so pieces run on across its edge; yes / no: "
+        "force it.", flag="--exemplar-wraps", choices=("auto", "yes", "no"), analysis=True,
+        fronts=_NOT_WEB)
+    blend: str = option(
+        "gradient", "gradient: the colour's seams between copied pieces blended in the gradient "
+        "domain (Pérez et al. 2003); none: every pixel an exact copy of the photo's.",
+        choices=("gradient", "none"))
+
+    def __post_init__(self) -> None:
+        from barkgen._shared.checks import check_k, check_seed
+        from barkgen.shapes import STRATEGIES, check_rotations
+        from barkgen.synth.edges import check_wrap_mode
+        from barkgen.synth.gradient import check_blend
+
+        check_wrap_mode(self.exemplar_wrap)
+        check_blend(self.blend)
+        object.__setattr__(self, "size", parse_output_shape(self.size))
+        check_k(self.k)
+        check_seed(self.seed)
+        check_rotations(self.rotations)
+        check_budget_value(self.max_memory)
+        if self.method not in LABEL_METHODS:
+            raise InvalidInputError(f"method must be one of {', '.join(LABEL_METHODS)}, not {self.method!r}")
+        if self.strategy not in STRATEGIES:
+            raise InvalidInputError(f"strategy must be one of {', '.join(STRATEGIES)}, not {self.strategy!r}")
+        if self.label_weight < 0 or self.feature_weight < 0:
+            raise InvalidInputError("label and feature weights must be >= 0")
+        if not (np.isfinite(self.relief) and 0 < self.relief <= 100):
+            raise InvalidInputError(f"relief must be in (0, 100], not {self.relief:g}")
+        if not self.material and (self.light is not None or self.relief != 1.0):
+            raise InvalidInputError("light and relief apply to the material set: turn material on")
+        if self.light is not None:
+            from barkgen.material import Light
+
+            if not isinstance(self.light, Light):
+                raise InvalidInputError("light must be a barkgen.material.Light (or None: estimated)")
+
+
+def analysis_key(options: GenerateOptions) -> tuple:
+    """The options a :class:`PhotoAnalysis` depends on (the fields declared ``analysis=True``),
+    as a hashable tuple: two runs whose keys agree may share one analysis."""
+    return tuple((f.name, getattr(options, f.name))
+                 for f in option_fields(type(options)) if f.info.analysis)
