@@ -170,20 +170,22 @@ def test_tests_mirror_the_packages():
 
 
 def test_the_public_names_are_one_list_seen_by_type_checkers_too():
-    """barkgen/__init__.py imports its public names lazily (``_LAZY``) and again under
-    ``TYPE_CHECKING`` for IDEs and type checkers: the two lists drifted once (make_material,
-    MaterialSet, HeightEditor, render_trunk and trunk_mesh were invisible to type checkers).
-    They name the same things from the same modules, and the package says it is typed."""
+    """The public names are listed once, in ``barkgen/__init__.pyi`` (type checkers and IDEs
+    read it), and ``barkgen/__init__.py`` imports each of them lazily from it: the stub's
+    ``__all__`` is every name it imports, each name resolves, and the package says it is typed.
+    (Two hand-kept lists drifted once: make_material, MaterialSet, HeightEditor, render_trunk
+    and trunk_mesh were invisible to type checkers.)"""
     import barkgen
 
     init = Path(barkgen.__file__)
-    tree = ast.parse(init.read_text())
-    typed = {}
-    for node in ast.walk(tree):
-        if isinstance(node, ast.If) and getattr(node.test, "id", None) == "TYPE_CHECKING":
-            for imp in node.body:
-                typed.update({alias.name: imp.module for alias in imp.names})
-    assert typed == barkgen._LAZY
+    stub = ast.parse((init.parent / "__init__.pyi").read_text())
+    imported = {alias.asname or alias.name for node in stub.body if isinstance(node, ast.ImportFrom)
+                for alias in node.names}
+    listed = next(ast.literal_eval(node.value) for node in stub.body
+                  if isinstance(node, ast.Assign) and node.targets[0].id == "__all__")
+    assert sorted(listed) == sorted(imported) == sorted(barkgen.__all__)
+    for name in barkgen.__all__:
+        assert getattr(barkgen, name) is not None, name
     assert (init.parent / "py.typed").is_file()
 
 

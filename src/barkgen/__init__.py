@@ -39,51 +39,25 @@ Examples
 
 from __future__ import annotations
 
+import ast
 from importlib import import_module
-from typing import TYPE_CHECKING, Any
+from pathlib import Path
+from typing import Any
 
 from barkgen._version import __version__
 
-_LAZY = {
-    "synthesize": "barkgen.synth",
-    "texture_by_numbers": "barkgen.synth",
-    "apply_references": "barkgen.synth",
-    "SynthesisConfig": "barkgen.synth",
-    "SynthesisResult": "barkgen.synth",
-    "BarkgenError": "barkgen.errors",
-    "read_image": "barkgen.io",
-    "write_png": "barkgen.io",
-    "sample_exemplar_path": "barkgen.data",
-    "generate": "barkgen.pipeline",
-    "GenerateOptions": "barkgen.pipeline",
-    "GenerateResult": "barkgen.pipeline",
-    "synthesize_label_map": "barkgen.shapes",
-    "make_material": "barkgen.material",
-    "MaterialOptions": "barkgen.material",
-    "MaterialSet": "barkgen.material",
-    "HeightEditor": "barkgen.material",
-    "render_trunk": "barkgen.render",
-    "trunk_mesh": "barkgen.render",
-    "warm_up": "barkgen.pipeline",
-}
+
+def _read_stub() -> dict[str, str]:
+    """Public name -> its module, from ``__init__.pyi`` (the one list of public names)."""
+    tree = ast.parse((Path(__file__).parent / "__init__.pyi").read_text(encoding="utf-8"))
+    return {alias.asname or alias.name: node.module for node in tree.body
+            if isinstance(node, ast.ImportFrom) and node.module != "barkgen._version"
+            for alias in node.names}
+
+
+_LAZY = _read_stub()
 
 __all__ = sorted(_LAZY) + ["__version__"]
-
-if TYPE_CHECKING:  # pragma: no cover (the same names as _LAZY: tests/test_layout.py checks)
-    from barkgen.data import sample_exemplar_path
-    from barkgen.errors import BarkgenError
-    from barkgen.io import read_image, write_png
-    from barkgen.material import HeightEditor, MaterialOptions, MaterialSet, make_material
-    from barkgen.pipeline import GenerateOptions, GenerateResult, generate, warm_up
-    from barkgen.render import render_trunk, trunk_mesh
-    from barkgen.shapes import synthesize_label_map
-    from barkgen.synth import (
-        SynthesisConfig,
-        SynthesisResult,
-        apply_references,
-        synthesize,
-        texture_by_numbers,
-    )
 
 
 def __dir__() -> list[str]:

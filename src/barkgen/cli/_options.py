@@ -19,7 +19,7 @@ def _parameter(field: OptionField) -> inspect.Parameter:
     kind = Optional[info.kind] if field.default is None else info.kind  # noqa: UP045 (typer)
     extra: dict[str, Any] = {}
     if info.choices is not None:  # (checked by the options class: its one-line error)
-        extra["metavar"] = "|".join(info.choices).upper()
+        extra["metavar"] = "{" + ",".join(info.choices) + "}"
     if info.kind in (int, float):
         extra.update(min=info.minimum, max=info.maximum)
     help_text = info.help if field.default is None or info.kind is bool else \
