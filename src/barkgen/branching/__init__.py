@@ -12,8 +12,9 @@
 """
 
 from barkgen.branching.extract import extract_structure, overlay_structure
+from barkgen.branching.grow import grow_structure
+from barkgen.branching.growth_options import GrowOptions, check_grow_size, estimate_grow_memory
 from barkgen.branching.mask import crack_mask
-from barkgen.branching.grow import GrowOptions, check_grow_size, estimate_grow_memory, grow_structure
 from barkgen.branching.model import BranchModel, ModelOptions, fit_model
 from barkgen.branching.render import RenderOptions, RenderResult, render_branches
 from barkgen.branching.stats import (

@@ -16,61 +16,17 @@ dried mud and reticulate bark close their cells.
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass
 
 import numpy as np
 
 import barkgen.branching._grow_kernels as K
+from barkgen.branching.growth_options import GrowOptions, check_grow_size
 from barkgen.branching.model import BranchModel, _wrap
 from barkgen.branching.structure import Branch, Structure, junction_radius
-from barkgen._shared.memory import check_budget_value, check_memory_budget
 from barkgen.errors import InvalidInputError
 
 EPSILON = 1e-3  # 1 / eps = 10^3 bounds the density scaling (§4.4)
 TOP = 16        # candidates kept after the bending quality, before histogram and density terms
-
-
-@dataclass(frozen=True)
-class GrowOptions:
-    """Stopping rules and space-colonisation parameters of :func:`grow_structure`."""
-
-    total_length: float | None = None  # pixels; default: the source's length per pixel x area
-    max_levels: int = 64               # branch generations below a root
-    rho: float | None = None           # density spread; default: learned from the source
-    fill: float = 2.0                  # stop adding roots when no pixel is farther than fill*rho
-    max_branches: int = 20000
-    max_memory: int | None = None      # bytes; refuse a size estimated above it (None: what is free)
-
-    def validate(self) -> "GrowOptions":
-        if self.total_length is not None and not 0 < self.total_length <= 1e8:
-            raise InvalidInputError(f"total length must be in (0, 1e8] pixels, got {self.total_length}")
-        if not 0 <= self.max_levels <= 1000:
-            raise InvalidInputError(f"levels must be in 0..1000, got {self.max_levels}")
-        if self.rho is not None and not 0.5 <= self.rho <= 1000:
-            raise InvalidInputError(f"rho must be in [0.5, 1000] pixels, got {self.rho}")
-        check_budget_value(self.max_memory)
-        return self
-
-
-#: bytes per output pixel of growth's maps (distance, density, nearest branch, vertex and
-#: tangent: 5 x 4 bytes) and the guide; measured peak RSS 5.3 GiB at 16384x16384 (5.2 estimated)
-GROW_BYTES_PER_PIXEL = 20
-GROW_BASE_BYTES = 200 * 2**20
-
-
-def estimate_grow_memory(size: tuple[int, int], guide: bool = False) -> int:
-    """Estimated peak bytes of :func:`grow_structure` at ``size = (width, height)``."""
-    return GROW_BASE_BYTES + int(size[0]) * int(size[1]) * (GROW_BYTES_PER_PIXEL + (4 if guide else 0))
-
-
-def check_grow_size(size: tuple[int, int], options: GrowOptions, guide: bool = False) -> None:
-    """Refuse, before any work, a growth size out of range (8 to 16384 px a side) or estimated
-    above ``options.max_memory`` (front ends call it before fitting the model)."""
-    w, h = int(size[0]), int(size[1])
-    if not (8 <= w <= 16384 and 8 <= h <= 16384):
-        raise InvalidInputError(f"size must be between 8x8 and 16384x16384, got {w}x{h}")
-    check_memory_budget(estimate_grow_memory((w, h), guide), options.max_memory,
-                        f"growing a structure of {w}x{h}")
 
 
 class _Tip:

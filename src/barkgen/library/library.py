@@ -13,44 +13,17 @@ from pathlib import Path
 
 import numpy as np
 
-from barkgen.errors import BarkgenError, InvalidInputError
+from barkgen.errors import InvalidInputError
+from barkgen.library.errors import LibraryError, NotFoundError, _ReadOnly
 from barkgen.library.jobs import JobTable
 from barkgen.library.records import Exemplar, Result
 from barkgen.library.schema import MIGRATIONS, SCHEMA_VERSION
-from barkgen.library.store import ObjectStore, content_hash
+from barkgen.library.store import ObjectStore, content_hash, default_library_path
 
 __all__ = ["Exemplar", "Library", "LibraryError", "NotFoundError", "Result", "default_library_path",
            "SCHEMA_VERSION"]
 
 SAMPLE_NAME = "Sample pine bark"
-
-
-class LibraryError(BarkgenError):
-    """The library folder or database cannot be used (a :class:`~barkgen.errors.BarkgenError`)."""
-
-
-class NotFoundError(LibraryError):
-    """No exemplar or result has the id asked for (a :class:`LibraryError`)."""
-
-
-class _ReadOnly(Exception):
-    """The database cannot be written (raised while migrating; the library is then read-only)."""
-
-
-def default_library_path() -> Path:
-    """The default library folder: ``$BARKGEN_LIBRARY``, else ``barkgen/library`` in the user's data
-    directory (``~/.local/share/barkgen/library`` on Linux).
-
-    Returns
-    -------
-    Path
-    """
-    env = os.environ.get("BARKGEN_LIBRARY")
-    if env:
-        return Path(env).expanduser()
-    import platformdirs
-
-    return platformdirs.user_data_path("barkgen") / "library"
 
 
 def _now() -> str:

@@ -66,3 +66,19 @@ class ObjectStore:
             return set()
         return {sub.name + path.name for sub in self.root.iterdir() if sub.is_dir()
                 for path in sub.iterdir() if _is_digest(sub.name + path.name)}
+
+
+def default_library_path() -> Path:
+    """The default library folder: ``$BARKGEN_LIBRARY``, else ``barkgen/library`` in the user's data
+    directory (``~/.local/share/barkgen/library`` on Linux).
+
+    Returns
+    -------
+    Path
+    """
+    env = os.environ.get("BARKGEN_LIBRARY")
+    if env:
+        return Path(env).expanduser()
+    import platformdirs
+
+    return platformdirs.user_data_path("barkgen") / "library"
