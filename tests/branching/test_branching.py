@@ -14,7 +14,7 @@ from conftest import SHARED, _need_shared
 
 from barkgen.branching import Branch, Structure
 from barkgen.branching.extract import extract_structure
-from barkgen.branching.grow import GrowOptions, grow_structure
+from barkgen.branching import GrowOptions, grow_structure
 from barkgen.branching.model import fit_model
 from barkgen.branching.stats import compare_structures, comparison_plot, self_intersections
 from barkgen.errors import InvalidInputError
@@ -181,7 +181,7 @@ def test_a_guide_map_draws_the_branches_into_its_valley(mud_source):
 
 
 def test_growth_estimates_its_memory_before_any_work(mud_source):
-    from barkgen.branching.grow import estimate_grow_memory
+    from barkgen.branching import estimate_grow_memory
     from barkgen.errors import MemoryBudgetError
 
     with pytest.raises(MemoryBudgetError, match="2048x2048"):
