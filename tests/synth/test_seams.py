@@ -10,9 +10,9 @@ import pytest
 
 from barkgen.errors import InvalidInputError
 from barkgen.synth import SynthesisConfig, exemplar_wraps, synthesize
-from barkgen.synth.cuts import cut_straight_seams
-from barkgen.synth.edges import edge_step_shares, resolve_exemplar_wrap
-from barkgen.synth.gradient import resolve_continuous
+from barkgen.synth.seams.cuts import cut_straight_seams
+from barkgen.synth._edges import edge_step_shares, resolve_exemplar_wrap
+from barkgen.synth.seams.gradient import resolve_continuous
 
 
 @pytest.fixture(scope="module")
@@ -160,7 +160,7 @@ def test_a_seam_stuck_at_the_exemplar_border_is_given_to_the_solver():
     that a cut can move is left to the cut."""
     from types import SimpleNamespace
 
-    from barkgen.synth.pieces import UNSTICK_DEPTH, offset_codes, unstick_border_seams
+    from barkgen.synth.seams.pieces import UNSTICK_DEPTH, offset_codes, unstick_border_seams
 
     eh, ew, H, W = 80, 120, 64, 96
     cy, cx = np.divmod(np.arange(eh * ew, dtype=np.int32), np.int32(ew))
@@ -204,7 +204,7 @@ def test_the_copy_size_control_cuts_a_piece_along_meandering_lines():
     close again, joining the piece), reproducibly from the generator."""
     from types import SimpleNamespace
 
-    from barkgen.synth.pieces import limit_copies
+    from barkgen.synth.seams.pieces import limit_copies
 
     eh = ew = 160
     cy, cx = np.divmod(np.arange(eh * ew, dtype=np.int32), np.int32(ew))
@@ -232,7 +232,7 @@ def test_the_copy_size_control_cuts_a_piece_along_meandering_lines():
 def test_a_piece_round_a_tiled_output_is_one_piece():
     """Copy-size control: a strip of the exemplar that runs round a tiled output is one piece
     (its offset changes where it wraps), so it is cut like any other large piece."""
-    from barkgen.synth import _kernels as K
+    from barkgen.synth.seams import _kernels as K
 
     H, W, eh, ew = 64, 32, 80, 40
     yy, xx = np.mgrid[0:H, 0:W]
@@ -339,7 +339,7 @@ def _seam_energy(refs: np.ndarray, feat: np.ndarray) -> float:
 def _staircase_case():
     """Two pieces of a smooth random texture meeting along a staircase of 2x2 blocks (what the
     coarse levels' up-sampling leaves), on a 64 x 64 output that does not tile."""
-    from barkgen.synth.expansion import exemplar_grid
+    from barkgen.synth.seams.expansion import exemplar_grid
 
     rng = np.random.default_rng(5)
     feat = cv2.GaussianBlur(rng.normal(0, 20, (160, 160, 3)).astype(np.float32), (0, 0), 3)
@@ -356,7 +356,7 @@ def test_expansion_moves_a_staircase_border_onto_a_cheaper_path():
     moves whole stretches at once: the seam cost falls (and never rises), every pixel keeps one
     of the two pieces, nothing farther than a band per round from the border changes, the border leaves
     the 2x2 grid, and the same input gives the same output."""
-    from barkgen.synth.expansion import expand_pieces
+    from barkgen.synth.seams.expansion import expand_pieces
 
     feat, flat, grid, upper = _staircase_case()
     unguided = (np.zeros(1, np.int32), np.zeros((1, 1), np.int32))
@@ -387,7 +387,7 @@ def test_expansion_moves_a_staircase_border_onto_a_cheaper_path():
 def test_expansion_keeps_forbidden_offsets_and_labels():
     """A pixel never takes its forbidden offset (the copy-size control's cuts), and when guided a
     pixel of the wanted label never takes a wrong one."""
-    from barkgen.synth.expansion import expand_pieces, piece_offsets
+    from barkgen.synth.seams.expansion import expand_pieces, piece_offsets
 
     feat, flat, grid, upper = _staircase_case()
     unguided = (np.zeros(1, np.int32), np.zeros((1, 1), np.int32))

@@ -81,7 +81,7 @@ def test_a_run_stopped_at_a_level_is_that_level_of_the_full_run(synthetic_exempl
     """``stop_level``: the references at that level are the full run's (same seed, same draws);
     resuming from them finishes a valid output; a level outside the pyramid is refused."""
     from barkgen.pyramid import count_levels, level_shape
-    from barkgen.synth.engine import matching_features, solve
+    from barkgen.synth import matching_features, solve
 
     config = SynthesisConfig(coarsest_exemplar=8, blend="none")
     features = matching_features(synthetic_exemplar, None, 0.0)
@@ -98,10 +98,10 @@ def test_a_run_stopped_at_a_level_is_that_level_of_the_full_run(synthetic_exempl
     args = dict(n_levels=n_levels, config=config, seed=4, tile=True)
     # the stopped run analyses only the levels it solves; the full run then goes on below them
     cache = AnalysisCache()
-    stopped = solve(synthetic_exemplar, {}, features, (96, 96), stop_level=1, cache=cache, **args)
+    stopped = solve(exemplar=synthetic_exemplar, extras={}, features=features, out_shape=(96, 96), stop_level=1, cache=cache, **args)
     (levels_kept,) = cache._entries.values()
     assert levels_kept[0] is None and all(la is not None for la in levels_kept[1:])
-    solve(synthetic_exemplar, {}, features, (96, 96), debug=keep, cache=cache, **args)
+    solve(exemplar=synthetic_exemplar, extras={}, features=features, out_shape=(96, 96), debug=keep, cache=cache, **args)
     (levels_now,) = cache._entries.values()
     assert levels_now[0] is not None and all(a is b for a, b in zip(levels_now[1:], levels_kept[1:]))
     assert len(cache) == 1
@@ -110,11 +110,11 @@ def test_a_run_stopped_at_a_level_is_that_level_of_the_full_run(synthetic_exempl
     assert stopped.references[..., 0].max() < h and stopped.references[..., 1].max() < w
     assert np.array_equal(stopped.image, levels[1])
     flat = (stopped.references[..., 0] * w + stopped.references[..., 1]).astype(np.int32)
-    resumed = solve(synthetic_exemplar, {}, features, (96, 96), start=(1, flat), **args)
+    resumed = solve(exemplar=synthetic_exemplar, extras={}, features=features, out_shape=(96, 96), start=(1, flat), **args)
     assert np.array_equal(resumed.image, synthetic_exemplar[resumed.references[..., 0],
                                                             resumed.references[..., 1]])
     with pytest.raises(InvalidInputError, match="stop_level"):
-        solve(synthetic_exemplar, {}, features, (96, 96), stop_level=n_levels, **args)
+        solve(exemplar=synthetic_exemplar, extras={}, features=features, out_shape=(96, 96), stop_level=n_levels, **args)
 
 
 def test_thread_budget_sizes_every_pool_and_gives_them_back():
@@ -148,7 +148,7 @@ def test_thread_budget_sizes_every_pool_and_gives_them_back():
 def test_upsampled_references_are_the_childs_of_each_parent():
     """Exact up-sampling: each output pixel's reference is the child of its parent's with the
     pixel's own parity; past an odd exemplar's edge it wraps or stays on the last row/column."""
-    from barkgen.synth.engine import upsample_references
+    from barkgen.synth import upsample_references
 
     rng = np.random.default_rng(0)
     coarse = np.stack([rng.integers(0, 5, (4, 6)), rng.integers(0, 7, (4, 6))], axis=-1)

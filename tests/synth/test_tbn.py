@@ -9,9 +9,9 @@ import pytest
 
 from barkgen.errors import InvalidInputError
 from barkgen.synth import SynthesisConfig, synthesize, texture_by_numbers
-from barkgen.synth.guide import boundary_distance, encode_label_maps, label_pyramid
-from barkgen.synth.initialization import random_initialization, smart_initialization
-from barkgen.synth.tbn import TBN_CONFIG
+from barkgen.synth.guides.channels import boundary_distance, encode_label_maps, label_pyramid
+from barkgen.synth.guides.initialization import random_initialization, smart_initialization
+from barkgen.synth import TBN_CONFIG
 
 
 def luminance_labels(image: np.ndarray, n: int = 2) -> np.ndarray:
@@ -201,7 +201,7 @@ def test_start_from_a_reference_map(case):
     # rebuilt from two levels up: more of them survive
     import dataclasses
 
-    from barkgen.synth.tbn import TBN_CONFIG
+    from barkgen.synth import TBN_CONFIG
 
     deep = dataclasses.replace(TBN_CONFIG, coarsest_exemplar=8)
     kept_at = {level: np.mean(np.all(texture_by_numbers(

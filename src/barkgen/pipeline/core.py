@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from barkgen.errors import InvalidInputError
-from barkgen.synth.edges import resolve_exemplar_wrap
+from barkgen.synth import resolve_exemplar_wrap
 from barkgen._shared.arrays import ProgressCallback
 from barkgen._shared.checks import MAX_PHOTO_PIXELS, parse_output_shape
 from barkgen._shared.memory import check_budget_value, check_memory_budget
@@ -81,7 +81,7 @@ class GenerateOptions:
         (:func:`barkgen.synth.exemplar_wraps`).
     blend : {"gradient", "none"}, default "gradient"
         ``gradient``: the colour's seams between copied pieces (and the albedo's) blended in
-        the gradient domain (:func:`barkgen.synth.gradient.blend_seams`); ``none``: every
+        the gradient domain (:func:`barkgen.synth.blend_seams`); ``none``: every
         pixel an exact copy of its reference.
 
     Raises
@@ -115,8 +115,7 @@ class GenerateOptions:
     def __post_init__(self) -> None:
         from barkgen._shared.checks import check_k, check_seed
         from barkgen.shapes import STRATEGIES, check_rotations
-        from barkgen.synth.edges import check_wrap_mode
-        from barkgen.synth.gradient import check_blend
+        from barkgen.synth import check_blend, check_wrap_mode
 
         check_wrap_mode(self.exemplar_wrap)
         check_blend(self.blend)
@@ -192,8 +191,7 @@ def check_generate_memory(photo: np.ndarray, options: GenerateOptions,
         The run would not fit the budget.
     """
     from barkgen.errors import ImageTooLargeError
-    from barkgen.synth.api import estimate_memory
-    from barkgen.synth.tbn import TBN_CONFIG
+    from barkgen.synth import TBN_CONFIG, estimate_memory
 
     shape = np.shape(photo)
     if shape[0] * shape[1] > MAX_PHOTO_PIXELS:
@@ -332,8 +330,7 @@ def analyze_photo(
     from barkgen.labels import color_regions, texton_regions
     from barkgen.labels.regions import grey_label_map
     from barkgen.shapes import analyse_label_map
-    from barkgen.synth import AnalysisCache, analyse_texture_by_numbers
-    from barkgen.synth.tbn import TBN_CONFIG
+    from barkgen.synth import TBN_CONFIG, AnalysisCache, analyse_texture_by_numbers
 
     options = options or GenerateOptions()
     check_generate_memory(photo, options, extra)
@@ -414,8 +411,7 @@ def generate(
     GenerateResult
     """
     from barkgen.shapes import synthesize_label_map
-    from barkgen.synth import texture_by_numbers
-    from barkgen.synth.tbn import TBN_CONFIG
+    from barkgen.synth import TBN_CONFIG, texture_by_numbers
 
     options = options or GenerateOptions()
     timings: dict[str, float] = {}
