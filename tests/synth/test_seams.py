@@ -1,70 +1,22 @@
-"""Seamless at 1:1: the exemplar's edges (torus or border), graph-cut seams that do not run
-straight, copy-size pieces round a tiled output, and material maps without cliffs, measured
-with the team's ``seams.py`` where it says what a user sees."""
+"""Seamless at 1:1 (:mod:`barkgen.synth.seams`): pieces across a wrapping exemplar's edge,
+graph-cut seams that do not run straight, copy-size pieces round a tiled output, expansion
+moves, and material maps without cliffs, measured with the team's ``seams.py`` where it says
+what a user sees (the exemplar's edges themselves: ``test_edges.py``)."""
 
 from __future__ import annotations
 
 import cv2
 import numpy as np
-import pytest
 
-from barkgen.errors import InvalidInputError
 from barkgen.synth import SynthesisConfig, exemplar_wraps, synthesize
 from barkgen.synth.seams.cuts import cut_straight_seams
-from barkgen.synth._edges import edge_step_shares, resolve_exemplar_wrap
 from barkgen.synth.seams.gradient import resolve_continuous
-
-
-@pytest.fixture(scope="module")
-def sample256() -> np.ndarray:
-    """The bundled sample (a texture that tiles itself) at 256 px."""
-    from barkgen.data import sample_exemplar_path
-    from barkgen.io import read_image
-
-    return cv2.resize(read_image(sample_exemplar_path()), (256, 256), interpolation=cv2.INTER_AREA)
 
 
 def longest(seams, references, exemplar_shape, *, tile, wrap):
     hs, vs = seams.seam_masks(references[..., 0].astype(np.int64), references[..., 1].astype(np.int64),
                               tuple(exemplar_shape), tile, any(wrap))
     return max(seams.longest_run(hs, wrap=tile)[0], seams.longest_run(vs.T, wrap=tile)[0])
-
-
-def photo_like(seed: int = 0, shape=(96, 96)) -> np.ndarray:
-    """A texture that does not tile: vertical furrows of random phase on a slope of colour."""
-    rng = np.random.default_rng(seed)
-    y, x = np.mgrid[0:shape[0], 0:shape[1]].astype(np.float64)
-    base = 110 + 50 * np.sin(x / 2.7 + rng.uniform(0, 6)) + 0.8 * y + rng.normal(0, 10, shape)
-    return np.clip(np.stack([base, base * 0.9, base * 0.7], -1), 0, 255).astype(np.uint8)
-
-
-# ------------------------------------------------------------------------------------------
-# exemplar edges
-
-
-def test_a_texture_that_tiles_is_told_from_one_that_does_not(sample256):
-    assert exemplar_wraps(sample256) == (True, True)
-    # the same texture cut in the middle: its edges no longer meet
-    assert exemplar_wraps(sample256[40:200, 30:220]) == (False, False)
-    # rolled by half it still tiles (the torus has no edge)
-    assert exemplar_wraps(np.roll(sample256, (128, 100), axis=(0, 1))) == (True, True)
-    assert exemplar_wraps(photo_like()) == (False, False)
-    sy, sx = edge_step_shares(sample256)
-    assert sy < 0.3 and sx < 0.3
-    cy, cx = edge_step_shares(sample256[40:200, 30:220])
-    assert cy > 0.5 and cx > 0.5
-
-
-def test_exemplar_wrap_settings():
-    img = photo_like()
-    assert resolve_exemplar_wrap("yes", img) == (True, True)
-    assert resolve_exemplar_wrap("no", img) == (False, False)
-    assert resolve_exemplar_wrap((True, False), img) == (True, False)
-    for bad in ("maybe", (True,), 3):
-        with pytest.raises(InvalidInputError):
-            resolve_exemplar_wrap(bad, img)
-    with pytest.raises(InvalidInputError):
-        synthesize(img, 32, exemplar_wrap="sometimes")
 
 
 def test_pieces_run_across_a_wrapping_exemplars_edge(seams, sample256):
@@ -95,7 +47,7 @@ def test_no_long_straight_seam_in_a_small_tiled_case(seams, sample256):
         assert longest(seams, res.references, res.exemplar_shape, tile=True, wrap=res.exemplar_wrap) <= 48
 
 
-def test_a_straight_seam_is_recut_along_the_texture():
+def test_a_straight_seam_is_recut_along_the_texture(photo_like):
     """Two pieces meeting on a straight line between rows 31 and 32: the cut moves the border
     onto a path of lower seam cost, every pixel keeps a reference of one of the two pieces, and
     the straight run is broken."""
@@ -427,7 +379,6 @@ def test_generated_texture_steps_little_more_across_seams_than_inside(seams):
         hs, vs = seams.seam_masks(y, x, (512, 512), True, True)
         ratio = seams.step_ratio(res.texture.astype(np.float64), hs, vs, True)
         assert ratio <= 1.45, (seed, ratio)
-
 
 
 def test_generate_leaves_no_straight_seam_where_a_piece_ends_at_the_photos_edge(seams):
