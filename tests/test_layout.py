@@ -145,13 +145,31 @@ def test_no_test_imports_a_benchmark():
     assert found == []
 
 
-def test_shapes_drive_the_solver_through_its_engine_face():
-    """The label-map engine (:mod:`barkgen.shapes`) reaches the solver only through
-    :mod:`barkgen.synth.engine`, never into the solver's own modules."""
+def test_other_packages_reach_synth_through_its_face():
+    """Every other package (the label-map engine :mod:`barkgen.shapes` driving the solver, the
+    pipeline, the front ends, material, branching) reaches :mod:`barkgen.synth` only through
+    its face, ``barkgen.synth`` itself, never into its modules or its wings (``seams``,
+    ``guides``)."""
     graph = import_graph(modules())
-    reach = {(name, t) for name, targets in graph.items() if name.startswith("barkgen.shapes")
+    reach = {(name, t) for name, targets in graph.items()
+             if name != "barkgen.synth" and not name.startswith("barkgen.synth.")
              for t in targets if t.startswith("barkgen.synth")}
-    assert reach and all(t == "barkgen.synth.engine" for _, t in reach), sorted(reach)
+    assert ("barkgen.shapes.engine", "barkgen.synth") in reach
+    assert all(t == "barkgen.synth" for _, t in reach), sorted(t for t in reach if t[1] != "barkgen.synth")
+
+
+def test_synth_has_one_face():
+    """Inside :mod:`barkgen.synth`, only the package's ``__init__`` is public: the solver's
+    core modules are private (``_name.py``) and the rest lives in the wings ``seams`` and
+    ``guides``, whose faces import nothing (so no core module runs the package's face)."""
+    synth = SRC / "barkgen" / "synth"
+    public = sorted(p.name for p in synth.glob("*.py") if not p.name.startswith("_"))
+    assert public == []
+    wings = sorted(p.name for p in synth.iterdir() if (p / "__init__.py").is_file())
+    assert wings == ["guides", "seams"]
+    for wing in wings:
+        tree = ast.parse((synth / wing / "__init__.py").read_text())
+        assert not [n for n in tree.body if isinstance(n, (ast.Import, ast.ImportFrom))], wing
 
 
 #: house-wide checks, at the top of tests/

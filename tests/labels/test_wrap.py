@@ -17,7 +17,7 @@ from barkgen.labels.regions import (
     remove_small_regions,
 )
 from barkgen.labels.textons import filter_responses
-from barkgen.synth.guide import boundary_distance, guide_channels
+from barkgen.synth.guides.channels import boundary_distance, guide_channels
 
 SHIFT = (37, 91)
 

@@ -7,7 +7,7 @@ import pytest
 
 from barkgen.nnf import k_coherence_sets, k_coherence_sets_from_parent, knn_search, neighbourhood_pca
 from barkgen.pyramid import gaussian_pyramid
-from barkgen.synth.engine import matching_features
+from barkgen.synth import matching_features
 
 
 @pytest.mark.parametrize("n", [500, 6000, 30000])
@@ -71,8 +71,8 @@ def test_a_large_coarsest_level_is_seeded_from_coarser_ones_close_to_a_search(mo
     (a million-pixel search took 14 s), and stay close to a direct search's."""
     from barkgen.data import sample_exemplar_path
     from barkgen.io import read_image
-    from barkgen.synth import analysis
-    from barkgen.synth.config import SynthesisConfig
+    from barkgen.synth import _analysis as analysis
+    from barkgen.synth import SynthesisConfig
 
     photo = read_image(sample_exemplar_path())[:128, :128]
     feats = matching_features(photo, None, 0.5)

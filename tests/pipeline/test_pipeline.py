@@ -70,7 +70,7 @@ def test_generate_is_deterministic(fir128):
 
 
 def test_shared_photo_analysis_gives_the_same_bytes_and_skips_the_analysis(fir128, monkeypatch):
-    import barkgen.synth.analysis as synth_analysis
+    import barkgen.synth._analysis as synth_analysis
     from barkgen.pipeline import analyze_photo
 
     options = GenerateOptions(size=(96, 80), k=3, tile=True, material=True)

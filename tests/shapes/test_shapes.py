@@ -181,7 +181,7 @@ def test_joint_strategy_stops_a_level_above_the_finest(fir_photo, fir_labels, mo
     assert np.array_equal(up, np.repeat(np.repeat(up[::2, ::2], 2, axis=0), 2, axis=1))
     moved = (up != out).any(axis=-1)
     assert 0.02 < moved.mean() < 0.4
-    from barkgen.synth.cuts import BAND
+    from barkgen.synth.seams.cuts import BAND
 
     reach = engine.JOINT_CONFIG.seam_expansion_band * engine.JOINT_CONFIG.seam_expansion_rounds + BAND
     padded = np.pad(up, ((reach, reach), (reach, reach), (0, 0)), mode="edge")

@@ -1,70 +1,22 @@
-"""Seamless at 1:1: the exemplar's edges (torus or border), graph-cut seams that do not run
-straight, copy-size pieces round a tiled output, and material maps without cliffs, measured
-with the team's ``seams.py`` where it says what a user sees."""
+"""Seamless at 1:1 (:mod:`barkgen.synth.seams`): pieces across a wrapping exemplar's edge,
+graph-cut seams that do not run straight, copy-size pieces round a tiled output, expansion
+moves, and material maps without cliffs, measured with the team's ``seams.py`` where it says
+what a user sees (the exemplar's edges themselves: ``test_edges.py``)."""
 
 from __future__ import annotations
 
 import cv2
 import numpy as np
-import pytest
 
-from barkgen.errors import InvalidInputError
 from barkgen.synth import SynthesisConfig, exemplar_wraps, synthesize
-from barkgen.synth.cuts import cut_straight_seams
-from barkgen.synth.edges import edge_step_shares, resolve_exemplar_wrap
-from barkgen.synth.gradient import resolve_continuous
-
-
-@pytest.fixture(scope="module")
-def sample256() -> np.ndarray:
-    """The bundled sample (a texture that tiles itself) at 256 px."""
-    from barkgen.data import sample_exemplar_path
-    from barkgen.io import read_image
-
-    return cv2.resize(read_image(sample_exemplar_path()), (256, 256), interpolation=cv2.INTER_AREA)
+from barkgen.synth.seams.cuts import cut_straight_seams
+from barkgen.synth.seams.gradient import resolve_continuous
 
 
 def longest(seams, references, exemplar_shape, *, tile, wrap):
     hs, vs = seams.seam_masks(references[..., 0].astype(np.int64), references[..., 1].astype(np.int64),
                               tuple(exemplar_shape), tile, any(wrap))
     return max(seams.longest_run(hs, wrap=tile)[0], seams.longest_run(vs.T, wrap=tile)[0])
-
-
-def photo_like(seed: int = 0, shape=(96, 96)) -> np.ndarray:
-    """A texture that does not tile: vertical furrows of random phase on a slope of colour."""
-    rng = np.random.default_rng(seed)
-    y, x = np.mgrid[0:shape[0], 0:shape[1]].astype(np.float64)
-    base = 110 + 50 * np.sin(x / 2.7 + rng.uniform(0, 6)) + 0.8 * y + rng.normal(0, 10, shape)
-    return np.clip(np.stack([base, base * 0.9, base * 0.7], -1), 0, 255).astype(np.uint8)
-
-
-# ------------------------------------------------------------------------------------------
-# exemplar edges
-
-
-def test_a_texture_that_tiles_is_told_from_one_that_does_not(sample256):
-    assert exemplar_wraps(sample256) == (True, True)
-    # the same texture cut in the middle: its edges no longer meet
-    assert exemplar_wraps(sample256[40:200, 30:220]) == (False, False)
-    # rolled by half it still tiles (the torus has no edge)
-    assert exemplar_wraps(np.roll(sample256, (128, 100), axis=(0, 1))) == (True, True)
-    assert exemplar_wraps(photo_like()) == (False, False)
-    sy, sx = edge_step_shares(sample256)
-    assert sy < 0.3 and sx < 0.3
-    cy, cx = edge_step_shares(sample256[40:200, 30:220])
-    assert cy > 0.5 and cx > 0.5
-
-
-def test_exemplar_wrap_settings():
-    img = photo_like()
-    assert resolve_exemplar_wrap("yes", img) == (True, True)
-    assert resolve_exemplar_wrap("no", img) == (False, False)
-    assert resolve_exemplar_wrap((True, False), img) == (True, False)
-    for bad in ("maybe", (True,), 3):
-        with pytest.raises(InvalidInputError):
-            resolve_exemplar_wrap(bad, img)
-    with pytest.raises(InvalidInputError):
-        synthesize(img, 32, exemplar_wrap="sometimes")
 
 
 def test_pieces_run_across_a_wrapping_exemplars_edge(seams, sample256):
@@ -95,7 +47,7 @@ def test_no_long_straight_seam_in_a_small_tiled_case(seams, sample256):
         assert longest(seams, res.references, res.exemplar_shape, tile=True, wrap=res.exemplar_wrap) <= 48
 
 
-def test_a_straight_seam_is_recut_along_the_texture():
+def test_a_straight_seam_is_recut_along_the_texture(photo_like):
     """Two pieces meeting on a straight line between rows 31 and 32: the cut moves the border
     onto a path of lower seam cost, every pixel keeps a reference of one of the two pieces, and
     the straight run is broken."""
@@ -160,7 +112,7 @@ def test_a_seam_stuck_at_the_exemplar_border_is_given_to_the_solver():
     that a cut can move is left to the cut."""
     from types import SimpleNamespace
 
-    from barkgen.synth.pieces import UNSTICK_DEPTH, offset_codes, unstick_border_seams
+    from barkgen.synth.seams.pieces import UNSTICK_DEPTH, offset_codes, unstick_border_seams
 
     eh, ew, H, W = 80, 120, 64, 96
     cy, cx = np.divmod(np.arange(eh * ew, dtype=np.int32), np.int32(ew))
@@ -204,7 +156,7 @@ def test_the_copy_size_control_cuts_a_piece_along_meandering_lines():
     close again, joining the piece), reproducibly from the generator."""
     from types import SimpleNamespace
 
-    from barkgen.synth.pieces import limit_copies
+    from barkgen.synth.seams.pieces import limit_copies
 
     eh = ew = 160
     cy, cx = np.divmod(np.arange(eh * ew, dtype=np.int32), np.int32(ew))
@@ -232,7 +184,7 @@ def test_the_copy_size_control_cuts_a_piece_along_meandering_lines():
 def test_a_piece_round_a_tiled_output_is_one_piece():
     """Copy-size control: a strip of the exemplar that runs round a tiled output is one piece
     (its offset changes where it wraps), so it is cut like any other large piece."""
-    from barkgen.synth import _kernels as K
+    from barkgen.synth.seams import _kernels as K
 
     H, W, eh, ew = 64, 32, 80, 40
     yy, xx = np.mgrid[0:H, 0:W]
@@ -339,7 +291,7 @@ def _seam_energy(refs: np.ndarray, feat: np.ndarray) -> float:
 def _staircase_case():
     """Two pieces of a smooth random texture meeting along a staircase of 2x2 blocks (what the
     coarse levels' up-sampling leaves), on a 64 x 64 output that does not tile."""
-    from barkgen.synth.expansion import exemplar_grid
+    from barkgen.synth.seams.expansion import exemplar_grid
 
     rng = np.random.default_rng(5)
     feat = cv2.GaussianBlur(rng.normal(0, 20, (160, 160, 3)).astype(np.float32), (0, 0), 3)
@@ -356,7 +308,7 @@ def test_expansion_moves_a_staircase_border_onto_a_cheaper_path():
     moves whole stretches at once: the seam cost falls (and never rises), every pixel keeps one
     of the two pieces, nothing farther than a band per round from the border changes, the border leaves
     the 2x2 grid, and the same input gives the same output."""
-    from barkgen.synth.expansion import expand_pieces
+    from barkgen.synth.seams.expansion import expand_pieces
 
     feat, flat, grid, upper = _staircase_case()
     unguided = (np.zeros(1, np.int32), np.zeros((1, 1), np.int32))
@@ -387,7 +339,7 @@ def test_expansion_moves_a_staircase_border_onto_a_cheaper_path():
 def test_expansion_keeps_forbidden_offsets_and_labels():
     """A pixel never takes its forbidden offset (the copy-size control's cuts), and when guided a
     pixel of the wanted label never takes a wrong one."""
-    from barkgen.synth.expansion import expand_pieces, piece_offsets
+    from barkgen.synth.seams.expansion import expand_pieces, piece_offsets
 
     feat, flat, grid, upper = _staircase_case()
     unguided = (np.zeros(1, np.int32), np.zeros((1, 1), np.int32))
@@ -427,7 +379,6 @@ def test_generated_texture_steps_little_more_across_seams_than_inside(seams):
         hs, vs = seams.seam_masks(y, x, (512, 512), True, True)
         ratio = seams.step_ratio(res.texture.astype(np.float64), hs, vs, True)
         assert ratio <= 1.45, (seed, ratio)
-
 
 
 def test_generate_leaves_no_straight_seam_where_a_piece_ends_at_the_photos_edge(seams):

@@ -57,7 +57,7 @@ import barkgen.branching._render_kernels as K
 from barkgen.branching.fragments import Fragment, FragmentBank, FragmentSpec, source_banks, target_plan
 from barkgen.branching.structure import Structure, rasterize
 from barkgen.errors import InvalidInputError
-from barkgen.synth.config import SynthesisConfig
+from barkgen.synth import SynthesisConfig
 
 ProgressCallback = Callable[[int, int], None]
 

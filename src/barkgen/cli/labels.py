@@ -44,7 +44,7 @@ def labels_command(
     """Make the label map of a bark photo (input of texture-by-numbers)."""
     from barkgen.io import encode_png, read_image
     from barkgen.labels import add_edge_label, color_regions, label_preview, texton_regions
-    from barkgen.synth.edges import resolve_exemplar_wrap
+    from barkgen.synth import resolve_exemplar_wrap
 
     # --method picks the function to call, so it is checked here (k, seed and the edge width
     # by the functions)
@@ -84,7 +84,7 @@ def textons_command(
     from barkgen.io import encode_png, read_image
     from barkgen.labels import contact_sheet, texton_channels
     from barkgen.labels.textons import MAX_TEXTONS
-    from barkgen.synth.edges import resolve_exemplar_wrap
+    from barkgen.synth import resolve_exemplar_wrap
 
     check_folder(output_dir, "output")
     n_files = min(max(n_textons, 0), MAX_TEXTONS)  # (the count itself is checked with the photo)

@@ -103,8 +103,7 @@ def tbn_command(
     import dataclasses
 
     from barkgen.io import read_image
-    from barkgen.synth import texture_by_numbers
-    from barkgen.synth.tbn import TBN_CONFIG
+    from barkgen.synth import TBN_CONFIG, texture_by_numbers
 
     budget = parse_memory(max_memory)
     extra_paths = parse_extras(extra)

@@ -86,7 +86,7 @@ class MaterialOptions:
 
     def __post_init__(self) -> None:
         from barkgen._shared.checks import check_k, check_seed
-        from barkgen.synth.edges import check_wrap_mode
+        from barkgen.synth import check_wrap_mode
 
         check_wrap_mode(self.exemplar_wrap)
         check_k(self.k)
@@ -283,7 +283,7 @@ def make_material(photo: np.ndarray, options: MaterialOptions | None = None, *,
     from barkgen.labels import color_regions
     from barkgen._shared.checks import check_image
     from barkgen.labels.regions import to_codes
-    from barkgen.synth.edges import resolve_exemplar_wrap
+    from barkgen.synth import resolve_exemplar_wrap
 
     options = options or MaterialOptions()
     h, w = np.shape(photo)[:2]
@@ -316,10 +316,10 @@ def transfer_material(source: MaterialSet, references: np.ndarray, *, tile: bool
     """The material set of a texture synthesized from the source's photo.
 
     The source's albedo goes through the synthesis's reference map as the colour does (its
-    seams blended in the gradient domain, :func:`barkgen.synth.gradient.blend_seams`, unless
+    seams blended in the gradient domain, :func:`barkgen.synth.blend_seams`, unless
     ``blend`` is ``"none"``: then exactly);
     its height, roughness and the AO's photo cavities through the same references in the
-    gradient domain (:func:`barkgen.synth.gradient.resolve_continuous`: continuous across the
+    gradient domain (:func:`barkgen.synth.resolve_continuous`: continuous across the
     borders of the copied pieces, tileable when ``tile``); normals and the height's AO are
     recomputed from that height (wrapping when ``tile``).
 
@@ -348,8 +348,7 @@ def transfer_material(source: MaterialSet, references: np.ndarray, *, tile: bool
     .. [1] laitoch2018, §3.3.1 (maps resolved through the reference map).
     .. [2] perez2003 (gradient-domain re-integration).
     """
-    from barkgen.synth import apply_references
-    from barkgen.synth.gradient import blend_seams, check_blend, resolve_continuous
+    from barkgen.synth import apply_references, blend_seams, check_blend, resolve_continuous
 
     check_blend(blend)
 

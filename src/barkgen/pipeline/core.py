@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from barkgen.errors import InvalidInputError
-from barkgen.synth.edges import resolve_exemplar_wrap
+from barkgen.synth import resolve_exemplar_wrap
 from barkgen._shared.arrays import ProgressCallback
 from barkgen._shared.checks import MAX_PHOTO_PIXELS
 from barkgen._shared.memory import check_memory_budget
@@ -94,8 +94,7 @@ def check_generate_memory(photo: np.ndarray, options: GenerateOptions,
         The run would not fit the budget.
     """
     from barkgen.errors import ImageTooLargeError
-    from barkgen.synth.api import estimate_memory
-    from barkgen.synth.tbn import TBN_CONFIG
+    from barkgen.synth import TBN_CONFIG, estimate_memory
 
     shape = np.shape(photo)
     if shape[0] * shape[1] > MAX_PHOTO_PIXELS:
@@ -228,8 +227,7 @@ def analyze_photo(
     from barkgen.labels import color_regions, texton_regions
     from barkgen.labels.regions import grey_label_map
     from barkgen.shapes import analyse_label_map
-    from barkgen.synth import AnalysisCache, analyse_texture_by_numbers
-    from barkgen.synth.tbn import TBN_CONFIG
+    from barkgen.synth import TBN_CONFIG, AnalysisCache, analyse_texture_by_numbers
 
     options = options or GenerateOptions()
     check_generate_memory(photo, options, extra)
@@ -310,8 +308,7 @@ def generate(
     GenerateResult
     """
     from barkgen.shapes import synthesize_label_map
-    from barkgen.synth import texture_by_numbers
-    from barkgen.synth.tbn import TBN_CONFIG
+    from barkgen.synth import TBN_CONFIG, texture_by_numbers
 
     options = options or GenerateOptions()
     timings: dict[str, float] = {}

@@ -76,7 +76,7 @@ class GenerateOptions:
         (:func:`barkgen.synth.exemplar_wraps`).
     blend : {"gradient", "none"}, default "gradient"
         ``gradient``: the colour's seams between copied pieces (and the albedo's) blended in
-        the gradient domain (:func:`barkgen.synth.gradient.blend_seams`); ``none``: every
+        the gradient domain (:func:`barkgen.synth.blend_seams`); ``none``: every
         pixel an exact copy of its reference.
 
     Raises
@@ -142,8 +142,7 @@ class GenerateOptions:
     def __post_init__(self) -> None:
         from barkgen._shared.checks import check_k, check_seed
         from barkgen.shapes import STRATEGIES, check_rotations
-        from barkgen.synth.edges import check_wrap_mode
-        from barkgen.synth.gradient import check_blend
+        from barkgen.synth import check_blend, check_wrap_mode
 
         check_wrap_mode(self.exemplar_wrap)
         check_blend(self.blend)

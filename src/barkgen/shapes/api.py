@@ -17,7 +17,7 @@ from barkgen.pyramid import count_levels, level_shape
 from barkgen.shapes.binary import ShapeConfig
 from barkgen.shapes.layered import automatic_layer_order
 from barkgen.shapes.patches import check_rotations
-from barkgen.synth.engine import AnalysisCache, label_pyramid
+from barkgen.synth import AnalysisCache, label_pyramid
 
 #: the label-map strategies (see :mod:`barkgen.shapes`)
 STRATEGIES = ("engine", "joint", "layered")
@@ -294,7 +294,7 @@ def _check_photo(photo: np.ndarray | None, shape: tuple[int, int], strategy: str
 
 def _wrap(mode, codes: np.ndarray, photo: np.ndarray | None) -> tuple[bool, bool]:
     """The exemplar's wrap: decided on the photo when there is one, else on the label map."""
-    from barkgen.synth.engine import resolve_exemplar_wrap
+    from barkgen.synth import resolve_exemplar_wrap
 
     return resolve_exemplar_wrap(mode, codes if photo is None else photo)
 

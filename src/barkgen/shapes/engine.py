@@ -11,7 +11,7 @@ percentage points on the bark set):
 
 * the coarsest level starts from a random patchwork of exemplar squares instead of random
   pixels, so small isolated regions (lenticels, knots) exist from the start;
-* a label-area term in the occurrence cost (:class:`barkgen.synth.engine.LabelBalance`,
+* a label-area term in the occurrence cost (:class:`barkgen.synth.LabelBalance`,
   histogram matching after Kopf et al. 2007) makes labels the output has too much of dearer and
   the missing ones cheaper, judged at every level on the full-resolution label shares under the
   referenced pixels.
@@ -32,7 +32,7 @@ large uniform label regions give the solver nothing to choose by, on six (lichen
 An edited level is resumed as texture-by-numbers of the label map on the edit (laitoch2018 §1:
 the artist sets the large-scale layout, barkgen the detail): the edit, brought to full size with
 smooth boundaries, is the target label map that guides every level from the edited one down
-(:class:`barkgen.synth.engine.Guidance`), the edited level starts from the smart initialisation on
+(:class:`barkgen.synth.Guidance`), the edited level starts from the smart initialisation on
 it, and no area term pulls against it (the edit sets the areas). Without the guide the free
 solver drifts back to a layout of its own below the edited level: a stroke painted at level 3 of
 a 512 px map of the oak photo kept 2-39 % of its pixels, 93-97 % with the guide (and 87-89 % of
@@ -49,7 +49,7 @@ import numpy as np
 
 from barkgen._shared.arrays import ProgressCallback
 from barkgen.pyramid import count_levels, gaussian_pyramid, level_shape
-from barkgen.synth.engine import (
+from barkgen.synth import (
     AnalysisCache,
     Guidance,
     LabelBalance,
@@ -71,7 +71,7 @@ from barkgen.synth.engine import (
 #: (one-hot borders have one cost wherever they run)
 LABEL_ENGINE_CONFIG = SynthesisConfig(coarsest_exemplar=32, pca_components=6,
                                       seam_expansion_band=0)
-#: weight of the label-area term (:class:`barkgen.synth.engine.LabelBalance`)
+#: weight of the label-area term (:class:`barkgen.synth.LabelBalance`)
 BALANCE_WEIGHT = 64.0
 #: side of the squares of the coarsest level's random patchwork start
 INIT_BLOCK = 8
@@ -82,7 +82,7 @@ INIT_BLOCK = 8
 JOINT_CONFIG = SynthesisConfig(seam_expansion_rounds=2)
 #: joint strategy: the label channels' total variance, in units of the photo's colour variance
 JOINT_LABEL_WEIGHT = 1.0
-#: joint strategy: weight of the label-area term (:class:`~barkgen.synth.engine.LabelBalance`)
+#: joint strategy: weight of the label-area term (:class:`~barkgen.synth.LabelBalance`)
 #: from the chosen start down; the candidate starts run with :data:`JOINT_CANDIDATE_BALANCE` of
 #: it. (32 at every level of a single run, the previous default, moved whole regions at the
 #: coarse levels and cost oak 1.2-2.3x plain synthesis' coherence; free candidates and 16 from
@@ -167,7 +167,7 @@ def synthesize_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int
     laitoch2018 §3.4.2) and the solver continues from that level. ``on_level(level, codes)``
     receives each level's result. ``cache``: an :class:`AnalysisCache` holding (or to keep) the
     exemplar's k-coherence analysis (:func:`analyse_codes`). ``exemplar_wrap`` ``(rows,
-    columns)``: the exemplar tiles along that axis (:mod:`barkgen.synth.edges`).
+    columns)``: the exemplar tiles along that axis (:func:`barkgen.synth.exemplar_wraps`).
     """
     joint = photo is not None
     features, config = _solver_inputs(codes, n_labels, photo, config, exemplar_wrap)
@@ -209,7 +209,8 @@ def synthesize_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int
             on_level(int(name[5:-7]), image.astype(np.int32))
 
     finest = finest_level(n_levels, joint=joint, resumed=start is not None)
-    result = solve(ex, {}, features, out_shape, n_levels=n_levels, config=config, seed=seed,
+    result = solve(exemplar=ex, extras={}, features=features, out_shape=out_shape, n_levels=n_levels,
+                   config=config, seed=seed,
                    tile=tile, guidance=guidance, progress=progress, debug=debug, start=resume,
                    balance=balance, cache=cache, exemplar_wrap=exemplar_wrap,
                    seam_channels=features.shape[2] - n_labels if joint else None,
@@ -232,7 +233,7 @@ def _move_finest_seams(references: np.ndarray, colour: np.ndarray, tile: bool,
                        rng: np.random.Generator) -> np.ndarray:
     """The finest level's reference map, up-sampled from the level above, with its seams moved
     onto the photo's low-error paths: expansion moves on the photo's colour
-    (:func:`barkgen.synth.expansion.expand_pieces`) take them off the up-sampling's 2x2 grid,
+    (:func:`barkgen.synth.expand_pieces`) take them off the up-sampling's 2x2 grid,
     then graph cuts re-cut the straight stretches left (:func:`cut_straight_seams`, with
     meanders). The label map's piece borders are then the photo's own, and texture-by-numbers,
     which follows them and may not move a label border, need not cut the bark along a staircase
@@ -304,7 +305,8 @@ def _choose_coarse_start(ex: np.ndarray, features: np.ndarray, out_shape: tuple[
             if name.endswith("_result"):
                 results.append((int(name[5:-7]), image.astype(np.int32)))
 
-        run = solve(ex, {}, features, out_shape, n_levels=n_levels, config=config,
+        run = solve(exemplar=ex, extras={}, features=features, out_shape=out_shape, n_levels=n_levels,
+                    config=config,
                     seed=int(candidate_seed), tile=tile, debug=keep, cache=cache, stop_level=level,
                     balance=gentle, exemplar_wrap=exemplar_wrap)
         references = run.references[..., 0] * run.exemplar_shape[1] + run.references[..., 1]
@@ -356,7 +358,7 @@ def edit_guidance(codes: np.ndarray, features: np.ndarray, target: np.ndarray, n
                   n_levels: int, *, tile: bool, softness: float = 0.0,
                   exemplar_levels: list | None = None,
                   exemplar_wrap: tuple[bool, bool] = (False, False)) -> Guidance:
-    """The :class:`~barkgen.synth.engine.Guidance` that makes the label engine follow a target
+    """The :class:`~barkgen.synth.Guidance` that makes the label engine follow a target
     label map (texture-by-numbers of the label map itself, laitoch2018 §3.3) as a soft guide:
     the target's channels are blurred by ``softness`` px (boundaries may move that much to take
     exemplar shapes), votes of other labels count, and no label is enforced afterwards. The
@@ -390,10 +392,10 @@ def edit_guidance(codes: np.ndarray, features: np.ndarray, target: np.ndarray, n
 def estimate_engine_memory(exemplar_shape: tuple[int, int], out_shape: tuple[int, int],
                            n_labels: int, *, joint: bool) -> int:
     """Estimated peak memory (bytes) of :func:`synthesize_codes`: the solver's
-    (:func:`barkgen.synth.api.estimate_memory`) on the label channels (and the photo's three
+    (:func:`barkgen.synth.estimate_memory`) on the label channels (and the photo's three
     colour channels when ``joint``), plus the label pyramids and tables. Measured peaks from
     the 1024x1024 sample's label map: 1024x1024 out 0.39 GiB, 2048x2048 0.53 GiB (joint alike)."""
-    from barkgen.synth.engine import estimate_memory
+    from barkgen.synth import estimate_memory
 
     config = JOINT_CONFIG if joint else LABEL_ENGINE_CONFIG
     features = n_labels + (3 if joint else 0)

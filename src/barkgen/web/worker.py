@@ -86,7 +86,7 @@ def run_labels(spec: LabelSpec, send) -> None:
     from barkgen.io import decode_image, encode_png
     from barkgen.labels import color_regions
     from barkgen.pipeline import ANALYSIS_SEED, GenerateOptions
-    from barkgen.synth.edges import resolve_exemplar_wrap
+    from barkgen.synth import resolve_exemplar_wrap
 
     send(Progress(spec.job_id, 0.0, "label map"))
     try:

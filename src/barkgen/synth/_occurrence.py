@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from barkgen.synth.analysis import LevelAnalysis
+from barkgen.synth._analysis import LevelAnalysis
 
 
 def jitter_references(refs: np.ndarray, level: LevelAnalysis, amplitude: int,

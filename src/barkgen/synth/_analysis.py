@@ -25,7 +25,7 @@ from barkgen.nnf import (
 )
 from barkgen.nnf.kcoherence import propagate_k_coherence
 from barkgen.pyramid import gaussian_pyramid
-from barkgen.synth.config import SynthesisConfig
+from barkgen.synth._config import SynthesisConfig
 
 #: exemplar levels with at most this many pixels get an exact k-NN search (faiss); larger
 #: ones refine their parent's k-coherence sets
@@ -86,7 +86,7 @@ def analyse_exemplar(features: np.ndarray, n_levels: int, config: SynthesisConfi
     """k-coherence analysis phase on the pyramid levels ``finest`` to ``n_levels - 1`` of the
     exemplar features (the finer ones are ``None``: a solve that stops above them never reads
     them); ``wrap`` ``(rows, columns)``: the exemplar tiles along that axis
-    (:mod:`barkgen.synth.edges`), so its pyramid and neighbourhoods run round its edges.
+    (:mod:`barkgen.synth._edges`), so its pyramid and neighbourhoods run round its edges.
     ``known``: levels analysed before, from the coarsest down (each level depends only on the
     coarser ones, so they are taken as they are and the analysis goes on below them)."""
     wrap = (bool(wrap[0]), bool(wrap[1]))

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from barkgen.synth.guide import boundary_distance, level_guide
+from barkgen.synth.guides.channels import boundary_distance, level_guide
 
 #: eq. 3.6's label weight (laitoch2018: w = 90)
 SMART_LABEL_WEIGHT = 90.0
@@ -50,7 +50,7 @@ def smart_initialization(exemplar_labels: np.ndarray, target_labels: np.ndarray,
     over the whole exemplar (laitoch2018 §4.2). The distances run across the exemplar's edge
     where it wraps (``exemplar_wrap``) and across the output's where it tiles (``tile``).
     """
-    import barkgen.synth._init_kernels as K
+    import barkgen.synth.guides._kernels as K
 
     ida = np.ascontiguousarray(exemplar_labels, dtype=np.int32)
     idb = np.ascontiguousarray(target_labels, dtype=np.int32)

@@ -50,23 +50,23 @@ class SynthesisConfig:
         give seeds independent results, and jitter measurably costs coherence.
     seam_sweeps
         sweeps of seam optimisation after each level's iterations (Kwatra et al.
-        2003's seam cost, minimised by local moves: ``_kernels.refine_seams``); 0 disables.
+        2003's seam cost, minimised by local moves: ``seams._kernels.refine_seams``); 0 disables.
     seam_cut_run
         straight seams at least this long are re-cut along minimum-cost paths
-        (graph cuts, Kwatra et al. 2003: :mod:`barkgen.synth.cuts`); 0 disables.
+        (graph cuts, Kwatra et al. 2003: :mod:`barkgen.synth.seams.cuts`); 0 disables.
     seam_cut_levels
         how many of the finest levels get those cuts.
     seam_expansion_band
         at the finest level, every copied piece may move its border this far (pixels) where
         that lowers the seam cost (expansion moves, Boykov et al. 2001:
-        :mod:`barkgen.synth.expansion`); 0 disables.
+        :mod:`barkgen.synth.seams.expansion`); 0 disables.
     seam_expansion_rounds
         how many times every piece gets such a move.
     extra_weight
         weight of the extra channels relative to luminance in the matching.
     blend
         how the output's colour is made from its references: ``"gradient"`` blends the seams
-        between pieces in the gradient domain (:func:`barkgen.synth.gradient.blend_seams`),
+        between pieces in the gradient domain (:func:`barkgen.synth.blend_seams`),
         ``"none"`` copies every pixel exactly (as :func:`apply_references` does).
     threads
         worker threads for numba/faiss (None: all cores).
@@ -129,7 +129,7 @@ class SynthesisConfig:
             raise InvalidInputError("seam_expansion_rounds must be between 1 and 16")
         if not 0.0 < self.max_copy <= 1.0:
             raise InvalidInputError("max_copy must be in (0, 1]")
-        from barkgen.synth.gradient import check_blend
+        from barkgen.synth.seams.gradient import check_blend
 
         check_blend(self.blend)
         if self.threads is not None and self.threads < 1:

@@ -11,10 +11,10 @@ worst where a strip of the exemplar runs all the way round a tiled output. Two a
   up-sampling all wrap) and a piece simply runs on across the edge (:func:`exemplar_wraps`
   decides it from the exemplar itself, per axis);
 * along an axis that does not wrap, a piece that reaches the border ends there, and its seam
-  is re-cut like any other straight seam (:mod:`barkgen.synth.cuts`): the piece below it is
+  is re-cut like any other straight seam (:mod:`barkgen.synth.seams.cuts`): the piece below it is
   continued upwards, so the border follows a low-error path instead of the border's line; a seam
   where both pieces end at the border (no cut can move it) makes the solver put other pieces
-  there (:func:`barkgen.synth.pieces.unstick_border_seams`). An earlier soft cost on the border pixels kept pieces
+  there (:func:`barkgen.synth.seams.pieces.unstick_border_seams`). An earlier soft cost on the border pixels kept pieces
   away from them, but left the border's content out of the output (completeness) and did not
   keep the seams shorter once the cuts were there.
 """
@@ -76,7 +76,7 @@ def map_wraps(image: np.ndarray, wrap: tuple[bool, bool]) -> tuple[bool, bool]:
     rectangle (its mirrored borders) has a cliff from its last column to its first even where
     the photo has none; carried across that edge it would draw a straight line through the
     output, so along such an axis it is not wrapped: a piece that runs on across the photo's
-    edge takes the map's last step there instead (:func:`barkgen.synth.gradient.exemplar_steps`)."""
+    edge takes the map's last step there instead (:func:`barkgen.synth.seams.gradient.exemplar_steps`)."""
     own = exemplar_wraps(image)
     return bool(wrap[0] and own[0]), bool(wrap[1] and own[1])
 

@@ -84,7 +84,7 @@ def _cut_run(ry: np.ndarray, rx: np.ndarray, i: int, cols: np.ndarray, ex: _Exem
     (:func:`_meander_cost`). Returns the pixels changed."""
     import maxflow
 
-    import barkgen.synth._kernels as K
+    import barkgen.synth.seams._kernels as K
 
     H, W = ry.shape
     shape = (2 * BAND, cols.size)
@@ -130,7 +130,7 @@ def _cut_run(ry: np.ndarray, rx: np.ndarray, i: int, cols: np.ndarray, ex: _Exem
 def _cut_rows(ry, rx, ex: _Exemplar, tile: bool, min_run: int, allowed,
               meander: np.random.Generator | None) -> int:
     """Re-cut every straight seam between rows at least ``min_run`` long; returns pixels changed."""
-    import barkgen.synth._kernels as K
+    import barkgen.synth.seams._kernels as K
 
     W = ry.shape[1]
     runs = K.seam_runs(ry, rx, ex.shape[0], ex.shape[1], ex.wrap[0], ex.wrap[1], tile, min_run)

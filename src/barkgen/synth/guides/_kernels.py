@@ -1,11 +1,12 @@
-"""Numba kernels of the texture-by-numbers initialisation (laitoch2018 §3.4.2)."""
+"""Numba kernels of texture-by-numbers' guides: the initialisation's region growing
+(laitoch2018 §3.4.2) and the label clean-up after the finest level."""
 
 from __future__ import annotations
 
 import numba as nb
 import numpy as np
 
-from barkgen.synth._kernels import _mix, _wrap_or_clamp
+from barkgen.synth._kernels import _mix, _shifted_neighbour_source, _wrap_or_clamp
 
 
 @nb.njit
@@ -199,3 +200,49 @@ def grow_regions(exemplar, target, label_pools, order, params, tile, salt,
                     tail += 1
         n_regions += 1
     return n_regions
+
+
+@nb.njit(parallel=True, cache=True)
+def enforce_labels(refs, exemplar, ex_labels, target, tile, out):  # pragma: no cover - compiled
+    """Label clean-up (texture-by-numbers): an output pixel whose exemplar label differs from the
+    wanted one takes, among the forward-shifted references of its 8 neighbours that have the
+    wanted label, the one most of them agree on (so it continues a neighbouring piece); pixels
+    with no such neighbour keep their reference. Returns the number of pixels changed."""
+    H, W = refs.shape
+    changed = np.zeros(H, np.int64)
+    for y in nb.prange(H):
+        cand = np.empty(8, np.int32)
+        support = np.empty(8, np.int32)
+        for x in range(W):
+            e = refs[y, x]
+            want = target[y, x]
+            out[y, x] = e
+            if ex_labels[e] == want:
+                continue
+            n = 0
+            for dy in range(-1, 2):
+                for dx in range(-1, 2):
+                    if dy == 0 and dx == 0:
+                        continue
+                    u = _shifted_neighbour_source(refs, y, x, dy, dx, tile, exemplar)
+                    if u < 0 or ex_labels[u] != want:
+                        continue
+                    found = False
+                    for t in range(n):
+                        if cand[t] == u:
+                            support[t] += 1
+                            found = True
+                            break
+                    if not found:
+                        cand[n] = u
+                        support[n] = 1
+                        n += 1
+            if n == 0:
+                continue
+            best = 0
+            for t in range(1, n):
+                if support[t] > support[best]:
+                    best = t
+            out[y, x] = cand[best]
+            changed[y] += 1
+    return changed.sum()

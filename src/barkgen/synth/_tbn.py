@@ -25,29 +25,24 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from barkgen._shared.arrays import ProgressCallback, as_uint8
 from barkgen.errors import InvalidInputError
 from barkgen.pyramid import count_levels, gaussian_pyramid, level_shape
-from barkgen.synth.config import SynthesisConfig
-from barkgen.synth.edges import resolve_exemplar_wrap
-from barkgen.synth.guide import (
+from barkgen.synth._analysis import AnalysisCache, matching_features
+from barkgen.synth._config import SynthesisConfig
+from barkgen.synth._edges import resolve_exemplar_wrap
+from barkgen.synth._setup import Front, set_up, validate_inputs
+from barkgen.synth._solver import DebugCallback, SynthesisResult
+from barkgen.synth.guides.channels import (
+    LabelMaps,
     boundary_distance,
     encode_label_maps,
     guide_channels,
     label_pyramid,
     level_guide,
 )
-from barkgen.synth.initialization import random_initialization, smart_initialization
-from barkgen._shared.arrays import ProgressCallback, as_uint8
-from barkgen.synth.engine import (
-    AnalysisCache,
-    DebugCallback,
-    Guidance,
-    SynthesisResult,
-    check_memory,
-    matching_features,
-    solve,
-    validate_inputs,
-)
+from barkgen.synth.guides.guidance import Guidance
+from barkgen.synth.guides.initialization import random_initialization, smart_initialization
 
 INITIALIZATIONS = ("smart", "random")
 
@@ -168,7 +163,7 @@ def texture_by_numbers(
         :func:`analyse_texture_by_numbers`.
     exemplar_wrap : {"auto", "yes", "no"} or tuple of bool, optional
         The exemplar is used as a torus along the axes it tiles along
-        (:mod:`barkgen.synth.edges`).
+        (:func:`barkgen.synth.exemplar_wraps`).
 
     Returns
     -------
@@ -192,20 +187,16 @@ def texture_by_numbers(
     """
     config = config or TBN_CONFIG
     target = _check_arguments(target_labels, init, init_level, label_weight, feature_weight)
-    ex, out_shape, extras = validate_inputs(exemplar, target.shape[:2], seed, extra)
-    wrap = resolve_exemplar_wrap(exemplar_wrap, ex)
-    labels = encode_label_maps(exemplar_labels, target, ex.shape[:2])
-    n_feat = (3 if ex.shape[2] == 3 else 1) + 1 + sum(e.shape[2] for e in extras.values())
-    check_memory(ex, extras, out_shape, n_feat, config, guided=True)
-
-    feats, colour_variance = _matching_features(ex, extras, labels.exemplar, feature_weight, config,
-                                                wrap)
+    front = _LabelFront(exemplar_labels, target, feature_weight)
+    setup = set_up(exemplar, target.shape[:2], seed=seed, extra=extra, config=config, tile=tile,
+                   exemplar_wrap=exemplar_wrap, front=front)
+    labels, colour_variance = front.labels, front.colour_variance
+    wrap, n_levels = setup.wrap, setup.n_levels
     # a pixel whose soft label differs completely costs label_weight x the colour variance
     guide_a, guide_b = guide_channels(labels.exemplar, labels.target, labels.n_labels,
                                       np.sqrt(label_weight * colour_variance / 2.0),
                                       exemplar_wrap=wrap, target_wrap=tile)
 
-    n_levels = count_levels(ex.shape[:2], out_shape, config.coarsest_exemplar)
     pyr_a = label_pyramid(labels.exemplar, labels.n_labels, n_levels)
     pyr_b = label_pyramid(labels.target, labels.n_labels, n_levels)
     guides = [level_guide(a, b, labels.n_labels) for a, b in zip(pyr_a, pyr_b)]
@@ -213,16 +204,38 @@ def texture_by_numbers(
     if debug is not None:
         _show_labels(debug, labels, pyr_a, pyr_b, wrap)
 
-    start, initial = _start(init, init_level, n_levels, out_shape, ex.shape[:2], tile, wrap)
+    start, initial = _start(init, init_level, n_levels, setup.out_shape, setup.exemplar.shape[:2],
+                            tile, wrap)
     guidance = Guidance(levels=guides, exemplar_guides=gaussian_pyramid(guide_a, n_levels, wrap),
                         target_guides=gaussian_pyramid(guide_b, n_levels, (tile, tile)),
                         initial_references=initial)
-    result = solve(ex, extras, feats, out_shape, n_levels=n_levels, config=config, seed=seed,
-                   tile=tile, guidance=guidance, progress=progress, debug=debug, start=start,
-                   cache=cache, exemplar_wrap=wrap, seam_channels=3 if ex.shape[2] == 3 else 1)
-    if np.asarray(exemplar).ndim == 2:
-        result.image = result.image[:, :, 0]
-    return result
+    return setup.solve(guidance=guidance, progress=progress, debug=debug, start=start, cache=cache)
+
+
+class _LabelFront(Front):
+    """Texture-by-numbers' part of the set-up (:func:`barkgen.synth._setup.set_up`): the label
+    maps checked against the validated exemplar and encoded over one palette, and the
+    feature-distance channel (laitoch2018 eq. 3.3) matched along with the colour; keeps the
+    encoded maps (``labels``) and the exemplar's colour variance for the guide channels."""
+
+    added_channels = 1
+    guided = True
+
+    def __init__(self, exemplar_labels: np.ndarray, target: np.ndarray, feature_weight: float) -> None:
+        self.exemplar_labels = exemplar_labels
+        self.target = target
+        self.feature_weight = feature_weight
+        self.labels: LabelMaps | None = None
+        self.colour_variance = 0.0
+
+    def check(self, ex: np.ndarray) -> None:
+        self.labels = encode_label_maps(self.exemplar_labels, self.target, ex.shape[:2])
+
+    def features(self, ex: np.ndarray, extras: Mapping[str, np.ndarray], wrap: tuple[bool, bool],
+                 config: SynthesisConfig) -> np.ndarray:
+        feats, self.colour_variance = _matching_features(ex, extras, self.labels.exemplar,
+                                                         self.feature_weight, config, wrap)
+        return feats
 
 
 def _start(init, init_level: int, n_levels: int, out_shape: tuple[int, int],

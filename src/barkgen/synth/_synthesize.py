@@ -1,5 +1,7 @@
-"""The public face of example-based synthesis: :func:`synthesize`, :func:`apply_references`, and
-the checks made before any work starts (inputs, memory budget).
+"""Example-based synthesis from an exemplar: :func:`synthesize` (the k-coherence discrete
+solver, mazzolini2012 §4.1, through the set-up of :mod:`barkgen.synth._setup`) and
+:func:`apply_references` (laitoch2018 §3.3.1: any map of the exemplar through a reference map).
+Re-exported by :mod:`barkgen.synth`.
 """
 
 from __future__ import annotations
@@ -8,71 +10,11 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from barkgen._shared.arrays import ProgressCallback, as_hw_c
-from barkgen._shared.checks import parse_output_shape
-from barkgen._shared.memory import check_memory_budget
+from barkgen._shared.arrays import ProgressCallback
 from barkgen.errors import InvalidInputError
-from barkgen.pyramid import count_levels
-from barkgen.synth.analysis import matching_features
-from barkgen.synth.config import SynthesisConfig
-from barkgen.synth.edges import resolve_exemplar_wrap
-from barkgen.synth.solver import SynthesisResult, solve
-
-#: smallest exemplar side accepted
-MIN_EXEMPLAR_SIDE = 16
-
-
-def validate_inputs(exemplar: np.ndarray, size: int | tuple[int, int], seed: int,
-                    extra: Mapping[str, np.ndarray] | None) -> tuple[np.ndarray, tuple[int, int], dict]:
-    """Check the exemplar, output size, seed and extra maps; return them normalised."""
-    ex = as_hw_c("exemplar", exemplar)
-    if ex.shape[2] not in (1, 3):
-        raise InvalidInputError(f"exemplar must have 1 or 3 channels, not {ex.shape[2]}")
-    if min(ex.shape[:2]) < MIN_EXEMPLAR_SIDE:
-        raise InvalidInputError(
-            f"exemplar is {ex.shape[1]}x{ex.shape[0]} px; it must be at least "
-            f"{MIN_EXEMPLAR_SIDE} px on each side")
-    out_shape = parse_output_shape(size)
-    if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool) or seed < 0:
-        raise InvalidInputError(f"seed must be a non-negative integer, not {seed!r}")
-    extras = {}
-    for name, arr in (extra or {}).items():
-        e = as_hw_c(f"extra map {name!r}", arr)
-        if e.shape[:2] != ex.shape[:2]:
-            raise InvalidInputError(
-                f"extra map {name!r} is {e.shape[1]}x{e.shape[0]} px but the exemplar is "
-                f"{ex.shape[1]}x{ex.shape[0]} px; they must match")
-        extras[name] = e
-    return ex, out_shape, extras
-
-
-def check_memory(ex: np.ndarray, extras: Mapping[str, np.ndarray], out_shape: tuple[int, int],
-                 feature_channels: int, config: SynthesisConfig, guided: bool = False) -> None:
-    """Raise :class:`MemoryBudgetError` before any work if the job would not fit the budget."""
-    need = estimate_memory(ex.shape[:2], out_shape,
-                           ex.shape[2] + sum(e.shape[2] for e in extras.values()),
-                           max([ex.dtype.itemsize] + [e.dtype.itemsize for e in extras.values()]),
-                           feature_channels, config)
-    if guided:  # label pyramids and tables
-        need += 24 * out_shape[0] * out_shape[1] + 24 * ex.shape[0] * ex.shape[1]
-    check_memory_budget(need, config.max_memory, f"output {out_shape[1]}x{out_shape[0]}")
-
-
-def estimate_memory(exemplar_shape: tuple[int, int], output_shape: tuple[int, int],
-                    channels: int, bytes_per_channel: int, feature_channels: int,
-                    config: SynthesisConfig) -> int:
-    """Estimated peak memory of a synthesis, in bytes (made before any work starts)."""
-    n_ex = exemplar_shape[0] * exemplar_shape[1]
-    n_out = output_shape[0] * output_shape[1]
-    sizes = {s for sched in (config.schedule_coarsest, config.schedule_middle,
-                             config.schedule_finest) for s, _ in sched}
-    per_ex = (feature_channels * 4 * 3 + config.pca_components * 4 * len(sizes) * 1.4
-              + config.k * 4 * 1.4 + 8)
-    per_out = 100 + 3 * channels * bytes_per_channel
-    if config.blend == "gradient":  # one channel's screened Poisson solve at a time (float64)
-        per_out += 80
-    search = min(n_ex, 262_144) * max(4 * config.k + 8, 32) * 12
-    return int(200e6 + n_ex * per_ex + n_out * per_out + search)
+from barkgen.synth._config import SynthesisConfig
+from barkgen.synth._setup import set_up
+from barkgen.synth._solver import SynthesisResult
 
 
 def synthesize(
@@ -90,7 +32,7 @@ def synthesize(
 
     The k-coherence discrete solver (Han et al. 2006) as mazzolini2012 §4.1 and laitoch2018
     §3.3 describe it, coarse to fine, in appearance space, with an occurrence cost, copy-size
-    control and seam optimisation (see :mod:`barkgen.synth.solver`). The output is an image of
+    control and seam optimisation (see :mod:`barkgen.synth._solver`). The output is an image of
     references into the exemplar, so it is exactly as sharp as the exemplar.
 
     Parameters
@@ -112,7 +54,7 @@ def synthesize(
         ``progress(done, total)``, called after each unit of work.
     exemplar_wrap : {"auto", "yes", "no"} or tuple of bool, optional
         ``"auto"``: the exemplar is used as a torus along each axis along which it tiles itself
-        (:func:`barkgen.synth.edges.exemplar_wraps`); ``"yes"``, ``"no"``, or a
+        (:func:`barkgen.synth.exemplar_wraps`); ``"yes"``, ``"no"``, or a
         ``(rows, columns)`` pair of bools.
 
     Returns
@@ -144,18 +86,9 @@ def synthesize(
     ((96, 128, 3), (96, 128, 2))
     """
     config = config or SynthesisConfig()
-    ex, out_shape, extras = validate_inputs(exemplar, size, seed, extra)
-    n_feat = (3 if ex.shape[2] == 3 else 1) + sum(e.shape[2] for e in extras.values())
-    check_memory(ex, extras, out_shape, n_feat, config)
-    wrap = resolve_exemplar_wrap(exemplar_wrap, ex)
-    feats = matching_features(ex, extras, config.extra_weight)
-    n_levels = count_levels(ex.shape[:2], out_shape, config.coarsest_exemplar)
-    result = solve(ex, extras, feats, out_shape, n_levels=n_levels, config=config, seed=seed,
-                   tile=tile, progress=progress, exemplar_wrap=wrap,
-                   seam_channels=3 if ex.shape[2] == 3 else 1)
-    if np.asarray(exemplar).ndim == 2:
-        result.image = result.image[:, :, 0]
-    return result
+    setup = set_up(exemplar, size, seed=seed, extra=extra, config=config, tile=tile,
+                   exemplar_wrap=exemplar_wrap)
+    return setup.solve(progress=progress)
 
 
 def apply_references(references: np.ndarray, image: np.ndarray) -> np.ndarray:

@@ -11,11 +11,11 @@ E-step, extra channels), with these additions:
   which answers the "same patterns repeated" defect of laitoch2018 §4.1;
 * a coherence bias (Ashikhmin 2001) that keeps exemplar patches whole;
 * toroidal neighbourhoods at every level for tileable output;
-* an exemplar that tiles itself is a torus too (:mod:`barkgen.synth.edges`); along an edge
+* an exemplar that tiles itself is a torus too (:mod:`barkgen.synth._edges`); along an edge
   that does not wrap, the seams where pieces end are cut like the others, so they do not
   follow the edge's line;
 * seam optimisation: local moves and graph cuts of straight seams (Kwatra et al. 2003,
-  :mod:`barkgen.synth.cuts`), so the borders between pieces follow low-error paths;
+  :mod:`barkgen.synth.seams.cuts`), so the borders between pieces follow low-error paths;
 * the output is an image of references, resolved to exemplar pixels only at the end, so nothing
   is ever averaged: the result is exactly as sharp as the exemplar (laitoch2018 §4.2's blur).
 """
@@ -31,15 +31,22 @@ import numpy as np
 from barkgen._shared.arrays import ProgressCallback, as_uint8
 from barkgen._shared.threads import thread_budget
 from barkgen.errors import InvalidInputError
-from barkgen.nnf import neighbourhood_pca, project_neighbourhoods
 from barkgen.pyramid import level_shape
-from barkgen.synth.analysis import AnalysisCache, LevelAnalysis, schedule_sizes
-from barkgen.synth.config import SynthesisConfig
-from barkgen.synth.edges import map_wraps
-from barkgen.synth.gradient import blend_seams, resolve_continuous
-from barkgen.synth.expansion import expand_pieces
-from barkgen.synth.occurrence import LabelBalance, jitter_references, occurrence_penalty
-from barkgen.synth.pieces import cut_seams, limit_copies, roll_state, unstick_border_seams
+from barkgen.synth._analysis import AnalysisCache, LevelAnalysis
+from barkgen.synth._config import SynthesisConfig
+from barkgen.synth._edges import map_wraps
+from barkgen.synth._occurrence import LabelBalance, jitter_references, occurrence_penalty
+from barkgen.synth.guides.guidance import (
+    NO_GUIDE_EX,
+    NO_GUIDE_OUT,
+    Guidance,
+    LevelGuidance,
+    enforce_labels,
+    level_guidance,
+)
+from barkgen.synth.seams.expansion import expand_pieces
+from barkgen.synth.seams.gradient import blend_seams, resolve_continuous
+from barkgen.synth.seams.pieces import cut_seams, limit_copies, roll_state, unstick_border_seams
 
 
 @dataclass
@@ -54,7 +61,7 @@ class SynthesisResult:
         ``(H, W, 2)`` int32, the exemplar (row, col) each output pixel copies.
     extras
         each extra map of the exemplar through the same references, in the gradient
-        domain (:func:`barkgen.synth.gradient.resolve_continuous`: no cliffs where copied
+        domain (:func:`barkgen.synth.resolve_continuous`: no cliffs where copied
         pieces meet; :func:`apply_references` gives the exact copy).
     exemplar_shape
         ``(h, w)`` of the exemplar the references point into.
@@ -63,11 +70,11 @@ class SynthesisResult:
         (a reference may step from its last row to its first inside one piece).
     extra_wraps
         ``(rows, columns)`` of each extra map: the axes along which it was carried as a torus
-        (:func:`barkgen.synth.edges.map_wraps`: where the exemplar wraps and the map's own
+        (:func:`barkgen.synth._edges.map_wraps`: where the exemplar wraps and the map's own
         edges meet).
     blend
         how the image was made from the references: ``"gradient"`` (its seams blended,
-        :func:`barkgen.synth.gradient.blend_seams`) or ``"none"`` (the exact copy,
+        :func:`barkgen.synth.blend_seams`) or ``"none"`` (the exact copy,
         :func:`apply_references`).
     seed, tile
         as requested.
@@ -87,32 +94,6 @@ class SynthesisResult:
     blend: str = "none"
 
 
-@dataclass
-class Guidance:
-    """What turns the solver into texture-by-numbers (laitoch2018 §3.3, image analogies).
-
-    ``exemplar_guides[l]`` ``(h_l, w_l, G)`` and ``target_guides[l]`` ``(H_l, W_l, G)`` are the
-    guide channels (soft labels) of the exemplar (``A``) and of the output (``B``) at level
-    ``l``; their neighbourhoods are compared in an appearance space of their own with
-    ``components`` dimensions. ``levels`` are the label tables; ``initial_references(a, b, rng)``
-    makes the coarsest level's reference map from its exemplar and target labels.
-
-    ``random_candidates``: M-step candidates drawn per pixel from the wanted label's exemplar
-    pixels (plus one aligned on the nearest other label). ``vote_discount``: weight of E-step
-    votes whose label is wrong (0: used only when no vote has the right label).
-    ``cleanup_passes``: label clean-up passes after the finest level (``_kernels.enforce_labels``).
-    """
-
-    levels: list  # list[LevelGuide], finest first
-    exemplar_guides: list  # list[np.ndarray], finest first
-    target_guides: list  # list[np.ndarray], finest first
-    initial_references: Callable[[np.ndarray, np.ndarray, np.random.Generator], np.ndarray]
-    components: int = 4
-    random_candidates: int = 1
-    vote_discount: float = 0.0
-    cleanup_passes: int = 3
-
-
 #: debug(name, image): receives intermediate images (uint8 RGB) when given
 DebugCallback = Callable[[str, np.ndarray], None]
 
@@ -130,77 +111,83 @@ def _stride_for(size: int) -> int:
     return 1 if size <= 3 else 2
 
 
-@dataclass
-class _LevelGuide:
-    """The texture-by-numbers inputs of one level's kernels (empty arrays when unguided)."""
-
-    ex_labels: np.ndarray
-    target: np.ndarray
-    pool: np.ndarray
-    pool_start: np.ndarray
-    expected: np.ndarray | None
-    n_random: int
-    discount: float
-    guide_ex: dict
-    guide_out: dict
-    guided: bool
-
-
 #: at the finest level, how many more iterations a straight seam stuck at the exemplar's
-#: border (:func:`~barkgen.synth.pieces.unstick_border_seams`) is given to be replaced
+#: border (:func:`~barkgen.synth.seams.pieces.unstick_border_seams`) is given to be replaced
 STUCK_RETRIES = 2
 
-_NO_LABELS = np.zeros(1, np.int32)
-_NO_TARGET = np.zeros((1, 1), np.int32)
-_NO_POOL_START = np.zeros(2, np.int32)
-_NO_GUIDE_EX = np.zeros((1, 0), np.float32)
-_NO_GUIDE_OUT = np.zeros((1, 1, 0), np.float32)
+
+@dataclass(frozen=True)
+class LevelContext:
+    """One pyramid level as the solver's steps see it (laitoch2018 §3.3): the level's exemplar
+    analysis and what is made from it for the level, its place in the pyramid, and what the
+    whole solve shares (the config, the one random generator, tiling).
+
+    Attributes
+    ----------
+    analysis
+        the level's k-coherence analysis (:class:`LevelAnalysis`).
+    level, n_levels
+        the level (0 = finest) and the pyramid's depth.
+    shape
+        ``(H_l, W_l)`` of the output at this level.
+    config
+        the solver's parameters.
+    rng
+        the generator behind every random choice of the solve (drawn from in the solver's order).
+    tile
+        the output wraps.
+    guide
+        texture-by-numbers' inputs of the level's kernels (:class:`LevelGuidance`; unguided:
+        empty arrays).
+    seam_image
+        ``(h_l, w_l, S)``: what the seam costs compare, as an image (the first ``seam_channels``
+        feature channels).
+    """
+
+    analysis: LevelAnalysis
+    level: int
+    n_levels: int
+    shape: tuple[int, int]
+    config: SynthesisConfig
+    rng: np.random.Generator
+    tile: bool
+    guide: LevelGuidance
+    seam_image: np.ndarray
 
 
-def _level_guide(guidance: Guidance | None, lvl: int, n_levels: int, config: SynthesisConfig,
-                 shape: tuple[int, int], wrap: tuple[bool, bool], tile: bool) -> _LevelGuide:
-    """The label tables of level ``lvl`` and the appearance-space label neighbourhoods of the
-    exemplar and of the target for each neighbourhood size of the level's schedule
-    (laitoch2018 §3.3, eq. 3.2)."""
-    if guidance is None:
-        return _LevelGuide(_NO_LABELS, _NO_TARGET, _NO_LABELS, _NO_POOL_START, None, 0, 1.0,
-                           {}, {}, False)
-    lg = guidance.levels[lvl]
-    guide_ex, guide_out = {}, {}
-    for nb_size in schedule_sizes(config, lvl, n_levels):
-        gp = neighbourhood_pca(guidance.exemplar_guides[lvl], nb_size, guidance.components,
-                               wrap=wrap)
-        guide_ex[nb_size] = gp.features
-        guide_out[nb_size] = project_neighbourhoods(
-            guidance.target_guides[lvl], gp.weights, gp.mean, wrap=tile).reshape(shape + (-1,))
-    return _LevelGuide(lg.exemplar_labels, lg.target_labels, lg.pool, lg.pool_start,
-                       lg.expected_use, guidance.random_candidates, guidance.vote_discount,
-                       guide_ex, guide_out, True)
+def _level_context(la: LevelAnalysis, lvl: int, n_levels: int, shape: tuple[int, int],
+                   config: SynthesisConfig, rng: np.random.Generator, tile: bool,
+                   guidance: Guidance | None, seam_channels: int | None) -> LevelContext:
+    """The :class:`LevelContext` of level ``lvl``: its guide (:func:`level_guidance`) and its
+    seam image made."""
+    guide = level_guidance(guidance, lvl, n_levels, config, shape, la.wrap, tile)
+    seam_image = np.ascontiguousarray(la.features[:, :seam_channels]).reshape(
+        la.height, la.width, -1)  # what the seam costs compare, as an image
+    return LevelContext(la, lvl, n_levels, shape, config, rng, tile, guide, seam_image)
 
 
-def _initial_state(la: LevelAnalysis, shape: tuple[int, int], guidance: Guidance | None,
-                   lvl: int, rng: np.random.Generator) -> np.ndarray:
+def _initial_state(ctx: LevelContext, guidance: Guidance | None) -> np.ndarray:
     """The coarsest level's reference map: random, or made from the labels with a guide."""
+    la = ctx.analysis
     if guidance is None:
-        return rng.integers(0, la.height * la.width, size=shape, dtype=np.int32)
-    lg = guidance.levels[lvl]
+        return ctx.rng.integers(0, la.height * la.width, size=ctx.shape, dtype=np.int32)
+    lg = guidance.levels[ctx.level]
     return np.ascontiguousarray(guidance.initial_references(
-        lg.exemplar_labels.reshape(la.height, la.width), lg.target_labels, rng), dtype=np.int32)
+        lg.exemplar_labels.reshape(la.height, la.width), lg.target_labels, ctx.rng), dtype=np.int32)
 
 
-def _upsampled_state(refs: np.ndarray, forbid: np.ndarray, coarse: LevelAnalysis,
-                     la: LevelAnalysis, shape: tuple[int, int], lvl: int, tile: bool,
-                     guided: bool, config: SynthesisConfig,
-                     rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+def _upsampled_state(ctx: LevelContext, refs: np.ndarray, forbid: np.ndarray,
+                     coarse: LevelAnalysis) -> tuple[np.ndarray, np.ndarray]:
     """The coarser level's state up-sampled exactly (laitoch2018 §3.3.4), shifted and jittered."""
     import barkgen.synth._kernels as K
 
+    la, shape, lvl, rng = ctx.analysis, ctx.shape, ctx.level, ctx.rng
     fine_refs = np.empty(shape, np.int32)
     fine_forbid = np.empty(shape, np.int64)
     K.upsample_state(refs, forbid, coarse.coords_y, coarse.coords_x, la.height, la.width,
                      la.wrap[0], la.wrap[1], fine_refs, fine_forbid)
     refs, forbid = fine_refs, fine_forbid
-    if tile and lvl > 0 and not guided:
+    if ctx.tile and lvl > 0 and not ctx.guide.guided:
         # seams formed at coarse levels lie on the block grid of the upsampling; a random
         # toroidal shift per level keeps that grid from lining up with the tile border.
         # (None at the finest level: shifts stay even there, so exemplar pieces keep the
@@ -209,7 +196,7 @@ def _upsampled_state(refs: np.ndarray, forbid: np.ndarray, coarse: LevelAnalysis
         shift = (int(rng.integers(0, shape[0])), int(rng.integers(0, shape[1])))
         refs, forbid = roll_state(refs, forbid, shift)
     if lvl >= 2:
-        refs = jitter_references(refs, la, int(round(config.jitter * 2)), rng)
+        refs = jitter_references(refs, la, int(round(ctx.config.jitter * 2)), rng)
     return refs, forbid
 
 
@@ -234,14 +221,14 @@ def upsample_references(references: np.ndarray, out_shape: tuple[int, int],
     return np.stack([fy, fx], axis=-1).astype(np.int32)
 
 
-def _iterate(refs: np.ndarray, forbid: np.ndarray, la: LevelAnalysis, lvl: int,
-             schedule: list[int], guide: _LevelGuide, occurrence: Callable[[np.ndarray], np.ndarray],
-             config: SynthesisConfig, tile: bool, rng: np.random.Generator,
-             tick: Callable[[], None]) -> np.ndarray:
+def _iterate(ctx: LevelContext, refs: np.ndarray, forbid: np.ndarray, schedule: list[int],
+             occurrence: Callable[[np.ndarray], np.ndarray], tick: Callable[[], None]) -> np.ndarray:
     """One level's M-step / E-step iterations (laitoch2018 eqs. 3.4-3.5), each followed by the
     copy-size control and the border-seam hand-back; returns the level's reference map."""
     import barkgen.synth._kernels as K
 
+    la, lvl, config, rng, guide, tile = (ctx.analysis, ctx.level, ctx.config, ctx.rng, ctx.guide,
+                                         ctx.tile)
     shape = refs.shape
     wrap = la.wrap
     match = np.empty(shape, np.int32)
@@ -253,8 +240,8 @@ def _iterate(refs: np.ndarray, forbid: np.ndarray, la: LevelAnalysis, lvl: int,
         oy, ox = (int(v) for v in rng.integers(0, stride, size=2))
         key = np.uint64(rng.integers(0, 2**63)) if guide.guided else np.uint64(0)
         match.fill(-1)
-        kernel_guide = (guide.guide_ex.get(nb_size, _NO_GUIDE_EX),
-                        guide.guide_out.get(nb_size, _NO_GUIDE_OUT), guide.ex_labels,
+        kernel_guide = (guide.guide_ex.get(nb_size, NO_GUIDE_EX),
+                        guide.guide_out.get(nb_size, NO_GUIDE_OUT), guide.ex_labels,
                         guide.target, guide.pool, guide.pool_start, guide.n_random, key)
         K.m_step(refs, la.grid, la.features, (la.kernel_weights[nb_size], proj.mean, proj.features),
                  la.ksets, (penalty, np.float32(config.kset_cost * la.scale)), (stride, oy, ox),
@@ -274,21 +261,20 @@ def _iterate(refs: np.ndarray, forbid: np.ndarray, la: LevelAnalysis, lvl: int,
     return refs
 
 
-def _refine_seams(refs: np.ndarray, forbid: np.ndarray, la: LevelAnalysis,
-                  seam_image: np.ndarray, guide: _LevelGuide, sweeps: int,
-                  tile: bool) -> np.ndarray:
-    """``sweeps`` sweeps of seam optimisation (``_kernels.refine_seams``): the first looks at
-    every pixel, later half-sweeps only beside the pixels the previous one moved."""
-    import barkgen.synth._kernels as K
+def _refine_seams(ctx: LevelContext, refs: np.ndarray, forbid: np.ndarray) -> np.ndarray:
+    """``config.seam_sweeps`` sweeps of seam optimisation (``seams._kernels.refine_seams``): the
+    first looks at every pixel, later half-sweeps only beside the pixels the previous one moved."""
+    import barkgen.synth.seams._kernels as K
 
+    guide, tile = ctx.guide, ctx.tile
     shape = refs.shape
     new = np.empty(shape, np.int32)
     moved_map, after = np.empty(shape, np.uint8), np.zeros(shape, np.uint8)
     every = np.zeros((1, 1), np.uint8)
-    for sweep in range(sweeps):
+    for sweep in range(ctx.config.seam_sweeps):
         moved = 0
         for parity in (0, 1):
-            moved += K.refine_seams(refs, seam_image, la.grid, tile, parity, forbid,
+            moved += K.refine_seams(refs, ctx.seam_image, ctx.analysis.grid, tile, parity, forbid,
                                     (guide.ex_labels, guide.target),
                                     every if sweep == 0 else after, moved_map, new)
             refs, new = new, refs
@@ -298,69 +284,53 @@ def _refine_seams(refs: np.ndarray, forbid: np.ndarray, la: LevelAnalysis,
     return refs
 
 
-def _enforce_labels(refs: np.ndarray, la: LevelAnalysis, guide: _LevelGuide, passes: int,
-                    tile: bool) -> np.ndarray:
-    """Texture-by-numbers' label clean-up after the finest level (``_kernels.enforce_labels``)."""
-    import barkgen.synth._kernels as K
-
-    new = np.empty(refs.shape, np.int32)
-    for _ in range(passes):
-        if K.enforce_labels(refs, la.grid, guide.ex_labels, guide.target, tile, new) == 0:
-            break
-        refs, new = new, refs
-    return refs
-
-
-def _move_seams(refs: np.ndarray, forbid: np.ndarray, la: LevelAnalysis, lvl: int,
-                seam_image: np.ndarray, guide: _LevelGuide, config: SynthesisConfig, tile: bool,
-                rng: np.random.Generator) -> np.ndarray:
+def _move_seams(ctx: LevelContext, refs: np.ndarray, forbid: np.ndarray) -> np.ndarray:
     """The level's seams moved onto low-error paths: local sweeps, at the finest level the
-    pieces' expansion moves (:mod:`barkgen.synth.expansion`), and at the finest levels the
-    graph cuts of the straight stretches left (:mod:`barkgen.synth.cuts`)."""
-    refs = _refine_seams(refs, forbid, la, seam_image, guide, config.seam_sweeps, tile)
+    pieces' expansion moves (:mod:`barkgen.synth.seams.expansion`), and at the finest levels the
+    graph cuts of the straight stretches left (:mod:`barkgen.synth.seams.cuts`)."""
+    la, lvl, config, guide, tile = ctx.analysis, ctx.level, ctx.config, ctx.guide, ctx.tile
+    refs = _refine_seams(ctx, refs, forbid)
     if config.seam_expansion_band and lvl == 0:
-        refs = expand_pieces(refs, la.grid, seam_image, tile, forbid, (guide.ex_labels, guide.target),
+        refs = expand_pieces(refs, la.grid, ctx.seam_image, tile, forbid,
+                             (guide.ex_labels, guide.target),
                              band=config.seam_expansion_band, rounds=config.seam_expansion_rounds)
     if config.seam_cut_run and lvl <= config.seam_cut_levels - 1:
-        refs = cut_seams(refs, la, seam_image, tile, config.seam_cut_run,
-                         (guide.ex_labels, guide.target) if guide.guided else None, rng)
+        refs = cut_seams(refs, la, ctx.seam_image, tile, config.seam_cut_run,
+                         (guide.ex_labels, guide.target) if guide.guided else None, ctx.rng)
     return refs
 
 
-def _solve_level(refs: np.ndarray, forbid: np.ndarray, la: LevelAnalysis, lvl: int,
-                 n_levels: int, guidance: Guidance | None, balance: LabelBalance | None,
-                 config: SynthesisConfig, seam_channels: int | None, tile: bool,
-                 rng: np.random.Generator, tick: Callable[[], None]) -> np.ndarray:
-    """Level ``lvl`` from its starting state: iterations, seam sweeps, straight-seam cuts and
-    (finest level, guided) the label clean-up."""
-    guide = _level_guide(guidance, lvl, n_levels, config, refs.shape, la.wrap, tile)
-    seam_image = np.ascontiguousarray(la.features[:, :seam_channels]).reshape(
-        la.height, la.width, -1)  # what the seam costs compare, as an image
+def _solve_level(ctx: LevelContext, refs: np.ndarray, forbid: np.ndarray,
+                 balance: LabelBalance | None, cleanup_passes: int,
+                 tick: Callable[[], None]) -> np.ndarray:
+    """The level of ``ctx`` from its starting state: iterations, seam sweeps, straight-seam
+    cuts and (finest level, guided) ``cleanup_passes`` passes of the label clean-up."""
+    la, lvl, config, tile = ctx.analysis, ctx.level, ctx.config, ctx.tile
 
     def occurrence(refs: np.ndarray) -> np.ndarray:
-        cost = occurrence_penalty(refs, la, config.occurrence_weight, 3, guide.expected)
+        cost = occurrence_penalty(refs, la, config.occurrence_weight, 3, ctx.guide.expected)
         if balance is not None:
             cost += balance.penalty(refs, lvl, la.scale)
         return cost
 
-    schedule = [size for size, iters in config.schedule_for(lvl, n_levels) for _ in range(iters)]
-    refs = _iterate(refs, forbid, la, lvl, schedule, guide, occurrence, config, tile, rng, tick)
-    refs = _move_seams(refs, forbid, la, lvl, seam_image, guide, config, tile, rng)
+    schedule = [size for size, iters in config.schedule_for(lvl, ctx.n_levels)
+                for _ in range(iters)]
+    refs = _iterate(ctx, refs, forbid, schedule, occurrence, tick)
+    refs = _move_seams(ctx, refs, forbid)
     if lvl == 0 and config.seam_cut_run and not all(la.wrap):
         # the last iteration's stuck border seams have no iteration after it to be handed to
         for _ in range(STUCK_RETRIES):
             if unstick_border_seams(refs, la, forbid, tile, max(4, config.seam_cut_run)) == 0:
                 break
-            refs = _iterate(refs, forbid, la, lvl, schedule[-1:], guide, occurrence, config,
-                            tile, rng, lambda: None)
-            refs = _move_seams(refs, forbid, la, lvl, seam_image, guide, config, tile, rng)
-    if guide.guided and lvl == 0:
-        refs = _enforce_labels(refs, la, guide, guidance.cleanup_passes, tile)
+            refs = _iterate(ctx, refs, forbid, schedule[-1:], occurrence, lambda: None)
+            refs = _move_seams(ctx, refs, forbid)
+    if ctx.guide.guided and lvl == 0:
+        refs = enforce_labels(refs, la.grid, ctx.guide, cleanup_passes, tile)
     return refs
 
 
-def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray,
-          out_shape: tuple[int, int], *, n_levels: int, config: SynthesisConfig, seed: int,
+def solve(*, exemplar: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray,
+          out_shape: tuple[int, int], n_levels: int, config: SynthesisConfig, seed: int,
           tile: bool, guidance: Guidance | None = None,
           progress: ProgressCallback | None = None,
           debug: DebugCallback | None = None,
@@ -369,25 +339,27 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
           cache: AnalysisCache | None = None, stop_level: int = 0,
           exemplar_wrap: tuple[bool, bool] = (False, False),
           seam_channels: int | None = None) -> SynthesisResult:
-    """The coarse-to-fine discrete solver shared by :func:`synthesize` and texture-by-numbers.
+    """The coarse-to-fine discrete solver shared by :func:`synthesize` and texture-by-numbers
+    (mazzolini2012 §4.1, laitoch2018 §3.3); every argument is a keyword.
 
-    ``ex`` ``(h, w, C)`` and ``extras`` are resolved through the final references; ``features``
-    ``(h, w, F)`` float32 are what is matched. Inputs must already be validated. ``start``:
-    ``(level, references)`` resumes at that level from a given reference map (flat indices
-    into the level's exemplar) instead of starting at the coarsest level. ``balance`` adds the
-    label-area term of :class:`LabelBalance` to the occurrence cost. ``cache``: an
+    ``exemplar`` ``(h, w, C)`` and ``extras`` are resolved through the final references;
+    ``features`` ``(h, w, F)`` float32 are what is matched. Inputs must already be validated.
+    ``start``: ``(level, references)`` resumes at that level from a given reference map (flat
+    indices into the level's exemplar) instead of starting at the coarsest level. ``balance``
+    adds the label-area term of :class:`LabelBalance` to the occurrence cost. ``cache``: an
     :class:`AnalysisCache` that supplies (or keeps) the exemplar's analysis. ``stop_level`` > 0
     stops after that level: the result's ``references`` and ``exemplar_shape`` are then that
     level's, its ``image`` the level shown in the exemplar's colours, and it has no extras.
     ``exemplar_wrap`` ``(rows, columns)``: the exemplar tiles along that axis and is used as a
     torus there; along an axis that does not wrap, pieces may run up to its border
-    (:mod:`barkgen.synth.edges`), and after each iteration a straight seam stuck at that border
+    (:mod:`barkgen.synth._edges`), and after each iteration a straight seam stuck at that border
     is handed back to the solver (:func:`unstick_border_seams`).
     After each level's iterations, ``config.seam_sweeps`` sweeps of seam optimisation
-    (``_kernels.refine_seams``) and, at the finest levels, graph cuts of the straight seams
-    (:mod:`barkgen.synth.cuts`) move the borders between pieces onto low-error paths; their
+    (``seams._kernels.refine_seams``) and, at the finest levels, graph cuts of the straight seams
+    (:mod:`barkgen.synth.seams.cuts`) move the borders between pieces onto low-error paths; their
     seam cost compares the first ``seam_channels`` feature channels (the colour; None: all).
     """
+    ex = exemplar
     if not 0 <= stop_level < n_levels:
         raise InvalidInputError(f"stop_level must be in 0..{n_levels - 1}")
     with thread_budget(config.threads):  # every pool sized, BLAS at one thread
@@ -419,19 +391,19 @@ def solve(ex: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray
             if debug is not None:
                 debug(f"level{lvl}_exemplar", level_image(ex, np.arange(la.height * la.width).reshape(
                     la.height, la.width), lvl))
+            ctx = _level_context(la, lvl, n_levels, shape, config, rng, tile, guidance, seam_channels)
             if start is not None and lvl == start[0]:
                 refs = np.ascontiguousarray(start[1], dtype=np.int32)
                 forbid = np.full(shape, -1, np.int64)
             elif refs is None:
-                refs = _initial_state(la, shape, guidance, lvl, rng)
+                refs = _initial_state(ctx, guidance)
                 if debug is not None and guidance is not None:
                     debug("initialization", level_image(ex, refs, lvl))
                 forbid = np.full(shape, -1, np.int64)
             else:
-                refs, forbid = _upsampled_state(refs, forbid, levels[lvl + 1], la, shape, lvl, tile,
-                                                guidance is not None, config, rng)
-            refs = _solve_level(refs, forbid, la, lvl, n_levels, guidance, balance, config,
-                                seam_channels, tile, rng, tick)
+                refs, forbid = _upsampled_state(ctx, refs, forbid, levels[lvl + 1])
+            refs = _solve_level(ctx, refs, forbid, balance,
+                                guidance.cleanup_passes if guidance is not None else 0, tick)
             if debug is not None:
                 debug(f"level{lvl}_result", level_image(ex, refs, lvl))
         timings = {"analysis": t1 - t0, "synthesis": time.perf_counter() - t1}

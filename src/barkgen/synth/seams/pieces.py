@@ -1,7 +1,7 @@
 """What the solver does with the pieces it copies, between its iterations: offsets as codes,
 the copy-size control that cuts pieces larger than allowed, border seams handed back to the
 solver, the toroidal shift of the state, and the graph cuts of straight seams
-(:mod:`barkgen.synth.cuts`, Kwatra et al. 2003).
+(:mod:`barkgen.synth.seams.cuts`, Kwatra et al. 2003).
 
 A piece is a verbatim copy of the exemplar: a connected set of output pixels whose references
 keep one offset (reference - position). The kernels mark a forbidden offset per output pixel
@@ -13,12 +13,12 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from barkgen.synth.analysis import LevelAnalysis
+from barkgen.synth._analysis import LevelAnalysis
 
 
 def offset_codes(dy: np.ndarray, dx: np.ndarray) -> np.ndarray:
     """Offsets (reference - position) as the int64 codes the kernels compare
-    (``_kernels.offset_code``)."""
+    (``barkgen.synth._kernels.offset_code``)."""
     import barkgen.synth._kernels as K
 
     bias = K.OFFSET_BIAS
@@ -43,7 +43,7 @@ CUT_MEANDER_PERIOD = 0.4
 
 def limit_copies(refs: np.ndarray, level: LevelAnalysis, max_area: float,
                   forbid: np.ndarray, tile: bool, rng: np.random.Generator) -> int:
-    """Copy-size control: find the pieces copied verbatim (``_kernels.label_pieces``: a piece that
+    """Copy-size control: find the pieces copied verbatim (``seams._kernels.label_pieces``: a piece that
     runs round a tiled output or across a wrapping exemplar's edge is one) larger than
     ``max_area`` pixels and forbid their offsets on a cross-shaped band through each one's
     centroid, so the next iterations cut it in up to four. The band's two lines meander (random
@@ -54,7 +54,7 @@ def limit_copies(refs: np.ndarray, level: LevelAnalysis, max_area: float,
     (G'MIC's results copy 64 % of the exemplar in one piece); this keeps the coherence bias while
     bounding the largest verbatim piece.
     """
-    import barkgen.synth._kernels as K
+    import barkgen.synth.seams._kernels as K
 
     labels = np.empty(refs.shape, np.int32)
     sizes = K.label_pieces(refs, level.grid, tile, labels)
@@ -100,7 +100,7 @@ def unstick_border_seams(refs: np.ndarray, level: LevelAnalysis, forbid: np.ndar
     is forbidden on the ``UNSTICK_DEPTH`` rows below the seam, so the next iterations put
     other pieces there, which can be cut. The same for seams between columns. Returns the
     number of seams treated."""
-    import barkgen.synth._kernels as K
+    import barkgen.synth.seams._kernels as K
 
     ry = np.ascontiguousarray(level.coords_y[refs], dtype=np.int32)
     rx = np.ascontiguousarray(level.coords_x[refs], dtype=np.int32)
@@ -171,10 +171,10 @@ def roll_state(refs: np.ndarray, forbid: np.ndarray, shift: tuple[int, int]) -> 
 def cut_seams(refs: np.ndarray, level: LevelAnalysis, features: np.ndarray, tile: bool,
                min_run: int, labels: tuple[np.ndarray, np.ndarray] | None,
                rng: np.random.Generator) -> np.ndarray:
-    """The level's reference map with its straight seams re-cut (:mod:`barkgen.synth.cuts`);
+    """The level's reference map with its straight seams re-cut (:mod:`barkgen.synth.seams.cuts`);
     ``features`` ``(h, w, C)``: what the seam cost compares; ``labels`` ``(exemplar labels,
     target labels)`` keeps texture-by-numbers' labels; ``rng`` draws the meanders."""
-    from barkgen.synth.cuts import cut_straight_seams
+    from barkgen.synth.seams.cuts import cut_straight_seams
 
     allowed = None
     if labels is not None:

@@ -15,7 +15,7 @@ largest first, from the costlier stretches of its border (:data:`CHEAP_BORDER`).
 takes over a pixel whose reference the output has few copies of (:func:`rare_references`), so
 no part of the exemplar drops out of the output, nor gives a pixel a forbidden offset or a wrong
 label; a pair of pixels whose pieces both end at the exemplar's border between them costs extra
-(``_expansion_kernels.STUCK_COST``), so a third piece takes such a seam over.
+(``seams._kernels.STUCK_COST``), so a third piece takes such a seam over.
 
 Arrays in, arrays out: reference maps of flat exemplar indices at one pyramid level.
 """
@@ -36,7 +36,7 @@ RARE_SHARE = 0.5
 
 
 def exemplar_grid(shape: tuple[int, int], wrap: tuple[bool, bool]) -> tuple:
-    """The kernels' ``exemplar`` tuple (:attr:`barkgen.synth.analysis.LevelAnalysis.grid`) of an
+    """The kernels' ``exemplar`` tuple (:attr:`barkgen.synth._analysis.LevelAnalysis.grid`) of an
     exemplar of ``shape`` ``(h, w)`` that tiles along ``wrap`` ``(rows, columns)``."""
     h, w = int(shape[0]), int(shape[1])
     flat = np.arange(h * w, dtype=np.int32)
@@ -44,7 +44,7 @@ def exemplar_grid(shape: tuple[int, int], wrap: tuple[bool, bool]) -> tuple:
 
 
 def piece_offsets(refs: np.ndarray, grid: tuple) -> np.ndarray:
-    """Offset code (``_kernels.offset_code``) of each output pixel's reference, with the offset
+    """Offset code (``barkgen.synth._kernels.offset_code``) of each output pixel's reference, with the offset
     folded onto the exemplar's torus along the axes where it wraps, so a piece that runs across a
     wrapping exemplar's edge keeps one code. ``grid``: the kernels' ``exemplar`` tuple."""
     import barkgen.synth._kernels as K
@@ -89,7 +89,7 @@ def expand_pieces(refs: np.ndarray, grid: tuple, features: np.ndarray, tile: boo
         Flat exemplar indices; not modified.
     grid : tuple
         The exemplar level's grid as the kernels take it (:func:`exemplar_grid`,
-        :attr:`barkgen.synth.analysis.LevelAnalysis.grid`).
+        :attr:`barkgen.synth._analysis.LevelAnalysis.grid`).
     features : ndarray of float32, shape (h, w, C)
         What the seam cost compares (the exemplar's colour at this level).
     tile : bool
@@ -117,7 +117,7 @@ def expand_pieces(refs: np.ndarray, grid: tuple, features: np.ndarray, tile: boo
     """
     import maxflow
 
-    import barkgen.synth._expansion_kernels as XK
+    import barkgen.synth.seams._kernels as XK
 
     refs = np.ascontiguousarray(refs, dtype=np.int32).copy()
     if band <= 0 or rounds <= 0:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from barkgen.errors import InvalidInputError, MemoryBudgetError
+from barkgen.errors import InvalidInputError
 from barkgen.synth import SynthesisConfig, apply_references, synthesize
 
 
@@ -77,115 +77,10 @@ def test_extras_follow_the_same_references(synthetic_exemplar):
     assert_continuous_copy(out[:, :, 0], height, res.references, tolerance=0.35)
 
 
-def test_a_run_stopped_at_a_level_is_that_level_of_the_full_run(synthetic_exemplar):
-    """``stop_level``: the references at that level are the full run's (same seed, same draws);
-    resuming from them finishes a valid output; a level outside the pyramid is refused."""
-    from barkgen.pyramid import count_levels, level_shape
-    from barkgen.synth.engine import matching_features, solve
-
-    config = SynthesisConfig(coarsest_exemplar=8, blend="none")
-    features = matching_features(synthetic_exemplar, None, 0.0)
-    n_levels = count_levels(synthetic_exemplar.shape[:2], (96, 96), config.coarsest_exemplar)
-    assert n_levels >= 3
-    levels = {}
-
-    def keep(name, image):
-        if name.endswith("_result"):
-            levels[int(name[5:-7])] = image
-
-    from barkgen.synth import AnalysisCache
-
-    args = dict(n_levels=n_levels, config=config, seed=4, tile=True)
-    # the stopped run analyses only the levels it solves; the full run then goes on below them
-    cache = AnalysisCache()
-    stopped = solve(synthetic_exemplar, {}, features, (96, 96), stop_level=1, cache=cache, **args)
-    (levels_kept,) = cache._entries.values()
-    assert levels_kept[0] is None and all(la is not None for la in levels_kept[1:])
-    solve(synthetic_exemplar, {}, features, (96, 96), debug=keep, cache=cache, **args)
-    (levels_now,) = cache._entries.values()
-    assert levels_now[0] is not None and all(a is b for a, b in zip(levels_now[1:], levels_kept[1:]))
-    assert len(cache) == 1
-    h, w = level_shape(synthetic_exemplar.shape[:2], 1)
-    assert stopped.exemplar_shape == (h, w) and stopped.references.shape == (48, 48, 2)
-    assert stopped.references[..., 0].max() < h and stopped.references[..., 1].max() < w
-    assert np.array_equal(stopped.image, levels[1])
-    flat = (stopped.references[..., 0] * w + stopped.references[..., 1]).astype(np.int32)
-    resumed = solve(synthetic_exemplar, {}, features, (96, 96), start=(1, flat), **args)
-    assert np.array_equal(resumed.image, synthetic_exemplar[resumed.references[..., 0],
-                                                            resumed.references[..., 1]])
-    with pytest.raises(InvalidInputError, match="stop_level"):
-        solve(synthetic_exemplar, {}, features, (96, 96), stop_level=n_levels, **args)
-
-
-def test_thread_budget_sizes_every_pool_and_gives_them_back():
-    """Inside a run every library's pool has the run's thread count and BLAS one thread
-    (its spinning pool collapsed beside other busy processes); after it, the counts are back."""
-    import cv2
-    import faiss
-    import numba
-    import scipy.fft
-    from threadpoolctl import threadpool_info
-
-    from barkgen._shared.threads import thread_budget
-
-    def counts():
-        # (an OpenMP build of OpenBLAS, faiss's own, shares OpenMP's count with faiss)
-        blas = sorted({p["num_threads"] for p in threadpool_info()
-                       if p["user_api"] == "blas" and p.get("threading_layer") != "openmp"})
-        return (numba.get_num_threads(), cv2.getNumThreads(), faiss.omp_get_max_threads(),
-                scipy.fft.get_workers(), blas)
-
-    before = counts()
-    with thread_budget(1) as n:
-        assert n == 1 and counts() == (1, 1, 1, 1, [1])
-    assert counts() == before
-    cores = numba.config.NUMBA_NUM_THREADS
-    with thread_budget(None) as n, thread_budget(cores + 5) as m:
-        assert n == m == cores and counts()[:4] == (cores,) * 4 and counts()[4] == [1]
-    assert counts() == before
-
-
-def test_upsampled_references_are_the_childs_of_each_parent():
-    """Exact up-sampling: each output pixel's reference is the child of its parent's with the
-    pixel's own parity; past an odd exemplar's edge it wraps or stays on the last row/column."""
-    from barkgen.synth.engine import upsample_references
-
-    rng = np.random.default_rng(0)
-    coarse = np.stack([rng.integers(0, 5, (4, 6)), rng.integers(0, 7, (4, 6))], axis=-1)
-    fine = upsample_references(coarse, (8, 11), (10, 14))
-    assert fine.shape == (8, 11, 2) and fine.dtype == np.int32
-    ys, xs = np.mgrid[0:8, 0:11]
-    assert np.array_equal(fine[..., 0], 2 * coarse[ys // 2, xs // 2, 0] + ys % 2)
-    assert np.array_equal(fine[..., 1], 2 * coarse[ys // 2, xs // 2, 1] + xs % 2)
-    edge = np.array([[[4, 6]]])  # an exemplar of 9 x 13: children past row 8 and column 12
-    assert upsample_references(edge, (2, 2), (9, 13))[1, 1].tolist() == [8, 12]
-    assert upsample_references(edge, (2, 2), (9, 13), (True, True))[1, 1].tolist() == [0, 0]
-
-
 def test_apply_references_rejects_wrong_size(synthetic_exemplar):
     res = synthesize(synthetic_exemplar, 40, seed=0)
     with pytest.raises(InvalidInputError):
         apply_references(res.references, np.zeros((10, 10), np.uint8))
-
-
-@pytest.mark.parametrize("bad", [
-    dict(exemplar=np.zeros((12, 40, 3), np.uint8), size=64),
-    dict(size=(0, 10)),
-    dict(size=(-5, 10)),
-    dict(size="abc"),
-    dict(extra={"height": np.zeros((5, 5), np.uint8)}),
-    dict(exemplar=np.zeros((40, 40, 4), np.uint8), size=64),
-])
-def test_invalid_inputs(synthetic_exemplar, bad):
-    kwargs = dict(exemplar=synthetic_exemplar, size=64)
-    kwargs.update(bad)
-    with pytest.raises(InvalidInputError):
-        synthesize(kwargs.pop("exemplar"), kwargs.pop("size"), **kwargs)
-
-
-def test_memory_budget_is_checked_before_work(synthetic_exemplar):
-    with pytest.raises(MemoryBudgetError, match="budget"):
-        synthesize(synthetic_exemplar, (50_000, 50_000), config=SynthesisConfig(max_memory=2**30))
 
 
 def test_config_is_validated():

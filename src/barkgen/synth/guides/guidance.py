@@ -1,0 +1,101 @@
+"""What turns the solver into texture-by-numbers (laitoch2018 §3.3, image analogies): the
+guide the solver is given (:class:`Guidance`), what one level's kernels take from it
+(:class:`LevelGuidance`, :func:`level_guidance`) and the label clean-up after the finest level
+(:func:`enforce_labels`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from barkgen.nnf import neighbourhood_pca, project_neighbourhoods
+from barkgen.synth._analysis import schedule_sizes
+from barkgen.synth._config import SynthesisConfig
+
+
+@dataclass
+class Guidance:
+    """What turns the solver into texture-by-numbers (laitoch2018 §3.3, image analogies).
+
+    ``exemplar_guides[l]`` ``(h_l, w_l, G)`` and ``target_guides[l]`` ``(H_l, W_l, G)`` are the
+    guide channels (soft labels) of the exemplar (``A``) and of the output (``B``) at level
+    ``l``; their neighbourhoods are compared in an appearance space of their own with
+    ``components`` dimensions. ``levels`` are the label tables; ``initial_references(a, b, rng)``
+    makes the coarsest level's reference map from its exemplar and target labels.
+
+    ``random_candidates``: M-step candidates drawn per pixel from the wanted label's exemplar
+    pixels (plus one aligned on the nearest other label). ``vote_discount``: weight of E-step
+    votes whose label is wrong (0: used only when no vote has the right label).
+    ``cleanup_passes``: label clean-up passes after the finest level (:func:`enforce_labels`).
+    """
+
+    levels: list  # list[LevelGuide], finest first
+    exemplar_guides: list  # list[np.ndarray], finest first
+    target_guides: list  # list[np.ndarray], finest first
+    initial_references: Callable[[np.ndarray, np.ndarray, np.random.Generator], np.ndarray]
+    components: int = 4
+    random_candidates: int = 1
+    vote_discount: float = 0.0
+    cleanup_passes: int = 3
+
+
+@dataclass
+class LevelGuidance:
+    """The texture-by-numbers inputs of one level's kernels (empty arrays when unguided)."""
+
+    ex_labels: np.ndarray
+    target: np.ndarray
+    pool: np.ndarray
+    pool_start: np.ndarray
+    expected: np.ndarray | None
+    n_random: int
+    discount: float
+    guide_ex: dict
+    guide_out: dict
+    guided: bool
+
+
+NO_LABELS = np.zeros(1, np.int32)
+NO_TARGET = np.zeros((1, 1), np.int32)
+NO_POOL_START = np.zeros(2, np.int32)
+NO_GUIDE_EX = np.zeros((1, 0), np.float32)
+NO_GUIDE_OUT = np.zeros((1, 1, 0), np.float32)
+
+
+def level_guidance(guidance: Guidance | None, lvl: int, n_levels: int, config: SynthesisConfig,
+                   shape: tuple[int, int], wrap: tuple[bool, bool], tile: bool) -> LevelGuidance:
+    """The label tables of level ``lvl`` and the appearance-space label neighbourhoods of the
+    exemplar and of the target for each neighbourhood size of the level's schedule
+    (laitoch2018 §3.3, eq. 3.2)."""
+    if guidance is None:
+        return LevelGuidance(NO_LABELS, NO_TARGET, NO_LABELS, NO_POOL_START, None, 0, 1.0,
+                             {}, {}, False)
+    lg = guidance.levels[lvl]
+    guide_ex, guide_out = {}, {}
+    for nb_size in schedule_sizes(config, lvl, n_levels):
+        gp = neighbourhood_pca(guidance.exemplar_guides[lvl], nb_size, guidance.components,
+                               wrap=wrap)
+        guide_ex[nb_size] = gp.features
+        guide_out[nb_size] = project_neighbourhoods(
+            guidance.target_guides[lvl], gp.weights, gp.mean, wrap=tile).reshape(shape + (-1,))
+    return LevelGuidance(lg.exemplar_labels, lg.target_labels, lg.pool, lg.pool_start,
+                         lg.expected_use, guidance.random_candidates, guidance.vote_discount,
+                         guide_ex, guide_out, True)
+
+
+def enforce_labels(refs: np.ndarray, grid: tuple, guide: LevelGuidance, passes: int,
+                   tile: bool) -> np.ndarray:
+    """Texture-by-numbers' label clean-up after the finest level
+    (``guides._kernels.enforce_labels``), at most ``passes`` passes on the level's exemplar
+    ``grid`` (:attr:`barkgen.synth._analysis.LevelAnalysis.grid`)."""
+    import barkgen.synth.guides._kernels as K
+
+    new = np.empty(refs.shape, np.int32)
+    for _ in range(passes):
+        if K.enforce_labels(refs, grid, guide.ex_labels, guide.target, tile, new) == 0:
+            break
+        refs, new = new, refs
+    return refs
