@@ -56,15 +56,20 @@ class BuildPyWithThree(build_py):
         except Exception as exc:  # network down, registry refused, integrity failed, ...
             problem = f"could not fetch three.js {assets.THREE_VERSION} for the web app ({exc})"
             if editable or os.environ.get("BARKGEN_BUILD_WITHOUT_THREE") == "1":
-                print(f"barkgen: warning: {problem}; building without it: `barkgen serve` "
-                      "will have no 3D trunk view", file=sys.stderr)
+                print(
+                    f"barkgen: warning: {problem}; building without it: `barkgen serve` will have no 3D trunk view",
+                    file=sys.stderr,
+                )
                 return
             raise SetupError(
                 f"barkgen: {problem}. Build where registry.npmjs.org answers, or set "
                 f"BARKGEN_THREE_TARBALL to a copy of three-{assets.THREE_VERSION}.tgz, or set "
-                "BARKGEN_BUILD_WITHOUT_THREE=1 for a wheel without the web app's 3D view") from exc
-        print(f"barkgen: three.js {assets.THREE_VERSION} (MIT, npm registry, integrity checked) "
-              f"-> {target}", file=sys.stderr)
+                "BARKGEN_BUILD_WITHOUT_THREE=1 for a wheel without the web app's 3D view"
+            ) from exc
+        print(
+            f"barkgen: three.js {assets.THREE_VERSION} (MIT, npm registry, integrity checked) -> {target}",
+            file=sys.stderr,
+        )
 
 
 setup(cmdclass={"build_py": BuildPyWithThree})

@@ -26,9 +26,9 @@ import tempfile
 import threading
 import time
 import traceback
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
@@ -37,8 +37,7 @@ sys.path.insert(0, str(REPO / "src"))
 
 from barkgen.io import read_image, write_png  # noqa: E402
 
-ENV = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(REPO / "src"),
-                                                                  os.environ.get("PYTHONPATH")]))}
+ENV = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(REPO / "src"), os.environ.get("PYTHONPATH")]))}
 REFUSE_S = 2.0  # a heavy request is refused within this, whole command
 
 
@@ -57,6 +56,7 @@ def case(group: str, name: str, budget_s: float = REFUSE_S):
     def register(check):
         CASES.append(Case(group, name, check, budget_s))
         return check
+
     return register
 
 
@@ -66,8 +66,9 @@ CLI_TIMEOUT_S = 60
 
 
 def cli(*args: str, timeout: float = CLI_TIMEOUT_S, env: dict | None = None) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "barkgen", *args], capture_output=True, text=True,
-                          timeout=timeout, env=env or ENV)
+    return subprocess.run(
+        [sys.executable, "-m", "barkgen", *args], capture_output=True, text=True, timeout=timeout, env=env or ENV
+    )
 
 
 def one_line(r: subprocess.CompletedProcess, *words: str) -> str | None:
@@ -106,8 +107,9 @@ def photo(folder: Path, name: str = "p.png") -> Path:
 
 def material_set(folder: Path, size: str = "48x48", seed: str = "5") -> tuple[Path, str | None]:
     out = folder / "set"
-    return out, ok(cli("generate", str(photo(folder)), "-o", str(out), "--size", size, "--seed", seed,
-                       "--material", "-q"))
+    return out, ok(
+        cli("generate", str(photo(folder)), "-o", str(out), "--size", size, "--seed", seed, "--material", "-q")
+    )
 
 
 def web_client(library_path: Path, **kwargs):
@@ -152,8 +154,10 @@ def png_bytes(image: np.ndarray) -> bytes:
 def _(tmp):
     p = photo(tmp)
     before = p.read_bytes()
-    return first_problem(one_line(cli("synth", str(p), "-o", str(p), "--size", "32x32", "-q"), "also an input"),
-                         None if p.read_bytes() == before else "the photo changed")
+    return first_problem(
+        one_line(cli("synth", str(p), "-o", str(p), "--size", "32x32", "-q"), "also an input"),
+        None if p.read_bytes() == before else "the photo changed",
+    )
 
 
 @case("data loss", "1 labels p.png -o p.png refused")
@@ -175,9 +179,10 @@ def _(tmp):
     out.mkdir()
     src = photo(out, "texture.png")
     before = src.read_bytes()
-    return first_problem(one_line(cli("generate", str(src), "-o", str(out), "--size", "512x512", "-q"),
-                                  "texture.png"),
-                         None if src.read_bytes() == before else "the photo changed")
+    return first_problem(
+        one_line(cli("generate", str(src), "-o", str(out), "--size", "512x512", "-q"), "texture.png"),
+        None if src.read_bytes() == before else "the photo changed",
+    )
 
 
 @case("data loss", "1 preview into its own set's colour map refused", 30)
@@ -186,8 +191,10 @@ def _(tmp):
     if problem:
         return problem
     colour = (sets / "bark_Color.png").read_bytes()
-    return first_problem(one_line(cli("preview", str(sets), "-o", str(sets / "bark_Color.png")), "bark_Color.png"),
-                         None if (sets / "bark_Color.png").read_bytes() == colour else "the map changed")
+    return first_problem(
+        one_line(cli("preview", str(sets), "-o", str(sets / "bark_Color.png")), "bark_Color.png"),
+        None if (sets / "bark_Color.png").read_bytes() == colour else "the map changed",
+    )
 
 
 @case("data loss", "2 a re-run replaces the folder's set whole (no stale bark_* maps)", 40)
@@ -199,24 +206,33 @@ def _(tmp):
     problem = ok(cli("generate", str(tmp / "p.png"), "-o", str(sets), "--size", "32x32", "--seed", "9", "-q"))
     names = sorted(p.name for p in sets.iterdir())
     stale = [n for n in names if n.startswith("bark")]
-    return first_problem(problem, f"stale maps left: {stale}" if stale else None,
-                         None if "notes.txt" in names else "the user's own file went",
-                         one_line(cli("preview", str(sets), "-o", str(tmp / "t.png")), "no material set"))
+    return first_problem(
+        problem,
+        f"stale maps left: {stale}" if stale else None,
+        None if "notes.txt" in names else "the user's own file went",
+        one_line(cli("preview", str(sets), "-o", str(tmp / "t.png")), "no material set"),
+    )
 
 
 def interrupted_generate(tmp: Path, signum: int) -> str | None:
     """None when a 2048² generate sent ``signum`` after 3 s exits 130 with one line and leaves
     nothing in its folder."""
     out = tmp / "out"
-    proc = subprocess.Popen([sys.executable, "-m", "barkgen", "generate", str(photo(tmp)), "-o", str(out),
-                             "--size", "2048x2048", "-q"], stderr=subprocess.PIPE, text=True, env=ENV)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "barkgen", "generate", str(photo(tmp)), "-o", str(out), "--size", "2048x2048", "-q"],
+        stderr=subprocess.PIPE,
+        text=True,
+        env=ENV,
+    )
     time.sleep(3)
     proc.send_signal(signum)
     _, err = proc.communicate(timeout=60)
     left = sorted(p.name for p in out.rglob("*")) if out.exists() else []
-    return first_problem(None if proc.returncode == 130 else f"exit {proc.returncode}",
-                         None if err.strip() == "barkgen: error: interrupted" else repr(err[-200:]),
-                         f"left {left}" if left else None)
+    return first_problem(
+        None if proc.returncode == 130 else f"exit {proc.returncode}",
+        None if err.strip() == "barkgen: error: interrupted" else repr(err[-200:]),
+        f"left {left}" if left else None,
+    )
 
 
 @case("data loss", "3 SIGTERM mid-run: exit 130, one line, nothing left", 30)
@@ -237,8 +253,23 @@ def _(tmp):
 @case("data loss", "3 kill -9 mid-run, then a run there: no temporary of ours left", 40)
 def _(tmp):
     out = tmp / "out"
-    proc = subprocess.Popen([sys.executable, "-m", "barkgen", "generate", str(photo(tmp)), "-o", str(out),
-                             "--size", "96x96", "--material", "-q"], env=ENV, stderr=subprocess.DEVNULL)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "barkgen",
+            "generate",
+            str(photo(tmp)),
+            "-o",
+            str(out),
+            "--size",
+            "96x96",
+            "--material",
+            "-q",
+        ],
+        env=ENV,
+        stderr=subprocess.DEVNULL,
+    )
     time.sleep(2.5)
     proc.kill()
     proc.wait()
@@ -271,11 +302,15 @@ def _(tmp):
 @case("runaway", "5 labels.png from another site (img tag, fetch) refused")
 def _(tmp):
     with web_client(tmp / "lib", run_jobs=False) as client:
-        codes = [client.get("/api/exemplars/1/labels.png?k=3", headers=h).status_code
-                 for h in ({"sec-fetch-site": "cross-site"}, {"sec-fetch-site": "same-site"},
-                           {"origin": "http://evil.example"})]
-        codes.append(client.post("/api/exemplars/1/labels?k=3", headers={"origin": "http://evil.example"})
-                     .status_code)
+        codes = [
+            client.get("/api/exemplars/1/labels.png?k=3", headers=h).status_code
+            for h in (
+                {"sec-fetch-site": "cross-site"},
+                {"sec-fetch-site": "same-site"},
+                {"origin": "http://evil.example"},
+            )
+        ]
+        codes.append(client.post("/api/exemplars/1/labels?k=3", headers={"origin": "http://evil.example"}).status_code)
         return None if codes == [403] * 4 else f"codes {codes}"
 
 
@@ -296,8 +331,10 @@ def _(tmp):
         client.delete(f"/api/jobs/{job['id']}")
         state = wait_job(client, job["id"], 5)["state"]
         cancel_s = time.perf_counter() - t
-        return first_problem(None if r.status_code == 404 and get_s < 1 else f"GET {r.status_code} in {get_s:.1f} s",
-                             None if state == "cancelled" and cancel_s < 2 else f"{state} after {cancel_s:.1f} s")
+        return first_problem(
+            None if r.status_code == 404 and get_s < 1 else f"GET {r.status_code} in {get_s:.1f} s",
+            None if state == "cancelled" and cancel_s < 2 else f"{state} after {cancel_s:.1f} s",
+        )
 
 
 def _huge_png(tmp: Path, side: int = 11000) -> Path:
@@ -309,13 +346,19 @@ def _huge_png(tmp: Path, side: int = 11000) -> Path:
 
 
 for _command in ("labels", "synth", "material", "generate"):
+
     def _declared(tmp, command=_command):
         big = _huge_png(tmp)
-        args = {"labels": ["-o", str(tmp / "l.png")], "synth": ["-o", str(tmp / "s.png"), "--size", "64x64"],
-                "material": ["-o", str(tmp / "m")], "generate": ["-o", str(tmp / "g"), "--size", "64x64"]}[command]
+        args = {
+            "labels": ["-o", str(tmp / "l.png")],
+            "synth": ["-o", str(tmp / "s.png"), "--size", "64x64"],
+            "material": ["-o", str(tmp / "m")],
+            "generate": ["-o", str(tmp / "g"), "--size", "64x64"],
+        }[command]
         t = time.perf_counter()
         problem = one_line(cli(command, str(big), *args), "121 megapixels")
         return problem or (None if time.perf_counter() - t < REFUSE_S else "too slow")
+
     case("runaway", f"6 {_command}: a 120 KB PNG declaring 121 MP refused from its header", 8)(_declared)
 
 
@@ -330,19 +373,28 @@ def _(tmp):
 
 @case("runaway", "6 --max-pixels sets the limit")
 def _(tmp):
-    return one_line(cli("--max-pixels", "100", "labels", str(photo(tmp)), "-o", str(tmp / "l.png")),
-                    "--max-pixels")
+    return one_line(cli("--max-pixels", "100", "labels", str(photo(tmp)), "-o", str(tmp / "l.png")), "--max-pixels")
 
 
-for _command, _size in (("generate", "99999x99999"), ("synth", "99999x99999"), ("shapes", "99999x99999"),
-                        ("bilayer synth", "99999x99999"), ("branches grow", "99999x99999"),
-                        ("preview", "99999x99999")):
+for _command, _size in (
+    ("generate", "99999x99999"),
+    ("synth", "99999x99999"),
+    ("shapes", "99999x99999"),
+    ("bilayer synth", "99999x99999"),
+    ("branches grow", "99999x99999"),
+    ("preview", "99999x99999"),
+):
+
     def _huge(tmp, command=_command, size=_size):
         p = photo(tmp)
-        first = {"generate": [str(p), "-o", str(tmp / "g")], "synth": [str(p), "-o", str(tmp / "s.png")],
-                 "shapes": [str(p), "-o", str(tmp / "s.png")], "bilayer synth": [str(tmp / "m.npz"), "-o", "w.png"],
-                 "branches grow": [str(tmp / "s.json"), "-o", str(tmp / "g.json")],
-                 "preview": [str(tmp / "set"), "-o", str(tmp / "t.png")]}[command]
+        first = {
+            "generate": [str(p), "-o", str(tmp / "g")],
+            "synth": [str(p), "-o", str(tmp / "s.png")],
+            "shapes": [str(p), "-o", str(tmp / "s.png")],
+            "bilayer synth": [str(tmp / "m.npz"), "-o", "w.png"],
+            "branches grow": [str(tmp / "s.json"), "-o", str(tmp / "g.json")],
+            "preview": [str(tmp / "set"), "-o", str(tmp / "t.png")],
+        }[command]
         if command == "shapes":  # a label map of the photo first
             labels = tmp / "l.png"
             write_png(labels, (read_image(p)[..., 0] > 110).astype(np.uint8) * 255)
@@ -357,14 +409,16 @@ for _command, _size in (("generate", "99999x99999"), ("synth", "99999x99999"), (
         problem = one_line(cli(*command.split(), *first, "--size", size))
         seconds = time.perf_counter() - t
         return problem or (None if seconds < REFUSE_S else f"refused after {seconds:.1f} s")
+
     case("runaway", f"7 {_command} --size {_size} refused before any work", 30)(_huge)
 
 
 @case("runaway", "7 export-glb --segments 100000000 refused", 30)
 def _(tmp):
     sets, problem = material_set(tmp, size="32x32")
-    return problem or one_line(cli("export-glb", str(sets), "-o", str(tmp / "t.glb"), "--segments", "100000000"),
-                               "segments")
+    return problem or one_line(
+        cli("export-glb", str(sets), "-o", str(tmp / "t.glb"), "--segments", "100000000"), "segments"
+    )
 
 
 @case("runaway", "7 branches grow at its largest size estimates 5.2 GiB and keeps to --max-memory", 10)
@@ -372,16 +426,31 @@ def _(tmp):
     cli("branches", "extract", str(photo(tmp)), "-o", str(tmp / "s.json"))
     t = time.perf_counter()
     # (16384² is over the default output bound of 8192²: raised, as the refusal says)
-    problem = one_line(cli("--max-pixels", "300000000", "branches", "grow", str(tmp / "s.json"), "-o",
-                           str(tmp / "g.json"), "--size", "16384x16384", "--max-memory", "2G"), "5.2 GiB")
+    problem = one_line(
+        cli(
+            "--max-pixels",
+            "300000000",
+            "branches",
+            "grow",
+            str(tmp / "s.json"),
+            "-o",
+            str(tmp / "g.json"),
+            "--size",
+            "16384x16384",
+            "--max-memory",
+            "2G",
+        ),
+        "5.2 GiB",
+    )
     seconds = time.perf_counter() - t
     return problem or (None if seconds < REFUSE_S else f"refused after {seconds:.1f} s")
 
 
 @case("runaway", "7 --max-memory 10M: refused, said in MiB")
 def _(tmp):
-    return one_line(cli("generate", str(photo(tmp)), "-o", str(tmp / "m"), "--size", "64x64", "--max-memory", "10M"),
-                    "10 MiB")
+    return one_line(
+        cli("generate", str(photo(tmp)), "-o", str(tmp / "m"), "--size", "64x64", "--max-memory", "10M"), "10 MiB"
+    )
 
 
 def _batch_spec_case(tmp: Path, text: str, word: str) -> str | None:
@@ -396,14 +465,14 @@ def _(tmp):
     levels = ["a: &a [x, x, x, x, x, x, x, x, x]"]
     for i, name in enumerate("bcdefghi"):
         levels.append(f"{name}: &{name} [{', '.join(['*' + 'abcdefghi'[i]] * 9)}]")
-    return _batch_spec_case(tmp, "\n".join(levels) + "\nexemplars: [{name: a, path: p.png, seeds: *i}]\n",
-                            "aliases")
+    return _batch_spec_case(tmp, "\n".join(levels) + "\nexemplars: [{name: a, path: p.png, seeds: *i}]\n", "aliases")
 
 
 @case("runaway", "8 batch: a 200,000-seed list refused")
 def _(tmp):
-    return _batch_spec_case(tmp, json.dumps({"exemplars": [{"name": "a", "path": "p.png",
-                                                            "seeds": list(range(200_000))}]}), "100000")
+    return _batch_spec_case(
+        tmp, json.dumps({"exemplars": [{"name": "a", "path": "p.png", "seeds": list(range(200_000))}]}), "100000"
+    )
 
 
 @case("runaway", "8 batch: a 5 MB spec refused")
@@ -419,9 +488,12 @@ def _serve(tmp: Path) -> tuple[subprocess.Popen, str, Path]:
         port = probe.getsockname()[1]
     log = tmp / "serve.log"
     with open(log, "w") as out:
-        process = subprocess.Popen([sys.executable, "-m", "barkgen", "serve", "--port", str(port),
-                                    "--library", str(tmp / "lib")], stdout=out, stderr=subprocess.STDOUT,
-                                   env=ENV)
+        process = subprocess.Popen(
+            [sys.executable, "-m", "barkgen", "serve", "--port", str(port), "--library", str(tmp / "lib")],
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            env=ENV,
+        )
     deadline = time.monotonic() + 60
     while "running at" not in log.read_text():
         if process.poll() is not None or time.monotonic() > deadline:
@@ -450,9 +522,11 @@ def _(tmp):
         code = process.wait(timeout=20)
         seconds = time.perf_counter() - t
         left = subprocess.run(["pgrep", "-f", f"--library {tmp / 'lib'}"], capture_output=True, text=True).stdout
-        return first_problem(None if code == 0 and seconds < 10 else f"exit {code} after {seconds:.1f} s",
-                             "a process was left" if left.strip() else None,
-                             "traceback in the log" if "Traceback" in log.read_text() else None)
+        return first_problem(
+            None if code == 0 and seconds < 10 else f"exit {code} after {seconds:.1f} s",
+            "a process was left" if left.strip() else None,
+            "traceback in the log" if "Traceback" in log.read_text() else None,
+        )
     finally:
         if process.poll() is None:
             process.kill()
@@ -463,9 +537,16 @@ def _(tmp):
 def _(tmp):
     huge = "99999999999999999999"
     with web_client(tmp / "lib", run_jobs=False) as client:
-        paths = [f"/api/exemplars/{huge}", f"/api/exemplars/{huge}/photo", f"/api/exemplars/{huge}/thumbnail.jpg",
-                 f"/api/exemplars/{huge}/labels.png", f"/api/results/{huge}", f"/api/results/{huge}/download",
-                 f"/api/results/{huge}/files/texture.png", f"/api/results?exemplar_id={huge}"]
+        paths = [
+            f"/api/exemplars/{huge}",
+            f"/api/exemplars/{huge}/photo",
+            f"/api/exemplars/{huge}/thumbnail.jpg",
+            f"/api/exemplars/{huge}/labels.png",
+            f"/api/results/{huge}",
+            f"/api/results/{huge}/download",
+            f"/api/results/{huge}/files/texture.png",
+            f"/api/results?exemplar_id={huge}",
+        ]
         codes = {p: client.get(p).status_code for p in paths}
         codes["POST /api/jobs"] = client.post("/api/jobs", json={"exemplar_id": int(huge), "size": "64x64"}).status_code
         codes["DELETE"] = client.delete(f"/api/exemplars/{huge}").status_code
@@ -528,8 +609,11 @@ def _(tmp):
     real_access = os.access
     lib = str(tmp / "lib")
     try:  # as root the mode bits do not stop a write: let the library see what a user sees
-        with mock.patch.object(os, "access", lambda p, mode, **kw: False if mode & os.W_OK and
-                               str(p).startswith(lib) else real_access(p, mode, **kw)):
+        with mock.patch.object(
+            os,
+            "access",
+            lambda p, mode, **kw: False if mode & os.W_OK and str(p).startswith(lib) else real_access(p, mode, **kw),
+        ):
             readonly = Library(tmp / "lib")
             names = [e.name for e in readonly.exemplars()]
             try:
@@ -537,8 +621,10 @@ def _(tmp):
                 refused = None
             except LibraryError as exc:
                 refused = str(exc)
-        return first_problem(None if names == ["Sample pine bark", "oak"] else f"listed {names}",
-                             None if refused and "read-only" in refused else f"the change said {refused!r}")
+        return first_problem(
+            None if names == ["Sample pine bark", "oak"] else f"listed {names}",
+            None if refused and "read-only" in refused else f"the change said {refused!r}",
+        )
     finally:
         for path in paths:
             path.chmod(path.stat().st_mode | stat.S_IWUSR)
@@ -549,9 +635,13 @@ def _(tmp):
     photo(tmp)
     spec = tmp / "spec.yaml"
     spec.write_text(json.dumps({"size": "256x256", "exemplars": [{"name": "a", "path": "p.png", "count": 12}]}))
-    proc = subprocess.Popen([sys.executable, "-m", "barkgen", "batch", str(spec), "-o", str(tmp / "out"),
-                             "--workers", "2", "-q"], stderr=subprocess.PIPE, text=True, env=ENV,
-                            start_new_session=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "barkgen", "batch", str(spec), "-o", str(tmp / "out"), "--workers", "2", "-q"],
+        stderr=subprocess.PIPE,
+        text=True,
+        env=ENV,
+        start_new_session=True,
+    )
     try:
         deadline = time.monotonic() + 60
         while not list((tmp / "out").glob("a/*/report.json")):
@@ -563,9 +653,10 @@ def _(tmp):
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
-    return first_problem(None if proc.returncode == 130 else f"exit {proc.returncode}",
-                         None if len(err.splitlines()) <= 3 and "Traceback" not in err else
-                         f"{len(err.splitlines())} lines")
+    return first_problem(
+        None if proc.returncode == 130 else f"exit {proc.returncode}",
+        None if len(err.splitlines()) <= 3 and "Traceback" not in err else f"{len(err.splitlines())} lines",
+    )
 
 
 @case("errors", "14 web jobs outlive a restart: waiting ones wait, the running one says interrupted", 10)
@@ -574,15 +665,18 @@ def _(tmp):
     from barkgen.web.jobs import INTERRUPTED, JobManager
 
     with web_client(tmp / "lib", run_jobs=False) as client:
-        ids = [client.post("/api/jobs", json={"exemplar_id": 1, "size": "64x64", "seed": s}).json()["id"]
-               for s in (1, 2)]
+        ids = [
+            client.post("/api/jobs", json={"exemplar_id": 1, "size": "64x64", "seed": s}).json()["id"] for s in (1, 2)
+        ]
     library = Library(tmp / "lib")
     record = next(r for r in library.saved_jobs() if r["id"] == ids[0])
     library.save_job({**record, "state": "running"})  # as a killed server leaves it
     manager = JobManager(Library(tmp / "lib"))
     first, second = manager.snapshot(ids[0]), manager.snapshot(ids[1])
-    return first_problem(None if first and first["error"] == INTERRUPTED else f"first: {first}",
-                         None if second and second["state"] == "queued" else f"second: {second}")
+    return first_problem(
+        None if first and first["error"] == INTERRUPTED else f"first: {first}",
+        None if second and second["state"] == "queued" else f"second: {second}",
+    )
 
 
 @case("errors", "15 EXIF orientation: a sideways phone photo is turned upright")
@@ -597,8 +691,10 @@ def _(tmp):
     path = tmp / "phone.jpg"
     image.save(path, exif=exif)
     shape = read_image(path).shape[:2]
-    return first_problem(None if shape == (100, 40) else f"read as {shape}",
-                         None if image_size(path) == (40, 100) else f"header size {image_size(path)}")
+    return first_problem(
+        None if shape == (100, 40) else f"read as {shape}",
+        None if image_size(path) == (40, 100) else f"header size {image_size(path)}",
+    )
 
 
 @case("errors", "16 an unwritable output folder is refused before any work")
@@ -613,14 +709,18 @@ def _(tmp):
         return None if r.status_code == 400 else f"HTTP {r.status_code}"
 
 
-for _args, _word in ((("synth", "{p}", "-o", "{t}/s.png", "--seed", "-1"), "--seed"),
-                     (("synth", "{p}", "-o", "{t}/s.png", "--threads", "0"), "--threads"),
-                     (("library", "rm", "abc"), "ID"),
-                     (("synth", "{p}", "--no-such-flag"), "--no-such-flag"),
-                     (("labels", "{p}", "-o", "{t}/e.png", "--edges", "--edge-width", "100000"), "edge")):
+for _args, _word in (
+    (("synth", "{p}", "-o", "{t}/s.png", "--seed", "-1"), "--seed"),
+    (("synth", "{p}", "-o", "{t}/s.png", "--threads", "0"), "--threads"),
+    (("library", "rm", "abc"), "ID"),
+    (("synth", "{p}", "--no-such-flag"), "--no-such-flag"),
+    (("labels", "{p}", "-o", "{t}/e.png", "--edges", "--edge-width", "100000"), "edge"),
+):
+
     def _usage(tmp, args=_args, word=_word):
         p = photo(tmp)
         return one_line(cli(*(a.format(p=p, t=tmp) for a in args)), word)
+
     case("errors", f"17 {' '.join(_args[:1] + _args[-2:])}: one line")(_usage)
 
 
@@ -631,8 +731,11 @@ def _(tmp):
     data = png_bytes(np.random.default_rng(3).integers(0, 255, (64, 64, 3), dtype=np.uint8))
     with web_client(tmp / "lib", run_jobs=False) as client:
         with ThreadPoolExecutor(10) as pool:
-            codes = list(pool.map(lambda i: client.post("/api/exemplars", files={"file": (f"{i}.png", data)})
-                                  .status_code, range(10)))
+            codes = list(
+                pool.map(
+                    lambda i: client.post("/api/exemplars", files={"file": (f"{i}.png", data)}).status_code, range(10)
+                )
+            )
     return None if sorted(codes) == [200] * 9 + [201] else f"codes {sorted(codes)}"
 
 
@@ -657,10 +760,11 @@ def _(tmp):
     frames = [Image.fromarray(np.full((32, 32), v, np.uint8)) for v in (0, 255)]
     frames[0].save(tmp / "a.gif", save_all=True, append_images=frames[1:])
     Image.fromarray(np.full((32, 32), 3.5, np.float32)).save(tmp / "f.tif")
-    said = [cli("labels", str(tmp / name), "-o", str(tmp / f"{name}.png"), "-q").stderr
-            for name in ("a.gif", "f.tif")]
-    return first_problem(None if "frame" in said[0] else f"gif: {said[0][-160:]!r}",
-                         None if "0" in said[1] and "1" in said[1] and said[1].strip() else f"tiff: {said[1]!r}")
+    said = [cli("labels", str(tmp / name), "-o", str(tmp / f"{name}.png"), "-q").stderr for name in ("a.gif", "f.tif")]
+    return first_problem(
+        None if "frame" in said[0] else f"gif: {said[0][-160:]!r}",
+        None if "0" in said[1] and "1" in said[1] and said[1].strip() else f"tiff: {said[1]!r}",
+    )
 
 
 @case("errors", "17 generate --labels takes a colour label map", 20)
@@ -670,8 +774,9 @@ def _(tmp):
     colours[:64] = (200, 30, 30)
     colours[64:] = (20, 90, 200)
     write_png(tmp / "labels.png", colours)
-    return ok(cli("generate", str(p), "--labels", str(tmp / "labels.png"), "-o", str(tmp / "out"),
-                  "--size", "32x32", "-q"))
+    return ok(
+        cli("generate", str(p), "--labels", str(tmp / "labels.png"), "-o", str(tmp / "out"), "--size", "32x32", "-q")
+    )
 
 
 @case("errors", "17 no page loads scripts from a CDN (/docs, /redoc off)")
@@ -682,19 +787,22 @@ def _(tmp):
 
 
 # -- what held before ------------------------------------------------------------------------
-for _name, _data in (("not an image", b"hello, this is text"), ("empty file", b""),
-                     ("truncated PNG", None)):
+for _name, _data in (("not an image", b"hello, this is text"), ("empty file", b""), ("truncated PNG", None)):
+
     def _bad_file(tmp, data=_data):
         path = tmp / "bad.png"
         path.write_bytes(data if data is not None else photo(tmp).read_bytes()[:300])
         return one_line(cli("synth", str(path), "-o", str(tmp / "s.png"), "--size", "32x32"))
+
     case("held", f"a bad file ({_name}): one line")(_bad_file)
 
 
 @case("held", "a missing file and a bad --size: one line")
 def _(tmp):
-    return first_problem(one_line(cli("synth", str(tmp / "nope.png"), "-o", str(tmp / "s.png"))),
-                         one_line(cli("synth", str(photo(tmp)), "-o", str(tmp / "s.png"), "--size", "12xx")))
+    return first_problem(
+        one_line(cli("synth", str(tmp / "nope.png"), "-o", str(tmp / "s.png"))),
+        one_line(cli("synth", str(photo(tmp)), "-o", str(tmp / "s.png"), "--size", "12xx")),
+    )
 
 
 @case("held", "an upload decompression bomb refused in milliseconds")
@@ -712,8 +820,10 @@ def _(tmp):
     with web_client(tmp / "lib", run_jobs=False) as client:
         r = client.post("/api/exemplars", files={"file": ("../../../../tmp/evil.png", photo(tmp).read_bytes())})
     written = [p for p in (tmp / "lib").rglob("*evil*")]
-    return first_problem(None if r.status_code == 201 else f"HTTP {r.status_code}",
-                         f"wrote {written}" if written or Path("/tmp/evil.png").exists() else None)
+    return first_problem(
+        None if r.status_code == 201 else f"HTTP {r.status_code}",
+        f"wrote {written}" if written or Path("/tmp/evil.png").exists() else None,
+    )
 
 
 @case("held", "a foreign Host (DNS rebinding) and a foreign Origin refused")
@@ -725,8 +835,10 @@ def _(tmp):
 
     app = create_app(Library(tmp / "lib"), hosts=["127.0.0.1", "localhost"], run_jobs=False)
     with TestClient(app, base_url="http://127.0.0.1:8000") as client:
-        codes = [client.get("/api/exemplars", headers={"host": "evil.example"}).status_code,
-                 client.delete("/api/exemplars/1", headers={"origin": "http://evil.example"}).status_code]
+        codes = [
+            client.get("/api/exemplars", headers={"host": "evil.example"}).status_code,
+            client.delete("/api/exemplars/1", headers={"origin": "http://evil.example"}).status_code,
+        ]
     return None if codes == [400, 403] else f"codes {codes}"
 
 
@@ -735,8 +847,10 @@ def _(tmp):
     from barkgen.web.jobs import MAX_QUEUED
 
     with web_client(tmp / "lib", run_jobs=False) as client:
-        codes = [client.post("/api/jobs", json={"exemplar_id": 1, "size": "64x64", "seed": i}).status_code
-                 for i in range(MAX_QUEUED + 1)]
+        codes = [
+            client.post("/api/jobs", json={"exemplar_id": 1, "size": "64x64", "seed": i}).status_code
+            for i in range(MAX_QUEUED + 1)
+        ]
     return None if codes == [201] * MAX_QUEUED + [429] else f"codes {codes[-3:]}"
 
 
@@ -749,9 +863,11 @@ def _(tmp):
 def _(tmp):
     from barkgen.library import Library
 
-    script = ("import sys, numpy as np\nfrom barkgen.library import Library\nfrom barkgen.io import encode_png\n"
-              "lib = Library(sys.argv[1])\nrng = np.random.default_rng(0)\n"
-              "while True:\n    lib.add_exemplar(encode_png(rng.integers(0, 255, (256, 256, 3), dtype=np.uint8)), 'x')\n")
+    script = (
+        "import sys, numpy as np\nfrom barkgen.library import Library\nfrom barkgen.io import encode_png\n"
+        "lib = Library(sys.argv[1])\nrng = np.random.default_rng(0)\n"
+        "while True:\n    lib.add_exemplar(encode_png(rng.integers(0, 255, (256, 256, 3), dtype=np.uint8)), 'x')\n"
+    )
     proc = subprocess.Popen([sys.executable, "-c", script, str(tmp / "lib")], env=ENV)
     time.sleep(4)
     proc.kill()
@@ -760,9 +876,11 @@ def _(tmp):
     exemplars = library.exemplars()
     missing = [e.id for e in exemplars if not library.store.exists(e.image_hash)]
     half = [p for p in (tmp / "lib" / "objects").rglob("*") if p.is_file() and p.name.endswith(".tmp")]
-    return first_problem(None if len(exemplars) > 2 else f"only {len(exemplars)} exemplars",
-                         f"rows without files: {missing}" if missing else None,
-                         f"half-written objects: {half}" if half and library.store.digests() else None)
+    return first_problem(
+        None if len(exemplars) > 2 else f"only {len(exemplars)} exemplars",
+        f"rows without files: {missing}" if missing else None,
+        f"half-written objects: {half}" if half and library.store.digests() else None,
+    )
 
 
 @case("held", "batch resumes: a finished batch run again makes nothing", 90)
@@ -810,6 +928,7 @@ def run_case(item: Case) -> tuple[float, str | None]:
 
 # -- issue 56: nothing of the user's is touched, every input bounded ----------------------------
 
+
 def _unchanged(folder: Path, before: dict[str, bytes]) -> str | None:
     now = {q.name: q.read_bytes() for q in folder.iterdir()}
     return None if now == before else f"the folder changed: {sorted(set(now) ^ set(before)) or 'contents'}"
@@ -824,16 +943,27 @@ def _refused_untouched(folder: Path, *args: str, word: str) -> str | None:
 def _(tmp):
     p = photo(tmp)
     (tmp / "o_height.png").write_bytes(p.read_bytes())
-    return _refused_untouched(tmp, "synth", str(p), "-o", str(tmp / "o.png"), "--size", "32x32",
-                              "--extra", f"height={tmp / 'o_height.png'}", word="o_height.png")
+    return _refused_untouched(
+        tmp,
+        "synth",
+        str(p),
+        "-o",
+        str(tmp / "o.png"),
+        "--size",
+        "32x32",
+        "--extra",
+        f"height={tmp / 'o_height.png'}",
+        word="o_height.png",
+    )
 
 
 @case("no loss", "56.1 synth q_height.png -o q.png --extra height=h.png refused (the photo)")
 def _(tmp):
     q = photo(tmp, "q_height.png")
     h = photo(tmp, "h.png")
-    return _refused_untouched(tmp, "synth", str(q), "-o", str(tmp / "q.png"), "--size", "32x32",
-                              "--extra", f"height={h}", word="q_height.png")
+    return _refused_untouched(
+        tmp, "synth", str(q), "-o", str(tmp / "q.png"), "--size", "32x32", "--extra", f"height={h}", word="q_height.png"
+    )
 
 
 @case("no loss", "56.1 tbn D/feature_distance.png --debug-dir D refused")
@@ -843,8 +973,20 @@ def _(tmp):
     src = photo(d, "feature_distance.png")
     labels = tmp / "a.png"
     write_png(labels, (read_image(src)[..., 0] > 100).astype(np.uint8) * 255)
-    return _refused_untouched(d, "tbn", str(src), "--labels", str(labels), "--target", str(labels),
-                              "-o", str(tmp / "t.png"), "--debug-dir", str(d), word="feature_distance.png")
+    return _refused_untouched(
+        d,
+        "tbn",
+        str(src),
+        "--labels",
+        str(labels),
+        "--target",
+        str(labels),
+        "-o",
+        str(tmp / "t.png"),
+        "--debug-dir",
+        str(d),
+        word="feature_distance.png",
+    )
 
 
 @case("no loss", "56.1 textons D/textons.png -o D refused")
@@ -893,8 +1035,22 @@ def _(tmp):
     d = tmp / "d"
     d.mkdir()
     write_png(d / "level_1.png", np.zeros((32, 32), np.uint8))
-    r = one_line(cli("generate", str(photo(tmp)), "-o", str(tmp / "out"), "--size", "64x64",
-                     "--resume", str(d / "level_1.png"), "--save-levels", str(d), "-q"), "level_1.png")
+    r = one_line(
+        cli(
+            "generate",
+            str(photo(tmp)),
+            "-o",
+            str(tmp / "out"),
+            "--size",
+            "64x64",
+            "--resume",
+            str(d / "level_1.png"),
+            "--save-levels",
+            str(d),
+            "-q",
+        ),
+        "level_1.png",
+    )
     return first_problem(r, None if not (tmp / "out").exists() else "OUT's set was written")
 
 
@@ -908,8 +1064,10 @@ def _(tmp):
 def _(tmp):
     (tmp / "blocker").write_text("a file where a folder should be")
     r = cli("labels", str(photo(tmp)), "-o", str(tmp / "a.png"), "--preview", str(tmp / "blocker" / "p.png"), "-q")
-    return first_problem(None if r.returncode != 0 else "exit 0",
-                         None if not (tmp / "a.png").exists() else "the label map was written alone")
+    return first_problem(
+        None if r.returncode != 0 else "exit 0",
+        None if not (tmp / "a.png").exists() else "the label map was written alone",
+    )
 
 
 @case("bounds", "56.5 a 64 MP PNG named .dat refused from its header")
@@ -942,8 +1100,9 @@ def _(tmp):
 
 @case("bounds", "56.7 synth --size 1x99999999 refused (--max-pixels bounds outputs)")
 def _(tmp):
-    return one_line(cli("synth", str(photo(tmp)), "-o", str(tmp / "s.png"), "--size", "1x99999999", "-q"),
-                    "--max-pixels")
+    return one_line(
+        cli("synth", str(photo(tmp)), "-o", str(tmp / "s.png"), "--size", "1x99999999", "-q"), "--max-pixels"
+    )
 
 
 @case("bounds", "56.8 material --edits with 200,000 edits refused")
@@ -957,8 +1116,11 @@ def _(tmp):
 def _(tmp):
     p = photo(tmp)
     spec = tmp / "spec.json"
-    spec.write_text(json.dumps({"size": "32x32", "exemplars": [
-        {"name": f"e{i}", "path": str(p), "count": 100_000} for i in range(300)]}))
+    spec.write_text(
+        json.dumps(
+            {"size": "32x32", "exemplars": [{"name": f"e{i}", "path": str(p), "count": 100_000} for i in range(300)]}
+        )
+    )
     return one_line(cli("batch", str(spec), "-o", str(tmp / "out")), "variants")
 
 
@@ -967,23 +1129,24 @@ def _(tmp):
     p = photo(tmp)
     spec = tmp / "spec.json"
     spec.write_text(json.dumps({"size": "32x32", "exemplars": [{"name": "a", "path": str(p), "seeds": [0]}]}))
-    return one_line(cli("batch", str(spec), "-o", str(tmp / "out"), "--scheduler", "tcp://256.1.1.1:99999"),
-                    "port")
+    return one_line(cli("batch", str(spec), "-o", str(tmp / "out"), "--scheduler", "tcp://256.1.1.1:99999"), "port")
 
 
 @case("errors", "56 --size 1x<5000 digits> is one line")
 def _(tmp):
-    return one_line(cli("synth", str(photo(tmp)), "-o", str(tmp / "s.png"), "--size", "1x" + "9" * 5000, "-q"),
-                    "invalid size")
+    return one_line(
+        cli("synth", str(photo(tmp)), "-o", str(tmp / "s.png"), "--size", "1x" + "9" * 5000, "-q"), "invalid size"
+    )
 
 
 @case("errors", "56 deeply nested JSON edits and specs are one line")
 def _(tmp):
     deep = tmp / "deep.json"
     deep.write_text("[" * 100_000 + "]" * 100_000)
-    return first_problem(one_line(cli("material", str(photo(tmp)), "--edits", str(deep), "-o", str(tmp / "m"), "-q"),
-                                  "nested"),
-                         one_line(cli("batch", str(deep), "-o", str(tmp / "out")), "nested"))
+    return first_problem(
+        one_line(cli("material", str(photo(tmp)), "--edits", str(deep), "-o", str(tmp / "m"), "-q"), "nested"),
+        one_line(cli("batch", str(deep), "-o", str(tmp / "out")), "nested"),
+    )
 
 
 @case("errors", "56 serve --max-upload-mp nan is one line")
@@ -1027,8 +1190,9 @@ def _(tmp):
 
 @case("errors", "56 a library name with a newline refused")
 def _(tmp):
-    return one_line(cli("library", "add", str(photo(tmp)), "--name", "two\nlines", "--library", str(tmp / "lib")),
-                    "one line")
+    return one_line(
+        cli("library", "add", str(photo(tmp)), "--name", "two\nlines", "--library", str(tmp / "lib")), "one line"
+    )
 
 
 @case("errors", "56 -o with a 240-character name is written", 30)
@@ -1046,13 +1210,24 @@ def main() -> int:
     chosen = [c for c in CASES if not args.only or args.only in c.name]
     rows = []
     started = time.perf_counter()
-    print(f"| group | case | s | budget s | held |\n|---|---|---:|---:|---|")
+    print("| group | case | s | budget s | held |\n|---|---|---:|---:|---|")
     for item in chosen:
         seconds, problem = run_case(item)
-        rows.append({"group": item.group, "case": item.name, "seconds": round(seconds, 2),
-                     "budget_s": item.budget_s, "held": problem is None, "problem": problem})
-        print(f"| {item.group} | {item.name} | {seconds:.2f} | {item.budget_s:g} | "
-              f"{'held' if problem is None else 'NO: ' + problem} |", flush=True)
+        rows.append(
+            {
+                "group": item.group,
+                "case": item.name,
+                "seconds": round(seconds, 2),
+                "budget_s": item.budget_s,
+                "held": problem is None,
+                "problem": problem,
+            }
+        )
+        print(
+            f"| {item.group} | {item.name} | {seconds:.2f} | {item.budget_s:g} | "
+            f"{'held' if problem is None else 'NO: ' + problem} |",
+            flush=True,
+        )
     held = sum(r["held"] for r in rows)
     print(f"\ncases tried {len(rows)}, held {held}, in {time.perf_counter() - started:.0f} s")
     if args.json:

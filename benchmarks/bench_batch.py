@@ -96,8 +96,14 @@ def run_once(spec, out: Path, workers: int, threads: int) -> dict:
         cluster.close()
     assert report.made == report.total and not report.failed, report
     over, median_compute, n = overhead(records)
-    return {"start": start, "wall": wall, "per_minute": report.made / wall * 60, "overhead_per_task": over / n,
-            "median_compute": median_compute, "analysis": statistics.mean(report.analysis_seconds.values())}
+    return {
+        "start": start,
+        "wall": wall,
+        "per_minute": report.made / wall * 60,
+        "overhead_per_task": over / n,
+        "median_compute": median_compute,
+        "analysis": statistics.mean(report.analysis_seconds.values()),
+    }
 
 
 def main() -> None:
@@ -116,31 +122,44 @@ def main() -> None:
                 out = folder / f"out-{workers}-{threads}-{repeat}"
                 results[name].append(run_once(spec, out, workers, threads))
                 r = results[name][-1]
-                print(f"  run {repeat + 1}: {name}: {r['wall']:.1f} s, {r['per_minute']:.1f} variants/min",
-                      file=sys.stderr)
+                print(
+                    f"  run {repeat + 1}: {name}: {r['wall']:.1f} s, {r['per_minute']:.1f} variants/min",
+                    file=sys.stderr,
+                )
     base = statistics.median(r["per_minute"] for r in results[CONFIGS[0][0]])
     n = 2 * args.variants
-    print(f"\nbatch: 2 exemplars x {args.variants} variants = {n} at {args.size}x{args.size}, tileable, "
-          f"k = 3; medians of {args.repeats} runs")
-    print(f"{'configuration':24s} {'start s':>7s} {'wall s':>7s} {'var/min':>8s} {'x 1w1t':>7s} {'analysis s':>10s} "
-          f"{'variant s':>9s} {'overhead/task s':>15s} {'overhead %':>10s}")
+    print(
+        f"\nbatch: 2 exemplars x {args.variants} variants = {n} at {args.size}x{args.size}, tileable, "
+        f"k = 3; medians of {args.repeats} runs"
+    )
+    print(
+        f"{'configuration':24s} {'start s':>7s} {'wall s':>7s} {'var/min':>8s} {'x 1w1t':>7s} {'analysis s':>10s} "
+        f"{'variant s':>9s} {'overhead/task s':>15s} {'overhead %':>10s}"
+    )
     summary = {}
     for name, _, _ in CONFIGS:
         rs = results[name]
         med = {key: statistics.median(r[key] for r in rs) for key in rs[0]}
         share = 100 * med["overhead_per_task"] / med["median_compute"]
         summary[name] = {**med, "speedup": med["per_minute"] / base, "overhead_percent": share}
-        print(f"{name:24s} {med['start']:7.1f} {med['wall']:7.1f} {med['per_minute']:8.1f} {med['per_minute'] / base:7.2f} "
-              f"{med['analysis']:10.1f} {med['median_compute']:9.2f} {med['overhead_per_task']:15.3f} "
-              f"{share:10.1f}")
+        print(
+            f"{name:24s} {med['start']:7.1f} {med['wall']:7.1f} {med['per_minute']:8.1f} {med['per_minute'] / base:7.2f} "
+            f"{med['analysis']:10.1f} {med['median_compute']:9.2f} {med['overhead_per_task']:15.3f} "
+            f"{share:10.1f}"
+        )
     two = summary["2 workers x 1 thread"]
-    print(f"\n2 workers / 1 worker: {two['speedup']:.2f}x (target >= 1.6); against 1 worker using both "
-          f"cores: {two['per_minute'] / summary['1 worker x 2 threads']['per_minute']:.2f}x")
-    print(f"scheduling overhead per task, 2 workers: {two['overhead_percent']:.1f} % of a variant's "
-          "compute (target <= 5 %)")
+    print(
+        f"\n2 workers / 1 worker: {two['speedup']:.2f}x (target >= 1.6); against 1 worker using both "
+        f"cores: {two['per_minute'] / summary['1 worker x 2 threads']['per_minute']:.2f}x"
+    )
+    print(
+        f"scheduling overhead per task, 2 workers: {two['overhead_percent']:.1f} % of a variant's "
+        "compute (target <= 5 %)"
+    )
     if args.json:
-        args.json.write_text(json.dumps({"size": args.size, "variants": args.variants, "results": results,
-                                         "summary": summary}, indent=2))
+        args.json.write_text(
+            json.dumps({"size": args.size, "variants": args.variants, "results": results, "summary": summary}, indent=2)
+        )
 
 
 if __name__ == "__main__":

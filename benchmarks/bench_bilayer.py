@@ -44,16 +44,17 @@ sys.path.insert(0, str(REPO / "src"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(SHARED / "eval"))
 
-from barkgen.io import read_centre_crop  # noqa: E402
 from texeval import TexEval  # noqa: E402
 
-from barkgen.bilayer import (Deformation, SynthesisOptions, analyze,  # noqa: E402
-                             estimate_spectrum, single_layer)
+from barkgen._shared.arrays import as_uint8 as _u8  # noqa: E402
+from barkgen.bilayer import Deformation, SynthesisOptions, analyze, estimate_spectrum, single_layer  # noqa: E402
 from barkgen.data import sample_exemplar_path  # noqa: E402
-from barkgen.io import write_png  # noqa: E402
+from barkgen.io import (
+    read_centre_crop,  # noqa: E402
+    write_png,  # noqa: E402
+)
 from barkgen.labels.preview import contact_sheet  # noqa: E402
 from barkgen.synth import SynthesisConfig, synthesize  # noqa: E402
-from barkgen._shared.arrays import as_uint8 as _u8  # noqa: E402
 
 STOCHASTIC = ("fir_scaly_01", "lichen_covered_01", "furrowed_fine_01", "willow_furrowed_01")
 DEFORM = SynthesisOptions(deformation=Deformation(rotate=30, scale=(1.0, 1.6)))
@@ -94,15 +95,22 @@ def bench_speed() -> dict:
         start = time.perf_counter()
         synthesize(ex, (1024, 1024), seed=seed)
         engine.append(1024 * 1024 / 1e6 / (time.perf_counter() - start))
-    out = {"analysis_s": statistics.median(times), "tile_build_s": build, "deformed_build_s": build_deformed,
-           "window_mpx_s": statistics.median(rates), "engine_mpx_s": statistics.median(engine)}
+    out = {
+        "analysis_s": statistics.median(times),
+        "tile_build_s": build,
+        "deformed_build_s": build_deformed,
+        "window_mpx_s": statistics.median(rates),
+        "engine_mpx_s": statistics.median(engine),
+    }
     print("\nspeed (512x512 photo)")
     print(f"  analysis          {out['analysis_s']:6.2f} s  (median of 3; target <= 30 s)")
     print(f"  tile set build    {out['tile_build_s']:6.2f} s  (once per seed and deformation)")
     print(f"    with rot+zoom   {out['deformed_build_s']:6.2f} s  (tiles from 8 deformed copies, noise compensation)")
     print(f"  window synthesis  {out['window_mpx_s']:6.1f} MP/s (median of 9 1024^2 windows; target >= 10)")
-    print(f"  core engine       {out['engine_mpx_s']:6.2f} MP/s (1024^2, same run) -> bi-layer "
-          f"{out['window_mpx_s'] / out['engine_mpx_s']:.0f}x faster")
+    print(
+        f"  core engine       {out['engine_mpx_s']:6.2f} MP/s (1024^2, same run) -> bi-layer "
+        f"{out['window_mpx_s'] / out['engine_mpx_s']:.0f}x faster"
+    )
     return out
 
 
@@ -115,14 +123,16 @@ def bench_consistency() -> dict:
     tiles = np.empty_like(whole)
     for i in range(8):
         for j in range(8):
-            tiles[i * 512:(i + 1) * 512, j * 512:(j + 1) * 512] = model.window(j * 512, i * 512, 512, 512, seed=3)
+            tiles[i * 512 : (i + 1) * 512, j * 512 : (j + 1) * 512] = model.window(j * 512, i * 512, 512, 512, seed=3)
     a = model.window(0, 0, 512, 512, seed=3)
     b = model.window(256, 256, 512, 512, seed=3)
-    out = {"4096_from_64_windows_equal": bool(np.array_equal(whole, tiles)),
-           "overlap_equal": bool(np.array_equal(a[256:, 256:], b[:256, :256])), "4096_one_call_s": one_call}
+    out = {
+        "4096_from_64_windows_equal": bool(np.array_equal(whole, tiles)),
+        "overlap_equal": bool(np.array_equal(a[256:, 256:], b[:256, :256])),
+        "4096_one_call_s": one_call,
+    }
     print("\nconsistency")
-    print(f"  4096^2 from 64 windows == one call: {out['4096_from_64_windows_equal']} "
-          f"(one call {one_call:.2f} s)")
+    print(f"  4096^2 from 64 windows == one call: {out['4096_from_64_windows_equal']} (one call {one_call:.2f} s)")
     print(f"  window(0,0,512,512) vs window(256,256,512,512) on the overlap: {out['overlap_equal']}")
     return out
 
@@ -132,11 +142,11 @@ def _literal_estimator(signal: np.ndarray, mask: np.ndarray, t: int = 64) -> np.
     total, weight = np.zeros((t, t)), 0.0
     for y in range(0, signal.shape[0] - t + 1, t):
         for x in range(0, signal.shape[1] - t + 1, t):
-            m = mask[y:y + t, x:x + t].astype(float)
+            m = mask[y : y + t, x : x + t].astype(float)
             n = m.sum()
             if n == 0:
                 continue
-            a = signal[y:y + t, x:x + t] * m
+            a = signal[y : y + t, x : x + t] * m
             ac = np.fft.ifft2(np.abs(np.fft.fft2(a)) ** 2).real / n
             total += n * np.fft.fft2(ac).real
             weight += n
@@ -147,8 +157,11 @@ def bench_estimator() -> dict:
     import cv2
 
     def psd(fy, fx):
-        return (0.05 + 4.0 * np.exp(-((fy / 0.04) ** 2 + (fx / 0.15) ** 2))
-                + np.exp(-(((np.abs(fx) - 0.25) / 0.05) ** 2 + (fy / 0.1) ** 2)))
+        return (
+            0.05
+            + 4.0 * np.exp(-((fy / 0.04) ** 2 + (fx / 0.15) ** 2))
+            + np.exp(-(((np.abs(fx) - 0.25) / 0.05) ** 2 + (fy / 0.1) ** 2))
+        )
 
     rng = np.random.default_rng(1)
     n = 512
@@ -172,8 +185,10 @@ def bench_estimator() -> dict:
 def bench_quality(stems, sheets: Path | None) -> dict:
     results = {}
     keys = ("coherence", "completeness", "spectrum_dist", "largest_copy", "diversity", "sharpness_ratio")
-    print("\nquality (256^2 centre crop -> 1024^2; texeval, medians of seeds 1-3; engine = core engine, "
-          "capped = core engine with max_copy 0.04, same run)")
+    print(
+        "\nquality (256^2 centre crop -> 1024^2; texeval, medians of seeds 1-3; engine = core engine, "
+        "capped = core engine with max_copy 0.04, same run)"
+    )
     print(f"  {'photo':20s} {'method':9s} " + " ".join(f"{k[:12]:>12s}" for k in keys))
     rows = []
     for stem in stems:
@@ -187,8 +202,10 @@ def bench_quality(stems, sheets: Path | None) -> dict:
             "bilayer": [model.window(0, 0, 1024, 1024, seed=s) for s in SEEDS],
         }
         # each seed's output scored against the exemplar, its diversity against the next seed's
-        scores = {name: [ev.evaluate(imgs[i], output2=imgs[(i + 1) % len(imgs)]) for i in range(len(imgs))]
-                  for name, imgs in outputs.items()}
+        scores = {
+            name: [ev.evaluate(imgs[i], output2=imgs[(i + 1) % len(imgs)]) for i in range(len(imgs))]
+            for name, imgs in outputs.items()
+        }
 
         def median(rs, key):
             return statistics.median(r[key] for r in rs)
@@ -205,20 +222,28 @@ def bench_quality(stems, sheets: Path | None) -> dict:
         for name, r in med.items():
             print(f"  {stem:20s} {name:9s} " + " ".join(f"{r[k]:12.3f}" for k in keys))
         entry = {
-            "engine": med["engine"], "engine_capped": med["capped"], "bilayer": med["bilayer"],
+            "engine": med["engine"],
+            "engine_capped": med["capped"],
+            "bilayer": med["bilayer"],
             "coherence_ratio": med["bilayer"]["coherence"] / med["engine"]["coherence"],
             "spectrum_ratio": med["bilayer"]["spectrum_dist"] / med["engine"]["spectrum_dist"],
             "capped_coherence_ratio": med["capped"]["coherence"] / med["engine"]["coherence"],
             "largest_copy_without_warp": unwarped["largest_copy"],
             "per_seed_spectrum": {name: [r["spectrum_dist"] for r in rs] for name, rs in scores.items()},
-            "deformed_spectrum": {"bilayer": median(r_def, "spectrum_dist"),
-                                  "paper_noise": median(r_paper, "spectrum_dist"),
-                                  "single_layer": median(r_single, "spectrum_dist"),
-                                  "per_seed": [[a["spectrum_dist"], b["spectrum_dist"], c["spectrum_dist"]]
-                                               for a, b, c in zip(r_def, r_paper, r_single)]},
-            "deformed_sharpness": {"bilayer": median(r_def, "sharpness_ratio"),
-                                   "paper_noise": median(r_paper, "sharpness_ratio"),
-                                   "single_layer": median(r_single, "sharpness_ratio")},
+            "deformed_spectrum": {
+                "bilayer": median(r_def, "spectrum_dist"),
+                "paper_noise": median(r_paper, "spectrum_dist"),
+                "single_layer": median(r_single, "spectrum_dist"),
+                "per_seed": [
+                    [a["spectrum_dist"], b["spectrum_dist"], c["spectrum_dist"]]
+                    for a, b, c in zip(r_def, r_paper, r_single)
+                ],
+            },
+            "deformed_sharpness": {
+                "bilayer": median(r_def, "sharpness_ratio"),
+                "paper_noise": median(r_paper, "sharpness_ratio"),
+                "single_layer": median(r_single, "sharpness_ratio"),
+            },
         }
         results[stem] = entry
         rows.append(stem)
@@ -226,26 +251,42 @@ def bench_quality(stems, sheets: Path | None) -> dict:
             sheets.mkdir(parents=True, exist_ok=True)
             crop = slice(0, 512)
             ours = outputs["bilayer"]
-            pictures = [ex, _u8(outputs["engine"][0][crop, crop]), _u8(ours[0][crop, crop]),
-                        _u8(ours[1][crop, crop]), _u8(deformed[0][crop, crop]), _u8(single[0][crop, crop])]
-            captions = ["exemplar 256", "core engine", "bi-layer seed 1", "bi-layer seed 2",
-                        "bi-layer rot+zoom", "1 layer rot+zoom"]
+            pictures = [
+                ex,
+                _u8(outputs["engine"][0][crop, crop]),
+                _u8(ours[0][crop, crop]),
+                _u8(ours[1][crop, crop]),
+                _u8(deformed[0][crop, crop]),
+                _u8(single[0][crop, crop]),
+            ]
+            captions = [
+                "exemplar 256",
+                "core engine",
+                "bi-layer seed 1",
+                "bi-layer seed 2",
+                "bi-layer rot+zoom",
+                "1 layer rot+zoom",
+            ]
             write_png(sheets / f"bilayer_{stem}.png", contact_sheet(pictures, captions, columns=6, tile_size=256))
     print("\n  acceptance per photo")
-    print(f"  {'photo':20s} {'largest_copy':>12s} {'diversity':>10s} {'spec ratio':>10s} {'coh ratio':>10s}"
-          f" {'capped engine coh ratio':>24s} {'copy, warp 0':>12s}"
-          f" {'deformed spec: bilayer / paper noise / 1 layer':>48s}")
+    print(
+        f"  {'photo':20s} {'largest_copy':>12s} {'diversity':>10s} {'spec ratio':>10s} {'coh ratio':>10s}"
+        f" {'capped engine coh ratio':>24s} {'copy, warp 0':>12s}"
+        f" {'deformed spec: bilayer / paper noise / 1 layer':>48s}"
+    )
     for stem in rows:
         e = results[stem]
         b = e["bilayer"]
         d = e["deformed_spectrum"]
-        print(f"  {stem:20s} {b['largest_copy']:8.3f} {'ok' if b['largest_copy'] <= 0.05 else 'NO':>3s}"
-              f" {b['diversity']:6.2f} {'ok' if b['diversity'] >= 0.9 else 'NO':>3s}"
-              f" {e['spectrum_ratio']:6.2f} {'ok' if e['spectrum_ratio'] <= 1.5 else 'NO':>3s}"
-              f" {e['coherence_ratio']:6.2f} {'ok' if e['coherence_ratio'] <= 1.5 else 'NO':>3s}"
-              f" {e['capped_coherence_ratio']:20.2f}     {e['largest_copy_without_warp']:6.3f}   "
-              f"   {d['bilayer']:.3f} / {d['paper_noise']:.3f} / {d['single_layer']:.3f}"
-              f" {'ok' if d['bilayer'] < d['single_layer'] else 'NO'}")
+        print(
+            f"  {stem:20s} {b['largest_copy']:8.3f} {'ok' if b['largest_copy'] <= 0.05 else 'NO':>3s}"
+            f" {b['diversity']:6.2f} {'ok' if b['diversity'] >= 0.9 else 'NO':>3s}"
+            f" {e['spectrum_ratio']:6.2f} {'ok' if e['spectrum_ratio'] <= 1.5 else 'NO':>3s}"
+            f" {e['coherence_ratio']:6.2f} {'ok' if e['coherence_ratio'] <= 1.5 else 'NO':>3s}"
+            f" {e['capped_coherence_ratio']:20.2f}     {e['largest_copy_without_warp']:6.3f}   "
+            f"   {d['bilayer']:.3f} / {d['paper_noise']:.3f} / {d['single_layer']:.3f}"
+            f" {'ok' if d['bilayer'] < d['single_layer'] else 'NO'}"
+        )
     return results
 
 

@@ -37,10 +37,14 @@ REPO = Path(__file__).resolve().parents[1]
 SHARED = Path(os.environ.get("BARKGEN_SHARED", REPO.parent / "shared"))
 sys.path.insert(0, str(REPO / "src"))
 
-IMAGES = [SHARED / "data" / "branching" / n for n in
-          ("cracked_earth_01.jpg", "dried_mud_01.jpg", "dried_mud_02.jpg", "mud_crackle_gray_01.png")]
-IMAGES += [SHARED / "data" / "bark" / n for n in
-           ("fissured_gray_01.png", "vertical_fractures_01.png", "oak_furrowed_moss_01.jpg")]
+IMAGES = [
+    SHARED / "data" / "branching" / n
+    for n in ("cracked_earth_01.jpg", "dried_mud_01.jpg", "dried_mud_02.jpg", "mud_crackle_gray_01.png")
+]
+IMAGES += [
+    SHARED / "data" / "bark" / n
+    for n in ("fissured_gray_01.png", "vertical_fractures_01.png", "oak_furrowed_moss_01.jpg")
+]
 
 
 def random_walk_baseline(source, size: tuple[int, int], seed: int):
@@ -62,7 +66,8 @@ def random_walk_baseline(source, size: tuple[int, int], seed: int):
         turns = rng.normal(0.0, angles.std(), n_steps)
         heading = th + np.cumsum(turns)
         xy = rng.uniform([0, 0], [w - 1, h - 1]) + source.step * np.cumsum(
-            np.column_stack([np.cos(heading), np.sin(heading)]), axis=0)
+            np.column_stack([np.cos(heading), np.sin(heading)]), axis=0
+        )
         xy = np.vstack([xy[:1] - source.step * np.array([np.cos(th), np.sin(th)]), xy])
         branches.append(Branch(np.column_stack([xy, np.full(len(xy), thickness.mean())])))
         grown += branches[-1].length()
@@ -83,8 +88,9 @@ def skeleton_luminance(image: np.ndarray, structure) -> float:
     return float(lum[mask > 0].mean())
 
 
-def run_image(path: Path, size: int, seeds: list[int], render: bool, sheets: Path | None, texeval,
-              render_repeats: int = 3) -> dict:
+def run_image(
+    path: Path, size: int, seeds: list[int], render: bool, sheets: Path | None, texeval, render_repeats: int = 3
+) -> dict:
     from barkgen.branching.extract import extract_structure, overlay_structure
     from barkgen.branching.grow import grow_structure
     from barkgen.branching.model import fit_model
@@ -105,8 +111,11 @@ def run_image(path: Path, size: int, seeds: list[int], render: bool, sheets: Pat
     cmps = [compare_structures(source, g) for g in grown]
     walks = [compare_structures(source, random_walk_baseline(source, (size, size), s)) for s in seeds]
     row = {
-        "image": path.stem, "size": f"{image.shape[1]}x{image.shape[0]}", "extract_s": t_extract,
-        "branches": len(source.branches), "step": source.step,
+        "image": path.stem,
+        "size": f"{image.shape[1]}x{image.shape[0]}",
+        "extract_s": t_extract,
+        "branches": len(source.branches),
+        "step": source.step,
         "grow_s": statistics.median(times),
         "angle_l1": statistics.median(c.angle_l1 for c in cmps),
         "thickness_l1": statistics.median(c.thickness_l1 for c in cmps),
@@ -120,8 +129,9 @@ def run_image(path: Path, size: int, seeds: list[int], render: bool, sheets: Pat
         "junctions_src": cmps[0].source_junction_density,
         "junctions_out": statistics.median(c.target_junction_density for c in cmps),
         "merges_src": sum(b.joins is not None for b in source.branches) / (source.width * source.height / 1e6),
-        "merges_out": statistics.median(sum(b.joins is not None for b in g.branches) / (size * size / 1e6)
-                                        for g in grown),
+        "merges_out": statistics.median(
+            sum(b.joins is not None for b in g.branches) / (size * size / 1e6) for g in grown
+        ),
     }
     row["junction_ratio"] = row["junctions_out"] / max(row["junctions_src"], 1e-9)
     if sheets is not None:
@@ -175,26 +185,45 @@ def main() -> None:
     for path in IMAGES:
         if args.images and path.stem not in args.images:
             continue
-        rows.append(run_image(path, args.size, list(range(args.seeds)), args.render, args.sheets, texeval,
-                              args.render_repeats))
+        rows.append(
+            run_image(path, args.size, list(range(args.seeds)), args.render, args.sheets, texeval, args.render_repeats)
+        )
         r = rows[-1]
-        print(f"{r['image']:26s} extract {r['extract_s']:5.2f}s  grow {r['grow_s']:5.2f}s  "
-              f"L1 angle {r['angle_l1']:.3f} (walk {r['walk_angle_l1']:.3f})  "
-              f"L1 thickness {r['thickness_l1']:.3f} (walk {r['walk_thickness_l1']:.3f})  "
-              f"crossings {r['crossings']}  junctions/Mpx {r['junctions_src']:.0f} -> {r['junctions_out']:.0f} "
-              f"({r['junction_ratio']:.2f}x)  merges/Mpx {r['merges_src']:.0f} -> {r['merges_out']:.0f}  "
-              f"free ends/Mpx {r['free_ends_src']:.0f} -> {r['free_ends_out']:.0f}"
-              + (f"  render {r['render_s']:5.2f}s (plain synthesis {r['plain_s']:4.2f}s) coherence {r['coherence_ratio']:.2f}x sharpness "
-                 f"{r['sharpness_ratio']:.2f}x crack lum {r['crack_lum_ratio']:.2f}" if args.render else ""),
-              flush=True)
-    keys = ["grow_s", "angle_l1", "thickness_l1", "heading_l1", "walk_angle_l1", "walk_thickness_l1",
-            "walk_heading_l1", "junction_ratio"]
+        print(
+            f"{r['image']:26s} extract {r['extract_s']:5.2f}s  grow {r['grow_s']:5.2f}s  "
+            f"L1 angle {r['angle_l1']:.3f} (walk {r['walk_angle_l1']:.3f})  "
+            f"L1 thickness {r['thickness_l1']:.3f} (walk {r['walk_thickness_l1']:.3f})  "
+            f"crossings {r['crossings']}  junctions/Mpx {r['junctions_src']:.0f} -> {r['junctions_out']:.0f} "
+            f"({r['junction_ratio']:.2f}x)  merges/Mpx {r['merges_src']:.0f} -> {r['merges_out']:.0f}  "
+            f"free ends/Mpx {r['free_ends_src']:.0f} -> {r['free_ends_out']:.0f}"
+            + (
+                f"  render {r['render_s']:5.2f}s (plain synthesis {r['plain_s']:4.2f}s) coherence {r['coherence_ratio']:.2f}x sharpness "
+                f"{r['sharpness_ratio']:.2f}x crack lum {r['crack_lum_ratio']:.2f}"
+                if args.render
+                else ""
+            ),
+            flush=True,
+        )
+    keys = [
+        "grow_s",
+        "angle_l1",
+        "thickness_l1",
+        "heading_l1",
+        "walk_angle_l1",
+        "walk_thickness_l1",
+        "walk_heading_l1",
+        "junction_ratio",
+    ]
     if args.render:
         keys += ["render_s", "plain_s", "coherence_ratio", "sharpness_ratio", "crack_lum_ratio"]
     print("\n| image | " + " | ".join(keys) + " |")
     print("|---" * (len(keys) + 1) + "|")
     for r in rows:
-        print(f"| {r['image']} | " + " | ".join(f"{r[k]:.3f}" if isinstance(r[k], float) else str(r[k]) for k in keys) + " |")
+        print(
+            f"| {r['image']} | "
+            + " | ".join(f"{r[k]:.3f}" if isinstance(r[k], float) else str(r[k]) for k in keys)
+            + " |"
+        )
     if args.json:
         args.json.write_text(json.dumps(rows, indent=1))
 

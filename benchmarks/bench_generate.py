@@ -43,9 +43,11 @@ SHARED = Path(os.environ.get("BARKGEN_SHARED", REPO.parent / "shared"))
 sys.path.insert(0, str(REPO / "src"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from barkgen.io import read_centre_crop  # noqa: E402
-
-from barkgen.io import read_image, write_png  # noqa: E402
+from barkgen.io import (  # noqa: E402
+    read_centre_crop,  # noqa: E402
+    read_image,
+    write_png,
+)
 from barkgen.labels import color_regions  # noqa: E402
 from barkgen.pipeline import GenerateOptions, generate, preview_sheet  # noqa: E402
 from barkgen.shapes import label_dissimilarity, synthesize_label_map  # noqa: E402
@@ -78,27 +80,36 @@ def labelmaps(paths: list[Path], ks: list[int], crop: int) -> list[dict]:
             row = {"photo": path.stem, "k": int(values.size), "halves": halves}
             for strategy in STRATEGIES:
                 t = time.perf_counter()
-                out = synthesize_label_map(labels, labels.shape, strategy=strategy, seed=0,
-                                           photo=ex if strategy == "joint" else None).label_map
+                out = synthesize_label_map(
+                    labels, labels.shape, strategy=strategy, seed=0, photo=ex if strategy == "joint" else None
+                ).label_map
                 elapsed = time.perf_counter() - t
                 areas = [abs(np.mean(out == v) - np.mean(labels == v)) * 100 for v in values]
                 d = mean_dissimilarity(labels, out)
-                row[strategy] = {"area_pp": max(areas), "dissimilarity": d, "ratio": d / halves,
-                                 "seconds": elapsed}
+                row[strategy] = {"area_pp": max(areas), "dissimilarity": d, "ratio": d / halves, "seconds": elapsed}
             rows.append(row)
-            print(f"  {path.stem:28s} k={k}: " + " | ".join(
-                f"{name} {row[name]['area_pp']:.1f} pp {row[name]['ratio']:.2f}x" for name in STRATEGIES),
-                file=sys.stderr, flush=True)
+            print(
+                f"  {path.stem:28s} k={k}: "
+                + " | ".join(f"{name} {row[name]['area_pp']:.1f} pp {row[name]['ratio']:.2f}x" for name in STRATEGIES),
+                file=sys.stderr,
+                flush=True,
+            )
     return rows
 
 
-def textures(paths: list[Path], size: int, seeds: list[int], strategy: str,
-             sheets: Path | None) -> list[dict]:
+def textures(paths: list[Path], size: int, seeds: list[int], strategy: str, sheets: Path | None) -> list[dict]:
     sys.path.insert(0, str(SHARED / "eval"))
     import texeval
 
-    keys = ("coherence", "completeness", "sharpness_ratio", "label_fidelity", "label_fidelity_train",
-            "label_fidelity_ratio", "label_fidelity_balanced")
+    keys = (
+        "coherence",
+        "completeness",
+        "sharpness_ratio",
+        "label_fidelity",
+        "label_fidelity_train",
+        "label_fidelity_ratio",
+        "label_fidelity_balanced",
+    )
     rows = []
     for path in paths:
         photo = read_image(path)
@@ -113,21 +124,29 @@ def textures(paths: list[Path], size: int, seeds: list[int], strategy: str,
             base.append(ev.evaluate(plain))
             if sheets is not None and seed == seeds[0]:
                 write_png(sheets / f"{path.stem}.png", preview_sheet(photo, result, tile_size=256))
-        row = {"photo": path.stem, "seconds": statistics.median(seconds), "seeds": seeds,
-               "generate": {k: statistics.median(m[k] for m in ours) for k in keys},
-               "plain": {k: statistics.median(m[k] for m in base) for k in keys if base[0][k] is not None},
-               "per_seed": [{"generate": {k: g[k] for k in keys},
-                             "plain": {k: p[k] for k in keys if p[k] is not None}}
-                            for g, p in zip(ours, base)]}
+        row = {
+            "photo": path.stem,
+            "seconds": statistics.median(seconds),
+            "seeds": seeds,
+            "generate": {k: statistics.median(m[k] for m in ours) for k in keys},
+            "plain": {k: statistics.median(m[k] for m in base) for k in keys if base[0][k] is not None},
+            "per_seed": [
+                {"generate": {k: g[k] for k in keys}, "plain": {k: p[k] for k in keys if p[k] is not None}}
+                for g, p in zip(ours, base)
+            ],
+        }
         rows.append(row)
         g, p = row["generate"], row["plain"]
-        print(f"  {path.stem:28s} fidelity {g['label_fidelity_ratio']:.3f} balanced "
-              f"{g['label_fidelity_balanced']:.3f} coherence {g['coherence'] / p['coherence']:.2f}x "
-              f"completeness {g['completeness'] / p['completeness']:.2f}x sharpness "
-              f"{g['sharpness_ratio']:.3f} (plain {p['sharpness_ratio']:.3f}) {row['seconds']:.1f} s; "
-              "per seed coherence " + ", ".join(
-                  f"{r['generate']['coherence']:.2f}/{r['plain']['coherence']:.2f}" for r in row["per_seed"]),
-              file=sys.stderr, flush=True)
+        print(
+            f"  {path.stem:28s} fidelity {g['label_fidelity_ratio']:.3f} balanced "
+            f"{g['label_fidelity_balanced']:.3f} coherence {g['coherence'] / p['coherence']:.2f}x "
+            f"completeness {g['completeness'] / p['completeness']:.2f}x sharpness "
+            f"{g['sharpness_ratio']:.3f} (plain {p['sharpness_ratio']:.3f}) {row['seconds']:.1f} s; "
+            "per seed coherence "
+            + ", ".join(f"{r['generate']['coherence']:.2f}/{r['plain']['coherence']:.2f}" for r in row["per_seed"]),
+            file=sys.stderr,
+            flush=True,
+        )
     return rows
 
 
@@ -182,20 +201,29 @@ def main() -> int:
         print("| photo | k | " + " | ".join(f"{n}: area diff (pp) / dissimilarity ratio" for n in names) + " |")
         print("|---|---|" + "---|" * len(names))
         for r in rows:
-            print(f"| {r['photo']} | {r['k']} | " + " | ".join(
-                f"{r[n]['area_pp']:.1f} / {r[n]['ratio']:.2f}" for n in names) + " |")
+            print(
+                f"| {r['photo']} | {r['k']} | "
+                + " | ".join(f"{r[n]['area_pp']:.1f} / {r[n]['ratio']:.2f}" for n in names)
+                + " |"
+            )
         print()
         print("| criterion | " + " | ".join(names) + " |")
         print("|---|" + "---|" * len(names))
         n_rows = len(rows)
-        for label, test in (("areas within 3 pp", lambda s: s["area_pp"] <= 3.0),
-                            ("dissimilarity <= 1.5x halves", lambda s: s["ratio"] <= 1.5),
-                            ("both", lambda s: s["area_pp"] <= 3.0 and s["ratio"] <= 1.5)):
+        for label, test in (
+            ("areas within 3 pp", lambda s: s["area_pp"] <= 3.0),
+            ("dissimilarity <= 1.5x halves", lambda s: s["ratio"] <= 1.5),
+            ("both", lambda s: s["area_pp"] <= 3.0 and s["ratio"] <= 1.5),
+        ):
             print(f"| {label} | " + " | ".join(f"{sum(test(r[n]) for r in rows)}/{n_rows}" for n in names) + " |")
-        for key, label in (("area_pp", "median area diff (pp)"), ("ratio", "median dissimilarity ratio"),
-                           ("seconds", "median seconds per map")):
-            print(f"| {label} | " + " | ".join(
-                f"{statistics.median(r[n][key] for r in rows):.2f}" for n in names) + " |")
+        for key, label in (
+            ("area_pp", "median area diff (pp)"),
+            ("ratio", "median dissimilarity ratio"),
+            ("seconds", "median seconds per map"),
+        ):
+            print(
+                f"| {label} | " + " | ".join(f"{statistics.median(r[n][key] for r in rows):.2f}" for n in names) + " |"
+            )
     if not a.skip_textures:
         if a.sheets is not None:
             a.sheets.mkdir(parents=True, exist_ok=True)
@@ -203,15 +231,19 @@ def main() -> int:
         rows = out["textures"] = textures(paths, a.size, seeds, a.strategy, a.sheets)
         print()
         print(f"{a.strategy} strategy, medians over seeds {a.seeds}")
-        print(f"| photo ({a.size}x{a.size}) | fidelity / ceiling | balanced | coherence (x plain) |"
-              " completeness (x plain) | sharpness (plain) | generate s |")
+        print(
+            f"| photo ({a.size}x{a.size}) | fidelity / ceiling | balanced | coherence (x plain) |"
+            " completeness (x plain) | sharpness (plain) | generate s |"
+        )
         print("|---|---|---|---|---|---|---|")
         for r in rows:
             g, p = r["generate"], r["plain"]
-            print(f"| {r['photo']} | {g['label_fidelity_ratio']:.3f} | {g['label_fidelity_balanced']:.3f} | "
-                  f"{g['coherence']:.2f} ({g['coherence'] / p['coherence']:.2f}x) | "
-                  f"{g['completeness']:.2f} ({g['completeness'] / p['completeness']:.2f}x) | "
-                  f"{g['sharpness_ratio']:.3f} ({p['sharpness_ratio']:.3f}) | {r['seconds']:.1f} |")
+            print(
+                f"| {r['photo']} | {g['label_fidelity_ratio']:.3f} | {g['label_fidelity_balanced']:.3f} | "
+                f"{g['coherence']:.2f} ({g['coherence'] / p['coherence']:.2f}x) | "
+                f"{g['completeness']:.2f} ({g['completeness'] / p['completeness']:.2f}x) | "
+                f"{g['sharpness_ratio']:.3f} ({p['sharpness_ratio']:.3f}) | {r['seconds']:.1f} |"
+            )
         n = len(rows)
         print()
         print("| criterion | photos passed |")
@@ -231,8 +263,7 @@ def main() -> int:
         print("| speed (256 sample crop -> 1024x1024, in process) | median |")
         print("|---|---|")
         print(f"| synthesize (plain), {sp['runs']} runs | {sp['synthesize']:.2f} s |")
-        print(f"| generate (labels + label map + texture-by-numbers), {sp['runs']} runs | "
-              f"{sp['generate']:.2f} s |")
+        print(f"| generate (labels + label map + texture-by-numbers), {sp['runs']} runs | {sp['generate']:.2f} s |")
         print(f"| ratio | {sp['generate'] / sp['synthesize']:.2f}x |")
     if a.json:
         Path(a.json).write_text(json.dumps(out, indent=1))

@@ -23,12 +23,16 @@ SHARED = Path(os.environ.get("BARKGEN_SHARED", REPO.parent / "shared"))
 sys.path.insert(0, str(REPO / "src"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from barkgen.testing import half_split_accuracy, label_fractions, smallest_region  # noqa: E402
-
 from barkgen.io import read_image, write_png  # noqa: E402
-from barkgen.labels import color_regions, contact_sheet, label_preview, texton_channels  # noqa: E402
-from barkgen.labels import texton_regions  # noqa: E402
+from barkgen.labels import (  # noqa: E402
+    color_regions,
+    contact_sheet,
+    label_preview,
+    texton_channels,
+    texton_regions,  # noqa: E402
+)
 from barkgen.labels.regions import default_min_region  # noqa: E402
+from barkgen.testing import half_split_accuracy, label_fractions, smallest_region  # noqa: E402
 
 METHODS = {"color": color_regions, "texton": texton_regions}
 
@@ -55,14 +59,24 @@ def main() -> int:
                 lm = fn(img, k, seed=0)
                 dt = time.perf_counter() - t
                 same = bool((fn(img, k, seed=0) == lm).all())
-                row = {"photo": path.stem, "method": method, "k": k, "time": dt,
-                       "coverage": [float(f) for f in label_fractions(lm)],
-                       "smallest": smallest_region(lm), "min_region": default_min_region(lm.shape),
-                       "accuracy": half_split_accuracy(img, lm), "same_seed_same_map": same}
+                row = {
+                    "photo": path.stem,
+                    "method": method,
+                    "k": k,
+                    "time": dt,
+                    "coverage": [float(f) for f in label_fractions(lm)],
+                    "smallest": smallest_region(lm),
+                    "min_region": default_min_region(lm.shape),
+                    "accuracy": half_split_accuracy(img, lm),
+                    "same_seed_same_map": same,
+                }
                 rows.append(row)
-                print(f"| {path.stem} | {img.shape[1]}x{img.shape[0]} | {method} | {k} | "
-                      f"{' / '.join(f'{f:.2f}' for f in row['coverage'])} | {row['smallest']} "
-                      f"({row['min_region']}) | {row['accuracy']:.3f} | {dt:.2f} s |", flush=True)
+                print(
+                    f"| {path.stem} | {img.shape[1]}x{img.shape[0]} | {method} | {k} | "
+                    f"{' / '.join(f'{f:.2f}' for f in row['coverage'])} | {row['smallest']} "
+                    f"({row['min_region']}) | {row['accuracy']:.3f} | {dt:.2f} s |",
+                    flush=True,
+                )
                 if method == "color" and k == 3:
                     previews.append(label_preview(img, lm))
                     names.append(path.stem)
@@ -103,8 +117,9 @@ def main() -> int:
     if a.sheet:
         write_png(a.sheet, contact_sheet(previews, names, columns=2, tile_size=480))
     if a.json:
-        Path(a.json).write_text(json.dumps({"rows": rows, "speed": {
-            k: statistics.median(v) for k, v in times.items()}}, indent=1))
+        Path(a.json).write_text(
+            json.dumps({"rows": rows, "speed": {k: statistics.median(v) for k, v in times.items()}}, indent=1)
+        )
     return 0
 
 

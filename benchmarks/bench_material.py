@@ -43,9 +43,9 @@ REPO = Path(__file__).resolve().parents[1]
 SHARED = Path(os.environ.get("BARKGEN_SHARED", REPO.parent / "shared"))
 sys.path.insert(0, str(REPO / "src"))
 
+from barkgen._shared.checks import check_image  # noqa: E402
 from barkgen.io import read_image, write_png  # noqa: E402
 from barkgen.labels import color_regions  # noqa: E402
-from barkgen._shared.checks import check_image  # noqa: E402
 from barkgen.labels.regions import to_codes  # noqa: E402
 from barkgen.material import (  # noqa: E402
     HeightConfig,
@@ -73,14 +73,15 @@ def angular_error(normals: np.ndarray, truth: np.ndarray) -> float:
 
 
 def flat_error(truth: np.ndarray) -> float:
-    return angular_error(np.dstack([np.zeros(truth.shape[:2]), np.zeros(truth.shape[:2]),
-                                    np.ones(truth.shape[:2])]), truth)
+    return angular_error(
+        np.dstack([np.zeros(truth.shape[:2]), np.zeros(truth.shape[:2]), np.ones(truth.shape[:2])]), truth
+    )
 
 
 def frankot_chellappa(normals: np.ndarray) -> np.ndarray:
     """The least-squares height (pixels) of a normal map (OpenGL), periodic."""
-    p = -normals[..., 0] / normals[..., 2]   # dh/dx
-    q = normals[..., 1] / normals[..., 2]    # dh/drow
+    p = -normals[..., 0] / normals[..., 2]  # dh/dx
+    q = normals[..., 1] / normals[..., 2]  # dh/drow
     h, w = p.shape
     wx = np.fft.fftfreq(w)[None, :] * 2 * np.pi
     wy = np.fft.fftfreq(h)[:, None] * 2 * np.pi
@@ -114,11 +115,15 @@ def fit_config(cases: list[dict]) -> HeightConfig:
     n_bands, n_energy = len(CUES.bands), len(CUES.energy_bands)
     config = HeightConfig(
         bands=tuple((s, w) for (s, _), w in zip(CUES.bands, weights[:n_bands])),
-        energy_bands=tuple((s, w) for (s, _), w in zip(CUES.energy_bands, weights[n_bands:n_bands + n_energy])),
-        label_weight=weights[-1], strength=1.0)
+        energy_bands=tuple((s, w) for (s, _), w in zip(CUES.energy_bands, weights[n_bands : n_bands + n_energy])),
+        label_weight=weights[-1],
+        strength=1.0,
+    )
     heights = [estimate_height(c["photo"], c["codes"], config=config) for c in cases]
-    errors = [np.mean([angular_error(normal_map(h, strength=s), c["truth"]) for h, c in zip(heights, cases)])
-              for s in STRENGTHS]
+    errors = [
+        np.mean([angular_error(normal_map(h, strength=s), c["truth"]) for h, c in zip(heights, cases)])
+        for s in STRENGTHS
+    ]
     return dataclasses.replace(config, strength=float(STRENGTHS[int(np.argmin(errors))]))
 
 
@@ -152,13 +157,20 @@ def truth_table() -> list[dict]:
         case["ao_height"] = ambient_occlusion(height)
         ours = angular_error(normal_map(height), case["truth"])
         integrated = frankot_chellappa(case["truth"])
-        row = {"photo": case["name"], "flat": flat_error(case["truth"]), "barkgen_loo": ours,
-               "sobel_tuned": sobel_tuned(case),
-               "ceiling": angular_error(normal_map(integrated, tile=True), case["truth"]),
-               "ao_corr_height": float(np.corrcoef(case["ao_height"].ravel(), case["ao"].ravel())[0, 1]),
-               "ao_corr_ceiling": float(np.corrcoef(ambient_occlusion(integrated.astype(np.float32), tile=True).ravel(),
-                                                    case["ao"].ravel())[0, 1]),
-               "loo_config": dataclasses.asdict(config)}
+        row = {
+            "photo": case["name"],
+            "flat": flat_error(case["truth"]),
+            "barkgen_loo": ours,
+            "sobel_tuned": sobel_tuned(case),
+            "ceiling": angular_error(normal_map(integrated, tile=True), case["truth"]),
+            "ao_corr_height": float(np.corrcoef(case["ao_height"].ravel(), case["ao"].ravel())[0, 1]),
+            "ao_corr_ceiling": float(
+                np.corrcoef(ambient_occlusion(integrated.astype(np.float32), tile=True).ravel(), case["ao"].ravel())[
+                    0, 1
+                ]
+            ),
+            "loo_config": dataclasses.asdict(config),
+        }
         row["ratio"] = row["barkgen_loo"] / row["flat"]
         rows.append(row)
     # the AO's photo cavities: (weight, scale) picked on the other three photos' AO
@@ -166,12 +178,19 @@ def truth_table() -> list[dict]:
     for i, (case, row) in enumerate(zip(cases, rows)):
         pick = max(CAVITY_GRID, key=lambda cell: np.mean([r for j, r in enumerate(grid[cell]) if j != i]))
         row["ao_corr"], row["ao_cavities_loo"] = grid[pick][i], list(pick)
-        print(f"  {case['name']:28s} flat {row['flat']:.1f} barkgen(LOO) {row['barkgen_loo']:.1f} "
-              f"({row['ratio']:.2f}x) sobel-tuned {row['sobel_tuned']:.1f} ceiling {row['ceiling']:.1f} "
-              f"AO r {row['ao_corr']:.2f} (height alone {row['ao_corr_height']:.2f}, cavities {pick})",
-              file=sys.stderr, flush=True)
-    print(f"  AO cavities fitted on all four: {max(CAVITY_GRID, key=lambda cell: np.mean(grid[cell]))} "
-          f"(defaults: {CAVITY_WEIGHT}, {CAVITY_SCALE})", file=sys.stderr, flush=True)
+        print(
+            f"  {case['name']:28s} flat {row['flat']:.1f} barkgen(LOO) {row['barkgen_loo']:.1f} "
+            f"({row['ratio']:.2f}x) sobel-tuned {row['sobel_tuned']:.1f} ceiling {row['ceiling']:.1f} "
+            f"AO r {row['ao_corr']:.2f} (height alone {row['ao_corr_height']:.2f}, cavities {pick})",
+            file=sys.stderr,
+            flush=True,
+        )
+    print(
+        f"  AO cavities fitted on all four: {max(CAVITY_GRID, key=lambda cell: np.mean(grid[cell]))} "
+        f"(defaults: {CAVITY_WEIGHT}, {CAVITY_SCALE})",
+        file=sys.stderr,
+        flush=True,
+    )
     return rows
 
 
@@ -190,15 +209,22 @@ def shading_table(previews: Path | None) -> list[dict]:
         material = make_material(photo)
         shade = shading(material.normals, material.light)
         lum_photo, lum_albedo = luminance(photo).ravel(), luminance(material.color).ravel()
-        row = {"photo": path.stem, "light": [material.light.azimuth, material.light.elevation],
-               "strength": material.shading_strength,
-               "corr_photo": float(np.corrcoef(lum_photo, shade.ravel())[0, 1]),
-               "corr_albedo": float(np.corrcoef(lum_albedo, shade.ravel())[0, 1]),
-               "sharpness": sharp(material.color) / sharp(photo)}
+        row = {
+            "photo": path.stem,
+            "light": [material.light.azimuth, material.light.elevation],
+            "strength": material.shading_strength,
+            "corr_photo": float(np.corrcoef(lum_photo, shade.ravel())[0, 1]),
+            "corr_albedo": float(np.corrcoef(lum_albedo, shade.ravel())[0, 1]),
+            "sharpness": sharp(material.color) / sharp(photo),
+        }
         rows.append(row)
-        print(f"  {path.stem:28s} light {row['light'][0]:.0f},{row['light'][1]:.0f} strength "
-              f"{row['strength']:.2f} corr photo {row['corr_photo']:+.3f} albedo {row['corr_albedo']:+.3f} "
-              f"sharpness {row['sharpness']:.3f}", file=sys.stderr, flush=True)
+        print(
+            f"  {path.stem:28s} light {row['light'][0]:.0f},{row['light'][1]:.0f} strength "
+            f"{row['strength']:.2f} corr photo {row['corr_photo']:+.3f} albedo {row['corr_albedo']:+.3f} "
+            f"sharpness {row['sharpness']:.3f}",
+            file=sys.stderr,
+            flush=True,
+        )
         if previews is not None:
             write_png(previews / f"{path.stem}_trunk.png", render_trunk(material, (768, 768)))
     return rows
@@ -221,8 +247,13 @@ def speed(runs: int) -> dict:
         t = time.perf_counter()
         render_trunk(material, (1024, 1024))
         render_t.append(time.perf_counter() - t)
-    return {"material": statistics.median(material_t), "sobel_normal": statistics.median(sobel_t),
-            "preview": statistics.median(render_t), "runs": runs, "size": list(photo.shape[:2])}
+    return {
+        "material": statistics.median(material_t),
+        "sobel_normal": statistics.median(sobel_t),
+        "preview": statistics.median(render_t),
+        "runs": runs,
+        "size": list(photo.shape[:2]),
+    }
 
 
 def fit_all() -> HeightConfig:
@@ -249,30 +280,39 @@ def main() -> int:
     if not args.skip_truth:
         rows = out["truth"] = truth_table()
         print("\nNormals and AO from the photo alone vs scanned maps (leave-one-out; degrees)")
-        print(f"{'photo':28s} {'flat':>6s} {'sobel*':>7s} {'barkgen':>8s} {'ratio':>6s} {'ceiling':>8s} "
-              f"{'AO r':>6s} {'height':>7s} {'ceiling':>8s}")
+        print(
+            f"{'photo':28s} {'flat':>6s} {'sobel*':>7s} {'barkgen':>8s} {'ratio':>6s} {'ceiling':>8s} "
+            f"{'AO r':>6s} {'height':>7s} {'ceiling':>8s}"
+        )
         for r in rows:
-            print(f"{r['photo']:28s} {r['flat']:6.1f} {r['sobel_tuned']:7.1f} {r['barkgen_loo']:8.1f} "
-                  f"{r['ratio']:6.2f} {r['ceiling']:8.1f} {r['ao_corr']:6.2f} {r['ao_corr_height']:7.2f} "
-                  f"{r['ao_corr_ceiling']:8.2f}")
-        print("targets: ratio <= 0.85, AO r >= 0.5; sobel* = tuned per image on the truth; "
-              "ceiling = the scan's own integrated height (its normals, its AO); AO r: with the photo's "
-              "cavities (weight and scale picked leave-one-out), height: the height's AO alone")
+            print(
+                f"{r['photo']:28s} {r['flat']:6.1f} {r['sobel_tuned']:7.1f} {r['barkgen_loo']:8.1f} "
+                f"{r['ratio']:6.2f} {r['ceiling']:8.1f} {r['ao_corr']:6.2f} {r['ao_corr_height']:7.2f} "
+                f"{r['ao_corr_ceiling']:8.2f}"
+            )
+        print(
+            "targets: ratio <= 0.85, AO r >= 0.5; sobel* = tuned per image on the truth; "
+            "ceiling = the scan's own integrated height (its normals, its AO); AO r: with the photo's "
+            "cavities (weight and scale picked leave-one-out), height: the height's AO alone"
+        )
     if not args.skip_shading:
         rows = out["shading"] = shading_table(args.previews)
         print("\nShading removal (correlation of luminance with the estimated N·L)")
         print(f"{'photo':28s} {'light':>9s} {'g':>5s} {'photo':>7s} {'albedo':>7s} {'halved':>6s} {'sharp':>6s}")
         for r in rows:
             halved = abs(r["corr_albedo"]) <= 0.5 * abs(r["corr_photo"])
-            print(f"{r['photo']:28s} {r['light'][0]:4.0f},{r['light'][1]:<4.0f} {r['strength']:5.2f} "
-                  f"{r['corr_photo']:+7.3f} {r['corr_albedo']:+7.3f} {'yes' if halved else 'NO':>6s} "
-                  f"{r['sharpness']:6.3f}")
+            print(
+                f"{r['photo']:28s} {r['light'][0]:4.0f},{r['light'][1]:<4.0f} {r['strength']:5.2f} "
+                f"{r['corr_photo']:+7.3f} {r['corr_albedo']:+7.3f} {'yes' if halved else 'NO':>6s} "
+                f"{r['sharpness']:6.3f}"
+            )
         print("targets: |albedo| <= 0.5 |photo|, sharpness >= 0.85")
     if not args.skip_speed:
         s = out["speed"] = speed(args.runs)
         print(f"\nSpeed ({s['size'][1]}x{s['size'][0]} photo, medians of {s['runs']})")
-        print(f"make_material   {s['material']:6.2f} s   (target <= 10 s; Sobel normal alone "
-              f"{s['sobel_normal']:.3f} s)")
+        print(
+            f"make_material   {s['material']:6.2f} s   (target <= 10 s; Sobel normal alone {s['sobel_normal']:.3f} s)"
+        )
         print(f"render_trunk    {s['preview']:6.2f} s   (1024x1024, target <= 5 s)")
     if args.json:
         Path(args.json).write_text(json.dumps(out, indent=2))

@@ -44,8 +44,7 @@ SPINNER = [sys.executable, "-c", "while True: pass"]
 def timed(cmd: list[str], env: dict | None = None) -> tuple[float, float]:
     """Wall seconds and peak RSS (GiB) of one run of ``cmd`` (its output thrown away)."""
     t = time.perf_counter()
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                            env={**os.environ, **(env or {})})
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env={**os.environ, **(env or {})})
     _, status, usage = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - t
     err = proc.stderr.read().decode(errors="replace") if proc.stderr else ""
@@ -55,8 +54,20 @@ def timed(cmd: list[str], env: dict | None = None) -> tuple[float, float]:
 
 
 def quickstart(out: Path, size: int = 1024, seed: int = 0) -> list[str]:
-    return BARKGEN + ["generate", "-o", str(out), "--size", f"{size}x{size}", "--tile", "--seed",
-                      str(seed), "--material", "--name", "bark", "-q"]
+    return BARKGEN + [
+        "generate",
+        "-o",
+        str(out),
+        "--size",
+        f"{size}x{size}",
+        "--tile",
+        "--seed",
+        str(seed),
+        "--material",
+        "--name",
+        "bark",
+        "-q",
+    ]
 
 
 def make_peer_exemplar(dst: Path) -> Path:
@@ -98,8 +109,11 @@ def main() -> int:
                 ours.append(timed(quickstart(work / "q"))[0])
                 stages.append(stage_seconds(work / "q"))
             if have_peer and i < a.peer_runs:
-                theirs.append(timed(["bash", str(gmic), str(ex), str(work / "g.png"), "1024",
-                                     "1024", "--tile", "--seed", str(i)])[0])
+                theirs.append(
+                    timed(
+                        ["bash", str(gmic), str(ex), str(work / "g.png"), "1024", "1024", "--tile", "--seed", str(i)]
+                    )[0]
+                )
         quiet = statistics.median(ours)
         figures["quickstart_s"] = ours
         rows.append((f"quickstart generate, warm (median of {len(ours)})", f"{quiet:.2f} s"))
@@ -121,14 +135,17 @@ def main() -> int:
             rows.append(("set-up's warm-up, then the first run", f"{t_warmup:.1f} s + {after:.1f} s"))
 
         if not a.skip_busy:
-            for label, hog in (("a single-threaded spinner", SPINNER),
-                               ("another generate in a loop", None)):
+            for label, hog in (("a single-threaded spinner", SPINNER), ("another generate in a loop", None)):
                 stop = work / "stop"
                 stop.unlink(missing_ok=True)
                 if hog is None:
-                    loop = (f"while [ ! -e {stop} ]; do {' '.join(quickstart(work / 'hog', seed=7))}; done")
-                    proc = subprocess.Popen(["bash", "-c", loop], stdout=subprocess.DEVNULL,
-                                            stderr=subprocess.DEVNULL, start_new_session=True)
+                    loop = f"while [ ! -e {stop} ]; do {' '.join(quickstart(work / 'hog', seed=7))}; done"
+                    proc = subprocess.Popen(
+                        ["bash", "-c", loop],
+                        stdout=subprocess.DEVNULL,
+                        stderr=subprocess.DEVNULL,
+                        start_new_session=True,
+                    )
                 else:
                     proc = subprocess.Popen(hog, start_new_session=True)
                 time.sleep(2.0)
@@ -145,8 +162,9 @@ def main() -> int:
         if not a.skip_4k:
             wall, rss = timed(quickstart(work / "k4", size=4096))
             per_pixel = (wall / 4096**2) / (quiet / 1024**2)
-            figures.update(k4_s=wall, k4_peak_gib=rss, k4_per_pixel_ratio=per_pixel,
-                           k4_stages=stage_seconds(work / "k4"))
+            figures.update(
+                k4_s=wall, k4_peak_gib=rss, k4_per_pixel_ratio=per_pixel, k4_stages=stage_seconds(work / "k4")
+            )
             rows.append(("4096x4096 tiled with material, wall", f"{wall:.1f} s"))
             rows.append(("4096x4096, peak RSS", f"{rss:.2f} GiB"))
             rows.append(("4096x4096 time per pixel / 1024x1024's", f"{per_pixel:.2f}x"))

@@ -78,16 +78,20 @@ from barkgen.synth import exemplar_wraps  # noqa: E402, RUF100
 
 BARKGEN = [sys.executable, "-m", "barkgen"]
 PHOTOS = sorted((SHARED / "data" / "bark").glob("*_01.*"))
-QUICK_PHOTOS = ("birch_smooth_lenticels_01", "oak_furrowed_moss_01", "pine_plated_01",
-                "willow_furrowed_01")
+QUICK_PHOTOS = ("birch_smooth_lenticels_01", "oak_furrowed_moss_01", "pine_plated_01", "willow_furrowed_01")
 CASES = ("sample", "crops", "extra", "untiled", "synth")
 CROP = 512
 MEASURE_VERSION = 2  # bump when what a row holds changes
 TARGETS = {"line": 96, "seam": 48, "colour": 1.25, "maps": 1.5}
 # generate --material: short label -> file in the output folder (NormalDX is checked apart)
-GENERATE_MAPS = {"tex": "texture.png", "color": "bark_Color.png", "disp": "bark_Displacement.png",
-                 "nGL": "bark_NormalGL.png", "ao": "bark_AmbientOcclusion.png",
-                 "rough": "bark_Roughness.png"}
+GENERATE_MAPS = {
+    "tex": "texture.png",
+    "color": "bark_Color.png",
+    "disp": "bark_Displacement.png",
+    "nGL": "bark_NormalGL.png",
+    "ao": "bark_AmbientOcclusion.png",
+    "rough": "bark_Roughness.png",
+}
 COLOUR_MAPS = ("tex", "color")
 
 
@@ -107,6 +111,7 @@ class Run:
 
 # ---------------------------------------------------------------------------------- cache keys
 
+
 def _sha(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
 
@@ -117,12 +122,12 @@ def file_sha(path: Path) -> str:
 
 def source_state() -> str:
     """HEAD plus a hash of ``git diff HEAD -- src`` and of the untracked files under src/."""
+
     def git(*args: str) -> bytes:
-        return subprocess.run(["git", "-C", str(REPO), *args], capture_output=True,
-                              check=True).stdout
+        return subprocess.run(["git", "-C", str(REPO), *args], capture_output=True, check=True).stdout
+
     h = hashlib.sha256(git("diff", "HEAD", "--binary", "--", "src"))
-    for name in sorted(git("ls-files", "--others", "--exclude-standard", "-z", "--", "src")
-                       .split(b"\0")):
+    for name in sorted(git("ls-files", "--others", "--exclude-standard", "-z", "--", "src").split(b"\0")):
         if name:
             h.update(name + b"\0")
             p = REPO / name.decode()
@@ -131,15 +136,23 @@ def source_state() -> str:
 
 
 def tools_state() -> str:
-    return _sha(b"".join(Path(m.__file__).read_bytes() for m in (lines, seams))
-                + str(MEASURE_VERSION).encode())[:16]
+    return _sha(b"".join(Path(m.__file__).read_bytes() for m in (lines, seams)) + str(MEASURE_VERSION).encode())[:16]
 
 
 def run_key(run: Run, src: str) -> str:
-    return _sha(json.dumps({"cmds": run.cmds, "tile": run.tile, "kind": run.kind,
-                            "inputs": {str(p): file_sha(p) for p in run.inputs},
-                            "photo": file_sha(run.photo), "src": src,
-                            "tools": tools_state()}).encode())[:24]
+    return _sha(
+        json.dumps(
+            {
+                "cmds": run.cmds,
+                "tile": run.tile,
+                "kind": run.kind,
+                "inputs": {str(p): file_sha(p) for p in run.inputs},
+                "photo": file_sha(run.photo),
+                "src": src,
+                "tools": tools_state(),
+            }
+        ).encode()
+    )[:24]
 
 
 # ---------------------------------------------------------------------------------- measuring
@@ -152,8 +165,7 @@ def measure_lines(path: Path, tile: bool) -> dict:
     key = (file_sha(path), tile)
     if key not in _LINES:
         m = lines.measure(path, tile=tile, window=64, thr=3.0)
-        _LINES[key] = {"lines": int(m["longest"]), "lines_where": m["longest_where"],
-                       "contrast": m["contrast"]}
+        _LINES[key] = {"lines": int(m["longest"]), "lines_where": m["longest_where"], "contrast": m["contrast"]}
     return dict(_LINES[key])
 
 
@@ -184,8 +196,7 @@ def execute(run: Run) -> dict:
         seconds = []
         for cmd in run.cmds:
             t0 = time.perf_counter()
-            proc = subprocess.run(BARKGEN + expand(cmd, tmp), capture_output=True, text=True,
-                                  check=False, cwd=tmp)
+            proc = subprocess.run(BARKGEN + expand(cmd, tmp), capture_output=True, text=True, check=False, cwd=tmp)
             seconds.append(time.perf_counter() - t0)
             if proc.returncode:
                 tail = "\n".join((proc.stderr or proc.stdout).strip().splitlines()[-6:])
@@ -213,27 +224,33 @@ def execute(run: Run) -> dict:
         unique: dict[str, Path] = {}
         for p in files.values():
             unique.setdefault(file_sha(p), p)
-        s = seams.measure(ref, tile=run.tile, wrap_exemplar=any(wrap),
-                          maps=list(unique.values()))
+        s = seams.measure(ref, tile=run.tile, wrap_exemplar=any(wrap), maps=list(unique.values()))
         steps = {h: s["step_ratio"][str(p)] for h, p in unique.items()}
         maps = {}
         for k, p in files.items():
             maps[k] = {"file": p.name, **measure_lines(p, run.tile), "step": steps[file_sha(p)]}
-        row = {"case": run.case, "name": run.name,
-               "cmds": [" ".join(["barkgen", *c]) for c in run.cmds],
-               "seconds": round(seconds[-1], 2), "seconds_all": [round(t, 2) for t in seconds],
-               "tile": run.tile, "exemplar_wrap": wrap,
-               "seam": {"longest": int(s["longest"]), "where": list(s["where"]),
-                        "seam_share": s["seam_share"]},
-               "maps": maps, "normal_dx_is_gl_flipped": dx_flip,
-               "photo": photo_lines(run.photo)}
+        row = {
+            "case": run.case,
+            "name": run.name,
+            "cmds": [" ".join(["barkgen", *c]) for c in run.cmds],
+            "seconds": round(seconds[-1], 2),
+            "seconds_all": [round(t, 2) for t in seconds],
+            "tile": run.tile,
+            "exemplar_wrap": wrap,
+            "seam": {"longest": int(s["longest"]), "where": list(s["where"]), "seam_share": s["seam_share"]},
+            "maps": maps,
+            "normal_dx_is_gl_flipped": dx_flip,
+            "photo": photo_lines(run.photo),
+        }
         if run.extra_own:
             own = tmp / run.extra_own
-            row["own"] = {"file": own.name, "tile": row["photo"]["tile"],
-                          **measure_lines(own, row["photo"]["tile"])}
+            row["own"] = {"file": own.name, "tile": row["photo"]["tile"], **measure_lines(own, row["photo"]["tile"])}
             # the photo's whole material set beside it: lines a map has on the photo itself
-            row["own_maps"] = {k: {"file": f, **measure_lines(own.parent / f, row["own"]["tile"])}
-                               for k, f in GENERATE_MAPS.items() if (own.parent / f).exists()}
+            row["own_maps"] = {
+                k: {"file": f, **measure_lines(own.parent / f, row["own"]["tile"])}
+                for k, f in GENERATE_MAPS.items()
+                if (own.parent / f).exists()
+            }
         return row
 
 
@@ -241,18 +258,19 @@ def summarise(row: dict) -> dict:
     """(a) longest line over all maps, (b) seam, (c) colour step, (d) other maps' worst step."""
     maps = row["maps"]
     worst_line = max(maps, key=lambda k: maps[k]["lines"])
-    colour = [(maps[k]["step"], k) for k in COLOUR_MAPS
-              if k in maps and maps[k]["step"] is not None]
-    other = [(m["step"], k) for k, m in maps.items()
-             if k not in COLOUR_MAPS and m["step"] is not None]
-    return {"line": (maps[worst_line]["lines"], worst_line),
-            "seam": (row["seam"]["longest"], None),
-            "colour": max(colour) if colour else (None, None),
-            "maps": max(other) if other else (None, None),
-            "photo": (row["photo"]["lines"], None)}
+    colour = [(maps[k]["step"], k) for k in COLOUR_MAPS if k in maps and maps[k]["step"] is not None]
+    other = [(m["step"], k) for k, m in maps.items() if k not in COLOUR_MAPS and m["step"] is not None]
+    return {
+        "line": (maps[worst_line]["lines"], worst_line),
+        "seam": (row["seam"]["longest"], None),
+        "colour": max(colour) if colour else (None, None),
+        "maps": max(other) if other else (None, None),
+        "photo": (row["photo"]["lines"], None),
+    }
 
 
 # ---------------------------------------------------------------------------------- cases
+
 
 def crop_path(photo: Path, cache: Path) -> Path:
     out = cache / "crops" / f"{photo.stem}_{CROP}.png"
@@ -267,16 +285,39 @@ def short(photo: Path) -> str:
 
 
 def generate_cmd(photo: Path | None, size: int, tile: bool, seed: int) -> list[str]:
-    return ["generate", *([str(photo)] if photo else []), "-o", "{tmp}/out",
-            "--size", f"{size}x{size}", *(["--tile"] if tile else []), "--seed", str(seed),
-            "--material", "--name", "bark", "-q"]
+    return [
+        "generate",
+        *([str(photo)] if photo else []),
+        "-o",
+        "{tmp}/out",
+        "--size",
+        f"{size}x{size}",
+        *(["--tile"] if tile else []),
+        "--seed",
+        str(seed),
+        "--material",
+        "--name",
+        "bark",
+        "-q",
+    ]
 
 
 def synth_cmd(photo: Path | None, seed: int, extra: str | None = None) -> list[str]:
-    return ["synth", *([str(photo)] if photo else []), "-o", "{tmp}/out.png",
-            "--size", "1024x1024", "--tile", "--seed", str(seed),
-            "--save-reference", "{tmp}/ref.png",
-            *(["--extra", f"height={extra}"] if extra else []), "-q"]
+    return [
+        "synth",
+        *([str(photo)] if photo else []),
+        "-o",
+        "{tmp}/out.png",
+        "--size",
+        "1024x1024",
+        "--tile",
+        "--seed",
+        str(seed),
+        "--save-reference",
+        "{tmp}/ref.png",
+        *(["--extra", f"height={extra}"] if extra else []),
+        "-q",
+    ]
 
 
 def plan(case: str, quick: bool, cache: Path) -> list[Run]:
@@ -284,35 +325,40 @@ def plan(case: str, quick: bool, cache: Path) -> list[Run]:
     seeds = [0] if quick else [0, 1, 2, 3]
     photos = [p for p in PHOTOS if p.stem in QUICK_PHOTOS] if quick else PHOTOS
     if case == "sample":
-        return [Run(case, f"sample seed {s}", "generate", [generate_cmd(None, 1024, True, s)],
-                    True, sample) for s in seeds]
+        return [
+            Run(case, f"sample seed {s}", "generate", [generate_cmd(None, 1024, True, s)], True, sample) for s in seeds
+        ]
     if case == "crops":
         runs = []
         for p in photos:
             c = crop_path(p, cache)
-            runs.append(Run(case, f"{short(c)} seed 0", "generate",
-                            [generate_cmd(c, 1024, True, 0)], True, c, [c]))
+            runs.append(Run(case, f"{short(c)} seed 0", "generate", [generate_cmd(c, 1024, True, 0)], True, c, [c]))
         return runs
     if case == "extra":
         runs = []
-        for mode in (["no"] if quick else ["no", "auto"]):
-            mat = ["material", "-o", "{tmp}/mat", *(["--exemplar-wraps", mode] if mode != "auto"
-                                                    else []), "-q"]
+        for mode in ["no"] if quick else ["no", "auto"]:
+            mat = ["material", "-o", "{tmp}/mat", *(["--exemplar-wraps", mode] if mode != "auto" else []), "-q"]
             h = "{tmp}/mat/bark_Displacement.png"
-            runs.append(Run(case, f"height wraps {mode}", "synth", [mat, synth_cmd(None, 0, h)],
-                            True, sample, extra_own="mat/bark_Displacement.png"))
+            runs.append(
+                Run(
+                    case,
+                    f"height wraps {mode}",
+                    "synth",
+                    [mat, synth_cmd(None, 0, h)],
+                    True,
+                    sample,
+                    extra_own="mat/bark_Displacement.png",
+                )
+            )
         return runs
     if case == "untiled":
-        return [Run(case, "sample 2048 seed 0", "generate", [generate_cmd(None, 2048, False, 0)],
-                    False, sample)]
+        return [Run(case, "sample 2048 seed 0", "generate", [generate_cmd(None, 2048, False, 0)], False, sample)]
     if case == "synth":
-        runs = [Run(case, f"sample seed {s}", "synth", [synth_cmd(None, s)], True, sample)
-                for s in seeds]
+        runs = [Run(case, f"sample seed {s}", "synth", [synth_cmd(None, s)], True, sample) for s in seeds]
         if not quick:
             for p in photos:
                 c = crop_path(p, cache)
-                runs.append(Run(case, f"{short(c)} seed 0", "synth", [synth_cmd(c, 0)], True, c,
-                                [c]))
+                runs.append(Run(case, f"{short(c)} seed 0", "synth", [synth_cmd(c, 0)], True, c, [c]))
         return runs
     raise ValueError(case)
 
@@ -320,14 +366,14 @@ def plan(case: str, quick: bool, cache: Path) -> list[Run]:
 TITLES = {
     "sample": "sample: generate --tile --material 1024x1024 from the bundled sample",
     "crops": f"crops: generate --tile --material 1024x1024 from {CROP}x{CROP} centre crops, seed 0",
-    "extra": "extra: synth --tile --extra height=H.png 1024x1024 from the sample, seed 0 "
-             "(H = material's Displacement)",
+    "extra": "extra: synth --tile --extra height=H.png 1024x1024 from the sample, seed 0 (H = material's Displacement)",
     "untiled": "untiled: generate --material (no --tile) 2048x2048 from the sample",
     "synth": "synth: synth --tile --save-reference 1024x1024, colour only",
 }
 
 
 # ---------------------------------------------------------------------------------- output
+
 
 def where(w) -> str:
     """(axis, boundary/index, start) -> 'col 505 @36'."""
@@ -347,20 +393,27 @@ def table(case: str, rows: list[dict]) -> None:
     header = ("case", "s", "seam", "photo", *(["own"] if own else []), *labels)
     body = []
     for r in rows:
-        body.append((r["name"], f"{r['seconds']:.1f}", str(r["seam"]["longest"]),
-                     str(r["photo"]["lines"]), *([str(r["own"]["lines"])] if own else []),
-                     *(cell(r["maps"][k]) if k in r["maps"] else "" for k in labels)))
+        body.append(
+            (
+                r["name"],
+                f"{r['seconds']:.1f}",
+                str(r["seam"]["longest"]),
+                str(r["photo"]["lines"]),
+                *([str(r["own"]["lines"])] if own else []),
+                *(cell(r["maps"][k]) if k in r["maps"] else "" for k in labels),
+            )
+        )
     widths = [max(len(x[i]) for x in body + [header]) for i in range(len(header))]
-    print("  ".join(h.ljust(w) if i == 0 else h.rjust(w)
-                    for i, (h, w) in enumerate(zip(header, widths))))
+    print("  ".join(h.ljust(w) if i == 0 else h.rjust(w) for i, (h, w) in enumerate(zip(header, widths))))
     for x in body:
-        print("  ".join(v.ljust(w) if i == 0 else v.rjust(w)
-                        for i, (v, w) in enumerate(zip(x, widths))))
+        print("  ".join(v.ljust(w) if i == 0 else v.rjust(w) for i, (v, w) in enumerate(zip(x, widths))))
     print("(seam, photo, own: longest px; map cells: longest line px / step ratio across seams)")
     for r in rows:
         if r.get("own_maps"):
-            print(f"{r['name']}: the photo's own material set, longest line px: "
-                  + "  ".join(f"{k} {m['lines']}" for k, m in r["own_maps"].items()))
+            print(
+                f"{r['name']}: the photo's own material set, longest line px: "
+                + "  ".join(f"{k} {m['lines']}" for k, m in r["own_maps"].items())
+            )
     summary(rows)
 
 
@@ -379,25 +432,38 @@ def fmt(metric: str, v: float) -> str:
 
 
 def summary(rows: list[dict]) -> None:
-    names = {"line": "(a) longest line, all maps", "seam": "(b) longest seam",
-             "colour": "(c) colour step ratio", "maps": "(d) worst other map step ratio",
-             "photo": "    beside the photo's own line"}
+    names = {
+        "line": "(a) longest line, all maps",
+        "seam": "(b) longest seam",
+        "colour": "(c) colour step ratio",
+        "maps": "(d) worst other map step ratio",
+        "photo": "    beside the photo's own line",
+    }
     for metric, label in names.items():
         s = stats(rows, metric)
         if s is None:
             print(f"{label:<32} -")
             continue
         v, r, k, med = s
-        at = where(r["maps"][k]["lines_where"]) if metric == "line" else (
-            where(r["seam"]["where"]) if metric == "seam" else "")
-        print(f"{label:<32} worst {fmt(metric, v)}  median {fmt(metric, med)}"
-              f"   ({r['name']}{' ' + k if k else ''}{' ' + at if at else ''})")
+        at = (
+            where(r["maps"][k]["lines_where"])
+            if metric == "line"
+            else (where(r["seam"]["where"]) if metric == "seam" else "")
+        )
+        print(
+            f"{label:<32} worst {fmt(metric, v)}  median {fmt(metric, med)}"
+            f"   ({r['name']}{' ' + k if k else ''}{' ' + at if at else ''})"
+        )
 
 
 def acceptance(rows: list[dict], failed: list[str]) -> bool:
     print("\nacceptance (issue 55), worst over all cases:")
-    names = {"line": ("longest line", "px"), "seam": ("longest seam", "px"),
-             "colour": ("colour step ratio", ""), "maps": ("map step ratios", "")}
+    names = {
+        "line": ("longest line", "px"),
+        "seam": ("longest seam", "px"),
+        "colour": ("colour step ratio", ""),
+        "maps": ("map step ratios", ""),
+    }
     ok = not failed
     for metric, (label, unit) in names.items():
         s = stats(rows, metric)
@@ -408,8 +474,10 @@ def acceptance(rows: list[dict], failed: list[str]) -> bool:
         v, r, k, _ = s
         good = v <= target
         ok &= good
-        print(f"  {label:<18} {fmt(metric, v):>6} {unit:<3}  target <= {target:<5}  "
-              f"{'PASS' if good else 'FAIL'}   ({r['case']}: {r['name']}{' ' + k if k else ''})")
+        print(
+            f"  {label:<18} {fmt(metric, v):>6} {unit:<3}  target <= {target:<5}  "
+            f"{'PASS' if good else 'FAIL'}   ({r['case']}: {r['name']}{' ' + k if k else ''})"
+        )
     s = stats(rows, "photo")
     if s:
         print(f"  (the photos' own longest line: worst {s[0]} px, {s[1]['case']}: {s[1]['name']})")
@@ -421,16 +489,23 @@ def acceptance(rows: list[dict], failed: list[str]) -> bool:
 
 # ---------------------------------------------------------------------------------- main
 
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--cases", default=",".join(CASES),
-                    help=f"comma list of {', '.join(CASES)} (default: all)")
-    ap.add_argument("--quick", action="store_true",
-                    help="about 3 minutes: sample seed 0, four crops, extra's first row, synth "
-                         "from the sample seed 0; no untiled")
+    ap.add_argument("--cases", default=",".join(CASES), help=f"comma list of {', '.join(CASES)} (default: all)")
+    ap.add_argument(
+        "--quick",
+        action="store_true",
+        help="about 3 minutes: sample seed 0, four crops, extra's first row, synth from the sample seed 0; no untiled",
+    )
     ap.add_argument("--json", metavar="OUT.json", help="write every measured row")
-    ap.add_argument("--cache", type=Path, default=REPO / "benchmarks" / ".cache" / "seams",
-                    metavar="DIR", help="measured rows and crops (default: %(default)s)")
+    ap.add_argument(
+        "--cache",
+        type=Path,
+        default=REPO / "benchmarks" / ".cache" / "seams",
+        metavar="DIR",
+        help="measured rows and crops (default: %(default)s)",
+    )
     ap.add_argument("--fresh", action="store_true", help="ignore cached rows (and replace them)")
     a = ap.parse_args()
     sys.stdout.reconfigure(line_buffering=True)  # tables and stderr progress in order
@@ -444,8 +519,10 @@ def main() -> int:
     rows_dir = a.cache / "rows"
     rows_dir.mkdir(parents=True, exist_ok=True)
     sample = sample_exemplar_path()
-    print(f"barkgen {source_state()}; sample {sample.name}: exemplar_wraps (rows, cols) = "
-          f"{exemplar_wraps(read_image(sample))}; {len(PHOTOS)} shared photos")
+    print(
+        f"barkgen {source_state()}; sample {sample.name}: exemplar_wraps (rows, cols) = "
+        f"{exemplar_wraps(read_image(sample))}; {len(PHOTOS)} shared photos"
+    )
     t_start = time.perf_counter()
     all_rows: list[dict] = []
     failed: list[str] = []
@@ -481,8 +558,9 @@ def main() -> int:
         acceptance(all_rows, failed)
     states = {r.get("src") for r in all_rows}
     if len(states) > 1:
-        print(f"note: the rows were measured on {len(states)} states of src/ "
-              "(it changed between runs; 'src' in --json)")
+        print(
+            f"note: the rows were measured on {len(states)} states of src/ (it changed between runs; 'src' in --json)"
+        )
     print(f"\n{len(all_rows)} rows, {time.perf_counter() - t_start:.0f} s")
     if a.json:
         Path(a.json).write_text(json.dumps(all_rows, indent=1))

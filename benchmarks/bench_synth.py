@@ -81,8 +81,11 @@ def main() -> int:
     work = Path(tempfile.mkdtemp(prefix="barkgen-bench-"))
     ex = make_exemplar(work / "ex256.png")
     gmic = SHARED / "eval" / "peers" / "gmic.sh"
-    have_gmic = not a.skip_peers and gmic.exists() and subprocess.run(
-        ["python3", "-c", "import gmic"], capture_output=True).returncode == 0
+    have_gmic = (
+        not a.skip_peers
+        and gmic.exists()
+        and subprocess.run(["python3", "-c", "import gmic"], capture_output=True).returncode == 0
+    )
     rows: list[tuple[str, str]] = []
 
     # warm-up: compile/load the numba cache once
@@ -94,8 +97,11 @@ def main() -> int:
         if i < a.runs:
             ours.append(timed(synth_cmd(ex, work / "b1024.png", 1024, "--seed", str(i)))[0])
         if have_gmic and i < a.peer_runs:
-            theirs.append(timed(["bash", str(gmic), str(ex), str(work / "g1024.png"), "1024", "1024",
-                                 "--tile", "--seed", str(i)])[0])
+            theirs.append(
+                timed(
+                    ["bash", str(gmic), str(ex), str(work / "g1024.png"), "1024", "1024", "--tile", "--seed", str(i)]
+                )[0]
+            )
     med = statistics.median(ours)
     rows.append(("256->1024 tileable, barkgen synth (median of %d)" % len(ours), f"{med:.2f} s"))
     if theirs:

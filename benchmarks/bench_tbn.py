@@ -30,18 +30,14 @@ import time
 import warnings
 from pathlib import Path
 
-import numpy as np
-
 REPO = Path(__file__).resolve().parents[1]
 SHARED = Path(os.environ.get("BARKGEN_SHARED", REPO.parent / "shared"))
 sys.path.insert(0, str(REPO / "src"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from barkgen.io import read_centre_crop  # noqa: E402
-
-from barkgen.testing import kmeans_label_map, shuffled_blocks  # noqa: E402
-
 from barkgen.synth import synthesize, texture_by_numbers  # noqa: E402
+from barkgen.testing import kmeans_label_map, shuffled_blocks  # noqa: E402
 
 PHOTO_SUFFIXES = {".jpg", ".jpeg", ".png"}
 
@@ -66,24 +62,39 @@ def quality(names: list[str] | None, sizes: list[int]) -> list[dict]:
                 b = shuffled_blocks(a, size, seed=1)
                 # the known answer: the exemplar's own blocks in the target's arrangement (the
                 # same generator draws, so the same shuffle and flips)
-                runs = {"answer": shuffled_blocks(ex, size, seed=1),
-                        "unguided": synthesize(ex, size, seed=0).image,
-                        "smart": texture_by_numbers(ex, a, b, seed=0).image}
+                runs = {
+                    "answer": shuffled_blocks(ex, size, seed=1),
+                    "unguided": synthesize(ex, size, seed=0).image,
+                    "smart": texture_by_numbers(ex, a, b, seed=0).image,
+                }
                 if i == 0:
                     runs["random"] = texture_by_numbers(ex, a, b, seed=0, init="random").image
                 m = {k: ev.evaluate(img, labels_out=b) for k, img in runs.items()}
                 row = {"photo": path.stem, "labels": n_labels, "size": size}
                 for k, r in m.items():
-                    row[k] = {key: r[key] for key in (
-                        "coherence", "completeness", "sharpness_ratio", "label_fidelity",
-                        "label_fidelity_train", "label_fidelity_ratio", "label_fidelity_balanced",
-                        "largest_copy")}
+                    row[k] = {
+                        key: r[key]
+                        for key in (
+                            "coherence",
+                            "completeness",
+                            "sharpness_ratio",
+                            "label_fidelity",
+                            "label_fidelity_train",
+                            "label_fidelity_ratio",
+                            "label_fidelity_balanced",
+                            "largest_copy",
+                        )
+                    }
                 rows.append(row)
                 s, u = row["smart"], row["unguided"]
-                print(f"  {path.stem:28s} {n_labels} labels {size:5d}: fidelity {s['label_fidelity_ratio']:.3f}"
-                      f" balanced {s['label_fidelity_balanced']:.3f} sharp {s['sharpness_ratio']:.3f}"
-                      f" coherence {s['coherence']:.2f} / unguided {u['coherence']:.2f}"
-                      f" = {s['coherence'] / u['coherence']:.2f}x", file=sys.stderr, flush=True)
+                print(
+                    f"  {path.stem:28s} {n_labels} labels {size:5d}: fidelity {s['label_fidelity_ratio']:.3f}"
+                    f" balanced {s['label_fidelity_balanced']:.3f} sharp {s['sharpness_ratio']:.3f}"
+                    f" coherence {s['coherence']:.2f} / unguided {u['coherence']:.2f}"
+                    f" = {s['coherence'] / u['coherence']:.2f}x",
+                    file=sys.stderr,
+                    flush=True,
+                )
     return rows
 
 
@@ -122,26 +133,33 @@ def main() -> int:
     out: dict = {}
     if not a.skip_quality:
         out["quality"] = rows = quality(names, sizes)
-        print("| photo | labels | size | fidelity ratio | balanced | sharpness | coherence (x unguided)"
-              " | random init: fidelity / coherence | known answer: fidelity / balanced / coherence |")
+        print(
+            "| photo | labels | size | fidelity ratio | balanced | sharpness | coherence (x unguided)"
+            " | random init: fidelity / coherence | known answer: fidelity / balanced / coherence |"
+        )
         print("|---|---|---|---|---|---|---|---|---|")
         for r in rows:
             s, u = r["smart"], r["unguided"]
             rnd = r.get("random")
-            rtxt = (f"{rnd['label_fidelity_ratio']:.3f} / {rnd['coherence']:.2f}" if rnd else "")
+            rtxt = f"{rnd['label_fidelity_ratio']:.3f} / {rnd['coherence']:.2f}" if rnd else ""
             k = r["answer"]
-            ktxt = (f"{k['label_fidelity_ratio']:.3f} / {k['label_fidelity_balanced']:.3f} / "
-                    f"{k['coherence']:.2f} ({k['coherence'] / u['coherence']:.2f}x)")
-            print(f"| {r['photo']} | {r['labels']} | {r['size']} | {s['label_fidelity_ratio']:.3f} | "
-                  f"{s['label_fidelity_balanced']:.3f} | {s['sharpness_ratio']:.3f} | "
-                  f"{s['coherence']:.2f} ({s['coherence'] / u['coherence']:.2f}x) | {rtxt} | {ktxt} |")
+            ktxt = (
+                f"{k['label_fidelity_ratio']:.3f} / {k['label_fidelity_balanced']:.3f} / "
+                f"{k['coherence']:.2f} ({k['coherence'] / u['coherence']:.2f}x)"
+            )
+            print(
+                f"| {r['photo']} | {r['labels']} | {r['size']} | {s['label_fidelity_ratio']:.3f} | "
+                f"{s['label_fidelity_balanced']:.3f} | {s['sharpness_ratio']:.3f} | "
+                f"{s['coherence']:.2f} ({s['coherence'] / u['coherence']:.2f}x) | {rtxt} | {ktxt} |"
+            )
         n = len(rows)
         passed = {
             "fidelity ratio >= 0.9": sum(r["smart"]["label_fidelity_ratio"] >= 0.9 for r in rows),
             "balanced >= 0.85": sum(r["smart"]["label_fidelity_balanced"] >= 0.85 for r in rows),
             "sharpness 0.9-1.1": sum(0.9 <= r["smart"]["sharpness_ratio"] <= 1.1 for r in rows),
             "coherence <= 1.25x unguided": sum(
-                r["smart"]["coherence"] <= 1.25 * r["unguided"]["coherence"] for r in rows),
+                r["smart"]["coherence"] <= 1.25 * r["unguided"]["coherence"] for r in rows
+            ),
         }
         with_random = [r for r in rows if "random" in r]
         wins_coh = sum(r["smart"]["coherence"] < r["random"]["coherence"] for r in with_random)
@@ -155,10 +173,11 @@ def main() -> int:
         print(f"| smart beats random on label fidelity | {wins_fid}/{len(with_random)} |")
         for who in ("smart", "answer"):
             ratios = [r[who]["coherence"] / r["unguided"]["coherence"] for r in rows]
-            print(f"| median coherence / unguided, {'barkgen' if who == 'smart' else 'known answer'}"
-                  f" | {statistics.median(ratios):.2f}x |")
-        for key, name in (("label_fidelity_ratio", "fidelity ratio"),
-                          ("label_fidelity_balanced", "balanced")):
+            print(
+                f"| median coherence / unguided, {'barkgen' if who == 'smart' else 'known answer'}"
+                f" | {statistics.median(ratios):.2f}x |"
+            )
+        for key, name in (("label_fidelity_ratio", "fidelity ratio"), ("label_fidelity_balanced", "balanced")):
             ok = sum(r["smart"][key] >= r["answer"][key] - 0.02 for r in rows)
             print(f"| {name} within 0.02 of the known answer (or above) | {ok}/{n} |")
     if not a.skip_speed:

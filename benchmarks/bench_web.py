@@ -54,8 +54,9 @@ def direct(photo_bytes: bytes, size: int, seeds: list[int], material: bool) -> d
         t = time.perf_counter()
         opts = GenerateOptions(size=(size, size), k=3, tile=True, material=material, seed=seed)
         result = generate(photo, opts, analysis=analysis)
-        encode_result(photo, result, JobSpec(job_id="x", photo=b"", photo_hash="", source="oak",
-                                             options={}, set_name="bench"))
+        encode_result(
+            photo, result, JobSpec(job_id="x", photo=b"", photo_hash="", source="oak", options={}, set_name="bench")
+        )
         per_seed.append(time.perf_counter() - t)
     return {"analysis_s": analysis_s, "per_seed_s": per_seed}
 
@@ -70,9 +71,20 @@ def server(photo_bytes: bytes, size: int, seeds: list[int], material: bool) -> d
     with tempfile.TemporaryDirectory() as folder, TestClient(create_app(Library(Path(folder) / "lib"))) as client:
         exemplar_id = client.post("/api/exemplars", files={"file": ("oak.jpg", photo_bytes)}).json()["id"]
         client.get(f"/api/exemplars/{exemplar_id}/labels.png?k=3")  # the page shows it before Generate
-        ids = [client.post("/api/jobs", json={"exemplar_id": exemplar_id, "size": f"{size}x{size}",
-                                              "seed": seed, "k": 3, "tile": True,
-                                              "material": material}).json()["id"] for seed in seeds]
+        ids = [
+            client.post(
+                "/api/jobs",
+                json={
+                    "exemplar_id": exemplar_id,
+                    "size": f"{size}x{size}",
+                    "seed": seed,
+                    "k": 3,
+                    "tile": True,
+                    "material": material,
+                },
+            ).json()["id"]
+            for seed in seeds
+        ]
         finished: dict[str, dict] = {}
         stop = threading.Event()
 
@@ -98,10 +110,13 @@ def server(photo_bytes: bytes, size: int, seeds: list[int], material: bool) -> d
             time.sleep(0.25)  # about what a page costs the server (its events are pushed)
         stop.set()
         other.join()
-    return {"first_submit_to_done_s": finished[ids[0]]["finished"] - finished[ids[0]]["created"],
-            "per_seed_s": [finished[j]["finished"] - finished[j]["started"] for j in ids],
-            "latency_ms": {k: (statistics.median(v) * 1000, sorted(v)[int(0.95 * (len(v) - 1))] * 1000)
-                           for k, v in latencies.items()}}
+    return {
+        "first_submit_to_done_s": finished[ids[0]]["finished"] - finished[ids[0]]["created"],
+        "per_seed_s": [finished[j]["finished"] - finished[j]["started"] for j in ids],
+        "latency_ms": {
+            k: (statistics.median(v) * 1000, sorted(v)[int(0.95 * (len(v) - 1))] * 1000) for k, v in latencies.items()
+        },
+    }
 
 
 def main() -> None:
@@ -136,8 +151,9 @@ def main() -> None:
     for name, value in rows:
         print(f"{name.ljust(width)}  {value}")
     if args.json:
-        args.json.write_text(json.dumps({"direct": d, "server": s, "args": vars(args) | {"json": str(args.json)}},
-                                        indent=2))
+        args.json.write_text(
+            json.dumps({"direct": d, "server": s, "args": vars(args) | {"json": str(args.json)}}, indent=2)
+        )
 
 
 if __name__ == "__main__":

@@ -32,33 +32,149 @@ SHARED = Path(os.environ.get("BARKGEN_SHARED", REPO.parent / "shared"))
 #: (name, arguments); {sample}, {crop}, {cracks} and {out} are filled in; each runs in its own
 #: folder {out}
 CASES: list[tuple[str, list[str]]] = [
-    ("synth_tiled", ["synth", "{crop}", "-o", "{out}/t.png", "--size", "512x384", "--tile",
-                     "--seed", "3", "--save-reference", "{out}/ref.png", "--extra", "grey={crop_grey}"]),
-    ("synth_untiled", ["synth", "{crop}", "-o", "{out}/t.png", "--size", "384x512", "--seed", "1",
-                       "--exemplar-wraps", "no"]),
+    (
+        "synth_tiled",
+        [
+            "synth",
+            "{crop}",
+            "-o",
+            "{out}/t.png",
+            "--size",
+            "512x384",
+            "--tile",
+            "--seed",
+            "3",
+            "--save-reference",
+            "{out}/ref.png",
+            "--extra",
+            "grey={crop_grey}",
+        ],
+    ),
+    (
+        "synth_untiled",
+        ["synth", "{crop}", "-o", "{out}/t.png", "--size", "384x512", "--seed", "1", "--exemplar-wraps", "no"],
+    ),
     ("apply_reference", ["apply-reference", "{prev}/synth_tiled/ref.png", "{crop_grey}", "-o", "{out}/a.png"]),
     ("labels", ["labels", "{crop}", "-o", "{out}/labels.png", "--k", "3"]),
-    ("shapes", ["shapes", "{prev}/labels/labels.png", "-o", "{out}/shapes.png", "--size", "320x320",
-                "--strategy", "joint", "--photo", "{crop}", "--seed", "2"]),
-    ("shapes_layered", ["shapes", "{prev}/labels/labels.png", "-o", "{out}/shapes.png", "--size", "256x256",
-                        "--strategy", "layered", "--seed", "2"]),
-    ("tbn", ["tbn", "{crop}", "--labels", "{prev}/labels/labels.png", "--target",
-             "{prev}/shapes/shapes.png", "-o", "{out}/tbn.png", "--seed", "4"]),
-    ("quickstart", ["generate", "-o", "{out}", "--size", "1024x1024", "--tile", "--seed", "0",
-                    "--material", "--name", "bark"]),
-    ("generate_material", ["generate", "{crop}", "-o", "{out}", "--size", "384x384", "--tile",
-                           "--seed", "0", "--material", "--name", "bark", "--k", "3"]),
+    (
+        "shapes",
+        [
+            "shapes",
+            "{prev}/labels/labels.png",
+            "-o",
+            "{out}/shapes.png",
+            "--size",
+            "320x320",
+            "--strategy",
+            "joint",
+            "--photo",
+            "{crop}",
+            "--seed",
+            "2",
+        ],
+    ),
+    (
+        "shapes_layered",
+        [
+            "shapes",
+            "{prev}/labels/labels.png",
+            "-o",
+            "{out}/shapes.png",
+            "--size",
+            "256x256",
+            "--strategy",
+            "layered",
+            "--seed",
+            "2",
+        ],
+    ),
+    (
+        "tbn",
+        [
+            "tbn",
+            "{crop}",
+            "--labels",
+            "{prev}/labels/labels.png",
+            "--target",
+            "{prev}/shapes/shapes.png",
+            "-o",
+            "{out}/tbn.png",
+            "--seed",
+            "4",
+        ],
+    ),
+    (
+        "quickstart",
+        ["generate", "-o", "{out}", "--size", "1024x1024", "--tile", "--seed", "0", "--material", "--name", "bark"],
+    ),
+    (
+        "generate_material",
+        [
+            "generate",
+            "{crop}",
+            "-o",
+            "{out}",
+            "--size",
+            "384x384",
+            "--tile",
+            "--seed",
+            "0",
+            "--material",
+            "--name",
+            "bark",
+            "--k",
+            "3",
+        ],
+    ),
     ("material", ["material", "{crop}", "-o", "{out}"]),
     ("preview", ["preview", "{prev}/generate_material", "-o", "{out}/trunk.png"]),
     ("export_glb", ["export-glb", "{prev}/generate_material", "-o", "{out}/trunk.glb"]),
     ("bilayer_analyze", ["bilayer", "analyze", "{crop}", "-o", "{out}/m.npz", "--k", "2", "--tloc", "8"]),
-    ("bilayer_synth", ["bilayer", "synth", "{prev}/bilayer_analyze/m.npz", "-o", "{out}/b.png",
-                       "--size", "384x256", "--offset", "1000,-300", "--seed", "5"]),
+    (
+        "bilayer_synth",
+        [
+            "bilayer",
+            "synth",
+            "{prev}/bilayer_analyze/m.npz",
+            "-o",
+            "{out}/b.png",
+            "--size",
+            "384x256",
+            "--offset",
+            "1000,-300",
+            "--seed",
+            "5",
+        ],
+    ),
     ("branches_extract", ["branches", "extract", "{cracks}", "-o", "{out}/src.json"]),
-    ("branches_grow", ["branches", "grow", "{prev}/branches_extract/src.json", "-o", "{out}/grown.json",
-                       "--size", "256x256", "--seed", "1"]),
-    ("branches_render", ["branches", "render", "{cracks}", "{prev}/branches_extract/src.json",
-                         "{prev}/branches_grow/grown.json", "-o", "{out}/r.png", "--seed", "1"]),
+    (
+        "branches_grow",
+        [
+            "branches",
+            "grow",
+            "{prev}/branches_extract/src.json",
+            "-o",
+            "{out}/grown.json",
+            "--size",
+            "256x256",
+            "--seed",
+            "1",
+        ],
+    ),
+    (
+        "branches_render",
+        [
+            "branches",
+            "render",
+            "{cracks}",
+            "{prev}/branches_extract/src.json",
+            "{prev}/branches_grow/grown.json",
+            "-o",
+            "{out}/r.png",
+            "--seed",
+            "1",
+        ],
+    ),
 ]
 
 #: the commands without a progress bar (no --quiet)
@@ -74,7 +190,8 @@ def make_inputs(folder: Path, env: dict) -> dict[str, str]:
         "img = read_image(sample_exemplar_path())\n"
         "crop = np.ascontiguousarray(img[300:556, 400:656])\n"
         "write_png(sys.argv[1], crop)\n"
-        "write_png(sys.argv[2], crop.mean(axis=2).astype(np.uint8))\n")
+        "write_png(sys.argv[2], crop.mean(axis=2).astype(np.uint8))\n"
+    )
     crop, grey = folder / "crop.png", folder / "crop_grey.png"
     subprocess.run([sys.executable, "-c", code, str(crop), str(grey)], check=True, env=env)
     cracks = SHARED / "data" / "branching" / "dried_mud_01.jpg"
@@ -127,8 +244,9 @@ def run_cases(src: Path | None, prefixes: list[str] | None = None) -> dict[str, 
             out.mkdir()
             argv = [a.format(out=out, prev=root, **values) for a in args]
             quiet = [] if name in NO_QUIET else ["--quiet"]
-            result = subprocess.run([sys.executable, "-m", "barkgen", *argv, *quiet],
-                                    capture_output=True, text=True, env=env)
+            result = subprocess.run(
+                [sys.executable, "-m", "barkgen", *argv, *quiet], capture_output=True, text=True, env=env
+            )
             if result.returncode != 0:
                 raise SystemExit(f"{name} failed ({result.returncode}): {result.stderr.strip()[-400:]}")
             for path in sorted(out.rglob("*")):
@@ -150,8 +268,10 @@ def main() -> None:
         common = {k.split("/")[0] for k in a} & {k.split("/")[0] for k in b}
         a, b = ({k: v for k, v in d.items() if k.split("/")[0] in common} for d in (a, b))
         differ = sorted(k for k in set(a) | set(b) if a.get(k) != b.get(k))
-        print(f"| files | same | differ |\n|---|---|---|\n| {len(set(a) | set(b))} | "
-              f"{len(set(a) | set(b)) - len(differ)} | {len(differ)} |")
+        print(
+            f"| files | same | differ |\n|---|---|---|\n| {len(set(a) | set(b))} | "
+            f"{len(set(a) | set(b)) - len(differ)} | {len(differ)} |"
+        )
         for k in differ:
             print(f"  differs: {k} ({'missing before' if k not in a else 'missing after' if k not in b else 'bytes'})")
         sys.exit(1 if differ else 0)

@@ -22,10 +22,10 @@ import barkgen.io
 
 def main(out_dir: Path) -> None:
     out_dir.mkdir(parents=True, exist_ok=True)
-    photo = barkgen.read_image(barkgen.sample_exemplar_path())   # (1024, 1024, 3) uint8
+    photo = barkgen.read_image(barkgen.sample_exemplar_path())  # (1024, 1024, 3) uint8
     exemplar = photo[:128, :128]
 
-    result = barkgen.synthesize(exemplar, (160, 224), seed=1)    # size is (height, width)
+    result = barkgen.synthesize(exemplar, (160, 224), seed=1)  # size is (height, width)
 
     barkgen.write_png(out_dir / "exemplar.png", exemplar)
     barkgen.write_png(out_dir / "synthesized.png", result.image)

@@ -32,7 +32,7 @@ def to_grey16(height: np.ndarray) -> np.ndarray:
 def main(out_dir: Path) -> None:
     out_dir.mkdir(parents=True, exist_ok=True)
     exemplar = barkgen.read_image(barkgen.sample_exemplar_path())[:128, :128]
-    height = barkgen.material.estimate_height(exemplar / 255.0)      # (128, 128) float32, pixels
+    height = barkgen.material.estimate_height(exemplar / 255.0)  # (128, 128) float32, pixels
 
     result = barkgen.synthesize(exemplar, 128, tile=True, seed=2, extra={"height": height})
 

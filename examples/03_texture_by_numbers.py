@@ -24,7 +24,7 @@ import barkgen.labels
 
 def wavy_fissures(shape: tuple[int, int], dark: int, light: int) -> np.ndarray:
     """A label map of ``shape``: two dark vertical wavy bands on a light field."""
-    y, x = np.mgrid[:shape[0], :shape[1]]
+    y, x = np.mgrid[: shape[0], : shape[1]]
     target = np.full(shape, light, np.uint8)
     for centre in (0.3 * shape[1], 0.7 * shape[1]):
         target[np.abs(x - centre - 6 * np.sin(y / 9.0)) < 5] = dark
@@ -34,7 +34,7 @@ def wavy_fissures(shape: tuple[int, int], dark: int, light: int) -> np.ndarray:
 def main(out_dir: Path) -> None:
     out_dir.mkdir(parents=True, exist_ok=True)
     exemplar = barkgen.read_image(barkgen.sample_exemplar_path())[:128, :128]
-    labels = barkgen.labels.color_regions(exemplar, 2, seed=0)       # grey values 0 and 255
+    labels = barkgen.labels.color_regions(exemplar, 2, seed=0)  # grey values 0 and 255
     dark, light = np.unique(labels)
     target = wavy_fissures((160, 128), dark, light)
 

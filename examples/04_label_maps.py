@@ -44,8 +44,10 @@ def main(out_dir: Path) -> None:
     for level, level_map in enumerate(result.levels):
         barkgen.write_png(out_dir / f"labels_out_level_{level}.png", level_map)
     for value in np.unique(labels):
-        print(f"label {value}: {np.mean(labels == value):.0%} of the photo, "
-              f"{np.mean(result.label_map == value):.0%} of the new map")
+        print(
+            f"label {value}: {np.mean(labels == value):.0%} of the photo, "
+            f"{np.mean(result.label_map == value):.0%} of the new map"
+        )
 
 
 if __name__ == "__main__":

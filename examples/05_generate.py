@@ -29,7 +29,7 @@ def main(out_dir: Path) -> None:
     photo = barkgen.read_image(barkgen.sample_exemplar_path())[:128, :128]
     options = barkgen.GenerateOptions(size=(128, 128), k=3, tile=True)
 
-    analysis = barkgen.pipeline.analyze_photo(photo, options)       # once per photo
+    analysis = barkgen.pipeline.analyze_photo(photo, options)  # once per photo
     print(f"photo analysed in {analysis.seconds:.1f} s")
     for seed in (5, 6):
         seed_options = dataclasses.replace(options, seed=seed)

@@ -34,8 +34,9 @@ def main(out_dir: Path) -> None:
     photo_material = barkgen.make_material(photo, barkgen.MaterialOptions(k=3, seed=0))
 
     synthesis = barkgen.synthesize(photo, 128, tile=True, seed=7)
-    material = barkgen.material.transfer_material(photo_material, synthesis.references, tile=True,
-                                                  exemplar_wrap=synthesis.exemplar_wrap)
+    material = barkgen.material.transfer_material(
+        photo_material, synthesis.references, tile=True, exemplar_wrap=synthesis.exemplar_wrap
+    )
     files = barkgen.io.encode_material(material, "bark", seed=7, source_photo="sample_bark.jpg")
     barkgen.io.write_folder_atomic(out_dir / "bark", files)
 

@@ -39,11 +39,10 @@ def main(out_dir: Path) -> None:
     model = barkgen.io.read_bilayer_model(out_dir / "model.npz")
 
     left = model.window(0, 0, 128, 128, seed=8, layers=True)
-    right = model.window(64, 0, 128, 128, seed=8)          # continues ``left`` to the right
+    right = model.window(64, 0, 128, 128, seed=8)  # continues ``left`` to the right
     assert np.array_equal(left["texture"][:, 64:], right[:, :64])
     deformation = barkgen.bilayer.Deformation(rotate=15.0, scale=(1.0, 1.5), keep_vertical=True)
-    deformed = model.window(0, 0, 128, 128, seed=8,
-                            options=barkgen.bilayer.SynthesisOptions(deformation=deformation))
+    deformed = model.window(0, 0, 128, 128, seed=8, options=barkgen.bilayer.SynthesisOptions(deformation=deformation))
 
     sheet = barkgen.bilayer.analysis_preview(model, left["texture"])
     barkgen.write_png(out_dir / "analysis.png", sheet)

@@ -52,20 +52,21 @@ def main(out_dir: Path) -> None:
 
     source = barkgen.branching.extract_structure(image, fissures)
     model = barkgen.branching.fit_model(source)
-    grown = barkgen.branching.grow_structure(model, (128, 160), seed=9)   # (width, height)
+    grown = barkgen.branching.grow_structure(model, (128, 160), seed=9)  # (width, height)
     rendered = barkgen.branching.render_branches(image, source, grown, seed=9)
 
     barkgen.write_png(out_dir / "source.png", image)
     (out_dir / "source.json").write_text(json.dumps(source.to_dict()))
-    barkgen.write_png(out_dir / "source_overlay.png",
-                      barkgen.branching.overlay_structure(image, source))
+    barkgen.write_png(out_dir / "source_overlay.png", barkgen.branching.overlay_structure(image, source))
     (out_dir / "grown.json").write_text(json.dumps(grown.to_dict()))
     barkgen.write_png(out_dir / "rendered.png", rendered.image)
     barkgen.write_png(out_dir / "rendered_fissures.png", rendered.labels)
     stats = barkgen.branching.compare_structures(source, grown)
-    print(f"from {origin}: {len(source.branches)} source branches, {len(grown.branches)} grown; "
-          f"L1 distances of the angle / thickness histograms {stats.angle_l1:.2f} / "
-          f"{stats.thickness_l1:.2f} (0 = equal, 2 = disjoint)")
+    print(
+        f"from {origin}: {len(source.branches)} source branches, {len(grown.branches)} grown; "
+        f"L1 distances of the angle / thickness histograms {stats.angle_l1:.2f} / "
+        f"{stats.thickness_l1:.2f} (0 = equal, 2 = disjoint)"
+    )
 
 
 if __name__ == "__main__":

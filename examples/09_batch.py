@@ -22,9 +22,6 @@ import json
 import sys
 from pathlib import Path
 
-import barkgen
-import barkgen.errors
-
 SPEC = {
     "size": "96x96",
     "tile": True,
@@ -47,8 +44,7 @@ def main(out_dir: Path) -> None:
 
     spec = barkgen.batch.load_spec(out_dir / "spec.json")
     report = barkgen.batch.run_batch(spec, out_dir / "forest", workers=1, threads=1, log=print)
-    print(f"made {report.made} of {report.total} variants in {report.seconds:.1f} s, "
-          f"{len(report.failed)} failed")
+    print(f"made {report.made} of {report.total} variants in {report.seconds:.1f} s, {len(report.failed)} failed")
     again = barkgen.batch.run_batch(spec, out_dir / "forest", workers=1, threads=1, log=print)
     assert again.made == 0 and again.skipped == again.total
 

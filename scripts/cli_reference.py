@@ -84,7 +84,7 @@ def command_section(command, ctx, level: int) -> list[str]:
         if not rows:
             continue
         out += [f"**{title}**", "", "| | |", "|---|---|"]
-        for param, (names, help_text) in rows:
+        for _param, (names, help_text) in rows:
             out.append(f"| `{names.replace('|', '&#124;')}` | {escape(help_text) or ' '} |")
         out.append("")
     if hasattr(command, "list_commands"):
@@ -127,8 +127,7 @@ def main(argv: list[str] | None = None) -> int:
         sys.stdout.write(page)
     elif args.check:
         if not PAGE.exists() or PAGE.read_text(encoding="utf-8") != page:
-            print(f"{PAGE.relative_to(REPO)} is out of date: run python scripts/cli_reference.py",
-                  file=sys.stderr)
+            print(f"{PAGE.relative_to(REPO)} is out of date: run python scripts/cli_reference.py", file=sys.stderr)
             return 1
     else:
         PAGE.write_text(page, encoding="utf-8")

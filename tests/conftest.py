@@ -18,8 +18,9 @@ EVAL = SHARED / "eval"
 
 def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
     """``barkgen ARGS`` in a subprocess (this interpreter), its output captured."""
-    return subprocess.run([sys.executable, "-m", "barkgen", *args], capture_output=True, text=True,
-                          cwd=cwd, timeout=600)
+    return subprocess.run(
+        [sys.executable, "-m", "barkgen", *args], capture_output=True, text=True, cwd=cwd, timeout=600
+    )
 
 
 def pytest_configure(config) -> None:
@@ -31,8 +32,10 @@ def pytest_configure(config) -> None:
 
 def _need_shared() -> None:
     if not (BARK.is_dir() and (EVAL / "texeval.py").is_file()):
-        pytest.skip(f"needs the team's shared folder with data/bark and eval/texeval.py at {SHARED} "
-                    "(set BARKGEN_SHARED); not part of a user's checkout")
+        pytest.skip(
+            f"needs the team's shared folder with data/bark and eval/texeval.py at {SHARED} "
+            "(set BARKGEN_SHARED); not part of a user's checkout"
+        )
 
 
 def _eval_module(name: str):
@@ -86,8 +89,9 @@ def synthetic_exemplar() -> np.ndarray:
     return np.clip(img, 0, 255).astype(np.uint8)
 
 
-def assert_continuous_copy(out: np.ndarray, source: np.ndarray, references: np.ndarray,
-                           tolerance: float = 0.15) -> None:
+def assert_continuous_copy(
+    out: np.ndarray, source: np.ndarray, references: np.ndarray, tolerance: float = 0.15
+) -> None:
     """``out`` is ``source`` through ``references`` in the gradient domain: inside the copied
     pieces it steps as the plain copy does (median error under ``tolerance`` of the copy's mean
     step), and across their borders it steps no more than about the copy's largest step."""
@@ -101,8 +105,7 @@ def assert_continuous_copy(out: np.ndarray, source: np.ndarray, references: np.n
     assert np.abs(d_got).max() <= 1.1 * np.abs(d_plain).max() + 1e-6
 
 
-def border_distance(references: np.ndarray, exemplar_shape: tuple[int, int], *,
-                    tile: bool) -> np.ndarray:
+def border_distance(references: np.ndarray, exemplar_shape: tuple[int, int], *, tile: bool) -> np.ndarray:
     """``(H, W)`` float: each output pixel's distance (px, city block) to the nearest border
     between copied pieces (a neighbour whose reference is not the matching neighbour of its
     own; the exemplar taken as a rectangle)."""
@@ -124,8 +127,7 @@ def border_distance(references: np.ndarray, exemplar_shape: tuple[int, int], *,
     return ndimage.distance_transform_cdt(~border, metric="taxicab").astype(np.float64)
 
 
-def border_step_ratio(image: np.ndarray, references: np.ndarray,
-                      exemplar_shape: tuple[int, int]) -> float:
+def border_step_ratio(image: np.ndarray, references: np.ndarray, exemplar_shape: tuple[int, int]) -> float:
     """Mean step between neighbours across a border between pieces over the mean step inside
     pieces (both directions; the exemplar taken as a rectangle): ``seams.py``'s step ratio,
     without the shared folder."""
@@ -160,7 +162,7 @@ def sample256() -> np.ndarray:
 def _photo_like(seed: int = 0, shape=(96, 96)) -> np.ndarray:
     """A texture that does not tile: vertical furrows of random phase on a slope of colour."""
     rng = np.random.default_rng(seed)
-    y, x = np.mgrid[0:shape[0], 0:shape[1]].astype(np.float64)
+    y, x = np.mgrid[0 : shape[0], 0 : shape[1]].astype(np.float64)
     base = 110 + 50 * np.sin(x / 2.7 + rng.uniform(0, 6)) + 0.8 * y + rng.normal(0, 10, shape)
     return np.clip(np.stack([base, base * 0.9, base * 0.7], -1), 0, 255).astype(np.uint8)
 
@@ -188,4 +190,3 @@ def label_case(synthetic_exemplar):
     a = luminance_labels(ex)
     b = shuffled_blocks(a, 64, block=8, seed=2)
     return ex, a, b
-

@@ -23,7 +23,7 @@ def bib_entries() -> dict[str, str]:
     for i, match in enumerate(starts):
         key = match.group(2)
         assert key not in entries, f"{key} is in references.bib twice"
-        entries[key] = text[match.start():starts[i + 1].start() if i + 1 < len(starts) else len(text)]
+        entries[key] = text[match.start() : starts[i + 1].start() if i + 1 < len(starts) else len(text)]
     return entries
 
 
@@ -47,11 +47,20 @@ def cited_keys() -> dict[str, str]:
 
 
 def test_the_key_pattern_finds_the_citation_forms():
-    doc = ("Label maps (laitoch2018 §3.5, wang2003 §3.2); see [guingo2017].\n"
-           ".. [1] mazzolini2012, §4.1 (the discrete solver of han2006).\n"
-           ".. [2] lefebvre2006; kaspar2015 §5. Not keys: py311, float32, 2018, barkgen.v2019.")
-    assert KEY.findall(doc) == ["laitoch2018", "wang2003", "guingo2017", "mazzolini2012",
-                                "han2006", "lefebvre2006", "kaspar2015"]
+    doc = (
+        "Label maps (laitoch2018 §3.5, wang2003 §3.2); see [guingo2017].\n"
+        ".. [1] mazzolini2012, §4.1 (the discrete solver of han2006).\n"
+        ".. [2] lefebvre2006; kaspar2015 §5. Not keys: py311, float32, 2018, barkgen.v2019."
+    )
+    assert KEY.findall(doc) == [
+        "laitoch2018",
+        "wang2003",
+        "guingo2017",
+        "mazzolini2012",
+        "han2006",
+        "lefebvre2006",
+        "kaspar2015",
+    ]
 
 
 def test_every_cited_key_is_in_the_bibliography():
@@ -65,9 +74,9 @@ def test_every_entry_has_author_title_year_and_a_venue():
     for key, entry in bib_entries().items():
         for field in ("author", "title", "year"):
             assert re.search(rf"^\s*{field}\s*=", entry, re.MULTILINE), f"{key}: no {field}"
-        assert re.search(r"^\s*(journal|booktitle|school|institution)\s*=", entry, re.MULTILINE), \
-            f"{key}: no venue"
+        assert re.search(r"^\s*(journal|booktitle|school|institution)\s*=", entry, re.MULTILINE), f"{key}: no venue"
         year = re.search(r"year\s*=\s*\{(\d{4})\}", entry)
-        assert year and re.search(r"(\d{4})[a-z]?$", key).group(1) == year.group(1), \
+        assert year and re.search(r"(\d{4})[a-z]?$", key).group(1) == year.group(1), (
             f"{key}: the key's year is not the entry's"
+        )
         assert entry.count("{") == entry.count("}"), f"{key}: unbalanced braces"

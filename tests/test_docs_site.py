@@ -6,7 +6,6 @@ to a file of the project (and its anchor to a heading), and none leaves the proj
 
 from __future__ import annotations
 
-import ast
 import importlib.util
 import re
 import unicodedata
@@ -16,9 +15,16 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 DOCS = REPO / "docs"
-PAGES = sorted([REPO / "README.md", REPO / "CONTRIBUTING.md", REPO / "CHANGELOG.md",
-                REPO / "benchmarks" / "README.md", REPO / "examples" / "README.md",
-                *DOCS.rglob("*.md")])
+PAGES = sorted(
+    [
+        REPO / "README.md",
+        REPO / "CONTRIBUTING.md",
+        REPO / "CHANGELOG.md",
+        REPO / "benchmarks" / "README.md",
+        REPO / "examples" / "README.md",
+        *DOCS.rglob("*.md"),
+    ]
+)
 #: [text](target) and ![alt](target), the target up to a space or the closing parenthesis
 LINK = re.compile(r"!?\[(?:[^\[\]]|\[[^\]]*\])*\]\(\s*<?([^)\s>]+)>?(?:\s+\"[^\"]*\")?\s*\)")
 FENCE = re.compile(r"^(```|~~~).*?^\1[^\n]*$", re.MULTILINE | re.DOTALL)
@@ -56,17 +62,28 @@ def links(path: Path) -> list[str]:
 
 def test_the_pages_are_there():
     names = {p.relative_to(REPO).as_posix() for p in PAGES}
-    assert {"README.md", "CONTRIBUTING.md", "CHANGELOG.md", "benchmarks/README.md", "docs/index.md",
-            "docs/cli.md", "docs/api.md", "docs/getting-started.md", "docs/how-it-works.md",
-            "docs/development.md", "docs/benchmarks/index.md"} <= names
+    assert {
+        "README.md",
+        "CONTRIBUTING.md",
+        "CHANGELOG.md",
+        "benchmarks/README.md",
+        "docs/index.md",
+        "docs/cli.md",
+        "docs/api.md",
+        "docs/getting-started.md",
+        "docs/how-it-works.md",
+        "docs/development.md",
+        "docs/benchmarks/index.md",
+    } <= names
     for script in sorted((REPO / "benchmarks").glob("bench_*.py")):
         assert script.name in (DOCS / "benchmarks" / "index.md").read_text(encoding="utf-8"), script.name
         assert script.name in (REPO / "benchmarks" / "README.md").read_text(encoding="utf-8"), script.name
 
 
 def test_the_link_pattern_finds_links_and_skips_code():
-    text = ("See [a](docs/a.md), ![pic](images/p.jpg \"t\") and [b](../c.md#x).\n"
-            "`[not](a link)`\n```\n[nor](this.md)\n```\n")
+    text = (
+        'See [a](docs/a.md), ![pic](images/p.jpg "t") and [b](../c.md#x).\n`[not](a link)`\n```\n[nor](this.md)\n```\n'
+    )
     assert LINK.findall(prose(text)) == ["docs/a.md", "images/p.jpg", "../c.md#x"]
 
 

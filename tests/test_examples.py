@@ -155,8 +155,9 @@ def test_every_example_is_checked_and_listed():
 def test_example_runs_and_writes_its_outputs(script: Path, tmp_path: Path):
     out = tmp_path / "out"
     env = {**os.environ, "PYTHONWARNINGS": "ignore"}
-    done = subprocess.run([sys.executable, str(script), str(out)], capture_output=True, text=True,
-                          cwd=tmp_path, env=env, timeout=300)
+    done = subprocess.run(
+        [sys.executable, str(script), str(out)], capture_output=True, text=True, cwd=tmp_path, env=env, timeout=300
+    )
     assert done.returncode == 0, done.stderr[-3000:]
     assert out.is_dir() and any(out.iterdir())
     CHECKS[script.name[:2]](out)

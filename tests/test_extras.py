@@ -13,8 +13,18 @@ import pytest
 
 #: the import names each front end brings (barkgen._shared.extras.EXTRAS, written out again so
 #: that a module moved between extras shows here)
-FRONT_END_MODULES = ("typer", "rich", "fastapi", "uvicorn", "multipart", "distributed", "dask",
-                     "yaml", "bokeh", "trimesh")
+FRONT_END_MODULES = (
+    "typer",
+    "rich",
+    "fastapi",
+    "uvicorn",
+    "multipart",
+    "distributed",
+    "dask",
+    "yaml",
+    "bokeh",
+    "trimesh",
+)
 
 #: run first in a child Python: these top-level modules then cannot be found, as if not installed
 BLOCK = textwrap.dedent("""
@@ -32,12 +42,17 @@ BLOCK = textwrap.dedent("""
 
 
 def child(code: str, blocked: tuple[str, ...] = (), *args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-c", BLOCK + textwrap.dedent(code), ",".join(blocked) or "-",
-                           *args], capture_output=True, text=True, timeout=600)
+    return subprocess.run(
+        [sys.executable, "-c", BLOCK + textwrap.dedent(code), ",".join(blocked) or "-", *args],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
 
 
 def test_the_core_synthesizes_and_makes_materials_without_any_front_end():
-    result = child("""
+    result = child(
+        """
         import json, sys
         import numpy as np
         import barkgen
@@ -46,7 +61,10 @@ def test_the_core_synthesizes_and_makes_materials_without_any_front_end():
         material = barkgen.make_material(texture.image)
         print(json.dumps({"shape": list(texture.image.shape), "height": list(material.height.shape),
                           "loaded": sorted(m for m in sys.modules if m.split(".")[0] in sys.argv[1:])}))
-    """, FRONT_END_MODULES, *FRONT_END_MODULES)
+    """,
+        FRONT_END_MODULES,
+        *FRONT_END_MODULES,
+    )
     assert result.returncode == 0, result.stderr
     out = json.loads(result.stdout.strip().splitlines()[-1])
     assert out["shape"] == [64, 64, 3] and out["height"] == [64, 64]
@@ -54,29 +72,40 @@ def test_the_core_synthesizes_and_makes_materials_without_any_front_end():
 
 
 def test_synthesize_imports_no_front_end_even_when_all_are_installed():
-    result = child("""
+    result = child(
+        """
         import json, sys
         import numpy as np
         import barkgen
         photo = np.asarray(barkgen.read_image(barkgen.sample_exemplar_path()))[::8, ::8]
         barkgen.synthesize(photo, 48, seed=1)
         print(json.dumps(sorted(m for m in sys.modules if m.split(".")[0] in sys.argv[1:])))
-    """, (), *[m for m in FRONT_END_MODULES if m != "yaml"])  # numba reads its config with yaml
+    """,
+        (),
+        *[m for m in FRONT_END_MODULES if m != "yaml"],
+    )  # numba reads its config with yaml
     assert result.returncode == 0, result.stderr
     assert json.loads(result.stdout.strip().splitlines()[-1]) == []
 
 
-@pytest.mark.parametrize("blocked, argv, extra", [
-    (("typer",), ["--help"], "cli"),
-    (("rich",), ["synth", "--help"], "cli"),
-    (("fastapi",), ["serve", "--port", "0"], "web"),
-    (("distributed",), ["batch", "spec.yaml", "-o", "out"], "batch"),
-    (("yaml",), ["batch", "spec.yaml", "-o", "out"], "batch"),
-])
+@pytest.mark.parametrize(
+    "blocked, argv, extra",
+    [
+        (("typer",), ["--help"], "cli"),
+        (("rich",), ["synth", "--help"], "cli"),
+        (("fastapi",), ["serve", "--port", "0"], "web"),
+        (("distributed",), ["batch", "spec.yaml", "-o", "out"], "batch"),
+        (("yaml",), ["batch", "spec.yaml", "-o", "out"], "batch"),
+    ],
+)
 def test_a_front_end_without_its_extra_names_the_install_in_one_line(tmp_path, blocked, argv, extra):
-    result = subprocess.run([sys.executable, "-c", BLOCK + "from barkgen.cli import main\nmain(sys.argv[1:])",
-                             ",".join(blocked), *argv], capture_output=True, text=True, timeout=600,
-                            cwd=tmp_path)
+    result = subprocess.run(
+        [sys.executable, "-c", BLOCK + "from barkgen.cli import main\nmain(sys.argv[1:])", ",".join(blocked), *argv],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        cwd=tmp_path,
+    )
     assert result.returncode == 2, result.stderr
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in result.stderr, result.stderr
@@ -86,14 +115,17 @@ def test_a_front_end_without_its_extra_names_the_install_in_one_line(tmp_path, b
 
 
 def test_gltf_export_without_its_extra_says_so():
-    result = child("""
+    result = child(
+        """
         from barkgen.errors import MissingExtraError
         from barkgen.io import encode_glb
         try:
             encode_glb(None, None)
         except MissingExtraError as exc:
             print(exc)
-    """, ("trimesh",))
+    """,
+        ("trimesh",),
+    )
     assert result.returncode == 0, result.stderr
     assert "pip install 'barkgen[gltf]'" in result.stdout
 

@@ -42,7 +42,7 @@ def import_graph(mods: dict[str, Path]) -> dict[str, set[str]]:
             elif isinstance(node, ast.ImportFrom):
                 base = node.module or ""
                 if node.level:
-                    parts = package.split(".")[:len(package.split(".")) - node.level + 1]
+                    parts = package.split(".")[: len(package.split(".")) - node.level + 1]
                     base = ".".join(parts + ([node.module] if node.module else []))
                 targets.add(base)  # `from pkg import x` runs and reads pkg's face
                 targets.update(f"{base}.{alias.name}" for alias in node.names)
@@ -105,9 +105,18 @@ def test_no_import_runs_back_up():
     for name, targets in import_graph(modules()).items():
         if name == "barkgen" or name.startswith(FRONT_ENDS + ("barkgen.pipeline", "barkgen.__main__")):
             continue
-        upward += [(name, t) for t in targets
-                   if t == "barkgen" or t.startswith(FRONT_ENDS + ("barkgen.pipeline",))]
+        upward += [(name, t) for t in targets if t == "barkgen" or t.startswith(FRONT_ENDS + ("barkgen.pipeline",))]
     assert upward == []
+
+
+def function_lines(node: ast.FunctionDef | ast.AsyncFunctionDef) -> int:
+    """A function's lines from its ``def`` to its end, its docstring aside (numpydoc docstrings
+    are long by design; the code is what must stay short)."""
+    lines = node.end_lineno - node.lineno + 1
+    first = node.body[0]
+    if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant) and isinstance(first.value.value, str):
+        lines -= first.end_lineno - first.lineno + 1
+    return lines
 
 
 def test_no_new_long_module_function_or_wide_kernel():
@@ -119,7 +128,7 @@ def test_no_new_long_module_function_or_wide_kernel():
         for node in ast.walk(ast.parse(text)):
             if not isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
                 continue
-            if node.end_lineno - node.lineno + 1 > MAX_FUNCTION_LINES:
+            if function_lines(node) > MAX_FUNCTION_LINES:
                 long_functions.add(f"{name}.{node.name}")
             args = node.args
             if "_kernels" in path.name and len(args.posonlyargs + args.args + args.kwonlyargs) > MAX_KERNEL_PARAMETERS:
@@ -139,8 +148,13 @@ def test_no_test_imports_a_benchmark():
         if path.name != "test_layout.py" and "benchmarks" in text and "sys.path." in text:
             found.append((path.name, "sys.path"))
         for node in ast.walk(ast.parse(text)):
-            names = ([a.name for a in node.names] if isinstance(node, ast.Import)
-                     else [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
+            names = (
+                [a.name for a in node.names]
+                if isinstance(node, ast.Import)
+                else [node.module or ""]
+                if isinstance(node, ast.ImportFrom)
+                else []
+            )
             found += [(path.name, n) for n in names if n.split(".")[0] in bench | {"benchmarks"}]
     assert found == []
 
@@ -151,9 +165,13 @@ def test_other_packages_reach_synth_through_its_face():
     its face, ``barkgen.synth`` itself, never into its modules or its wings (``seams``,
     ``guides``)."""
     graph = import_graph(modules())
-    reach = {(name, t) for name, targets in graph.items()
-             if name != "barkgen.synth" and not name.startswith("barkgen.synth.")
-             for t in targets if t.startswith("barkgen.synth")}
+    reach = {
+        (name, t)
+        for name, targets in graph.items()
+        if name != "barkgen.synth" and not name.startswith("barkgen.synth.")
+        for t in targets
+        if t.startswith("barkgen.synth")
+    }
     assert ("barkgen.shapes.engine", "barkgen.synth") in reach
     assert all(t == "barkgen.synth" for _, t in reach), sorted(t for t in reach if t[1] != "barkgen.synth")
 
@@ -173,17 +191,26 @@ def test_synth_has_one_face():
 
 
 #: house-wide checks, at the top of tests/
-HOUSE_TESTS = {"test_layout.py", "test_extras.py", "test_examples.py", "test_docs.py",
-               "test_docs_site.py", "test_wheel.py"}
+HOUSE_TESTS = {
+    "test_layout.py",
+    "test_extras.py",
+    "test_examples.py",
+    "test_docs.py",
+    "test_docs_site.py",
+    "test_wheel.py",
+}
 
 
 def test_tests_mirror_the_packages():
     """A package's tests live in ``tests/PACKAGE/``; only the house-wide checks sit at the top."""
     tests = SRC.parent / "tests"
     packages = {p.name for p in (SRC / "barkgen").iterdir() if (p / "__init__.py").is_file()}
-    misplaced = [str(p.relative_to(tests)) for p in tests.rglob("test_*.py")
-                 if not (p.parent == tests and p.name in HOUSE_TESTS)
-                 and not (p.parent.parent == tests and p.parent.name in packages)]
+    misplaced = [
+        str(p.relative_to(tests))
+        for p in tests.rglob("test_*.py")
+        if not (p.parent == tests and p.name in HOUSE_TESTS)
+        and not (p.parent.parent == tests and p.parent.name in packages)
+    ]
     assert misplaced == []
 
 
@@ -197,10 +224,14 @@ def test_the_public_names_are_one_list_seen_by_type_checkers_too():
 
     init = Path(barkgen.__file__)
     stub = ast.parse((init.parent / "__init__.pyi").read_text())
-    imported = {alias.asname or alias.name for node in stub.body if isinstance(node, ast.ImportFrom)
-                for alias in node.names}
-    listed = next(ast.literal_eval(node.value) for node in stub.body
-                  if isinstance(node, ast.Assign) and node.targets[0].id == "__all__")
+    imported = {
+        alias.asname or alias.name for node in stub.body if isinstance(node, ast.ImportFrom) for alias in node.names
+    }
+    listed = next(
+        ast.literal_eval(node.value)
+        for node in stub.body
+        if isinstance(node, ast.Assign) and node.targets[0].id == "__all__"
+    )
     assert sorted(listed) == sorted(imported) == sorted(barkgen.__all__)
     for name in barkgen.__all__:
         assert getattr(barkgen, name) is not None, name
@@ -230,7 +261,9 @@ def private_imports_across_packages(graph: dict[str, set[str]]) -> list[tuple[st
 def test_no_package_imports_another_packages_private_module():
     assert private_imports_across_packages(import_graph(modules())) == []
     # the check finds one when there is one
-    assert private_imports_across_packages({"barkgen.cli.synth": {"barkgen.synth._kernels"},
-                                            "barkgen.synth.solver": {"barkgen.synth._kernels",
-                                                                     "barkgen._shared.arrays"}}) \
-        == [("barkgen.cli.synth", "barkgen.synth._kernels")]
+    assert private_imports_across_packages(
+        {
+            "barkgen.cli.synth": {"barkgen.synth._kernels"},
+            "barkgen.synth.solver": {"barkgen.synth._kernels", "barkgen._shared.arrays"},
+        }
+    ) == [("barkgen.cli.synth", "barkgen.synth._kernels")]

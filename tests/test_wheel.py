@@ -32,17 +32,20 @@ REPO = Path(__file__).resolve().parents[1]
 
 pytestmark = [
     pytest.mark.wheel,
-    pytest.mark.skipif(os.environ.get("BARKGEN_SKIP_WHEEL_TEST") == "1",
-                       reason="BARKGEN_SKIP_WHEEL_TEST=1"),
+    pytest.mark.skipif(os.environ.get("BARKGEN_SKIP_WHEEL_TEST") == "1", reason="BARKGEN_SKIP_WHEEL_TEST=1"),
 ]
 
 
 def _clean_env(**extra: str) -> dict[str, str]:
     """This environment without what would let the tree's barkgen in (PYTHONPATH) or
     change the build (the three.js switches), plus ``extra``."""
-    env = {k: v for k, v in os.environ.items()
-           if k not in ("PYTHONPATH", "PYTHONHOME", "VIRTUAL_ENV", "PYTHONSAFEPATH")
-           and not k.startswith("BARKGEN_THREE") and k != "BARKGEN_BUILD_WITHOUT_THREE"}
+    env = {
+        k: v
+        for k, v in os.environ.items()
+        if k not in ("PYTHONPATH", "PYTHONHOME", "VIRTUAL_ENV", "PYTHONSAFEPATH")
+        and not k.startswith("BARKGEN_THREE")
+        and k != "BARKGEN_BUILD_WITHOUT_THREE"
+    }
     return env | extra
 
 
@@ -108,9 +111,13 @@ def test_the_wheel_installs_in_a_fresh_venv_and_serves_three_js(sdist, tmp_path)
 
     port, log = _free_port(), tmp_path / "serve.log"
     with open(log, "w") as out:
-        server = subprocess.Popen([str(venv / "bin" / "barkgen"), "serve", "--port", str(port),
-                                   "--library", str(tmp_path / "lib")],
-                                  stdout=out, stderr=subprocess.STDOUT, env=env, cwd=tmp_path)
+        server = subprocess.Popen(
+            [str(venv / "bin" / "barkgen"), "serve", "--port", str(port), "--library", str(tmp_path / "lib")],
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            env=env,
+            cwd=tmp_path,
+        )
     try:
         deadline = time.monotonic() + 120
         while "running at" not in log.read_text():

@@ -50,9 +50,12 @@ from barkgen._version import __version__
 def _read_stub() -> dict[str, str]:
     """Public name -> its module, from ``__init__.pyi`` (the one list of public names)."""
     tree = ast.parse((Path(__file__).parent / "__init__.pyi").read_text(encoding="utf-8"))
-    return {alias.asname or alias.name: node.module for node in tree.body
-            if isinstance(node, ast.ImportFrom) and node.module != "barkgen._version"
-            for alias in node.names}
+    return {
+        alias.asname or alias.name: node.module
+        for node in tree.body
+        if isinstance(node, ast.ImportFrom) and node.module != "barkgen._version"
+        for alias in node.names
+    }
 
 
 _LAZY = _read_stub()

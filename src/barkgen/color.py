@@ -5,9 +5,10 @@ from __future__ import annotations
 import numpy as np
 
 # sRGB (IEC 61966-2-1) primaries, D65 white
-_RGB_TO_XYZ = np.array([[0.4124564, 0.3575761, 0.1804375],
-                        [0.2126729, 0.7151522, 0.0721750],
-                        [0.0193339, 0.1191920, 0.9503041]], np.float32)
+_RGB_TO_XYZ = np.array(
+    [[0.4124564, 0.3575761, 0.1804375], [0.2126729, 0.7151522, 0.0721750], [0.0193339, 0.1191920, 0.9503041]],
+    np.float32,
+)
 _WHITE_D65 = np.array([0.95047, 1.0, 1.08883], np.float32)
 _EPS = (6.0 / 29.0) ** 3
 

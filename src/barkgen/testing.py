@@ -21,8 +21,7 @@ import numpy as np
 #: filter strength of the non-local means denoising
 DENOISE_H = 10
 
-__all__ = ["half_split_accuracy", "kmeans_label_map", "label_fractions", "shuffled_blocks",
-           "smallest_region"]
+__all__ = ["half_split_accuracy", "kmeans_label_map", "label_fractions", "shuffled_blocks", "smallest_region"]
 
 
 def kmeans_label_map(image: np.ndarray, n_labels: int, seed: int = 0) -> np.ndarray:
@@ -32,15 +31,16 @@ def kmeans_label_map(image: np.ndarray, n_labels: int, seed: int = 0) -> np.ndar
     import cv2
     from sklearn.cluster import KMeans
 
-    smooth = cv2.fastNlMeansDenoisingColored(np.ascontiguousarray(image), None, h=DENOISE_H,
-                                             hColor=DENOISE_H, templateWindowSize=7,
-                                             searchWindowSize=21)
+    smooth = cv2.fastNlMeansDenoisingColored(
+        np.ascontiguousarray(image), None, h=DENOISE_H, hColor=DENOISE_H, templateWindowSize=7, searchWindowSize=21
+    )
     lab = cv2.cvtColor(smooth, cv2.COLOR_RGB2LAB).reshape(-1, 3).astype(np.float32)
     km = KMeans(n_clusters=n_labels, n_init=4, random_state=seed).fit(lab)
     codes = km.labels_.reshape(image.shape[:2])
     # 3x3 mode filter: every pixel takes its neighbourhood's most common label
-    votes = np.stack([cv2.blur((codes == c).astype(np.float32), (3, 3),
-                               borderType=cv2.BORDER_REFLECT_101) for c in range(n_labels)])
+    votes = np.stack(
+        [cv2.blur((codes == c).astype(np.float32), (3, 3), borderType=cv2.BORDER_REFLECT_101) for c in range(n_labels)]
+    )
     codes = votes.argmax(axis=0)
     order = np.argsort(km.cluster_centers_[:, 0])  # darkest label first
     rank = np.empty(n_labels, np.int64)
@@ -49,14 +49,16 @@ def kmeans_label_map(image: np.ndarray, n_labels: int, seed: int = 0) -> np.ndar
     return grey[rank[codes]]
 
 
-def shuffled_blocks(label_map: np.ndarray, size: int, block: int = 64, seed: int = 0,
-                    flip: bool = True) -> np.ndarray:
+def shuffled_blocks(label_map: np.ndarray, size: int, block: int = 64, seed: int = 0, flip: bool = True) -> np.ndarray:
     """A ``size x size`` target label map: the map cut into ``block``-px blocks, shuffled,
     each flipped at random, and assembled (blocks reused once all have been placed)."""
     rng = np.random.default_rng(seed)
     h, w = label_map.shape[:2]
-    blocks = [label_map[y:y + block, x:x + block]
-              for y in range(0, h - block + 1, block) for x in range(0, w - block + 1, block)]
+    blocks = [
+        label_map[y : y + block, x : x + block]
+        for y in range(0, h - block + 1, block)
+        for x in range(0, w - block + 1, block)
+    ]
     n = size // block
     out = np.empty((n * block, n * block) + label_map.shape[2:], label_map.dtype)
     order: list[int] = []
@@ -70,7 +72,7 @@ def shuffled_blocks(label_map: np.ndarray, size: int, block: int = 64, seed: int
         if flip and fx:
             b = b[:, ::-1]
         y, x = divmod(i, n)
-        out[y * block:(y + 1) * block, x * block:(x + 1) * block] = b
+        out[y * block : (y + 1) * block, x * block : (x + 1) * block] = b
     return out
 
 
@@ -86,8 +88,7 @@ def smallest_region(label_map: np.ndarray) -> int:
 
     smallest = label_map.size
     for v in np.unique(label_map):
-        _, _, stats, _ = cv2.connectedComponentsWithStats((label_map == v).astype(np.uint8),
-                                                          connectivity=8)
+        _, _, stats, _ = cv2.connectedComponentsWithStats((label_map == v).astype(np.uint8), connectivity=8)
         smallest = min(smallest, int(stats[1:, cv2.CC_STAT_AREA].min()))
     return smallest
 
@@ -122,7 +123,8 @@ def half_split_accuracy(image: np.ndarray, label_map: np.ndarray, seed: int = 0)
     y_train = label_map[:, :half].ravel()
     rng = np.random.default_rng(seed)
     pick = rng.choice(len(x_train), min(len(x_train), 40_000), replace=False)
-    clf = RandomForestClassifier(n_estimators=40, max_depth=18, min_samples_leaf=3, n_jobs=-1,
-                                 random_state=seed).fit(x_train[pick], y_train[pick])
+    clf = RandomForestClassifier(n_estimators=40, max_depth=18, min_samples_leaf=3, n_jobs=-1, random_state=seed).fit(
+        x_train[pick], y_train[pick]
+    )
     x_test = feats[:, half:].reshape(-1, feats.shape[2])
     return float((clf.predict(x_test) == label_map[:, half:].ravel()).mean())

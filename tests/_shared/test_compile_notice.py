@@ -69,7 +69,8 @@ def test_the_notice_is_logged_once_and_not_during_a_warm_up(monkeypatch, caplog)
         compile_notice._on_compile(render_rows)
         compile_notice._on_compile(render_rows)
     assert [(r.name, r.levelname, r.getMessage()) for r in caplog.records] == [
-        ("barkgen.kernels", "WARNING", compile_notice.MESSAGE)]
+        ("barkgen.kernels", "WARNING", compile_notice.MESSAGE)
+    ]
     assert "barkgen.warm_up()" in compile_notice.MESSAGE
 
 

@@ -18,8 +18,7 @@ from barkgen.pipeline import GenerateOptions, analysis_key
 class DummyOptions(GenerateOptions):
     """GenerateOptions with one more option, declared as every option is."""
 
-    dummy_strength: float = option(0.5, "A test's option.", kind=float, minimum=0, maximum=2,
-                                   analysis=True)
+    dummy_strength: float = option(0.5, "A test's option.", kind=float, minimum=0, maximum=2, analysis=True)
     dummy_mode: str = option("soft", "A test's text option.", choices=("soft", "hard"))
 
 
@@ -46,14 +45,15 @@ def _cli_options(monkeypatch, args: list[str]):
     app.command()(command)
     app.command("other")(lambda: None)  # (two commands: typer keeps the name)
     result = CliRunner().invoke(app, ["generate-command", *args])
-    assert isinstance(result.exception, Captured), (
-        f"the CLI lacks an option of the options class: {result.output}")
+    assert isinstance(result.exception, Captured), f"the CLI lacks an option of the options class: {result.output}"
     return result.exception.args[0]
 
 
 def test_a_new_field_reaches_the_cli(monkeypatch, tmp_path):
-    options = _cli_options(monkeypatch, ["-o", str(tmp_path / "out"), "--dummy-strength", "1.5",
-                                         "--dummy-mode", "hard", "--size", "64x48", "-q"])
+    options = _cli_options(
+        monkeypatch,
+        ["-o", str(tmp_path / "out"), "--dummy-strength", "1.5", "--dummy-mode", "hard", "--size", "64x48", "-q"],
+    )
     assert isinstance(options, DummyOptions)
     assert (options.dummy_strength, options.dummy_mode, options.size) == (1.5, "hard", (48, 64))
     defaults = _cli_options(monkeypatch, ["-o", str(tmp_path / "out"), "-q"])
@@ -82,8 +82,9 @@ def test_a_new_field_reaches_batch_specs():
     pytest.importorskip("yaml")
     from barkgen.batch.spec import _options
 
-    options, bits, name = _options("exemplar 1", {"dummy_strength": 2, "dummy_mode": "hard",
-                                                  "size": 64}, None, DummyOptions)
+    options, bits, name = _options(
+        "exemplar 1", {"dummy_strength": 2, "dummy_mode": "hard", "size": 64}, None, DummyOptions
+    )
     assert isinstance(options, DummyOptions), "the batch spec lacks the options class"
     assert (options.dummy_strength, options.dummy_mode, options.size) == (2.0, "hard", (64, 64))
     with pytest.raises(InvalidInputError, match="exemplar 1: dummy_strength must be a number"):

@@ -38,9 +38,16 @@ def photos(tmp_path_factory) -> Path:
 
 
 def write_spec(folder: Path, size: str, name: str = "spec.yaml", **extra) -> Path:
-    doc = {"size": size, "tile": True, "k": 3, "material": False,
-           "exemplars": [{"name": "fir", "path": "photos/fir.png", "seeds": SEEDS},
-                         {"name": "pine", "path": "photos/pine.png", "count": 8, "seed_base": 100}]}
+    doc = {
+        "size": size,
+        "tile": True,
+        "k": 3,
+        "material": False,
+        "exemplars": [
+            {"name": "fir", "path": "photos/fir.png", "seeds": SEEDS},
+            {"name": "pine", "path": "photos/pine.png", "count": 8, "seed_base": 100},
+        ],
+    }
     doc.update(extra)
     path = folder / name
     path.write_text(json.dumps(doc))  # JSON is YAML
@@ -69,13 +76,19 @@ def check_complete(out: Path, shape: tuple[int, int]) -> None:
     assert states == [("done", 16)]
 
 
-def start_batch(spec: Path, out: Path, *args: str, env: dict | None = None,
-                own_group: bool = False) -> subprocess.Popen:
+def start_batch(
+    spec: Path, out: Path, *args: str, env: dict | None = None, own_group: bool = False
+) -> subprocess.Popen:
     """``barkgen batch`` in the background; ``own_group``: in a process group of its own, as a
     terminal runs it (its Ctrl-C then reaches the workers too)."""
-    return subprocess.Popen([sys.executable, "-m", "barkgen", "batch", str(spec), "-o", str(out), *args],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env={**os.environ, **(env or {})}, start_new_session=own_group)
+    return subprocess.Popen(
+        [sys.executable, "-m", "barkgen", "batch", str(spec), "-o", str(out), *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, **(env or {})},
+        start_new_session=own_group,
+    )
 
 
 def wait_done(out: Path, count: int, proc: subprocess.Popen, timeout: float = 300) -> None:
@@ -126,8 +139,20 @@ def local_small(photos) -> Path:
 
 def test_same_files_as_generate(photos, local_small):
     gen = photos / "gen"
-    result = run("generate", str(photos / "photos" / "pine.png"), "-o", str(gen), "--size", "160x128",
-                 "--tile", "--k", "3", "--seed", "103", "--quiet")
+    result = run(
+        "generate",
+        str(photos / "photos" / "pine.png"),
+        "-o",
+        str(gen),
+        "--size",
+        "160x128",
+        "--tile",
+        "--k",
+        "3",
+        "--seed",
+        "103",
+        "--quiet",
+    )
     assert result.returncode == 0, result.stderr
     batch = local_small / "pine" / "103"
     assert sorted(p.name for p in gen.iterdir()) == sorted(p.name for p in batch.iterdir())
@@ -147,8 +172,9 @@ def test_worker_killed_mid_run_still_completes(photos, local_small):
     proc = start_batch(spec, out, "--workers", "2")
     try:
         wait_done(out, 1, proc)
-        children = [c for c in psutil.Process(proc.pid).children(recursive=True)
-                    if "spawn_main" in " ".join(c.cmdline())]
+        children = [
+            c for c in psutil.Process(proc.pid).children(recursive=True) if "spawn_main" in " ".join(c.cmdline())
+        ]
         assert len(children) >= 2  # the worker processes of the local cluster
         victim = children[0]
         victim.send_signal(signal.SIGKILL)
@@ -175,14 +201,16 @@ def test_every_worker_killed_after_the_first_variant_still_completes(photos, loc
     out = photos / "all_killed"
     killed = []
     with local_cluster(2, 1) as cluster, Client(cluster) as client:
+
         def kill_every_worker(done, total):
             if done == 1:
                 for pid in client.run(os.getpid).values():
                     os.kill(pid, signal.SIGKILL)
                     killed.append(pid)
 
-        report = run_batch(load_spec(write_spec(photos, "160x128", name="small.yaml")), out,
-                           progress=kill_every_worker, client=client)
+        report = run_batch(
+            load_spec(write_spec(photos, "160x128", name="small.yaml")), out, progress=kill_every_worker, client=client
+        )
     assert len(killed) == 2
     assert report.failed == [] and report.made == 16
     check_complete(out, (128, 160))
@@ -209,8 +237,9 @@ def test_interrupted_client_then_rerun_makes_only_the_rest(photos, local_small):
     assert [p for p in out.rglob("*") if p.name.startswith(".")] == []
     stamps = {p: (p / "report.json").stat().st_mtime_ns for p in finished}
     for folder in finished:  # whatever was written is whole
-        assert sorted(json.loads((folder / "report.json").read_text())["files"]) == \
-            sorted(p.name for p in folder.iterdir())
+        assert sorted(json.loads((folder / "report.json").read_text())["files"]) == sorted(
+            p.name for p in folder.iterdir()
+        )
 
     again = run("batch", str(spec), "-o", str(out), "--workers", "2")
     assert again.returncode == 0, again.stderr
@@ -223,9 +252,26 @@ def test_interrupted_client_then_rerun_makes_only_the_rest(photos, local_small):
 def test_external_scheduler_two_workers_same_results(photos, local_small, tmp_path):
     scheduler_file = tmp_path / "scheduler.json"
     env = {**os.environ, "NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
-    procs = [subprocess.Popen([sys.executable, "-m", "dask", "scheduler", "--host", "127.0.0.1",
-                               "--port", "0", "--no-dashboard", "--scheduler-file", str(scheduler_file)],
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)]
+    procs = [
+        subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "dask",
+                "scheduler",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                "0",
+                "--no-dashboard",
+                "--scheduler-file",
+                str(scheduler_file),
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            env=env,
+        )
+    ]
     try:
         deadline = time.time() + 60
         while not scheduler_file.exists() and time.time() < deadline:
@@ -233,10 +279,27 @@ def test_external_scheduler_two_workers_same_results(photos, local_small, tmp_pa
         address = json.loads(scheduler_file.read_text())["address"]
         assert address.startswith("tcp://127.0.0.1:")
         for _ in range(2):
-            procs.append(subprocess.Popen(
-                [sys.executable, "-m", "dask", "worker", address, "--nthreads", "1", "--nworkers", "1",
-                 "--no-dashboard", "--host", "127.0.0.1"],
-                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env))
+            procs.append(
+                subprocess.Popen(
+                    [
+                        sys.executable,
+                        "-m",
+                        "dask",
+                        "worker",
+                        address,
+                        "--nthreads",
+                        "1",
+                        "--nworkers",
+                        "1",
+                        "--no-dashboard",
+                        "--host",
+                        "127.0.0.1",
+                    ],
+                    stdout=subprocess.DEVNULL,
+                    stderr=subprocess.DEVNULL,
+                    env=env,
+                )
+            )
         spec = write_spec(photos, "160x128", name="small.yaml")
         out = tmp_path / "external"
         result = run("batch", str(spec), "-o", str(out), "--scheduler", address, "--threads", "1")
@@ -265,8 +328,15 @@ BAD_SPECS = [
     ({"exemplars": [{"name": "fir", "path": "photos/nope.png", "seeds": [1]}]}, "'photos/nope.png' not found"),
     ({"size": "0x0"}, "width and height must be positive"),
     ({"size": "abc"}, "invalid size 'abc'"),
-    ({"exemplars": [{"name": "fir", "path": "photos/fir.png", "seeds": [1]},
-                    {"name": "fir", "path": "photos/pine.png", "seeds": [2]}]}, "also exemplars[0]'s"),
+    (
+        {
+            "exemplars": [
+                {"name": "fir", "path": "photos/fir.png", "seeds": [1]},
+                {"name": "fir", "path": "photos/pine.png", "seeds": [2]},
+            ]
+        },
+        "also exemplars[0]'s",
+    ),
     ({"exemplars": [{"name": "fir", "path": "photos/fir.png", "seeds": [1, 2, 1]}]}, "seed 1 is listed twice"),
     ({"exemplars": [{"name": "fir", "path": "photos/fir.png", "seeds": [1], "count": 3}]}, "not both"),
     ({"exemplars": [{"name": "fir", "path": "photos/fir.png"}]}, "seeds: [0, 1, ...] or count: N"),
@@ -275,11 +345,21 @@ BAD_SPECS = [
     ({"exemplars": []}, "non-empty list"),
     ({"k": 99}, "spec: k"),
     ({"tile": "yes"}, "tile must be true or false"),
-    ({"exemplars": [{"name": "fir", "path": "photos/fir.png", "seeds": [-1]}]}, "seed must be an integer from 0 to 2**63 - 1"),
+    (
+        {"exemplars": [{"name": "fir", "path": "photos/fir.png", "seeds": [-1]}]},
+        "seed must be an integer from 0 to 2**63 - 1",
+    ),
     # issue 56: refused up front, not after the work or inside a worker
     ({"exemplars": [{"name": "fir", "path": "photos/fir.png", "seeds": [2**64]}]}, "2**63 - 1"),
-    ({"exemplars": [{"name": "fir", "path": "photos/fir.png", "count": 60000},
-                    {"name": "pine", "path": "photos/pine.png", "count": 60000}]}, "120000 variants or more"),
+    (
+        {
+            "exemplars": [
+                {"name": "fir", "path": "photos/fir.png", "count": 60000},
+                {"name": "pine", "path": "photos/pine.png", "count": 60000},
+            ]
+        },
+        "120000 variants or more",
+    ),
     ({"size": "99999x99999"}, "more than the limit"),
 ]
 
@@ -313,8 +393,9 @@ def test_bad_photo_or_unreachable_scheduler_one_line_nothing_written(photos, tmp
     (tmp_path / "photos").mkdir()
     (tmp_path / "photos" / "fir.png").write_bytes(b"not a png at all")
     spec = tmp_path / "spec.yaml"
-    spec.write_text(json.dumps({"size": "64x64", "exemplars": [
-        {"name": "fir", "path": "photos/fir.png", "seeds": [0]}]}))
+    spec.write_text(
+        json.dumps({"size": "64x64", "exemplars": [{"name": "fir", "path": "photos/fir.png", "seeds": [0]}]})
+    )
     out = tmp_path / "out"
     result = run("batch", str(spec), "-o", str(out))
     assert result.returncode == 2 and "exemplar 'fir'" in result.stderr, result.stderr
@@ -339,8 +420,7 @@ def test_hostile_specs_are_refused_in_bounded_time(tmp_path):
         levels.append(f"{name}: &{name} [{', '.join(['*' + prev] * 9)}]")
     bomb.write_text("\n".join(levels) + "\nexemplars: [{name: a, path: p.png, seeds: *i}]\n")
     many = tmp_path / "many.yaml"
-    many.write_text(json.dumps({"exemplars": [{"name": "a", "path": "p.png",
-                                               "seeds": list(range(200_000))}]}))
+    many.write_text(json.dumps({"exemplars": [{"name": "a", "path": "p.png", "seeds": list(range(200_000))}]}))
     for spec, message in ((bomb, "aliases"), (many, "more than 100000")):
         t = time.perf_counter()
         with pytest.raises(InvalidInputError, match=message):
@@ -362,8 +442,11 @@ def test_a_variant_folder_holding_the_users_files_is_refused_before_any_work(pho
     """An exemplar named like a folder of the user's under the output (its photo and notes in
     OUT/<name>/<seed>/): refused in one line before the cluster starts, nothing touched."""
     spec = tmp_path / "spec.yaml"
-    spec.write_text(json.dumps({"size": "64x64", "exemplars": [
-        {"name": "fir", "path": str(photos / "photos" / "fir.png"), "seeds": [0]}]}))
+    spec.write_text(
+        json.dumps(
+            {"size": "64x64", "exemplars": [{"name": "fir", "path": str(photos / "photos" / "fir.png"), "seeds": [0]}]}
+        )
+    )
     mine = tmp_path / "out" / "fir" / "0"
     mine.mkdir(parents=True)
     (mine / "fir.jpg").write_bytes(b"the user's photo")
@@ -376,9 +459,16 @@ def test_a_variant_folder_holding_the_users_files_is_refused_before_any_work(pho
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["fir"]
 
 
-@pytest.mark.parametrize("address,message", [
-    ("tcp://256.1.1.1:99999", "port 99999"), ("tcp://256.1.1.1:8786", "not an IP address"),
-    ("not-a-url", "tcp://HOST:PORT"), ("", "tcp://HOST:PORT"), ("http://host:8786", "tcp://HOST:PORT")])
+@pytest.mark.parametrize(
+    "address,message",
+    [
+        ("tcp://256.1.1.1:99999", "port 99999"),
+        ("tcp://256.1.1.1:8786", "not an IP address"),
+        ("not-a-url", "tcp://HOST:PORT"),
+        ("", "tcp://HOST:PORT"),
+        ("http://host:8786", "tcp://HOST:PORT"),
+    ],
+)
 def test_a_malformed_scheduler_address_is_refused_at_once(photos, tmp_path, address, message):
     """Not after a 20 s connection timeout (tcp://256.1.1.1:99999 took 21 s), and never as an
     internal error."""
@@ -402,4 +492,6 @@ def test_another_programs_manifest_is_neither_changed_nor_trusted(photos, tmp_pa
     result = run("batch", str(write_spec(photos, "64x64", name="m.yaml")), "-o", str(out))
     assert result.returncode == 2 and "not a barkgen batch manifest" in result.stderr, result.stderr
     assert len(result.stderr.strip().splitlines()) == 1
-    assert (out / "manifest.sqlite").read_bytes() == before and sorted(p.name for p in out.iterdir()) == ["manifest.sqlite"]
+    assert (out / "manifest.sqlite").read_bytes() == before and sorted(p.name for p in out.iterdir()) == [
+        "manifest.sqlite"
+    ]

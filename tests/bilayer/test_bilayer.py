@@ -9,8 +9,15 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from barkgen.bilayer import (AnalysisOptions, BilayerModel, Deformation, SynthesisOptions, analyze,
-                             estimate_spectrum, local_spectra, single_layer)
+from barkgen.bilayer import (
+    AnalysisOptions,
+    Deformation,
+    SynthesisOptions,
+    analyze,
+    estimate_spectrum,
+    local_spectra,
+    single_layer,
+)
 from barkgen.bilayer.spectra import noise_from_white
 from barkgen.cli.app import app
 from barkgen.errors import InvalidInputError
@@ -19,8 +26,11 @@ from barkgen.io import read_bilayer_model, write_bilayer_model
 
 def _psd(fy, fx):
     """A smooth anisotropic power spectrum (variance units per frequency bin) with a floor."""
-    return (0.05 + 4.0 * np.exp(-((fy / 0.04) ** 2 + (fx / 0.15) ** 2))
-            + np.exp(-(((np.abs(fx) - 0.25) / 0.05) ** 2 + (fy / 0.1) ** 2)))
+    return (
+        0.05
+        + 4.0 * np.exp(-((fy / 0.04) ** 2 + (fx / 0.15) ** 2))
+        + np.exp(-(((np.abs(fx) - 0.25) / 0.05) ** 2 + (fy / 0.1) ** 2))
+    )
 
 
 def _coloured_noise(rng, n, psd):
@@ -39,7 +49,7 @@ def _rms_decades(estimate, psd):
     t = estimate.shape[0]
     f = np.fft.fftfreq(t)
     err = np.log10(estimate.astype(float) ** 2) - np.log10(psd(f[:, None], f[None, :]))
-    return float(np.sqrt((err ** 2).mean()))
+    return float(np.sqrt((err**2).mean()))
 
 
 def _spectrum_distance(texeval, exemplar):
@@ -53,7 +63,7 @@ def _spectrum_distance(texeval, exemplar):
 
     def spectrum_dist(img):
         ratio = np.log((texeval.gabor_stats(lum(img)) + 0.05) / (reference + 0.05))
-        return float(np.sqrt(np.mean(ratio ** 2)))
+        return float(np.sqrt(np.mean(ratio**2)))
 
     return spectrum_dist
 
@@ -120,17 +130,21 @@ def test_analysis_separates_the_two_noises(composite_model):
     a, b = np.bincount(left.ravel(), minlength=3).argmax(), np.bincount(right.ravel(), minlength=3).argmax()
     assert a != b
     assert (left == a).mean() > 0.8 and (right == b).mean() > 0.8
+
     # the fine cluster's spectrum has more of its power at high frequencies
     def high_share(s):
         f = np.abs(np.fft.fftfreq(s.shape[-1]))
         high = (f[:, None] > 0.25) | (f[None, :] > 0.25)
         p = s.astype(float) ** 2
         return p[high].sum() / p.sum()
+
     assert high_share(model.noise.spectra[a, 0]) > 2 * high_share(model.noise.spectra[b, 0])
     # the structure keeps the bar but loses most of the grain
     assert model.structure[:, 40:46].mean() - model.structure[:, 50:56].mean() > 0.15
-    assert np.abs(np.diff(model.structure[:, 8:30], axis=1)).mean() < 0.6 * np.abs(
-        np.diff(model.exemplar[:, 8:30], axis=1)).mean()
+    assert (
+        np.abs(np.diff(model.structure[:, 8:30], axis=1)).mean()
+        < 0.6 * np.abs(np.diff(model.exemplar[:, 8:30], axis=1)).mean()
+    )
 
 
 def test_windows_agree_wherever_they_overlap(composite_model):
@@ -151,7 +165,7 @@ def test_a_large_output_equals_its_windows(composite_model):
     pieces = np.empty_like(whole)
     for i in range(8):
         for j in range(8):
-            pieces[i * 256:(i + 1) * 256, j * 256:(j + 1) * 256] = model.window(j * 256, i * 256, 256, 256, seed=2)
+            pieces[i * 256 : (i + 1) * 256, j * 256 : (j + 1) * 256] = model.window(j * 256, i * 256, 256, 256, seed=2)
     assert np.array_equal(whole, pieces)
 
 
@@ -214,8 +228,9 @@ def test_compensated_noise_restores_what_a_deformation_takes_from_a_real_bark(te
     d_single = spectrum_dist(single.window(0, 0, 512, 512, seed=1, options=paper))
     assert d_comp < 0.85 * min(d_paper, d_single)
     assert model._synthesizer(1, compensated).noise.sigmas.sum() > 1.2 * model.noise.sigmas.sum()
-    assert np.array_equal(single.window(5, 9, 64, 64, seed=1, options=compensated),
-                          single.window(5, 9, 64, 64, seed=1, options=paper))
+    assert np.array_equal(
+        single.window(5, 9, 64, 64, seed=1, options=compensated), single.window(5, 9, 64, 64, seed=1, options=paper)
+    )
     a = model.window(-40, 30, 200, 120, seed=1, options=compensated)
     b = model.window(60, 90, 150, 100, seed=1, options=compensated)
     assert np.array_equal(a[60:, 100:], b[:60, :100])
@@ -261,8 +276,9 @@ def test_seam_blending_keeps_willow_furrows_from_breaking(texeval):
     spectrum_dist = _spectrum_distance(texeval, exemplar)
 
     blended = sum(spectrum_dist(model.window(0, 0, 768, 768, seed=s)) for s in (1, 2))
-    cut = sum(spectrum_dist(model.window(0, 0, 768, 768, seed=s, options=SynthesisOptions(blend=False)))
-              for s in (1, 2))
+    cut = sum(
+        spectrum_dist(model.window(0, 0, 768, 768, seed=s, options=SynthesisOptions(blend=False))) for s in (1, 2)
+    )
     assert blended < 0.92 * cut
 
 
@@ -278,9 +294,9 @@ def test_equalisation_reproduces_a_non_gaussian_noise():
         model = analyze_noise_only(model, exemplar)
         noise = model.window(0, 0, 256, 256, seed=1, layers=True)["noise"][:, :, 0]
         z = (noise - noise.mean()) / noise.std()
-        skews.append(float((z ** 3).mean()))
+        skews.append(float((z**3).mean()))
     ref = (grain - grain.mean()) / grain.std()
-    assert abs(skews[1] - (ref ** 3).mean()) < 0.5 * abs(skews[0] - (ref ** 3).mean())
+    assert abs(skews[1] - (ref**3).mean()) < 0.5 * abs(skews[0] - (ref**3).mean())
 
 
 def analyze_noise_only(model, exemplar):
@@ -288,8 +304,7 @@ def analyze_noise_only(model, exemplar):
     from barkgen.bilayer.analysis import noise_statistics
 
     distances = np.zeros(model.labels.shape + (model.k,), np.float32)
-    model.noise = noise_statistics(exemplar - model.structure, model.labels.astype(int), distances,
-                                   model.options)
+    model.noise = noise_statistics(exemplar - model.structure, model.labels.astype(int), distances, model.options)
     return model
 
 
@@ -315,6 +330,7 @@ def test_models_round_trip_and_bad_files_are_refused(tmp_path, composite_model):
     header = json.loads(np.load(path)["header"].item())
     header["version"] = 99
     import io
+
     buf = io.BytesIO()
     np.save(buf, np.array(json.dumps(header)))
     members["header.npy"] = buf.getvalue()
@@ -352,32 +368,137 @@ def test_cli_analyze_synth_tune_and_errors(tmp_path):
     write_png(photo, (_composite(seed=2) * 255 + 0.5).astype(np.uint8))
     runner = CliRunner()
     model = tmp_path / "m.npz"
-    res = runner.invoke(app, ["bilayer", "analyze", str(photo), "-o", str(model), "--k", "2", "--tloc", "8",
-                              "--preview", str(tmp_path / "p.png"), "-q"])
+    res = runner.invoke(
+        app,
+        [
+            "bilayer",
+            "analyze",
+            str(photo),
+            "-o",
+            str(model),
+            "--k",
+            "2",
+            "--tloc",
+            "8",
+            "--preview",
+            str(tmp_path / "p.png"),
+            "-q",
+        ],
+    )
     assert res.exit_code == 0, res.output
     assert read_image(tmp_path / "p.png").shape[2] == 3
     out = tmp_path / "o.png"
-    res = runner.invoke(app, ["bilayer", "synth", str(model), "-o", str(out), "--size", "300x200",
-                              "--offset", "-40,25", "--rotate", "30", "--scale", "1,1.5", "--keep-vertical",
-                              "--seed", "4", "--bits", "16", "--warp", "0.3"])
+    res = runner.invoke(
+        app,
+        [
+            "bilayer",
+            "synth",
+            str(model),
+            "-o",
+            str(out),
+            "--size",
+            "300x200",
+            "--offset",
+            "-40,25",
+            "--rotate",
+            "30",
+            "--scale",
+            "1,1.5",
+            "--keep-vertical",
+            "--seed",
+            "4",
+            "--bits",
+            "16",
+            "--warp",
+            "0.3",
+        ],
+    )
     assert res.exit_code == 0, res.output
     image = read_image(out)
     assert image.shape == (200, 300, 3) and image.dtype == np.uint16
     again = tmp_path / "again.png"
-    runner.invoke(app, ["bilayer", "synth", str(model), "-o", str(again), "--size", "300x200", "--offset",
-                        "-40,25", "--rotate", "30", "--scale", "1,1.5", "--keep-vertical", "--seed", "4",
-                        "--bits", "16", "--warp", "0.3"])
+    runner.invoke(
+        app,
+        [
+            "bilayer",
+            "synth",
+            str(model),
+            "-o",
+            str(again),
+            "--size",
+            "300x200",
+            "--offset",
+            "-40,25",
+            "--rotate",
+            "30",
+            "--scale",
+            "1,1.5",
+            "--keep-vertical",
+            "--seed",
+            "4",
+            "--bits",
+            "16",
+            "--warp",
+            "0.3",
+        ],
+    )
     assert again.read_bytes() == out.read_bytes()
     paper = tmp_path / "paper.png"
-    res = runner.invoke(app, ["bilayer", "synth", str(model), "-o", str(paper), "--size", "300x200", "--offset",
-                              "-40,25", "--rotate", "30", "--scale", "1,1.5", "--keep-vertical", "--seed", "4",
-                              "--bits", "16", "--warp", "0.3", "--no-compensate"])
+    res = runner.invoke(
+        app,
+        [
+            "bilayer",
+            "synth",
+            str(model),
+            "-o",
+            str(paper),
+            "--size",
+            "300x200",
+            "--offset",
+            "-40,25",
+            "--rotate",
+            "30",
+            "--scale",
+            "1,1.5",
+            "--keep-vertical",
+            "--seed",
+            "4",
+            "--bits",
+            "16",
+            "--warp",
+            "0.3",
+            "--no-compensate",
+        ],
+    )
     assert res.exit_code == 0, res.output
     assert not np.array_equal(read_image(paper), image)  # the noise as analysed, not topped up
     cut = tmp_path / "cut.png"
-    res = runner.invoke(app, ["bilayer", "synth", str(model), "-o", str(cut), "--size", "300x200", "--offset",
-                              "-40,25", "--rotate", "30", "--scale", "1,1.5", "--keep-vertical", "--seed", "4",
-                              "--bits", "16", "--warp", "0.3", "--no-blend"])
+    res = runner.invoke(
+        app,
+        [
+            "bilayer",
+            "synth",
+            str(model),
+            "-o",
+            str(cut),
+            "--size",
+            "300x200",
+            "--offset",
+            "-40,25",
+            "--rotate",
+            "30",
+            "--scale",
+            "1,1.5",
+            "--keep-vertical",
+            "--seed",
+            "4",
+            "--bits",
+            "16",
+            "--warp",
+            "0.3",
+            "--no-blend",
+        ],
+    )
     assert res.exit_code == 0, res.output
     assert not np.array_equal(read_image(cut), image)  # graph cuts only
     sheet = tmp_path / "tune.png"

@@ -9,12 +9,10 @@ import sys
 
 import numpy as np
 import pytest
-
 from conftest import SHARED, _need_shared
 
-from barkgen.branching import Branch, Structure
+from barkgen.branching import Branch, GrowOptions, Structure, grow_structure
 from barkgen.branching.extract import extract_structure
-from barkgen.branching import GrowOptions, grow_structure
 from barkgen.branching.model import fit_model
 from barkgen.branching.stats import compare_structures, comparison_plot, self_intersections
 from barkgen.errors import InvalidInputError
@@ -46,22 +44,36 @@ def test_structure_file_round_trip(tmp_path, mud_source):
     assert back.size == mud_source.size and back.step == mud_source.step
     assert len(back.branches) == len(mud_source.branches)
     for a, b in zip(back.branches, mud_source.branches):
-        assert (a.parent, a.parent_vertex, a.joins, a.join_vertex) == (b.parent, b.parent_vertex, b.joins, b.join_vertex)
+        assert (a.parent, a.parent_vertex, a.joins, a.join_vertex) == (
+            b.parent,
+            b.parent_vertex,
+            b.joins,
+            b.join_vertex,
+        )
         np.testing.assert_allclose(a.points, b.points, atol=1e-3)
     data = json.loads(path.read_text())
     assert data["version"] == 1 and data["size"] == [512, 512]
 
 
-@pytest.mark.parametrize("text, message", [
-    ("{", "malformed JSON"),
-    ("", "empty"),
-    ('{"version": 1, "step": 2, "size": [64, 64], "branches": []}', "empty (no branches)"),
-    ('{"version": 2, "step": 2, "size": [64, 64], "branches": []}', "version must be 1"),
-    ('{"version": 1, "step": 2, "size": [64, 64], "branches": [{"parent": 3, "parent_vertex": 0, '
-     '"points": [[1, 1, 1], [5, 5, 1]]}]}', "parent 3 is not another branch"),
-    ('{"version": 1, "step": 2, "size": [64, 64], "branches": [{"parent": null, "parent_vertex": null, '
-     '"points": [[1, 1, 1]]}]}', "at least two"),
-])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("{", "malformed JSON"),
+        ("", "empty"),
+        ('{"version": 1, "step": 2, "size": [64, 64], "branches": []}', "empty (no branches)"),
+        ('{"version": 2, "step": 2, "size": [64, 64], "branches": []}', "version must be 1"),
+        (
+            '{"version": 1, "step": 2, "size": [64, 64], "branches": [{"parent": 3, "parent_vertex": 0, '
+            '"points": [[1, 1, 1], [5, 5, 1]]}]}',
+            "parent 3 is not another branch",
+        ),
+        (
+            '{"version": 1, "step": 2, "size": [64, 64], "branches": [{"parent": null, "parent_vertex": null, '
+            '"points": [[1, 1, 1]]}]}',
+            "at least two",
+        ),
+    ],
+)
 def test_bad_structure_files_are_one_clear_line(tmp_path, text, message):
     path = tmp_path / "bad.json"
     path.write_text(text)
@@ -77,8 +89,10 @@ def test_grown_structure_matches_the_source_statistics(mud_source, mud_grown):
     cmp = compare_structures(mud_source, mud_grown)
     assert cmp.angle_l1 <= 0.3 and cmp.thickness_l1 <= 0.3, cmp.as_dict()
     assert self_intersections(mud_grown) == 0
-    assert sum(b.joins is not None for b in mud_grown.branches) > 0.2 * sum(
-        b.joins is not None for b in mud_source.branches) * 1.0  # 512² output, same area as source
+    assert (
+        sum(b.joins is not None for b in mud_grown.branches)
+        > 0.2 * sum(b.joins is not None for b in mud_source.branches) * 1.0
+    )  # 512² output, same area as source
     ratio = cmp.target_junction_density / cmp.source_junction_density
     assert 0.7 <= ratio <= 1.3, cmp.as_dict()
     assert cmp.target_length_density == pytest.approx(cmp.source_length_density, rel=0.15)
@@ -132,8 +146,9 @@ def test_growth_scores_furcations_with_the_fitted_classifier(mud_source):
     p = np.ascontiguousarray(branch.points)
     n = len(p)
     allowed = np.ones(n, bool)
-    base, expected = K.furcation_margins(p, k, model.feat_mean, model.feat_scale, model.svm_w, model.svm_b,
-                                         *model.platt, allowed)
+    base, expected = K.furcation_margins(
+        p, k, model.feat_mean, model.feat_scale, model.svm_w, model.svm_b, *model.platt, allowed
+    )
     a, c = model.platt
 
     def margin(marks):
@@ -142,15 +157,16 @@ def test_growth_scores_furcations_with_the_fitted_classifier(mud_source):
 
     no_marks = margin(np.zeros(n, bool))
     np.testing.assert_allclose(expected, (1 / (1 + np.exp(-(a * no_marks + c)))).sum(), rtol=1e-9)
-    chosen = K.pick_furcations(base, allowed.copy(), 3, 4, model.feat_mean[-2:], model.feat_scale[-2:],
-                               model.svm_w[-2:])
+    chosen = K.pick_furcations(
+        base, allowed.copy(), 3, 4, model.feat_mean[-2:], model.feat_scale[-2:], model.svm_w[-2:]
+    )
     assert len(chosen) == 3 and np.all(np.diff(np.sort(chosen)) > 4)
     # each choice is the vertex of highest margin given the earlier ones (the n-/n+ terms
     # count from them), away from their blocked neighbourhoods
     for i in range(3):
         blocked = np.zeros(n, bool)
         for v in chosen[:i]:
-            blocked[max(v - 4, 0):v + 5] = True
+            blocked[max(v - 4, 0) : v + 5] = True
         scores = margin(np.isin(np.arange(n), chosen[:i]))
         assert chosen[i] == int(np.argmax(np.where(blocked, -np.inf, scores)))
 
@@ -168,11 +184,16 @@ def test_a_guide_map_draws_the_branches_into_its_valley(mud_source):
     """sibbing2010 §4.5: G = 1 except a smooth dark valley; the branches follow it."""
     w, h = 384, 256
     x = np.arange(w)[None, :].repeat(h, 0)
-    guide = 1.0 - np.exp(-((x - w / 2) ** 2) / (2 * 24.0 ** 2))
+    guide = 1.0 - np.exp(-((x - w / 2) ** 2) / (2 * 24.0**2))
     valley = np.abs(x - w / 2) < 48
     model = fit_model(mud_source)
-    grown = grow_structure(model, (w, h), seed=1, guide=guide.astype(np.float32),
-                           options=GrowOptions(total_length=model.length_density * w * h * 0.3))
+    grown = grow_structure(
+        model,
+        (w, h),
+        seed=1,
+        guide=guide.astype(np.float32),
+        options=GrowOptions(total_length=model.length_density * w * h * 0.3),
+    )
     pts = np.concatenate([b.xy for b in grown.branches])
     inside = valley[np.clip(pts[:, 1].round().astype(int), 0, h - 1), np.clip(pts[:, 0].round().astype(int), 0, w - 1)]
     assert inside.mean() > 2 * valley.mean(), inside.mean()
@@ -210,16 +231,32 @@ def test_branches_cli_bad_input_is_one_line_and_writes_nothing(tmp_path, mud_sou
     cases = [
         (("branches", "grow", str(bad), "-o", str(out), "--quiet"), "malformed JSON"),
         (("branches", "grow", str(empty), "-o", str(out), "--quiet"), "empty"),
-        (("branches", "grow", str(src), "-o", str(out), "--size", "128x128", "--guide", str(small_guide),
-          "--quiet"), "same size"),
+        (
+            ("branches", "grow", str(src), "-o", str(out), "--size", "128x128", "--guide", str(small_guide), "--quiet"),
+            "same size",
+        ),
         (("branches", "grow", str(src), "-o", str(out), "--size", "0x128"), "positive"),
         (("branches", "extract", str(flat), "-o", str(out), "--quiet"), "no cracks"),
         (("branches", "stats", str(src), str(bad)), "malformed JSON"),
         (("branches", "grow", str(tmp_path / "missing.json"), "-o", str(out)), "no such file"),
         # growth's maps are 20 bytes a pixel: 16384^2 is 5.2 GiB, refused before any work (with
         # the output bound raised past its default of 8192^2, which refuses it first)
-        (("--max-pixels", "300000000", "branches", "grow", str(src), "-o", str(out), "--size",
-          "16384x16384", "--max-memory", "2G"), "5.2 GiB"),
+        (
+            (
+                "--max-pixels",
+                "300000000",
+                "branches",
+                "grow",
+                str(src),
+                "-o",
+                str(out),
+                "--size",
+                "16384x16384",
+                "--max-memory",
+                "2G",
+            ),
+            "5.2 GiB",
+        ),
         (("branches", "grow", str(src), "-o", str(out), "--size", "16384x16384"), "--max-pixels"),
     ]
     for args, message in cases:
@@ -229,8 +266,9 @@ def test_branches_cli_bad_input_is_one_line_and_writes_nothing(tmp_path, mud_sou
         assert len(lines) == 1 and message in lines[0], (args, r.stderr)
         assert "Traceback" not in r.stderr
         assert not out.exists()
-    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["src.json", "bad.json", "empty.json", "flat.png",
-                                                                 "guide.png"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        ["src.json", "bad.json", "empty.json", "flat.png", "guide.png"]
+    )
 
 
 def test_branches_cli_extract_grow_stats(tmp_path):
@@ -238,8 +276,18 @@ def test_branches_cli_extract_grow_stats(tmp_path):
     image = DATA / "branching" / "mud_crackle_gray_01.png"
     src, dst, preview = tmp_path / "src.json", tmp_path / "dst.json", tmp_path / "preview.png"
     fissures = tmp_path / "fissures.png"
-    r = run("branches", "extract", str(image), "-o", str(src), "--preview", str(preview), "--labels-out",
-            str(fissures), "--quiet")
+    r = run(
+        "branches",
+        "extract",
+        str(image),
+        "-o",
+        str(src),
+        "--preview",
+        str(preview),
+        "--labels-out",
+        str(fissures),
+        "--quiet",
+    )
     assert r.returncode == 0, r.stderr
     assert read_image(preview).shape == (512, 512, 3)
     labels = read_image(fissures)

@@ -21,11 +21,11 @@ HALF_WIDTH = 3  # px: the drawn cracks are 2 * HALF_WIDTH wide
 # a T (a side crack leaves the main crack), a Y (the side crack forks) and a closed cell on the
 # main crack (its far side starts on the main crack and ends on it again: a merge)
 LINES = [
-    [(10, 90), (80, 95), (150, 92), (245, 100)],          # main crack, edge to edge
-    [(150, 92), (152, 150), (150, 190)],                  # T: side crack down from the main one
-    [(150, 190), (112, 235)],                             # Y: the side crack forks ...
-    [(150, 190), (190, 232)],                             # ... in two
-    [(60, 94), (58, 35), (115, 30), (118, 93)],           # cell above the main crack
+    [(10, 90), (80, 95), (150, 92), (245, 100)],  # main crack, edge to edge
+    [(150, 92), (152, 150), (150, 190)],  # T: side crack down from the main one
+    [(150, 190), (112, 235)],  # Y: the side crack forks ...
+    [(150, 190), (190, 232)],  # ... in two
+    [(60, 94), (58, 35), (115, 30), (118, 93)],  # cell above the main crack
 ]
 
 

@@ -40,10 +40,13 @@ def _child(parent: np.ndarray, vertex: int, angle: float, length: float, waves: 
 def _source_structure() -> Structure:
     a = _wavy((3, 50), 0.35, 240, 7.0, 1.5, 2.2)
     b = _wavy((150, 188), -2.2, 240, 6.0, 1.2, 2.0)
-    branches = [Branch(a), Branch(b),
-                Branch(_child(a, 20, -0.6, 90, 1.0), parent=0, parent_vertex=20),
-                Branch(_child(a, 55, 1.4, 80, 0.8), parent=0, parent_vertex=55),
-                Branch(_child(b, 25, -1.0, 70, 1.0), parent=1, parent_vertex=25)]
+    branches = [
+        Branch(a),
+        Branch(b),
+        Branch(_child(a, 20, -0.6, 90, 1.0), parent=0, parent_vertex=20),
+        Branch(_child(a, 55, 1.4, 80, 0.8), parent=0, parent_vertex=55),
+        Branch(_child(b, 25, -1.0, 70, 1.0), parent=1, parent_vertex=25),
+    ]
     s = Structure(2.0, (SIZE, SIZE), branches)
     s.validate()
     return s
@@ -51,9 +54,11 @@ def _source_structure() -> Structure:
 
 def _target_structure(size: int = SIZE) -> Structure:
     a = _wavy((3, 120), -0.3, 260, 8.0, 1.3, 2.1)
-    branches = [Branch(a),
-                Branch(_child(a, 30, 0.9, 90, 1.1), parent=0, parent_vertex=30),
-                Branch(_child(a, 60, -1.3, 80, 0.9), parent=0, parent_vertex=60)]
+    branches = [
+        Branch(a),
+        Branch(_child(a, 30, 0.9, 90, 1.1), parent=0, parent_vertex=30),
+        Branch(_child(a, 60, -1.3, 80, 0.9), parent=0, parent_vertex=60),
+    ]
     s = Structure(2.0, (size, size), branches)
     s.validate()
     return s
@@ -70,9 +75,15 @@ def _draw(structure: Structure, seed: int = 3) -> np.ndarray:
     for b in structure.branches:
         p = b.points
         for i in range(len(p) - 1):
-            cv2.line(mask, tuple(int(v) for v in np.rint(p[i, :2] * 16)),
-                     tuple(int(v) for v in np.rint(p[i + 1, :2] * 16)), 1.0,
-                     max(1, int(round(p[i, 2] + p[i + 1, 2]))), cv2.LINE_AA, shift=4)
+            cv2.line(
+                mask,
+                tuple(int(v) for v in np.rint(p[i, :2] * 16)),
+                tuple(int(v) for v in np.rint(p[i + 1, :2] * 16)),
+                1.0,
+                max(1, int(round(p[i, 2] + p[i + 1, 2]))),
+                cv2.LINE_AA,
+                shift=4,
+            )
     mask = cv2.GaussianBlur(mask, (0, 0), 0.6)
     lum = lum * (1 - mask) + (40.0 + 6.0 * rng.normal(0, 1, (SIZE, SIZE))) * mask
     rgb = np.stack([lum * 1.0, lum * 0.8, lum * 0.62], axis=-1)
@@ -196,8 +207,7 @@ def test_grey_photo_and_other_output_size(scene):
 def test_progress_reaches_the_end(scene):
     image, source, target = scene
     calls = []
-    render_branches(image, source, target, seed=0, fill=False,
-                    progress=lambda d, t: calls.append((d, t)))
+    render_branches(image, source, target, seed=0, fill=False, progress=lambda d, t: calls.append((d, t)))
     assert calls and calls[-1][0] == calls[-1][1]
     assert all(b[0] >= a[0] for a, b in zip(calls, calls[1:]))
 
@@ -250,23 +260,56 @@ def test_procrustes_finds_the_rotation_and_the_reversal():
     order of a symmetric-less shape costs more."""
     k = 9
     t = np.linspace(-1, 1, k)
-    q = 10 * t + 3j * t ** 2
+    q = 10 * t + 3j * t**2
     theta = 0.7
     p = q * np.exp(-1j * theta)  # the source is the target rotated by -theta
     rows_re = np.stack([p.real, p[::-1].real])
     rows_im = np.stack([p.imag, p[::-1].imag])
     mu = np.full((2, k), 2.0)
-    cost, zre, zim = K.shape_costs(rows_re, rows_im, mu, np.full(2, 100.0), q.real.copy(), q.imag.copy(),
-                                   np.full(k, 2.0), np.ones(k), 2.0, math.pi, 10.0)
+    cost, zre, zim = K.shape_costs(
+        rows_re,
+        rows_im,
+        mu,
+        np.full(2, 100.0),
+        q.real.copy(),
+        q.imag.copy(),
+        np.full(k, 2.0),
+        np.ones(k),
+        2.0,
+        math.pi,
+        10.0,
+    )
     assert cost[0] < 1e-9 and cost[1] > 1.0
     assert abs(math.atan2(zim[0], zre[0]) - theta) < 1e-9
     # clamped to 20 degrees, the same fit is worse
-    clamped, _, _ = K.shape_costs(rows_re, rows_im, mu, np.full(2, 100.0), q.real.copy(), q.imag.copy(),
-                                  np.full(k, 2.0), np.ones(k), 2.0, math.radians(20), 10.0)
+    clamped, _, _ = K.shape_costs(
+        rows_re,
+        rows_im,
+        mu,
+        np.full(2, 100.0),
+        q.real.copy(),
+        q.imag.copy(),
+        np.full(k, 2.0),
+        np.ones(k),
+        2.0,
+        math.radians(20),
+        10.0,
+    )
     assert clamped[0] > 1.0
     # too close to the photo border: never chosen
-    border, _, _ = K.shape_costs(rows_re, rows_im, mu, np.full(2, 5.0), q.real.copy(), q.imag.copy(),
-                                 np.full(k, 2.0), np.ones(k), 2.0, math.pi, 10.0)
+    border, _, _ = K.shape_costs(
+        rows_re,
+        rows_im,
+        mu,
+        np.full(2, 5.0),
+        q.real.copy(),
+        q.imag.copy(),
+        np.full(k, 2.0),
+        np.ones(k),
+        2.0,
+        math.pi,
+        10.0,
+    )
     assert np.isinf(border).all()
 
 
@@ -281,7 +324,7 @@ def test_seam_cut_on_the_free_pixels_equals_the_cut_of_the_whole_grid():
         h, w = rng.integers(6, 24, 2)
         yy, xx = np.mgrid[:h, :w]
         take = np.hypot(yy - h / 2, xx - w / 2) < rng.uniform(1.5, 3.5)  # a core tied to the new
-        keep = (yy == 0) | (xx == 0) | (yy == h - 1) | (xx == w - 1)     # a rim tied to the old
+        keep = (yy == 0) | (xx == 0) | (yy == h - 1) | (xx == w - 1)  # a rim tied to the old
         keep &= ~take
         right = rng.uniform(0.01, 5.0, (h, w))
         down = rng.uniform(0.01, 5.0, (h, w))
@@ -297,17 +340,17 @@ def test_seam_cut_on_the_free_pixels_equals_the_cut_of_the_whole_grid():
 
         full = maxflow.Graph[float]()
         grid = full.add_grid_nodes((h, w))
-        full.add_grid_edges(grid, weights=right, structure=np.array([[0, 0, 0], [0, 0, 1], [0, 0, 0]]),
-                            symmetric=True)
-        full.add_grid_edges(grid, weights=down, structure=np.array([[0, 0, 0], [0, 0, 0], [0, 1, 0]]),
-                            symmetric=True)
+        full.add_grid_edges(grid, weights=right, structure=np.array([[0, 0, 0], [0, 0, 1], [0, 0, 0]]), symmetric=True)
+        full.add_grid_edges(grid, weights=down, structure=np.array([[0, 0, 0], [0, 0, 0], [0, 1, 0]]), symmetric=True)
         full.add_grid_tedges(grid, np.where(take, 1e9, 0.0), np.where(keep, 1e9, 0.0))
         full_flow = full.maxflow()
         whole = ~full.get_grid_segments(grid) & ~keep
         # the same minimum cut: the whole grid's also cuts every edge between a pixel tied to
         # the new fragment and one tied to the old content
-        between = (np.where((take[:, :-1] & keep[:, 1:]) | (keep[:, :-1] & take[:, 1:]), right[:, :-1], 0).sum()
-                   + np.where((take[:-1] & keep[1:]) | (keep[:-1] & take[1:]), down[:-1], 0).sum())
+        between = (
+            np.where((take[:, :-1] & keep[:, 1:]) | (keep[:, :-1] & take[:, 1:]), right[:, :-1], 0).sum()
+            + np.where((take[:-1] & keep[1:]) | (keep[:-1] & take[1:]), down[:-1], 0).sum()
+        )
         assert math.isclose(flow + between, full_flow, rel_tol=1e-9)
         assert np.array_equal(reduced, whole)  # random real weights: one minimum cut
 
@@ -334,9 +377,19 @@ def test_shape_cost_rotation_is_clamped_to_the_limit():
     weight = np.ones(k)
     qq = float((np.abs(q) ** 2).sum())
     for limit in (np.radians(20.0), np.pi):
-        cost, zre, zim = K.shape_costs(np.ascontiguousarray(p.real), np.ascontiguousarray(p.imag), mu,
-                                       np.full(len(thetas), 100.0), np.ascontiguousarray(q.real),
-                                       np.ascontiguousarray(q.imag), np.ones(k), weight, 2.0, limit, 0.0)
+        cost, zre, zim = K.shape_costs(
+            np.ascontiguousarray(p.real),
+            np.ascontiguousarray(p.imag),
+            mu,
+            np.full(len(thetas), 100.0),
+            np.ascontiguousarray(q.real),
+            np.ascontiguousarray(q.imag),
+            np.ones(k),
+            weight,
+            2.0,
+            limit,
+            0.0,
+        )
         for t, c in zip(thetas, cost):
             fit = np.cos(max(abs(t) - limit, 0.0)) if limit < np.pi else 1.0
             assert math.isclose(c, max(2 * qq - 2 * qq * fit, 0.0), rel_tol=1e-6, abs_tol=1e-6)

@@ -9,10 +9,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import run
 from PIL import Image
 
-from barkgen.io import read_reference, read_image, write_png
-from conftest import run
+from barkgen.io import read_image, read_reference, write_png
 
 
 @pytest.fixture(scope="module")
@@ -27,9 +27,24 @@ def test_synth_writes_output_extras_and_reference(tmp_path, exemplar_png, synthe
     height = np.linspace(0, 65535, h * w).reshape(h, w).astype(np.uint16)
     write_png(tmp_path / "height.png", height)
     out = tmp_path / "out" / "bark.png"
-    r = run("synth", str(exemplar_png), "-o", str(out), "--size", "70x40", "--tile", "--seed", "3",
-            "--extra", f"height={tmp_path / 'height.png'}", "--save-reference", str(tmp_path / "ref.png"),
-            "--blend", "none", "--quiet")
+    r = run(
+        "synth",
+        str(exemplar_png),
+        "-o",
+        str(out),
+        "--size",
+        "70x40",
+        "--tile",
+        "--seed",
+        "3",
+        "--extra",
+        f"height={tmp_path / 'height.png'}",
+        "--save-reference",
+        str(tmp_path / "ref.png"),
+        "--blend",
+        "none",
+        "--quiet",
+    )
     assert r.returncode == 0, r.stderr
     assert r.stderr == "" and r.stdout == ""  # --quiet, and piped: no progress bar
     img = read_image(out)
@@ -39,8 +54,9 @@ def test_synth_writes_output_extras_and_reference(tmp_path, exemplar_png, synthe
     # the saved reference map re-applied to the height map copies it exactly; the extra map
     # written beside the texture went through the gradient domain (no cliffs; screened, so its
     # mean is the copy's)
-    r2 = run("apply-reference", str(tmp_path / "ref.png"), str(tmp_path / "height.png"),
-             "-o", str(tmp_path / "height2.png"))
+    r2 = run(
+        "apply-reference", str(tmp_path / "ref.png"), str(tmp_path / "height.png"), "-o", str(tmp_path / "height2.png")
+    )
     assert r2.returncode == 0, r2.stderr
     refs, _ = read_reference(tmp_path / "ref.png")
     copied = read_image(tmp_path / "height2.png")[:, :, 0]
@@ -53,8 +69,12 @@ def test_synth_writes_output_extras_and_reference(tmp_path, exemplar_png, synthe
 
 def test_same_seed_same_bytes(tmp_path, exemplar_png):
     for name in ("a", "b"):
-        assert run("synth", str(exemplar_png), "-o", str(tmp_path / f"{name}.png"), "--size", "64x48",
-                   "--seed", "9", "-q").returncode == 0
+        assert (
+            run(
+                "synth", str(exemplar_png), "-o", str(tmp_path / f"{name}.png"), "--size", "64x48", "--seed", "9", "-q"
+            ).returncode
+            == 0
+        )
     assert (tmp_path / "a.png").read_bytes() == (tmp_path / "b.png").read_bytes()
 
 
@@ -88,11 +108,23 @@ def _bad_inputs(tmp: Path, exemplar_png: Path) -> dict[str, list[str]]:
     }
 
 
-@pytest.mark.parametrize("case", [
-    "missing file", "not an image", "truncated image", "0-byte file", "exemplar < 16 px",
-    "size 0x0", "size -5x10", "size abc", "memory budget", "extra size mismatch",
-    "bad extra syntax", "not a png output",
-])
+@pytest.mark.parametrize(
+    "case",
+    [
+        "missing file",
+        "not an image",
+        "truncated image",
+        "0-byte file",
+        "exemplar < 16 px",
+        "size 0x0",
+        "size -5x10",
+        "size abc",
+        "memory budget",
+        "extra size mismatch",
+        "bad extra syntax",
+        "not a png output",
+    ],
+)
 def test_bad_input_one_line_exit_2_no_output(tmp_path, exemplar_png, case):
     args = _bad_inputs(tmp_path, exemplar_png)[case]
     outdir = tmp_path / "outdir"
@@ -108,11 +140,22 @@ def test_bad_input_one_line_exit_2_no_output(tmp_path, exemplar_png, case):
 
 
 def test_apply_reference_rejects_a_map_of_another_size(tmp_path, exemplar_png):
-    assert run("synth", str(exemplar_png), "-o", str(tmp_path / "o.png"), "--size", "32x32",
-               "--save-reference", str(tmp_path / "ref.png"), "-q").returncode == 0
+    assert (
+        run(
+            "synth",
+            str(exemplar_png),
+            "-o",
+            str(tmp_path / "o.png"),
+            "--size",
+            "32x32",
+            "--save-reference",
+            str(tmp_path / "ref.png"),
+            "-q",
+        ).returncode
+        == 0
+    )
     write_png(tmp_path / "other.png", np.zeros((20, 20), np.uint8))
-    r = run("apply-reference", str(tmp_path / "ref.png"), str(tmp_path / "other.png"),
-            "-o", str(tmp_path / "x.png"))
+    r = run("apply-reference", str(tmp_path / "ref.png"), str(tmp_path / "other.png"), "-o", str(tmp_path / "x.png"))
     assert r.returncode == 2 and "exemplar" in r.stderr and not (tmp_path / "x.png").exists()
 
 
@@ -137,17 +180,49 @@ def tbn_files(tmp_path_factory, synthetic_exemplar):
 def test_tbn_writes_output_reference_and_debug_images(tmp_path, tbn_files):
     d = tbn_files
     out = tmp_path / "o.png"
-    r = run("tbn", str(d / "ex.png"), "--labels", str(d / "a.png"), "--target", str(d / "b.png"),
-            "-o", str(out), "--seed", "2", "--init", "random", "--save-reference",
-            str(tmp_path / "ref.png"), "--debug-dir", str(tmp_path / "dbg"), "-q")
+    r = run(
+        "tbn",
+        str(d / "ex.png"),
+        "--labels",
+        str(d / "a.png"),
+        "--target",
+        str(d / "b.png"),
+        "-o",
+        str(out),
+        "--seed",
+        "2",
+        "--init",
+        "random",
+        "--save-reference",
+        str(tmp_path / "ref.png"),
+        "--debug-dir",
+        str(tmp_path / "dbg"),
+        "-q",
+    )
     assert r.returncode == 0, r.stderr
     assert read_image(out).shape == (48, 48, 3)
     assert read_image(tmp_path / "ref.png").shape == (48, 48, 3)
     names = {p.stem for p in (tmp_path / "dbg").iterdir()}
     assert {"initialization", "level0_result", "level0_target_labels"} <= names
     again = tmp_path / "again.png"
-    assert run("tbn", str(d / "ex.png"), "--labels", str(d / "a.png"), "--target", str(d / "b.png"),
-               "-o", str(again), "--seed", "2", "--init", "random", "-q").returncode == 0
+    assert (
+        run(
+            "tbn",
+            str(d / "ex.png"),
+            "--labels",
+            str(d / "a.png"),
+            "--target",
+            str(d / "b.png"),
+            "-o",
+            str(again),
+            "--seed",
+            "2",
+            "--init",
+            "random",
+            "-q",
+        ).returncode
+        == 0
+    )
     assert again.read_bytes() == out.read_bytes()
 
 
@@ -162,8 +237,7 @@ def _bad_tbn_inputs(d: Path, tmp: Path) -> dict[str, list[str]]:
     return {
         "label map size mismatch": [ex, "--labels", str(tmp / "a_small.png"), "--target", b],
         "target label absent": [ex, "--labels", a, "--target", str(tmp / "b_new_label.png")],
-        "more than 64 labels": [ex, "--labels", str(tmp / "a_many.png"), "--target",
-                                str(tmp / "b_many.png")],
+        "more than 64 labels": [ex, "--labels", str(tmp / "a_many.png"), "--target", str(tmp / "b_many.png")],
         "label file not an image": [ex, "--labels", str(tmp / "text.png"), "--target", b],
         "missing target": [ex, "--labels", a, "--target", str(tmp / "nope.png")],
         "bad init": [ex, "--labels", a, "--target", b, "--init", "clever"],
@@ -171,16 +245,32 @@ def _bad_tbn_inputs(d: Path, tmp: Path) -> dict[str, list[str]]:
     }
 
 
-@pytest.mark.parametrize("case", [
-    "label map size mismatch", "target label absent", "more than 64 labels",
-    "label file not an image", "missing target", "bad init", "negative weight",
-])
+@pytest.mark.parametrize(
+    "case",
+    [
+        "label map size mismatch",
+        "target label absent",
+        "more than 64 labels",
+        "label file not an image",
+        "missing target",
+        "bad init",
+        "negative weight",
+    ],
+)
 def test_tbn_bad_input_one_line_exit_2_no_output(tmp_path, tbn_files, case):
     args = _bad_tbn_inputs(tbn_files, tmp_path)[case]
     outdir = tmp_path / "outdir"
     outdir.mkdir()
-    r = run("tbn", *args, "-o", str(outdir / "out.png"), "--save-reference",
-            str(outdir / "ref.png"), "--debug-dir", str(outdir / "dbg"))
+    r = run(
+        "tbn",
+        *args,
+        "-o",
+        str(outdir / "out.png"),
+        "--save-reference",
+        str(outdir / "ref.png"),
+        "--debug-dir",
+        str(outdir / "dbg"),
+    )
     assert r.returncode == 2, (r.returncode, r.stderr)
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("barkgen: error: "), r.stderr
@@ -207,8 +297,20 @@ def test_labels_writes_map_and_preview(tmp_path, photo_png):
     lm = read_image(out)[..., 0]  # (read as one channel)
     assert lm.shape == (128, 128) and lm.dtype == np.uint8 and sorted(np.unique(lm)) == [0, 128, 255]
     assert read_image(prev).shape == (128, 260, 3)
-    r = run("labels", str(photo_png), "-o", str(tmp_path / "e.png"), "--k", "2", "--edges",
-            "--method", "texton", "--seed", "3", "-q")
+    r = run(
+        "labels",
+        str(photo_png),
+        "-o",
+        str(tmp_path / "e.png"),
+        "--k",
+        "2",
+        "--edges",
+        "--method",
+        "texton",
+        "--seed",
+        "3",
+        "-q",
+    )
     assert r.returncode == 0, r.stderr
     assert len(np.unique(read_image(tmp_path / "e.png"))) == 3
 
@@ -218,7 +320,8 @@ def test_textons_then_merge(tmp_path, photo_png):
     r = run("textons", str(photo_png), "-o", str(d), "--textons", "6", "-q")
     assert r.returncode == 0, r.stderr
     assert sorted(p.name for p in d.iterdir()) == sorted(
-        ["textons.png", "sheet.png"] + [f"texton_{t:02d}.png" for t in range(6)])
+        ["textons.png", "sheet.png"] + [f"texton_{t:02d}.png" for t in range(6)]
+    )
     assert set(np.unique(read_image(d / "texton_03.png"))) <= {0, 255}
     r = run("merge", str(d / "textons.png"), "-o", str(tmp_path / "m.png"), "--groups", "0,1;2,3,4,5")
     assert r.returncode == 0, r.stderr
@@ -252,11 +355,38 @@ def test_labels_bad_input_one_line_exit_2_no_output(tmp_path, photo_png, case):
 # the root and its command groups
 
 #: the top-level commands and groups of ``barkgen --help``, in its order
-HELP_COMMANDS = ["synth", "tbn", "labels", "textons", "merge", "shapes", "generate", "material",
-                 "preview", "export-glb", "apply-reference", "batch", "serve", "warm-up",
-                 "bilayer", "library", "branches"]
-COMMAND_MODULES = ["_common", "synth", "labels", "shapes", "generate", "material", "serve", "warmup",
-                   "bilayer", "library", "branches"]
+HELP_COMMANDS = [
+    "synth",
+    "tbn",
+    "labels",
+    "textons",
+    "merge",
+    "shapes",
+    "generate",
+    "material",
+    "preview",
+    "export-glb",
+    "apply-reference",
+    "batch",
+    "serve",
+    "warm-up",
+    "bilayer",
+    "library",
+    "branches",
+]
+COMMAND_MODULES = [
+    "_common",
+    "synth",
+    "labels",
+    "shapes",
+    "generate",
+    "material",
+    "serve",
+    "warmup",
+    "bilayer",
+    "library",
+    "branches",
+]
 
 
 def test_help_lists_every_command_group_in_order():
@@ -264,20 +394,20 @@ def test_help_lists_every_command_group_in_order():
     assert r.returncode == 0, r.stderr
     listed = [line.split()[0] for line in r.stdout.split("Commands:")[1].splitlines() if line.strip()]
     assert listed == HELP_COMMANDS
-    for group, subcommands in (("bilayer", ["analyze", "tune", "synth"]),
-                               ("library", ["add", "list", "show", "rm"]),
-                               ("branches", ["extract", "grow", "render", "stats"])):
+    for group, subcommands in (
+        ("bilayer", ["analyze", "tune", "synth"]),
+        ("library", ["add", "list", "show", "rm"]),
+        ("branches", ["extract", "grow", "render", "stats"]),
+    ):
         r = run(group, "--help")
         assert r.returncode == 0, r.stderr
-        assert [line.split()[0] for line in r.stdout.split("Commands:")[1].splitlines()
-                if line.strip()] == subcommands
+        assert [line.split()[0] for line in r.stdout.split("Commands:")[1].splitlines() if line.strip()] == subcommands
 
 
 @pytest.mark.parametrize("module", COMMAND_MODULES)
 def test_each_command_module_imports_alone(module):
     """A group module needs neither the root nor the other groups."""
-    code = (f"import sys, barkgen.cli.{module}\n"
-            "print(sorted(m for m in sys.modules if m.startswith('barkgen.cli.')))")
+    code = f"import sys, barkgen.cli.{module}\nprint(sorted(m for m in sys.modules if m.startswith('barkgen.cli.')))"
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr
     loaded = set(eval(r.stdout.strip().splitlines()[-1]))
@@ -290,17 +420,18 @@ def test_checks_left_to_the_api_are_one_line_exit_2(tmp_path):
     rng = np.random.default_rng(0)
     write_png(tmp_path / "p.png", (rng.random((64, 64, 3)) * 255).astype(np.uint8))
     write_png(tmp_path / "small.png", np.zeros((32, 32), np.uint8))
-    (tmp_path / "edits.json").write_text('{"version": 1, "edits": [{"x": 100, "y": 20, "delta": 1.5, '
-                                         '"radius": 4}]}')
+    (tmp_path / "edits.json").write_text('{"version": 1, "edits": [{"x": 100, "y": 20, "delta": 1.5, "radius": 4}]}')
     out = tmp_path / "out"
     out.mkdir()
     photo = str(tmp_path / "p.png")
     for args, message in (
-            (["branches", "extract", photo, "--step", "100", "-o", str(out / "s.json")], "step"),
-            (["branches", "extract", photo, "--labels", str(tmp_path / "small.png"), "-o",
-              str(out / "s.json")], "label map"),
-            (["material", photo, "--edits", str(tmp_path / "edits.json"), "-o", str(out / "m"), "-q"],
-             "outside")):
+        (["branches", "extract", photo, "--step", "100", "-o", str(out / "s.json")], "step"),
+        (
+            ["branches", "extract", photo, "--labels", str(tmp_path / "small.png"), "-o", str(out / "s.json")],
+            "label map",
+        ),
+        (["material", photo, "--edits", str(tmp_path / "edits.json"), "-o", str(out / "m"), "-q"], "outside"),
+    ):
         r = run(*args)
         assert r.returncode == 2, (args, r.stderr)
         lines = r.stderr.strip().splitlines()
@@ -318,8 +449,9 @@ def test_warm_up_leaves_nothing_for_generate_to_compile(tmp_path):
     assert r.returncode == 0 and r.stderr == "", r.stderr
     before = {p: p.stat().st_mtime_ns for p in src.rglob("*.nb[ic]")}
     assert before
-    r = run("generate", "-o", str(tmp_path / "out"), "--size", "128x128", "--tile", "--material",
-            "--seed", "3", "--quiet")
+    r = run(
+        "generate", "-o", str(tmp_path / "out"), "--size", "128x128", "--tile", "--material", "--seed", "3", "--quiet"
+    )
     assert r.returncode == 0, r.stderr
     assert run("preview", str(tmp_path / "out"), "-o", str(tmp_path / "trunk.png")).returncode == 0
     after = {p: p.stat().st_mtime_ns for p in src.rglob("*.nb[ic]")}
@@ -342,12 +474,25 @@ def test_every_command_checks_its_memory_before_any_work(tmp_path, exemplar_png)
     out = tmp_path / "out"
     out.mkdir()
     cases = {
-        "label map 4096x4096": ["shapes", str(tmp_path / "labels.png"), "-o", str(out / "s.png"),
-                                "--size", "4096x4096"],
+        "label map 4096x4096": [
+            "shapes",
+            str(tmp_path / "labels.png"),
+            "-o",
+            str(out / "s.png"),
+            "--size",
+            "4096x4096",
+        ],
         "the material set of a": ["material", str(exemplar_png), "-o", str(out / "set")],
         "the bi-layer analysis of a": ["bilayer", "analyze", str(exemplar_png), "-o", str(out / "m.npz")],
-        "a 4096x4096 bi-layer window": ["bilayer", "synth", str(tmp_path / "model.npz"), "-o",
-                                        str(out / "b.png"), "--size", "4096x4096"],
+        "a 4096x4096 bi-layer window": [
+            "bilayer",
+            "synth",
+            str(tmp_path / "model.npz"),
+            "-o",
+            str(out / "b.png"),
+            "--size",
+            "4096x4096",
+        ],
     }
     for job, args in cases.items():
         r = run(*args, "--max-memory", "100M")

@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import run
 
 from barkgen.io import read_image, write_files_atomic, write_png
-from conftest import run
 
 
 @pytest.fixture(scope="module")
@@ -49,8 +49,7 @@ def test_an_output_that_is_an_input_is_refused_and_the_input_kept(tmp_path, phot
     out.mkdir()
     (out / "texture.png").write_bytes(before)
     t = time.perf_counter()
-    _one_line(run("generate", str(out / "texture.png"), "-o", str(out), "--size", "512x512", "-q"),
-              "texture.png")
+    _one_line(run("generate", str(out / "texture.png"), "-o", str(out), "--size", "512x512", "-q"), "texture.png")
     assert time.perf_counter() - t < 20  # a 512^2 run would take longer than the refusal
     assert src.read_bytes() == before and (out / "texture.png").read_bytes() == before
     assert sorted(p.name for p in out.iterdir()) == ["texture.png"]
@@ -65,15 +64,23 @@ def test_an_output_that_is_an_input_is_refused_and_the_input_kept(tmp_path, phot
 
 def test_a_rerun_replaces_the_folders_set_as_a_whole(tmp_path, photo):
     out = tmp_path / "out"
-    assert run("generate", str(photo), "-o", str(out), "--size", "48x48", "--seed", "5",
-               "--material", "-q").returncode == 0
+    assert (
+        run("generate", str(photo), "-o", str(out), "--size", "48x48", "--seed", "5", "--material", "-q").returncode
+        == 0
+    )
     assert (out / "bark_Color.png").is_file()
     (out / "notes.txt").write_text("mine")  # not a run's file: stays
-    assert run("generate", str(photo), "-o", str(out), "--size", "32x32", "--seed", "9",
-               "-q").returncode == 0
+    assert run("generate", str(photo), "-o", str(out), "--size", "32x32", "--seed", "9", "-q").returncode == 0
     names = sorted(p.name for p in out.iterdir())
-    assert names == ["labels_in.png", "labels_out.png", "notes.txt", "preview.png",
-                     "reference.png", "report.json", "texture.png"], names
+    assert names == [
+        "labels_in.png",
+        "labels_out.png",
+        "notes.txt",
+        "preview.png",
+        "reference.png",
+        "report.json",
+        "texture.png",
+    ], names
     assert read_image(out / "texture.png").shape[:2] == (32, 32)
     # the stale maps are gone, so preview says there is no set instead of using them
     _one_line(run("preview", str(out), "-o", str(tmp_path / "t.png")), "no material set")
@@ -139,9 +146,19 @@ def test_a_folder_is_replaced_whole_only_when_a_run_wrote_all_of_it(tmp_path, ph
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".barkgen")]
 
 
-@pytest.mark.parametrize("case", ["extra is OUT_NAME", "photo is OUT_NAME", "tbn extra",
-                                  "debug dir", "textons", "save-levels and resume",
-                                  "material colour", "material edits"])
+@pytest.mark.parametrize(
+    "case",
+    [
+        "extra is OUT_NAME",
+        "photo is OUT_NAME",
+        "tbn extra",
+        "debug dir",
+        "textons",
+        "save-levels and resume",
+        "material colour",
+        "material edits",
+    ],
+)
 def test_every_file_a_command_will_write_is_checked_before_any_work(tmp_path, photo, case):
     """The derived names (OUT_NAME.png of an --extra, the debug pictures, the texton masks, the
     pyramid levels, a material set's maps) are outputs like -o: none may be an input. Refused in
@@ -152,24 +169,76 @@ def test_every_file_a_command_will_write_is_checked_before_any_work(tmp_path, ph
     labels = tmp_path / "labels.png"
     write_png(labels, (read_image(photo)[..., 0] > 128).astype(np.uint8) * 255)
     args = {
-        "extra is OUT_NAME": ("synth", str(photo), "-o", str(d / "o.png"), "--size", "32x32",
-                              "--extra", f"height={d / 'o_height.png'}"),
-        "photo is OUT_NAME": ("synth", str(d / "q_height.png"), "-o", str(d / "q.png"),
-                              "--size", "32x32", "--extra", f"height={photo}"),
-        "tbn extra": ("tbn", str(photo), "--labels", str(labels), "--target", str(labels),
-                      "-o", str(d / "t.png"), "--extra", f"height={d / 't_height.png'}"),
-        "debug dir": ("tbn", str(d / "feature_distance.png"), "--labels", str(labels), "--target",
-                      str(labels), "-o", str(tmp_path / "t.png"), "--debug-dir", str(d)),
+        "extra is OUT_NAME": (
+            "synth",
+            str(photo),
+            "-o",
+            str(d / "o.png"),
+            "--size",
+            "32x32",
+            "--extra",
+            f"height={d / 'o_height.png'}",
+        ),
+        "photo is OUT_NAME": (
+            "synth",
+            str(d / "q_height.png"),
+            "-o",
+            str(d / "q.png"),
+            "--size",
+            "32x32",
+            "--extra",
+            f"height={photo}",
+        ),
+        "tbn extra": (
+            "tbn",
+            str(photo),
+            "--labels",
+            str(labels),
+            "--target",
+            str(labels),
+            "-o",
+            str(d / "t.png"),
+            "--extra",
+            f"height={d / 't_height.png'}",
+        ),
+        "debug dir": (
+            "tbn",
+            str(d / "feature_distance.png"),
+            "--labels",
+            str(labels),
+            "--target",
+            str(labels),
+            "-o",
+            str(tmp_path / "t.png"),
+            "--debug-dir",
+            str(d),
+        ),
         "textons": ("textons", str(d / "textons.png"), "-o", str(d), "--textons", "4"),
-        "save-levels and resume": ("generate", str(photo), "-o", str(tmp_path / "out"), "--size",
-                                   "64x64", "--resume", str(d / "level_1.png"), "--save-levels", str(d)),
+        "save-levels and resume": (
+            "generate",
+            str(photo),
+            "-o",
+            str(tmp_path / "out"),
+            "--size",
+            "64x64",
+            "--resume",
+            str(d / "level_1.png"),
+            "--save-levels",
+            str(d),
+        ),
         "material colour": ("material", str(d / "bark_Color.png"), "-o", str(d)),
         "material edits": ("material", str(photo), "--edits", str(d / "bark.json"), "-o", str(d)),
     }[case]
-    named = {"extra is OUT_NAME": "o_height.png", "photo is OUT_NAME": "q_height.png",
-             "tbn extra": "t_height.png", "debug dir": "feature_distance.png",
-             "textons": "textons.png", "save-levels and resume": "level_1.png",
-             "material colour": "bark_Color.png", "material edits": "bark.json"}[case]
+    named = {
+        "extra is OUT_NAME": "o_height.png",
+        "photo is OUT_NAME": "q_height.png",
+        "tbn extra": "t_height.png",
+        "debug dir": "feature_distance.png",
+        "textons": "textons.png",
+        "save-levels and resume": "level_1.png",
+        "material colour": "bark_Color.png",
+        "material edits": "bark.json",
+    }[case]
     if named == "level_1.png":
         write_png(d / named, (read_image(photo)[::4, ::4, 0] > 128).astype(np.uint8) * 255)
     elif named == "bark.json":
@@ -204,8 +273,12 @@ def test_the_next_write_clears_a_killed_writers_temporaries_and_nothing_else(tmp
     folder.mkdir()
     dead = folder / f".barkgen.{_dead_pid()}.k3j2h1g0.tmp"
     live = folder / f".barkgen.{os.getpid()}.zz99yy88.tmp"  # a running writer's: kept
-    users = [folder / ".thesis.32000.bak.tmp", folder / ".backup.tmp",
-             folder / f".texture.png.{_dead_pid()}.k3j2h1g0.tmp", folder / ".preview.png.abc123xy.tmp"]
+    users = [
+        folder / ".thesis.32000.bak.tmp",
+        folder / ".backup.tmp",
+        folder / f".texture.png.{_dead_pid()}.k3j2h1g0.tmp",
+        folder / ".preview.png.abc123xy.tmp",
+    ]
     for path in [dead, live, *users]:
         path.write_bytes(b"x" * 1000)
         os.utime(path, (time.time() - 3600, time.time() - 3600))
@@ -224,8 +297,11 @@ def test_a_temporarys_name_is_short_whatever_the_targets(tmp_path):
 
 def test_sigterm_ends_a_run_like_ctrl_c(tmp_path, photo):
     out = tmp_path / "out"
-    proc = subprocess.Popen([sys.executable, "-m", "barkgen", "generate", str(photo), "-o", str(out),
-                             "--size", "2048x2048", "-q"], stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "barkgen", "generate", str(photo), "-o", str(out), "--size", "2048x2048", "-q"],
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     time.sleep(4)  # started, imported, working (the run takes far longer)
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=120)
@@ -259,10 +335,10 @@ def test_parse_errors_sizes_and_bands_are_one_line(tmp_path, photo):
     _one_line(run("synth", str(photo), "-o", str(tmp_path / "s.png"), "--threads", "0"), "--threads")
     _one_line(run("library", "rm", "abc"), "ID")
     _one_line(run("synth", str(photo), "--no-such-flag"), "--no-such-flag")
-    _one_line(run("generate", str(photo), "-o", str(tmp_path / "m"), "--size", "64x64",
-                  "--max-memory", "10M"), "10 MiB")
-    _one_line(run("labels", str(photo), "-o", str(tmp_path / "e.png"), "--edges", "--edge-width",
-                  "100000"), "edge")
+    _one_line(
+        run("generate", str(photo), "-o", str(tmp_path / "m"), "--size", "64x64", "--max-memory", "10M"), "10 MiB"
+    )
+    _one_line(run("labels", str(photo), "-o", str(tmp_path / "e.png"), "--edges", "--edge-width", "100000"), "edge")
     assert not (tmp_path / "e.png").exists()
     assert run("--version").returncode == 0
 
@@ -319,11 +395,10 @@ def test_generate_takes_the_colour_label_maps_tbn_takes(tmp_path, photo):
     h, w = read_image(photo).shape[:2]
     colours = np.zeros((h, w, 3), np.uint8)
     colours[: h // 2] = (200, 30, 30)
-    colours[h // 2:] = (20, 90, 200)
+    colours[h // 2 :] = (20, 90, 200)
     write_png(tmp_path / "labels.png", colours)
     out = tmp_path / "out"
-    r = run("generate", str(photo), "--labels", str(tmp_path / "labels.png"), "-o", str(out),
-            "--size", "32x32", "-q")
+    r = run("generate", str(photo), "--labels", str(tmp_path / "labels.png"), "-o", str(out), "--size", "32x32", "-q")
     assert r.returncode == 0, r.stderr
     labels_in = read_image(out / "labels_in.png")[..., 0]
     # two labels, the darker colour first (the red: luma 66 against the blue's 83)
@@ -337,19 +412,33 @@ def test_an_image_declaring_huge_pixels_is_refused_from_its_header(tmp_path, pho
     big = tmp_path / "big.png"
     Image.new("L", (11000, 11000)).save(big, optimize=True)  # 121 megapixels in ~120 KB
     assert big.stat().st_size < 300_000
-    for command in (["labels", str(big), "-o", str(tmp_path / "l.png")],
-                    ["synth", str(big), "-o", str(tmp_path / "s.png"), "--size", "64x64"],
-                    ["material", str(big), "-o", str(tmp_path / "m")]):
+    for command in (
+        ["labels", str(big), "-o", str(tmp_path / "l.png")],
+        ["synth", str(big), "-o", str(tmp_path / "s.png"), "--size", "64x64"],
+        ["material", str(big), "-o", str(tmp_path / "m")],
+    ):
         t = time.perf_counter()
         _one_line(run(*command), "121 megapixels", "--max-pixels")
         assert time.perf_counter() - t < 10  # it ran 11 minutes
     # the limit is the user's to set
-    _one_line(run("--max-pixels", "100", "labels", str(photo), "-o", str(tmp_path / "l.png")),
-              "more than the limit of 0.0001")
+    _one_line(
+        run("--max-pixels", "100", "labels", str(photo), "-o", str(tmp_path / "l.png")), "more than the limit of 0.0001"
+    )
 
 
-@pytest.mark.parametrize("case", ["png named .dat", "png with no suffix", "device", "zeros named .png",
-                                  "huge output", "5000-digit size", "200,000 edits", "nested edits"])
+@pytest.mark.parametrize(
+    "case",
+    [
+        "png named .dat",
+        "png with no suffix",
+        "device",
+        "zeros named .png",
+        "huge output",
+        "5000-digit size",
+        "200,000 edits",
+        "nested edits",
+    ],
+)
 def test_every_input_is_bounded_before_it_is_read_and_every_output_before_it_is_made(tmp_path, photo, case):
     """An image is known by its content, not its name; a reader is bounded in bytes and pixels
     before it decodes; an output is bounded in pixels like an input; one line, within 2 s."""
@@ -397,6 +486,6 @@ def test_a_damaged_library_is_one_line(tmp_path, photo):
     assert run("library", "add", str(photo), "--name", "a", "--library", str(lib)).returncode == 0
     db = lib / "library.sqlite"
     data = bytearray(db.read_bytes())
-    data[4096:3 * 4096] = b"\x5a" * (2 * 4096)
+    data[4096 : 3 * 4096] = b"\x5a" * (2 * 4096)
     db.write_bytes(bytes(data))
     _one_line(run("library", "list", "--library", str(lib)), "damaged")

@@ -9,8 +9,7 @@ import pytest
 from PIL import Image
 
 from barkgen.errors import ImageReadError, InvalidInputError
-from barkgen.io import AlphaDroppedWarning, read_image, read_png_text, write_png, write_reference
-from barkgen.io import read_reference
+from barkgen.io import AlphaDroppedWarning, read_image, read_png_text, read_reference, write_png, write_reference
 
 
 @pytest.fixture
@@ -140,7 +139,6 @@ def test_concurrent_encoding_gives_each_file_its_own_bytes_in_order(rgb8):
     assert all(files[name] == encode_png(img) for name, img in images.items())
     with pytest.raises(InvalidInputError, match="pixel type"):
         encode_concurrently({"a.png": jobs["m0.png"], "b.png": lambda: encode_png(rgb8 * 0.5)})
-
 
 
 def test_exif_orientation_animations_and_float_ranges_are_honoured_or_said():

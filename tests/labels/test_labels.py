@@ -19,9 +19,18 @@ from barkgen.labels import (
     texton_regions,
 )
 
-PHOTOS = ["birch_smooth_lenticels_01", "fir_scaly_01", "fissured_gray_01", "furrowed_fine_01",
-          "lichen_covered_01", "oak_furrowed_moss_01", "peeling_patchy_01", "pine_plated_01",
-          "vertical_fractures_01", "willow_furrowed_01"]
+PHOTOS = [
+    "birch_smooth_lenticels_01",
+    "fir_scaly_01",
+    "fissured_gray_01",
+    "furrowed_fine_01",
+    "lichen_covered_01",
+    "oak_furrowed_moss_01",
+    "peeling_patchy_01",
+    "pine_plated_01",
+    "vertical_fractures_01",
+    "willow_furrowed_01",
+]
 
 
 @pytest.fixture(scope="module")
@@ -42,6 +51,7 @@ def _luminance(img):
 @pytest.mark.parametrize("name", PHOTOS)
 def test_color_regions_on_every_photo(name):
     from conftest import bark_exemplar
+
     from barkgen.testing import label_fractions, smallest_region
 
     img = bark_exemplar(name, 256)
@@ -89,9 +99,14 @@ def test_small_regions_take_the_commonest_neighbour():
     assert np.array_equal(out, expected)
 
 
-@pytest.mark.parametrize("args, message", [
-    ((0,), "from 1 to 16"), ((17,), "from 1 to 16"), ((2.5,), "from 1 to 16"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        ((0,), "from 1 to 16"),
+        ((17,), "from 1 to 16"),
+        ((2.5,), "from 1 to 16"),
+    ],
+)
 def test_bad_k(oak, args, message):
     with pytest.raises(InvalidInputError, match=message):
         color_regions(oak, *args)
@@ -145,16 +160,20 @@ def test_texton_channels_merge_and_auto_merge(oak):
     lum = _luminance(oak)
     means = [lum[merged == v].mean() for v in np.unique(merged)]
     assert means == sorted(means)  # darkest group first
-    assert np.array_equal(merge_channels(textons, ";".join(",".join(map(str, g)) for g in groups)),
-                          merged)
+    assert np.array_equal(merge_channels(textons, ";".join(",".join(map(str, g)) for g in groups)), merged)
     lm = texton_regions(oak, 2, n_textons=12, seed=1)
     assert len(np.unique(lm)) == 2
 
 
-@pytest.mark.parametrize("groups, message", [
-    ("0,1;;2", "empty group"), ("0,a;1", "comma-separated"), ("0,1", "leave out"),
-    ("0,1,2;2,3", "two groups"),
-])
+@pytest.mark.parametrize(
+    "groups, message",
+    [
+        ("0,1;;2", "empty group"),
+        ("0,a;1", "comma-separated"),
+        ("0,1", "leave out"),
+        ("0,1,2;2,3", "two groups"),
+    ],
+)
 def test_bad_groups(groups, message):
     tm = np.array([[0, 1], [2, 3]], np.uint8)
     with pytest.raises(InvalidInputError, match=message):

@@ -50,8 +50,10 @@ def commutes(func, image) -> bool:
 def test_every_label_analysis_commutes_with_rolling_a_photo_that_tiles(sample128):
     codes = codes_of(sample128)
     analyses = {
-        "denoising": (lambda im: on_torus(lambda x: nl_means(x, 10.0), im, NL_MEANS_REACH, True),
-                      sample128.astype(np.float32) / 255.0),
+        "denoising": (
+            lambda im: on_torus(lambda x: nl_means(x, 10.0), im, NL_MEANS_REACH, True),
+            sample128.astype(np.float32) / 255.0,
+        ),
         "texton filters": (lambda im: filter_responses(im, wrap=True), sample128),
         "small regions": (lambda c: remove_small_regions(c, 40, True), codes),
         "boundary distance": (lambda c: boundary_distance(c, 16.0, wrap=True), codes),

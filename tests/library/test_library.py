@@ -85,10 +85,12 @@ def test_analyses_results_and_removal(tmp_path):
     assert lib.analysis(a.id, "labels_in", {"method": "color", "k": 3}) == b"labels-k3"  # key order free
     assert lib.analysis(a.id, "labels_in", {"method": "color", "k": 4}) is None
     shared = b"the same bytes in two results"
-    r1 = lib.add_result(a.id, {"size": [64, 64], "seed": 1}, 1, {"texture.png": b"t1", "x.json": shared},
-                        {"total": 1.5})
-    r2 = lib.add_result(a.id, {"size": [64, 64], "seed": 2}, 2, {"texture.png": b"t2", "x.json": shared},
-                        parent_id=r1.id)
+    r1 = lib.add_result(
+        a.id, {"size": [64, 64], "seed": 1}, 1, {"texture.png": b"t1", "x.json": shared}, {"total": 1.5}
+    )
+    r2 = lib.add_result(
+        a.id, {"size": [64, 64], "seed": 2}, 2, {"texture.png": b"t2", "x.json": shared}, parent_id=r1.id
+    )
     r3 = lib.add_result(b.id, {"seed": 3}, 3, {"texture.png": b"t3"})
     assert [r.id for r in lib.results()] == [r3.id, r2.id, r1.id]
     assert [r.id for r in lib.results(a.id)] == [r2.id, r1.id]
@@ -127,9 +129,12 @@ def test_library_cli(tmp_path, capsys, monkeypatch):
     code, out, _ = run(["library", "rm", str(exemplar_id)], capsys)
     assert "removed" in out
     # bad input: one line, exit 2, no traceback
-    for argv in (["library", "show", "99"], ["library", "rm", "99"],
-                 ["library", "add", str(tmp_path / "missing.png")],
-                 ["library", "list", "--library", str(photo)]):
+    for argv in (
+        ["library", "show", "99"],
+        ["library", "rm", "99"],
+        ["library", "add", str(tmp_path / "missing.png")],
+        ["library", "list", "--library", str(photo)],
+    ):
         code, out, err = run(argv, capsys)
         assert code == 2 and err.startswith("barkgen: error:") and err.count("\n") == 1, (argv, err)
     (tmp_path / "text.jpg").write_text("not a photo")
@@ -155,17 +160,24 @@ def test_batch_spec_takes_library_ids(tmp_path):
 
     lib = Library(tmp_path / "lib")
     oak = lib.add_exemplar(_png(8), "Old oak / north side", species="oak")
-    spec = parse_spec({"size": "64x64", "exemplars": [{"library": oak.id, "count": 2},
-                                                      {"library": 1, "name": "sample", "seeds": [5]}]},
-                      tmp_path, library=lib)
+    spec = parse_spec(
+        {
+            "size": "64x64",
+            "exemplars": [{"library": oak.id, "count": 2}, {"library": 1, "name": "sample", "seeds": [5]}],
+        },
+        tmp_path,
+        library=lib,
+    )
     first, second = spec.exemplars
     assert first.name == "Old-oak-north-side" and first.seeds == (0, 1)
     assert first.path.read_bytes() == lib.photo_bytes(oak.id)
     assert first.source_name == f"library:{oak.id} (Old oak / north side)"
     assert second.name == "sample" and second.path == lib.store.path(lib.exemplar(1).image_hash)
-    for entry, message in (({"library": 99, "count": 1}, "no exemplar 99"),
-                           ({"library": "oak", "count": 1}, "exemplar id"),
-                           ({"library": oak.id, "path": "x.jpg", "count": 1}, "not both")):
+    for entry, message in (
+        ({"library": 99, "count": 1}, "no exemplar 99"),
+        ({"library": "oak", "count": 1}, "exemplar id"),
+        ({"library": oak.id, "path": "x.jpg", "count": 1}, "not both"),
+    ):
         with pytest.raises(InvalidInputError, match=message):
             parse_spec({"exemplars": [entry]}, tmp_path, library=lib.path)
 
@@ -188,9 +200,15 @@ def test_a_read_only_library_is_listed_and_refuses_changes(tmp_path, capsys, mon
         path.chmod(path.stat().st_mode & ~(stat.S_IWUSR | stat.S_IWGRP | stat.S_IWOTH))
     real_access = os.access
     if os.geteuid() == 0:  # root writes anywhere: let the library see what another user sees
-        monkeypatch.setattr(os, "access", lambda path, mode, **kw: (
-            False if mode & os.W_OK and str(path).startswith(str(tmp_path / "lib"))
-            else real_access(path, mode, **kw)))
+        monkeypatch.setattr(
+            os,
+            "access",
+            lambda path, mode, **kw: (
+                False
+                if mode & os.W_OK and str(path).startswith(str(tmp_path / "lib"))
+                else real_access(path, mode, **kw)
+            ),
+        )
     try:
         before = {p: p.read_bytes() for p in files}
         code, out, err = run(["library", "list", "--library", str(tmp_path / "lib")], capsys)
@@ -204,8 +222,9 @@ def test_a_read_only_library_is_listed_and_refuses_changes(tmp_path, capsys, mon
         with pytest.raises(LibraryError, match="read-only"):
             readonly.add_exemplar(_png(7), "pine")
         assert {p: p.read_bytes() for p in files} == before  # nothing was written
-        assert sorted((tmp_path / "lib").iterdir()) == sorted(p for p in folders + files
-                                                              if p.parent == tmp_path / "lib")
+        assert sorted((tmp_path / "lib").iterdir()) == sorted(
+            p for p in folders + files if p.parent == tmp_path / "lib"
+        )
     finally:
         for path in files + folders:
             path.chmod(path.stat().st_mode | stat.S_IWUSR)

@@ -8,8 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import SHARED
-from conftest import run
+from conftest import SHARED, run
 
 from barkgen.errors import InvalidInputError
 from barkgen.io import encode_glb, encode_material, read_image, read_material, write_bytes_atomic, write_png
@@ -37,8 +36,9 @@ from barkgen.material import (
 )
 from barkgen.render import TrunkView, render_trunk, trunk_mesh
 
-SET_FILES = {f"bark_{s}.png" for s in ("Color", "NormalGL", "NormalDX", "Displacement", "Roughness",
-                                       "AmbientOcclusion")} | {"bark.json"}
+SET_FILES = {
+    f"bark_{s}.png" for s in ("Color", "NormalGL", "NormalDX", "Displacement", "Roughness", "AmbientOcclusion")
+} | {"bark.json"}
 
 
 def bumps(n: int = 96, period: int = 16) -> np.ndarray:
@@ -72,9 +72,9 @@ def pine_set(pine128):
 
 def test_normals_of_planes_follow_the_opengl_convention():
     y, x = np.mgrid[0:32, 0:32].astype(np.float32)
-    n = normal_map(0.5 * x)                  # rises to the right: faces left
+    n = normal_map(0.5 * x)  # rises to the right: faces left
     assert np.allclose(n[5, 5], np.array([-0.5, 0, 1]) / np.sqrt(1.25), atol=1e-5)
-    n = normal_map(0.5 * y)                  # rises downwards: faces the top of the image, +Y
+    n = normal_map(0.5 * y)  # rises downwards: faces the top of the image, +Y
     assert np.allclose(n[5, 5], np.array([0, 0.5, 1]) / np.sqrt(1.25), atol=1e-5)
     assert np.allclose(to_directx(n)[..., 1], -n[..., 1]) and np.allclose(to_directx(n)[..., ::2], n[..., ::2])
 
@@ -97,8 +97,9 @@ def test_ambient_occlusion_darkens_pits_and_wraps():
     ao = ambient_occlusion(pit)
     assert ao[32, 32] < 0.8 and ao[2, 2] > 0.99 and ao.min() >= 0
     tile = bumps(64)
-    assert np.allclose(ambient_occlusion(np.roll(tile, 9, 1), tile=True),
-                       np.roll(ambient_occlusion(tile, tile=True), 9, 1), atol=1e-6)
+    assert np.allclose(
+        ambient_occlusion(np.roll(tile, 9, 1), tile=True), np.roll(ambient_occlusion(tile, tile=True), 9, 1), atol=1e-6
+    )
 
 
 def test_photo_cavities_darken_the_ao_where_the_photo_is_dark_and_scale_with_the_relief():
@@ -106,7 +107,7 @@ def test_photo_cavities_darken_the_ao_where_the_photo_is_dark_and_scale_with_the
     ao = ambient_occlusion(h, tile=True)
     y, x = np.mgrid[0:96, 0:96]
     lum = np.full((96, 96), 0.6, np.float32)
-    crack = (np.abs(x - 40) <= 1) & (y > 20) & (y < 70)       # a dark crack the height does not have
+    crack = (np.abs(x - 40) <= 1) & (y > 20) & (y < 70)  # a dark crack the height does not have
     lum[crack] = 0.2
     cav = photo_cavities(ao, lum, tile=True)
     assert cav[crack].max() < 0 and cav[~crack].min() > cav[crack].max()
@@ -114,8 +115,9 @@ def test_photo_cavities_darken_the_ao_where_the_photo_is_dark_and_scale_with_the
     # in units of the height AO's spread: twice the relief's spread, twice the term; none without
     assert np.allclose(photo_cavities(0.5 + 2 * (ao - 0.5), lum, tile=True), 2 * cav, atol=1e-5)
     assert not photo_cavities(np.ones_like(ao), lum).any() and not photo_cavities(ao, lum, weight=0).any()
-    assert np.allclose(photo_cavities(np.roll(ao, 17, 0), np.roll(lum, 17, 0), tile=True),
-                       np.roll(cav, 17, 0), atol=1e-5)
+    assert np.allclose(
+        photo_cavities(np.roll(ao, 17, 0), np.roll(lum, 17, 0), tile=True), np.roll(cav, 17, 0), atol=1e-5
+    )
     with pytest.raises(InvalidInputError):
         MaterialOptions(cavities=-1)
 
@@ -123,12 +125,13 @@ def test_photo_cavities_darken_the_ao_where_the_photo_is_dark_and_scale_with_the
 def test_height_puts_dark_fissures_low_and_wraps_when_tiled():
     rng = np.random.default_rng(1)
     y, x = np.mgrid[0:128, 0:128]
-    fissures = (np.sin(2 * np.pi * x / 16) > 0.6).astype(np.float32)   # dark vertical fissures
+    fissures = (np.sin(2 * np.pi * x / 16) > 0.6).astype(np.float32)  # dark vertical fissures
     photo = np.clip(0.7 - 0.4 * fissures[..., None] + rng.normal(0, 0.02, (128, 128, 3)), 0, 1)
     h = estimate_height(photo.astype(np.float32))
     assert h[:, x[0] % 16 == 4].mean() < h[:, x[0] % 16 == 12].mean() - 0.5  # fissure centre vs plate
-    assert np.allclose(estimate_height(np.roll(photo, 40, 1), tile=True),
-                       np.roll(estimate_height(photo, tile=True), 40, 1), atol=1e-4)
+    assert np.allclose(
+        estimate_height(np.roll(photo, 40, 1), tile=True), np.roll(estimate_height(photo, tile=True), 40, 1), atol=1e-4
+    )
     assert not estimate_height(np.full((32, 32, 3), 0.5, np.float32)).any()
     # one-pixel-high strips have a height and normals too
     strip = estimate_height(photo[:1].astype(np.float32))
@@ -139,24 +142,29 @@ def test_estimated_normals_and_ao_beat_the_baselines_on_scanned_bark():
     """Regression guard on two of the four scanned sets at half size (the defaults were fitted
     on all four, so these are not the leave-one-out figures of the benchmark)."""
     import cv2
-
     from conftest import _need_shared
+
     from barkgen._shared.checks import check_image
 
     _need_shared()
     for name in ("oak_furrowed_moss_01", "pine_plated_01"):
-        photo = cv2.resize(check_image(read_image(SHARED / "data" / "bark" / f"{name}.jpg")), (512, 512),
-                           interpolation=cv2.INTER_AREA)
-        truth = cv2.resize(decode_normals(read_image(SHARED / "data" / "bark_maps" / f"{name}_normal.jpg")),
-                           (512, 512), interpolation=cv2.INTER_AREA)
+        photo = cv2.resize(
+            check_image(read_image(SHARED / "data" / "bark" / f"{name}.jpg")), (512, 512), interpolation=cv2.INTER_AREA
+        )
+        truth = cv2.resize(
+            decode_normals(read_image(SHARED / "data" / "bark_maps" / f"{name}_normal.jpg")),
+            (512, 512),
+            interpolation=cv2.INTER_AREA,
+        )
         truth /= np.linalg.norm(truth, axis=2, keepdims=True)
         material = make_material(photo)
         err = np.degrees(np.arccos(np.clip((material.normals * truth).sum(2), -1, 1))).mean()
         flat = np.degrees(np.arccos(np.clip(truth[..., 2], -1, 1))).mean()
         assert err < 0.95 * flat, (name, err, flat)
         # the photo's cavities make the AO more like the scanned one than the height's alone
-        scan_ao = cv2.resize(read_image(SHARED / "data" / "bark_maps" / f"{name}_ao.jpg"), (512, 512),
-                             interpolation=cv2.INTER_AREA).astype(np.float32)
+        scan_ao = cv2.resize(
+            read_image(SHARED / "data" / "bark_maps" / f"{name}_ao.jpg"), (512, 512), interpolation=cv2.INTER_AREA
+        ).astype(np.float32)
         scan_ao = scan_ao[..., 0] if scan_ao.ndim == 3 else scan_ao
         r_set = np.corrcoef(material.ao.ravel(), scan_ao.ravel())[0, 1]
         r_height = np.corrcoef(ambient_occlusion(material.height).ravel(), scan_ao.ravel())[0, 1]
@@ -173,9 +181,9 @@ def test_height_edit_propagates_to_self_similar_pixels_of_its_channel():
     editor = HeightEditor(photo, np.zeros((96, 96), np.float32))
     h = editor.edit(12, 12, 2.0, radius=3)
     assert h[12, 12] == pytest.approx(2.0)
-    assert h[36, 60] > 1.5 and h[60, 84] > 1.5          # the centres of the other blobs
-    assert abs(h[0, 0]) < 1e-6 and abs(h[24, 6]) < 1e-6   # background, and a blob's edge
-    labels = (x >= 48).astype(np.int32)                    # two channels: left and right halves
+    assert h[36, 60] > 1.5 and h[60, 84] > 1.5  # the centres of the other blobs
+    assert abs(h[0, 0]) < 1e-6 and abs(h[24, 6]) < 1e-6  # background, and a blob's edge
+    labels = (x >= 48).astype(np.int32)  # two channels: left and right halves
     editor = HeightEditor(photo, np.zeros((96, 96), np.float32), labels)
     h = editor.edit(12, 12, 2.0, radius=3)
     assert h[36, 36] > 1.5 and h[36, 60] == 0.0
@@ -192,10 +200,14 @@ def test_edit_lists_replay_and_reject_bad_documents():
     doc = json.loads(json.dumps(edits_document(editor.edits)))
     replay = HeightEditor(photo, np.zeros((40, 40), np.float32)).apply(parse_edits(doc))
     assert np.array_equal(replay, editor.height)
-    for bad in ({"version": 1, "edits": []}, {"edits": [{"x": 1, "y": 1, "delta": 1}]},
-                {"version": 1, "edits": [{"x": 1, "delta": 1}]},
-                {"version": 1, "edits": [{"x": 1, "y": 1, "delta": "up"}]},
-                {"version": 1, "edits": [{"x": 1, "y": 1, "delta": 1, "colour": 3}]}, [1, 2]):
+    for bad in (
+        {"version": 1, "edits": []},
+        {"edits": [{"x": 1, "y": 1, "delta": 1}]},
+        {"version": 1, "edits": [{"x": 1, "delta": 1}]},
+        {"version": 1, "edits": [{"x": 1, "y": 1, "delta": "up"}]},
+        {"version": 1, "edits": [{"x": 1, "y": 1, "delta": 1, "colour": 3}]},
+        [1, 2],
+    ):
         with pytest.raises(InvalidInputError):
             parse_edits(bad)
     with pytest.raises(InvalidInputError, match="outside"):
@@ -264,8 +276,9 @@ def test_light_is_the_best_match_even_when_no_light_explains_the_photo():
     photo = np.repeat((0.9 - 0.8 * normals[..., 2] + 0.01 * lateral)[..., None], 3, axis=2)
     light = estimate_light(photo.astype(np.float32), normals)
     lum = photo[..., 0].ravel()
-    grid = [np.corrcoef(lum, shading(normals, Light(float(az), el)).ravel())[0, 1]
-            for el in ELEVATIONS for az in AZIMUTHS]
+    grid = [
+        np.corrcoef(lum, shading(normals, Light(float(az), el)).ravel())[0, 1] for el in ELEVATIONS for az in AZIMUTHS
+    ]
     actual = np.corrcoef(lum, shading(normals, light).ravel())[0, 1]
     assert max(grid) < 0 and light.elevation < 90
     assert actual == pytest.approx(light.correlation, abs=1e-6) and actual >= max(grid) - 1e-6
@@ -362,7 +375,7 @@ def test_glb_loads_back_with_its_textures(tmp_path, pine_set):
 
     mesh = trunk_mesh(pine_set, segments=64)
     radii = np.hypot(mesh.vertices[:, 0], mesh.vertices[:, 2])
-    assert radii.max() - radii.min() > 1e-4              # the relief is in the geometry
+    assert radii.max() - radii.min() > 1e-4  # the relief is in the geometry
     # a repeat that is not whole still closes the seam: its two vertex copies coincide
     odd = trunk_mesh(pine_set, segments=64, view=TrunkView(repeat=2.5)).vertices.reshape(65, 65, 3)
     assert np.allclose(odd[:, 0], odd[:, -1], atol=1e-6)
@@ -393,8 +406,20 @@ def pine_png(tmp_path_factory, pine128) -> Path:
 def test_cli_material_preview_and_glb(tmp_path, pine_png):
     edits = tmp_path / "edits.json"
     edits.write_text(json.dumps({"version": 1, "edits": [{"x": 10, "y": 12, "delta": 1.0, "radius": 3}]}))
-    r = run("material", str(pine_png), "-o", str(tmp_path / "set"), "--light", "120,50",
-            "--edits", str(edits), "--seed", "4", "--relief", "2")
+    r = run(
+        "material",
+        str(pine_png),
+        "-o",
+        str(tmp_path / "set"),
+        "--light",
+        "120,50",
+        "--edits",
+        str(edits),
+        "--seed",
+        "4",
+        "--relief",
+        "2",
+    )
     assert r.returncode == 0, r.stderr
     assert {p.name for p in (tmp_path / "set").iterdir()} == SET_FILES
     meta = json.loads((tmp_path / "set" / "bark.json").read_text())
@@ -404,8 +429,18 @@ def test_cli_material_preview_and_glb(tmp_path, pine_png):
     gl = read_image(tmp_path / "set" / "bark_NormalGL.png")
     dx = read_image(tmp_path / "set" / "bark_NormalDX.png")
     assert np.array_equal(gl[..., [0, 2]], dx[..., [0, 2]]) and np.array_equal(255 - gl[..., 1], dx[..., 1])
-    r = run("preview", str(tmp_path / "set"), "-o", str(tmp_path / "p.png"), "--size", "160x120",
-            "--light", "90,40", "--repeat", "3")
+    r = run(
+        "preview",
+        str(tmp_path / "set"),
+        "-o",
+        str(tmp_path / "p.png"),
+        "--size",
+        "160x120",
+        "--light",
+        "90,40",
+        "--repeat",
+        "3",
+    )
     assert r.returncode == 0, r.stderr
     assert read_image(tmp_path / "p.png").shape == (120, 160, 3)
     r = run("export-glb", str(tmp_path / "set"), "-o", str(tmp_path / "t.glb"), "--segments", "32")
@@ -414,8 +449,19 @@ def test_cli_material_preview_and_glb(tmp_path, pine_png):
 
 
 def test_cli_generate_material_set_matches_the_texture(tmp_path, pine_png):
-    r = run("generate", str(pine_png), "-o", str(tmp_path / "out"), "--size", "96x80", "--tile",
-            "--material", "--name", "pine", "--quiet")
+    r = run(
+        "generate",
+        str(pine_png),
+        "-o",
+        str(tmp_path / "out"),
+        "--size",
+        "96x80",
+        "--tile",
+        "--material",
+        "--name",
+        "pine",
+        "--quiet",
+    )
     assert r.returncode == 0, r.stderr
     out = tmp_path / "out"
     for suffix in ("Color", "NormalGL", "NormalDX", "Displacement", "Roughness", "AmbientOcclusion"):
@@ -427,22 +473,25 @@ def test_cli_generate_material_set_matches_the_texture(tmp_path, pine_png):
     assert "pine_NormalGL.png" in report["files"]
 
 
-@pytest.mark.parametrize("args, message", [
-    (["material", "{bad}", "-o", "{out}"], "not an image"),
-    (["material", "{photo}", "-o", "{out}", "--light", "30,100"], "elevation"),
-    (["material", "{photo}", "-o", "{out}", "--light", "north"], "AZ,EL"),
-    (["material", "{photo}", "-o", "{out}", "--edits", "{empty}"], "empty"),
-    (["material", "{photo}", "-o", "{out}", "--edits", "{outside}"], "outside"),
-    (["material", "{photo}", "-o", "{out}", "--name", "../x"], "--name"),
-    (["material", "{photo}", "-o", "{out}", "--relief", "0"], "relief"),
-    (["generate", "{photo}", "-o", "{out}", "--material", "--name", "report"], "--name"),
-    (["generate", "{photo}", "-o", "{out}", "--light", "10,40"], "--material"),
-    (["material", "{photo}", "-o", "{out}", "--edits", "{floaty}"], "integers"),
-    (["preview", "{badjson}", "-o", "{out}/p.png"], "finite number"),
-    (["preview", "{mismatch}", "-o", "{out}/p.png"], "differ in size"),
-    (["preview", "{empty_dir}", "-o", "{out}/p.png"], "no material set"),
-    (["export-glb", "{mismatch}", "-o", "{out}/t.glb"], "differ in size"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["material", "{bad}", "-o", "{out}"], "not an image"),
+        (["material", "{photo}", "-o", "{out}", "--light", "30,100"], "elevation"),
+        (["material", "{photo}", "-o", "{out}", "--light", "north"], "AZ,EL"),
+        (["material", "{photo}", "-o", "{out}", "--edits", "{empty}"], "empty"),
+        (["material", "{photo}", "-o", "{out}", "--edits", "{outside}"], "outside"),
+        (["material", "{photo}", "-o", "{out}", "--name", "../x"], "--name"),
+        (["material", "{photo}", "-o", "{out}", "--relief", "0"], "relief"),
+        (["generate", "{photo}", "-o", "{out}", "--material", "--name", "report"], "--name"),
+        (["generate", "{photo}", "-o", "{out}", "--light", "10,40"], "--material"),
+        (["material", "{photo}", "-o", "{out}", "--edits", "{floaty}"], "integers"),
+        (["preview", "{badjson}", "-o", "{out}/p.png"], "finite number"),
+        (["preview", "{mismatch}", "-o", "{out}/p.png"], "differ in size"),
+        (["preview", "{empty_dir}", "-o", "{out}/p.png"], "no material set"),
+        (["export-glb", "{mismatch}", "-o", "{out}/t.glb"], "differ in size"),
+    ],
+)
 def test_cli_material_bad_input(tmp_path, pine_png, pine_set, args, message):
     bad = tmp_path / "bad.png"
     bad.write_bytes(b"not a png at all")
@@ -461,9 +510,17 @@ def test_cli_material_bad_input(tmp_path, pine_png, pine_set, args, message):
     meta = json.loads((badjson / "bark.json").read_text())
     meta["displacement_depth_px"] = "deep"
     (badjson / "bark.json").write_text(json.dumps(meta))
-    subs = {"bad": bad, "photo": pine_png, "out": tmp_path / "out", "empty": tmp_path / "empty.json",
-            "outside": tmp_path / "outside.json", "mismatch": mismatch, "empty_dir": tmp_path / "empty_dir",
-            "floaty": tmp_path / "floaty.json", "badjson": badjson}
+    subs = {
+        "bad": bad,
+        "photo": pine_png,
+        "out": tmp_path / "out",
+        "empty": tmp_path / "empty.json",
+        "outside": tmp_path / "outside.json",
+        "mismatch": mismatch,
+        "empty_dir": tmp_path / "empty_dir",
+        "floaty": tmp_path / "floaty.json",
+        "badjson": badjson,
+    }
     r = run(*[a.format(**{k: str(v) for k, v in subs.items()}) for a in args])
     assert r.returncode == 2, r.stderr
     lines = r.stderr.strip().splitlines()
@@ -472,6 +529,7 @@ def test_cli_material_bad_input(tmp_path, pine_png, pine_set, args, message):
 
 
 # ------------------------------------------------------------------ maps that wrap with the photo
+
 
 def _tiling_photo(size: int = 96) -> np.ndarray:
     """The bundled sample (which tiles along both axes) scaled down: a photo that wraps."""
@@ -491,22 +549,24 @@ def test_material_maps_follow_the_photo_wrap(wrap):
     photo = _tiling_photo()
     shift = (37 if wrap[0] else 0, 53 if wrap[1] else 0)
     labels = (photo.mean(axis=2) > photo.mean()).astype(np.uint8)
-    base = make_material(photo, MaterialOptions(exemplar_wrap=wrap, light=Light(135, 45)),
-                         label_map=labels)
-    moved = make_material(np.roll(photo, shift, axis=(0, 1)),
-                          MaterialOptions(exemplar_wrap=wrap, light=Light(135, 45)),
-                          label_map=np.roll(labels, shift, axis=(0, 1)))
+    base = make_material(photo, MaterialOptions(exemplar_wrap=wrap, light=Light(135, 45)), label_map=labels)
+    moved = make_material(
+        np.roll(photo, shift, axis=(0, 1)),
+        MaterialOptions(exemplar_wrap=wrap, light=Light(135, 45)),
+        label_map=np.roll(labels, shift, axis=(0, 1)),
+    )
     assert base.wraps == wrap and base.tile == all(wrap)
     for name in ("height", "normals", "ao", "roughness", "color"):
         a = np.roll(getattr(base, name), shift, axis=(0, 1))
         b = getattr(moved, name)
         assert np.abs(a - b).max() < 1e-3, name
     # the same shift of a photo taken as a rectangle moves its mirrored borders: the maps differ
-    flat = make_material(photo, MaterialOptions(exemplar_wrap="no", light=Light(135, 45)),
-                         label_map=labels)
-    flat_moved = make_material(np.roll(photo, shift, axis=(0, 1)),
-                               MaterialOptions(exemplar_wrap="no", light=Light(135, 45)),
-                               label_map=np.roll(labels, shift, axis=(0, 1)))
+    flat = make_material(photo, MaterialOptions(exemplar_wrap="no", light=Light(135, 45)), label_map=labels)
+    flat_moved = make_material(
+        np.roll(photo, shift, axis=(0, 1)),
+        MaterialOptions(exemplar_wrap="no", light=Light(135, 45)),
+        label_map=np.roll(labels, shift, axis=(0, 1)),
+    )
     assert np.abs(np.roll(flat.height, shift, axis=(0, 1)) - flat_moved.height).max() > 0.05
 
 

@@ -30,7 +30,7 @@ def test_appearance_projection_matches_explicit_neighbourhoods(synthetic_exempla
     h, w, c = feats.shape
     pad = np.pad(feats, ((2, 2), (2, 2), (0, 0)), mode="reflect")
     y, x = 20, 17
-    nb = pad[y:y + 5, x:x + 5, :]
+    nb = pad[y : y + 5, x : x + 5, :]
     expected = np.einsum("dyxc,yxc->d", proj.weights, nb - proj.mean)
     assert np.allclose(proj.features[y * w + x], expected, atol=1e-3)
 
@@ -71,8 +71,8 @@ def test_a_large_coarsest_level_is_seeded_from_coarser_ones_close_to_a_search(mo
     (a million-pixel search took 14 s), and stay close to a direct search's."""
     from barkgen.data import sample_exemplar_path
     from barkgen.io import read_image
-    from barkgen.synth import _analysis as analysis
     from barkgen.synth import SynthesisConfig
+    from barkgen.synth import _analysis as analysis
 
     photo = read_image(sample_exemplar_path())[:128, :128]
     feats = matching_features(photo, None, 0.5)
@@ -80,8 +80,9 @@ def test_a_large_coarsest_level_is_seeded_from_coarser_ones_close_to_a_search(mo
     monkeypatch.setattr(analysis, "GUIDED_SEARCH_LIMIT", 64 * 64)  # 128^2 is "large" here
     searched = []
     real_search = analysis.k_coherence_sets
-    monkeypatch.setattr(analysis, "k_coherence_sets",
-                        lambda f, *a, **k: searched.append(len(f)) or real_search(f, *a, **k))
+    monkeypatch.setattr(
+        analysis, "k_coherence_sets", lambda f, *a, **k: searched.append(len(f)) or real_search(f, *a, **k)
+    )
     (level,) = analysis.analyse_exemplar(feats, 1, config)
     assert searched == [64 * 64]  # one search, at 64^2: none at 128^2
     size = max(analysis.schedule_sizes(config, 0, 1))

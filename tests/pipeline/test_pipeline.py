@@ -14,8 +14,7 @@ from barkgen.errors import InvalidInputError
 from barkgen.io import read_image, write_png
 from barkgen.pipeline import GenerateOptions, generate, preview_sheet
 
-OUTPUTS = {"texture.png", "labels_in.png", "labels_out.png", "reference.png", "report.json",
-           "preview.png"}
+OUTPUTS = {"texture.png", "labels_in.png", "labels_out.png", "reference.png", "report.json", "preview.png"}
 
 
 @pytest.fixture(scope="module")
@@ -77,14 +76,15 @@ def test_shared_photo_analysis_gives_the_same_bytes_and_skips_the_analysis(fir12
     analysis = analyze_photo(fir128, options)
     assert len(analysis.cache) == 2  # the label-map engine's and texture-by-numbers' analyses
     assert analysis.material is not None and analysis.seconds > 0
-    fresh = [generate(fir128, GenerateOptions(size=(96, 80), k=3, tile=True, material=True, seed=s))
-             for s in (1, 2)]
+    fresh = [generate(fir128, GenerateOptions(size=(96, 80), k=3, tile=True, material=True, seed=s)) for s in (1, 2)]
     calls = []
-    monkeypatch.setattr(synth_analysis, "analyse_exemplar",
-                        lambda *a, **k: calls.append(1) or pytest.fail("analysed again"))
+    monkeypatch.setattr(
+        synth_analysis, "analyse_exemplar", lambda *a, **k: calls.append(1) or pytest.fail("analysed again")
+    )
     for seed, ref in zip((1, 2), fresh):
-        shared = generate(fir128, GenerateOptions(size=(96, 80), k=3, tile=True, material=True, seed=seed),
-                          analysis=analysis)
+        shared = generate(
+            fir128, GenerateOptions(size=(96, 80), k=3, tile=True, material=True, seed=seed), analysis=analysis
+        )
         assert np.array_equal(shared.texture, ref.texture)
         assert np.array_equal(shared.labels_out, ref.labels_out)
         assert np.array_equal(shared.material.height, ref.material.height)
@@ -111,7 +111,7 @@ def test_progress_moves_forward_by_stage_shares_to_the_end(fir128, material):
     assert spans[0][1] > 0.6
     seen, analysis_seen = [], []
     options = GenerateOptions(size=(96, 96), seed=1, material=material)
-    analysis = analyze_photo(fir128, options, progress=lambda d, t: analysis_seen.append(d / t))
+    analyze_photo(fir128, options, progress=lambda d, t: analysis_seen.append(d / t))
     assert analysis_seen == sorted(analysis_seen) and analysis_seen[-1] == 1.0
     assert len(analysis_seen) == (4 if material else 3)
     generate(fir128, options, progress=lambda d, t: seen.append(d / t))
@@ -144,9 +144,9 @@ def test_memory_is_checked_before_any_work(fir128, monkeypatch):
 
     monkeypatch.setattr(barkgen.labels, "color_regions", no_work)
     tight = GenerateOptions(size=(256, 256), material=True, max_memory=200 * 2**20)
-    for run in (generate, analyze_photo):
+    for make in (generate, analyze_photo):
         with pytest.raises(MemoryBudgetError, match="needs about .* [MG]iB, more than the memory budget"):
-            run(fir128, tight)
+            make(fir128, tight)
     small = check_generate_memory(fir128, GenerateOptions(size=(256, 256)))
     assert check_generate_memory(fir128, GenerateOptions(size=(256, 256), material=True)) > small
     # a 100-megapixel photo is refused up front, whatever the machine has free
@@ -212,8 +212,22 @@ def test_generate_options_are_validated():
 
 def test_generate_cli_writes_the_folder_then_resumes_from_an_edit(tmp_path, fir_png):
     out, levels = tmp_path / "out", tmp_path / "levels"
-    r = run("generate", str(fir_png), "-o", str(out), "--size", "160x128", "--k", "3",
-            "--tile", "--seed", "1", "--save-levels", str(levels), "-q")
+    r = run(
+        "generate",
+        str(fir_png),
+        "-o",
+        str(out),
+        "--size",
+        "160x128",
+        "--k",
+        "3",
+        "--tile",
+        "--seed",
+        "1",
+        "--save-levels",
+        str(levels),
+        "-q",
+    )
     assert r.returncode == 0, r.stderr
     assert r.stderr == ""
     assert {p.name for p in out.iterdir()} == OUTPUTS
@@ -232,8 +246,22 @@ def test_generate_cli_writes_the_folder_then_resumes_from_an_edit(tmp_path, fir_
     edited[: edited.shape[0] // 2] = light
     write_png(tmp_path / "level_2.png", edited)
     out2 = tmp_path / "out2"
-    r = run("generate", str(fir_png), "-o", str(out2), "--size", "160x128", "--k", "3", "--tile",
-            "--seed", "1", "--resume", str(tmp_path / "level_2.png"), "-q")
+    r = run(
+        "generate",
+        str(fir_png),
+        "-o",
+        str(out2),
+        "--size",
+        "160x128",
+        "--k",
+        "3",
+        "--tile",
+        "--seed",
+        "1",
+        "--resume",
+        str(tmp_path / "level_2.png"),
+        "-q",
+    )
     assert r.returncode == 0, r.stderr
     assert json.loads((out2 / "report.json").read_text())["resumed_from_level"] == 2
     before = read_image(out / "labels_out.png")[:, :, 0]
@@ -248,9 +276,23 @@ def test_shapes_cli_layered_with_order_and_levels(tmp_path, fir128):
     from barkgen.labels import color_regions
 
     write_png(tmp_path / "a.png", color_regions(fir128, 3, seed=0))
-    r = run("shapes", str(tmp_path / "a.png"), "-o", str(tmp_path / "b.png"), "--size", "96x64",
-            "--strategy", "layered", "--layer-order", "255,0,128", "--rotations", "all",
-            "--save-levels", str(tmp_path / "lv"), "-q")
+    r = run(
+        "shapes",
+        str(tmp_path / "a.png"),
+        "-o",
+        str(tmp_path / "b.png"),
+        "--size",
+        "96x64",
+        "--strategy",
+        "layered",
+        "--layer-order",
+        "255,0,128",
+        "--rotations",
+        "all",
+        "--save-levels",
+        str(tmp_path / "lv"),
+        "-q",
+    )
     assert r.returncode == 0, r.stderr
     b = read_image(tmp_path / "b.png")
     assert b.shape == (64, 96, 1) and set(np.unique(b)) <= {0, 128, 255}
@@ -262,8 +304,19 @@ def test_shapes_cli_joint_strategy_with_the_photo(tmp_path, fir128, fir_png):
 
     labels = color_regions(fir128, 3, seed=0)
     write_png(tmp_path / "a.png", labels)
-    r = run("shapes", str(tmp_path / "a.png"), "-o", str(tmp_path / "b.png"), "--size", "96x64",
-            "--strategy", "joint", "--photo", str(fir_png), "-q")
+    r = run(
+        "shapes",
+        str(tmp_path / "a.png"),
+        "-o",
+        str(tmp_path / "b.png"),
+        "--size",
+        "96x64",
+        "--strategy",
+        "joint",
+        "--photo",
+        str(fir_png),
+        "-q",
+    )
     assert r.returncode == 0, r.stderr
     b = read_image(tmp_path / "b.png")
     assert b.shape == (64, 96, 1) and set(np.unique(b)) <= set(np.unique(labels))
@@ -290,19 +343,29 @@ def _bad_generate(tmp: Path, photo: Path) -> dict[str, list[str]]:
         "extra name taken": ["generate", *base, "--extra", f"texture={photo}"],
         "missing photo": ["generate", str(tmp / "nope.jpg"), "-o", str(tmp / "out"), "--size", "64x64"],
         "output is a file": ["generate", str(photo), "-o", str(tmp / "not_an_image.png"), "--size", "64x64"],
-        "shapes: bad layer order": ["shapes", str(photo), "-o", str(tmp / "out" / "b.png"),
-                                    "--layer-order", "a,b"],
+        "shapes: bad layer order": ["shapes", str(photo), "-o", str(tmp / "out" / "b.png"), "--layer-order", "a,b"],
         "shapes: joint without its photo": [*shapes, "--strategy", "joint"],
         "shapes: photo of another size": [*shapes, "--strategy", "joint", "--photo", str(photo)],
         "shapes: photo without the joint strategy": [*shapes, "--photo", str(photo)],
     }
 
 
-BAD_CASES = ["edited level of no level's size", "edited level of the wrong level's size",
-             "edited level with unknown labels", "edited level not an image", "bad size", "bad k",
-             "bad strategy", "extra name taken", "missing photo", "output is a file",
-             "shapes: bad layer order", "shapes: joint without its photo",
-             "shapes: photo of another size", "shapes: photo without the joint strategy"]
+BAD_CASES = [
+    "edited level of no level's size",
+    "edited level of the wrong level's size",
+    "edited level with unknown labels",
+    "edited level not an image",
+    "bad size",
+    "bad k",
+    "bad strategy",
+    "extra name taken",
+    "missing photo",
+    "output is a file",
+    "shapes: bad layer order",
+    "shapes: joint without its photo",
+    "shapes: photo of another size",
+    "shapes: photo without the joint strategy",
+]
 
 
 @pytest.mark.parametrize("case", BAD_CASES)
@@ -320,8 +383,7 @@ def test_the_names_a_run_writes_are_checked_once_for_every_front_end():
     from barkgen.pipeline import check_generate_names
 
     check_generate_names("bark", extras=["height", "normal"])
-    for bad in ({"material_name": "texture"}, {"material_name": "bad name"},
-                {"extras": ["preview"]}):
+    for bad in ({"material_name": "texture"}, {"material_name": "bad name"}, {"extras": ["preview"]}):
         with pytest.raises(InvalidInputError):
             check_generate_names(**bad)
 
@@ -336,9 +398,11 @@ def test_default_memory_budget_is_what_the_machine_has_free(fir128, monkeypatch)
 
     assert memory.available_memory() > 0
     monkeypatch.setattr(memory, "available_memory", lambda: 64 * 2**20)
-    for job in (lambda: generate(fir128, GenerateOptions(size=(1024, 1024), material=True)),
-                lambda: make_material(fir128, MaterialOptions()),
-                lambda: synthesize(fir128, (1024, 1024))):
+    for job in (
+        lambda: generate(fir128, GenerateOptions(size=(1024, 1024), material=True)),
+        lambda: make_material(fir128, MaterialOptions()),
+        lambda: synthesize(fir128, (1024, 1024)),
+    ):
         with pytest.raises(MemoryBudgetError, match="more than the memory free on this machine"):
             job()
     with pytest.raises(InvalidInputError, match="max_memory must be a positive"):

@@ -18,6 +18,7 @@ def stubbed(monkeypatch):
     def stage(name):
         def run(*args):
             ran.append((name, compile_notice._state["quiet"] > 0))
+
         return run
 
     monkeypatch.setattr(warmup, "_crop", lambda: "crop")
@@ -35,11 +36,14 @@ def test_warm_up_is_public_and_runs_every_stage_in_order_without_the_notice(stub
     assert compile_notice._state["quiet"] == 0
 
 
-@pytest.mark.parametrize("stages, ran", [
-    (["synth"], ["synth"]),
-    ("preview", ["generate", "preview"]),  # the preview renders generate's files
-    (" synth , preview ", ["synth", "generate", "preview"]),
-])
+@pytest.mark.parametrize(
+    "stages, ran",
+    [
+        (["synth"], ["synth"]),
+        ("preview", ["generate", "preview"]),  # the preview renders generate's files
+        (" synth , preview ", ["synth", "generate", "preview"]),
+    ],
+)
 def test_warm_up_runs_the_stages_asked_for(stubbed, stages, ran):
     assert list(barkgen.warm_up(stages)) == ran
     assert [name for name, _ in stubbed] == ran

@@ -20,12 +20,15 @@ def test_level_shapes_halve_rounding_up():
             assert all(2 * c - 1 <= f <= 2 * c for f, c in zip(fine, coarse)), (shape, lvl)
 
 
-@pytest.mark.parametrize("exemplar, output, expected", [
-    ((128, 200), (256, 256), 3),   # the exemplar's 128 px: 128, 64, 32
-    ((512, 512), (64, 100), 3),    # the output's 64 px: 64, 32, 16
-    ((20, 500), (256, 256), 1),    # too small for any coarser level
-    ((512, 512), (10, 10), 1),
-])
+@pytest.mark.parametrize(
+    "exemplar, output, expected",
+    [
+        ((128, 200), (256, 256), 3),  # the exemplar's 128 px: 128, 64, 32
+        ((512, 512), (64, 100), 3),  # the output's 64 px: 64, 32, 16
+        ((20, 500), (256, 256), 1),  # too small for any coarser level
+        ((512, 512), (10, 10), 1),
+    ],
+)
 def test_count_levels_keeps_the_coarsest_levels_big_enough(exemplar, output, expected):
     n = count_levels(exemplar, output)
     assert n == expected

@@ -22,10 +22,14 @@ def material(height=None, color=(0.5, 0.5, 0.5), shape=(32, 64)) -> MaterialSet:
     h, w = shape
     normals = np.zeros((h, w, 3), np.float32)
     normals[..., 2] = 1
-    return MaterialSet(color=np.broadcast_to(np.float32(color), (h, w, 3)).copy(),
-                       height=np.zeros((h, w), np.float32) if height is None else height.astype(np.float32),
-                       normals=normals, ao=np.ones((h, w), np.float32),
-                       roughness=np.ones((h, w), np.float32), tile=True)
+    return MaterialSet(
+        color=np.broadcast_to(np.float32(color), (h, w, 3)).copy(),
+        height=np.zeros((h, w), np.float32) if height is None else height.astype(np.float32),
+        normals=normals,
+        ao=np.ones((h, w), np.float32),
+        roughness=np.ones((h, w), np.float32),
+        tile=True,
+    )
 
 
 def on_trunk(image: np.ndarray) -> np.ndarray:
@@ -53,13 +57,13 @@ def test_the_lit_side_follows_the_light():
     right = render_trunk(flat, SIZE, TrunkView(light=Light(0.0, 30.0))).astype(float)
     left = render_trunk(flat, SIZE, TrunkView(light=Light(180.0, 30.0))).astype(float)
     half = SIZE[1] // 2
-    assert right[:, half + 8:half + 28].mean() > 1.5 * right[:, half - 28:half - 8].mean()
-    assert left[:, half - 28:half - 8].mean() > 1.5 * left[:, half + 8:half + 28].mean()
+    assert right[:, half + 8 : half + 28].mean() > 1.5 * right[:, half - 28 : half - 8].mean()
+    assert left[:, half - 28 : half - 8].mean() > 1.5 * left[:, half + 8 : half + 28].mean()
     # the same trunk lit from either side: mirror images (to the sampling's pixel)
     assert np.abs(right - left[:, ::-1]).mean() < 3
     # lit from the viewer, the middle is the brightest and the rims darken
     front = render_trunk(flat, SIZE, TrunkView(light=Light(0.0, 90.0))).astype(float).mean(axis=(0, 2))
-    assert front[half - 2:half + 2].mean() > front[half - 30:half + 30].mean() > front[half - 33]
+    assert front[half - 2 : half + 2].mean() > front[half - 30 : half + 30].mean() > front[half - 33]
 
 
 def test_the_albedo_colours_the_trunk_only():

@@ -65,7 +65,7 @@ def test_dissimilarity_is_zero_for_the_same_shape_and_grows_with_difference():
     assert shape_dissimilarity(discs, discs) == 0.0
     squares = np.zeros_like(discs)
     for y, x in ((20, 20), (90, 40), (40, 120), (130, 130)):
-        squares[y:y + 24, x:x + 24] = 1
+        squares[y : y + 24, x : x + 24] = 1
     noise = (np.random.default_rng(1).random(discs.shape) < 0.2).astype(np.uint8)
     d_other_discs = shape_dissimilarity(discs, _discs(seed=5))
     d_squares = shape_dissimilarity(discs, squares)
@@ -95,8 +95,7 @@ def test_the_exemplar_is_a_fixed_point_of_shape_adjustment():
     config = ShapeConfig()
     rng = np.random.default_rng(0)
     boundary = ExemplarBoundary(discs, (0,), config, rng)
-    out = adjust_shape(discs.copy(), boundary, mask=None, iterations=3, config=config,
-                       tile=False, rng=rng)
+    out = adjust_shape(discs.copy(), boundary, mask=None, iterations=3, config=config, tile=False, rng=rng)
     assert np.array_equal(out, discs)
 
 
@@ -172,8 +171,7 @@ def test_joint_strategy_stops_a_level_above_the_finest(fir_photo, fir_labels, mo
     monkeypatch.setattr(engine, "_move_finest_seams", spy)
     labels = fir_labels[3]
     cache = AnalysisCache()
-    result = synthesize_label_map(labels, (192, 256), strategy="joint", photo=fir_photo, seed=2,
-                                  cache=cache)
+    result = synthesize_label_map(labels, (192, 256), strategy="joint", photo=fir_photo, seed=2, cache=cache)
     position = np.stack(np.mgrid[:192, :256], axis=-1)
     # offsets on the exemplar's torus (the photo may wrap)
     up = (seen["up-sampled"].astype(np.int64) - position) % np.array(labels.shape)
@@ -186,10 +184,9 @@ def test_joint_strategy_stops_a_level_above_the_finest(fir_photo, fir_labels, mo
     reach = engine.JOINT_CONFIG.seam_expansion_band * engine.JOINT_CONFIG.seam_expansion_rounds + BAND
     padded = np.pad(up, ((reach, reach), (reach, reach), (0, 0)), mode="edge")
     for y, x in zip(*np.nonzero(moved)):
-        window = padded[y:y + 2 * reach + 1, x:x + 2 * reach + 1].reshape(-1, 2)
+        window = padded[y : y + 2 * reach + 1, x : x + 2 * reach + 1].reshape(-1, 2)
         assert (window == out[y, x]).all(axis=-1).any()
-    assert np.array_equal(result.label_map, labels[result.references[..., 0],
-                                                   result.references[..., 1]])
+    assert np.array_equal(result.label_map, labels[result.references[..., 0], result.references[..., 1]])
     (levels,) = cache._entries.values()
     assert levels[0] is None and levels[1] is not None
 
@@ -208,8 +205,7 @@ def test_joint_strategy_pieces_fit_in_the_photo(fir_photo, fir_labels):
         ry, rx = refs[..., 0], refs[..., 1]
         out = lab[ry, rx]
         right = np.linalg.norm(out[:, 1:] - out[:, :-1], axis=-1)
-        inside = np.linalg.norm(lab[ry[:, :-1], np.minimum(rx[:, :-1] + 1, lab.shape[1] - 1)]
-                                - out[:, :-1], axis=-1)
+        inside = np.linalg.norm(lab[ry[:, :-1], np.minimum(rx[:, :-1] + 1, lab.shape[1] - 1)] - out[:, :-1], axis=-1)
         return float(np.mean(np.abs(right - inside)))
 
     for seed in (0, 1):
@@ -246,10 +242,8 @@ def test_tileable_label_maps_wrap(fir_photo, fir_labels, strategy):
         return max(np.mean(m[0, :] != m[-1, :]) / rows, np.mean(m[:, 0] != m[:, -1]) / cols)
 
     photo = fir_photo if strategy == "joint" else None
-    tiled = synthesize_label_map(labels, (192, 192), strategy=strategy, tile=True, seed=2,
-                                 photo=photo).label_map
-    plain = synthesize_label_map(labels, (192, 192), strategy=strategy, tile=False, seed=2,
-                                 photo=photo).label_map
+    tiled = synthesize_label_map(labels, (192, 192), strategy=strategy, tile=True, seed=2, photo=photo).label_map
+    plain = synthesize_label_map(labels, (192, 192), strategy=strategy, tile=False, seed=2, photo=photo).label_map
     assert seam_excess(tiled) <= 1.0
     assert seam_excess(plain) > 1.2  # the test can fail: an untileable map has a seam
 
@@ -286,11 +280,11 @@ def test_levels_and_resume_from_an_edited_level(fir_photo, fir_labels, strategy)
     first, second = values[np.argsort(_fractions(labels, values))[::-1][:2]]
     if np.mean(result.label_map[64:192, 32:96] == first) > np.mean(result.label_map[64:192, 160:224] == first):
         first, second = second, first  # paint each label where the unedited run has less of it
-    edited[h // 4: 3 * h // 4, w // 8: 3 * w // 8] = first
-    edited[h // 4: 3 * h // 4, 5 * w // 8: 7 * w // 8] = second
+    edited[h // 4 : 3 * h // 4, w // 8 : 3 * w // 8] = first
+    edited[h // 4 : 3 * h // 4, 5 * w // 8 : 7 * w // 8] = second
     resumed = synthesize_label_map(labels, size, strategy=strategy, seed=0, resume=edited, photo=photo)
     assert resumed.resumed_level == level
-    assert all(lvl is None for lvl in resumed.levels[level + 1:])
+    assert all(lvl is None for lvl in resumed.levels[level + 1 :])
     out = resumed.label_map
     left, right = out[64:192, 32:96], out[64:192, 160:224]
     assert np.mean(left == first) > 0.8 and np.mean(right == second) > 0.8
@@ -311,7 +305,7 @@ def test_an_edit_keeps_its_layout_down_to_the_finest_level(fir_labels):
     edited = base.levels[level].copy()
     h, w = edited.shape
     stroke = np.zeros_like(edited, bool)
-    stroke[h // 2 - 2:h // 2 + 2, w // 6: 5 * w // 6] = True  # a horizontal stroke, 4 level px wide
+    stroke[h // 2 - 2 : h // 2 + 2, w // 6 : 5 * w // 6] = True  # a horizontal stroke, 4 level px wide
     for value in (values[0], values[-1]):
         painted = edited.copy()
         painted[stroke] = value

@@ -34,4 +34,3 @@ def test_exemplar_wrap_settings(photo_like):
             resolve_exemplar_wrap(bad, img)
     with pytest.raises(InvalidInputError):
         synthesize(img, 32, exemplar_wrap="sometimes")
-

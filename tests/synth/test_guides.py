@@ -32,12 +32,15 @@ def test_colour_label_maps_and_grey_saved_as_rgb_are_accepted():
     assert encode_label_maps(np.array([[0, 9]], np.uint8), grey_rgb).n_labels == 2
 
 
-@pytest.mark.parametrize("a, b, message", [
-    (np.zeros((4, 4), np.uint8), np.full((4, 4), 7, np.uint8), "does not have"),
-    (np.arange(100, dtype=np.uint8).reshape(10, 10), np.zeros((4, 4), np.uint8), "at most 64"),
-    (np.zeros((4, 4), np.uint8), np.zeros((4, 4, 3), np.uint8) + [1, 2, 3], "grey"),
-    (np.zeros((5, 4), np.uint8), np.zeros((4, 4), np.uint8), "must match"),
-])
+@pytest.mark.parametrize(
+    "a, b, message",
+    [
+        (np.zeros((4, 4), np.uint8), np.full((4, 4), 7, np.uint8), "does not have"),
+        (np.arange(100, dtype=np.uint8).reshape(10, 10), np.zeros((4, 4), np.uint8), "at most 64"),
+        (np.zeros((4, 4), np.uint8), np.zeros((4, 4, 3), np.uint8) + [1, 2, 3], "grey"),
+        (np.zeros((5, 4), np.uint8), np.zeros((4, 4), np.uint8), "must match"),
+    ],
+)
 def test_bad_label_maps_are_refused(a, b, message):
     with pytest.raises(InvalidInputError, match=message):
         encode_label_maps(a, b, a.shape[:2] if a.shape[0] != 5 else (4, 4))
@@ -85,7 +88,6 @@ def test_smart_initialization_copies_coherent_regions_with_the_right_labels(labe
     assert continued.mean() > 5 * ((rand[:, 1:] == rand[:, :-1] + 1).mean())
 
 
-
 def test_an_unguided_level_has_an_empty_guidance_and_a_guided_one_its_tables():
     """:func:`level_guidance`: without a guide, the kernels get empty tables; with one, the
     level's label tables and, for each neighbourhood size of the level's schedule, the label
@@ -103,8 +105,13 @@ def test_an_unguided_level_has_an_empty_guidance_and_a_guided_one_its_tables():
     b = np.zeros((12, 10), np.int32)
     b[6:] = 1
     ga, gb = guide_channels(a, b, 2, 1.0)
-    guidance = Guidance(levels=[level_guide(a, b, 2)], exemplar_guides=[ga], target_guides=[gb],
-                        initial_references=random_initialization, components=3)
+    guidance = Guidance(
+        levels=[level_guide(a, b, 2)],
+        exemplar_guides=[ga],
+        target_guides=[gb],
+        initial_references=random_initialization,
+        components=3,
+    )
     level = level_guidance(guidance, 0, 2, config, (12, 10), (False, False), False)
     assert level.guided and level.n_random == guidance.random_candidates
     assert np.array_equal(level.ex_labels, a.ravel()) and np.array_equal(level.target, b)
@@ -128,9 +135,7 @@ def test_the_label_clean_up_continues_a_neighbouring_piece():
     stray = refs.copy()
     stray[2, 2] = 6 * 8 + 6
     target = np.zeros((5, 5), np.int32)
-    guide = LevelGuidance(ex_labels, target, ex_labels, np.zeros(3, np.int32), None, 0, 1.0,
-                          {}, {}, True)
+    guide = LevelGuidance(ex_labels, target, ex_labels, np.zeros(3, np.int32), None, 0, 1.0, {}, {}, True)
     out = enforce_labels(stray, exemplar_grid((8, 8), (False, False)), guide, 3, False)
     assert np.array_equal(out, refs)
-    assert np.array_equal(enforce_labels(refs, exemplar_grid((8, 8), (False, False)), guide, 3, False),
-                          refs)
+    assert np.array_equal(enforce_labels(refs, exemplar_grid((8, 8), (False, False)), guide, 3, False), refs)

@@ -14,8 +14,9 @@ from barkgen.synth.seams.gradient import resolve_continuous
 
 
 def longest(seams, references, exemplar_shape, *, tile, wrap):
-    hs, vs = seams.seam_masks(references[..., 0].astype(np.int64), references[..., 1].astype(np.int64),
-                              tuple(exemplar_shape), tile, any(wrap))
+    hs, vs = seams.seam_masks(
+        references[..., 0].astype(np.int64), references[..., 1].astype(np.int64), tuple(exemplar_shape), tile, any(wrap)
+    )
     return max(seams.longest_run(hs, wrap=tile)[0], seams.longest_run(vs.T, wrap=tile)[0])
 
 
@@ -67,7 +68,7 @@ def test_a_straight_seam_is_recut_along_the_texture(photo_like):
 
     def cost(r):
         a = ex[r[..., 0], r[..., 1]]
-        same = (r[1:, :, 0] == r[:-1, :, 0] + 1)
+        same = r[1:, :, 0] == r[:-1, :, 0] + 1
         return float(np.linalg.norm(a[1:] - a[:-1], axis=-1)[~same].sum())
 
     assert cost(out) <= cost(refs)
@@ -94,14 +95,14 @@ def test_a_seam_on_a_flat_stretch_meanders_instead_of_staying_straight():
 
     plain = cut_straight_seams(refs, ramp, tile=False, wrap=(False, True))
     assert longest_row_run(plain) == 192
-    out = cut_straight_seams(refs, ramp, tile=False, wrap=(False, True),
-                             rng=np.random.default_rng(0))
+    out = cut_straight_seams(refs, ramp, tile=False, wrap=(False, True), rng=np.random.default_rng(0))
     piece_a = (out[..., 0] == yy + 40) & (out[..., 1] == xx + 20)
     piece_b = (out[..., 0] == yy + 80) & (out[..., 1] == xx + 20)
     assert np.all(piece_a | piece_b)
     assert longest_row_run(out) < 24
-    assert np.array_equal(out, cut_straight_seams(refs, ramp, tile=False, wrap=(False, True),
-                                                  rng=np.random.default_rng(0)))
+    assert np.array_equal(
+        out, cut_straight_seams(refs, ramp, tile=False, wrap=(False, True), rng=np.random.default_rng(0))
+    )
 
 
 def test_a_seam_stuck_at_the_exemplar_border_is_given_to_the_solver():
@@ -116,8 +117,9 @@ def test_a_seam_stuck_at_the_exemplar_border_is_given_to_the_solver():
 
     eh, ew, H, W = 80, 120, 64, 96
     cy, cx = np.divmod(np.arange(eh * ew, dtype=np.int32), np.int32(ew))
-    level = SimpleNamespace(coords_y=cy, coords_x=cx, height=eh, width=ew, wrap=(False, False),
-                            grid=(cy, cx, eh, ew, False, False))
+    level = SimpleNamespace(
+        coords_y=cy, coords_x=cx, height=eh, width=ew, wrap=(False, False), grid=(cy, cx, eh, ew, False, False)
+    )
     yy, xx = np.mgrid[0:H, 0:W]
     stuck_rows = np.where(yy < 32, yy + (eh - 32), yy - 32)  # rows 48..79, then rows 0..31
     for transposed in (False, True):
@@ -128,13 +130,17 @@ def test_a_seam_stuck_at_the_exemplar_border_is_given_to_the_solver():
             ry, rx = yy_t + 5, np.where(xx_t < 32, xx_t + (ew - 32), xx_t - 32)
         refs = np.ascontiguousarray(ry * ew + rx, dtype=np.int32)
         coords = np.stack([ry, rx], axis=-1).astype(np.int32)
-        assert np.array_equal(cut_straight_seams(coords, np.zeros((eh, ew, 3), np.float32),
-                                                 tile=False), coords)  # the cut cannot move it
+        assert np.array_equal(
+            cut_straight_seams(coords, np.zeros((eh, ew, 3), np.float32), tile=False), coords
+        )  # the cut cannot move it
         forbid = np.full(refs.shape, -1, np.int64)
         assert unstick_border_seams(refs, level, forbid, False, 24) == 1
-        band = (slice(32, 32 + UNSTICK_DEPTH), slice(None)) if not transposed else \
-            (slice(None), slice(32, 32 + UNSTICK_DEPTH))
-        ys, xs = np.mgrid[0:refs.shape[0], 0:refs.shape[1]]
+        band = (
+            (slice(32, 32 + UNSTICK_DEPTH), slice(None))
+            if not transposed
+            else (slice(None), slice(32, 32 + UNSTICK_DEPTH))
+        )
+        ys, xs = np.mgrid[0 : refs.shape[0], 0 : refs.shape[1]]
         want = offset_codes(ry - ys, rx - xs)
         assert np.array_equal(forbid[band], want[band])  # the lower piece, on its first rows
         forbid[band] = -1
@@ -160,15 +166,15 @@ def test_the_copy_size_control_cuts_a_piece_along_meandering_lines():
 
     eh = ew = 160
     cy, cx = np.divmod(np.arange(eh * ew, dtype=np.int32), np.int32(ew))
-    level = SimpleNamespace(coords_y=cy, coords_x=cx, height=eh, width=ew, wrap=(False, False),
-                            grid=(cy, cx, eh, ew, False, False))
+    level = SimpleNamespace(
+        coords_y=cy, coords_x=cx, height=eh, width=ew, wrap=(False, False), grid=(cy, cx, eh, ew, False, False)
+    )
     yy, xx = np.mgrid[0:128, 0:128]
     refs = np.ascontiguousarray((yy + 10) * ew + xx + 10, dtype=np.int32)  # one 128 x 128 piece
 
     def forbidden(seed):
         forbid = np.full(refs.shape, -1, np.int64)
-        assert limit_copies(refs, level, 0.2 * eh * ew, forbid, False,
-                             np.random.default_rng(seed)) == 1
+        assert limit_copies(refs, level, 0.2 * eh * ew, forbid, False, np.random.default_rng(seed)) == 1
         return forbid >= 0
 
     band = forbidden(0)
@@ -248,17 +254,16 @@ def test_synthesized_material_maps_have_no_cliffs(seams, sample256):
     mat = transfer_material(source, res.references, tile=True, exemplar_wrap=res.exemplar_wrap)
     y, x = res.references[..., 0].astype(np.int64), res.references[..., 1].astype(np.int64)
     hs, vs = seams.seam_masks(y, x, (256, 256), True, True)
-    for name, img in (("height", mat.height), ("normals", mat.normals), ("ao", mat.ao),
-                      ("roughness", mat.roughness)):
+    for name, img in (("height", mat.height), ("normals", mat.normals), ("ao", mat.ao), ("roughness", mat.roughness)):
         img = np.asarray(img, np.float64)
         ratio = seams.step_ratio(img if img.ndim == 3 else img[..., None], hs, vs, True)
         assert ratio <= 1.5, (name, ratio)
     albedo = np.asarray(mat.color, np.float64)
-    exact = transfer_material(source, res.references, tile=True, exemplar_wrap=res.exemplar_wrap,
-                              blend="none")
+    exact = transfer_material(source, res.references, tile=True, exemplar_wrap=res.exemplar_wrap, blend="none")
     assert np.array_equal(exact.color, source.color[y, x])
-    assert (seams.step_ratio(albedo, hs, vs, True)
-            < 0.9 * seams.step_ratio(np.asarray(exact.color, np.float64), hs, vs, True))
+    assert seams.step_ratio(albedo, hs, vs, True) < 0.9 * seams.step_ratio(
+        np.asarray(exact.color, np.float64), hs, vs, True
+    )
     assert np.allclose(np.linalg.norm(mat.normals, axis=-1), 1.0, atol=1e-4)
     normals, _ = derived_maps(mat.height, tile=True)
     assert np.allclose(normals, mat.normals)
@@ -282,8 +287,9 @@ def _seam_energy(refs: np.ndarray, feat: np.ndarray) -> float:
         a_q = p + d  # the piece at p continued to q
         b_p = q - d  # the piece at q continued back to p
         cont = np.all(a_q == q, axis=-1)
-        cost = (np.linalg.norm(feat[p[..., 0], p[..., 1]] - feat[b_p[..., 0], b_p[..., 1]], axis=-1)
-                + np.linalg.norm(feat[a_q[..., 0], a_q[..., 1]] - feat[q[..., 0], q[..., 1]], axis=-1))
+        cost = np.linalg.norm(feat[p[..., 0], p[..., 1]] - feat[b_p[..., 0], b_p[..., 1]], axis=-1) + np.linalg.norm(
+            feat[a_q[..., 0], a_q[..., 1]] - feat[q[..., 0], q[..., 1]], axis=-1
+        )
         total += float(cost[~cont].sum())
     return total
 
@@ -330,10 +336,8 @@ def test_expansion_moves_a_staircase_border_onto_a_cheaper_path():
     # the border's corners no longer all sit on even rows and columns
     rows = np.nonzero(piece_a[:-1] != piece_a[1:])[0] + 1
     assert (rows % 2).any()
-    assert np.array_equal(out, expand_pieces(flat, grid, feat, False, forbid, unguided, band=8,
-                                             rounds=2))
-    assert np.array_equal(expand_pieces(flat, grid, feat, False, forbid, unguided, band=0,
-                                        rounds=2), flat)
+    assert np.array_equal(out, expand_pieces(flat, grid, feat, False, forbid, unguided, band=8, rounds=2))
+    assert np.array_equal(expand_pieces(flat, grid, feat, False, forbid, unguided, band=0, rounds=2), flat)
 
 
 def test_expansion_keeps_forbidden_offsets_and_labels():
@@ -343,8 +347,7 @@ def test_expansion_keeps_forbidden_offsets_and_labels():
 
     feat, flat, grid, upper = _staircase_case()
     unguided = (np.zeros(1, np.int32), np.zeros((1, 1), np.int32))
-    free = expand_pieces(flat, grid, feat, False, np.full(flat.shape, -1, np.int64), unguided,
-                         band=8, rounds=2)
+    free = expand_pieces(flat, grid, feat, False, np.full(flat.shape, -1, np.int64), unguided, band=8, rounds=2)
     codes = piece_offsets(flat, grid)
     a_code = codes[0, 0]
     # forbid the upper piece everywhere below the staircase: it can no longer grow
@@ -356,8 +359,9 @@ def test_expansion_keeps_forbidden_offsets_and_labels():
     ex_labels = (np.arange(160 * 160) % 160 < 80).astype(np.int32)
     target = np.zeros((64, 64), np.int32)
     target[:, :32] = 1
-    out = expand_pieces(flat, grid, feat, False, np.full(flat.shape, -1, np.int64),
-                        (ex_labels, target), band=8, rounds=2)
+    out = expand_pieces(
+        flat, grid, feat, False, np.full(flat.shape, -1, np.int64), (ex_labels, target), band=8, rounds=2
+    )
     right_before = ex_labels[flat] == target
     assert np.all(ex_labels[out][right_before] == target[right_before])
 
@@ -387,8 +391,9 @@ def test_generate_leaves_no_straight_seam_where_a_piece_ends_at_the_photos_edge(
     up-sampling; texture-by-numbers may not move a label border, so the texture kept it. The
     lit peeling photo, 320 px crop -> 640 px tiled: straight seams of 47 / 70 px (seeds 0 / 1)
     before the label map's finest level was cut too, 28 / 35 px after."""
-    from barkgen.pipeline import GenerateOptions, generate
     from conftest import bark_exemplar
+
+    from barkgen.pipeline import GenerateOptions, generate
 
     photo = bark_exemplar("peeling_patchy_01", 320)
     for seed in (0, 1):
@@ -399,6 +404,7 @@ def test_generate_leaves_no_straight_seam_where_a_piece_ends_at_the_photos_edge(
 
 
 # ------------------------------------------------------------------ no line in any map, no step
+
 
 def longest_line(lines, image: np.ndarray, folder, *, tile: bool = True) -> int:
     """``lines.py``'s longest straight line (px) in a map, written as a 16-bit PNG first (as a
@@ -440,8 +446,14 @@ def test_no_line_in_any_map_of_a_tiled_material_set(lines, sample256, tmp_path):
 
     result = generate(sample256, GenerateOptions(size=(384, 384), tile=True, material=True, seed=1))
     mat = result.material
-    maps = {"texture": result.texture, "albedo": mat.color, "height": mat.height,
-            "normals": mat.normals, "ao": mat.ao, "roughness": mat.roughness}
+    maps = {
+        "texture": result.texture,
+        "albedo": mat.color,
+        "height": mat.height,
+        "normals": mat.normals,
+        "ao": mat.ao,
+        "roughness": mat.roughness,
+    }
     found = {name: longest_line(lines, img, tmp_path) for name, img in maps.items()}
     assert max(found.values()) <= 96, found
 

@@ -10,14 +10,17 @@ from barkgen.errors import InvalidInputError, MemoryBudgetError
 from barkgen.synth import SynthesisConfig, synthesize
 
 
-@pytest.mark.parametrize("bad", [
-    dict(exemplar=np.zeros((12, 40, 3), np.uint8), size=64),
-    dict(size=(0, 10)),
-    dict(size=(-5, 10)),
-    dict(size="abc"),
-    dict(extra={"height": np.zeros((5, 5), np.uint8)}),
-    dict(exemplar=np.zeros((40, 40, 4), np.uint8), size=64),
-])
+@pytest.mark.parametrize(
+    "bad",
+    [
+        dict(exemplar=np.zeros((12, 40, 3), np.uint8), size=64),
+        dict(size=(0, 10)),
+        dict(size=(-5, 10)),
+        dict(size="abc"),
+        dict(extra={"height": np.zeros((5, 5), np.uint8)}),
+        dict(exemplar=np.zeros((40, 40, 4), np.uint8), size=64),
+    ],
+)
 def test_invalid_inputs(synthetic_exemplar, bad):
     kwargs = dict(exemplar=synthetic_exemplar, size=64)
     kwargs.update(bad)
@@ -30,7 +33,6 @@ def test_memory_budget_is_checked_before_work(synthetic_exemplar):
         synthesize(synthetic_exemplar, (50_000, 50_000), config=SynthesisConfig(max_memory=2**30))
 
 
-
 def test_the_set_up_is_what_synthesize_runs(synthetic_exemplar):
     """:func:`set_up` then :meth:`SolveSetup.solve` is :func:`synthesize`, byte for byte; a grey
     ``(h, w)`` exemplar is given back as a grey image."""
@@ -38,16 +40,14 @@ def test_the_set_up_is_what_synthesize_runs(synthetic_exemplar):
     from barkgen.synth._setup import SolveSetup, set_up
 
     config = SynthesisConfig()
-    setup = set_up(synthetic_exemplar, (40, 56), seed=3, extra=None, config=config, tile=True,
-                   exemplar_wrap="no")
+    setup = set_up(synthetic_exemplar, (40, 56), seed=3, extra=None, config=config, tile=True, exemplar_wrap="no")
     assert isinstance(setup, SolveSetup)
     assert setup.exemplar.shape == synthetic_exemplar.shape and setup.out_shape == (40, 56)
     assert setup.wrap == (False, False) and not setup.flat and setup.n_levels >= 2
     assert np.array_equal(setup.features, matching_features(synthetic_exemplar, None, config.extra_weight))
     direct = synthesize(synthetic_exemplar, (40, 56), seed=3, tile=True, exemplar_wrap="no")
     assert np.array_equal(setup.solve().image, direct.image)
-    grey = set_up(synthetic_exemplar[:, :, 0], 40, seed=0, extra=None, config=config, tile=False,
-                  exemplar_wrap="auto")
+    grey = set_up(synthetic_exemplar[:, :, 0], 40, seed=0, extra=None, config=config, tile=False, exemplar_wrap="auto")
     assert grey.flat and grey.exemplar.shape[2] == 1 and grey.solve().image.ndim == 2
 
 
@@ -65,16 +65,39 @@ def test_the_set_up_checks_in_order_inputs_front_memory_then_wrap(synthetic_exem
 
     budget = SynthesisConfig(max_memory=2**30)
     with pytest.raises(InvalidInputError):  # validation before the front
-        set_up(synthetic_exemplar, (0, 10), seed=0, extra=None, config=budget, tile=False,
-               exemplar_wrap="no", front=Refusing())
+        set_up(
+            synthetic_exemplar,
+            (0, 10),
+            seed=0,
+            extra=None,
+            config=budget,
+            tile=False,
+            exemplar_wrap="no",
+            front=Refusing(),
+        )
     assert seen == []
     with pytest.raises(InvalidInputError, match="front"):  # the front before the budget
-        set_up(synthetic_exemplar, (50_000, 50_000), seed=0, extra=None, config=budget,
-               tile=False, exemplar_wrap="no", front=Refusing())
+        set_up(
+            synthetic_exemplar,
+            (50_000, 50_000),
+            seed=0,
+            extra=None,
+            config=budget,
+            tile=False,
+            exemplar_wrap="no",
+            front=Refusing(),
+        )
     assert seen == [synthetic_exemplar.shape]
     with pytest.raises(MemoryBudgetError):  # the budget before the wrap setting
-        set_up(synthetic_exemplar, (50_000, 50_000), seed=0, extra=None, config=budget,
-               tile=False, exemplar_wrap="sometimes")
+        set_up(
+            synthetic_exemplar,
+            (50_000, 50_000),
+            seed=0,
+            extra=None,
+            config=budget,
+            tile=False,
+            exemplar_wrap="sometimes",
+        )
 
 
 def test_a_front_adds_its_channels_to_the_memory_estimate(synthetic_exemplar):
@@ -93,5 +116,4 @@ def test_a_front_adds_its_channels_to_the_memory_estimate(synthetic_exemplar):
         guided = True
 
     with pytest.raises(MemoryBudgetError):
-        check_memory(synthetic_exemplar, {}, (512, 512), 3 + Guided.added_channels, just_enough,
-                     guided=Guided.guided)
+        check_memory(synthetic_exemplar, {}, (512, 512), 3 + Guided.added_channels, just_enough, guided=Guided.guided)

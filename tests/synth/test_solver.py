@@ -32,10 +32,14 @@ def test_a_run_stopped_at_a_level_is_that_level_of_the_full_run(synthetic_exempl
     args = dict(n_levels=n_levels, config=config, seed=4, tile=True)
     # the stopped run analyses only the levels it solves; the full run then goes on below them
     cache = AnalysisCache()
-    stopped = solve(exemplar=synthetic_exemplar, extras={}, features=features, out_shape=(96, 96), stop_level=1, cache=cache, **args)
+    stopped = solve(
+        exemplar=synthetic_exemplar, extras={}, features=features, out_shape=(96, 96), stop_level=1, cache=cache, **args
+    )
     (levels_kept,) = cache._entries.values()
     assert levels_kept[0] is None and all(la is not None for la in levels_kept[1:])
-    solve(exemplar=synthetic_exemplar, extras={}, features=features, out_shape=(96, 96), debug=keep, cache=cache, **args)
+    solve(
+        exemplar=synthetic_exemplar, extras={}, features=features, out_shape=(96, 96), debug=keep, cache=cache, **args
+    )
     (levels_now,) = cache._entries.values()
     assert levels_now[0] is not None and all(a is b for a, b in zip(levels_now[1:], levels_kept[1:]))
     assert len(cache) == 1
@@ -44,11 +48,14 @@ def test_a_run_stopped_at_a_level_is_that_level_of_the_full_run(synthetic_exempl
     assert stopped.references[..., 0].max() < h and stopped.references[..., 1].max() < w
     assert np.array_equal(stopped.image, levels[1])
     flat = (stopped.references[..., 0] * w + stopped.references[..., 1]).astype(np.int32)
-    resumed = solve(exemplar=synthetic_exemplar, extras={}, features=features, out_shape=(96, 96), start=(1, flat), **args)
-    assert np.array_equal(resumed.image, synthetic_exemplar[resumed.references[..., 0],
-                                                            resumed.references[..., 1]])
+    resumed = solve(
+        exemplar=synthetic_exemplar, extras={}, features=features, out_shape=(96, 96), start=(1, flat), **args
+    )
+    assert np.array_equal(resumed.image, synthetic_exemplar[resumed.references[..., 0], resumed.references[..., 1]])
     with pytest.raises(InvalidInputError, match="stop_level"):
-        solve(exemplar=synthetic_exemplar, extras={}, features=features, out_shape=(96, 96), stop_level=n_levels, **args)
+        solve(
+            exemplar=synthetic_exemplar, extras={}, features=features, out_shape=(96, 96), stop_level=n_levels, **args
+        )
 
 
 def test_thread_budget_sizes_every_pool_and_gives_them_back():
@@ -64,10 +71,20 @@ def test_thread_budget_sizes_every_pool_and_gives_them_back():
 
     def counts():
         # (an OpenMP build of OpenBLAS, faiss's own, shares OpenMP's count with faiss)
-        blas = sorted({p["num_threads"] for p in threadpool_info()
-                       if p["user_api"] == "blas" and p.get("threading_layer") != "openmp"})
-        return (numba.get_num_threads(), cv2.getNumThreads(), faiss.omp_get_max_threads(),
-                scipy.fft.get_workers(), blas)
+        blas = sorted(
+            {
+                p["num_threads"]
+                for p in threadpool_info()
+                if p["user_api"] == "blas" and p.get("threading_layer") != "openmp"
+            }
+        )
+        return (
+            numba.get_num_threads(),
+            cv2.getNumThreads(),
+            faiss.omp_get_max_threads(),
+            scipy.fft.get_workers(),
+            blas,
+        )
 
     before = counts()
     with thread_budget(1) as n:
@@ -96,7 +113,6 @@ def test_upsampled_references_are_the_childs_of_each_parent():
     assert upsample_references(edge, (2, 2), (9, 13), (True, True))[1, 1].tolist() == [0, 0]
 
 
-
 def test_solve_takes_every_argument_as_a_keyword(synthetic_exemplar):
     """``solve`` has no positional parameters: a call by position is refused before any work."""
     import inspect
@@ -107,8 +123,16 @@ def test_solve_takes_every_argument_as_a_keyword(synthetic_exemplar):
     assert kinds == {inspect.Parameter.KEYWORD_ONLY}
     features = matching_features(synthetic_exemplar, None, 0.0)
     with pytest.raises(TypeError):
-        solve(synthetic_exemplar, {}, features, (32, 32), n_levels=2,  # noqa - on purpose
-              config=SynthesisConfig(), seed=0, tile=False)
+        solve(
+            synthetic_exemplar,
+            {},
+            features,
+            (32, 32),
+            n_levels=2,  # noqa - on purpose
+            config=SynthesisConfig(),
+            seed=0,
+            tile=False,
+        )
 
 
 def _level(synthetic_exemplar, config):

@@ -34,8 +34,9 @@ def test_output_pixels_are_exemplar_pixels(synthetic_exemplar):
     assert far.mean() > 0.02
     diff = np.abs(blended.image.astype(int) - copy.astype(int)).max(axis=-1)
     assert np.mean(diff[far] <= 1) > 0.9 and diff[far].mean() < 0.25 * diff[~far].mean()
-    assert (border_step_ratio(blended.image, refs, synthetic_exemplar.shape[:2])
-            < 0.9 * border_step_ratio(copy, refs, synthetic_exemplar.shape[:2]))
+    assert border_step_ratio(blended.image, refs, synthetic_exemplar.shape[:2]) < 0.9 * border_step_ratio(
+        copy, refs, synthetic_exemplar.shape[:2]
+    )
 
 
 def test_grey_and_16_bit_exemplars(synthetic_exemplar):
@@ -101,8 +102,8 @@ def _shuffled_blocks(exemplar: np.ndarray, shape: tuple[int, int], block: int, s
         for x in range(0, shape[1], block):
             sy = rng.integers(0, exemplar.shape[0] - block + 1)
             sx = rng.integers(0, exemplar.shape[1] - block + 1)
-            patch = exemplar[sy:sy + block, sx:sx + block]
-            out[y:y + block, x:x + block] = patch[: shape[0] - y, : shape[1] - x]
+            patch = exemplar[sy : sy + block, sx : sx + block]
+            out[y : y + block, x : x + block] = patch[: shape[0] - y, : shape[1] - x]
     return out
 
 

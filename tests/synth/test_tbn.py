@@ -60,19 +60,27 @@ def test_debug_receives_levels_initialization_and_results(label_case):
     ex, a, b = label_case
     seen = {}
     texture_by_numbers(ex, a, b, debug=lambda name, img: seen.setdefault(name, img))
-    assert {"initialization", "level0_result", "level0_exemplar_labels",
-            "level0_target_labels", "feature_distance"} <= set(seen)
+    assert {
+        "initialization",
+        "level0_result",
+        "level0_exemplar_labels",
+        "level0_target_labels",
+        "feature_distance",
+    } <= set(seen)
     assert all(img.dtype == np.uint8 for img in seen.values())
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    ({"init": "clever"}, "init must be"),
-    ({"label_weight": -1.0}, "label_weight"),
-    ({"feature_weight": float("nan")}, "feature_weight"),
-    ({"init": np.zeros((64, 64), np.int32)}, "reference map must be"),
-    ({"init": np.full((64, 64, 2), 40, np.int32)}, "outside the exemplar"),
-    ({"init_level": -1}, "init_level"),
-])
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"init": "clever"}, "init must be"),
+        ({"label_weight": -1.0}, "label_weight"),
+        ({"feature_weight": float("nan")}, "feature_weight"),
+        ({"init": np.zeros((64, 64), np.int32)}, "reference map must be"),
+        ({"init": np.full((64, 64, 2), 40, np.int32)}, "outside the exemplar"),
+        ({"init_level": -1}, "init_level"),
+    ],
+)
 def test_bad_parameters_are_refused(label_case, kwargs, message):
     ex, a, b = label_case
     with pytest.raises(InvalidInputError, match=message):
@@ -104,9 +112,18 @@ def test_start_from_a_reference_map(label_case):
     from barkgen.synth import TBN_CONFIG
 
     deep = dataclasses.replace(TBN_CONFIG, coarsest_exemplar=8)
-    kept_at = {level: np.mean(np.all(texture_by_numbers(
-        ex, a, b, init=refs.astype(np.int32), init_level=level, seed=0, config=deep).references == refs,
-        axis=-1)) for level in (0, 2)}
+    kept_at = {
+        level: np.mean(
+            np.all(
+                texture_by_numbers(
+                    ex, a, b, init=refs.astype(np.int32), init_level=level, seed=0, config=deep
+                ).references
+                == refs,
+                axis=-1,
+            )
+        )
+        for level in (0, 2)
+    }
     assert kept_at[0] > kept_at[2] + 0.1, kept_at
 
 
@@ -123,6 +140,7 @@ def test_label_map_of_another_size_is_refused(label_case):
 @pytest.fixture(scope="module")
 def bark_case(texeval):
     from conftest import bark_exemplar
+
     from barkgen.testing import kmeans_label_map, shuffled_blocks
 
     ex = bark_exemplar("vertical_fractures_01", 256)

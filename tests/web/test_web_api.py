@@ -47,8 +47,9 @@ def library(tmp_path):
 
 @pytest.fixture()
 def client(library):
-    with TestClient(create_app(library, limits=WebLimits(max_upload_bytes=2 * 1024**2,
-                                                         max_upload_pixels=1_500_000))) as c:
+    with TestClient(
+        create_app(library, limits=WebLimits(max_upload_bytes=2 * 1024**2, max_upload_pixels=1_500_000))
+    ) as c:
         yield c
 
 
@@ -63,8 +64,12 @@ def test_upload_limits_and_content_checks(client, library, tmp_path):
     r = client.post("/api/exemplars", files={"file": ("huge.png", huge)})
     assert r.status_code == 413 and "megapixels" in r.json()["detail"]
     # not an image, whatever its name says: 400; an empty file: 400; a truncated PNG: 400
-    for payload in (b"just some text, not a picture", b"", _photo_png()[:200],
-                    encode_png(np.zeros((1, 1, 3), np.uint8))):  # a 1x1 photo is no bark
+    for payload in (
+        b"just some text, not a picture",
+        b"",
+        _photo_png()[:200],
+        encode_png(np.zeros((1, 1, 3), np.uint8)),
+    ):  # a 1x1 photo is no bark
         r = client.post("/api/exemplars", files={"file": ("bark.jpg", payload)})
         assert r.status_code == 400, r.text
         assert r.json()["detail"]
@@ -78,8 +83,10 @@ def test_upload_limits_and_content_checks(client, library, tmp_path):
     assert again.status_code == 200 and again.json() == {"id": r.json()["id"], "existing": True}
     assert r.json()["existing"] is False
     written = [p for p in library.path.rglob("*") if p.is_file()]
-    assert all(p.name == "library.sqlite" or p.name.startswith("library.sqlite-")
-               or len(p.parent.name + p.name) == 64 for p in written), written
+    assert all(
+        p.name == "library.sqlite" or p.name.startswith("library.sqlite-") or len(p.parent.name + p.name) == 64
+        for p in written
+    ), written
     assert not (tmp_path / "evil.png").exists()
     # a tiny file of a huge image (a decompression bomb): 413, nothing decoded
     from PIL import Image
@@ -92,17 +99,23 @@ def test_upload_limits_and_content_checks(client, library, tmp_path):
     boundary = "barkgenboundary"
 
     def chunked_upload():
-        yield (f"--{boundary}\r\nContent-Disposition: form-data; name=\"file\"; filename=\"x.png\"\r\n"
-               "Content-Type: image/png\r\n\r\n").encode()
+        yield (
+            f'--{boundary}\r\nContent-Disposition: form-data; name="file"; filename="x.png"\r\n'
+            "Content-Type: image/png\r\n\r\n"
+        ).encode()
         for _ in range(64):  # 4 MB, twice the limit
             yield bytes(64 * 1024)
         yield f"\r\n--{boundary}--\r\n".encode()
 
-    r = client.post("/api/exemplars", content=chunked_upload(),
-                    headers={"content-type": f"multipart/form-data; boundary={boundary}"})
+    r = client.post(
+        "/api/exemplars",
+        content=chunked_upload(),
+        headers={"content-type": f"multipart/form-data; boundary={boundary}"},
+    )
     assert r.status_code == 413 and "2 MB" in r.json()["detail"]
-    r = client.post("/api/jobs", content=(b" " * 65536 for _ in range(64)),
-                    headers={"content-type": "application/json"})
+    r = client.post(
+        "/api/jobs", content=(b" " * 65536 for _ in range(64)), headers={"content-type": "application/json"}
+    )
     assert r.status_code == 413
     # only the exemplars that were accepted are listed (the sample and this one)
     assert len(client.get("/api/exemplars").json()) == 2
@@ -118,15 +131,19 @@ def test_hosts_and_cross_site_requests_are_refused(library):
         r = client.get("/api/exemplars", headers={"host": "evil.example"})
         assert r.status_code == 400 and "unknown host" in r.json()["detail"]
         # another site's page posting here (no preflight for a form upload)
-        r = client.post("/api/exemplars", files={"file": ("a.png", _photo_png())},
-                        headers={"origin": "http://evil.example"})
+        r = client.post(
+            "/api/exemplars", files={"file": ("a.png", _photo_png())}, headers={"origin": "http://evil.example"}
+        )
         assert r.status_code == 403
         r = client.delete("/api/exemplars/1", headers={"origin": "http://localhost:9999"})
         assert r.status_code == 403 and client.get("/api/exemplars/1").status_code == 200
         # GETs start work too (a label map of a large photo): another site's <img> or fetch
         # of the API is refused, by its Sec-Fetch-Site (an <img> sends no Origin) or its Origin
-        for headers in ({"sec-fetch-site": "cross-site"}, {"sec-fetch-site": "same-site"},
-                        {"origin": "http://evil.example"}):
+        for headers in (
+            {"sec-fetch-site": "cross-site"},
+            {"sec-fetch-site": "same-site"},
+            {"origin": "http://evil.example"},
+        ):
             r = client.get("/api/exemplars/1/labels.png", headers=headers)
             assert r.status_code == 403, headers
         for headers in ({"sec-fetch-site": "same-origin"}, {"sec-fetch-site": "none"}, {}):
@@ -134,32 +151,48 @@ def test_hosts_and_cross_site_requests_are_refused(library):
         # a link from elsewhere to a page still opens it
         assert client.get("/", headers={"sec-fetch-site": "cross-site"}).status_code == 200
         # the app's own pages may
-        r = client.post("/api/exemplars", files={"file": ("a.png", _photo_png())},
-                        headers={"origin": "http://127.0.0.1:8000"})
+        r = client.post(
+            "/api/exemplars", files={"file": ("a.png", _photo_png())}, headers={"origin": "http://127.0.0.1:8000"}
+        )
         assert r.status_code == 201
         # seeds beyond 64 bits are refused at once; the queue is bounded
         r = client.post("/api/jobs", json={"exemplar_id": 1, **SMALL, "seed": 2**64})
         assert r.status_code == 422
         from barkgen.web.jobs import MAX_QUEUED
 
-        codes = [client.post("/api/jobs", json={"exemplar_id": 1, **SMALL, "seed": i}).status_code
-                 for i in range(MAX_QUEUED + 1)]
+        codes = [
+            client.post("/api/jobs", json={"exemplar_id": 1, **SMALL, "seed": i}).status_code
+            for i in range(MAX_QUEUED + 1)
+        ]
         assert codes == [201] * MAX_QUEUED + [429]
 
 
 def test_unknown_ids_are_404(client):
-    for path in ("/api/exemplars/999", "/api/exemplars/999/photo", "/api/exemplars/999/labels.png",
-                 "/api/results/999", "/api/results/999/download", "/api/results/999/files/texture.png",
-                 "/api/jobs/nope", "/api/jobs/nope/events"):
+    for path in (
+        "/api/exemplars/999",
+        "/api/exemplars/999/photo",
+        "/api/exemplars/999/labels.png",
+        "/api/results/999",
+        "/api/results/999/download",
+        "/api/results/999/files/texture.png",
+        "/api/jobs/nope",
+        "/api/jobs/nope/events",
+    ):
         r = client.get(path)
         assert r.status_code == 404, path
         assert r.json()["detail"]
     # ids beyond SQLite's 64-bit integers name nothing either (they were HTTP 500, OverflowError)
     huge = "99999999999999999999"
-    for path in (f"/api/exemplars/{huge}", f"/api/exemplars/{huge}/photo",
-                 f"/api/exemplars/{huge}/thumbnail.jpg", f"/api/exemplars/{huge}/labels.png",
-                 f"/api/results/{huge}", f"/api/results/{huge}/download",
-                 f"/api/results/{huge}/files/texture.png", f"/api/results?exemplar_id={huge}"):
+    for path in (
+        f"/api/exemplars/{huge}",
+        f"/api/exemplars/{huge}/photo",
+        f"/api/exemplars/{huge}/thumbnail.jpg",
+        f"/api/exemplars/{huge}/labels.png",
+        f"/api/results/{huge}",
+        f"/api/results/{huge}/download",
+        f"/api/results/{huge}/files/texture.png",
+        f"/api/results?exemplar_id={huge}",
+    ):
         r = client.get(path)
         assert r.status_code in (200, 404), (path, r.status_code)
         if path.startswith("/api/results?"):
@@ -207,14 +240,16 @@ def test_five_jobs_at_once_complete_in_order(client, library):
     assert [j["state"] for j in jobs] == ["done"] * 5, [j["error"] for j in jobs]
     # the server's submission numbers give the order: results were made in that order
     by_number = sorted(jobs, key=lambda j: j["number"])
-    assert [j["result_id"] for j in by_number] == sorted(j["result_id"] for j in jobs), \
+    assert [j["result_id"] for j in by_number] == sorted(j["result_id"] for j in jobs), (
         "jobs finished out of submission order"
+    )
     results = {r["id"]: r for r in client.get("/api/results").json()}
     assert {j["result_id"] for j in jobs} <= set(results)
     assert sorted(results[j["result_id"]]["params"]["seed"] for j in jobs) == [100, 101, 102, 103, 104]
     # each result has its files, and a reproducible texture: same seed twice -> same bytes
-    again = _wait(client, client.post("/api/jobs", json={"exemplar_id": exemplar_id, **SMALL,
-                                                           "seed": 102}).json()["id"])
+    again = _wait(
+        client, client.post("/api/jobs", json={"exemplar_id": exemplar_id, **SMALL, "seed": 102}).json()["id"]
+    )
     first = next(j for j in jobs if results[j["result_id"]]["params"]["seed"] == 102)
     texture = lambda rid: client.get(f"/api/results/{rid}/files/texture.png").content  # noqa: E731
     assert texture(again["result_id"]) == texture(first["result_id"])
@@ -226,8 +261,9 @@ def test_events_cancel_and_restart_keeps_results(library):
         exemplar_id = client.post("/api/exemplars", files={"file": ("a.png", _photo_png(seed=3))}).json()["id"]
         done_id = client.post("/api/jobs", json={"exemplar_id": exemplar_id, **SMALL, "seed": 1}).json()["id"]
         # a long job behind it, and one behind that which is cancelled while queued
-        long_id = client.post("/api/jobs", json={"exemplar_id": exemplar_id, **SMALL, "size": "2048x2048",
-                                                 "seed": 2}).json()["id"]
+        long_id = client.post(
+            "/api/jobs", json={"exemplar_id": exemplar_id, **SMALL, "size": "2048x2048", "seed": 2}
+        ).json()["id"]
         queued_id = client.post("/api/jobs", json={"exemplar_id": exemplar_id, **SMALL, "seed": 3}).json()["id"]
         assert client.get(f"/api/jobs/{queued_id}").json()["queue_position"] >= 1
         assert client.delete(f"/api/jobs/{queued_id}").json()["state"] == "cancelled"
@@ -253,14 +289,16 @@ def test_events_cancel_and_restart_keeps_results(library):
         assert _wait(client, long_id, timeout=30)["state"] == "cancelled"
         assert client.get(f"/api/jobs/{queued_id}").json()["result_id"] is None
         # the next job runs on a new worker
-        after = _wait(client, client.post("/api/jobs", json={"exemplar_id": exemplar_id, **SMALL,
-                                                              "seed": 4}).json()["id"])
+        after = _wait(
+            client, client.post("/api/jobs", json={"exemplar_id": exemplar_id, **SMALL, "seed": 4}).json()["id"]
+        )
         assert after["state"] == "done"
         before_restart = {r["id"] for r in client.get("/api/results").json()}
         assert len(before_restart) == 2
         # removing a photo cancels its jobs
-        running_id = client.post("/api/jobs", json={"exemplar_id": exemplar_id, **SMALL, "size": "2048x2048",
-                                                    "seed": 5}).json()["id"]
+        running_id = client.post(
+            "/api/jobs", json={"exemplar_id": exemplar_id, **SMALL, "size": "2048x2048", "seed": 5}
+        ).json()["id"]
         other = client.post("/api/exemplars", files={"file": ("b.png", _photo_png(seed=4))}).json()["id"]
         doomed = client.post("/api/jobs", json={"exemplar_id": other, **SMALL, "seed": 6}).json()["id"]
         assert client.delete(f"/api/exemplars/{other}").status_code == 200
@@ -337,8 +375,13 @@ def test_the_job_queue_is_kept_in_the_library_across_restarts(library):
     assert newer.order > max(manager.snapshot(i)["number"] for i in (first, second, labels, gone))
     # a spec round-trips exactly (a painted level is an array, the label map PNG bytes)
     painted = (np.arange(12, dtype=np.uint8).reshape(3, 4), b"\x89PNG...")
-    spec = {"source": "a", "set_name": "b", "options": {"size": (3, 4), "k": 2}, "labels_in": painted[1],
-            "resume": (1, painted[0])}
+    spec = {
+        "source": "a",
+        "set_name": "b",
+        "options": {"size": (3, 4), "k": 2},
+        "labels_in": painted[1],
+        "resume": (1, painted[0]),
+    }
     back = spec_from_json(json.loads(json.dumps(spec_to_json(spec))))
     assert back["options"]["size"] == (3, 4) and back["labels_in"] == painted[1]
     assert back["resume"][0] == 1 and np.array_equal(back["resume"][1], painted[0])
@@ -356,8 +399,7 @@ def test_the_job_queue_is_kept_in_the_library_across_restarts(library):
 
 def test_painted_labels_are_checked_then_continued(client):
     exemplar_id = client.post("/api/exemplars", files={"file": ("a.png", _photo_png(seed=5))}).json()["id"]
-    job = _wait(client, client.post("/api/jobs", json={"exemplar_id": exemplar_id, **SMALL,
-                                                        "seed": 7}).json()["id"])
+    job = _wait(client, client.post("/api/jobs", json={"exemplar_id": exemplar_id, **SMALL, "seed": 7}).json()["id"])
     result = client.get(f"/api/results/{job['result_id']}").json()
     level = next(lv for lv in result["levels"] if lv["level"] == 1)
     coloured = client.get(level["url"])
@@ -369,8 +411,12 @@ def test_painted_labels_are_checked_then_continued(client):
 
     def request(image, **changes):
         url = "data:image/png;base64," + base64.b64encode(encode_png(image)).decode()
-        body = {"exemplar_id": exemplar_id, **SMALL, "seed": 7,
-                "resume": {"result_id": result["id"], "level": 1, "labels": url}}
+        body = {
+            "exemplar_id": exemplar_id,
+            **SMALL,
+            "seed": 7,
+            "resume": {"result_id": result["id"], "level": 1, "labels": url},
+        }
         body.update(changes)
         return client.post("/api/jobs", json=body)
 
@@ -462,8 +508,11 @@ def test_ctrl_c_stops_the_server_with_a_job_and_its_event_stream_open(tmp_path, 
         port = probe.getsockname()[1]
     log = tmp_path / "serve.log"
     with open(log, "w") as out:
-        process = subprocess.Popen([sys.executable, "-m", "barkgen", "serve", "--port", str(port),
-                                    "--library", str(tmp_path / "lib")], stdout=out, stderr=subprocess.STDOUT)
+        process = subprocess.Popen(
+            [sys.executable, "-m", "barkgen", "serve", "--port", str(port), "--library", str(tmp_path / "lib")],
+            stdout=out,
+            stderr=subprocess.STDOUT,
+        )
     try:
         base = f"http://127.0.0.1:{port}"
         deadline = time.monotonic() + 60
@@ -474,8 +523,9 @@ def test_ctrl_c_stops_the_server_with_a_job_and_its_event_stream_open(tmp_path, 
             job = httpx.post(f"{base}/api/jobs", json={"exemplar_id": 1, "size": "2048x2048", "seed": 1}).json()
             waiting = httpx.post(f"{base}/api/jobs", json={"exemplar_id": 1, **SMALL, "seed": 2}).json()
         else:  # a 6 MP photo: its label map takes seconds
-            big = httpx.post(f"{base}/api/exemplars", files={"file": ("big.png", _photo_png(2400, seed=8))},
-                             timeout=60).json()["id"]
+            big = httpx.post(
+                f"{base}/api/exemplars", files={"file": ("big.png", _photo_png(2400, seed=8))}, timeout=60
+            ).json()["id"]
             job = httpx.post(f"{base}/api/exemplars/{big}/labels?k=5").json()["job"]
         lines: list[str] = []
 
@@ -517,9 +567,11 @@ def test_ctrl_c_stops_the_server_with_a_job_and_its_event_stream_open(tmp_path, 
 def test_numbers_json_cannot_hold_are_a_422_not_a_500(client):
     """A NaN seed, an exemplar id of 1e400, a 5000-digit size: one clear answer each (the
     validation error used to echo the NaN, which JSON cannot hold: a 500 and a traceback)."""
-    for body, status, word in (('{"exemplar_id": 1e400}', 422, "finite"),
-                               ('{"exemplar_id": 1, "seed": NaN}', 422, "finite"),
-                               ('{"exemplar_id": 1, "size": "1x' + "9" * 5000 + '"}', 400, "invalid size"),
-                               ('{"exemplar_id": 1, "size": "1x99999999"}', 400, "megapixels")):
+    for body, status, word in (
+        ('{"exemplar_id": 1e400}', 422, "finite"),
+        ('{"exemplar_id": 1, "seed": NaN}', 422, "finite"),
+        ('{"exemplar_id": 1, "size": "1x' + "9" * 5000 + '"}', 400, "invalid size"),
+        ('{"exemplar_id": 1, "size": "1x99999999"}', 400, "megapixels"),
+    ):
         r = client.post("/api/jobs", content=body, headers={"content-type": "application/json"})
         assert r.status_code == status and word in r.text and len(r.text) < 400, (body[:40], r.text[:200])

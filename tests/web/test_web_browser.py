@@ -20,13 +20,20 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import BARK, _need_shared
 
 CHROMIUM = Path("/usr/bin/chromium")
-CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
-                 "--disable-quic", "--no-first-run", "--disable-background-networking",
-                 "--disable-component-update", "--disable-sync"]
+CHROMIUM_ARGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--use-angle=swiftshader",
+    "--enable-unsafe-swiftshader",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+]
 SHOTS = os.environ.get("BARKGEN_SHOTS")
 
 
@@ -42,8 +49,11 @@ def server(tmp_path_factory):
     port = _free_port()
     library = tmp_path_factory.mktemp("weblib")
     log = open(tmp_path_factory.mktemp("weblog") / "serve.log", "w+")
-    process = subprocess.Popen([sys.executable, "-m", "barkgen", "serve", "--port", str(port),
-                                "--library", str(library)], stdout=log, stderr=subprocess.STDOUT)
+    process = subprocess.Popen(
+        [sys.executable, "-m", "barkgen", "serve", "--port", str(port), "--library", str(library)],
+        stdout=log,
+        stderr=subprocess.STDOUT,
+    )
     url = f"http://127.0.0.1:{port}/"
     deadline = time.monotonic() + 60
     while True:
@@ -139,8 +149,11 @@ def test_upload_generate_view_paint_continue_download(server, browser, tmp_path)
     page.get_by_test_id("upload-submit").click()
     page.wait_for_url(re.compile(r"/exemplars/\d+"))
     page.get_by_test_id("exemplar-photo").wait_for()
-    page.wait_for_function("() => { const i = document.querySelector('[data-testid=labels-in]');"
-                           " return i && i.complete && i.naturalWidth > 0; }", timeout=60_000)
+    page.wait_for_function(
+        "() => { const i = document.querySelector('[data-testid=labels-in]');"
+        " return i && i.complete && i.naturalWidth > 0; }",
+        timeout=60_000,
+    )
     page.get_by_test_id("param-size").select_option("512x512")
     page.get_by_test_id("param-seed").fill("3")
     assert page.get_by_test_id("param-material").is_checked()
@@ -152,8 +165,11 @@ def test_upload_generate_view_paint_continue_download(server, browser, tmp_path)
     assert any(0 < value < 1 for value in seen), f"progress never moved between 0 and 1: {seen}"
     assert seen == sorted(seen), "progress went backwards"
     first_result = page.url
-    page.wait_for_function("() => { const i = document.querySelector('[data-testid=result-texture]');"
-                           " return i && i.complete && i.naturalWidth === 512; }", timeout=30_000)
+    page.wait_for_function(
+        "() => { const i = document.querySelector('[data-testid=result-texture]');"
+        " return i && i.complete && i.naturalWidth === 512; }",
+        timeout=30_000,
+    )
 
     # the 3D trunk draws (WebGL through SwiftShader): its pixels are not blank
     page.wait_for_selector("[data-testid=trunk-canvas][data-ready='1']", timeout=60_000)
@@ -163,7 +179,8 @@ def test_upload_generate_view_paint_continue_download(server, browser, tmp_path)
     assert np.unique(trunk.reshape(-1, 3).astype(np.uint8), axis=0).shape[0] > 500
     # the light slider changes the picture
     page.get_by_test_id("light-azimuth").evaluate(
-        "el => { el.value = 220; el.dispatchEvent(new Event('input', {bubbles: true})); }")
+        "el => { el.value = 220; el.dispatchEvent(new Event('input', {bubbles: true})); }"
+    )
     page.wait_for_timeout(500)
     relit = _canvas_pixels(page, "trunk-canvas")
     assert np.abs(relit - trunk).mean() > 1.0, "moving the light changed nothing"
@@ -196,8 +213,11 @@ def test_upload_generate_view_paint_continue_download(server, browser, tmp_path)
     page.get_by_test_id("paint-continue").click()
     _follow_job(page)
     page.wait_for_url(lambda url: "/results/" in url and url.split("?")[0] != first_result.split("?")[0])
-    page.wait_for_function("() => { const i = document.querySelector('[data-testid=result-texture]');"
-                           " return i && i.complete && i.naturalWidth === 512; }", timeout=30_000)
+    page.wait_for_function(
+        "() => { const i = document.querySelector('[data-testid=result-texture]');"
+        " return i && i.complete && i.naturalWidth === 512; }",
+        timeout=30_000,
+    )
     _shot(page, "5_continued", full_page=True)
 
     # the continued result starts from the painted level and differs from the first
@@ -230,8 +250,9 @@ def test_reload_finds_the_job_and_cancel(server, browser):
     page.get_by_test_id("job-state").wait_for()
     page.wait_for_function("() => /queued|running/.test(document.querySelector('[data-testid=job-state]').textContent)")
     page.get_by_test_id("job-cancel").click()
-    page.wait_for_function("() => /cancelled/.test(document.querySelector('[data-testid=job-state]').textContent)",
-                           timeout=30_000)
+    page.wait_for_function(
+        "() => /cancelled/.test(document.querySelector('[data-testid=job-state]').textContent)", timeout=30_000
+    )
     job_id = re.search(r"job=([0-9a-f]+)", job_url).group(1)
     assert page.request.get(f"{server}api/jobs/{job_id}").json()["state"] == "cancelled"
     page.close()

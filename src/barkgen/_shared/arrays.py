@@ -39,8 +39,7 @@ def pad_wrapped(image: np.ndarray, pad: int, tile: Wrap, other: str | None = "re
     return out
 
 
-def on_torus(func: Callable[[np.ndarray], np.ndarray], image: np.ndarray, pad: int,
-             tile: Wrap) -> np.ndarray:
+def on_torus(func: Callable[[np.ndarray], np.ndarray], image: np.ndarray, pad: int, tile: Wrap) -> np.ndarray:
     """``func(image)`` of a local operation (a filter, a distance transform, a denoising) whose
     reach is at most ``pad`` px, computed as if ``image`` wrapped round along the axes ``tile``
     wraps along: padded there with its own opposite edge, then cropped back. Along the other
@@ -52,7 +51,7 @@ def on_torus(func: Callable[[np.ndarray], np.ndarray], image: np.ndarray, pad: i
     h, w = np.shape(image)[:2]
     py, px = (pad if wy else 0), (pad if wx else 0)
     out = func(pad_wrapped(image, pad, (wy, wx), other=None))
-    return out[py:py + h, px:px + w]
+    return out[py : py + h, px : px + w]
 
 
 def as_hw_c(name: str, array: np.ndarray) -> np.ndarray:

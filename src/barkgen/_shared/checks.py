@@ -23,8 +23,9 @@ MIN_SIDE = 16
 MAX_PHOTO_PIXELS = 50_000_000
 
 
-def check_image(image: np.ndarray, *, min_side: int = MIN_SIDE, what: str = "photo",
-                purpose: str = "label maps need") -> np.ndarray:
+def check_image(
+    image: np.ndarray, *, min_side: int = MIN_SIDE, what: str = "photo", purpose: str = "label maps need"
+) -> np.ndarray:
     """An ``(h, w)`` or ``(h, w, C)`` photo (uint8, uint16 or float in [0, 1]) as float32 RGB in
     [0, 1]; alpha is dropped, grey is repeated to three channels. ``what`` and ``purpose``
     word the errors (e.g. "exemplar", "the bi-layer analysis needs")."""
@@ -34,8 +35,9 @@ def check_image(image: np.ndarray, *, min_side: int = MIN_SIDE, what: str = "pho
     if img.ndim != 3 or img.shape[2] not in (1, 2, 3, 4):
         raise InvalidInputError(f"{what} must be an (H, W) or (H, W, C) image, not shape {img.shape}")
     if min(img.shape[:2]) < min_side:
-        raise InvalidInputError(f"{what} is {img.shape[1]}x{img.shape[0]} px; {purpose} at "
-                                f"least {min_side} px on each side")
+        raise InvalidInputError(
+            f"{what} is {img.shape[1]}x{img.shape[0]} px; {purpose} at least {min_side} px on each side"
+        )
     if img.shape[2] in (2, 4):
         img = img[:, :, :-1]
     if img.dtype == np.uint8:
@@ -95,13 +97,14 @@ def parse_size(text: str) -> tuple[int, int]:
     m = _SIZE_RE.match(text if isinstance(text, str) else "")
     if not m:
         shown = repr(text) if len(repr(text)) <= 40 else repr(text)[:37] + "..."
-        raise InvalidInputError(f"invalid size {shown}: expected WIDTHxHEIGHT, e.g. 1024x1024 "
-                                "(at most 12 digits each)")
+        raise InvalidInputError(f"invalid size {shown}: expected WIDTHxHEIGHT, e.g. 1024x1024 (at most 12 digits each)")
     w, h = int(m.group(1)), int(m.group(2))
     if w <= 0 or h <= 0:
         raise InvalidInputError(f"invalid size {text!r}: width and height must be positive")
     limit = OUTPUT_PIXEL_LIMIT.get() or MAX_OUTPUT_PIXELS
     if w * h > limit:
-        raise InvalidInputError(f"size {w}x{h} is {w * h / 1e6:.3g} megapixels, more than the limit "
-                                f"of {limit / 1e6:.3g} (raise it: barkgen --max-pixels N COMMAND ...)")
+        raise InvalidInputError(
+            f"size {w}x{h} is {w * h / 1e6:.3g} megapixels, more than the limit "
+            f"of {limit / 1e6:.3g} (raise it: barkgen --max-pixels N COMMAND ...)"
+        )
     return h, w

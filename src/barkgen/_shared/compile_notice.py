@@ -22,8 +22,10 @@ from contextlib import contextmanager
 
 log = logging.getLogger("barkgen.kernels")
 
-MESSAGE = ("compiling barkgen's numba kernels (once per install, about 30 s); call "
-           "barkgen.warm_up() (or run `barkgen warm-up`) ahead to do it up front")
+MESSAGE = (
+    "compiling barkgen's numba kernels (once per install, about 30 s); call "
+    "barkgen.warm_up() (or run `barkgen warm-up`) ahead to do it up front"
+)
 
 _lock = threading.Lock()
 _state = {"watching": False, "said": False, "quiet": 0}

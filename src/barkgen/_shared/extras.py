@@ -41,4 +41,5 @@ def require_extra(extra: str, feature: str) -> None:
     if missing:
         raise MissingExtraError(
             f"{feature} needs barkgen's [{extra}] extra ({', '.join(missing)} not installed): "
-            f"pip install 'barkgen[{extra}]'")
+            f"pip install 'barkgen[{extra}]'"
+        )

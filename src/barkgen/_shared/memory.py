@@ -31,8 +31,9 @@ def check_budget_value(max_memory: int | None, what: str = "max_memory") -> None
     if max_memory is None:
         return
     if isinstance(max_memory, bool) or not isinstance(max_memory, int) or max_memory <= 0:
-        raise InvalidInputError(f"{what} must be a positive number of bytes (or None: what the "
-                                f"machine has free), not {max_memory!r}")
+        raise InvalidInputError(
+            f"{what} must be a positive number of bytes (or None: what the machine has free), not {max_memory!r}"
+        )
 
 
 def format_bytes(n: int) -> str:
@@ -64,7 +65,8 @@ def check_memory_budget(need: int, max_memory: int | None, job: str) -> int:
         what = "the memory budget" if max_memory is not None else "the memory free on this machine"
         raise MemoryBudgetError(
             f"{job} needs about {format_bytes(need)}, more than {what} "
-            f"({format_bytes(budget)}; set it with --max-memory)")
+            f"({format_bytes(budget)}; set it with --max-memory)"
+        )
     return need
 
 

@@ -54,7 +54,8 @@ class Manifest:
         except sqlite3.DatabaseError as exc:  # a damaged file, or another program's
             raise InvalidInputError(
                 f"{self.path}: not a readable batch manifest ({exc}); move it away to start the "
-                "batch afresh (the variants already in the folder are made again)") from None
+                "batch afresh (the variants already in the folder are made again)"
+            ) from None
 
     def _check_own(self) -> None:
         """Refuse a database that holds anything but barkgen's manifest (another program's
@@ -67,8 +68,10 @@ class Manifest:
         columns = {r[1] for r in self._db.execute("PRAGMA table_info(variants)")}
         if tables != {"variants"} or not _COLUMNS <= columns:
             self._db.close()
-            raise InvalidInputError(f"{self.path} is not a barkgen batch manifest (it holds "
-                                    f"{', '.join(sorted(tables))[:80]}); give another output folder")
+            raise InvalidInputError(
+                f"{self.path} is not a barkgen batch manifest (it holds "
+                f"{', '.join(sorted(tables))[:80]}); give another output folder"
+            )
 
     def close(self) -> None:
         self._db.close()
@@ -80,13 +83,22 @@ class Manifest:
         self.close()
 
     def is_done(self, exemplar: str, seed: int, fingerprint: str, folder: Path) -> bool:
-        row = self._db.execute("SELECT state, fingerprint FROM variants WHERE exemplar = ? AND seed = ?",
-                               (exemplar, seed)).fetchone()
-        return (row is not None and row[0] == "done" and row[1] == fingerprint
-                and (folder / "report.json").is_file())
+        row = self._db.execute(
+            "SELECT state, fingerprint FROM variants WHERE exemplar = ? AND seed = ?", (exemplar, seed)
+        ).fetchone()
+        return row is not None and row[0] == "done" and row[1] == fingerprint and (folder / "report.json").is_file()
 
-    def mark(self, exemplar: str, seed: int, fingerprint: str, state: str, *,
-             error: str | None = None, seconds: float | None = None, worker: str | None = None) -> None:
+    def mark(
+        self,
+        exemplar: str,
+        seed: int,
+        fingerprint: str,
+        state: str,
+        *,
+        error: str | None = None,
+        seconds: float | None = None,
+        worker: str | None = None,
+    ) -> None:
         """Record a variant's new state (``running`` counts an attempt)."""
         if state not in STATES:
             raise ValueError(f"unknown state {state!r}")
@@ -97,13 +109,15 @@ class Manifest:
                    fingerprint = excluded.fingerprint, state = excluded.state,
                    attempts = variants.attempts + excluded.attempts, error = excluded.error,
                    seconds = excluded.seconds, worker = excluded.worker, updated = excluded.updated""",
-            (exemplar, int(seed), fingerprint, state, int(state == "running"), error, seconds, worker,
-             time.time()))
+            (exemplar, int(seed), fingerprint, state, int(state == "running"), error, seconds, worker, time.time()),
+        )
 
     def rows(self) -> list[dict]:
         """Every variant's row, by exemplar and seed."""
-        cur = self._db.execute("SELECT exemplar, seed, fingerprint, state, attempts, error, seconds, worker, "
-                               "updated FROM variants ORDER BY exemplar, seed")
+        cur = self._db.execute(
+            "SELECT exemplar, seed, fingerprint, state, attempts, error, seconds, worker, "
+            "updated FROM variants ORDER BY exemplar, seed"
+        )
         names = [d[0] for d in cur.description]
         return [dict(zip(names, row)) for row in cur.fetchall()]
 

@@ -13,15 +13,16 @@ line, instead of every worker printing its traceback. A worker started by hand k
 import os
 import signal
 
+import cv2  # noqa: F401
+import faiss  # noqa: F401
+import sklearn.cluster  # noqa: F401
+
 import barkgen.io  # noqa: F401
 import barkgen.labels  # noqa: F401
 import barkgen.material  # noqa: F401
 import barkgen.pipeline  # noqa: F401
 import barkgen.shapes  # noqa: F401
 import barkgen.synth  # noqa: F401
-import cv2  # noqa: F401
-import faiss  # noqa: F401
-import sklearn.cluster  # noqa: F401
 
 if os.environ.get("BARKGEN_LOCAL_WORKER") == "1":
     signal.signal(signal.SIGINT, signal.SIG_IGN)

@@ -83,8 +83,9 @@ def _variant_task(photo, analysis, options, source: str, material_name: str, bit
         worker = get_worker().address
     except ValueError:
         worker = "local"
-    return VariantOutput(files=files, seconds=time.perf_counter() - t0, worker=worker,
-                         analysis_seconds=analysis.seconds)
+    return VariantOutput(
+        files=files, seconds=time.perf_counter() - t0, worker=worker, analysis_seconds=analysis.seconds
+    )
 
 
 def _one_line(exc: BaseException) -> str:
@@ -102,15 +103,23 @@ def local_cluster(workers: int | None = None, threads: int | None = None):
 
     workers = workers or os.cpu_count() or 1
     threads = threads or max(1, (os.cpu_count() or 1) // workers)
-    environ = {"NUMBA_NUM_THREADS": threads, "OMP_NUM_THREADS": threads,
-               "BARKGEN_LOCAL_WORKER": 1}  # its Ctrl-C is ours (barkgen.batch.preload)
+    environ = {
+        "NUMBA_NUM_THREADS": threads,
+        "OMP_NUM_THREADS": threads,
+        "BARKGEN_LOCAL_WORKER": 1,
+    }  # its Ctrl-C is ours (barkgen.batch.preload)
     # set in each worker process as it starts, before barkgen (and numba) is imported there;
     # not "pre-spawn-environ", which writes them into this process's own environment for good
     # (a later numba compile here then fails: its pool was launched with another size)
     with dask.config.set({f"distributed.nanny.environ.{k}": v for k, v in environ.items()}):
-        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                            dashboard_address=":0", silence_logs=logging.CRITICAL,
-                            preload=["barkgen.batch.preload"])
+        return LocalCluster(
+            n_workers=workers,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0",
+            silence_logs=logging.CRITICAL,
+            preload=["barkgen.batch.preload"],
+        )
 
 
 #: a scheduler address: PROTOCOL://HOST:PORT
@@ -127,8 +136,9 @@ def check_scheduler_address(address: str) -> str:
     m = _ADDRESS.match(address) if isinstance(address, str) else None
     shown = repr(address)[:60]
     if not m:
-        raise InvalidInputError(f"--scheduler {shown}: give the scheduler's address as "
-                                "tcp://HOST:PORT (e.g. tcp://10.0.0.5:8786)")
+        raise InvalidInputError(
+            f"--scheduler {shown}: give the scheduler's address as tcp://HOST:PORT (e.g. tcp://10.0.0.5:8786)"
+        )
     host, port = m.group(2).strip("[]"), int(m.group(3))
     if not 1 <= port <= 65535:
         raise InvalidInputError(f"--scheduler {shown}: port {port} is not 1-65535")
@@ -191,8 +201,9 @@ def run_batch(
     if threads is not None and not 1 <= threads <= 1024:
         raise InvalidInputError(f"threads must be 1..1024, not {threads}")
     if (scheduler is not None or client is not None) and workers is not None:
-        raise InvalidInputError("--workers sizes the local cluster; with --scheduler the cluster's own "
-                                "workers are used")
+        raise InvalidInputError(
+            "--workers sizes the local cluster; with --scheduler the cluster's own workers are used"
+        )
     if scheduler is None and client is None:
         workers = workers or cores
         threads = threads or max(1, cores // workers)
@@ -205,12 +216,17 @@ def run_batch(
     try:
         for job in spec.exemplars:
             fingerprint = job.fingerprint()
-            seeds = [s for s in job.seeds if done_before is None or not done_before.is_done(
-                job.name, s, fingerprint, output_dir / job.name / str(s))]
+            seeds = [
+                s
+                for s in job.seeds
+                if done_before is None
+                or not done_before.is_done(job.name, s, fingerprint, output_dir / job.name / str(s))
+            ]
             report.skipped += len(job.seeds) - len(seeds)
             if seeds:
-                todo.append((dataclasses.replace(job, options=dataclasses.replace(job.options, threads=threads)),
-                             seeds))
+                todo.append(
+                    (dataclasses.replace(job, options=dataclasses.replace(job.options, threads=threads)), seeds)
+                )
     finally:
         if done_before is not None:
             done_before.close()
@@ -238,8 +254,7 @@ def run_batch(
             report.workers = len(client.scheduler_info(n_workers=-1)["workers"])
             report.dashboard = client.dashboard_link
             say(f"Dask dashboard: {report.dashboard} ({report.workers} workers)")
-            _run(client, todo, inputs, output_dir, manifest, report, n_todo, progress,
-                 write_folder_atomic)
+            _run(client, todo, inputs, output_dir, manifest, report, n_todo, progress, write_folder_atomic)
             for job, _ in todo:
                 remove_staging(output_dir / job.name)
     finally:
@@ -253,30 +268,35 @@ def run_batch(
 
 def _read_inputs(job: ExemplarJob):
     """A job's photo (and label map), read and checked as the pipeline will check them."""
+    from barkgen._shared.checks import MAX_PHOTO_PIXELS, check_image
     from barkgen.errors import BarkgenError, ImageTooLargeError
     from barkgen.io import image_size, read_image
-    from barkgen._shared.checks import MAX_PHOTO_PIXELS, check_image
     from barkgen.pipeline.core import check_generate_memory
 
     try:
         width, height = image_size(job.path)  # from the header: a 144 MP photo is not decoded
         if width * height > MAX_PHOTO_PIXELS:
-            raise ImageTooLargeError(f"{width}x{height} px is more than the {MAX_PHOTO_PIXELS / 1e6:g} "
-                                     "megapixels a photo may be; scale it down")
+            raise ImageTooLargeError(
+                f"{width}x{height} px is more than the {MAX_PHOTO_PIXELS / 1e6:g} "
+                "megapixels a photo may be; scale it down"
+            )
         photo = read_image(job.path)
         check_image(photo)
         check_generate_memory(photo, job.options)  # before the cluster, not inside a worker
         labels = None if job.labels is None else read_image(job.labels)
         if labels is not None and labels.shape[:2] != photo.shape[:2]:
-            raise InvalidInputError(f"the label map is {labels.shape[1]}x{labels.shape[0]} px but the "
-                                    f"photo is {photo.shape[1]}x{photo.shape[0]} px")
+            raise InvalidInputError(
+                f"the label map is {labels.shape[1]}x{labels.shape[0]} px but the "
+                f"photo is {photo.shape[1]}x{photo.shape[0]} px"
+            )
     except BarkgenError as exc:
         raise InvalidInputError(f"exemplar {job.name!r}: {exc}") from None
     return photo, labels
 
 
-def _run(client, todo, inputs, output_dir: Path, manifest: Manifest, report: BatchReport,
-         n_todo: int, progress, write_folder) -> None:
+def _run(
+    client, todo, inputs, output_dir: Path, manifest: Manifest, report: BatchReport, n_todo: int, progress, write_folder
+) -> None:
     from distributed import as_completed
 
     futures = {}
@@ -286,17 +306,32 @@ def _run(client, todo, inputs, output_dir: Path, manifest: Manifest, report: Bat
         photo, labels = inputs[job.name]
         with warnings.catch_warnings():  # a 4096² photo is a "large graph"; it is sent once
             warnings.filterwarnings("ignore", message="Sending large graph")
-            photo_f = client.submit(_photo_task, photo, pure=False,
-                                    key=f"barkgen-photo-{job.name}-{os.urandom(4).hex()}")
-        analysis_f = client.submit(_analyse_task, photo_f, labels, job.options, pure=False,
-                                   key=f"barkgen-analyse-{job.name}-{os.urandom(4).hex()}")
+            photo_f = client.submit(
+                _photo_task, photo, pure=False, key=f"barkgen-photo-{job.name}-{os.urandom(4).hex()}"
+            )
+        analysis_f = client.submit(
+            _analyse_task,
+            photo_f,
+            labels,
+            job.options,
+            pure=False,
+            key=f"barkgen-analyse-{job.name}-{os.urandom(4).hex()}",
+        )
         shared[job.name] = [photo_f, analysis_f]
         remaining[job.name] = len(seeds)
         fingerprint = job.fingerprint()
         for seed in seeds:
-            future = client.submit(_variant_task, photo_f, analysis_f, job.options_for(seed), job.source_name,
-                                   job.material_name, job.bits, pure=False,
-                                   key=f"barkgen-variant-{job.name}-{seed}-{os.urandom(4).hex()}")
+            future = client.submit(
+                _variant_task,
+                photo_f,
+                analysis_f,
+                job.options_for(seed),
+                job.source_name,
+                job.material_name,
+                job.bits,
+                pure=False,
+                key=f"barkgen-variant-{job.name}-{seed}-{os.urandom(4).hex()}",
+            )
             futures[future] = (job, seed, fingerprint)
             manifest.mark(job.name, seed, fingerprint, "running")
     done = 0

@@ -26,9 +26,9 @@ from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
+from barkgen._shared.options import OptionField, option_fields
 from barkgen.errors import BarkgenError, InvalidInputError
 from barkgen.pipeline import GenerateOptions
-from barkgen._shared.options import OptionField, option_fields
 
 #: keys a spec may set at the top level or per exemplar besides GenerateOptions' fields: the
 #: texture's bits and the material set's file name
@@ -80,9 +80,17 @@ class ExemplarJob:
         opts.pop("seed")
         opts.pop("threads")
         opts.pop("max_memory")
-        return json.dumps({"path": str(self.path), "labels": None if self.labels is None else str(self.labels),
-                           "bits": self.bits, "material_name": self.material_name, **opts},
-                          sort_keys=True, default=str)
+        return json.dumps(
+            {
+                "path": str(self.path),
+                "labels": None if self.labels is None else str(self.labels),
+                "bits": self.bits,
+                "material_name": self.material_name,
+                **opts,
+            },
+            sort_keys=True,
+            default=str,
+        )
 
 
 @dataclass(frozen=True)
@@ -105,8 +113,9 @@ def _suggest(key: str, allowed) -> str:
 def _check_keys(where: str, mapping: dict, allowed) -> None:
     for key in mapping:
         if not isinstance(key, str) or key not in allowed:
-            raise InvalidInputError(f"{where}: unknown key {key!r}{_suggest(str(key), allowed)}; "
-                                    f"allowed: {', '.join(allowed)}")
+            raise InvalidInputError(
+                f"{where}: unknown key {key!r}{_suggest(str(key), allowed)}; allowed: {', '.join(allowed)}"
+            )
 
 
 def _seed(where: str, value) -> int:
@@ -134,7 +143,7 @@ def _option_value(where: str, field: OptionField, value):
         return value
     if kind is int:
         minimum = field.info.minimum
-        return _int(where, key, value, -2**63 if minimum is None else int(minimum))
+        return _int(where, key, value, -(2**63) if minimum is None else int(minimum))
     if kind is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise InvalidInputError(f"{key} must be a number, not {value!r}")
@@ -146,14 +155,18 @@ def _option_value(where: str, field: OptionField, value):
     return field.read(str(value))
 
 
-def _options(where: str, values: dict, threads: int | None,
-             options_class: type = GenerateOptions) -> tuple[GenerateOptions, int | None, str]:
+def _options(
+    where: str, values: dict, threads: int | None, options_class: type = GenerateOptions
+) -> tuple[GenerateOptions, int | None, str]:
     """GenerateOptions (or ``options_class``) from a spec's option keys (errors say where)."""
     from barkgen.pipeline import check_generate_names
 
     try:
-        kwargs = {f.name: _option_value(where, f, values[f.name])
-                  for f in option_fields(options_class, "batch") if f.name in values}
+        kwargs = {
+            f.name: _option_value(where, f, values[f.name])
+            for f in option_fields(options_class, "batch")
+            if f.name in values
+        }
         bits = values.get("bits")
         if bits is not None and (isinstance(bits, bool) or bits not in (8, 16)):
             raise InvalidInputError(f"bits must be 8 or 16, not {bits!r}")
@@ -181,12 +194,14 @@ def _seeds(where: str, entry: dict) -> tuple[int, ...]:
         seeds = [_seed(where, s) for s in seeds]
         dup = sorted(s for s, n in Counter(seeds).items() if n > 1)
         if dup:
-            raise InvalidInputError(f"{where}: seed {dup[0]} is listed twice (two variants would "
-                                    "write the same folder)")
+            raise InvalidInputError(
+                f"{where}: seed {dup[0]} is listed twice (two variants would write the same folder)"
+            )
         return tuple(seeds)
     if "count" not in entry:
-        raise InvalidInputError(f"{where}: say which variants to make: seeds: [0, 1, ...] or count: N "
-                                "(with seed_base: S, default 0)")
+        raise InvalidInputError(
+            f"{where}: say which variants to make: seeds: [0, 1, ...] or count: N (with seed_base: S, default 0)"
+        )
     count = _int(where, "count", entry["count"], 1)
     if count > MAX_VARIANTS:
         raise InvalidInputError(f"{where}: count {count} is more than {MAX_VARIANTS}")
@@ -213,21 +228,20 @@ def _library_photo(where: str, entry: dict, library) -> tuple[Path, str, str]:
         raise InvalidInputError(f"{where}: give the photo as path: or library:, not both")
     exemplar_id = entry["library"]
     if isinstance(exemplar_id, bool) or not isinstance(exemplar_id, int):
-        raise InvalidInputError(f"{where}: library must be an exemplar id (barkgen library list), "
-                                f"not {exemplar_id!r}")
+        raise InvalidInputError(f"{where}: library must be an exemplar id (barkgen library list), not {exemplar_id!r}")
     if library is None or isinstance(library, (str, Path)):
         library = Library(library)
     try:
         exemplar = library.exemplar(exemplar_id)
     except NotFoundError:
-        raise InvalidInputError(f"{where}: no exemplar {exemplar_id} in the library at {library.path} "
-                                "(see barkgen library list)") from None
+        raise InvalidInputError(
+            f"{where}: no exemplar {exemplar_id} in the library at {library.path} (see barkgen library list)"
+        ) from None
     name = re.sub(r"[^A-Za-z0-9._-]+", "-", exemplar.name).strip("-.")[:64] or f"library-{exemplar.id}"
     return library.store.path(exemplar.image_hash), name, f"library:{exemplar.id} ({exemplar.name})"
 
 
-def parse_spec(document, root: str | Path = ".", *, threads: int | None = None,
-               library=None) -> BatchSpec:
+def parse_spec(document, root: str | Path = ".", *, threads: int | None = None, library=None) -> BatchSpec:
     """Validate a spec mapping (as loaded from YAML); relative paths are relative to ``root``.
 
     ``threads``: numba/faiss threads of each variant (None: all cores of its worker).
@@ -240,13 +254,11 @@ def parse_spec(document, root: str | Path = ".", *, threads: int | None = None,
     """
     root = Path(root)
     if not isinstance(document, dict):
-        raise InvalidInputError("spec: expected a mapping with an 'exemplars' list, not "
-                                f"{type(document).__name__}")
+        raise InvalidInputError(f"spec: expected a mapping with an 'exemplars' list, not {type(document).__name__}")
     _check_keys("spec", document, TOP_KEYS + OPTION_KEYS)
     entries = document.get("exemplars")
     if not isinstance(entries, list) or not entries:
-        raise InvalidInputError("spec: 'exemplars' must be a non-empty list of "
-                                "{name, path, seeds | count} entries")
+        raise InvalidInputError("spec: 'exemplars' must be a non-empty list of {name, path, seeds | count} entries")
     if len(entries) > MAX_EXEMPLARS:
         raise InvalidInputError(f"spec: {len(entries)} exemplars is more than {MAX_EXEMPLARS}")
     shared = {key: value for key, value in document.items() if key in OPTION_KEYS}
@@ -257,8 +269,9 @@ def parse_spec(document, root: str | Path = ".", *, threads: int | None = None,
     for i, entry in enumerate(entries):
         where = f"spec: exemplars[{i}]"
         if not isinstance(entry, dict):
-            raise InvalidInputError(f"{where}: expected a mapping such as {{name: oak, path: oak.jpg, "
-                                    f"seeds: [0, 1]}}, not {entry!r}")
+            raise InvalidInputError(
+                f"{where}: expected a mapping such as {{name: oak, path: oak.jpg, seeds: [0, 1]}}, not {entry!r}"
+            )
         _check_keys(where, entry, EXEMPLAR_KEYS + OPTION_KEYS)
         source = None
         if "library" in entry:
@@ -270,22 +283,36 @@ def parse_spec(document, root: str | Path = ".", *, threads: int | None = None,
             default_name = path.stem
         name = entry.get("name", default_name)
         if not isinstance(name, str) or not _NAME_RE.match(name) or name in (".", ".."):
-            raise InvalidInputError(f"{where}: name {name!r} must be a folder name of letters, digits, "
-                                    "'.', '_' or '-' (at most 64, not starting with a dot)")
+            raise InvalidInputError(
+                f"{where}: name {name!r} must be a folder name of letters, digits, "
+                "'.', '_' or '-' (at most 64, not starting with a dot)"
+            )
         where = f"spec: exemplars[{i}] ({name})"
         if name.lower() in names:
-            raise InvalidInputError(f"{where}: the name {name!r} is also exemplars[{names[name.lower()]}]'s; "
-                                    "each exemplar needs its own output folder")
+            raise InvalidInputError(
+                f"{where}: the name {name!r} is also exemplars[{names[name.lower()]}]'s; "
+                "each exemplar needs its own output folder"
+            )
         names[name.lower()] = i
         labels = _path(root, where, "labels", entry["labels"]) if "labels" in entry else None
         options, bits, material_name = _options(
-            where, {**shared, **{k: v for k, v in entry.items() if k in OPTION_KEYS}}, threads)
-        jobs.append(ExemplarJob(name=name, path=path, seeds=_seeds(where, entry), options=options,
-                                labels=labels, bits=bits, material_name=material_name, source=source))
+            where, {**shared, **{k: v for k, v in entry.items() if k in OPTION_KEYS}}, threads
+        )
+        jobs.append(
+            ExemplarJob(
+                name=name,
+                path=path,
+                seeds=_seeds(where, entry),
+                options=options,
+                labels=labels,
+                bits=bits,
+                material_name=material_name,
+                source=source,
+            )
+        )
         total += len(jobs[-1].seeds)
         if total > MAX_VARIANTS:  # (checked as they add up: 300 x 100,000 seeds are never built)
-            raise InvalidInputError(f"spec: {total} variants or more; at most {MAX_VARIANTS} in one "
-                                    "batch (split it)")
+            raise InvalidInputError(f"spec: {total} variants or more; at most {MAX_VARIANTS} in one batch (split it)")
     return BatchSpec(exemplars=tuple(jobs), root=root)
 
 
@@ -302,8 +329,7 @@ def _load_document(text: str, name: str):
     loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
     aliases = sum(isinstance(e, yaml.AliasEvent) for e in yaml.parse(text, Loader=loader))
     if aliases > MAX_SPEC_ALIASES:
-        raise InvalidInputError(f"spec {name!r} uses {aliases} YAML aliases (*name); at most "
-                                f"{MAX_SPEC_ALIASES}")
+        raise InvalidInputError(f"spec {name!r} uses {aliases} YAML aliases (*name); at most {MAX_SPEC_ALIASES}")
     return yaml.load(text, Loader=loader)  # noqa: S506 - a safe loader
 
 
@@ -316,8 +342,10 @@ def load_spec(path: str | Path, *, threads: int | None = None, library=None) -> 
         raise InvalidInputError(f"spec {str(path)!r} not found")
     try:
         if path.stat().st_size > MAX_SPEC_BYTES:
-            raise InvalidInputError(f"spec {str(path)!r} is over {MAX_SPEC_BYTES // 2**20} MiB; "
-                                    "a spec lists photos and seeds, it is never that long")
+            raise InvalidInputError(
+                f"spec {str(path)!r} is over {MAX_SPEC_BYTES // 2**20} MiB; "
+                "a spec lists photos and seeds, it is never that long"
+            )
         text = path.read_text(encoding="utf-8")
         document = _load_document(text, str(path))
     except UnicodeDecodeError:

@@ -267,8 +267,9 @@ def render_window(y0, x0, out, layers, tiles, lattice, noise):
                 wts[q] = wy[q] * (fx if (q & 1) else 1.0 - fx) * norm
                 ty_idx[q] = (py + offy[q]) & wrap
                 tx_idx[q] = (px + offx[q]) & wrap
-            _noise_colour(tiles[idx, iy, ix], noise_tiles, bases, means, quantiles, sigmas, wts, ty_idx, tx_idx,
-                          nvals, colour)
+            _noise_colour(
+                tiles[idx, iy, ix], noise_tiles, bases, means, quantiles, sigmas, wts, ty_idx, tx_idx, nvals, colour
+            )
             for ch in range(3):
                 out[r, col, ch] = min(max(tiles[idx, iy, ix, ch] + colour[ch], 0.0), 1.0)
                 if want_noise:

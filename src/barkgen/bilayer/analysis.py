@@ -12,8 +12,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from barkgen.bilayer.model import BilayerModel, NoiseStatistics
 from barkgen._shared.memory import check_memory_budget
+from barkgen.bilayer.model import BilayerModel, NoiseStatistics
 from barkgen.bilayer.options import AnalysisOptions, as_rgb, estimate_analysis_memory
 from barkgen.bilayer.spectra import estimate_spectrum, local_spectra
 
@@ -34,8 +34,9 @@ def _reduce(features: np.ndarray, dims: int, rng: np.random.Generator) -> np.nda
     return np.ascontiguousarray(((flat - mean) @ vt[:dims].T).reshape(h, w, dims).astype(np.float32))
 
 
-def extract_structure(image: np.ndarray, spectra: np.ndarray, options: AnalysisOptions,
-                      rng: np.random.Generator) -> np.ndarray:
+def extract_structure(
+    image: np.ndarray, spectra: np.ndarray, options: AnalysisOptions, rng: np.random.Generator
+) -> np.ndarray:
     """``P``: the image iterated through a joint bilateral filter whose range kernel compares
     local spectra (guingo2017 §5): pixels are averaged only with pixels of similar spectral
     content, so structure borders stay sharp while the noise inside each region is removed."""
@@ -44,8 +45,7 @@ def extract_structure(image: np.ndarray, spectra: np.ndarray, options: AnalysisO
     guide = _reduce(spectra, 8, rng)
     structure = np.ascontiguousarray(image, dtype=np.float32)
     for _ in range(options.iterations):
-        structure = joint_bilateral(structure, guide, options.radius, options.radius / 2.0,
-                                    options.sigma_range)
+        structure = joint_bilateral(structure, guide, options.radius, options.radius / 2.0, options.sigma_range)
     return structure
 
 
@@ -61,7 +61,7 @@ def cluster_spectra(spectra: np.ndarray, k: int, kind: str, rng: np.random.Gener
     centres = km.cluster_centers_.astype(np.float32)
     order = np.argsort(np.linalg.norm(centres, axis=1))  # clusters sorted by power: stable ids
     centres = centres[order]
-    sq = (flat ** 2).sum(axis=1)[:, None] - 2 * flat @ centres.T + (centres ** 2).sum(axis=1)[None, :]
+    sq = (flat**2).sum(axis=1)[:, None] - 2 * flat @ centres.T + (centres**2).sum(axis=1)[None, :]
     distances = np.sqrt(np.maximum(sq, 0.0)).reshape(h, w, k)
     labels = distances.argmin(axis=2)
     if kind == "binary":
@@ -87,8 +87,13 @@ def border_band(labels: np.ndarray, width: int) -> np.ndarray:
     return dist < width
 
 
-def noise_statistics(noise: np.ndarray, labels: np.ndarray, distances: np.ndarray,
-                     options: AnalysisOptions, exclude: np.ndarray | None = None) -> NoiseStatistics:
+def noise_statistics(
+    noise: np.ndarray,
+    labels: np.ndarray,
+    distances: np.ndarray,
+    options: AnalysisOptions,
+    exclude: np.ndarray | None = None,
+) -> NoiseStatistics:
     """Spectra, PCA colour bases and quantiles of each cluster's noise (§3.3, §6)."""
     h, w, _ = noise.shape
     k = options.k
@@ -119,19 +124,20 @@ def noise_statistics(noise: np.ndarray, labels: np.ndarray, distances: np.ndarra
             # the shape from the core, the energy from the whole cluster: the 10 % left out
             # are the most unusual pixels (often the strongest grain), and without them the
             # synthesized noise would be weaker than the photo's
-            energy = float((spectrum ** 2).mean())
+            energy = float((spectrum**2).mean())
             target = float(projected[member].var())
             if energy > 0 and target > 0:
                 spectrum *= np.sqrt(target / energy)
             spectra[c, ch] = spectrum
-            sigmas[c, ch] = max(float(np.sqrt((spectrum ** 2).mean())), 1e-6)
+            sigmas[c, ch] = max(float(np.sqrt((spectrum**2).mean())), 1e-6)
             if options.equalize:
                 quantiles[c, ch] = np.quantile(projected[core], probs)
     return NoiseStatistics(spectra, bases, means, sigmas, quantiles)
 
 
-def analyze(exemplar: np.ndarray, options: AnalysisOptions | None = None, *,
-            progress: Callable[[int, int], None] | None = None):
+def analyze(
+    exemplar: np.ndarray, options: AnalysisOptions | None = None, *, progress: Callable[[int, int], None] | None = None
+):
     """Instantiate the bi-layer model from one exemplar (guingo2017 Fig. 4, left).
 
     The colour is analysed through its luminance (CIELAB L): local spectra, masks and the
@@ -174,8 +180,9 @@ def analyze(exemplar: np.ndarray, options: AnalysisOptions | None = None, *,
 
     options = options or AnalysisOptions()
     h, w = np.shape(exemplar)[:2]
-    check_memory_budget(estimate_analysis_memory((h, w)), options.max_memory,
-                        f"the bi-layer analysis of a {w}x{h} photo")
+    check_memory_budget(
+        estimate_analysis_memory((h, w)), options.max_memory, f"the bi-layer analysis of a {w}x{h} photo"
+    )
     image = as_rgb(exemplar)
     rng = np.random.default_rng(options.seed)
     steps = 4
@@ -197,5 +204,6 @@ def analyze(exemplar: np.ndarray, options: AnalysisOptions | None = None, *,
     step(3)
     stats = noise_statistics(noise, labels, distances, options, exclude=band)
     step(4)
-    return BilayerModel(exemplar=image, structure=structure, masks=masks, labels=labels.astype(np.uint8),
-                        noise=stats, options=options)
+    return BilayerModel(
+        exemplar=image, structure=structure, masks=masks, labels=labels.astype(np.uint8), noise=stats, options=options
+    )

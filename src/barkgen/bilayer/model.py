@@ -22,8 +22,9 @@ MAX_WINDOW_PIXELS = 1 << 28
 COMPENSATION_SAMPLE = 512
 
 
-def compensated_noise(noise: NoiseStatistics, exemplar: np.ndarray, masks: np.ndarray,
-                      structure: np.ndarray) -> NoiseStatistics:
+def compensated_noise(
+    noise: NoiseStatistics, exemplar: np.ndarray, masks: np.ndarray, structure: np.ndarray
+) -> NoiseStatistics:
     """Noise statistics topped up with the power a deformed structure lacks.
 
     A zoom moves the structure's power to coarser bands, and a rotation's resampling softens
@@ -52,11 +53,15 @@ def compensated_noise(noise: NoiseStatistics, exemplar: np.ndarray, masks: np.nd
     deficit[0, 0] = 0.0
     weights = energy / total
     spectra = np.sqrt(power + weights[:, :, None, None] * deficit[None, None])
-    sigmas = np.sqrt((spectra ** 2).mean(axis=(2, 3)))
+    sigmas = np.sqrt((spectra**2).mean(axis=(2, 3)))
     widen = np.where(energy > 0, sigmas / np.sqrt(np.maximum(energy, 1e-30)), 1.0)
     quantiles = noise.quantiles.astype(np.float64) * widen[:, :, None]
-    return replace(noise, spectra=spectra.astype(np.float32), sigmas=np.maximum(sigmas, 1e-6).astype(np.float32),
-                   quantiles=quantiles.astype(np.float32))
+    return replace(
+        noise,
+        spectra=spectra.astype(np.float32),
+        sigmas=np.maximum(sigmas, 1e-6).astype(np.float32),
+        quantiles=quantiles.astype(np.float32),
+    )
 
 
 @dataclass
@@ -84,11 +89,20 @@ class _Synthesizer:
         from barkgen.bilayer._kernels import render_window
 
         stats = self.noise
-        lattice = (self.options.colours, self.options.variants, self.hash_seed,
-                   float(self.options.warp * self.tiles.shape[1]))
-        tables = (self.noise_tiles, self.noise_tiles.shape[2] // 2, stats.bases.astype(np.float64),
-                  stats.means.astype(np.float64), stats.quantiles.astype(np.float64),
-                  stats.sigmas.astype(np.float64))
+        lattice = (
+            self.options.colours,
+            self.options.variants,
+            self.hash_seed,
+            float(self.options.warp * self.tiles.shape[1]),
+        )
+        tables = (
+            self.noise_tiles,
+            self.noise_tiles.shape[2] // 2,
+            stats.bases.astype(np.float64),
+            stats.means.astype(np.float64),
+            stats.quantiles.astype(np.float64),
+            stats.sigmas.astype(np.float64),
+        )
         render_window(int(y), int(x), out, (structure, noise), self.tiles, lattice, tables)
 
 
@@ -145,13 +159,20 @@ class BilayerModel:
             tiles_seq, noise_seq, hash_seq = np.random.SeedSequence([int(seed), 0xB1]).spawn(3)
             layers = np.concatenate([self.structure, self.masks], axis=2).astype(np.float32)
             size = options.tile_size or default_tile_size(self.structure.shape[:2])
-            tiles = build_tiles(layers, np.random.default_rng(tiles_seq), size=size,
-                                colours=options.colours, variants=options.variants,
-                                deformation=options.deformation, blend=options.blend)
+            tiles = build_tiles(
+                layers,
+                np.random.default_rng(tiles_seq),
+                size=size,
+                colours=options.colours,
+                variants=options.variants,
+                deformation=options.deformation,
+                blend=options.blend,
+            )
             period = max(NOISE_TILE, 1 << (2 * self.noise.spectra.shape[2] - 1).bit_length())  # a power of two
             hash_seed = int(hash_seq.generate_state(1, np.uint64)[0] >> np.uint64(1))
-            synth = _Synthesizer(tiles, np.zeros((self.k, 3, period, period), np.float32), hash_seed,
-                                 self.noise, options)
+            synth = _Synthesizer(
+                tiles, np.zeros((self.k, 3, period, period), np.float32), hash_seed, self.noise, options
+            )
             if options.compensate and options.deformation.active:
                 n = COMPENSATION_SAMPLE
                 sample = np.empty((n, n, tiles.shape[3]), np.float32)
@@ -165,8 +186,17 @@ class BilayerModel:
             self._cache[key] = synth
         return self._cache[key]
 
-    def window(self, x: int, y: int, width: int, height: int, *, seed: int = 0,
-               options: SynthesisOptions | None = None, layers: bool = False):
+    def window(
+        self,
+        x: int,
+        y: int,
+        width: int,
+        height: int,
+        *,
+        seed: int = 0,
+        options: SynthesisOptions | None = None,
+        layers: bool = False,
+    ):
         """Pixels ``[x, x + width) x [y, y + height)`` of the unbounded synthesized texture.
 
         Deterministic in coordinates: for a given seed and options, overlapping windows agree
@@ -218,16 +248,19 @@ class BilayerModel:
         if width <= 0 or height <= 0:
             raise InvalidInputError(f"window size must be positive, not {width}x{height}")
         if width * height > MAX_WINDOW_PIXELS:
-            raise InvalidInputError(f"a {width}x{height} window is too large for one call; "
-                                    f"render it in smaller windows")
+            raise InvalidInputError(
+                f"a {width}x{height} window is too large for one call; render it in smaller windows"
+            )
         if seed < 0:
             raise InvalidInputError(f"seed must be >= 0, not {seed}")
         if abs(x) > 2**40 or abs(y) > 2**40:
             raise InvalidInputError("window position out of range (|x|, |y| <= 2**40)")
         options = options or SynthesisOptions()
-        check_memory_budget(estimate_window_memory(self.exemplar.shape[:2], (height, width),
-                                                   options.variants), options.max_memory,
-                            f"a {width}x{height} bi-layer window")
+        check_memory_budget(
+            estimate_window_memory(self.exemplar.shape[:2], (height, width), options.variants),
+            options.max_memory,
+            f"a {width}x{height} bi-layer window",
+        )
         synth = self._synthesizer(seed, options)
         n_ch = synth.tiles.shape[3]
         out = np.empty((height, width, 3), np.float32)
@@ -236,11 +269,16 @@ class BilayerModel:
         synth.render(x, y, out, structure, noise)
         if not layers:
             return out
-        return {"texture": out, "structure": structure[:, :, :3], "masks": structure[:, :, 3:],
-                "noise": noise}
+        return {"texture": out, "structure": structure[:, :, :3], "masks": structure[:, :, 3:], "noise": noise}
 
-    def synthesize(self, shape: tuple[int, int], *, offset: tuple[int, int] = (0, 0), seed: int = 0,
-                   options: SynthesisOptions | None = None) -> np.ndarray:
+    def synthesize(
+        self,
+        shape: tuple[int, int],
+        *,
+        offset: tuple[int, int] = (0, 0),
+        seed: int = 0,
+        options: SynthesisOptions | None = None,
+    ) -> np.ndarray:
         """An ``(height, width)`` texture: the window at ``offset = (x, y)``.
 
         Parameters
@@ -285,8 +323,18 @@ def single_layer(exemplar: np.ndarray, options: AnalysisOptions | None = None) -
     image = as_rgb(exemplar)
     options = options or AnalysisOptions(k=1)
     t = min(options.spectrum_size, (min(image.shape[:2]) // 2) * 2)
-    stats = NoiseStatistics(spectra=np.zeros((1, 3, t, t), np.float32),
-                            bases=np.eye(3, dtype=np.float32)[None], means=np.zeros((1, 3), np.float32),
-                            sigmas=np.ones((1, 3), np.float32), quantiles=np.zeros((1, 3, 1), np.float32))
-    return BilayerModel(exemplar=image, structure=image.copy(), masks=np.ones(image.shape[:2] + (1,), np.float32),
-                        labels=np.zeros(image.shape[:2], np.uint8), noise=stats, options=options)
+    stats = NoiseStatistics(
+        spectra=np.zeros((1, 3, t, t), np.float32),
+        bases=np.eye(3, dtype=np.float32)[None],
+        means=np.zeros((1, 3), np.float32),
+        sigmas=np.ones((1, 3), np.float32),
+        quantiles=np.zeros((1, 3, 1), np.float32),
+    )
+    return BilayerModel(
+        exemplar=image,
+        structure=image.copy(),
+        masks=np.ones(image.shape[:2] + (1,), np.float32),
+        labels=np.zeros(image.shape[:2], np.uint8),
+        noise=stats,
+        options=options,
+    )

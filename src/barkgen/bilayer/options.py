@@ -7,9 +7,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from barkgen._shared.memory import BASE_BYTES, check_budget_value
 from barkgen.bilayer.spectra import SPECTRUM_SIZE, check_tloc
 from barkgen.bilayer.tiles import Deformation
-from barkgen._shared.memory import BASE_BYTES, check_budget_value
 from barkgen.errors import InvalidInputError
 
 #: smallest exemplar side the analysis accepts (the global spectra need 16 px windows)
@@ -89,8 +89,7 @@ class AnalysisOptions:
         if self.spectrum_size < 16 or self.spectrum_size % 2:
             raise InvalidInputError(f"spectrum size must be even and at least 16, not {self.spectrum_size}")
         if self.border < 0 or self.iterations < 0 or self.radius < 1 or not (0 < self.sigma_range <= 1):
-            raise InvalidInputError("border and iterations must be >= 0, radius >= 1, "
-                                    "the range sigma in (0, 1]")
+            raise InvalidInputError("border and iterations must be >= 0, radius >= 1, the range sigma in (0, 1]")
         if not (0 < self.core <= 1):
             raise InvalidInputError(f"core must be in (0, 1], not {self.core}")
         if self.seed < 0:
@@ -177,13 +176,15 @@ def estimate_analysis_memory(photo_shape: tuple[int, int]) -> int:
     return BASE_BYTES + ANALYSIS_BYTES_PER_PIXEL * photo_shape[0] * photo_shape[1]
 
 
-def estimate_window_memory(exemplar_shape: tuple[int, int], window_shape: tuple[int, int],
-                           variants: int = 4) -> int:
+def estimate_window_memory(exemplar_shape: tuple[int, int], window_shape: tuple[int, int], variants: int = 4) -> int:
     """Estimated peak memory (bytes) of one :meth:`~barkgen.bilayer.BilayerModel.window` of
     ``(height, width)`` from a model of a ``(h, w)`` exemplar (``variants`` deformed copies)."""
     n_ex = exemplar_shape[0] * exemplar_shape[1]
-    return int(BASE_BYTES + WINDOW_MODEL_BYTES_PER_PIXEL * n_ex * max(variants, 4) / 4
-               + WINDOW_BYTES_PER_PIXEL * window_shape[0] * window_shape[1])
+    return int(
+        BASE_BYTES
+        + WINDOW_MODEL_BYTES_PER_PIXEL * n_ex * max(variants, 4) / 4
+        + WINDOW_BYTES_PER_PIXEL * window_shape[0] * window_shape[1]
+    )
 
 
 def as_rgb(image: np.ndarray) -> np.ndarray:

@@ -7,8 +7,8 @@ import dataclasses
 
 import numpy as np
 
-from barkgen.bilayer.spectra import TLOC_CHOICES
 from barkgen._shared.arrays import as_uint8 as _u8
+from barkgen.bilayer.spectra import TLOC_CHOICES
 
 
 def noise_picture(noise: np.ndarray) -> np.ndarray:
@@ -53,8 +53,7 @@ def analysis_preview(model, synthesized: np.ndarray | None = None) -> np.ndarray
     """
     from barkgen.labels.preview import contact_sheet
 
-    tiles = [_u8(model.exemplar), _u8(model.structure), noise_picture(model.noise_layer),
-             mask_picture(model.masks)]
+    tiles = [_u8(model.exemplar), _u8(model.structure), noise_picture(model.noise_layer), mask_picture(model.masks)]
     captions = ["exemplar I", "structure P", "noise N", "masks M_k"]
     for c in range(model.k):
         tiles.append(spectrum_picture(model.noise.spectra[c, 0]))
@@ -65,8 +64,7 @@ def analysis_preview(model, synthesized: np.ndarray | None = None) -> np.ndarray
     return contact_sheet(tiles, captions, columns=4, tile_size=256)
 
 
-def tune_sheet(exemplar: np.ndarray, options=None, *, tlocs=TLOC_CHOICES, seed: int = 0,
-               progress=None) -> np.ndarray:
+def tune_sheet(exemplar: np.ndarray, options=None, *, tlocs=TLOC_CHOICES, seed: int = 0, progress=None) -> np.ndarray:
     """The T_loc choice sheet of guingo2017 Fig. 14.
 
     For each T_loc a row of P, N and a synthesized sample of twice the exemplar's width (the same

@@ -74,16 +74,14 @@ def local_spectra(luminance: np.ndarray, tloc: int) -> np.ndarray:
     image = np.ascontiguousarray(luminance, dtype=np.float32)
     w1 = _window(t)
     taper = np.outer(w1, w1)
-    norm = float((taper ** 2).sum())
+    norm = float((taper**2).sum())
     u = np.arange(t)
     features = []
     for fy in range(t):
         for fx in range(t // 2 + 1):
             phase = -2.0 * np.pi * (fy * u[:, None] + fx * u[None, :]) / t
-            re = cv2.filter2D(image, -1, (taper * np.cos(phase)).astype(np.float32),
-                              borderType=cv2.BORDER_REFLECT)
-            im = cv2.filter2D(image, -1, (taper * np.sin(phase)).astype(np.float32),
-                              borderType=cv2.BORDER_REFLECT)
+            re = cv2.filter2D(image, -1, (taper * np.cos(phase)).astype(np.float32), borderType=cv2.BORDER_REFLECT)
+            im = cv2.filter2D(image, -1, (taper * np.sin(phase)).astype(np.float32), borderType=cv2.BORDER_REFLECT)
             power = (re * re + im * im) / norm
             power = cv2.blur(power, (t + 1, t + 1), borderType=cv2.BORDER_REFLECT)  # Welch average
             twin = 2.0 if 0 < fx < t - fx else 1.0  # the conjugate twin of the other half plane
@@ -101,8 +99,7 @@ def welch_power(image: np.ndarray, size: int) -> np.ndarray:
         image = image[:, :, None]
     t = int(size)
     if image.shape[0] < t or image.shape[1] < t:
-        raise InvalidInputError(f"the image ({image.shape[1]}x{image.shape[0]}) is smaller than one "
-                                f"{t}x{t} window")
+        raise InvalidInputError(f"the image ({image.shape[1]}x{image.shape[0]}) is smaller than one {t}x{t} window")
     step = max(1, t // 2)
     windows = np.lib.stride_tricks.sliding_window_view(image, (t, t), axis=(0, 1))[::step, ::step]
     w1 = _window(t)
@@ -111,13 +108,13 @@ def welch_power(image: np.ndarray, size: int) -> np.ndarray:
     for row in windows:  # one row of windows at a time: memory stays small for large images
         row = row - row.mean(axis=(-2, -1), keepdims=True)
         power += (np.abs(np.fft.fft2(row * taper)) ** 2).sum(axis=(0, 1))  # over windows, channels
-    return power / (windows.shape[0] * windows.shape[1] * float((taper ** 2).mean() * t * t))
+    return power / (windows.shape[0] * windows.shape[1] * float((taper**2).mean() * t * t))
 
 
 def _parzen(n_lags: int) -> np.ndarray:
     """Parzen lag window over lags ``0..n_lags`` (its transform is non-negative)."""
     r = np.arange(n_lags + 1) / (n_lags + 1)
-    return np.where(r <= 0.5, 1 - 6 * r ** 2 + 6 * r ** 3, 2 * (1 - r) ** 3)
+    return np.where(r <= 0.5, 1 - 6 * r**2 + 6 * r**3, 2 * (1 - r) ** 3)
 
 
 def estimate_spectrum(signal: np.ndarray, mask: np.ndarray, size: int = SPECTRUM_SIZE) -> np.ndarray:
@@ -175,8 +172,8 @@ def estimate_spectrum(signal: np.ndarray, mask: np.ndarray, size: int = SPECTRUM
         return s if s[-1] == n - t else s + [n - t]
 
     ys, xs = starts(h), starts(w)
-    a = np.stack([values[y:y + t, x:x + t] for y in ys for x in xs])
-    m = np.stack([weights[y:y + t, x:x + t] for y in ys for x in xs])
+    a = np.stack([values[y : y + t, x : x + t] for y in ys for x in xs])
+    m = np.stack([weights[y : y + t, x : x + t] for y in ys for x in xs])
     keep = m.reshape(len(m), -1).sum(axis=1) > 0
     a, m = a[keep], m[keep]
     pad = (2 * t, 2 * t)

@@ -95,8 +95,9 @@ def default_tile_size(shape: tuple[int, int]) -> int:
     return int(max(16, 8 * round(min(shape) / 32)))
 
 
-def _sources(layers: np.ndarray, rng: np.random.Generator, deformation: Deformation,
-             count: int = 8) -> list[np.ndarray]:
+def _sources(
+    layers: np.ndarray, rng: np.random.Generator, deformation: Deformation, count: int = 8
+) -> list[np.ndarray]:
     """The exemplar layers as the tiles see them: itself, or ``count`` copies each rotated and
     zoomed by one random draw of the deformation (resampled once, bilinear, borders reflected)."""
     import cv2
@@ -117,10 +118,9 @@ def _sources(layers: np.ndarray, rng: np.random.Generator, deformation: Deformat
         matrix[:, 2] += np.array([out_w / 2 - w / 2, out_h / 2 - h / 2])
         warped = np.empty((out_h, out_w, c), np.float32)
         for start in range(0, c, 4):  # OpenCV warps at most 4 channels at a time
-            chunk = np.ascontiguousarray(layers[:, :, start:start + 4])
-            res = cv2.warpAffine(chunk, matrix, (out_w, out_h), flags=cv2.INTER_LINEAR,
-                                 borderMode=cv2.BORDER_REFLECT)
-            warped[:, :, start:start + 4] = res.reshape(out_h, out_w, -1)
+            chunk = np.ascontiguousarray(layers[:, :, start : start + 4])
+            res = cv2.warpAffine(chunk, matrix, (out_w, out_h), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
+            warped[:, :, start : start + 4] = res.reshape(out_h, out_w, -1)
         out.append(warped)
     return out
 
@@ -129,7 +129,7 @@ def _random_sample(sources: list[np.ndarray], size: int, rng: np.random.Generato
     src = sources[int(rng.integers(len(sources)))]
     y = int(rng.integers(src.shape[0] - size + 1))
     x = int(rng.integers(src.shape[1] - size + 1))
-    return src[y:y + size, x:x + size].copy()
+    return src[y : y + size, x : x + size].copy()
 
 
 @dataclass
@@ -153,15 +153,15 @@ class _SampleIndex:
         step = 2 if size >= 64 else 1
         mask = np.repeat(ring[:, :, None], 3, axis=2).astype(np.float32)
         if step > 1:
-            mask = (cv2.resize(mask, (size // step, size // step), interpolation=cv2.INTER_AREA) > 0.5
-                    ).astype(np.float32)
+            mask = (cv2.resize(mask, (size // step, size // step), interpolation=cv2.INTER_AREA) > 0.5).astype(
+                np.float32
+            )
         n = float(mask.sum())
         images, energies, contrasts = [], [], []
         for src in sources:
             image = np.ascontiguousarray(src[:, :, :3])
             if step > 1:
-                image = cv2.resize(image, (src.shape[1] // step, src.shape[0] // step),
-                                   interpolation=cv2.INTER_AREA)
+                image = cv2.resize(image, (src.shape[1] // step, src.shape[0] // step), interpolation=cv2.INTER_AREA)
             total = cv2.matchTemplate(image, mask, cv2.TM_CCORR)
             energy = cv2.matchTemplate(image * image, mask, cv2.TM_CCORR)
             images.append(image)
@@ -170,8 +170,9 @@ class _SampleIndex:
         return cls(sources, size, step, mask, images, energies, contrasts)
 
 
-def _matching_samples(index: _SampleIndex, frame: np.ndarray, count: int, rng: np.random.Generator,
-                      pool: ThreadPoolExecutor) -> list[np.ndarray]:
+def _matching_samples(
+    index: _SampleIndex, frame: np.ndarray, count: int, rng: np.random.Generator, pool: ThreadPoolExecutor
+) -> list[np.ndarray]:
     """``count`` samples whose content agrees best with ``frame`` on the ring (the edge pieces
     already fixed around a tile), as image quilting chooses its patches (Efros & Freeman
     2001), the squared difference taken relative to the candidate's contrast on the ring: the
@@ -200,14 +201,17 @@ def _matching_samples(index: _SampleIndex, frame: np.ndarray, count: int, rng: n
             y, x = np.unravel_index(int(np.argmin(cost)), cost.shape)
             if not np.isfinite(cost[y, x]):
                 break
-            found.append((float(cost[y, x]), i, min(int(y) * step, src.shape[0] - size),
-                          min(int(x) * step, src.shape[1] - size)))
-            cost[max(0, y - spacing + 1):y + spacing, max(0, x - spacing + 1):x + spacing] = np.inf
+            found.append(
+                (float(cost[y, x]), i, min(int(y) * step, src.shape[0] - size), min(int(x) * step, src.shape[1] - size))
+            )
+            cost[max(0, y - spacing + 1) : y + spacing, max(0, x - spacing + 1) : x + spacing] = np.inf
     found.sort()
-    best = found[:2 * count]
+    best = found[: 2 * count]
     picks = rng.choice(len(best), size=min(count, len(best)), replace=False)
-    return [index.sources[best[i][1]][best[i][2]:best[i][2] + size, best[i][3]:best[i][3] + size].copy()
-            for i in sorted(picks)]
+    return [
+        index.sources[best[i][1]][best[i][2] : best[i][2] + size, best[i][3] : best[i][3] + size].copy()
+        for i in sorted(picks)
+    ]
 
 
 def _graph_cut(canvas: np.ndarray, piece: np.ndarray, keep: np.ndarray, take: np.ndarray) -> np.ndarray:
@@ -225,10 +229,8 @@ def _graph_cut(canvas: np.ndarray, piece: np.ndarray, keep: np.ndarray, take: np
     right[:, :-1] = diff[:, :-1] + diff[:, 1:]
     down = np.zeros((h, w))
     down[:-1, :] = diff[:-1, :] + diff[1:, :]
-    graph.add_grid_edges(nodes, weights=right, structure=np.array([[0, 0, 0], [0, 0, 1], [0, 0, 0]]),
-                         symmetric=True)
-    graph.add_grid_edges(nodes, weights=down, structure=np.array([[0, 0, 0], [0, 0, 0], [0, 1, 0]]),
-                         symmetric=True)
+    graph.add_grid_edges(nodes, weights=right, structure=np.array([[0, 0, 0], [0, 0, 1], [0, 0, 0]]), symmetric=True)
+    graph.add_grid_edges(nodes, weights=down, structure=np.array([[0, 0, 0], [0, 0, 0], [0, 1, 0]]), symmetric=True)
     big = 1e9
     graph.add_grid_tedges(nodes, np.where(keep, big, 0.0), np.where(take, big, 0.0))
     flow = graph.maxflow()
@@ -247,8 +249,10 @@ SEAM_SPREAD = 6.0
 def _bounding_box(mask: np.ndarray, margin: int) -> tuple[slice, slice]:
     """The rows and columns holding ``mask``'s pixels, ``margin`` px wider (within the image)."""
     rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-    return (slice(max(0, rows[0] - margin), rows[-1] + margin + 1),
-            slice(max(0, cols[0] - margin), cols[-1] + margin + 1))
+    return (
+        slice(max(0, rows[0] - margin), rows[-1] + margin + 1),
+        slice(max(0, cols[0] - margin), cols[-1] + margin + 1),
+    )
 
 
 def _edge_geometry(size: int, band: int):
@@ -277,8 +281,7 @@ def _seam_guidance(composite: np.ndarray, stack: np.ndarray, origin: np.ndarray)
         ys, xs = np.nonzero(a != b)  # the pairs across a seam
         y1, x1 = (ys + 1, xs) if axis == 0 else (ys, xs + 1)
         sa, sb = a[ys, xs], b[ys, xs]
-        step[ys, xs] = 0.5 * ((stack[sa, ys, xs] - stack[sa, y1, x1])
-                              + (stack[sb, ys, xs] - stack[sb, y1, x1]))
+        step[ys, xs] = 0.5 * ((stack[sa, ys, xs] - stack[sa, y1, x1]) + (stack[sb, ys, xs] - stack[sb, y1, x1]))
         div[lo] += step
         div[hi] -= step
     return div
@@ -303,7 +306,7 @@ def poisson_blend(images: np.ndarray, guidance: np.ndarray, spread: float | None
     rhs[:, :, -1] += images[:, 1:-1, -1]
     ky = 2.0 - 2.0 * np.cos(np.pi * np.arange(1, h + 1) / (h + 1))
     kx = 2.0 - 2.0 * np.cos(np.pi * np.arange(1, w + 1) / (w + 1))
-    screen = 1.0 / spread ** 2 if spread else 0.0
+    screen = 1.0 / spread**2 if spread else 0.0
     rhs += screen * images[:, 1:-1, 1:-1]
     eigen = (ky[:, None, None] + kx[None, :, None] + screen).astype(np.float32)
     spectrum = dstn(rhs, type=1, axes=(1, 2), workers=-1) / eigen
@@ -312,9 +315,16 @@ def poisson_blend(images: np.ndarray, guidance: np.ndarray, spread: float | None
     return out
 
 
-def build_tiles(layers: np.ndarray, rng: np.random.Generator, *, size: int, colours: int = 3,
-                variants: int = 4, deformation: Deformation = Deformation(),
-                blend: bool = True) -> np.ndarray:
+def build_tiles(
+    layers: np.ndarray,
+    rng: np.random.Generator,
+    *,
+    size: int,
+    colours: int = 3,
+    variants: int = 4,
+    deformation: Deformation = Deformation(),
+    blend: bool = True,
+) -> np.ndarray:
     """The Wang tile set with exchanged contents: ``(colours**4 * variants, size, size, C)``
     float32, indexed ``(((n * colours + e) * colours + s) * colours + w) * variants + v``.
     With ``blend``, the structure's seams are blended in the gradient domain (the masks'
@@ -338,7 +348,7 @@ def build_tiles(layers: np.ndarray, rng: np.random.Generator, *, size: int, colo
     # each cut only needs the pixels it may move and their neighbours: the same cut on a
     # graph about a sixth of the tile's size
     boxes = {name: _bounding_box(triangle & ~core, margin=1) for name, (triangle, _) in geometry.items()}
-    n_tiles = colours ** 4 * variants
+    n_tiles = colours**4 * variants
     tiles = np.empty((n_tiles, size, size, layers.shape[2]), np.float32)
     guidance = np.empty((n_tiles, size, size, 3), np.float32) if blend else None
     index = 0
@@ -356,21 +366,23 @@ def build_tiles(layers: np.ndarray, rng: np.random.Generator, *, size: int, colo
             made = []
             for canvas in _matching_samples(index_of_samples, frame, 2 * variants, rng, pool):
                 seam = 0.0
-                stack = ([canvas[:, :, :3].copy()] + [pieces[name][:, :, :3] for name in EDGES]
-                         if blend else None)  # the sources the blend's guidance reads
+                stack = (
+                    [canvas[:, :, :3].copy()] + [pieces[name][:, :, :3] for name in EDGES] if blend else None
+                )  # the sources the blend's guidance reads
                 origin = np.zeros((size, size), np.intp)  # which of ``stack`` each pixel is
                 for number, name in enumerate(EDGES, start=1):
                     triangle, strip = geometry[name]
                     box = boxes[name]
                     take = np.zeros((size, size), bool)
-                    take[box], cost = _graph_cut(canvas[box], pieces[name][box],
-                                                 keep=(~triangle | core)[box],
-                                                 take=(strip & triangle)[box])
+                    take[box], cost = _graph_cut(
+                        canvas[box], pieces[name][box], keep=(~triangle | core)[box], take=(strip & triangle)[box]
+                    )
                     canvas[take] = pieces[name][take]
                     origin[take] = number
                     seam += cost
-                grad = np.abs(np.diff(canvas[:, :, :3], axis=0)).mean() + np.abs(
-                    np.diff(canvas[:, :, :3], axis=1)).mean()
+                grad = (
+                    np.abs(np.diff(canvas[:, :, :3], axis=0)).mean() + np.abs(np.diff(canvas[:, :, :3], axis=1)).mean()
+                )
                 made.append((seam / (grad + 1e-6), len(made), canvas, stack, origin))  # relative seams
             made.sort(key=lambda item: item[:2])  # content exchange: the best-fitting ones
             for _, _, canvas, stack, origin in made[:variants]:

@@ -8,8 +8,9 @@ from numba import njit
 
 
 @njit(cache=True)
-def commit_points(dist, near_branch, near_vertex, near_tangent, points, first, last, branch, radius,
-                  track=True):  # pragma: no cover - compiled
+def commit_points(
+    dist, near_branch, near_vertex, near_tangent, points, first, last, branch, radius, track=True
+):  # pragma: no cover - compiled
     """Lower ``dist`` (distance to the nearest committed branch surface, i.e. distance to a
     vertex minus its thickness) within ``radius`` of each vertex ``points[first:last]`` (rows
     x, y, thickness) of ``branch``, and (with ``track``) remember which branch and vertex is
@@ -106,7 +107,9 @@ def first_contacts(dist, near_branch, xs, ys, rs, step, branch, parent, sx, sy, 
 
 
 @njit(cache=True)
-def path_contacts(x0, y0, theta, step, elements, dist, near_branch, branch, parent, sx, sy, exempt):  # pragma: no cover - compiled
+def path_contacts(
+    x0, y0, theta, step, elements, dist, near_branch, branch, parent, sx, sy, exempt
+):  # pragma: no cover - compiled
     """The vertices of element rows (angle, thickness) appended from ``(x0, y0)`` at heading
     ``theta`` (``step`` apart), their headings, and the first vertex touching a committed
     branch and the first leaving the image (-1: none; :func:`first_contacts`)."""
@@ -124,14 +127,16 @@ def path_contacts(x0, y0, theta, step, elements, dist, near_branch, branch, pare
         xs[j] = hx
         ys[j] = hy
         heads[j] = hd
-    first_hit, first_out = first_contacts(dist, near_branch, xs, ys, elements[:, 1].copy(), step, branch, parent,
-                                          sx, sy, exempt)
+    first_hit, first_out = first_contacts(
+        dist, near_branch, xs, ys, elements[:, 1].copy(), step, branch, parent, sx, sy, exempt
+    )
     return xs, ys, heads, first_hit, first_out
 
 
 @njit(cache=True)
-def extension_candidates(histories, recent, k, m, matching, tip, contact, density, choice, qual, out,
-                         decision):  # pragma: no cover - compiled
+def extension_candidates(
+    histories, recent, k, m, matching, tip, contact, density, choice, qual, out, decision
+):  # pragma: no cover - compiled
     """One extension step of sibbing2010 §4.2-4.4 for the ``T = len(cand)`` best histories.
 
     Bending quality of every history against the branch's last ``len(ha)`` elements; the ``T``
@@ -220,8 +225,9 @@ def _best_histories(qual, cand, qstar):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _continuations(histories, k, m, cand, lens, ang, thk, qstar, q2, first_hit,
-                   first_out):  # pragma: no cover - compiled
+def _continuations(
+    histories, k, m, cand, lens, ang, thk, qstar, q2, first_hit, first_out
+):  # pragma: no cover - compiled
     """Each candidate's continuation: the (up to ``m``) source elements after its history, zeros
     beyond, and its length in ``lens``; rows without a candidate are cleared."""
     history_start, branch_end, angles, thickness = histories[2], histories[3], histories[4], histories[5]
@@ -288,8 +294,9 @@ def _match_histograms(matching, theta, m, cand, lens, ang, thk, qstar):  # pragm
 
 
 @njit(cache=True)
-def _trace_candidates(cand, lens, ang, thk, xs, ys, heads, first_hit, first_out, tip,
-                      contact):  # pragma: no cover - compiled
+def _trace_candidates(
+    cand, lens, ang, thk, xs, ys, heads, first_hit, first_out, tip, contact
+):  # pragma: no cover - compiled
     """The vertices every candidate would add from the tip, its first vertex touching a
     committed branch (before leaving the image) and its first vertex outside the image."""
     x0, y0, theta, step = tip
@@ -354,8 +361,9 @@ def _chord_scores(cand, lens, qstar, xs, ys, q2, tip, density):  # pragma: no co
 
 
 @njit(cache=True)
-def _decide(choice, cand, qstar, lens, xs, ys, heads, first_hit, first_out, q2,
-            decision):  # pragma: no cover - compiled
+def _decide(
+    choice, cand, qstar, lens, xs, ys, heads, first_hit, first_out, q2, decision
+):  # pragma: no cover - compiled
     """The choice of :func:`extension_candidates` into ``decision``, ``choice = (c_best,
     uniforms, join_rate, join_pdf, near_tangent)``."""
     c_best, uniforms, join_rate, join_pdf, near_tangent = choice
@@ -446,7 +454,9 @@ def add_counts(counts, edges, values):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def add_element_counts(a_counts, a_edges, r_counts, r_edges, h_counts, elements, headings):  # pragma: no cover - compiled
+def add_element_counts(
+    a_counts, a_edges, r_counts, r_edges, h_counts, elements, headings
+):  # pragma: no cover - compiled
     """The three histograms of §4.2 (angle, thickness, edge direction) after appending
     ``elements`` (rows of angle, thickness) along ``headings``."""
     add_counts(a_counts, a_edges, elements[:, 0])
@@ -493,7 +503,9 @@ def vertex_turns(points):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def furcation_margins(points, k, feat_mean, feat_scale, svm_w, svm_b, platt_a, platt_b, allowed):  # pragma: no cover - compiled
+def furcation_margins(
+    points, k, feat_mean, feat_scale, svm_w, svm_b, platt_a, platt_b, allowed
+):  # pragma: no cover - compiled
     """The furcation classifier's margin at every vertex of a branch from its non-causal
     neighbourhood (§4.3: the 2k+1 turning angles and thicknesses around it, edge-replicated),
     without the furcation-distance terms, and the expected number of furcations: the sum of
@@ -512,8 +524,9 @@ def furcation_margins(points, k, feat_mean, feat_scale, svm_w, svm_b, platt_a, p
             s += (points[q, 2] - feat_mean[width + j]) / feat_scale[width + j] * svm_w[width + j]
         base[i] = s
         if allowed[i]:
-            s += ((i - feat_mean[2 * width]) / feat_scale[2 * width] * svm_w[2 * width]
-                  + (n - 1 - i - feat_mean[2 * width + 1]) / feat_scale[2 * width + 1] * svm_w[2 * width + 1])
+            s += (i - feat_mean[2 * width]) / feat_scale[2 * width] * svm_w[2 * width] + (
+                n - 1 - i - feat_mean[2 * width + 1]
+            ) / feat_scale[2 * width + 1] * svm_w[2 * width + 1]
             expected += 1.0 / (1.0 + np.exp(-(platt_a * s + platt_b)))
     return base, expected
 
@@ -558,8 +571,11 @@ def pick_furcations(base, allowed, d, block, feat_mean, feat_scale, svm_w):  # p
         prev = 0  # the nearest one before, or the start
         for i in range(n):
             if allowed[i]:
-                s = (base[i] + (i - prev - feat_mean[0]) / feat_scale[0] * svm_w[0]
-                     + (nxt[i] - i - feat_mean[1]) / feat_scale[1] * svm_w[1])
+                s = (
+                    base[i]
+                    + (i - prev - feat_mean[0]) / feat_scale[0] * svm_w[0]
+                    + (nxt[i] - i - feat_mean[1]) / feat_scale[1] * svm_w[1]
+                )
                 if s > best:
                     best, v = s, i
             if marks[i]:

@@ -101,8 +101,13 @@ def trace_edges(skel, node_id, node_py, node_px):
             edge_b[n_edges] = -1
             n_edges += 1
             offsets[n_edges] = n_path
-    return (edge_a[:n_edges].copy(), edge_b[:n_edges].copy(), offsets[:n_edges + 1].copy(),
-            path_y[:n_path].copy(), path_x[:n_path].copy())
+    return (
+        edge_a[:n_edges].copy(),
+        edge_b[:n_edges].copy(),
+        offsets[: n_edges + 1].copy(),
+        path_y[:n_path].copy(),
+        path_x[:n_path].copy(),
+    )
 
 
 @njit(cache=True)

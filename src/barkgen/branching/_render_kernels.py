@@ -458,10 +458,18 @@ def warp_field(green, m, half, qx, qy, vx, vy, i0, i1, j0, j1):
             fx = gx - x0
             a = y0 * m + x0
             b = (y0 + 1) * m + x0
-            dx = ((1 - fx) * (1 - fy) * nodes[a, 0] + fx * (1 - fy) * nodes[a + 1, 0]
-                  + (1 - fx) * fy * nodes[b, 0] + fx * fy * nodes[b + 1, 0])
-            dy = ((1 - fx) * (1 - fy) * nodes[a, 1] + fx * (1 - fy) * nodes[a + 1, 1]
-                  + (1 - fx) * fy * nodes[b, 1] + fx * fy * nodes[b + 1, 1])
+            dx = (
+                (1 - fx) * (1 - fy) * nodes[a, 0]
+                + fx * (1 - fy) * nodes[a + 1, 0]
+                + (1 - fx) * fy * nodes[b, 0]
+                + fx * fy * nodes[b + 1, 0]
+            )
+            dy = (
+                (1 - fx) * (1 - fy) * nodes[a, 1]
+                + fx * (1 - fy) * nodes[a + 1, 1]
+                + (1 - fx) * fy * nodes[b, 1]
+                + fx * fy * nodes[b + 1, 1]
+            )
             out[i, j] = complex(dx, dy)
     return out
 
@@ -676,8 +684,15 @@ def regular_samples(arc, t, k, radius_rule):
         for j in range(k):
             q[n + i * k + j] = t[i] + r[i] * (-1.0 + 2.0 * j / (k - 1))
     x, y, th, real = arc_sample(arc, q)
-    return (r, x[:n].copy(), y[:n].copy(), x[n:].reshape(n, k), y[n:].reshape(n, k), th[n:].reshape(n, k),
-            real[n:].reshape(n, k))
+    return (
+        r,
+        x[:n].copy(),
+        y[:n].copy(),
+        x[n:].reshape(n, k),
+        y[n:].reshape(n, k),
+        th[n:].reshape(n, k),
+        real[n:].reshape(n, k),
+    )
 
 
 @nb.njit(cache=True)
@@ -712,8 +727,7 @@ def junction_samples(parent, a, child, child_reversed, k, radius_rule):
 
 
 @nb.njit(cache=True)
-def compose_setup(src, maps, given, use_given, corner, layers, cracks, disk, own_target, own_source,
-                  margins):
+def compose_setup(src, maps, given, use_given, corner, layers, cracks, disk, own_target, own_source, margins):
     """Everything of one fragment's composition before the graph cut: the distances to its
     target skeleton ``own_target = (tpx, tpy, tpt, tok)`` (:func:`own_distance`), its pixels
     (``given``, or read by :func:`sample_nearest` at ``maps = (mapx, mapy)``), the set-up of
@@ -732,7 +746,8 @@ def compose_setup(src, maps, given, use_given, corner, layers, cracks, disk, own
     else:
         new = sample_nearest(src, mapx, mapy, tdist, tthick, spx, spy, spt, sok, own_margin)
     take, keep, right, down, boundary, fixed, n_take, n_free = seam_setup(
-        corner, new, maps, layers, cracks, disk, (tdist, tthick), own_source, margins)
+        corner, new, maps, layers, cracks, disk, (tdist, tthick), own_source, margins
+    )
     free, ei, ej, cap, src_caps, sink_caps = seam_graph(take, keep, right, down, n_free)
     return new, take, free, ei, ej, cap, src_caps, sink_caps, boundary, fixed, n_take
 
@@ -925,7 +940,8 @@ def fragment_maps(warp, disk, canvas_size, target_samples, source_samples, place
             vx[k] = rc * fre[l] - rs * fim[l] - gre[l]
             vy[k] = rs * fre[l] + rc * fim[l] - gim[l]
             k += 1
-    field = warp_field(green, m, half, qx, qy, vx, vy, y0 - icy + half, y1 - icy + half,
-                       x0 - icx + half, x1 - icx + half)
+    field = warp_field(
+        green, m, half, qx, qy, vx, vy, y0 - icy + half, y1 - icy + half, x0 - icx + half, x1 - icx + half
+    )
     mapx, mapy = source_map(x0, y0, y1 - y0, x1 - x0, cx, cy, zx, zy, rc, rs, field)
     return x0, y0, mapx, mapy

@@ -48,8 +48,6 @@ class _Chain:
         self.length = float(np.hypot(*np.diff(xy, axis=0).T).sum())
 
 
-
-
 def _find(parent: list[int], i: int) -> int:
     while parent[i] != i:
         parent[i] = parent[parent[i]]
@@ -216,8 +214,7 @@ def default_step(thickness: np.ndarray) -> float:
     return float(np.clip(max(2.0, round(med)), *STEP_RANGE))
 
 
-def extract_structure(image: np.ndarray, labels: np.ndarray | None = None, *,
-                      step: float | None = None) -> Structure:
+def extract_structure(image: np.ndarray, labels: np.ndarray | None = None, *, step: float | None = None) -> Structure:
     """The crack / fissure network of ``image`` as a :class:`Structure` (sibbing2010 §3).
 
     ``labels`` (optional) is a label map whose darkest label in the photo is the cracks (see
@@ -225,8 +222,12 @@ def extract_structure(image: np.ndarray, labels: np.ndarray | None = None, *,
     half-width, rounded, clipped to 2..8 px). Raises :class:`InvalidInputError` when no cracks
     are found.
     """
-    if step is not None and (isinstance(step, bool) or not isinstance(step, (int, float, np.number))
-                             or not np.isfinite(step) or not 0.25 <= float(step) <= 64):
+    if step is not None and (
+        isinstance(step, bool)
+        or not isinstance(step, (int, float, np.number))
+        or not np.isfinite(step)
+        or not 0.25 <= float(step) <= 64
+    ):
         raise InvalidInputError(f"step must be a number of pixels in [0.25, 64], got {step!r}")
     lum = luminance(image)
     h, w = lum.shape
@@ -237,8 +238,7 @@ def extract_structure(image: np.ndarray, labels: np.ndarray | None = None, *,
         mask, resp, high = auto_mask(lum)
         what = "image"
     if not mask.any():
-        raise InvalidInputError(f"{what}: no cracks found (nothing darker than its surroundings "
-                                "in thin lines)")
+        raise InvalidInputError(f"{what}: no cracks found (nothing darker than its surroundings in thin lines)")
     g = skeleton_graph(mask, resp, high)
     chains = _chains(g)
     if not chains:

@@ -55,20 +55,20 @@ class Arc:
 
     def __init__(self, points: np.ndarray, start_connected: bool, end_connected: bool):
         self.vertex_arc, self.s, self.px, self.py, self.pt, self.t0, self.t1 = K.arc_setup(
-            np.ascontiguousarray(points, np.float64))
+            np.ascontiguousarray(points, np.float64)
+        )
         self.length = float(self.s[-1])
         self.start_connected, self.end_connected = bool(start_connected), bool(end_connected)
-        self.kernel = (self.s, self.px, self.py, self.pt, self.t0, self.t1, self.start_connected,
-                       self.end_connected)
+        self.kernel = (self.s, self.px, self.py, self.pt, self.t0, self.t1, self.start_connected, self.end_connected)
 
 
-def _centres(arc: Arc, t0: float, r_before: float | None, spec: FragmentSpec,
-             density: float = 1.0) -> np.ndarray:
+def _centres(arc: Arc, t0: float, r_before: float | None, spec: FragmentSpec, density: float = 1.0) -> np.ndarray:
     """Arc positions of fragment centres from ``t0`` (or one spacing after a fragment of radius
     ``r_before`` at ``t0``) to the end: ``lambda (s_i + s_{i+1}) / density`` apart, the last
     one at the end when the previous one leaves the tail uncovered."""
-    return K.fragment_centres(arc.s, arc.pt, float(t0), float(r_before or 0.0),
-                              spec.lambda_spacing / density, spec.radius_rule)
+    return K.fragment_centres(
+        arc.s, arc.pt, float(t0), float(r_before or 0.0), spec.lambda_spacing / density, spec.radius_rule
+    )
 
 
 @dataclass
@@ -94,7 +94,6 @@ class Fragment:
         self.pos_re, self.pos_im = np.ascontiguousarray(self.pos.real), np.ascontiguousarray(self.pos.imag)
 
 
-
 def _regulars(arc: Arc, ts: np.ndarray, spec: FragmentSpec) -> list[Fragment]:
     """Regular fragments centred at arc positions ``ts`` (their radii from the half-width)."""
     if len(ts) == 0:
@@ -104,24 +103,28 @@ def _regulars(arc: Arc, ts: np.ndarray, spec: FragmentSpec) -> list[Fragment]:
     n = len(r)
     centre = cx + 1j * cy
     pos = (x + 1j * y) - centre[:, None]
-    return [Fragment(complex(centre[i]), float(r[i]), pos[i], th[i], real[i], k,
-                     (x[i], y[i], th[i], real[i])) for i in range(n)]
+    return [
+        Fragment(complex(centre[i]), float(r[i]), pos[i], th[i], real[i], k, (x[i], y[i], th[i], real[i]))
+        for i in range(n)
+    ]
 
 
-def _junction(parent: Arc, vertex: int, child: Arc, child_reversed: bool, k: int,
-              spec: FragmentSpec) -> Fragment:
+def _junction(parent: Arc, vertex: int, child: Arc, child_reversed: bool, k: int, spec: FragmentSpec) -> Fragment:
     """A junction fragment at vertex ``vertex`` of ``parent``: the parent window and ``k``
     samples along the child going away from the junction (the child's end when reversed)."""
     r, cx, cy, px, py, pth, preal, qx, qy, qth, qreal = K.junction_samples(
-        parent.kernel, float(parent.vertex_arc[vertex]), child.kernel, bool(child_reversed), k,
-        spec.radius_rule)
+        parent.kernel, float(parent.vertex_arc[vertex]), child.kernel, bool(child_reversed), k, spec.radius_rule
+    )
     c = complex(cx, cy)
     pos = np.concatenate([px + 1j * py, qx + 1j * qy]) - c
     # own crack: the parent window, a break, then the child from the junction point
-    own = (np.concatenate([px, [cx, cx], qx]), np.concatenate([py, [cy, cy], qy]),
-           np.concatenate([pth, [0.0, qth[0]], qth]), np.concatenate([preal, [False, True], qreal]))
-    return Fragment(c, r, pos, np.concatenate([pth, qth]), np.concatenate([preal, qreal]), k, own,
-                    junction=True)
+    own = (
+        np.concatenate([px, [cx, cx], qx]),
+        np.concatenate([py, [cy, cy], qy]),
+        np.concatenate([pth, [0.0, qth[0]], qth]),
+        np.concatenate([preal, [False, True], qreal]),
+    )
+    return Fragment(c, r, pos, np.concatenate([pth, qth]), np.concatenate([preal, qreal]), k, own, junction=True)
 
 
 def _arcs(structure: Structure) -> list[Arc]:
@@ -185,14 +188,17 @@ def source_banks(source: Structure, width: int, height: int, spec: FragmentSpec)
     junction: list[Fragment] = []
 
     def inside(f: Fragment) -> bool:
-        return (f.radius + 1 <= f.centre.real <= width - 2 - f.radius
-                and f.radius + 1 <= f.centre.imag <= height - 2 - f.radius)
+        return (
+            f.radius + 1 <= f.centre.real <= width - 2 - f.radius
+            and f.radius + 1 <= f.centre.imag <= height - 2 - f.radius
+        )
 
     for arc in arcs:
         if arc.length <= 0:
             continue
-        regular.extend(f for f in _regulars(arc, _centres(arc, 0.0, None, spec, spec.source_density), spec)
-                       if inside(f))
+        regular.extend(
+            f for f in _regulars(arc, _centres(arc, 0.0, None, spec, spec.source_density), spec) if inside(f)
+        )
     for i, b in enumerate(source.branches):
         for ref, vertex, rev in ((b.parent, b.parent_vertex, False), (b.joins, b.join_vertex, True)):
             if ref is None or arcs[i].length <= 0 or arcs[ref].length <= 0:
@@ -204,8 +210,7 @@ def source_banks(source: Structure, width: int, height: int, spec: FragmentSpec)
     for bank in banks:
         if bank.n:
             c = bank.centre
-            border = np.minimum(np.minimum(c.real, width - 1 - c.real),
-                                np.minimum(c.imag, height - 1 - c.imag))
+            border = np.minimum(np.minimum(c.real, width - 1 - c.real), np.minimum(c.imag, height - 1 - c.imag))
             bank.border = np.concatenate([border, border])  # both orientations
     return banks
 

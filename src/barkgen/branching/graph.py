@@ -32,16 +32,16 @@ class SkeletonGraph:
     """Nodes (junctions, end points) and edges (pixel paths with a thickness per point)."""
 
     def __init__(self) -> None:
-        self.pos: list[np.ndarray] = []      # node position (x, y)
-        self.rad: list[float] = []           # crack half-width at the node
-        self.pseudo: list[bool] = []         # a cut point of a loop: never merged nor paired
+        self.pos: list[np.ndarray] = []  # node position (x, y)
+        self.rad: list[float] = []  # crack half-width at the node
+        self.pseudo: list[bool] = []  # a cut point of a loop: never merged nor paired
         self.inc: list[list[tuple[int, int]]] = []  # (edge, end) incident to the node
         self.ea: list[int] = []
         self.eb: list[int] = []
         self.xy: list[np.ndarray | None] = []
         self.r: list[np.ndarray | None] = []
-        self.s: list[float] = []             # mean valley response along the edge
-        self.len: list[float] = []           # arc length
+        self.s: list[float] = []  # mean valley response along the edge
+        self.len: list[float] = []  # arc length
         self.alive: list[bool] = []
 
     def add_node(self, pos, rad: float, pseudo: bool = False) -> int:
@@ -150,10 +150,10 @@ def _build_graph(skel: np.ndarray, dist: np.ndarray, resp: np.ndarray | None) ->
             inner, r_in = inner[:-1], r_in[:-1]
         m = len(inner)
         xy = np.empty((m + 2, 2))
-        xy[0], xy[1:m + 1], xy[m + 1] = g.pos[a], inner, g.pos[b]
+        xy[0], xy[1 : m + 1], xy[m + 1] = g.pos[a], inner, g.pos[b]
         r = np.empty(m + 2)
         if m:
-            r[1:m + 1] = r_in
+            r[1 : m + 1] = r_in
             r[0], r[m + 1] = r_in[0], r_in[-1]
         else:
             r[0], r[1] = g.rad[a], g.rad[b]
@@ -166,9 +166,8 @@ def direction(xy: np.ndarray, reach: float) -> np.ndarray:
     from barkgen.branching._kernels import path_direction
 
     # path steps are at least 1 px: the points beyond reach are not needed
-    head = xy[:int(reach) + 2]
+    head = xy[: int(reach) + 2]
     return path_direction(np.ascontiguousarray(head, dtype=np.float64), float(reach))
-
 
 
 def _split_edge(g: SkeletonGraph, e: int, k: int) -> int:
@@ -176,7 +175,7 @@ def _split_edge(g: SkeletonGraph, e: int, k: int) -> int:
     xy, r, s, a, b = g.xy[e], g.r[e], g.s[e], g.ea[e], g.eb[e]
     g.remove_edge(e)
     m = g.add_node(xy[k], r[k])
-    g.add_edge(a, m, xy[:k + 1].copy(), r[:k + 1].copy(), s)
+    g.add_edge(a, m, xy[: k + 1].copy(), r[: k + 1].copy(), s)
     g.add_edge(m, b, xy[k:].copy(), r[k:].copy(), s)
     return m
 
@@ -198,7 +197,7 @@ def _bridge_gaps(g: SkeletonGraph, strength: float) -> None:
     reach = np.empty(len(tips))
     r_tip = np.empty(len(tips))
     for t, n in enumerate(tips):
-        (f, f_end), = g.inc[n]
+        ((f, f_end),) = g.inc[n]
         xy, r = g.oriented(f, f_end)
         tip_edge[t] = f
         p0[t] = g.pos[n]
@@ -213,8 +212,13 @@ def _bridge_gaps(g: SkeletonGraph, strength: float) -> None:
     idx_c = np.where(found, idx, 0)
     v = pts_a[idx_c] - p0[:, None]
     cos = (v * out_dir[:, None]).sum(axis=2) / np.maximum(dist, 1e-9)
-    ok = (found & (dist <= reach[:, None]) & (dist > 1e-6) & (owner_a[idx_c] != tip_edge[:, None])
-          & (cos >= np.cos(np.radians(GAP_ANGLE))))
+    ok = (
+        found
+        & (dist <= reach[:, None])
+        & (dist > 1e-6)
+        & (owner_a[idx_c] != tip_edge[:, None])
+        & (cos >= np.cos(np.radians(GAP_ANGLE)))
+    )
     score = np.where(ok, dist * (2.0 - cos), np.inf)
     choice = np.argmin(score, axis=1)
     # an edge split by an earlier bridge: (first part, second part, split index)
@@ -239,8 +243,13 @@ def _bridge_gaps(g: SkeletonGraph, strength: float) -> None:
         q = g.pos[target]
         steps = max(2, int(np.ceil(np.hypot(*(q - p0[t])))) + 1)
         w = np.linspace(0.0, 1.0, steps)[:, None]
-        g.add_edge(n, target, p0[t][None] * (1 - w) + q[None] * w,
-                   np.full(steps, max(0.5, min(r_tip[t], g.rad[target]))), strength)
+        g.add_edge(
+            n,
+            target,
+            p0[t][None] * (1 - w) + q[None] * w,
+            np.full(steps, max(0.5, min(r_tip[t], g.rad[target]))),
+            strength,
+        )
 
 
 def _prune(g: SkeletonGraph, high: float | None, *, isolated: bool = True) -> None:
@@ -315,13 +324,13 @@ def _contract(g: SkeletonGraph, e: int) -> None:
         g.len[f] = path_length(g.xy[f])
 
 
-def _smooth_edge(xy: np.ndarray, r: np.ndarray, sigma_xy: float = 1.5,
-            sigma_r: float = 3.0) -> tuple[np.ndarray, np.ndarray]:
+def _smooth_edge(
+    xy: np.ndarray, r: np.ndarray, sigma_xy: float = 1.5, sigma_r: float = 3.0
+) -> tuple[np.ndarray, np.ndarray]:
     """Gaussian smoothing along a pixel path; the end points stay where they are."""
     from barkgen.branching._kernels import smooth_path
 
-    return smooth_path(np.ascontiguousarray(xy, np.float64), np.ascontiguousarray(r, np.float64),
-                       sigma_xy, sigma_r)
+    return smooth_path(np.ascontiguousarray(xy, np.float64), np.ascontiguousarray(r, np.float64), sigma_xy, sigma_r)
 
 
 def _fix_junction_thickness(g: SkeletonGraph) -> None:
@@ -346,9 +355,8 @@ def _split_loops(g: SkeletonGraph) -> None:
         m = int(np.clip(np.searchsorted(arc, arc[-1] / 2), 1, len(xy) - 2))
         g.remove_edge(e)
         mid = g.add_node(xy[m], r[m], pseudo=True)
-        g.add_edge(a, mid, xy[:m + 1].copy(), r[:m + 1].copy(), s)
+        g.add_edge(a, mid, xy[: m + 1].copy(), r[: m + 1].copy(), s)
         g.add_edge(mid, a, xy[m:].copy(), r[m:].copy(), s)
-
 
 
 def skeleton_graph(mask: np.ndarray, resp: np.ndarray | None, high: float | None) -> SkeletonGraph:

@@ -26,7 +26,7 @@ from barkgen.branching.structure import Branch, Structure, junction_radius
 from barkgen.errors import InvalidInputError
 
 EPSILON = 1e-3  # 1 / eps = 10^3 bounds the density scaling (§4.4)
-TOP = 16        # candidates kept after the bending quality, before histogram and density terms
+TOP = 16  # candidates kept after the bending quality, before histogram and density terms
 
 
 class _Tip:
@@ -41,12 +41,18 @@ class _Tip:
         self.theta = float(heading)
 
     def points(self) -> np.ndarray:
-        return self.xyr[:self.n].copy()
+        return self.xyr[: self.n].copy()
 
 
 class _Grower:
-    def __init__(self, model: BranchModel, size: tuple[int, int], guide: np.ndarray | None,
-                 options: GrowOptions, rng: np.random.Generator):
+    def __init__(
+        self,
+        model: BranchModel,
+        size: tuple[int, int],
+        guide: np.ndarray | None,
+        options: GrowOptions,
+        rng: np.random.Generator,
+    ):
         self.model, self.rng, self.options = model, rng, options
         self.o = model.options
         self.w, self.h = size
@@ -70,8 +76,9 @@ class _Grower:
         self.n_merges = 0
         self.n_roots = 0
         self._tip_n = 0
-        self.target = (options.total_length if options.total_length is not None
-                       else model.length_density * self.w * self.h)
+        self.target = (
+            options.total_length if options.total_length is not None else model.length_density * self.w * self.h
+        )
         self.r_max = float(model.thickness.max()) if len(model.thickness) else 1.0
         k = self.o.k
         self.hist_a = model.angles[model.history_start[:, None] + np.arange(k + 1)[None, :]]
@@ -80,9 +87,19 @@ class _Grower:
         self._quality = np.empty(len(self.hist_a))
         t, m = min(TOP, len(self.hist_a)), self.o.m
         self._elements = np.empty((t, m, 2))  # the candidates' continuations (angle, thickness)
-        self._bufs = (np.empty(t, np.int64), np.empty(t), np.empty(t, np.int64), self._elements[:, :, 0],
-                      self._elements[:, :, 1], np.empty((t, m)), np.empty((t, m)), np.empty((t, m)),
-                      np.empty(t, np.int64), np.empty(t, np.int64), np.empty(t))
+        self._bufs = (
+            np.empty(t, np.int64),
+            np.empty(t),
+            np.empty(t, np.int64),
+            self._elements[:, :, 0],
+            self._elements[:, :, 1],
+            np.empty((t, m)),
+            np.empty((t, m)),
+            np.empty((t, m)),
+            np.empty(t, np.int64),
+            np.empty(t, np.int64),
+            np.empty(t),
+        )
         self._guide = guide if guide is not None else np.zeros((1, 1), np.float32)
         self._decision = np.zeros(3, np.int64)
         everything = np.arange(len(model.branch_length))
@@ -103,14 +120,33 @@ class _Grower:
         p = self.branches[b].points
         last = len(p) if last is None else min(last, len(p))
         if first < last:
-            K.commit_points(self.dist, self.near_branch, self.near_vertex, self.near_tangent,
-                            np.ascontiguousarray(p), first, last, b, self.radius)
+            K.commit_points(
+                self.dist,
+                self.near_branch,
+                self.near_vertex,
+                self.near_tangent,
+                np.ascontiguousarray(p),
+                first,
+                last,
+                b,
+                self.radius,
+            )
 
     def commit_density(self, points: np.ndarray, first: int) -> None:
         """Enter vertices ``first:`` into the density map."""
         if first < len(points):
-            K.commit_points(self.density, self.near_branch, self.near_vertex, self.near_tangent,
-                            np.ascontiguousarray(points), first, len(points), -1, self.radius, False)
+            K.commit_points(
+                self.density,
+                self.near_branch,
+                self.near_vertex,
+                self.near_tangent,
+                np.ascontiguousarray(points),
+                first,
+                len(points),
+                -1,
+                self.radius,
+                False,
+            )
 
     def sample(self, arr: np.ndarray, x: np.ndarray, y: np.ndarray, outside):
         x = np.ascontiguousarray(x, np.float64)
@@ -121,8 +157,14 @@ class _Grower:
         return out, inside
 
     # -- one branch -----------------------------------------------------------------------
-    def grow_branch(self, start: np.ndarray, heading: float, first_elements: np.ndarray,
-                    parent: int | None, parent_vertex: int | None) -> int | None:
+    def grow_branch(
+        self,
+        start: np.ndarray,
+        heading: float,
+        first_elements: np.ndarray,
+        parent: int | None,
+        parent_vertex: int | None,
+    ) -> int | None:
         """Grow one branch from ``start`` (x, y, thickness); returns its index or None."""
         b = len(self.branches)
         branch = Branch(np.asarray([start], np.float64), parent, parent_vertex)
@@ -135,10 +177,12 @@ class _Grower:
         wanted = float(self.model.branch_length[pick])
         wants_join = bool(self.model.branch_joined[pick])
         limit = min(int(4 * (self.w + self.h) / self.step), int(np.ceil(wanted / self.step)) + 1)
-        tip = _Tip(limit + self.o.m + 8 + int(np.ceil(self.reach / self.step)),
-                   np.asarray(start, np.float64), heading)
-        exempt = junction_radius(float(self.branches[parent].points[parent_vertex, 2]) if parent is not None
-                                 else 0.0, float(start[2]), self.step)
+        tip = _Tip(limit + self.o.m + 8 + int(np.ceil(self.reach / self.step)), np.asarray(start, np.float64), heading)
+        exempt = junction_radius(
+            float(self.branches[parent].points[parent_vertex, 2]) if parent is not None else 0.0,
+            float(start[2]),
+            self.step,
+        )
         lag = int(np.ceil((2 * self.r_max + 2.0) / self.step)) + 1
         committed = 0
         density_done = 0
@@ -196,8 +240,7 @@ class _Grower:
         length = K.polyline_length(branch.points)
         # a child that never left its parent's side (shorter than the junction radius of its
         # furcation, within which it may touch the parent) is not a branch
-        hugs_parent = (parent is not None and branch.joins is None and committed == 0
-                       and length < exempt)
+        hugs_parent = parent is not None and branch.joins is None and committed == 0 and length < exempt
         if tip.n < 2 or hugs_parent:
             self.n_merges -= branch.joins is not None
             self.branches.pop()
@@ -207,13 +250,21 @@ class _Grower:
         self.length += length
         return b
 
-    def _push(self, tip: "_Tip", elements, xs, ys, heads, n: int) -> None:
+    def _push(self, tip: _Tip, elements, xs, ys, heads, n: int) -> None:
         """Append the first ``n`` of the element rows with their vertices."""
         if n <= 0:
             return
         m = self.model
-        K.push_elements(tip.xyr, tip.hist, tip.n, tip.n_hist, elements, (xs, ys, heads), n,
-                        (self.a_counts, m.angle_edges, self.r_counts, m.thickness_edges, self.h_counts))
+        K.push_elements(
+            tip.xyr,
+            tip.hist,
+            tip.n,
+            tip.n_hist,
+            elements,
+            (xs, ys, heads),
+            n,
+            (self.a_counts, m.angle_edges, self.r_counts, m.thickness_edges, self.h_counts),
+        )
         tip.n += n
         tip.n_hist += n
         tip.theta = float(heads[n - 1])
@@ -224,17 +275,28 @@ class _Grower:
         ``b`` from ``(x0, y0)`` at heading ``theta``, and its first contact with a committed
         branch and first vertex outside the image (-1: none; ``K.path_contacts``)."""
         parent = self.branches[b].parent
-        return K.path_contacts(float(x0), float(y0), float(theta), self.step,
-                               np.ascontiguousarray(elements, np.float64), self.dist, self.near_branch, b,
-                               -2 if parent is None else parent, float(start[0]), float(start[1]),
-                               float(exempt))
+        return K.path_contacts(
+            float(x0),
+            float(y0),
+            float(theta),
+            self.step,
+            np.ascontiguousarray(elements, np.float64),
+            self.dist,
+            self.near_branch,
+            b,
+            -2 if parent is None else parent,
+            float(start[0]),
+            float(start[1]),
+            float(exempt),
+        )
 
-    def _append(self, tip: "_Tip", elements, start, exempt, b):
+    def _append(self, tip: _Tip, elements, start, exempt, b):
         """Append element rows (L, 2) outside the Markov step (a copied initial segment); stops
         at the image border and at a collision. Returns (keep growing, hit) where hit =
         (index, x, y, heading) of the collision."""
         xs, ys, headings, first_hit, first_out = self._path(
-            tip.xyr[tip.n - 1, 0], tip.xyr[tip.n - 1, 1], tip.theta, elements, start, exempt, b)
+            tip.xyr[tip.n - 1, 0], tip.xyr[tip.n - 1, 1], tip.theta, elements, start, exempt, b
+        )
         n = len(elements)
         hit = None
         if first_hit >= 0:
@@ -246,7 +308,7 @@ class _Grower:
         self._push(tip, elements, xs, ys, headings, n)
         return keep and n > 0, hit
 
-    def _choose(self, tip: "_Tip", start, exempt, b):
+    def _choose(self, tip: _Tip, start, exempt, b):
         """One extension step of §4.2-4.4 (the kernel scores and chooses). Returns None (no
         candidate), ("end", source_branch_joined), ("join", (elements, xs, ys, heads, j)): add
         the first ``j`` elements and end on the branch met at vertex ``j``, or ("grow",
@@ -256,19 +318,41 @@ class _Grower:
         bufs = self._bufs
         parent = self.branches[b].parent
         q = min(tip.n_hist, o.k + 1)
-        hist = tip.hist[tip.n_hist - q:tip.n_hist]
+        hist = tip.hist[tip.n_hist - q : tip.n_hist]
         x0, y0 = float(tip.xyr[tip.n - 1, 0]), float(tip.xyr[tip.n - 1, 1])
         K.extension_candidates(
             (self.hist_a, self.hist_r, model.history_start, model.branch_end, model.angles, model.thickness),
-            (hist[:, 0], hist[:, 1]), o.k, o.m,
-            (model.angle_edges, model.thickness_edges, self.a_counts, self.r_counts, model.angle_hist,
-             model.thickness_hist, self.h_counts, model.heading_hist, float(self.n_t), float(o.omega_g)),
+            (hist[:, 0], hist[:, 1]),
+            o.k,
+            o.m,
+            (
+                model.angle_edges,
+                model.thickness_edges,
+                self.a_counts,
+                self.r_counts,
+                model.angle_hist,
+                model.thickness_hist,
+                self.h_counts,
+                model.heading_hist,
+                float(self.n_t),
+                float(o.omega_g),
+            ),
             (x0, y0, tip.theta, self.step),
-            (self.dist, self.near_branch, b, -2 if parent is None else parent, float(start[0]), float(start[1]),
-             float(exempt)),
+            (
+                self.dist,
+                self.near_branch,
+                b,
+                -2 if parent is None else parent,
+                float(start[0]),
+                float(start[1]),
+                float(exempt),
+            ),
             (self.density, self._guide, self.guide is not None, self.rho, EPSILON),
             (o.c, self.rng.random(3), self.merge_rate(), self._join_pdf, self.near_tangent),
-            self._quality, bufs, self._decision)
+            self._quality,
+            bufs,
+            self._decision,
+        )
         code, t, j = self._decision
         cand, _, lens = bufs[:3]
         xs, ys, heads = bufs[5:8]
@@ -280,8 +364,15 @@ class _Grower:
             return "end", bool(model.end_joins[cand[t]])
         # a continuation cut short by the end of its source branch ends the branch too
         ends = bool(lens[t] < o.m)
-        return "grow", (self._elements[t, :lens[t]], xs[t], ys[t], heads[t], int(j),
-                        ends, ends and bool(model.end_joins[cand[t]]))
+        return "grow", (
+            self._elements[t, : lens[t]],
+            xs[t],
+            ys[t],
+            heads[t],
+            int(j),
+            ends,
+            ends and bool(model.end_joins[cand[t]]),
+        )
 
     def _draw(self, scores: np.ndarray) -> int:
         c = np.cumsum(np.maximum(scores, 0.0))
@@ -320,7 +411,7 @@ class _Grower:
             like = max(float(self.join_pdf[min(int(inc / (np.pi / 2) * 6), 5)]), 0.1)
         return self.rng.random() < self.merge_rate() * like
 
-    def _snap(self, tip: "_Tip", hx, hy, branch: Branch) -> None:
+    def _snap(self, tip: _Tip, hx, hy, branch: Branch) -> None:
         """End the branch on the committed vertex nearest to ``(hx, hy)`` (a merge)."""
         nb, _ = self.sample(self.near_branch, np.array([hx]), np.array([hy]), np.int32(-1))
         nv, _ = self.sample(self.near_vertex, np.array([hx]), np.array([hy]), np.int32(-1))
@@ -332,7 +423,7 @@ class _Grower:
         branch.joins, branch.join_vertex = int(nb[0]), int(nv[0])
         self.n_merges += 1
 
-    def _reach(self, tip: "_Tip", start, exempt, b, branch) -> None:
+    def _reach(self, tip: _Tip, start, exempt, b, branch) -> None:
         """A branch whose source ended on another branch goes on straight until it meets one
         (within the source's median branch length, at least 3 rho and m steps) and ends on it."""
         n = int(np.ceil(self.reach / self.step))
@@ -342,9 +433,9 @@ class _Grower:
         xs, ys, _, j, _ = self._path(x0, y0, tip.theta, straight, start, exempt, b)
         if j < 0:
             return
-        tip.xyr[tip.n:tip.n + j, 0] = xs[:j]
-        tip.xyr[tip.n:tip.n + j, 1] = ys[:j]
-        tip.xyr[tip.n:tip.n + j, 2] = r
+        tip.xyr[tip.n : tip.n + j, 0] = xs[:j]
+        tip.xyr[tip.n : tip.n + j, 1] = ys[:j]
+        tip.xyr[tip.n : tip.n + j, 2] = r
         tip.n += j
         self._snap(tip, xs[j], ys[j], branch)
 
@@ -362,17 +453,19 @@ class _Grower:
         block = max(k, int(np.ceil(2 * self.r_max / self.step)) + 1)
         allowed = np.ones(n, bool)
         allowed[:1] = False  # the branch's own ends: its furcation and its end point
-        allowed[n - 1:] = False
+        allowed[n - 1 :] = False
         if branch.joins is not None:
-            allowed[n - block:] = False
+            allowed[n - block :] = False
         a, c = model.platt
-        base, expected = K.furcation_margins(p, k, model.feat_mean, model.feat_scale, model.svm_w, model.svm_b,
-                                             a, c, allowed)
+        base, expected = K.furcation_margins(
+            p, k, model.feat_mean, model.feat_scale, model.svm_w, model.svm_b, a, c, allowed
+        )
         d = int(self.rng.poisson(expected))
         if d == 0:
             return []
-        chosen = K.pick_furcations(base, allowed, d, block, model.feat_mean[-2:], model.feat_scale[-2:],
-                                   model.svm_w[-2:])
+        chosen = K.pick_furcations(
+            base, allowed, d, block, model.feat_mean[-2:], model.feat_scale[-2:], model.svm_w[-2:]
+        )
         return [(b, int(v)) for v in chosen]
 
     def child(self, b: int, v: int) -> int | None:
@@ -389,8 +482,11 @@ class _Grower:
         heading = float(tangent + fur.branch_angle[f])
         first = fur.child_first[f]
         n = min(int(fur.child_len[f]), self.o.m)
-        elements = (np.stack([model.angles[first:first + n], model.thickness[first:first + n]], axis=1)
-                    if first >= 0 and n else np.zeros((0, 2)))
+        elements = (
+            np.stack([model.angles[first : first + n], model.thickness[first : first + n]], axis=1)
+            if first >= 0 and n
+            else np.zeros((0, 2))
+        )
         # first edge: the branching angle itself, then the child's own elements
         lead = np.array([[0.0, float(fur.child_thickness[f])]])
         start = np.array([p[v, 0], p[v, 1], float(fur.child_thickness[f])])
@@ -414,11 +510,10 @@ class _Grower:
         first = model.root_first[r]
         end = model.element_end[first]
         n_el = min(end - first, self.o.k + 1)
-        elements = np.stack([model.angles[first:first + n_el], model.thickness[first:first + n_el]], axis=1)
+        elements = np.stack([model.angles[first : first + n_el], model.thickness[first : first + n_el]], axis=1)
         lead = np.array([[0.0, float(model.root_thickness[r])]])
         start = np.array([xs[i], ys[i], float(model.root_thickness[r])])
-        return self.grow_branch(start, float(model.root_heading[r]), np.concatenate([lead, elements]),
-                                None, None)
+        return self.grow_branch(start, float(model.root_heading[r]), np.concatenate([lead, elements]), None, None)
 
     def run(self, progress=None) -> None:
         """Grow until the stopping rules hold. Children are grown breadth first; a new root
@@ -431,8 +526,11 @@ class _Grower:
         roots_open = True
         last_was_root = False
         while self.length < self.target and len(self.branches) < self.options.max_branches:
-            want_root = (roots_open and self.n_roots < self.model.roots_per_length * self.length + 1
-                         and not (last_was_root and queue))  # roots and children take turns
+            want_root = (
+                roots_open
+                and self.n_roots < self.model.roots_per_length * self.length + 1
+                and not (last_was_root and queue)
+            )  # roots and children take turns
             last_was_root = want_root or not queue
             if want_root or not queue:
                 b = self.root()
@@ -457,9 +555,15 @@ class _Grower:
                 progress(min(self.length, self.target), self.target)
 
 
-def grow_structure(model: BranchModel, size: tuple[int, int], *, seed: int = 0,
-                   guide: np.ndarray | None = None, options: GrowOptions | None = None,
-                   progress=None) -> Structure:
+def grow_structure(
+    model: BranchModel,
+    size: tuple[int, int],
+    *,
+    seed: int = 0,
+    guide: np.ndarray | None = None,
+    options: GrowOptions | None = None,
+    progress=None,
+) -> Structure:
     """Grow a new structure of ``size = (width, height)`` pixels from ``model``.
 
     Args:
@@ -477,8 +581,9 @@ def grow_structure(model: BranchModel, size: tuple[int, int], *, seed: int = 0,
     if guide is not None:
         guide = np.asarray(guide, np.float32)
         if guide.shape != (h, w):
-            raise InvalidInputError(f"guide map is {guide.shape[1]}x{guide.shape[0]} but the output "
-                                    f"is {w}x{h}; they must be the same size")
+            raise InvalidInputError(
+                f"guide map is {guide.shape[1]}x{guide.shape[0]} but the output is {w}x{h}; they must be the same size"
+            )
     grower = _Grower(model, (w, h), guide, options, np.random.default_rng(seed))
     grower.run(progress)
     if not grower.branches:

@@ -14,13 +14,13 @@ class GrowOptions:
     """Stopping rules and space-colonisation parameters of :func:`grow_structure`."""
 
     total_length: float | None = None  # pixels; default: the source's length per pixel x area
-    max_levels: int = 64               # branch generations below a root
-    rho: float | None = None           # density spread; default: learned from the source
-    fill: float = 2.0                  # stop adding roots when no pixel is farther than fill*rho
+    max_levels: int = 64  # branch generations below a root
+    rho: float | None = None  # density spread; default: learned from the source
+    fill: float = 2.0  # stop adding roots when no pixel is farther than fill*rho
     max_branches: int = 20000
-    max_memory: int | None = None      # bytes; refuse a size estimated above it (None: what is free)
+    max_memory: int | None = None  # bytes; refuse a size estimated above it (None: what is free)
 
-    def validate(self) -> "GrowOptions":
+    def validate(self) -> GrowOptions:
         if self.total_length is not None and not 0 < self.total_length <= 1e8:
             raise InvalidInputError(f"total length must be in (0, 1e8] pixels, got {self.total_length}")
         if not 0 <= self.max_levels <= 1000:
@@ -48,5 +48,4 @@ def check_grow_size(size: tuple[int, int], options: GrowOptions, guide: bool = F
     w, h = int(size[0]), int(size[1])
     if not (8 <= w <= 16384 and 8 <= h <= 16384):
         raise InvalidInputError(f"size must be between 8x8 and 16384x16384, got {w}x{h}")
-    check_memory_budget(estimate_grow_memory((w, h), guide), options.max_memory,
-                        f"growing a structure of {w}x{h}")
+    check_memory_budget(estimate_grow_memory((w, h), guide), options.max_memory, f"growing a structure of {w}x{h}")

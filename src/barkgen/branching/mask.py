@@ -77,8 +77,7 @@ def _label_ids(labels: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     if lab.ndim == 3 and lab.shape[2] == 1:
         lab = lab[:, :, 0]
     if lab.ndim not in (2, 3) or lab.shape[:2] != tuple(shape):
-        raise InvalidInputError(f"label map must be {shape[1]}x{shape[0]} px like the image, "
-                                f"not shape {lab.shape}")
+        raise InvalidInputError(f"label map must be {shape[1]}x{shape[0]} px like the image, not shape {lab.shape}")
     if lab.ndim == 2:
         _, ids = np.unique(lab.ravel(), return_inverse=True)
     else:
@@ -176,8 +175,7 @@ def fill_slivers(mask: np.ndarray, max_inradius: float) -> np.ndarray:
 # --------------------------------------------------------------------------- the masks
 
 
-def _half_depth_cut(lum: np.ndarray, cand: np.ndarray, resp: np.ndarray, best: np.ndarray,
-                    high: float) -> np.ndarray:
+def _half_depth_cut(lum: np.ndarray, cand: np.ndarray, resp: np.ndarray, best: np.ndarray, high: float) -> np.ndarray:
     """The candidate regions cut to the crack: pixels at least half as deep as the crack next
     to them (near a candidate), closed, slivers filled, specks removed."""
     import cv2
@@ -214,8 +212,9 @@ def label_mask(lum: np.ndarray, labels: np.ndarray) -> np.ndarray:
     ids = _label_ids(labels, lum.shape)
     n = int(ids.max()) + 1
     if n < 2:
-        raise InvalidInputError("label map: no cracks found (it has a single label; the cracks "
-                                "must be a label of their own)")
+        raise InvalidInputError(
+            "label map: no cracks found (it has a single label; the cracks must be a label of their own)"
+        )
     count = np.bincount(ids.ravel(), minlength=n)
     total = np.bincount(ids.ravel(), weights=lum.ravel().astype(np.float64), minlength=n)
     mean = total / np.maximum(count, 1)

@@ -30,13 +30,13 @@ from barkgen.errors import InvalidInputError
 class ModelOptions:
     """Parameters of the model (defaults: sibbing2010 §4.2-4.3)."""
 
-    k: int = 3          # order of the Markov process (k = 3 in all the paper's experiments)
-    m: int = 4          # elements appended per step (typical feature size / h)
-    c: int = 2          # candidates to choose from (variability)
+    k: int = 3  # order of the Markov process (k = 3 in all the paper's experiments)
+    m: int = 4  # elements appended per step (typical feature size / h)
+    c: int = 2  # candidates to choose from (variability)
     omega_g: float = 50.0  # weight of the histogram matching
-    bins: int = 16      # histogram bins (B)
+    bins: int = 16  # histogram bins (B)
 
-    def validate(self) -> "ModelOptions":
+    def validate(self) -> ModelOptions:
         if not 1 <= self.k <= 16:
             raise InvalidInputError(f"k must be in 1..16, got {self.k}")
         if not 1 <= self.m <= 64:
@@ -54,12 +54,12 @@ class ModelOptions:
 class Furcations:
     """Source furcations: the parent's neighbourhood, the branching angle, the child's start."""
 
-    nb_angles: np.ndarray       # (F, 2k+1)
-    nb_thickness: np.ndarray    # (F, 2k+1)
-    branch_angle: np.ndarray    # (F,) child's first heading minus the parent's tangent
+    nb_angles: np.ndarray  # (F, 2k+1)
+    nb_thickness: np.ndarray  # (F, 2k+1)
+    branch_angle: np.ndarray  # (F,) child's first heading minus the parent's tangent
     child_thickness: np.ndarray  # (F,) thickness of the child's first vertex
-    child_first: np.ndarray     # (F,) index of the child's first element in the flat arrays (-1: none)
-    child_len: np.ndarray       # (F,) number of the child's elements
+    child_first: np.ndarray  # (F,) index of the child's first element in the flat arrays (-1: none)
+    child_len: np.ndarray  # (F,) number of the child's elements
 
 
 @dataclass
@@ -68,37 +68,37 @@ class BranchModel:
 
     options: ModelOptions
     step: float
-    angles: np.ndarray          # flat element arrays of all branches
+    angles: np.ndarray  # flat element arrays of all branches
     thickness: np.ndarray
-    element_end: np.ndarray     # per element: one past the last element of its branch
-    history_start: np.ndarray   # (N,) first element of each candidate history (k+1 elements)
-    branch_end: np.ndarray      # (N,) one past the last element of the candidate's branch
-    end_joins: np.ndarray       # (N,) that branch ended on another branch
+    element_end: np.ndarray  # per element: one past the last element of its branch
+    history_start: np.ndarray  # (N,) first element of each candidate history (k+1 elements)
+    branch_end: np.ndarray  # (N,) one past the last element of the candidate's branch
+    end_joins: np.ndarray  # (N,) that branch ended on another branch
     angle_edges: np.ndarray
     thickness_edges: np.ndarray
-    angle_hist: np.ndarray      # normalised source histograms
+    angle_hist: np.ndarray  # normalised source histograms
     thickness_hist: np.ndarray
-    heading_hist: np.ndarray    # edge directions as axes (0-180 degrees): bark fissures run upright
-    svm_w: np.ndarray | None    # furcation classifier on standardised features
+    heading_hist: np.ndarray  # edge directions as axes (0-180 degrees): bark fissures run upright
+    svm_w: np.ndarray | None  # furcation classifier on standardised features
     svm_b: float
     platt: tuple[float, float]  # furcation probability = sigmoid(a * margin + b)
     feat_mean: np.ndarray
     feat_scale: np.ndarray
     children_per_branch: np.ndarray
     furcations: Furcations
-    root_heading: np.ndarray    # absolute first heading of each source branch with elements
-    root_first: np.ndarray      # its first element index
+    root_heading: np.ndarray  # absolute first heading of each source branch with elements
+    root_first: np.ndarray  # its first element index
     root_thickness: np.ndarray  # thickness of its first vertex
-    join_rate: float            # share of branch ends that end on another branch
-    branch_length: np.ndarray   # (B,) arc length of every source branch
+    join_rate: float  # share of branch ends that end on another branch
+    branch_length: np.ndarray  # (B,) arc length of every source branch
     branch_is_root: np.ndarray  # (B,) it starts no furcation
-    branch_joined: np.ndarray   # (B,) it ends on another branch
-    roots_per_length: float     # separate networks per pixel of skeleton length
-    merges_per_length: float    # merges per pixel of skeleton length
-    join_angles: np.ndarray     # incidence angles (radians in [0, pi/2]) of the source's merges
-    length_density: float       # skeleton length per pixel of the source
-    junction_density: float     # furcations + merges per pixel
-    rho: float                  # space-colonisation spread (pixels)
+    branch_joined: np.ndarray  # (B,) it ends on another branch
+    roots_per_length: float  # separate networks per pixel of skeleton length
+    merges_per_length: float  # merges per pixel of skeleton length
+    join_angles: np.ndarray  # incidence angles (radians in [0, pi/2]) of the source's merges
+    length_density: float  # skeleton length per pixel of the source
+    junction_density: float  # furcations + merges per pixel
+    rho: float  # space-colonisation spread (pixels)
     meta: dict = field(default_factory=dict)
 
 
@@ -136,8 +136,7 @@ def _furcation_distances(furcation_at: np.ndarray) -> np.ndarray:
     return np.stack([n_minus, n_plus], axis=1).astype(np.float64)
 
 
-def _vertex_features(angles: np.ndarray, thickness: np.ndarray, k: int,
-                     furcation_at: np.ndarray) -> np.ndarray:
+def _vertex_features(angles: np.ndarray, thickness: np.ndarray, k: int, furcation_at: np.ndarray) -> np.ndarray:
     """Non-causal features of every vertex of one branch (§4.3): 2k+1 angles, 2k+1
     thicknesses (edge-replicated), and index distances to the previous and next furcation or
     branch end; ``angles`` and ``thickness`` are per vertex (angle 0 at the two ends)."""
@@ -188,21 +187,52 @@ def fit_model(source: Structure, options: ModelOptions | None = None) -> BranchM
     junctions = sum((b.parent is not None) + (b.joins is not None) for b in branches)
     rho = _spread(branches, source.width, source.height)
     return BranchModel(
-        options, h, flat_a, flat_r, element_end, np.asarray(starts, int), np.asarray(ends, int),
-        np.asarray(joined, bool), a_edges, r_edges, a_hist, r_hist, h_hist, svm_w, svm_b, platt, feat_mean,
-        feat_scale, children, furcations, root_heading, root_first, root_thickness,
-        float(join_rate), np.array([b.length() for b in branches]),
-        np.array([b.parent is None for b in branches]), np.array([b.joins is not None for b in branches]),
+        options,
+        h,
+        flat_a,
+        flat_r,
+        element_end,
+        np.asarray(starts, int),
+        np.asarray(ends, int),
+        np.asarray(joined, bool),
+        a_edges,
+        r_edges,
+        a_hist,
+        r_hist,
+        h_hist,
+        svm_w,
+        svm_b,
+        platt,
+        feat_mean,
+        feat_scale,
+        children,
+        furcations,
+        root_heading,
+        root_first,
+        root_thickness,
+        float(join_rate),
+        np.array([b.length() for b in branches]),
+        np.array([b.parent is None for b in branches]),
+        np.array([b.joins is not None for b in branches]),
         _networks(branches) / max(length, 1e-9),
-        n_joins / max(length, 1e-9), join_angles, length / area, junctions / area, rho,
-        meta={"source_length": length, "branches": len(branches), "vertices": int(sum(len(b.points) for b in branches)),
-              "furcations": len(fur_rows), "merges": n_joins})
+        n_joins / max(length, 1e-9),
+        join_angles,
+        length / area,
+        junctions / area,
+        rho,
+        meta={
+            "source_length": length,
+            "branches": len(branches),
+            "vertices": int(sum(len(b.points) for b in branches)),
+            "furcations": len(fur_rows),
+            "merges": n_joins,
+        },
+    )
 
 
 def _resampled(source: Structure, h: float) -> list[Branch]:
     """The source's branches resampled at step ``h`` (§4.1), their links moved with them."""
-    branches = [Branch(resample_polyline(b.points, h), b.parent, None, b.joins, None)
-                for b in source.branches]
+    branches = [Branch(resample_polyline(b.points, h), b.parent, None, b.joins, None) for b in source.branches]
     # vertex indices of links move with the resampling: map them by arc length
     for b_new, b_old in zip(branches, source.branches):
         if b_old.parent is not None:
@@ -234,9 +264,17 @@ def _histories(branches: list[Branch], k: int, h: float):
     if not starts:
         raise InvalidInputError(
             f"source structure: no branch is long enough to learn from (need at least {k + 3} "
-            f"vertices at step {h:g} px; the longest has {max(len(b.points) for b in branches)})")
-    return (np.concatenate(angles), np.concatenate(thick), np.concatenate(element_end), starts, ends, joined,
-            first_index)
+            f"vertices at step {h:g} px; the longest has {max(len(b.points) for b in branches)})"
+        )
+    return (
+        np.concatenate(angles),
+        np.concatenate(thick),
+        np.concatenate(element_end),
+        starts,
+        ends,
+        joined,
+        first_index,
+    )
 
 
 def _bending_histograms(branches: list[Branch], flat_a: np.ndarray, flat_r: np.ndarray, bins: int):
@@ -300,8 +338,9 @@ def _furcation_classifier(branches: list[Branch], k: int):
     return children, fur_rows, feat_mean, feat_scale, svm_w, svm_b, platt
 
 
-def _furcations(branches: list[Branch], fur_rows: list[tuple[int, int, int]], first_index: list[int],
-                k: int) -> Furcations:
+def _furcations(
+    branches: list[Branch], fur_rows: list[tuple[int, int, int]], first_index: list[int], k: int
+) -> Furcations:
     """Per source furcation (§4.3): the parent's non-causal neighbourhood (2k+1 turning angles
     and thicknesses), the child's angle to the parent's tangent and start thickness, and where
     the child's elements start and how many there are."""
@@ -319,16 +358,19 @@ def _furcations(branches: list[Branch], fur_rows: list[tuple[int, int, int]], fi
         c_first.append(first_index[ci])
         c_len.append(max(len(child.points) - 2, 0))
     return Furcations(
-        np.asarray(nb_a).reshape(-1, 2 * k + 1), np.asarray(nb_r).reshape(-1, 2 * k + 1),
-        np.asarray(b_ang, float), np.asarray(c_thick, float), np.asarray(c_first, int),
-        np.asarray(c_len, int))
+        np.asarray(nb_a).reshape(-1, 2 * k + 1),
+        np.asarray(nb_r).reshape(-1, 2 * k + 1),
+        np.asarray(b_ang, float),
+        np.asarray(c_thick, float),
+        np.asarray(c_first, int),
+        np.asarray(c_len, int),
+    )
 
 
 def _roots(branches: list[Branch], first_index: list[int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Start heading, first element and start thickness of every branch that has elements."""
     roots = [i for i, b in enumerate(branches) if first_index[i] >= 0]
-    root_heading = np.array([np.arctan2(*(branches[i].points[1, 1::-1] - branches[i].points[0, 1::-1]))
-                             for i in roots])
+    root_heading = np.array([np.arctan2(*(branches[i].points[1, 1::-1] - branches[i].points[0, 1::-1])) for i in roots])
     root_first = np.array([first_index[i] for i in roots], int)
     root_thickness = np.array([branches[i].points[0, 2] for i in roots])
     return root_heading, root_first, root_thickness

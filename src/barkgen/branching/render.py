@@ -137,10 +137,15 @@ class RenderOptions:
         def bad(name: str, rule: str) -> None:
             raise InvalidInputError(f"render option {name} must be {rule}, got {getattr(self, name)!r}")
 
-        for name, lo, hi in (("lambda_spacing", 0.2, 1.0), ("radius_factor", 0.5, 20.0),
-                             ("omega_s", 0.0, 1e6), ("omega_c", 0.0, 1e6),
-                             ("source_density", 1.0, 8.0), ("max_rotation", 0.0, 180.0),
-                             ("fill_label_weight", 0.0, 1e4)):
+        for name, lo, hi in (
+            ("lambda_spacing", 0.2, 1.0),
+            ("radius_factor", 0.5, 20.0),
+            ("omega_s", 0.0, 1e6),
+            ("omega_c", 0.0, 1e6),
+            ("source_density", 1.0, 8.0),
+            ("max_rotation", 0.0, 180.0),
+            ("fill_label_weight", 0.0, 1e4),
+        ):
             v = getattr(self, name)
             if not isinstance(v, (int, float)) or isinstance(v, bool) or not lo <= v <= hi:
                 bad(name, f"a number in [{lo}, {hi}]")
@@ -153,8 +158,17 @@ class RenderOptions:
             if not isinstance(v, int) or isinstance(v, bool) or not lo <= v <= hi:
                 bad(name, f"an integer in [{lo}, {hi}]")
         # plain floats from here on (the numba kernels see one signature)
-        for name in ("lambda_spacing", "radius_factor", "omega_s", "omega_c", "source_density",
-                     "max_rotation", "fill_label_weight", "min_radius", "max_radius"):
+        for name in (
+            "lambda_spacing",
+            "radius_factor",
+            "omega_s",
+            "omega_c",
+            "source_density",
+            "max_rotation",
+            "fill_label_weight",
+            "min_radius",
+            "max_radius",
+        ):
             object.__setattr__(self, name, float(getattr(self, name)))
         if self.interpolation not in ("nearest", "cubic"):
             bad("interpolation", "'nearest' or 'cubic'")
@@ -164,8 +178,9 @@ class RenderOptions:
     @property
     def fragment_spec(self) -> FragmentSpec:
         """The fragment sampling's part of the options (§5.1)."""
-        return FragmentSpec(self.lambda_spacing, self.radius_factor, self.min_radius, self.max_radius,
-                            self.samples, self.source_density)
+        return FragmentSpec(
+            self.lambda_spacing, self.radius_factor, self.min_radius, self.max_radius, self.samples, self.source_density
+        )
 
 
 @dataclass
@@ -221,13 +236,22 @@ class _Warp:
         a = (lap.T @ lap + WARP_EPS * sp.identity(n)).tocsc()
         self.green = np.ascontiguousarray(spla.splu(a).solve(np.eye(n)))
 
-    def field(self, half: int, points: np.ndarray, vectors: np.ndarray, rows: slice,
-              cols: slice) -> np.ndarray:
+    def field(self, half: int, points: np.ndarray, vectors: np.ndarray, rows: slice, cols: slice) -> np.ndarray:
         """The field (complex) on ``rows, cols`` of a ``(2 half + 1)^2`` box, given constraint
         ``points`` (complex box pixel coordinates) and ``vectors`` (complex)."""
-        return K.warp_field(self.green, self.m, half, points.real.copy(), points.imag.copy(),
-                            vectors.real.copy(), vectors.imag.copy(), rows.start, rows.stop,
-                            cols.start, cols.stop)
+        return K.warp_field(
+            self.green,
+            self.m,
+            half,
+            points.real.copy(),
+            points.imag.copy(),
+            vectors.real.copy(),
+            vectors.imag.copy(),
+            rows.start,
+            rows.stop,
+            cols.start,
+            cols.stop,
+        )
 
 
 # ----------------------------------------------------------------------------------------------
@@ -254,13 +278,13 @@ def _check_inputs(image: object, source: object, target: object) -> tuple[np.nda
         for i, b in enumerate(s.branches):
             p = np.asarray(b.points)
             if p.ndim != 2 or p.shape[1] != 3 or len(p) < 2 or not np.isfinite(p).all():
-                raise InvalidInputError(f"{name} structure: branch {i} needs at least two finite "
-                                        "x, y, thickness rows")
+                raise InvalidInputError(f"{name} structure: branch {i} needs at least two finite x, y, thickness rows")
             if (p[:, 2] <= 0).any():
                 raise InvalidInputError(f"{name} structure: branch {i} has a thickness <= 0")
     if tuple(source.size) != (w, h):
-        raise InvalidInputError(f"the source structure is for a {source.width}x{source.height} image, "
-                                f"the source image is {w}x{h}")
+        raise InvalidInputError(
+            f"the source structure is for a {source.width}x{source.height} image, the source image is {w}x{h}"
+        )
     pts = np.concatenate([b.points for b in source.branches])
     if (pts[:, 0] < -1).any() or (pts[:, 0] > w).any() or (pts[:, 1] < -1).any() or (pts[:, 1] > h).any():
         raise InvalidInputError(f"the source structure has points outside the {w}x{h} source image")
@@ -275,9 +299,18 @@ def _check_inputs(image: object, source: object, target: object) -> tuple[np.nda
 
 
 class _Renderer:
-    def __init__(self, img: np.ndarray, src_raster: np.ndarray, tgt_raster: np.ndarray,
-                 canvas: np.ndarray, content: np.ndarray, opts: RenderOptions,
-                 rng: np.random.Generator, regular: FragmentBank, junction: FragmentBank):
+    def __init__(
+        self,
+        img: np.ndarray,
+        src_raster: np.ndarray,
+        tgt_raster: np.ndarray,
+        canvas: np.ndarray,
+        content: np.ndarray,
+        opts: RenderOptions,
+        rng: np.random.Generator,
+        regular: FragmentBank,
+        junction: FragmentBank,
+    ):
         import cv2
 
         self.opts, self.rng = opts, rng
@@ -292,8 +325,9 @@ class _Renderer:
         self.regular, self.junction = regular, junction
         self.warp = _Warp()
         ang = np.arange(RING_SAMPLES) * (2 * np.pi / RING_SAMPLES)
-        ring = np.concatenate([f * np.exp(1j * (ang + 0.5 * i * 2 * np.pi / RING_SAMPLES))
-                               for i, f in enumerate(RING_RADII)])
+        ring = np.concatenate(
+            [f * np.exp(1j * (ang + 0.5 * i * 2 * np.pi / RING_SAMPLES)) for i, f in enumerate(RING_RADII)]
+        )
         self.ring_re, self.ring_im = np.ascontiguousarray(ring.real), np.ascontiguousarray(ring.imag)
         self.eps = 1e-3 * math.sqrt(self.var)
         self._no_pixels = np.zeros((1, 1, self.src.shape[2]), np.float32)
@@ -310,10 +344,19 @@ class _Renderer:
         if g.junction and bank is self.regular:
             return None  # no junction in the source: the child's own fragments make the joint
         target = (g.pos_re, g.pos_im, g.thick, g.weight)
-        weights = (float(self.opts.omega_s), math.radians(self.opts.max_rotation),
-                   self.opts.omega_c * g.radius ** 2 / self.var)
-        args = (self.opts.shortlist, self.src, self.layers, self.tgt_cracks,
-                (g.centre.real, g.centre.imag, g.radius), (self.ring_re, self.ring_im))
+        weights = (
+            float(self.opts.omega_s),
+            math.radians(self.opts.max_rotation),
+            self.opts.omega_c * g.radius**2 / self.var,
+        )
+        args = (
+            self.opts.shortlist,
+            self.src,
+            self.layers,
+            self.tgt_cracks,
+            (g.centre.real, g.centre.imag, g.radius),
+            (self.ring_re, self.ring_im),
+        )
         rows, total, rc, rs = K.select_candidates(bank.kernel, target, weights, g.radius + 2, *args)
         if len(rows) == 0:  # no source fragment fits this radius inside the photo: allow them all
             rows, total, rc, rs = K.select_candidates(bank.kernel, target, weights, -np.inf, *args)
@@ -336,9 +379,13 @@ class _Renderer:
         fpos = bank.oriented[o][i]
         freal = bank.oriented_real[o][i]
         x0, y0, mapx, mapy = K.fragment_maps(
-            (self.warp.green, self.warp.m), (g.centre.real, g.centre.imag, g.radius), (self.w, self.h),
-            (g.pos_re, g.pos_im, g.real), (fpos.real, fpos.imag, freal),
-            (f.centre.real, f.centre.imag, rot.real, rot.imag))
+            (self.warp.green, self.warp.m),
+            (g.centre.real, g.centre.imag, g.radius),
+            (self.w, self.h),
+            (g.pos_re, g.pos_im, g.real),
+            (fpos.real, fpos.imag, freal),
+            (f.centre.real, f.centre.imag, rot.real, rot.imag),
+        )
         if mapx.size == 0:
             return False
         if self.opts.interpolation == "nearest":
@@ -348,9 +395,18 @@ class _Renderer:
             given = np.clip(given.reshape(mapx.shape + (self.src.shape[2],)), 0.0, 255.0)
         clear = JUNCTION_CLEAR * g.radius if g.junction else 0.0  # a junction clears its centre
         new, take, free, ei, ej, cap, src_caps, sink_caps, boundary, fixed, n_take = K.compose_setup(
-            self.src, (mapx, mapy), given, self.opts.interpolation != "nearest", (x0, y0), self.layers,
-            self.cracks, (g.centre.real, g.centre.imag, g.radius, clear), g.own_cols, f.own_cols,
-            (OWN_MARGIN, float(OTHER_MARGIN), self.eps))
+            self.src,
+            (mapx, mapy),
+            given,
+            self.opts.interpolation != "nearest",
+            (x0, y0),
+            self.layers,
+            self.cracks,
+            (g.centre.real, g.centre.imag, g.radius, clear),
+            g.own_cols,
+            f.own_cols,
+            (OWN_MARGIN, float(OTHER_MARGIN), self.eps),
+        )
         if n_take == 0:
             return False
         newmask = take
@@ -365,8 +421,17 @@ class _Renderer:
             newmask.flat[free] = ~graph.get_grid_segments(nodes)
         # Poisson photometric correction: harmonic offset, seam difference on the boundary,
         # zero where the new pixels touch nothing placed before
-        K.blend((x0, y0), newmask, new, fixed, boundary, self.layers, self.fragment_map, j,
-                (np.float32(POISSON_TOL), 4 * int(math.ceil(g.radius)) + 24, SEAM_SMOOTH))
+        K.blend(
+            (x0, y0),
+            newmask,
+            new,
+            fixed,
+            boundary,
+            self.layers,
+            self.fragment_map,
+            j,
+            (np.float32(POISSON_TOL), 4 * int(math.ceil(g.radius)) + 24, SEAM_SMOOTH),
+        )
         return True
 
 
@@ -412,9 +477,11 @@ def render_branches(
     tw, th = target.size
     regular, junction = source_banks(source, sw, sh, opts.fragment_spec)
     if regular.n == 0:
-        raise InvalidInputError("the source structure gives no fragment: its branches are too short "
-                                "or too close to the image border for fragments of radius "
-                                f">= {opts.min_radius:g} px")
+        raise InvalidInputError(
+            "the source structure gives no fragment: its branches are too short "
+            "or too close to the image border for fragments of radius "
+            f">= {opts.min_radius:g} px"
+        )
     plan = target_plan(target, opts.fragment_spec, junction.n > 0)
     labels = rasterize(target)
     src_raster = rasterize(source)
@@ -432,10 +499,15 @@ def render_branches(
     if fill:
         from barkgen.synth import texture_by_numbers
 
-        res = texture_by_numbers(img, src_raster.astype(np.uint8) * 255,
-                                 labels.astype(np.uint8) * 255, seed=int(seed),
-                                 label_weight=float(opts.fill_label_weight),
-                                 config=opts.fill_config, progress=fill_progress)
+        res = texture_by_numbers(
+            img,
+            src_raster.astype(np.uint8) * 255,
+            labels.astype(np.uint8) * 255,
+            seed=int(seed),
+            label_weight=float(opts.fill_label_weight),
+            config=opts.fill_config,
+            progress=fill_progress,
+        )
         canvas = res.image.reshape(th, tw, -1).astype(np.float32)
         content = np.ones((th, tw), bool)
     else:
@@ -459,6 +531,13 @@ def render_branches(
     out = np.clip(np.rint(canvas), 0, 255).astype(np.uint8)
     if grey:
         out = out[:, :, 0]
-    return RenderResult(image=out, labels=labels.astype(np.uint8) * 255, coverage=r.coverage,
-                        fragment_map=r.fragment_map, n_fragments=placed,
-                        n_source_fragments=regular.n + junction.n, seed=int(seed), timings=timings)
+    return RenderResult(
+        image=out,
+        labels=labels.astype(np.uint8) * 255,
+        coverage=r.coverage,
+        fragment_map=r.fragment_map,
+        n_fragments=placed,
+        n_source_fragments=regular.n + junction.n,
+        seed=int(seed),
+        timings=timings,
+    )

@@ -83,24 +83,28 @@ class StructureComparison:
     target_thickness: np.ndarray
     angle_l1: float
     thickness_l1: float
-    heading_l1: float               # edge directions as axes, 16 bins over 0-180 degrees
+    heading_l1: float  # edge directions as axes, 16 bins over 0-180 degrees
     source_junction_density: float  # furcations + merges per megapixel
     target_junction_density: float
-    source_length_density: float    # skeleton pixels per pixel
+    source_length_density: float  # skeleton pixels per pixel
     target_length_density: float
     target_intersections: int
     source_free_end_density: float = 0.0  # branch ends connected to nothing, per megapixel
     target_free_end_density: float = 0.0
 
     def as_dict(self) -> dict:
-        return {"angle_l1": self.angle_l1, "thickness_l1": self.thickness_l1, "heading_l1": self.heading_l1,
-                "source_junctions_per_mpx": self.source_junction_density,
-                "target_junctions_per_mpx": self.target_junction_density,
-                "source_length_per_px": self.source_length_density,
-                "target_length_per_px": self.target_length_density,
-                "target_intersections": self.target_intersections,
-                "source_free_ends_per_mpx": self.source_free_end_density,
-                "target_free_ends_per_mpx": self.target_free_end_density}
+        return {
+            "angle_l1": self.angle_l1,
+            "thickness_l1": self.thickness_l1,
+            "heading_l1": self.heading_l1,
+            "source_junctions_per_mpx": self.source_junction_density,
+            "target_junctions_per_mpx": self.target_junction_density,
+            "source_length_per_px": self.source_length_density,
+            "target_length_per_px": self.target_length_density,
+            "target_intersections": self.target_intersections,
+            "source_free_ends_per_mpx": self.source_free_end_density,
+            "target_free_ends_per_mpx": self.target_free_end_density,
+        }
 
 
 def compare_structures(source: Structure, target: Structure, bins: int = 16) -> StructureComparison:
@@ -121,11 +125,23 @@ def compare_structures(source: Structure, target: Structure, bins: int = 16) -> 
     s_area = source.width * source.height / 1e6
     t_area = target.width * target.height / 1e6
     return StructureComparison(
-        a_edges, r_edges, hs_a, ht_a, hs_r, ht_r,
-        float(np.abs(hs_a - ht_a).sum()), float(np.abs(hs_r - ht_r).sum()), heading_l1,
-        source.junctions() / s_area, target.junctions() / t_area,
-        source.total_length() / (s_area * 1e6), target.total_length() / (t_area * 1e6),
-        self_intersections(target), source.free_ends() / s_area, target.free_ends() / t_area)
+        a_edges,
+        r_edges,
+        hs_a,
+        ht_a,
+        hs_r,
+        ht_r,
+        float(np.abs(hs_a - ht_a).sum()),
+        float(np.abs(hs_r - ht_r).sum()),
+        heading_l1,
+        source.junctions() / s_area,
+        target.junctions() / t_area,
+        source.total_length() / (s_area * 1e6),
+        target.total_length() / (t_area * 1e6),
+        self_intersections(target),
+        source.free_ends() / s_area,
+        target.free_ends() / t_area,
+    )
 
 
 def comparison_plot(cmp: StructureComparison, width: int = 960, height: int = 360) -> np.ndarray:
@@ -134,10 +150,22 @@ def comparison_plot(cmp: StructureComparison, width: int = 960, height: int = 36
     img = np.full((height, width, 3), 255, np.uint8)
     pad, gap = 40, 40
     panel_w = (width - 2 * pad - gap) // 2
-    panels = ((cmp.angle_edges, cmp.source_angles, cmp.target_angles,
-               f"turning angle (deg)   L1 = {cmp.angle_l1:.3f}", np.degrees),
-              (cmp.thickness_edges, cmp.source_thickness, cmp.target_thickness,
-               f"thickness (px)   L1 = {cmp.thickness_l1:.3f}", lambda v: v))
+    panels = (
+        (
+            cmp.angle_edges,
+            cmp.source_angles,
+            cmp.target_angles,
+            f"turning angle (deg)   L1 = {cmp.angle_l1:.3f}",
+            np.degrees,
+        ),
+        (
+            cmp.thickness_edges,
+            cmp.source_thickness,
+            cmp.target_thickness,
+            f"thickness (px)   L1 = {cmp.thickness_l1:.3f}",
+            lambda v: v,
+        ),
+    )
     for p, (edges, src, dst, title, unit) in enumerate(panels):
         x0 = pad + p * (panel_w + gap)
         y0, y1 = pad, height - pad
@@ -153,8 +181,17 @@ def comparison_plot(cmp: StructureComparison, width: int = 960, height: int = 36
         cv2.line(img, (x0, y1), (x0 + panel_w, y1), (0, 0, 0), 1)
         cv2.putText(img, title, (x0, y0 - 14), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (0, 0, 0), 1, cv2.LINE_AA)
         for v, anchor in ((edges[0], x0), (edges[-1], x0 + panel_w - 40)):
-            cv2.putText(img, f"{unit(v):.1f}", (anchor, y1 + 18), cv2.FONT_HERSHEY_SIMPLEX, 0.45,
-                        (0, 0, 0), 1, cv2.LINE_AA)
-    cv2.putText(img, "grey: source   orange: target", (pad, height - 8), cv2.FONT_HERSHEY_SIMPLEX, 0.45,
-                (60, 60, 60), 1, cv2.LINE_AA)
+            cv2.putText(
+                img, f"{unit(v):.1f}", (anchor, y1 + 18), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1, cv2.LINE_AA
+            )
+    cv2.putText(
+        img,
+        "grey: source   orange: target",
+        (pad, height - 8),
+        cv2.FONT_HERSHEY_SIMPLEX,
+        0.45,
+        (60, 60, 60),
+        1,
+        cv2.LINE_AA,
+    )
     return img

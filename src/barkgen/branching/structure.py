@@ -79,8 +79,13 @@ class Structure:
         def inside(p: np.ndarray) -> bool:
             return margin < p[0] < w - 1 - margin and margin < p[1] < h - 1 - margin
 
-        return int(sum((b.parent is None and inside(b.points[0])) + (b.joins is None and inside(b.points[-1]))
-                       for b in self.branches if len(b.points)))
+        return int(
+            sum(
+                (b.parent is None and inside(b.points[0])) + (b.joins is None and inside(b.points[-1]))
+                for b in self.branches
+                if len(b.points)
+            )
+        )
 
     def to_dict(self) -> dict:
         """The JSON form of the issue: version, step, size and branches."""
@@ -89,18 +94,21 @@ class Structure:
             item = {
                 "parent": b.parent,
                 "parent_vertex": b.parent_vertex,
-                "points": [[round(float(x), 3), round(float(y), 3), round(float(t), 3)]
-                           for x, y, t in b.points],
+                "points": [[round(float(x), 3), round(float(y), 3), round(float(t), 3)] for x, y, t in b.points],
             }
             if b.joins is not None:
                 item["joins"] = b.joins
                 item["join_vertex"] = b.join_vertex
             out.append(item)
-        return {"version": STRUCTURE_VERSION, "step": float(self.step),
-                "size": [self.width, self.height], "branches": out}
+        return {
+            "version": STRUCTURE_VERSION,
+            "step": float(self.step),
+            "size": [self.width, self.height],
+            "branches": out,
+        }
 
     @classmethod
-    def from_dict(cls, data: object, where: str = "structure") -> "Structure":
+    def from_dict(cls, data: object, where: str = "structure") -> Structure:
         """Validate and build a structure from its JSON form; errors are one clear line."""
         if not isinstance(data, dict):
             raise InvalidInputError(f"{where}: expected a JSON object with version, step, size, branches")
@@ -108,14 +116,16 @@ class Structure:
         if unknown:
             raise InvalidInputError(f"{where}: unknown key(s) {', '.join(sorted(map(str, unknown)))}")
         if data.get("version") != STRUCTURE_VERSION:
-            raise InvalidInputError(f"{where}: version must be {STRUCTURE_VERSION}, "
-                                    f"got {data.get('version')!r}")
+            raise InvalidInputError(f"{where}: version must be {STRUCTURE_VERSION}, got {data.get('version')!r}")
         step = data.get("step")
         if not _is_number(step) or not 0.25 <= float(step) <= 64:
             raise InvalidInputError(f"{where}: step must be a number of pixels in [0.25, 64], got {step!r}")
         size = data.get("size")
-        if (not isinstance(size, list) or len(size) != 2
-                or not all(isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= 65536 for v in size)):
+        if (
+            not isinstance(size, list)
+            or len(size) != 2
+            or not all(isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= 65536 for v in size)
+        ):
             raise InvalidInputError(f"{where}: size must be [width, height] in pixels, got {size!r}")
         branches = data.get("branches")
         if not isinstance(branches, list):
@@ -140,8 +150,10 @@ class Structure:
                 if not 0 <= ref < len(self.branches) or ref == i:
                     raise InvalidInputError(f"{where}: branch {i} {what} {ref} is not another branch")
                 if vertex is None or not 0 <= vertex < len(self.branches[ref].points):
-                    raise InvalidInputError(f"{where}: branch {i} {what} vertex {vertex} is outside "
-                                            f"branch {ref} (0..{len(self.branches[ref].points) - 1})")
+                    raise InvalidInputError(
+                        f"{where}: branch {i} {what} vertex {vertex} is outside "
+                        f"branch {ref} (0..{len(self.branches[ref].points) - 1})"
+                    )
 
 
 def junction_radius(parent_thickness: float, child_thickness: float, step: float) -> float:
@@ -169,8 +181,11 @@ def _branch_from_dict(item: object, index: int, n: int, where: str) -> Branch:
     if (item.get("joins") is None) != (item.get("join_vertex") is None):
         raise InvalidInputError(f"{where}: joins and join_vertex must both be set or both be null")
     pts = item.get("points")
-    if (not isinstance(pts, list) or len(pts) < 2
-            or not all(isinstance(p, list) and len(p) == 3 and all(_is_number(v) for v in p) for p in pts)):
+    if (
+        not isinstance(pts, list)
+        or len(pts) < 2
+        or not all(isinstance(p, list) and len(p) == 3 and all(_is_number(v) for v in p) for p in pts)
+    ):
         raise InvalidInputError(f"{where}: points must be a list of at least two [x, y, thickness] numbers")
     arr = np.asarray(pts, np.float64)
     if (arr[:, 2] <= 0).any():
@@ -202,8 +217,9 @@ def turning_angles(xy: np.ndarray) -> np.ndarray:
     return np.angle(np.exp(1j * np.diff(heading)))
 
 
-def rasterize(structure: Structure, shape: tuple[int, int] | None = None, *, scale: float = 1.0,
-              min_radius: float = 0.5) -> np.ndarray:
+def rasterize(
+    structure: Structure, shape: tuple[int, int] | None = None, *, scale: float = 1.0, min_radius: float = 0.5
+) -> np.ndarray:
     """Boolean ``(H, W)`` mask of every pixel within its branch's thickness of the skeleton.
 
     ``thickness`` is the half-width (radius) of the branch at a vertex.
@@ -225,6 +241,5 @@ def rasterize(structure: Structure, shape: tuple[int, int] | None = None, *, sca
         segments = np.concatenate(ends)
         width = np.concatenate(widths)
         for t in np.unique(width):  # one call per line width
-            cv2.polylines(canvas, list(segments[width == t]), False, 1, thickness=int(t),
-                          lineType=cv2.LINE_8, shift=4)
+            cv2.polylines(canvas, list(segments[width == t]), False, 1, thickness=int(t), lineType=cv2.LINE_8, shift=4)
     return canvas.astype(bool)

@@ -27,8 +27,7 @@ def fail(message: str, status: int = 2) -> typer.Exit:
 
 
 @contextmanager
-def progress_bar(enabled: bool, description: str,
-                 describe: Callable[[float], str] | None = None) -> Iterator:
+def progress_bar(enabled: bool, description: str, describe: Callable[[float], str] | None = None) -> Iterator:
     """A rich progress bar on stderr when it is a terminal, else a no-op callback. With
     ``describe``, the bar's text follows the run: ``describe(done / total)`` names what is
     running (e.g. :func:`barkgen.pipeline.stage_at`)."""
@@ -38,8 +37,14 @@ def progress_bar(enabled: bool, description: str,
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
-                  TimeElapsedColumn(), console=Console(stderr=True), transient=True) as bar:
+    with Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TextColumn("{task.percentage:>3.0f}%"),
+        TimeElapsedColumn(),
+        console=Console(stderr=True),
+        transient=True,
+    ) as bar:
         task = bar.add_task(describe(0.0) if describe else description, total=None)
 
         def update(done: int, total: int) -> None:
@@ -157,7 +162,8 @@ def _check_pixels(path: Path) -> None:
         raise ImageTooLargeError(
             f"{path}: {width}x{height} px is {width * height / 1e6:.3g} megapixels, more than the "
             f"limit of {limit / 1e6:g}; scale it down (or raise the limit: barkgen --max-pixels N "
-            "COMMAND ...)")
+            "COMMAND ...)"
+        )
 
 
 def _named_paths(kwargs: Mapping[str, object]) -> Iterator[tuple[str, Path]]:
@@ -186,16 +192,16 @@ def _writable_folder(folder: Path, what: str, path: Path) -> None:
     while not probe.exists() and probe != probe.parent:
         probe = probe.parent
     if probe.exists() and (not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK)):
-        raise InvalidInputError(f"{what} {str(path)!r}: cannot write into {str(probe)!r} "
-                                "(not a writable folder)")
+        raise InvalidInputError(f"{what} {str(path)!r}: cannot write into {str(probe)!r} (not a writable folder)")
     if probe.is_dir():  # the permission bits say yes; ask the file system (root, /proc, a full disk)
         import tempfile
 
         try:
             handle, name = tempfile.mkstemp(prefix=f".barkgen-probe.{os.getpid()}.", suffix=".tmp", dir=probe)
         except OSError as exc:
-            raise InvalidInputError(f"{what} {str(path)!r}: cannot write into {str(probe)!r} "
-                                    f"({exc.strerror or exc})") from None
+            raise InvalidInputError(
+                f"{what} {str(path)!r}: cannot write into {str(probe)!r} ({exc.strerror or exc})"
+            ) from None
         os.close(handle)
         os.unlink(name)
 
@@ -250,8 +256,10 @@ def refuse_inputs(targets: Iterable[Path], what: str = "output") -> None:
     for target in targets:
         for source in _INPUTS.get():
             if _same_file(target, source):
-                raise InvalidInputError(f"{what} {str(target)!r} is also an input of this command; "
-                                        "it would be overwritten: write it elsewhere")
+                raise InvalidInputError(
+                    f"{what} {str(target)!r} is also an input of this command; "
+                    "it would be overwritten: write it elsewhere"
+                )
 
 
 # ------------------------------------------------------------------------ writing
@@ -272,8 +280,9 @@ def previous_run_files(folder: Path, record: str = "report.json") -> list[str]:
     return [n for n in owned_files(folder, record) or [] if n != record]
 
 
-def write_run(folder: Path, files: dict[str, bytes], stale: Iterable[str],
-              also: dict[Path, bytes] | None = None) -> None:
+def write_run(
+    folder: Path, files: dict[str, bytes], stale: Iterable[str], also: dict[Path, bytes] | None = None
+) -> None:
     """Write a run's files into ``folder``, and ``also`` (e.g. its pyramid levels elsewhere), as
     one step (:func:`write_outputs`), then remove the files of the run before it (``stale``,
     from :func:`previous_run_files` read before the run) that this run did not write: a folder
@@ -314,8 +323,7 @@ def refuse_targets(targets: Mapping[str, Path]) -> None:
         refuse_inputs([path], what)
         key = os.path.normcase(os.path.abspath(path))
         if key in seen:
-            raise InvalidInputError(f"{what} and {seen[key]} would both write {str(path)!r}; "
-                                    "name them apart")
+            raise InvalidInputError(f"{what} and {seen[key]} would both write {str(path)!r}; name them apart")
         seen[key] = what
 
 
@@ -325,9 +333,11 @@ def refuse_input_folder(folder: Path, what: str) -> None:
     overwrite; one line otherwise."""
     for source in _INPUTS.get():
         if folder.is_dir() and _same_file(source.parent, folder):
-            raise InvalidInputError(f"{what} {str(folder)!r} holds {source.name!r}, an input of "
-                                    "this command, which its files could overwrite: give "
-                                    "another folder")
+            raise InvalidInputError(
+                f"{what} {str(folder)!r} holds {source.name!r}, an input of "
+                "this command, which its files could overwrite: give "
+                "another folder"
+            )
 
 
 def level_files(levels: list) -> dict[str, bytes]:
@@ -344,46 +354,99 @@ SizeOption = Annotated[str, typer.Option("--size", help="Output size WIDTHxHEIGH
 TileOption = Annotated[bool, typer.Option("--tile", help="Make the output tile seamlessly.")]
 SeedOption = Annotated[int, typer.Option("--seed", min=0, help="Random seed (same seed, same bytes).")]
 KOption = Annotated[int, typer.Option("--k", help="Number of labels (1-16).")]
-ExemplarWrapsOption = Annotated[str, typer.Option(
-    "--exemplar-wraps", help="auto: the photo is used as a torus along each axis along which it "
-    "tiles itself (its last row continues into its first), so pieces run on across its edge; "
-    "yes / no: force it.")]
-BlendOption = Annotated[str, typer.Option(
-    "--blend", help="gradient: the colour's seams between copied pieces blended in the gradient "
-    "domain (Pérez et al. 2003); none: every pixel an exact copy of the photo's.")]
-ExtraOption = Annotated[Optional[list[str]], typer.Option(
-    "--extra", metavar="NAME=PATH", help="Map aligned with the exemplar (height, normal, ...), "
-    "synthesized along; written as OUTPUT_NAME.png.")]
-SaveReferenceOption = Annotated[Optional[Path], typer.Option(
-    "--save-reference", help="Also write the reference map (16-bit PNG of exemplar x, y).")]
-BitsOption = Annotated[Optional[int], typer.Option(
-    "--bits", help="Bits per channel of the output (8 or 16). Default: the exemplar's.")]
-MaxMemoryOption = Annotated[Optional[str], typer.Option(
-    "--max-memory", help="Refuse jobs estimated to need more memory than this, e.g. 8G "
-    "(default: what the machine has free).")]
+ExemplarWrapsOption = Annotated[
+    str,
+    typer.Option(
+        "--exemplar-wraps",
+        help="auto: the photo is used as a torus along each axis along which it "
+        "tiles itself (its last row continues into its first), so pieces run on across its edge; "
+        "yes / no: force it.",
+    ),
+]
+BlendOption = Annotated[
+    str,
+    typer.Option(
+        "--blend",
+        help="gradient: the colour's seams between copied pieces blended in the gradient "
+        "domain (Pérez et al. 2003); none: every pixel an exact copy of the photo's.",
+    ),
+]
+ExtraOption = Annotated[
+    Optional[list[str]],
+    typer.Option(
+        "--extra",
+        metavar="NAME=PATH",
+        help="Map aligned with the exemplar (height, normal, ...), synthesized along; written as OUTPUT_NAME.png.",
+    ),
+]
+SaveReferenceOption = Annotated[
+    Optional[Path], typer.Option("--save-reference", help="Also write the reference map (16-bit PNG of exemplar x, y).")
+]
+BitsOption = Annotated[
+    Optional[int], typer.Option("--bits", help="Bits per channel of the output (8 or 16). Default: the exemplar's.")
+]
+MaxMemoryOption = Annotated[
+    Optional[str],
+    typer.Option(
+        "--max-memory",
+        help="Refuse jobs estimated to need more memory than this, e.g. 8G (default: what the machine has free).",
+    ),
+]
 ThreadsOption = Annotated[Optional[int], typer.Option("--threads", min=1, help="Worker threads.")]
 QuietOption = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")]
-LibraryOption = Annotated[Optional[Path], typer.Option(
-    "--library", help="Library folder (default: $BARKGEN_LIBRARY, else barkgen/library in your "
-    "user data folder).")]
-NameOption = Annotated[str, typer.Option(
-    "--name", help="Material set name: files NAME_Color.png, NAME_NormalGL.png, ..., NAME.json.")]
-ReliefOption = Annotated[float, typer.Option(
-    "--relief", help="Relief strength of the estimated height (1 = as fitted on scanned bark; "
-    "2 doubles its depth and its slopes; normals and AO follow).")]
-LightOption = Annotated[Optional[str], typer.Option(
-    "--light", help="The photo's light AZ,EL in degrees (azimuth counter-clockwise from the "
-    "right, elevation above the surface) for shading removal. Default: estimated.")]
-StrategyOption = Annotated[str, typer.Option(
-    "--strategy", help="Output label maps: joint (the core engine on one-hot label channels and "
-    "the photo's colours; generate's default, shapes needs --photo), engine (label channels alone; "
-    "shapes' default) or layered (Rosenberger et al.'s layered shape synthesis, laitoch2018 §3.6).")]
-RotationsOption = Annotated[str, typer.Option(
-    "--rotations", help="Layered strategy: boundary patches may turn none, vertical (180°) or "
-    "all (90° steps).")]
-SaveLevelsOption = Annotated[Optional[Path], typer.Option(
-    "--save-levels", help="Write every pyramid level of the output label map as "
-    "DIR/level_N.png (0 = full size) to edit and --resume from.")]
-ResumeOption = Annotated[Optional[Path], typer.Option(
-    "--resume", help="Continue the output label map from an edited level (DIR/level_N.png of "
-    "--save-levels, painted with the same grey values).")]
+LibraryOption = Annotated[
+    Optional[Path],
+    typer.Option(
+        "--library", help="Library folder (default: $BARKGEN_LIBRARY, else barkgen/library in your user data folder)."
+    ),
+]
+NameOption = Annotated[
+    str, typer.Option("--name", help="Material set name: files NAME_Color.png, NAME_NormalGL.png, ..., NAME.json.")
+]
+ReliefOption = Annotated[
+    float,
+    typer.Option(
+        "--relief",
+        help="Relief strength of the estimated height (1 = as fitted on scanned bark; "
+        "2 doubles its depth and its slopes; normals and AO follow).",
+    ),
+]
+LightOption = Annotated[
+    Optional[str],
+    typer.Option(
+        "--light",
+        help="The photo's light AZ,EL in degrees (azimuth counter-clockwise from the "
+        "right, elevation above the surface) for shading removal. Default: estimated.",
+    ),
+]
+StrategyOption = Annotated[
+    str,
+    typer.Option(
+        "--strategy",
+        help="Output label maps: joint (the core engine on one-hot label channels and "
+        "the photo's colours; generate's default, shapes needs --photo), engine (label channels alone; "
+        "shapes' default) or layered (Rosenberger et al.'s layered shape synthesis, laitoch2018 §3.6).",
+    ),
+]
+RotationsOption = Annotated[
+    str,
+    typer.Option(
+        "--rotations", help="Layered strategy: boundary patches may turn none, vertical (180°) or all (90° steps)."
+    ),
+]
+SaveLevelsOption = Annotated[
+    Optional[Path],
+    typer.Option(
+        "--save-levels",
+        help="Write every pyramid level of the output label map as "
+        "DIR/level_N.png (0 = full size) to edit and --resume from.",
+    ),
+]
+ResumeOption = Annotated[
+    Optional[Path],
+    typer.Option(
+        "--resume",
+        help="Continue the output label map from an edited level (DIR/level_N.png of "
+        "--save-levels, painted with the same grey values).",
+    ),
+]

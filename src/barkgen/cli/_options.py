@@ -22,11 +22,13 @@ def _parameter(field: OptionField) -> inspect.Parameter:
         extra["metavar"] = "{" + ",".join(info.choices) + "}"
     if info.kind in (int, float):
         extra.update(min=info.minimum, max=info.maximum)
-    help_text = info.help if field.default is None or info.kind is bool else \
-        f"{info.help} [default: {field.default_text}]"
+    help_text = (
+        info.help if field.default is None or info.kind is bool else f"{info.help} [default: {field.default_text}]"
+    )
     flag = typer.Option(field.flag, help=help_text, show_default=False, **extra)
-    return inspect.Parameter(field.name, inspect.Parameter.KEYWORD_ONLY,
-                             annotation=Annotated[kind, flag], default=field.default_text)
+    return inspect.Parameter(
+        field.name, inspect.Parameter.KEYWORD_ONLY, annotation=Annotated[kind, flag], default=field.default_text
+    )
 
 
 def with_options(options_class: type, *, after: int = 2) -> Callable[[Callable], Callable]:
@@ -39,8 +41,7 @@ def with_options(options_class: type, *, after: int = 2) -> Callable[[Callable],
 
     def decorate(command: Callable) -> Callable:
         fields = list(option_fields(options_class, "cli"))
-        own = [p for p in inspect.signature(command, eval_str=True).parameters.values()
-               if p.name != "options"]
+        own = [p for p in inspect.signature(command, eval_str=True).parameters.values() if p.name != "options"]
         clash = {p.name for p in own} & {f.name for f in fields}
         if clash:
             raise TypeError(f"{command.__name__} declares {sorted(clash)}, which are options' fields")
@@ -54,7 +55,8 @@ def with_options(options_class: type, *, after: int = 2) -> Callable[[Callable],
         # typer reads this signature (keyword-only: click passes every value by name), not the
         # command's own
         run.__signature__ = inspect.Signature(  # type: ignore[attr-defined]
-            [p.replace(kind=inspect.Parameter.KEYWORD_ONLY) for p in params])
+            [p.replace(kind=inspect.Parameter.KEYWORD_ONLY) for p in params]
+        )
         run.__annotations__ = {}
         del run.__wrapped__
         run.bare = command  # type: ignore[attr-defined]  # (for another options class)

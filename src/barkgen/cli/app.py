@@ -36,15 +36,30 @@ from barkgen.errors import BarkgenError
 F = TypeVar("F", bound=Callable[..., None])
 
 #: the commands of ``barkgen --help``, in its order (the groups follow them)
-TOP_LEVEL = ("synth", "tbn", "labels", "textons", "merge", "shapes", "generate", "material",
-             "preview", "export-glb", "apply-reference", "batch", "serve", "warm-up")
+TOP_LEVEL = (
+    "synth",
+    "tbn",
+    "labels",
+    "textons",
+    "merge",
+    "shapes",
+    "generate",
+    "material",
+    "preview",
+    "export-glb",
+    "apply-reference",
+    "batch",
+    "serve",
+    "warm-up",
+)
 #: the modules that give those commands
 COMMAND_MODULES = (synth, labels, shapes, generate, material, serve, warmup)
 #: the groups of sub-commands (``barkgen bilayer analyze`` ...), in the order of ``--help``
 GROUPS = (("bilayer", bilayer), ("library", library), ("branches", branches))
 
-_TYPER_SETTINGS = dict(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
-                       rich_markup_mode=None)
+_TYPER_SETTINGS = dict(
+    add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False, rich_markup_mode=None
+)
 
 app = typer.Typer(
     name="barkgen",
@@ -111,10 +126,16 @@ def user_errors(func: F) -> F:
 @app.callback(invoke_without_command=True)
 def _root(
     version: Annotated[bool, typer.Option("--version", help="Print the version and exit.")] = False,
-    max_pixels: Annotated[Optional[int], typer.Option(
-        "--max-pixels", min=1, help="Largest input image any command reads and largest output it "
-        "makes, in pixels (default 50000000 in, 8192x8192 out; generate analyses at most "
-        "50000000 whatever this says).")] = None,
+    max_pixels: Annotated[
+        Optional[int],
+        typer.Option(
+            "--max-pixels",
+            min=1,
+            help="Largest input image any command reads and largest output it "
+            "makes, in pixels (default 50000000 in, 8192x8192 out; generate analyses at most "
+            "50000000 whatever this says).",
+        ),
+    ] = None,
 ) -> None:
     MAX_INPUT_PIXELS.set(max_pixels)
     OUTPUT_PIXEL_LIMIT.set(max_pixels)
@@ -130,8 +151,9 @@ def _register() -> None:
     then one sub-app per group."""
     commands = dict(command for module in COMMAND_MODULES for command in module.COMMANDS)
     if set(commands) != set(TOP_LEVEL):
-        raise RuntimeError(f"commands missing from TOP_LEVEL or from their modules: "
-                           f"{sorted(set(commands) ^ set(TOP_LEVEL))}")
+        raise RuntimeError(
+            f"commands missing from TOP_LEVEL or from their modules: {sorted(set(commands) ^ set(TOP_LEVEL))}"
+        )
     for name in TOP_LEVEL:
         app.command(name)(user_errors(commands[name]))
     for group_name, module in GROUPS:

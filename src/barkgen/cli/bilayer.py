@@ -25,12 +25,17 @@ from barkgen.cli._common import (
 )
 
 #: help of the ``bilayer`` group
-HELP = ("Bi-layer textures (guingo2017): structure + spatially varying noise, synthesized "
-        "window by window without bounds.")
+HELP = (
+    "Bi-layer textures (guingo2017): structure + spatially varying noise, synthesized window by window without bounds."
+)
 
-TlocOption = Annotated[int, typer.Option(
-    "--tloc", help="Local spectrum window: 2, 4, 8 or 16 px (larger: more goes into the noise; "
-    "see `barkgen bilayer tune`).")]
+TlocOption = Annotated[
+    int,
+    typer.Option(
+        "--tloc",
+        help="Local spectrum window: 2, 4, 8 or 16 px (larger: more goes into the noise; see `barkgen bilayer tune`).",
+    ),
+]
 NoisesOption = Annotated[int, typer.Option("--k", help="Number of stationary noises (clusters), 1-8.")]
 PhotoArgument = Annotated[Optional[Path], typer.Argument(help="Exemplar photo. Default: the bundled sample.")]
 
@@ -41,16 +46,24 @@ def analyze_command(
     k: NoisesOption = 2,
     tloc: TlocOption = 4,
     masks: Annotated[str, typer.Option("--masks", help="binary or barycentric.")] = "binary",
-    equalize: Annotated[bool, typer.Option("--equalize", help="Equalise the noise's histogram per "
-                                           "cluster (non-Gaussian noise, §6).")] = False,
-    border: Annotated[int, typer.Option("--border", help="Band (px) along mask borders kept sharp in "
-                                        "the structure (§6); 0: none.")] = 0,
-    sigma: Annotated[float, typer.Option("--sigma", help="Range sigma of the structure filter "
-                                         "(larger: more of the grain goes into the noise).")] = 0.001,
+    equalize: Annotated[
+        bool, typer.Option("--equalize", help="Equalise the noise's histogram per cluster (non-Gaussian noise, §6).")
+    ] = False,
+    border: Annotated[
+        int, typer.Option("--border", help="Band (px) along mask borders kept sharp in the structure (§6); 0: none.")
+    ] = 0,
+    sigma: Annotated[
+        float,
+        typer.Option(
+            "--sigma", help="Range sigma of the structure filter (larger: more of the grain goes into the noise)."
+        ),
+    ] = 0.001,
     seed: SeedOption = 0,
     max_memory: MaxMemoryOption = None,
-    preview: Annotated[Optional[Path], typer.Option(
-        "--preview", help="Also write a PNG of P, N, the masks, the spectra and a synthesized sample.")] = None,
+    preview: Annotated[
+        Optional[Path],
+        typer.Option("--preview", help="Also write a PNG of P, N, the masks, the spectra and a synthesized sample."),
+    ] = None,
     quiet: QuietOption = False,
 ) -> None:
     """Analyse a photo into a bi-layer model: structure P, masks M_k, noise spectra S_k."""
@@ -59,8 +72,16 @@ def analyze_command(
     from barkgen.io import encode_bilayer_model, encode_png, read_image
 
     # K, T_loc, the masks, the border and sigma: AnalysisOptions
-    options = AnalysisOptions(k=k, tloc=tloc, masks=masks, equalize=equalize, border=border,
-                              sigma_range=sigma, seed=seed, max_memory=parse_memory(max_memory))
+    options = AnalysisOptions(
+        k=k,
+        tloc=tloc,
+        masks=masks,
+        equalize=equalize,
+        border=border,
+        sigma_range=sigma,
+        seed=seed,
+        max_memory=parse_memory(max_memory),
+    )
     check_file_name(output, ".npz", "model file")
     if preview is not None:
         check_target(preview, "preview")
@@ -73,8 +94,7 @@ def analyze_command(
         files[preview] = encode_png(analysis_preview(model, model.window(0, 0, 2 * w, h, seed=seed)))
     write_outputs(files)
     if not quiet:
-        typer.echo(f"wrote {output} (K={k}, T_loc={tloc}, noise std "
-                   f"{float(model.noise_layer.std()):.3f})", err=True)
+        typer.echo(f"wrote {output} (K={k}, T_loc={tloc}, noise std {float(model.noise_layer.std()):.3f})", err=True)
 
 
 def tune_command(
@@ -102,22 +122,42 @@ def synth_command(
     model_path: Annotated[Path, typer.Argument(metavar="MODEL", help="Model file from `bilayer analyze`.")],
     output: OutputOption = Path("bilayer.png"),
     size: Annotated[str, typer.Option("--size", help="Window size WIDTHxHEIGHT.")] = "1024x1024",
-    offset: Annotated[str, typer.Option("--offset", help="Window position X,Y in the unbounded "
-                                        "texture (windows of one seed agree where they overlap).")] = "0,0",
-    rotate: Annotated[float, typer.Option("--rotate", help="Rotate the structure's pieces by up to "
-                                          "DEG_MAX degrees (0-180).")] = 0.0,
+    offset: Annotated[
+        str,
+        typer.Option(
+            "--offset",
+            help="Window position X,Y in the unbounded texture (windows of one seed agree where they overlap).",
+        ),
+    ] = "0,0",
+    rotate: Annotated[
+        float, typer.Option("--rotate", help="Rotate the structure's pieces by up to DEG_MAX degrees (0-180).")
+    ] = 0.0,
     scale: Annotated[str, typer.Option("--scale", help="Zoom the structure's pieces by MIN,MAX.")] = "1,1",
-    keep_vertical: Annotated[bool, typer.Option("--keep-vertical", help="Rotate pieces only about the "
-                                                "upright (0 or 180 degrees, plus --rotate).")] = False,
-    tile_size: Annotated[Optional[int], typer.Option("--tile-size", help="Wang tile size in px "
-                                                     "(default: a quarter of the exemplar).")] = None,
-    warp: Annotated[float, typer.Option("--warp", help="Turbulence bending the tile grid, in tile "
-                                        "sizes (0-1; 0: none).")] = 0.1,
-    compensate: Annotated[bool, typer.Option("--compensate/--no-compensate", help="With --rotate or "
-                                             "--scale, give the noise the fine detail the deformed "
-                                             "structure lost (--no-compensate: the paper's noise).")] = True,
-    blend: Annotated[bool, typer.Option("--blend/--no-blend", help="Blend the tiles' seams in the "
-                                        "gradient domain (--no-blend: graph cuts only).")] = True,
+    keep_vertical: Annotated[
+        bool,
+        typer.Option("--keep-vertical", help="Rotate pieces only about the upright (0 or 180 degrees, plus --rotate)."),
+    ] = False,
+    tile_size: Annotated[
+        Optional[int], typer.Option("--tile-size", help="Wang tile size in px (default: a quarter of the exemplar).")
+    ] = None,
+    warp: Annotated[
+        float, typer.Option("--warp", help="Turbulence bending the tile grid, in tile sizes (0-1; 0: none).")
+    ] = 0.1,
+    compensate: Annotated[
+        bool,
+        typer.Option(
+            "--compensate/--no-compensate",
+            help="With --rotate or "
+            "--scale, give the noise the fine detail the deformed "
+            "structure lost (--no-compensate: the paper's noise).",
+        ),
+    ] = True,
+    blend: Annotated[
+        bool,
+        typer.Option(
+            "--blend/--no-blend", help="Blend the tiles' seams in the gradient domain (--no-blend: graph cuts only)."
+        ),
+    ] = True,
     seed: SeedOption = 0,
     bits: Annotated[int, typer.Option("--bits", help="Bits per channel (8 or 16).")] = 8,
     max_memory: MaxMemoryOption = None,
@@ -132,9 +172,14 @@ def synth_command(
     check_bits(bits)
     check_target(output, "output")
     # the tile size, warp and deformation ranges: SynthesisOptions and Deformation
-    options = SynthesisOptions(tile_size=tile_size, warp=warp, compensate=compensate, blend=blend,
-                               deformation=Deformation(rotate=rotate, scale=(lo, hi), keep_vertical=keep_vertical),
-                               max_memory=parse_memory(max_memory))
+    options = SynthesisOptions(
+        tile_size=tile_size,
+        warp=warp,
+        compensate=compensate,
+        blend=blend,
+        deformation=Deformation(rotate=rotate, scale=(lo, hi), keep_vertical=keep_vertical),
+        max_memory=parse_memory(max_memory),
+    )
     model = read_bilayer_model(model_path)
     image = model.window(x, y, out_shape[1], out_shape[0], seed=seed, options=options)
     image16 = (image * 65535.0 + 0.5).astype(np.uint16)

@@ -22,8 +22,10 @@ from barkgen.cli._common import (
 )
 
 #: help of the ``branches`` group
-HELP = ("Branching structures (cracks, fissures, dried mud; sibbing2010): extract a network "
-        "from an image, grow new ones, render them from fragments of the image, compare statistics.")
+HELP = (
+    "Branching structures (cracks, fissures, dried mud; sibbing2010): extract a network "
+    "from an image, grow new ones, render them from fragments of the image, compare statistics."
+)
 
 SourceArgument = Annotated[Path, typer.Argument(metavar="SRC.json", help="Source structure.")]
 
@@ -31,16 +33,28 @@ SourceArgument = Annotated[Path, typer.Argument(metavar="SRC.json", help="Source
 def extract_command(
     image_path: Annotated[Path, typer.Argument(metavar="IMAGE", help="Image with cracks or fissures.")],
     output: Annotated[Path, typer.Option("-o", "--output", help="Structure JSON.")] = Path("source.json"),
-    labels: Annotated[Optional[Path], typer.Option(
-        "--labels", help="A label map of the image (e.g. from `barkgen labels`); its darkest label "
-        "in the image is taken as the fissures.")] = None,
-    step: Annotated[Optional[float], typer.Option(
-        "--step", help="Resampling step h in pixels (default: from the crack width).")] = None,
-    preview: Annotated[Optional[Path], typer.Option(
-        "--preview", help="Also write a PNG of the structure drawn over the image.")] = None,
-    labels_out: Annotated[Optional[Path], typer.Option(
-        "--labels-out", help="Also write the image's fissure label map (white cracks on black), "
-        "the exemplar labels for texture-by-numbers with a rendered --labels-out as target.")] = None,
+    labels: Annotated[
+        Optional[Path],
+        typer.Option(
+            "--labels",
+            help="A label map of the image (e.g. from `barkgen labels`); its darkest label "
+            "in the image is taken as the fissures.",
+        ),
+    ] = None,
+    step: Annotated[
+        Optional[float], typer.Option("--step", help="Resampling step h in pixels (default: from the crack width).")
+    ] = None,
+    preview: Annotated[
+        Optional[Path], typer.Option("--preview", help="Also write a PNG of the structure drawn over the image.")
+    ] = None,
+    labels_out: Annotated[
+        Optional[Path],
+        typer.Option(
+            "--labels-out",
+            help="Also write the image's fissure label map (white cracks on black), "
+            "the exemplar labels for texture-by-numbers with a rendered --labels-out as target.",
+        ),
+    ] = None,
     quiet: QuietOption = False,
 ) -> None:
     """Extract the crack network of an image as a structure (skeleton graph with thickness)."""
@@ -64,21 +78,33 @@ def extract_command(
         files[labels_out] = encode_png(rasterize(structure).astype(np.uint8) * 255)
     write_outputs(files)
     if not quiet:
-        typer.echo(f"wrote {output}: {len(structure.branches)} branches, "
-                   f"{structure.total_length():.0f} px, {structure.junctions()} junctions, "
-                   f"step {structure.step:g} px", err=True)
+        typer.echo(
+            f"wrote {output}: {len(structure.branches)} branches, "
+            f"{structure.total_length():.0f} px, {structure.junctions()} junctions, "
+            f"step {structure.step:g} px",
+            err=True,
+        )
 
 
 def grow_command(
     source_path: SourceArgument,
     output: Annotated[Path, typer.Option("-o", "--output", help="Grown structure JSON.")] = Path("grown.json"),
     size: Annotated[str, typer.Option("--size", help="Output size WIDTHxHEIGHT.")] = "1024x1024",
-    guide: Annotated[Optional[Path], typer.Option(
-        "--guide", help="Guide map of the output size: branches are drawn to dark values "
-        "(a dark valley along a path), roots start where it is dark.")] = None,
-    length: Annotated[Optional[float], typer.Option(
-        "--length", help="Total branch length to grow in px (default: the source's length per "
-        "pixel times the output area).")] = None,
+    guide: Annotated[
+        Optional[Path],
+        typer.Option(
+            "--guide",
+            help="Guide map of the output size: branches are drawn to dark values "
+            "(a dark valley along a path), roots start where it is dark.",
+        ),
+    ] = None,
+    length: Annotated[
+        Optional[float],
+        typer.Option(
+            "--length",
+            help="Total branch length to grow in px (default: the source's length per pixel times the output area).",
+        ),
+    ] = None,
     levels: Annotated[int, typer.Option("--levels", help="Maximum branch generations.")] = 64,
     seed: SeedOption = 0,
     max_memory: MaxMemoryOption = None,
@@ -101,8 +127,11 @@ def grow_command(
         grown = grow_structure(model, (w, h), seed=seed, guide=guide_map, options=options, progress=progress)
     write_outputs({output: encode_structure(grown)})
     if not quiet:
-        typer.echo(f"wrote {output}: {len(grown.branches)} branches, {grown.total_length():.0f} px, "
-                   f"{grown.junctions()} junctions", err=True)
+        typer.echo(
+            f"wrote {output}: {len(grown.branches)} branches, {grown.total_length():.0f} px, "
+            f"{grown.junctions()} junctions",
+            err=True,
+        )
 
 
 def _grey_unit(image: np.ndarray) -> np.ndarray:
@@ -117,9 +146,13 @@ def render_command(
     source_path: Annotated[Path, typer.Argument(metavar="SRC.json", help="Its structure.")],
     target_path: Annotated[Path, typer.Argument(metavar="DST.json", help="The structure to render.")],
     output: OutputOption = Path("branches.png"),
-    labels_out: Annotated[Optional[Path], typer.Option(
-        "--labels-out", help="Also write the fissure label map of the output (white cracks on "
-        "black) for texture-by-numbers.")] = None,
+    labels_out: Annotated[
+        Optional[Path],
+        typer.Option(
+            "--labels-out",
+            help="Also write the fissure label map of the output (white cracks on black) for texture-by-numbers.",
+        ),
+    ] = None,
     seed: SeedOption = 0,
     quiet: QuietOption = False,
 ) -> None:
@@ -146,8 +179,9 @@ def render_command(
 def stats_command(
     source_path: SourceArgument,
     target_path: Annotated[Path, typer.Argument(metavar="DST.json", help="Grown structure.")],
-    plot: Annotated[Optional[Path], typer.Option(
-        "--plot", help="Histogram plot PNG (default: DST_stats.png beside DST.json).")] = None,
+    plot: Annotated[
+        Optional[Path], typer.Option("--plot", help="Histogram plot PNG (default: DST_stats.png beside DST.json).")
+    ] = None,
 ) -> None:
     """Angle and thickness histograms of two structures side by side (sibbing2010 Fig. 7)."""
     from rich.console import Console
@@ -162,12 +196,15 @@ def stats_command(
     console = Console()
     for table in _histogram_tables(cmp):
         console.print(table)
-    console.print(f"L1 angle {cmp.angle_l1:.3f}   L1 thickness {cmp.thickness_l1:.3f}   "
-                  f"L1 direction {cmp.heading_l1:.3f}   "
-                  f"junctions per Mpx {cmp.source_junction_density:.0f} -> {cmp.target_junction_density:.0f}   "
-                  f"free ends per Mpx {cmp.source_free_end_density:.0f} -> {cmp.target_free_end_density:.0f}   "
-                  f"length per px {cmp.source_length_density:.4f} -> {cmp.target_length_density:.4f}   "
-                  f"intersections {cmp.target_intersections}", highlight=False)
+    console.print(
+        f"L1 angle {cmp.angle_l1:.3f}   L1 thickness {cmp.thickness_l1:.3f}   "
+        f"L1 direction {cmp.heading_l1:.3f}   "
+        f"junctions per Mpx {cmp.source_junction_density:.0f} -> {cmp.target_junction_density:.0f}   "
+        f"free ends per Mpx {cmp.source_free_end_density:.0f} -> {cmp.target_free_end_density:.0f}   "
+        f"length per px {cmp.source_length_density:.4f} -> {cmp.target_length_density:.4f}   "
+        f"intersections {cmp.target_intersections}",
+        highlight=False,
+    )
     write_outputs({plot: encode_png(comparison_plot(cmp))})
 
 
@@ -178,8 +215,9 @@ def _histogram_tables(cmp) -> list:
 
     tables = []
     for title, edges, src, dst, fmt in (
-            ("turning angle (degrees)", np.degrees(cmp.angle_edges), cmp.source_angles, cmp.target_angles, "{:+.1f}"),
-            ("thickness (px)", cmp.thickness_edges, cmp.source_thickness, cmp.target_thickness, "{:.2f}")):
+        ("turning angle (degrees)", np.degrees(cmp.angle_edges), cmp.source_angles, cmp.target_angles, "{:+.1f}"),
+        ("thickness (px)", cmp.thickness_edges, cmp.source_thickness, cmp.target_thickness, "{:.2f}"),
+    ):
         table = Table(title=title, title_justify="left")
         table.add_column("bin")
         table.add_column("source", justify="right")
@@ -188,8 +226,12 @@ def _histogram_tables(cmp) -> list:
         for i in range(len(src)):
             bar = "#" * int(round(src[i] * 60))
             bar2 = "#" * int(round(dst[i] * 60))
-            table.add_row(f"{fmt.format(edges[i])} .. {fmt.format(edges[i + 1])}", f"{src[i]:.3f}",
-                          f"{dst[i]:.3f}", f"{bar:<20.20}|{bar2:<20.20}")
+            table.add_row(
+                f"{fmt.format(edges[i])} .. {fmt.format(edges[i + 1])}",
+                f"{src[i]:.3f}",
+                f"{dst[i]:.3f}",
+                f"{bar:<20.20}|{bar2:<20.20}",
+            )
         tables.append(table)
     return tables
 

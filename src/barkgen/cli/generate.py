@@ -36,11 +36,13 @@ from barkgen.pipeline import GenerateOptions
 
 @with_options(GenerateOptions)
 def generate_command(
-    photo: Annotated[Optional[Path], typer.Argument(
-        help="Bark photo (PNG/JPEG/TIFF/WebP). Default: the bundled sample.")] = None,
+    photo: Annotated[
+        Optional[Path], typer.Argument(help="Bark photo (PNG/JPEG/TIFF/WebP). Default: the bundled sample.")
+    ] = None,
     output_dir: Annotated[Path, typer.Option("-o", "--output", help="Output folder.")] = Path("out"),
-    labels: Annotated[Optional[Path], typer.Option(
-        "--labels", help="Use this label map of the photo instead of making one.")] = None,
+    labels: Annotated[
+        Optional[Path], typer.Option("--labels", help="Use this label map of the photo instead of making one.")
+    ] = None,
     extra: ExtraOption = None,
     save_levels: SaveLevelsOption = None,
     resume: ResumeOption = None,
@@ -74,16 +76,18 @@ def generate_command(
     edited = read_resume(resume) if resume is not None else None
     describe = functools.partial(stage_at, material=options.material)
     with progress_bar(not quiet, "generating", describe) as progress:
-        result = generate(image, options, extra=extras, labels_in=label_map, resume=edited,
-                          progress=progress)
+        result = generate(image, options, extra=extras, labels_in=label_map, resume=edited, progress=progress)
         files = encode_generate(image, result, str(src), name=name, bits=bits)
     levels = {} if save_levels is None else level_files(result.label_levels)
     write_run(output_dir, files, stale, {save_levels / n: data for n, data in levels.items()})
     if not quiet:
         h, w = result.texture.shape[:2]
-        typer.echo(f"wrote {output_dir}/texture.png ({w}x{h}, seed {options.seed}"
-                   f"{', tileable' if options.tile else ''}) and its maps in "
-                   f"{result.report['timings_s']['total']:.1f} s", err=True)
+        typer.echo(
+            f"wrote {output_dir}/texture.png ({w}x{h}, seed {options.seed}"
+            f"{', tileable' if options.tile else ''}) and its maps in "
+            f"{result.report['timings_s']['total']:.1f} s",
+            err=True,
+        )
 
 
 def _run_targets(folder: Path, material_name: str | None, extras, stale) -> list[Path]:
@@ -94,8 +98,11 @@ def _run_targets(folder: Path, material_name: str | None, extras, stale) -> list
     names = {f"{n}.png" for n in GENERATE_FILES} | {"report.json"} | {f"{n}.png" for n in extras}
     names |= set(stale)
     if material_name is not None and folder.is_dir():
-        names |= {p.name for p in folder.iterdir()
-                  if p.name.startswith(f"{material_name}_") or p.name == f"{material_name}.json"}
+        names |= {
+            p.name
+            for p in folder.iterdir()
+            if p.name.startswith(f"{material_name}_") or p.name == f"{material_name}.json"
+        }
     return [folder / n for n in sorted(names)]
 
 
@@ -121,18 +128,32 @@ def _extra_paths(extra: list[str] | None) -> dict[str, Path]:
 
 
 def batch_command(
-    spec_path: Annotated[Path, typer.Argument(
-        metavar="SPEC.yaml", help="Batch spec: exemplars (path, seeds or count + seed_base) and "
-        "generate's options (size, tile, k, method, material, ...).")],
+    spec_path: Annotated[
+        Path,
+        typer.Argument(
+            metavar="SPEC.yaml",
+            help="Batch spec: exemplars (path, seeds or count + seed_base) and "
+            "generate's options (size, tile, k, method, material, ...).",
+        ),
+    ],
     output_dir: Annotated[Path, typer.Option("-o", "--output", help="Output folder: OUTDIR/<name>/<seed>/.")],
-    scheduler: Annotated[Optional[str], typer.Option(
-        "--scheduler", help="Address of a running Dask scheduler (tcp://HOST:PORT). "
-        "Default: a local cluster on this machine.")] = None,
-    workers: Annotated[Optional[int], typer.Option(
-        "--workers", help="Worker processes of the local cluster (default: one per core).")] = None,
-    threads: Annotated[Optional[int], typer.Option(
-        "--threads", help="Threads per variant (default: cores / workers locally, all cores of a "
-        "worker with --scheduler).")] = None,
+    scheduler: Annotated[
+        Optional[str],
+        typer.Option(
+            "--scheduler",
+            help="Address of a running Dask scheduler (tcp://HOST:PORT). Default: a local cluster on this machine.",
+        ),
+    ] = None,
+    workers: Annotated[
+        Optional[int], typer.Option("--workers", help="Worker processes of the local cluster (default: one per core).")
+    ] = None,
+    threads: Annotated[
+        Optional[int],
+        typer.Option(
+            "--threads",
+            help="Threads per variant (default: cores / workers locally, all cores of a worker with --scheduler).",
+        ),
+    ] = None,
     quiet: QuietOption = False,
     library: LibraryOption = None,
 ) -> None:
@@ -146,14 +167,20 @@ def batch_command(
     say = (lambda message: None) if quiet else (lambda message: typer.echo(message, err=True))
     try:
         with progress_bar(not quiet, "variants") as progress:
-            report = run_batch(spec, output_dir, scheduler=scheduler, workers=workers, threads=threads,
-                               progress=progress, log=say)
+            report = run_batch(
+                spec, output_dir, scheduler=scheduler, workers=workers, threads=threads, progress=progress, log=say
+            )
     except KeyboardInterrupt:
-        raise fail(f"interrupted; what finished is in {output_dir} (see manifest.sqlite): run the same "
-                   "command again to make the rest", 130) from None
+        raise fail(
+            f"interrupted; what finished is in {output_dir} (see manifest.sqlite): run the same "
+            "command again to make the rest",
+            130,
+        ) from None
     if report.made or report.failed:
-        say(f"made {report.made} variant(s) in {report.seconds:.1f} s"
-            f"{f', {report.skipped} were already done' if report.skipped else ''} -> {output_dir}")
+        say(
+            f"made {report.made} variant(s) in {report.seconds:.1f} s"
+            f"{f', {report.skipped} were already done' if report.skipped else ''} -> {output_dir}"
+        )
     if report.failed:
         for name, seed, error in report.failed[:5]:
             print(f"barkgen: error: {name} seed {seed}: {error}", file=sys.stderr)

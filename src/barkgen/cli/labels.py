@@ -29,16 +29,22 @@ def labels_command(
     photo: Annotated[Path, typer.Argument(help="Bark photo (PNG/JPEG/TIFF/WebP).")],
     output: OutputOption,
     k: KOption = 3,
-    method: Annotated[str, typer.Option(
-        "--method", help="color: colour regions (laitoch2018 §3.5); texton: texton channels "
-        "merged automatically (wang2003 §3.2).")] = "color",
-    edges: Annotated[bool, typer.Option(
-        "--edges", help="Add a label for the region edges (k + 1 labels).")] = False,
+    method: Annotated[
+        str,
+        typer.Option(
+            "--method",
+            help="color: colour regions (laitoch2018 §3.5); texton: texton channels "
+            "merged automatically (wang2003 §3.2).",
+        ),
+    ] = "color",
+    edges: Annotated[bool, typer.Option("--edges", help="Add a label for the region edges (k + 1 labels).")] = False,
     edge_width: Annotated[int, typer.Option("--edge-width", help="Width of the edge band, px.")] = 3,
     exemplar_wraps: ExemplarWrapsOption = "auto",
     seed: SeedOption = 0,
-    preview: Annotated[Optional[Path], typer.Option(
-        "--preview", help="Also write the photo with the label regions tinted and outlined.")] = None,
+    preview: Annotated[
+        Optional[Path],
+        typer.Option("--preview", help="Also write the photo with the label regions tinted and outlined."),
+    ] = None,
     quiet: QuietOption = False,
 ) -> None:
     """Make the label map of a bark photo (input of texture-by-numbers)."""
@@ -106,8 +112,7 @@ def textons_command(
 def merge_command(
     texton_map: Annotated[Path, typer.Argument(help="textons.png written by 'barkgen textons'.")],
     output: OutputOption,
-    groups: Annotated[str, typer.Option(
-        "--groups", help="Texton numbers of each label, e.g. \"0,3,7;1,2;4,5,6\".")],
+    groups: Annotated[str, typer.Option("--groups", help='Texton numbers of each label, e.g. "0,3,7;1,2;4,5,6".')],
 ) -> None:
     """Merge raw texton channels into a label map (wang2003 §3.2)."""
     from barkgen.io import read_image, write_png

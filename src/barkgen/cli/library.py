@@ -11,8 +11,10 @@ import typer
 from barkgen.cli._common import LibraryOption
 
 #: help of the ``library`` group
-HELP = ("The exemplar library: bark photos by species, their analyses and generated results "
-        "(SQLite + files; --library PATH or $BARKGEN_LIBRARY, default in your data folder).")
+HELP = (
+    "The exemplar library: bark photos by species, their analyses and generated results "
+    "(SQLite + files; --library PATH or $BARKGEN_LIBRARY, default in your data folder)."
+)
 
 
 def _open_library(path: Path | None):
@@ -37,8 +39,9 @@ def add_command(
     lib = _open_library(library)
     data = read_image_bytes(photo)
     existing = lib.find_exemplar(data)
-    exemplar = existing or lib.add_exemplar(data, name or photo.stem, species=species, bark_type=bark_type,
-                                            licence=licence, source=source or str(photo))
+    exemplar = existing or lib.add_exemplar(
+        data, name or photo.stem, species=species, bark_type=bark_type, licence=licence, source=source or str(photo)
+    )
     note = "" if existing is None else " (already in the library)"
     typer.echo(f"{exemplar.id}\t{exemplar.name}{note}")
 
@@ -50,8 +53,18 @@ def list_command(library: LibraryOption = None) -> None:
     for result in lib.results():
         counts[result.exemplar_id] = counts.get(result.exemplar_id, 0) + 1
     rows = [("id", "name", "species", "type", "size", "results", "licence")]
-    rows += [(str(e.id), e.name, e.species or "-", e.bark_type or "-", f"{e.width}x{e.height}",
-              str(counts.get(e.id, 0)), e.licence or "-") for e in lib.exemplars()]
+    rows += [
+        (
+            str(e.id),
+            e.name,
+            e.species or "-",
+            e.bark_type or "-",
+            f"{e.width}x{e.height}",
+            str(counts.get(e.id, 0)),
+            e.licence or "-",
+        )
+        for e in lib.exemplars()
+    ]
     widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
     for row in rows:
         typer.echo("  ".join(cell.ljust(width) for cell, width in zip(row, widths)).rstrip())
@@ -67,8 +80,10 @@ def show_command(
 
     lib = _open_library(library)
     exemplar = lib.exemplar(exemplar_id)
-    results = [{"id": r.id, "created": r.created, "params": r.params, "files": sorted(r.files),
-                "timings_s": r.timings} for r in lib.results(exemplar_id)]
+    results = [
+        {"id": r.id, "created": r.created, "params": r.params, "files": sorted(r.files), "timings_s": r.timings}
+        for r in lib.results(exemplar_id)
+    ]
     typer.echo(json.dumps({**exemplar.to_dict(), "results": results}, indent=2))
 
 

@@ -32,24 +32,28 @@ from barkgen.cli._common import (
 from barkgen.errors import InvalidInputError
 
 ViewRepeat = Annotated[float, typer.Option("--repeat", help="Times the texture goes round the trunk.")]
-ViewDisplacement = Annotated[float, typer.Option(
-    "--displacement", help="Relief scale (1 = the set's own depth).")]
+ViewDisplacement = Annotated[float, typer.Option("--displacement", help="Relief scale (1 = the set's own depth).")]
 
 
 def material_command(
-    photo: Annotated[Optional[Path], typer.Argument(
-        help="Bark photo. Default: the bundled sample.")] = None,
+    photo: Annotated[Optional[Path], typer.Argument(help="Bark photo. Default: the bundled sample.")] = None,
     output_dir: Annotated[Path, typer.Option("-o", "--output", help="Output folder.")] = Path("material"),
     name: NameOption = "bark",
     k: Annotated[int, typer.Option("--k", help="Labels of the structure cue (1-16).")] = 3,
     light: LightOption = None,
     relief: ReliefOption = 1.0,
-    edits: Annotated[Optional[Path], typer.Option(
-        "--edits", help="JSON list of height edits to replay (HeightEditor, wang2003 §3.3): "
-        '{"version": 1, "edits": [{"x": 10, "y": 20, "delta": 1.5, "radius": 4}]}.')] = None,
+    edits: Annotated[
+        Optional[Path],
+        typer.Option(
+            "--edits",
+            help="JSON list of height edits to replay (HeightEditor, wang2003 §3.3): "
+            '{"version": 1, "edits": [{"x": 10, "y": 20, "delta": 1.5, "radius": 4}]}.',
+        ),
+    ] = None,
     exemplar_wraps: ExemplarWrapsOption = "auto",
-    tile: Annotated[bool, typer.Option("--tile", help="The photo is a tileable texture: maps wrap "
-                                       "(as --exemplar-wraps yes).")] = False,
+    tile: Annotated[
+        bool, typer.Option("--tile", help="The photo is a tileable texture: maps wrap (as --exemplar-wraps yes).")
+    ] = False,
     seed: SeedOption = 0,
     max_memory: MaxMemoryOption = None,
     quiet: QuietOption = False,
@@ -67,9 +71,14 @@ def material_command(
     check_folder(output_dir, "output")
     refuse_targets({f"output {n}": output_dir / n for n in material_file_names(name)})
     # k, seed and relief: MaterialOptions; edits outside the photo: the height editor
-    options = MaterialOptions(k=k, light=parse_light(light), seed=seed, relief=relief,
-                              exemplar_wrap="yes" if tile else exemplar_wraps,
-                              max_memory=parse_memory(max_memory))
+    options = MaterialOptions(
+        k=k,
+        light=parse_light(light),
+        seed=seed,
+        relief=relief,
+        exemplar_wrap="yes" if tile else exemplar_wraps,
+        max_memory=parse_memory(max_memory),
+    )
     edit_list = _read_edits(edits) if edits is not None else []
     src = photo if photo is not None else sample_exemplar_path()
     image = read_image(src)
@@ -79,13 +88,17 @@ def material_command(
         material = make_material(image, options, edits=edit_list)
         if progress:
             progress(1, 1)
-    files = encode_material(material, name, seed=seed, source_photo=str(src),
-                            edits=len(edit_list), exemplar_wrap_mode=options.exemplar_wrap)
+    files = encode_material(
+        material, name, seed=seed, source_photo=str(src), edits=len(edit_list), exemplar_wrap_mode=options.exemplar_wrap
+    )
     write_files(output_dir, files)
     if not quiet:
         lt = material.light
-        typer.echo(f"wrote {output_dir}/{name}_*.png ({w}x{h}; light {lt.azimuth:g},{lt.elevation:g}; "
-                   f"depth {material.depth:.1f} px{_wrap_note(material.wraps)}) in {time.perf_counter() - start:.1f} s", err=True)
+        typer.echo(
+            f"wrote {output_dir}/{name}_*.png ({w}x{h}; light {lt.azimuth:g},{lt.elevation:g}; "
+            f"depth {material.depth:.1f} px{_wrap_note(material.wraps)}) in {time.perf_counter() - start:.1f} s",
+            err=True,
+        )
 
 
 def _wrap_note(wraps: tuple[bool, bool]) -> str:
@@ -106,8 +119,7 @@ def _read_edits(path: Path) -> list:
 
     try:
         if path.stat().st_size > MAX_EDITS_BYTES:
-            raise InvalidInputError(f"{path}: over {MAX_EDITS_BYTES // 2**20} MiB; an edit list is "
-                                    "never that long")
+            raise InvalidInputError(f"{path}: over {MAX_EDITS_BYTES // 2**20} MiB; an edit list is never that long")
         document = json.loads(path.read_text(encoding="utf-8"))
     except OSError as exc:
         raise InvalidInputError(f"{path}: cannot read the edit list ({exc.strerror})") from None

@@ -11,8 +11,12 @@ from barkgen.errors import InvalidInputError
 
 
 def serve_command(
-    host: Annotated[str, typer.Option("--host", help="Address to listen on (127.0.0.1: this "
-                                      "machine only; 0.0.0.0 opens it to your network).")] = "127.0.0.1",
+    host: Annotated[
+        str,
+        typer.Option(
+            "--host", help="Address to listen on (127.0.0.1: this machine only; 0.0.0.0 opens it to your network)."
+        ),
+    ] = "127.0.0.1",
     port: Annotated[int, typer.Option("--port", help="Port to listen on.")] = 8000,
     library: LibraryOption = None,
     max_upload_mb: Annotated[int, typer.Option("--max-upload-mb", help="Largest upload in MB.")] = 25,
@@ -33,8 +37,7 @@ def serve_command(
             raise InvalidInputError(f"{flag} must be a number above 0 (and at most 1000000), not {value}")
     lib = Library(library)
     _check_port_free(host, port)
-    limits = WebLimits(max_upload_bytes=max_upload_mb * 1024**2,
-                       max_upload_pixels=int(max_upload_mp * 1e6))
+    limits = WebLimits(max_upload_bytes=max_upload_mb * 1024**2, max_upload_pixels=int(max_upload_mp * 1e6))
 
     from barkgen.web.app import is_loopback
     from barkgen.web.assets import missing_warning
@@ -44,8 +47,11 @@ def serve_command(
         if (missing := missing_warning()) is not None:
             typer.echo(missing, err=True)
         if not is_loopback(host):
-            typer.echo(f"barkgen: warning: listening on {host}: anyone who can reach this machine "
-                       "can use this server and its library (there is no login)", err=True)
+            typer.echo(
+                f"barkgen: warning: listening on {host}: anyone who can reach this machine "
+                "can use this server and its library (there is no login)",
+                err=True,
+            )
 
     try:
         serve(lib, host=host, port=port, limits=limits, on_ready=ready)
@@ -63,11 +69,8 @@ def _check_port_free(host: str, port: int) -> None:
             probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
             probe.bind((host, port))
     except OSError as exc:
-        raise InvalidInputError(f"cannot listen on {host}:{port} ({exc.strerror or exc}); "
-                                "try another --port") from None
+        raise InvalidInputError(f"cannot listen on {host}:{port} ({exc.strerror or exc}); try another --port") from None
 
 
 #: (command name, function) of this group (the root orders ``barkgen --help``)
-COMMANDS = (
-    ("serve", serve_command),
-)
+COMMANDS = (("serve", serve_command),)

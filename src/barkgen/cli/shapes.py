@@ -38,13 +38,20 @@ def shapes_command(
     output: OutputOption,
     size: SizeOption = "1024x1024",
     strategy: StrategyOption = "engine",
-    photo: Annotated[Optional[Path], typer.Option(
-        "--photo", help="The photo the label map belongs to (the joint strategy matches its "
-        "colours too).")] = None,
+    photo: Annotated[
+        Optional[Path],
+        typer.Option(
+            "--photo", help="The photo the label map belongs to (the joint strategy matches its colours too)."
+        ),
+    ] = None,
     rotations: RotationsOption = "vertical",
-    layer_order: Annotated[Optional[str], typer.Option(
-        "--layer-order", help="Layered strategy: grey values bottom layer first, e.g. "
-        "\"255,0,128\" (default: automatic).")] = None,
+    layer_order: Annotated[
+        Optional[str],
+        typer.Option(
+            "--layer-order",
+            help='Layered strategy: grey values bottom layer first, e.g. "255,0,128" (default: automatic).',
+        ),
+    ] = None,
     tile: TileOption = False,
     seed: SeedOption = 0,
     save_levels: SaveLevelsOption = None,
@@ -71,15 +78,27 @@ def shapes_command(
     photo_image = read_image(photo) if photo is not None else None
     edited = read_resume(resume) if resume is not None else None
     with progress_bar(not quiet, "label map") as progress:
-        result = synthesize_label_map(label_map, out_shape, strategy=strategy, tile=tile,
-                                      seed=seed, rotations=rotations, layer_order=order,
-                                      resume=edited, progress=progress, photo=photo_image,
-                                      exemplar_wrap=exemplar_wraps, max_memory=budget)
+        result = synthesize_label_map(
+            label_map,
+            out_shape,
+            strategy=strategy,
+            tile=tile,
+            seed=seed,
+            rotations=rotations,
+            layer_order=order,
+            resume=edited,
+            progress=progress,
+            photo=photo_image,
+            exemplar_wrap=exemplar_wraps,
+            max_memory=budget,
+        )
     levels = {} if save_levels is None else level_files(result.levels)
     write_outputs({output: encode_png(result.label_map)} | {save_levels / n: d for n, d in levels.items()})
     if not quiet:
-        typer.echo(f"wrote {output} ({out_shape[1]}x{out_shape[0]}, {strategy}) in "
-                   f"{result.timings['label_map']:.2f} s", err=True)
+        typer.echo(
+            f"wrote {output} ({out_shape[1]}x{out_shape[0]}, {strategy}) in {result.timings['label_map']:.2f} s",
+            err=True,
+        )
 
 
 def _parse_layer_order(text: str | None) -> list[int] | None:
@@ -90,11 +109,8 @@ def _parse_layer_order(text: str | None) -> list[int] | None:
     try:
         return [int(v) for v in text.split(",")]
     except ValueError:
-        raise InvalidInputError(
-            f"invalid --layer-order {text!r}: expected grey values such as 255,0,128") from None
+        raise InvalidInputError(f"invalid --layer-order {text!r}: expected grey values such as 255,0,128") from None
 
 
 #: (command name, function) of this group (the root orders ``barkgen --help``)
-COMMANDS = (
-    ("shapes", shapes_command),
-)
+COMMANDS = (("shapes", shapes_command),)

@@ -36,8 +36,10 @@ from barkgen.errors import InvalidInputError
 
 
 def synth_command(
-    exemplar: Annotated[Optional[Path], typer.Argument(
-        help="Bark photo to learn from (PNG/JPEG/TIFF/WebP). Default: the bundled sample.")] = None,
+    exemplar: Annotated[
+        Optional[Path],
+        typer.Argument(help="Bark photo to learn from (PNG/JPEG/TIFF/WebP). Default: the bundled sample."),
+    ] = None,
     output: OutputOption = Path("barkgen.png"),
     size: SizeOption = "1024x1024",
     tile: TileOption = False,
@@ -65,33 +67,53 @@ def synth_command(
     extras = {name: read_image(p) for name, p in extra_paths.items()}
     config = SynthesisConfig(threads=threads, max_memory=budget, blend=blend)
     with progress_bar(not quiet, "synthesizing") as progress:
-        result = synthesize(image, out_shape, tile=tile, seed=seed, extra=extras, config=config,
-                            progress=progress, exemplar_wrap=exemplar_wraps)
+        result = synthesize(
+            image,
+            out_shape,
+            tile=tile,
+            seed=seed,
+            extra=extras,
+            config=config,
+            progress=progress,
+            exemplar_wrap=exemplar_wraps,
+        )
     _write_result(result, output, bits, save_reference, quiet)
 
 
 def tbn_command(
     exemplar: Annotated[Path, typer.Argument(help="Bark photo to learn from.")],
-    labels: Annotated[Path, typer.Option(
-        "--labels", help="Label map of the exemplar (lossless image, same size; each grey value "
-        "or colour is a label).")],
-    target: Annotated[Path, typer.Option(
-        "--target", help="Label map of the wanted output; sets the output size.")],
+    labels: Annotated[
+        Path,
+        typer.Option(
+            "--labels",
+            help="Label map of the exemplar (lossless image, same size; each grey value or colour is a label).",
+        ),
+    ],
+    target: Annotated[Path, typer.Option("--target", help="Label map of the wanted output; sets the output size.")],
     output: OutputOption = Path("barkgen.png"),
     init: Annotated[str, typer.Option("--init", help="Initialisation: smart or random.")] = "smart",
-    label_weight: Annotated[float, typer.Option(
-        "--label-weight", help="Weight w of the label term (laitoch2018 eq. 3.1), in units of "
-        "the exemplar's colour variance.")] = 20.0,
-    feature_weight: Annotated[float, typer.Option(
-        "--feature-weight", help="Weight z of the feature-distance channel (eq. 3.3), same "
-        "units.")] = 8.0,
+    label_weight: Annotated[
+        float,
+        typer.Option(
+            "--label-weight",
+            help="Weight w of the label term (laitoch2018 eq. 3.1), in units of the exemplar's colour variance.",
+        ),
+    ] = 20.0,
+    feature_weight: Annotated[
+        float, typer.Option("--feature-weight", help="Weight z of the feature-distance channel (eq. 3.3), same units.")
+    ] = 8.0,
     tile: TileOption = False,
     seed: SeedOption = 0,
     extra: ExtraOption = None,
     save_reference: SaveReferenceOption = None,
-    debug_dir: Annotated[Optional[Path], typer.Option(
-        "--debug-dir", help="Write the pyramid levels, label maps, initialisation and each "
-        "level's result as PNGs into this folder.")] = None,
+    debug_dir: Annotated[
+        Optional[Path],
+        typer.Option(
+            "--debug-dir",
+            help="Write the pyramid levels, label maps, initialisation and each "
+            "level's result as PNGs into this folder.",
+        ),
+    ] = None,
     bits: BitsOption = None,
     max_memory: MaxMemoryOption = None,
     threads: ThreadsOption = None,
@@ -117,10 +139,21 @@ def tbn_command(
     extras = {name: read_image(p) for name, p in extra_paths.items()}
     config = dataclasses.replace(TBN_CONFIG, threads=threads, max_memory=budget, blend=blend)
     with progress_bar(not quiet, "texture-by-numbers") as progress:
-        result = texture_by_numbers(image, label_map, target_map, label_weight=label_weight,
-                                    feature_weight=feature_weight, init=init, tile=tile,
-                                    seed=seed, extra=extras, config=config, progress=progress,
-                                    debug=_debug_writer(debug_dir), exemplar_wrap=exemplar_wraps)
+        result = texture_by_numbers(
+            image,
+            label_map,
+            target_map,
+            label_weight=label_weight,
+            feature_weight=feature_weight,
+            init=init,
+            tile=tile,
+            seed=seed,
+            extra=extras,
+            config=config,
+            progress=progress,
+            debug=_debug_writer(debug_dir),
+            exemplar_wrap=exemplar_wraps,
+        )
     _write_result(result, output, bits, save_reference, quiet)
 
 
@@ -143,7 +176,8 @@ def apply_reference_command(
     if ex_shape is not None and image.shape[:2] != ex_shape:
         raise InvalidInputError(
             f"{map_path} is {image.shape[1]}x{image.shape[0]} px but the reference map was made for "
-            f"a {ex_shape[1]}x{ex_shape[0]} exemplar")
+            f"a {ex_shape[1]}x{ex_shape[0]} exemplar"
+        )
     write_png(output, apply_references(refs, image), bits=bits)
 
 
@@ -152,8 +186,7 @@ def _extra_output(output: Path, name: str) -> Path:
     return output.with_name(f"{output.stem}_{name}{output.suffix}")
 
 
-def _check_outputs(output: Path, save_reference: Path | None, bits: int | None,
-                   extras: dict[str, Path]) -> None:
+def _check_outputs(output: Path, save_reference: Path | None, bits: int | None, extras: dict[str, Path]) -> None:
     """Before any work: every file the run will write, the extras' derived names included,
     is a .png, none is an input and no two are the same file."""
     check_bits(bits)
@@ -179,8 +212,7 @@ def _debug_writer(debug_dir: Path | None):
     return debug
 
 
-def _write_result(result, output: Path, bits: int | None, save_reference: Path | None,
-                  quiet: bool) -> None:
+def _write_result(result, output: Path, bits: int | None, save_reference: Path | None, quiet: bool) -> None:
     """Write a :class:`SynthesisResult`: the image, each extra map beside it, the reference map,
     all encoded first and written as one step."""
     from barkgen.io import encode_png, encode_reference
@@ -194,13 +226,19 @@ def _write_result(result, output: Path, bits: int | None, save_reference: Path |
         t = result.timings
         h, w = result.image.shape[:2]
         wraps = [axis for axis, on in zip(("rows", "columns"), result.exemplar_wrap) if on]
-        flat = [name for name, axes in result.extra_wraps.items()
-                if any(e and not m for e, m in zip(result.exemplar_wrap, axes))]
-        typer.echo(f"wrote {output} ({w}x{h}, seed {result.seed}"
-                   f"{', tileable' if result.tile else ''}"
-                   f"{', exemplar wraps ' + ' and '.join(wraps) if wraps else ''}"
-                   f"{', not wrapped for ' + ', '.join(flat) + ' (its edges do not meet)' if flat else ''}) in "
-                   f"{t['analysis'] + t['synthesis']:.2f} s", err=True)
+        flat = [
+            name
+            for name, axes in result.extra_wraps.items()
+            if any(e and not m for e, m in zip(result.exemplar_wrap, axes))
+        ]
+        typer.echo(
+            f"wrote {output} ({w}x{h}, seed {result.seed}"
+            f"{', tileable' if result.tile else ''}"
+            f"{', exemplar wraps ' + ' and '.join(wraps) if wraps else ''}"
+            f"{', not wrapped for ' + ', '.join(flat) + ' (its edges do not meet)' if flat else ''}) in "
+            f"{t['analysis'] + t['synthesis']:.2f} s",
+            err=True,
+        )
 
 
 #: (command name, function) of this group (the root orders ``barkgen --help``)

@@ -16,8 +16,9 @@ STAGES = ("synth", "generate", "preview")
 
 
 def warm_up_command(
-    stages: Annotated[str, typer.Option(
-        "--stages", help=f"Comma-separated stages to compile: {', '.join(STAGES)}.")] = ",".join(STAGES),
+    stages: Annotated[
+        str, typer.Option("--stages", help=f"Comma-separated stages to compile: {', '.join(STAGES)}.")
+    ] = ",".join(STAGES),
     quiet: QuietOption = False,
 ) -> None:
     """Compile the kernels of synth, generate and preview once (the quickstart's set-up step)."""
@@ -36,6 +37,4 @@ def warm_up_command(
 
 
 #: (command name, function) of this group (the root orders ``barkgen --help``)
-COMMANDS = (
-    ("warm-up", warm_up_command),
-)
+COMMANDS = (("warm-up", warm_up_command),)

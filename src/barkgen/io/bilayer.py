@@ -37,13 +37,24 @@ def encode_bilayer_model(model) -> bytes:
     """
     from barkgen._version import __version__
 
-    header = {"format": FORMAT, "version": VERSION, "barkgen": __version__,
-              "options": dataclasses.asdict(model.options)}
+    header = {
+        "format": FORMAT,
+        "version": VERSION,
+        "barkgen": __version__,
+        "options": dataclasses.asdict(model.options),
+    }
     stats = model.noise
-    arrays = {"exemplar": model.exemplar.astype(np.float32), "structure": model.structure.astype(np.float32),
-              "masks": model.masks.astype(np.float32), "labels": model.labels.astype(np.uint8),
-              "spectra": stats.spectra, "bases": stats.bases, "means": stats.means, "sigmas": stats.sigmas,
-              "quantiles": stats.quantiles}
+    arrays = {
+        "exemplar": model.exemplar.astype(np.float32),
+        "structure": model.structure.astype(np.float32),
+        "masks": model.masks.astype(np.float32),
+        "labels": model.labels.astype(np.uint8),
+        "spectra": stats.spectra,
+        "bases": stats.bases,
+        "means": stats.means,
+        "sigmas": stats.sigmas,
+        "quantiles": stats.quantiles,
+    }
     buffer = io.BytesIO()
     np.savez_compressed(buffer, header=np.array(json.dumps(header)), **arrays)
     return buffer.getvalue()
@@ -110,8 +121,10 @@ def read_bilayer_model(path: str | os.PathLike):
     if not isinstance(header, dict) or header.get("format") != FORMAT:
         raise _bad(path, "wrong format name")
     if header.get("version") != VERSION:
-        raise InvalidInputError(f"{path}: bi-layer model version {header.get('version')!r} is not "
-                                f"supported (this barkgen reads version {VERSION}); re-run the analysis")
+        raise InvalidInputError(
+            f"{path}: bi-layer model version {header.get('version')!r} is not "
+            f"supported (this barkgen reads version {VERSION}); re-run the analysis"
+        )
     try:
         options = AnalysisOptions(**header["options"])
     except (TypeError, KeyError) as exc:
@@ -119,20 +132,39 @@ def read_bilayer_model(path: str | os.PathLike):
     ex, st, masks = arrays["exemplar"], arrays["structure"], arrays["masks"]
     spectra = arrays["spectra"]
     k = masks.shape[2] if masks.ndim == 3 else -1
-    ok = (ex.ndim == 3 and ex.shape[2] == 3 and st.shape == ex.shape and masks.ndim == 3
-          and masks.shape[:2] == ex.shape[:2] and arrays["labels"].shape == ex.shape[:2]
-          and spectra.ndim == 4 and spectra.shape[:2] == (k, 3) and spectra.shape[2] == spectra.shape[3]
-          and arrays["bases"].shape == (k, 3, 3) and arrays["means"].shape == (k, 3)
-          and arrays["sigmas"].shape == (k, 3) and arrays["quantiles"].ndim == 3
-          and arrays["quantiles"].shape[:2] == (k, 3))
+    ok = (
+        ex.ndim == 3
+        and ex.shape[2] == 3
+        and st.shape == ex.shape
+        and masks.ndim == 3
+        and masks.shape[:2] == ex.shape[:2]
+        and arrays["labels"].shape == ex.shape[:2]
+        and spectra.ndim == 4
+        and spectra.shape[:2] == (k, 3)
+        and spectra.shape[2] == spectra.shape[3]
+        and arrays["bases"].shape == (k, 3, 3)
+        and arrays["means"].shape == (k, 3)
+        and arrays["sigmas"].shape == (k, 3)
+        and arrays["quantiles"].ndim == 3
+        and arrays["quantiles"].shape[:2] == (k, 3)
+    )
     if not ok:
         raise _bad(path, "inconsistent array shapes")
     finite = all(np.isfinite(arrays[n]).all() for n in _ARRAYS if arrays[n].dtype.kind == "f")
     if not finite:
         raise _bad(path, "non-finite values")
-    stats = NoiseStatistics(spectra=spectra.astype(np.float32), bases=arrays["bases"].astype(np.float32),
-                            means=arrays["means"].astype(np.float32), sigmas=arrays["sigmas"].astype(np.float32),
-                            quantiles=arrays["quantiles"].astype(np.float32))
-    return BilayerModel(exemplar=ex.astype(np.float32), structure=st.astype(np.float32),
-                        masks=masks.astype(np.float32), labels=arrays["labels"].astype(np.uint8),
-                        noise=stats, options=options)
+    stats = NoiseStatistics(
+        spectra=spectra.astype(np.float32),
+        bases=arrays["bases"].astype(np.float32),
+        means=arrays["means"].astype(np.float32),
+        sigmas=arrays["sigmas"].astype(np.float32),
+        quantiles=arrays["quantiles"].astype(np.float32),
+    )
+    return BilayerModel(
+        exemplar=ex.astype(np.float32),
+        structure=st.astype(np.float32),
+        masks=masks.astype(np.float32),
+        labels=arrays["labels"].astype(np.uint8),
+        noise=stats,
+        options=options,
+    )

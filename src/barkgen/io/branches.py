@@ -26,8 +26,7 @@ def read_structure(path: str | os.PathLike) -> Structure:
     try:
         data = json.loads(text)
     except json.JSONDecodeError as exc:
-        raise InvalidInputError(f"{path}: malformed JSON at line {exc.lineno} column {exc.colno}: "
-                                f"{exc.msg}") from None
+        raise InvalidInputError(f"{path}: malformed JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
     return Structure.from_dict(data, where=str(path))
 
 

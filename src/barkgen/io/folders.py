@@ -58,9 +58,15 @@ def owned_files(folder: str | os.PathLike, record: str = "report.json") -> list[
         return None
     owned = []
     for name, digest in sorted(hashes.items()):
-        if (isinstance(name, str) and name and Path(name).name == name and name not in (".", "..")
-                and (folder / name).is_file() and not (folder / name).is_symlink()
-                and _sha256(folder / name) == digest):
+        if (
+            isinstance(name, str)
+            and name
+            and Path(name).name == name
+            and name not in (".", "..")
+            and (folder / name).is_file()
+            and not (folder / name).is_symlink()
+            and _sha256(folder / name) == digest
+        ):
             owned.append(name)
     return owned
 
@@ -73,16 +79,17 @@ def check_replaceable(folder: str | os.PathLike, record: str = "report.json") ->
     if not folder.exists():
         return
     if not folder.is_dir() or folder.is_symlink():
-        raise InvalidInputError(f"{str(folder)!r} exists and is not a folder barkgen wrote; "
-                                "give another output")
+        raise InvalidInputError(f"{str(folder)!r} exists and is not a folder barkgen wrote; give another output")
     entries = sorted(p.name for p in folder.iterdir())
     if not entries:
         return
     owned = owned_files(folder, record)
     foreign = [n for n in entries if owned is None or (n not in owned and n != record)]
     if foreign:
-        raise InvalidInputError(f"{str(folder)!r} holds {foreign[0]!r}, which barkgen did not "
-                                "write; it would be removed: give another output folder")
+        raise InvalidInputError(
+            f"{str(folder)!r} holds {foreign[0]!r}, which barkgen did not "
+            "write; it would be removed: give another output folder"
+        )
 
 
 def write_folder_atomic(folder: str | os.PathLike, files: dict[str, bytes]) -> Path:

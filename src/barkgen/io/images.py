@@ -73,16 +73,17 @@ def _open_checked(path: Path):
     if info.st_size == 0:
         raise ImageReadError(f"{path}: file is empty (0 bytes)")
     if info.st_size > MAX_IMAGE_BYTES:
-        raise ImageTooLargeError(f"{path}: {info.st_size / 2**30:.3g} GiB is more than the "
-                                 f"{MAX_IMAGE_BYTES / 2**30:g} GiB an image file may be")
+        raise ImageTooLargeError(
+            f"{path}: {info.st_size / 2**30:.3g} GiB is more than the "
+            f"{MAX_IMAGE_BYTES / 2**30:g} GiB an image file may be"
+        )
     try:
         fh = open(path, "rb")
     except OSError as exc:
         raise ImageReadError(f"{path}: cannot read ({exc.strerror or exc})") from None
     if not _is_image_start(fh.read(_SNIFF_BYTES)):
         fh.close()
-        raise ImageReadError(f"{path}: not an image (PNG, JPEG, TIFF, WebP, GIF or BMP by its "
-                             "content)")
+        raise ImageReadError(f"{path}: not an image (PNG, JPEG, TIFF, WebP, GIF or BMP by its content)")
     fh.seek(0)
     return fh, info.st_size
 
@@ -95,8 +96,7 @@ def _check_file(path: Path) -> bytes:
         except OSError as exc:
             raise ImageReadError(f"{path}: cannot read ({exc.strerror or exc})") from None
     if len(data) > MAX_IMAGE_BYTES:  # (it grew while read)
-        raise ImageTooLargeError(f"{path}: more than the {MAX_IMAGE_BYTES / 2**30:g} GiB an image "
-                                 "file may be")
+        raise ImageTooLargeError(f"{path}: more than the {MAX_IMAGE_BYTES / 2**30:g} GiB an image file may be")
     return data
 
 
@@ -125,8 +125,11 @@ def _normalise(arr: np.ndarray, path, has_alpha: bool) -> np.ndarray:
     if arr.dtype.kind == "f":
         finite = np.isfinite(arr)
         if not finite.all() or (arr[finite].size and (arr[finite].min() < 0 or arr[finite].max() > 1)):
-            warnings.warn(f"{path}: floating-point pixels outside 0-1 (or not finite) were clipped "
-                          "to 0-1", ImageContentWarning, stacklevel=3)
+            warnings.warn(
+                f"{path}: floating-point pixels outside 0-1 (or not finite) were clipped to 0-1",
+                ImageContentWarning,
+                stacklevel=3,
+            )
         arr = np.round(np.clip(np.nan_to_num(arr), 0.0, 1.0) * 65535.0).astype(np.uint16)
     elif arr.dtype == np.bool_:
         arr = arr.astype(np.uint8) * 255
@@ -235,8 +238,7 @@ def image_size(path: str | os.PathLike) -> tuple[int, int]:
     return _image_size(_check_file(path), path)  # a header past the first bytes (EXIF, TIFF IFD)
 
 
-def decode_image(data: bytes, name: str | os.PathLike = "image", *,
-                 max_pixels: int | None = None) -> np.ndarray:
+def decode_image(data: bytes, name: str | os.PathLike = "image", *, max_pixels: int | None = None) -> np.ndarray:
     """Decode the bytes of an image file (what :func:`read_image` reads).
 
     The content decides the format, never a file name.
@@ -268,8 +270,10 @@ def decode_image(data: bytes, name: str | os.PathLike = "image", *,
     if max_pixels is not None:
         width, height = _image_size(data, name)
         if width * height > max_pixels:
-            raise ImageTooLargeError(f"{name}: {width}x{height} px is {width * height / 1e6:.1f} "
-                                     f"megapixels, more than the limit of {max_pixels / 1e6:g}")
+            raise ImageTooLargeError(
+                f"{name}: {width}x{height} px is {width * height / 1e6:.1f} "
+                f"megapixels, more than the limit of {max_pixels / 1e6:g}"
+            )
     if data[:4] in _TIFF_MAGIC:
         import tifffile
 
@@ -288,14 +292,15 @@ def decode_image(data: bytes, name: str | os.PathLike = "image", *,
             opened.load()  # decodes fully: raises on truncated data
             frames = getattr(opened, "n_frames", 1)
             if frames > 1:
-                warnings.warn(f"{path}: an animation of {frames} frames; its first frame is used",
-                              ImageContentWarning, stacklevel=2)
+                warnings.warn(
+                    f"{path}: an animation of {frames} frames; its first frame is used",
+                    ImageContentWarning,
+                    stacklevel=2,
+                )
             # a phone photo stands as its camera's orientation tag says, not as its sensor read it
             im = ImageOps.exif_transpose(opened) if opened.getexif().get(_EXIF_ORIENTATION, 1) != 1 else opened
             mode = im.mode
-            has_alpha = mode in ("RGBA", "LA", "PA") or (
-                mode == "P" and "transparency" in im.info
-            )
+            has_alpha = mode in ("RGBA", "LA", "PA") or (mode == "P" and "transparency" in im.info)
             if _png_bit_depth(data) == 16 and mode not in ("I;16", "I;16B", "I"):
                 arr = None  # 16-bit colour PNG: Pillow keeps 8 bits, decode with OpenCV
             elif mode in ("I;16", "I;16B", "I;16L"):
@@ -373,8 +378,9 @@ def _png_text_chunk(key: str, value: str) -> bytes:
     return struct.pack(">I", len(payload)) + body + struct.pack(">I", zlib.crc32(body))
 
 
-def encode_png(image: np.ndarray, *, bits: int | None = None, text: dict[str, str] | None = None,
-               compression: int = 1) -> bytes:
+def encode_png(
+    image: np.ndarray, *, bits: int | None = None, text: dict[str, str] | None = None, compression: int = 1
+) -> bytes:
     """Encode an ``(H, W[, C])`` uint8/uint16 array as PNG bytes.
 
     Parameters

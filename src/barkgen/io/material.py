@@ -86,8 +86,7 @@ def encode_material(material, name: str, **metadata) -> dict[str, bytes]:
     """
     check_material_name(name)
     metadata = {k: utf8_text(v) if isinstance(v, str) else v for k, v in metadata.items()}
-    files = encode_concurrently({fname: partial(encode_png, pixels)
-                                 for fname, pixels in material.images(name).items()})
+    files = encode_concurrently({fname: partial(encode_png, pixels) for fname, pixels in material.images(name).items()})
     meta = material.metadata(name=name, **metadata)
     meta["files"] = sorted(files)
     files[f"{name}.json"] = (json.dumps(meta, indent=2) + "\n").encode()
@@ -131,11 +130,14 @@ def find_material(folder: str | os.PathLike) -> tuple[str, dict]:
     if not found and unreadable:
         raise ImageReadError(f"{folder}/{unreadable[0]}: unreadable material record (not UTF-8 JSON)")
     if not found:
-        raise ImageReadError(f"{folder}: no material set (NAME.json with NAME_Color.png ...) found; "
-                             "make one with `barkgen material` or `barkgen generate --material`")
+        raise ImageReadError(
+            f"{folder}: no material set (NAME.json with NAME_Color.png ...) found; "
+            "make one with `barkgen material` or `barkgen generate --material`"
+        )
     if len(found) > 1:
-        raise ImageReadError(f"{folder}: holds several material sets "
-                             f"({', '.join(n for n, _ in found)}); give a folder with one")
+        raise ImageReadError(
+            f"{folder}: holds several material sets ({', '.join(n for n, _ in found)}); give a folder with one"
+        )
     return found[0]
 
 
@@ -185,8 +187,7 @@ def read_material(folder: str | os.PathLike):
     tileable = meta.get("tileable", False)
     if not isinstance(tileable, bool):
         raise InvalidInputError(f"{where}: 'tileable' must be true or false, not {tileable!r}")
-    maps = {suffix: read_image(folder / f"{name}_{suffix}.png")
-            for suffix in MAP_SUFFIXES if suffix != "NormalDX"}
+    maps = {suffix: read_image(folder / f"{name}_{suffix}.png") for suffix in MAP_SUFFIXES if suffix != "NormalDX"}
     shapes = {s: m.shape[:2] for s, m in maps.items()}
     if len(set(shapes.values())) != 1:
         listing = ", ".join(f"{s} {v[1]}x{v[0]}" for s, v in shapes.items())
@@ -200,9 +201,13 @@ def read_material(folder: str | os.PathLike):
     if color.shape[2] == 1:
         color = np.repeat(color, 3, axis=2)
     material = MaterialSet(
-        color=_unit(color[..., :3]), height=(_unit(disp[..., 0]) - midlevel) * depth,
-        normals=decode_normals(maps["NormalGL"]), ao=_unit(maps["AmbientOcclusion"][..., 0]),
-        roughness=_unit(maps["Roughness"][..., 0]), tile=tileable)
+        color=_unit(color[..., :3]),
+        height=(_unit(disp[..., 0]) - midlevel) * depth,
+        normals=decode_normals(maps["NormalGL"]),
+        ao=_unit(maps["AmbientOcclusion"][..., 0]),
+        roughness=_unit(maps["Roughness"][..., 0]),
+        tile=tileable,
+    )
     return material, meta
 
 
@@ -240,8 +245,9 @@ def encode_glb(mesh, material) -> bytes:
     from PIL import Image
 
     images = material.images("m")
-    orm = np.stack([images["m_AmbientOcclusion.png"], images["m_Roughness.png"],
-                    np.zeros_like(images["m_Roughness.png"])], axis=-1)
+    orm = np.stack(
+        [images["m_AmbientOcclusion.png"], images["m_Roughness.png"], np.zeros_like(images["m_Roughness.png"])], axis=-1
+    )
     orm_image = Image.fromarray(orm)
     pbr = trimesh.visual.material.PBRMaterial(
         name="bark",
@@ -255,6 +261,10 @@ def encode_glb(mesh, material) -> bytes:
     )
     # trimesh keeps UVs with v up and flips them for glTF: hand it 1 - v
     uv = np.column_stack([mesh.uv[:, 0], 1.0 - mesh.uv[:, 1]])
-    tm = trimesh.Trimesh(vertices=mesh.vertices, faces=mesh.faces,
-                         visual=trimesh.visual.TextureVisuals(uv=uv, material=pbr), process=False)
+    tm = trimesh.Trimesh(
+        vertices=mesh.vertices,
+        faces=mesh.faces,
+        visual=trimesh.visual.TextureVisuals(uv=uv, material=pbr),
+        process=False,
+    )
     return bytes(tm.export(file_type="glb", include_normals=True))

@@ -114,7 +114,7 @@ def read_reference(path: str | os.PathLike) -> tuple[np.ndarray, tuple[int, int]
     meta = read_png_text(path).get(_KEY, "")
     if meta.startswith("exemplar="):
         try:
-            w, h = (int(v) for v in meta[len("exemplar="):].split("x"))
+            w, h = (int(v) for v in meta[len("exemplar=") :].split("x"))
             shape = (h, w)
         except ValueError:
             shape = None

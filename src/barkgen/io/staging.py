@@ -67,8 +67,11 @@ def remove_stale_temporaries(folder: str | os.PathLike) -> int:
         return 0
     for path in candidates:
         try:
-            if path.is_file() and not path.is_symlink() and not process_alive(
-                    int(TEMPORARY_NAME.match(path.name).group(1))):
+            if (
+                path.is_file()
+                and not path.is_symlink()
+                and not process_alive(int(TEMPORARY_NAME.match(path.name).group(1)))
+            ):
                 path.unlink()
                 removed += 1
         except OSError:
@@ -105,8 +108,7 @@ def write_files_atomic(folder: str | os.PathLike, files: dict[str, bytes]) -> li
     return [target for tmp, target in staged if tmp]
 
 
-def stage_files(folder: str | os.PathLike, files: dict[str, bytes],
-                staged: list[tuple[str, Path]]) -> None:
+def stage_files(folder: str | os.PathLike, files: dict[str, bytes], staged: list[tuple[str, Path]]) -> None:
     """Write each of ``files`` in full to a temporary beside its target in ``folder`` (made if
     missing), appending ``(temporary, target)`` to ``staged`` as it goes, so that a failure
     part-way leaves the caller every temporary to discard (:func:`discard_staged`); nothing is

@@ -78,8 +78,9 @@ def label_preview(image: np.ndarray, label_map: np.ndarray, *, alpha: float = 0.
 MAX_TILE_ASPECT = 4
 
 
-def contact_sheet(tiles: list[np.ndarray], captions: list[str] | None = None, *,
-                  columns: int = 5, tile_size: int = 160) -> np.ndarray:
+def contact_sheet(
+    tiles: list[np.ndarray], captions: list[str] | None = None, *, columns: int = 5, tile_size: int = 160
+) -> np.ndarray:
     """A grid of images with optional captions, as one image.
 
     Parameters
@@ -120,18 +121,18 @@ def contact_sheet(tiles: list[np.ndarray], captions: list[str] | None = None, *,
         t = cv2.resize(t, size, interpolation=cv2.INTER_AREA)
         cell = np.full((t.shape[0] + 22, tile_size + 6, 3), 255, np.uint8)
         x0 = 3 + (tile_size - t.shape[1]) // 2
-        cell[3:3 + t.shape[0], x0:x0 + t.shape[1]] = t
+        cell[3 : 3 + t.shape[0], x0 : x0 + t.shape[1]] = t
         if captions:
-            cv2.putText(cell, captions[i], (4, cell.shape[0] - 6), cv2.FONT_HERSHEY_SIMPLEX, 0.45,
-                        (0, 0, 0), 1, cv2.LINE_AA)
+            cv2.putText(
+                cell, captions[i], (4, cell.shape[0] - 6), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1, cv2.LINE_AA
+            )
         cells.append(cell)
     blank_width = cells[0].shape[1]
     rows = []
     for r in range(0, len(cells), columns):
-        row = cells[r:r + columns]
+        row = cells[r : r + columns]
         height = max(c.shape[0] for c in row)
-        row = [np.pad(c, ((0, height - c.shape[0]), (0, 0), (0, 0)), constant_values=255)
-               for c in row]
+        row = [np.pad(c, ((0, height - c.shape[0]), (0, 0), (0, 0)), constant_values=255) for c in row]
         row += [np.full((height, blank_width, 3), 255, np.uint8)] * (columns - len(row))
         rows.append(np.concatenate(row, axis=1))
     return np.concatenate(rows, axis=0)

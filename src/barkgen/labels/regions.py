@@ -49,8 +49,12 @@ def to_codes(label_map: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """A grey label map -> ``(codes, values)``: codes ``0..n-1`` in the order of the sorted grey
     values (darkest label first)."""
     arr = np.asarray(label_map)
-    if arr.ndim == 3 and arr.shape[2] >= 3 and (arr[..., 0] == arr[..., 1]).all() and (
-            arr[..., 0] == arr[..., 2]).all():
+    if (
+        arr.ndim == 3
+        and arr.shape[2] >= 3
+        and (arr[..., 0] == arr[..., 1]).all()
+        and (arr[..., 0] == arr[..., 2]).all()
+    ):
         arr = arr[..., 0]
     elif arr.ndim == 3 and arr.shape[2] == 1:
         arr = arr[..., 0]
@@ -69,13 +73,18 @@ def grey_label_map(label_map: np.ndarray) -> np.ndarray:
     arr = np.asarray(label_map)
     if arr.ndim == 3 and arr.shape[2] in (2, 4):
         arr = arr[:, :, :-1]
-    if arr.ndim != 3 or arr.shape[2] != 3 or (
-            (arr[..., 0] == arr[..., 1]).all() and (arr[..., 0] == arr[..., 2]).all()):
+    if (
+        arr.ndim != 3
+        or arr.shape[2] != 3
+        or ((arr[..., 0] == arr[..., 1]).all() and (arr[..., 0] == arr[..., 2]).all())
+    ):
         return arr
     values, codes = np.unique(arr.reshape(-1, 3), axis=0, return_inverse=True)
     if len(values) > MAX_K:
-        raise InvalidInputError(f"the colour label map has {len(values)} distinct colours; at "
-                                f"most {MAX_K} labels (label maps must be lossless: PNG, not JPEG)")
+        raise InvalidInputError(
+            f"the colour label map has {len(values)} distinct colours; at "
+            f"most {MAX_K} labels (label maps must be lossless: PNG, not JPEG)"
+        )
     order = np.argsort(values.astype(np.float64) @ np.array([0.2126, 0.7152, 0.0722]), kind="stable")
     rank = np.empty(len(values), np.int64)
     rank[order] = np.arange(len(values))
@@ -88,8 +97,9 @@ def nl_means(rgb: np.ndarray, strength: float = 10.0) -> np.ndarray:
     import cv2
 
     u8 = (rgb * 255.0 + 0.5).astype(np.uint8)
-    out = cv2.fastNlMeansDenoisingColored(u8, None, h=strength, hColor=strength,
-                                          templateWindowSize=7, searchWindowSize=21)
+    out = cv2.fastNlMeansDenoisingColored(
+        u8, None, h=strength, hColor=strength, templateWindowSize=7, searchWindowSize=21
+    )
     return out.astype(np.float32) / 255.0
 
 
@@ -103,8 +113,7 @@ def order_by_luminance(codes: np.ndarray, luminance: np.ndarray, n_labels: int) 
     return rank[codes]
 
 
-def grow_small_labels(codes: np.ndarray, fraction: float, n_labels: int,
-                      wrap: Wrap = False) -> np.ndarray:
+def grow_small_labels(codes: np.ndarray, fraction: float, n_labels: int, wrap: Wrap = False) -> np.ndarray:
     """Grow every label that covers less than ``fraction`` of the pixels by rings of one pixel
     around its regions (3x3 dilation, across the map's edge where it wraps: ``wrap``), taking
     pixels only from labels that stay above the fraction, until it reaches the fraction: a label
@@ -150,7 +159,7 @@ def _components(mask: np.ndarray, wrap: Wrap) -> tuple[np.ndarray, np.ndarray]:
         last, first = (comp[-1], comp[0]) if axis == 0 else (comp[:, -1], comp[:, 0])
         across = wx if axis == 0 else wy  # the edge's own axis wraps: its diagonals go round
         for shift in (-1, 0, 1):
-            other = np.roll(first, shift) if across else np.pad(first, 1)[1 + shift:1 + shift + first.size]
+            other = np.roll(first, shift) if across else np.pad(first, 1)[1 + shift : 1 + shift + first.size]
             both = (last > 0) & (other > 0)
             pairs.append(np.stack([last[both], other[both]]))
     ij = np.concatenate(pairs, axis=1)
@@ -213,8 +222,17 @@ def remove_small_regions(codes: np.ndarray, min_region: int, wrap: Wrap = False)
     out = np.where(keep, codes, -1)
     kernel = np.ones((3, 3), np.float32)
     while (out < 0).any():
-        votes = np.stack([on_torus(lambda m: cv2.filter2D(m, -1, kernel, borderType=cv2.BORDER_CONSTANT),
-                                   (out == lab).astype(np.float32), 1, wrap) for lab in range(n_labels)])
+        votes = np.stack(
+            [
+                on_torus(
+                    lambda m: cv2.filter2D(m, -1, kernel, borderType=cv2.BORDER_CONSTANT),
+                    (out == lab).astype(np.float32),
+                    1,
+                    wrap,
+                )
+                for lab in range(n_labels)
+            ]
+        )
         undecided = out < 0
         has_vote = votes.max(axis=0) > 0
         fill = undecided & has_vote
@@ -229,8 +247,7 @@ def clean_regions(codes: np.ndarray, n_labels: int, min_region: int, wrap: Wrap 
     the axes it wraps along (``wrap``)."""
     codes = grow_small_labels(codes, MIN_LABEL_FRACTION, n_labels, wrap)
     codes = remove_small_regions(codes, min_region, wrap)
-    return remove_small_regions(grow_small_labels(codes, MIN_LABEL_FRACTION, n_labels, wrap),
-                                min_region, wrap)
+    return remove_small_regions(grow_small_labels(codes, MIN_LABEL_FRACTION, n_labels, wrap), min_region, wrap)
 
 
 def finish_label_map(codes: np.ndarray, k: int) -> np.ndarray:
@@ -239,8 +256,10 @@ def finish_label_map(codes: np.ndarray, k: int) -> np.ndarray:
     order."""
     present = np.flatnonzero(np.bincount(codes.ravel(), minlength=k))
     if len(present) < k:
-        warnings.warn(f"the photo gives only {len(present)} distinct regions, not {k}; the label "
-                      f"map has {len(present)} labels")
+        warnings.warn(
+            f"the photo gives only {len(present)} distinct regions, not {k}; the label map has {len(present)} labels",
+            stacklevel=2,
+        )
     compact = np.zeros(k, np.int32)
     compact[present] = np.arange(len(present))
     return to_label_image(compact[codes], len(present))
@@ -251,9 +270,16 @@ def default_min_region(shape: tuple[int, int]) -> int:
     return max(MIN_REGION_PX, int(round(MIN_REGION_FRACTION * shape[0] * shape[1])))
 
 
-def color_regions(image: np.ndarray, k: int, *, denoise: bool | float = True,
-                  min_region: int | None = None, edges: bool | int = False,
-                  seed: int = 0, wrap: Wrap = False) -> np.ndarray:
+def color_regions(
+    image: np.ndarray,
+    k: int,
+    *,
+    denoise: bool | float = True,
+    min_region: int | None = None,
+    edges: bool | int = False,
+    seed: int = 0,
+    wrap: Wrap = False,
+) -> np.ndarray:
     """The photo's label map of ``k`` colour regions (laitoch2018 §3.5).
 
     Non-local means denoising, k-means of the CIELAB colours, small regions dissolved, labels
@@ -331,8 +357,9 @@ def color_regions(image: np.ndarray, k: int, *, denoise: bool | float = True,
     else:
         rng = np.random.default_rng(seed)
         sample = lab[rng.choice(len(lab), min(len(lab), KMEANS_SAMPLES), replace=False)]
-        km = MiniBatchKMeans(n_clusters=k, n_init=3, batch_size=4096,
-                             random_state=int(rng.integers(0, 2**31 - 1))).fit(sample)
+        km = MiniBatchKMeans(n_clusters=k, n_init=3, batch_size=4096, random_state=int(rng.integers(0, 2**31 - 1))).fit(
+            sample
+        )
         dist = ((lab[:, None, :] - km.cluster_centers_[None].astype(np.float32)) ** 2).sum(-1)
         codes = dist.argmin(axis=1).reshape(h, w).astype(np.int32)
         codes = clean_regions(codes, k, int(min_region), wrap)
@@ -394,9 +421,12 @@ def add_edge_label(label_map: np.ndarray, width: int = 3) -> np.ndarray:
     c16 = codes.astype(np.uint16)
     # a pixel is near another label when the largest and smallest codes around it differ
     near = cv2.dilate(c16, kernel, borderType=cv2.BORDER_REPLICATE) != cv2.erode(
-        c16, kernel, borderType=cv2.BORDER_REPLICATE)
+        c16, kernel, borderType=cv2.BORDER_REPLICATE
+    )
     if n > 1 and near.all():
-        raise InvalidInputError(f"an edge band {width} px wide covers the whole "
-                                f"{codes.shape[1]}x{codes.shape[0]} label map; give a narrower "
-                                "edge width")
+        raise InvalidInputError(
+            f"an edge band {width} px wide covers the whole "
+            f"{codes.shape[1]}x{codes.shape[0]} label map; give a narrower "
+            "edge width"
+        )
     return to_label_image(np.where(near, n, codes), n + 1)

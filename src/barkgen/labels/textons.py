@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from barkgen.errors import InvalidInputError
 from barkgen._shared.arrays import Wrap, on_torus
 from barkgen._shared.checks import check_image, check_k, check_seed
+from barkgen.errors import InvalidInputError
 from barkgen.labels.regions import (
     clean_regions,
     default_min_region,
@@ -64,14 +64,13 @@ def filter_bank(scales=FILTER_SCALES, n_orientations: int = N_ORIENTATIONS) -> l
     bank: dict[str, list[np.ndarray]] = {"even": [], "odd": []}
     for sigma in scales:
         half = int(np.ceil(3 * 3 * sigma))
-        y, x = np.mgrid[-half:half + 1, -half:half + 1].astype(np.float64)
+        y, x = np.mgrid[-half : half + 1, -half : half + 1].astype(np.float64)
         for i in range(n_orientations):
             theta = np.pi * i / n_orientations
-            u = x * np.cos(theta) + y * np.sin(theta)   # across the orientation
+            u = x * np.cos(theta) + y * np.sin(theta)  # across the orientation
             v = -x * np.sin(theta) + y * np.cos(theta)  # along it
             g = np.exp(-(u**2) / (2 * sigma**2) - (v**2) / (2 * (3 * sigma) ** 2))
-            for phase, f in (("even", (u**2 / sigma**4 - 1 / sigma**2) * g),
-                             ("odd", -u / sigma**2 * g)):
+            for phase, f in (("even", (u**2 / sigma**4 - 1 / sigma**2) * g), ("odd", -u / sigma**2 * g)):
                 f = f - f.mean()
                 bank[phase].append((f / np.abs(f).sum()).astype(np.float32))
     return bank["even"] + bank["odd"]
@@ -98,8 +97,9 @@ def filter_responses(image: np.ndarray, *, wrap: Wrap = False) -> np.ndarray:
     return np.ascontiguousarray(on_torus(respond, lum, reach, wrap))
 
 
-def texton_channels(image: np.ndarray, n_textons: int = 25, *,
-                    seed: int = 0, wrap: Wrap = False) -> tuple[np.ndarray, np.ndarray]:
+def texton_channels(
+    image: np.ndarray, n_textons: int = 25, *, seed: int = 0, wrap: Wrap = False
+) -> tuple[np.ndarray, np.ndarray]:
     """The photo's texton map and its filter responses (wang2003 §3.2).
 
     Parameters
@@ -134,10 +134,12 @@ def texton_channels(image: np.ndarray, n_textons: int = 25, *,
 
     from barkgen.color import rgb_to_lab
 
-    if isinstance(n_textons, bool) or not isinstance(n_textons, (int, np.integer)) or not (
-            2 <= n_textons <= MAX_TEXTONS):
-        raise InvalidInputError(f"n_textons must be an integer from 2 to {MAX_TEXTONS}, "
-                                f"not {n_textons!r}")
+    if (
+        isinstance(n_textons, bool)
+        or not isinstance(n_textons, (int, np.integer))
+        or not (2 <= n_textons <= MAX_TEXTONS)
+    ):
+        raise InvalidInputError(f"n_textons must be an integer from 2 to {MAX_TEXTONS}, not {n_textons!r}")
     check_seed(seed)
     rgb = check_image(image)
     responses = filter_responses(rgb, wrap=wrap)
@@ -145,8 +147,9 @@ def texton_channels(image: np.ndarray, n_textons: int = 25, *,
     flat = responses.reshape(-1, d)
     rng = np.random.default_rng(seed)
     sample = flat[rng.choice(len(flat), min(len(flat), TEXTON_SAMPLES), replace=False)]
-    km = MiniBatchKMeans(n_clusters=int(n_textons), n_init=3, batch_size=4096,
-                         random_state=int(rng.integers(0, 2**31 - 1))).fit(sample)
+    km = MiniBatchKMeans(
+        n_clusters=int(n_textons), n_init=3, batch_size=4096, random_state=int(rng.integers(0, 2**31 - 1))
+    ).fit(sample)
     codes = _nearest_centre(flat, km.cluster_centers_.astype(np.float32)).reshape(h, w)
     codes = order_by_luminance(codes, rgb_to_lab(rgb)[..., 0], int(n_textons))
     return codes.astype(np.uint8), responses
@@ -189,13 +192,13 @@ def parse_groups(text: str) -> list[list[int]]:
     for part in (text or "").split(";"):
         part = part.strip()
         if not part:
-            raise InvalidInputError(f"invalid --groups {text!r}: empty group (write e.g. "
-                                    "\"0,3,7;1,2;4\")")
+            raise InvalidInputError(f'invalid --groups {text!r}: empty group (write e.g. "0,3,7;1,2;4")')
         try:
             groups.append([int(v) for v in part.split(",")])
         except ValueError:
-            raise InvalidInputError(f"invalid --groups {text!r}: {part!r} is not a "
-                                    "comma-separated list of texton numbers") from None
+            raise InvalidInputError(
+                f"invalid --groups {text!r}: {part!r} is not a comma-separated list of texton numbers"
+            ) from None
     return groups
 
 
@@ -251,8 +254,11 @@ def merge_channels(texton_map: np.ndarray, groups) -> np.ndarray:
     present = np.unique(tm)
     missing = present[lookup[present] < 0]
     if len(missing):
-        raise InvalidInputError("the groups leave out texton(s) " + ", ".join(
-            str(int(t)) for t in missing[:8]) + " of the map; every texton needs a group")
+        raise InvalidInputError(
+            "the groups leave out texton(s) "
+            + ", ".join(str(int(t)) for t in missing[:8])
+            + " of the map; every texton needs a group"
+        )
     return to_label_image(lookup[tm], len(groups))
 
 
@@ -296,13 +302,14 @@ def auto_merge(texton_map: np.ndarray, image: np.ndarray, k: int) -> list[list[i
     lab = rgb_to_lab(check_image(image)).reshape(-1, 3)
     present = np.unique(tm)
     if k > len(present):
-        raise InvalidInputError(f"the texton map has {len(present)} textons; cannot merge them "
-                                f"into {k} labels")
+        raise InvalidInputError(f"the texton map has {len(present)} textons; cannot merge them into {k} labels")
     flat = tm.ravel()
     size = int(present.max()) + 1
     counts = np.bincount(flat, minlength=size)[present].astype(np.float64)
-    means = np.stack([np.bincount(flat, weights=lab[:, c], minlength=size)[present]
-                      for c in range(3)], axis=1) / counts[:, None]
+    means = (
+        np.stack([np.bincount(flat, weights=lab[:, c], minlength=size)[present] for c in range(3)], axis=1)
+        / counts[:, None]
+    )
     feats = (means - means.mean(axis=0)) / (means.std(axis=0) + 1e-6)
     groups = [[int(t)] for t in present]
     n = list(counts)
@@ -320,13 +327,13 @@ def auto_merge(texton_map: np.ndarray, image: np.ndarray, k: int) -> list[list[i
         groups[a] += groups[b]
         del groups[b], n[b], centre[b]
     lookup = {int(t): i for i, t in enumerate(present)}
-    lum = [np.average([means[lookup[t], 0] for t in g], weights=[counts[lookup[t]] for t in g])
-           for g in groups]
+    lum = [np.average([means[lookup[t], 0] for t in g], weights=[counts[lookup[t]] for t in g]) for g in groups]
     return [sorted(groups[i]) for i in np.argsort(lum, kind="stable")]
 
 
-def texton_regions(image: np.ndarray, k: int, *, n_textons: int = 25,
-                   min_region: int | None = None, seed: int = 0, wrap: Wrap = False) -> np.ndarray:
+def texton_regions(
+    image: np.ndarray, k: int, *, n_textons: int = 25, min_region: int | None = None, seed: int = 0, wrap: Wrap = False
+) -> np.ndarray:
     """A ``k``-label map from texton channels with no user step.
 
     :func:`texton_channels`, :func:`auto_merge`, :func:`merge_channels`, then the clean-up of the

@@ -26,5 +26,4 @@ from barkgen.library.library import (
     default_library_path,
 )
 
-__all__ = ["Exemplar", "Library", "LibraryError", "NotFoundError", "Result", "default_library_path",
-           "SCHEMA_VERSION"]
+__all__ = ["Exemplar", "Library", "LibraryError", "NotFoundError", "Result", "default_library_path", "SCHEMA_VERSION"]

@@ -10,8 +10,22 @@ from collections.abc import Callable, Iterable, Mapping
 from contextlib import AbstractContextManager
 
 #: the ``jobs`` table's columns, in order
-JOB_COLUMNS = ("id", "number", "kind", "exemplar_id", "params", "state", "spec", "parent_id",
-               "labels_key", "result_id", "error", "created", "started", "finished")
+JOB_COLUMNS = (
+    "id",
+    "number",
+    "kind",
+    "exemplar_id",
+    "params",
+    "state",
+    "spec",
+    "parent_id",
+    "labels_key",
+    "result_id",
+    "error",
+    "created",
+    "started",
+    "finished",
+)
 #: the columns kept as JSON values
 JOB_JSON = ("params", "spec", "labels_key")
 
@@ -20,8 +34,11 @@ class JobTable:
     """The kept web jobs of a library, through its ``transaction`` (a write under its lock and
     read-only rules) and ``read`` (a query's rows)."""
 
-    def __init__(self, transaction: Callable[[], AbstractContextManager[sqlite3.Connection]],
-                 read: Callable[[str], list[sqlite3.Row]]) -> None:
+    def __init__(
+        self,
+        transaction: Callable[[], AbstractContextManager[sqlite3.Connection]],
+        read: Callable[[str], list[sqlite3.Row]],
+    ) -> None:
         self._transaction = transaction
         self._read = read
 
@@ -30,14 +47,15 @@ class JobTable:
         and ``labels_key`` are JSON values."""
         values = [json.dumps(record.get(c)) if c in JOB_JSON else record.get(c) for c in JOB_COLUMNS]
         with self._transaction() as conn:
-            conn.execute(f"INSERT OR REPLACE INTO jobs ({', '.join(JOB_COLUMNS)}) "
-                         f"VALUES ({', '.join('?' * len(JOB_COLUMNS))})", values)
+            conn.execute(
+                f"INSERT OR REPLACE INTO jobs ({', '.join(JOB_COLUMNS)}) VALUES ({', '.join('?' * len(JOB_COLUMNS))})",
+                values,
+            )
 
     def saved(self) -> list[dict]:
         """Every kept web job, in submission order (:meth:`save`'s mappings)."""
         rows = self._read("SELECT * FROM jobs ORDER BY number")
-        return [{c: json.loads(row[c]) if c in JOB_JSON else row[c] for c in JOB_COLUMNS}
-                for row in rows]
+        return [{c: json.loads(row[c]) if c in JOB_JSON else row[c] for c in JOB_COLUMNS} for row in rows]
 
     def forget(self, job_ids: Iterable[str]) -> None:
         """Drop web jobs from the kept queue (old finished ones)."""

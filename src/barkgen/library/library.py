@@ -8,7 +8,7 @@ import os
 import sqlite3
 from collections.abc import Mapping
 from contextlib import closing, contextmanager
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
@@ -20,14 +20,17 @@ from barkgen.library.records import Exemplar, Result
 from barkgen.library.schema import MIGRATIONS, SCHEMA_VERSION
 from barkgen.library.store import ObjectStore, content_hash, default_library_path
 
-__all__ = ["Exemplar", "Library", "LibraryError", "NotFoundError", "Result", "default_library_path",
-           "SCHEMA_VERSION"]
+__all__ = ["Exemplar", "Library", "LibraryError", "NotFoundError", "Result", "default_library_path", "SCHEMA_VERSION"]
 
 SAMPLE_NAME = "Sample pine bark"
+#: every stored file a row refers to
+_FILES_IN_USE = (
+    "SELECT image_hash FROM exemplars UNION SELECT file_hash FROM analyses UNION SELECT file_hash FROM result_files"
+)
 
 
 def _now() -> str:
-    return datetime.now(timezone.utc).isoformat(timespec="seconds")
+    return datetime.now(UTC).isoformat(timespec="seconds")
 
 
 def canonical_params(params: Mapping) -> str:
@@ -109,8 +112,10 @@ class Library:
         except sqlite3.DatabaseError as exc:
             raise LibraryError(f"{self.db_path}: not a barkgen library database ({exc})") from None
         if not 1 <= version <= SCHEMA_VERSION:
-            raise LibraryError(f"{self.db_path}: not a barkgen library this barkgen can read "
-                               f"(schema {version}; it is read-only, so it cannot be upgraded)")
+            raise LibraryError(
+                f"{self.db_path}: not a barkgen library this barkgen can read "
+                f"(schema {version}; it is read-only, so it cannot be upgraded)"
+            )
 
     def _connect(self) -> sqlite3.Connection:
         if self.read_only is not None:
@@ -134,8 +139,9 @@ class Library:
     @contextmanager
     def _transaction(self):
         if self.read_only is not None:
-            raise LibraryError(f"{self.path}: the library is read-only ({self.read_only}); "
-                               "copy it somewhere writable to change it")
+            raise LibraryError(
+                f"{self.path}: the library is read-only ({self.read_only}); copy it somewhere writable to change it"
+            )
         with closing(self._connect()) as conn, self._damage_said():
             conn.execute("BEGIN IMMEDIATE")
             try:
@@ -154,12 +160,14 @@ class Library:
         except sqlite3.DatabaseError as exc:
             if not any(word in str(exc) for word in ("malformed", "not a database", "corrupt")):
                 raise  # (a busy database, a constraint: not damage)
-            raise LibraryError(f"{self.db_path}: the library database is damaged ({exc}); restore "
-                               "it from a backup, or move the library folder away to start a new "
-                               "one") from None
+            raise LibraryError(
+                f"{self.db_path}: the library database is damaged ({exc}); restore "
+                "it from a backup, or move the library folder away to start a new "
+                "one"
+            ) from None
 
     def _read(self, sql: str, args: tuple = ()) -> list[sqlite3.Row]:
-        if any(isinstance(a, int) and not -2**63 <= a < 2**63 for a in args):
+        if any(isinstance(a, int) and not -(2**63) <= a < 2**63 for a in args):
             return []  # an id beyond SQLite's 64-bit integers is in no row (not an error)
         with closing(self._connect()) as conn, self._damage_said():
             return conn.execute(sql, args).fetchall()
@@ -173,8 +181,10 @@ class Library:
                 try:
                     version = conn.execute("PRAGMA user_version").fetchone()[0]
                     if version > SCHEMA_VERSION:
-                        raise LibraryError(f"{self.db_path}: made by a newer barkgen (schema {version}, "
-                                           f"this one knows {SCHEMA_VERSION}); upgrade barkgen")
+                        raise LibraryError(
+                            f"{self.db_path}: made by a newer barkgen (schema {version}, "
+                            f"this one knows {SCHEMA_VERSION}); upgrade barkgen"
+                        )
                     for target in range(version + 1, SCHEMA_VERSION + 1):
                         for statement in MIGRATIONS[target].split(";"):
                             if statement.strip():
@@ -201,16 +211,29 @@ class Library:
         with self._transaction() as conn:  # check and add under one write lock
             if conn.execute("SELECT 1 FROM settings WHERE key = 'sample_added'").fetchone():
                 return
-            self._insert_exemplar(conn, sample_exemplar_path().read_bytes(), name=SAMPLE_NAME,
-                                  species="pine", bark_type="plated", licence="MIT",
-                                  source="barkgen's bundled sample (npm @dgreenheck/ez-tree 1.1.0, "
-                                  "texturecan.com 588)")
+            self._insert_exemplar(
+                conn,
+                sample_exemplar_path().read_bytes(),
+                name=SAMPLE_NAME,
+                species="pine",
+                bark_type="plated",
+                licence="MIT",
+                source="barkgen's bundled sample (npm @dgreenheck/ez-tree 1.1.0, texturecan.com 588)",
+            )
             conn.execute("INSERT OR REPLACE INTO settings VALUES ('sample_added', ?)", (_now(),))
 
     # -- exemplars ------------------------------------------------------------------------
-    def add_exemplar(self, data: bytes, name: str, *, species: str | None = None,
-                     bark_type: str | None = None, licence: str | None = None,
-                     source: str | None = None, max_pixels: int | None = None) -> Exemplar:
+    def add_exemplar(
+        self,
+        data: bytes,
+        name: str,
+        *,
+        species: str | None = None,
+        bark_type: str | None = None,
+        licence: str | None = None,
+        source: str | None = None,
+        max_pixels: int | None = None,
+    ) -> Exemplar:
         """Add the image file ``data``; the same bytes added twice give the same exemplar.
 
         Parameters
@@ -241,23 +264,38 @@ class Library:
         name = (name or "").strip()
         if not name or len(name) > 200:
             raise InvalidInputError("an exemplar needs a name of 1 to 200 characters")
-        for what, value in (("name", name), ("species", species), ("bark type", bark_type),
-                            ("licence", licence), ("source", source)):
+        for what, value in (
+            ("name", name),
+            ("species", species),
+            ("bark type", bark_type),
+            ("licence", licence),
+            ("source", source),
+        ):
             if value is not None and len(value) > 500:
                 raise InvalidInputError(f"the {what} must be at most 500 characters")
             if value is not None and not value.isprintable():  # a newline would break a listing
                 raise InvalidInputError(f"the {what} must be one line of printable text")
         image = decode_image(data, name, max_pixels=max_pixels)
         if min(image.shape[:2]) < MIN_SIDE:  # a 1x1 upload is no bark (it failed later)
-            raise InvalidInputError(f"{name}: {image.shape[1]}x{image.shape[0]} px; a bark photo "
-                                    f"needs at least {MIN_SIDE} px on each side")
+            raise InvalidInputError(
+                f"{name}: {image.shape[1]}x{image.shape[0]} px; a bark photo needs at least {MIN_SIDE} px on each side"
+            )
         with self._transaction() as conn:
-            exemplar_id = self._insert_exemplar(conn, data, name, species=species, bark_type=bark_type,
-                                                licence=licence, source=source, shape=image.shape)
+            exemplar_id = self._insert_exemplar(
+                conn,
+                data,
+                name,
+                species=species,
+                bark_type=bark_type,
+                licence=licence,
+                source=source,
+                shape=image.shape,
+            )
         return self.exemplar(exemplar_id)
 
-    def _insert_exemplar(self, conn, data: bytes, name: str, *, species=None, bark_type=None,
-                         licence=None, source=None, shape=None) -> int:
+    def _insert_exemplar(
+        self, conn, data: bytes, name: str, *, species=None, bark_type=None, licence=None, source=None, shape=None
+    ) -> int:
         """Store the photo and insert its row (or find the row of the same bytes), under the
         caller's write lock."""
         if shape is None:
@@ -268,7 +306,8 @@ class Library:
         conn.execute(
             "INSERT OR IGNORE INTO exemplars (name, species, bark_type, licence, source, image_hash, "
             "width, height, created) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
-            (name, species, bark_type, licence, source, digest, shape[1], shape[0], _now()))
+            (name, species, bark_type, licence, source, digest, shape[1], shape[0], _now()),
+        )
         return conn.execute("SELECT id FROM exemplars WHERE image_hash = ?", (digest,)).fetchone()[0]
 
     def find_exemplar(self, data: bytes) -> Exemplar | None:
@@ -354,8 +393,10 @@ class Library:
         -------
         bytes or None
         """
-        rows = self._read("SELECT file_hash FROM analyses WHERE exemplar_id = ? AND kind = ? AND "
-                          "params = ?", (int(exemplar_id), kind, canonical_params(params)))
+        rows = self._read(
+            "SELECT file_hash FROM analyses WHERE exemplar_id = ? AND kind = ? AND params = ?",
+            (int(exemplar_id), kind, canonical_params(params)),
+        )
         if not rows or not self.store.exists(rows[0]["file_hash"]):
             return None
         return self.store.get(rows[0]["file_hash"])
@@ -374,13 +415,22 @@ class Library:
         self.exemplar(exemplar_id)
         with self._transaction() as conn:
             digest = self.store.put(data)
-            conn.execute("INSERT OR REPLACE INTO analyses (exemplar_id, kind, params, file_hash, "
-                         "created) VALUES (?, ?, ?, ?, ?)",
-                         (int(exemplar_id), kind, canonical_params(params), digest, _now()))
+            conn.execute(
+                "INSERT OR REPLACE INTO analyses (exemplar_id, kind, params, file_hash, "
+                "created) VALUES (?, ?, ?, ?, ?)",
+                (int(exemplar_id), kind, canonical_params(params), digest, _now()),
+            )
 
     # -- results --------------------------------------------------------------------------
-    def add_result(self, exemplar_id: int, params: Mapping, seed: int, files: Mapping[str, bytes],
-                   timings: Mapping | None = None, parent_id: int | None = None) -> Result:
+    def add_result(
+        self,
+        exemplar_id: int,
+        params: Mapping,
+        seed: int,
+        files: Mapping[str, bytes],
+        timings: Mapping | None = None,
+        parent_id: int | None = None,
+    ) -> Result:
         """Record a generated result and store its files.
 
         All files are stored before the row exists, so a listed result always has every file.
@@ -413,23 +463,41 @@ class Library:
             # between its store and this row (a rolled-back insert leaves them to the next
             # removal's sweep)
             hashes = {name: self.store.put(data) for name, data in files.items()}
-            if parent_id is not None and not conn.execute("SELECT 1 FROM results WHERE id = ?",
-                                                          (parent_id,)).fetchone():
+            if (
+                parent_id is not None
+                and not conn.execute("SELECT 1 FROM results WHERE id = ?", (parent_id,)).fetchone()
+            ):
                 parent_id = None  # the parent was removed meanwhile
             cur = conn.execute(
                 "INSERT INTO results (exemplar_id, params, seed, timings, parent_id, created) "
                 "VALUES (?, ?, ?, ?, ?, ?)",
-                (int(exemplar_id), canonical_params(params), int(seed),
-                 json.dumps(dict(timings or {})), parent_id, _now()))
+                (
+                    int(exemplar_id),
+                    canonical_params(params),
+                    int(seed),
+                    json.dumps(dict(timings or {})),
+                    parent_id,
+                    _now(),
+                ),
+            )
             result_id = cur.lastrowid
-            conn.executemany("INSERT INTO result_files VALUES (?, ?, ?)",
-                             [(result_id, name, digest) for name, digest in hashes.items()])
+            conn.executemany(
+                "INSERT INTO result_files VALUES (?, ?, ?)",
+                [(result_id, name, digest) for name, digest in hashes.items()],
+            )
         return self.result(result_id)
 
     def _result(self, row: sqlite3.Row, files: dict) -> Result:
-        return Result(id=row["id"], exemplar_id=row["exemplar_id"], params=json.loads(row["params"]),
-                      seed=row["seed"], timings=json.loads(row["timings"]), created=row["created"],
-                      parent_id=row["parent_id"], files=files)
+        return Result(
+            id=row["id"],
+            exemplar_id=row["exemplar_id"],
+            params=json.loads(row["params"]),
+            seed=row["seed"],
+            timings=json.loads(row["timings"]),
+            created=row["created"],
+            parent_id=row["parent_id"],
+            files=files,
+        )
 
     def result(self, result_id: int) -> Result:
         """One result by its id.
@@ -450,9 +518,12 @@ class Library:
         rows = self._read("SELECT * FROM results WHERE id = ?", (int(result_id),))
         if not rows:
             raise NotFoundError(f"no result {result_id} in the library")
-        files = {r["name"]: r["file_hash"] for r in
-                 self._read("SELECT name, file_hash FROM result_files WHERE result_id = ? "
-                            "ORDER BY name", (int(result_id),))}
+        files = {
+            r["name"]: r["file_hash"]
+            for r in self._read(
+                "SELECT name, file_hash FROM result_files WHERE result_id = ? ORDER BY name", (int(result_id),)
+            )
+        }
         return self._result(rows[0], files)
 
     def results(self, exemplar_id: int | None = None) -> list[Result]:
@@ -522,10 +593,5 @@ class Library:
         """Remove stored files no row refers to; returns how many. Runs under the caller's
         write lock, and every writer stores its files under that lock too, so a file stored
         for a row being inserted is never taken."""
-        used = {r[0] for r in conn.execute(
-            "SELECT image_hash FROM exemplars UNION SELECT file_hash FROM analyses "
-            "UNION SELECT file_hash FROM result_files")}
-        unused = self.store.digests() - used
-        for digest in unused:
-            self.store.remove(digest)
-        return len(unused)
+        used = {r[0] for r in conn.execute(_FILES_IN_USE)}
+        return self.store.remove_unused(used)

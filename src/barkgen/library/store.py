@@ -64,8 +64,20 @@ class ObjectStore:
         writer, a desktop's ``.DS_Store`` or ``Thumbs.db`` are not)."""
         if not self.root.is_dir():
             return set()
-        return {sub.name + path.name for sub in self.root.iterdir() if sub.is_dir()
-                for path in sub.iterdir() if _is_digest(sub.name + path.name)}
+        return {
+            sub.name + path.name
+            for sub in self.root.iterdir()
+            if sub.is_dir()
+            for path in sub.iterdir()
+            if _is_digest(sub.name + path.name)
+        }
+
+    def remove_unused(self, used: set[str]) -> int:
+        """Remove every stored file whose digest is not in ``used``; returns how many."""
+        unused = self.digests() - used
+        for digest in unused:
+            self.remove(digest)
+        return len(unused)
 
 
 def default_library_path() -> Path:

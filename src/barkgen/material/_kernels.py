@@ -29,8 +29,9 @@ def _sample(height: np.ndarray, y: int, x: int, wrap_y: bool, wrap_x: bool) -> f
 
 
 @njit(parallel=True, cache=True)
-def horizon_occlusion(height: np.ndarray, directions: np.ndarray, radius: int, wrap_y: bool,
-                      wrap_x: bool) -> np.ndarray:
+def horizon_occlusion(
+    height: np.ndarray, directions: np.ndarray, radius: int, wrap_y: bool, wrap_x: bool
+) -> np.ndarray:
     """Horizon-based ambient occlusion of a height field (heights in pixels).
 
     For each pixel and each unit ``direction`` ``(dy, dx)``, the horizon is the steepest

@@ -20,8 +20,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from barkgen.errors import InvalidInputError
 from barkgen._shared.arrays import Wrap, pad_wrapped, wrap_axes
+from barkgen.errors import InvalidInputError
 from barkgen.material.height import luminance
 
 #: the largest neighbourhood radius compared at full resolution; larger ones use a coarser level
@@ -108,8 +108,9 @@ def parse_edits(document: object) -> list[HeightEdit]:
     if not isinstance(items, list) or not items:
         raise InvalidInputError('the edit list is empty: "edits" must list at least one edit')
     if len(items) > MAX_EDITS:
-        raise InvalidInputError(f"the edit list has {len(items)} edits; at most {MAX_EDITS} (an "
-                                "artist's session is a few hundred)")
+        raise InvalidInputError(
+            f"the edit list has {len(items)} edits; at most {MAX_EDITS} (an artist's session is a few hundred)"
+        )
     edits = []
     for i, item in enumerate(items):
         if not isinstance(item, Mapping) or not {"x", "y", "delta"} <= set(item):
@@ -120,13 +121,21 @@ def parse_edits(document: object) -> list[HeightEdit]:
         ints = [item[k] for k in ("x", "y", "radius") if k in item]
         numbers = [item[k] for k in ("delta", "threshold") if k in item]
         if not all(isinstance(v, int) and not isinstance(v, bool) for v in ints) or not all(
-                isinstance(v, (int, float)) and not isinstance(v, bool) for v in numbers):
+            isinstance(v, (int, float)) and not isinstance(v, bool) for v in numbers
+        ):
             raise InvalidInputError(f"edit {i}: x, y, radius must be integers and delta, threshold numbers")
         if max(abs(v) for v in ints) > 2**31:
             raise InvalidInputError(f"edit {i}: coordinates out of range")
         try:
-            edits.append(HeightEdit(item["x"], item["y"], float(item["delta"]), item.get("radius", 4),
-                                    float(item.get("threshold", DEFAULT_THRESHOLD))))
+            edits.append(
+                HeightEdit(
+                    item["x"],
+                    item["y"],
+                    float(item["delta"]),
+                    item.get("radius", 4),
+                    float(item.get("threshold", DEFAULT_THRESHOLD)),
+                )
+            )
         except InvalidInputError as exc:
             raise InvalidInputError(f"edit {i}: {exc}") from None
     return edits
@@ -145,9 +154,10 @@ def edits_document(edits: Iterable[HeightEdit]) -> dict:
     dict
         ``{"version": 1, "edits": [...]}``, every field of every edit written out.
     """
-    return {"version": EDITS_VERSION,
-            "edits": [{"x": e.x, "y": e.y, "delta": e.delta, "radius": e.radius, "threshold": e.threshold}
-                      for e in edits]}
+    return {
+        "version": EDITS_VERSION,
+        "edits": [{"x": e.x, "y": e.y, "delta": e.delta, "radius": e.radius, "threshold": e.threshold} for e in edits],
+    }
 
 
 def _disc_offsets(radius: int) -> np.ndarray:
@@ -202,8 +212,9 @@ class HeightEditor:
     2.0
     """
 
-    def __init__(self, photo: np.ndarray, height: np.ndarray, label_map: np.ndarray | None = None,
-                 *, tile: Wrap = False):
+    def __init__(
+        self, photo: np.ndarray, height: np.ndarray, label_map: np.ndarray | None = None, *, tile: Wrap = False
+    ):
         lum = luminance(photo).astype(np.float32)
         if lum.shape != np.asarray(height).shape:
             raise InvalidInputError("the height map and the photo sizes differ")
@@ -238,7 +249,7 @@ class HeightEditor:
         ref = padded[ly + pad + offsets[:, 0], lx + pad + offsets[:, 1]]
         dist = np.zeros(lum.shape, np.float32)
         for (dy, dx), v in zip(offsets, ref):
-            diff = padded[pad + dy:pad + dy + lum.shape[0], pad + dx:pad + dx + lum.shape[1]] - v
+            diff = padded[pad + dy : pad + dy + lum.shape[0], pad + dx : pad + dx + lum.shape[1]] - v
             dist += diff * diff
         dist = np.sqrt(dist / len(offsets))
         weight = np.clip(1.0 - dist / threshold, 0.0, 1.0)
@@ -249,8 +260,7 @@ class HeightEditor:
             weight = weight * (self.label_map == self.label_map[y, x])
         return weight.astype(np.float32)
 
-    def edit(self, x: int, y: int, delta: float, radius: int = 4,
-             threshold: float = DEFAULT_THRESHOLD) -> np.ndarray:
+    def edit(self, x: int, y: int, delta: float, radius: int = 4, threshold: float = DEFAULT_THRESHOLD) -> np.ndarray:
         """Change the height by ``delta`` at ``(x, y)`` and, weighted by :meth:`mask`, at every
         self-similar pixel of its channel; returns the edited height."""
         edit = HeightEdit(int(x), int(y), float(delta), int(radius), float(threshold))

@@ -93,12 +93,10 @@ def blur(image: np.ndarray, sigma: float, *, tile: Wrap) -> np.ndarray:
     (:func:`wrap_axes`), mirrored at the other borders."""
     image = np.asarray(image, np.float32)
     pad = int(np.ceil(4 * sigma)) + 1  # (numpy wraps again when the pad exceeds the image)
-    return on_torus(lambda im: cv2.GaussianBlur(im, (0, 0), sigma, borderType=cv2.BORDER_REFLECT),
-                    image, pad, tile)
+    return on_torus(lambda im: cv2.GaussianBlur(im, (0, 0), sigma, borderType=cv2.BORDER_REFLECT), image, pad, tile)
 
 
-def band(image: np.ndarray, scale: float, *, tile: Wrap,
-         blurs: dict[float, np.ndarray] | None = None) -> np.ndarray:
+def band(image: np.ndarray, scale: float, *, tile: Wrap, blurs: dict[float, np.ndarray] | None = None) -> np.ndarray:
     """The band-pass octave of ``image`` around ``scale`` px: Gaussian(scale/2) - Gaussian(2 scale).
 
     ``blurs``: this image's blurs by sigma, filled and reused (bands two octaves apart share
@@ -133,8 +131,9 @@ def texture_energy(lum: np.ndarray, scale: float, *, tile: Wrap) -> np.ndarray:
     return (energy - energy.mean()) / max(float(energy.std()), 1e-9)
 
 
-def height_features(photo: np.ndarray, label_map: np.ndarray | None, config: HeightConfig, *,
-                    tile: Wrap) -> list[tuple[float, np.ndarray]]:
+def height_features(
+    photo: np.ndarray, label_map: np.ndarray | None, config: HeightConfig, *, tile: Wrap
+) -> list[tuple[float, np.ndarray]]:
     """The weighted cues of :func:`estimate_height` as ``(weight, feature)`` pairs (each feature
     in units of its own std), so that fitting and estimating use one code path."""
     lum = luminance(photo).astype(np.float32)
@@ -148,16 +147,18 @@ def height_features(photo: np.ndarray, label_map: np.ndarray | None, config: Hei
     if label_map is not None:
         codes = np.asarray(label_map)
         if codes.shape != lum.shape:
-            raise InvalidInputError(f"label map is {codes.shape[1]}x{codes.shape[0]} px but the "
-                                    f"photo is {lum.shape[1]}x{lum.shape[0]} px")
+            raise InvalidInputError(
+                f"label map is {codes.shape[1]}x{codes.shape[0]} px but the photo is {lum.shape[1]}x{lum.shape[0]} px"
+            )
         rank = codes.astype(np.float64) / max(int(codes.max()), 1)
         cue = blur(rank, LABEL_BLUR, tile=tile)
         cues.append((config.label_weight, (cue - cue.mean()) / max(float(cue.std()), 1e-6)))
     return cues
 
 
-def estimate_height(photo: np.ndarray, label_map: np.ndarray | None = None, *,
-                    config: HeightConfig | None = None, tile: Wrap = False) -> np.ndarray:
+def estimate_height(
+    photo: np.ndarray, label_map: np.ndarray | None = None, *, config: HeightConfig | None = None, tile: Wrap = False
+) -> np.ndarray:
     """Height field estimated from a photo alone.
 
     A weighted sum of luminance octaves, texture-energy octaves and the label map, weights as

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from barkgen.material._kernels import horizon_occlusion
 from barkgen._shared.arrays import Wrap, wrap_axes
+from barkgen.material._kernels import horizon_occlusion
 from barkgen.material.height import blur, gradient
 
 #: directions and reach (px) of the horizon-based ambient occlusion
@@ -145,8 +145,9 @@ def decode_normals(rgb: np.ndarray) -> np.ndarray:
     return n / np.maximum(np.linalg.norm(n, axis=2, keepdims=True), 1e-6)
 
 
-def ambient_occlusion(height: np.ndarray, *, radius: int = AO_RADIUS, directions: int = AO_DIRECTIONS,
-                      tile: Wrap = False) -> np.ndarray:
+def ambient_occlusion(
+    height: np.ndarray, *, radius: int = AO_RADIUS, directions: int = AO_DIRECTIONS, tile: Wrap = False
+) -> np.ndarray:
     """Horizon-based ambient occlusion of a height field.
 
     Parameters
@@ -175,8 +176,9 @@ def ambient_occlusion(height: np.ndarray, *, radius: int = AO_RADIUS, directions
     return horizon_occlusion(np.ascontiguousarray(height, dtype=np.float32), dirs, int(radius), wy, wx)
 
 
-def photo_cavities(ao: np.ndarray, lum: np.ndarray, *, weight: float = CAVITY_WEIGHT,
-                   scale: float = CAVITY_SCALE, tile: Wrap = False) -> np.ndarray:
+def photo_cavities(
+    ao: np.ndarray, lum: np.ndarray, *, weight: float = CAVITY_WEIGHT, scale: float = CAVITY_SCALE, tile: Wrap = False
+) -> np.ndarray:
     """The photo's cavity term of the ambient occlusion, to add to the height's AO ``ao``.
 
     Where the photo is darker than its surroundings (its luminance ``lum`` minus a Gaussian blur

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from barkgen._shared.arrays import as_uint8
 from barkgen._shared.memory import BASE_BYTES, check_budget_value, check_memory_budget
 from barkgen.errors import InvalidInputError
 from barkgen.material.editor import HeightEdit, HeightEditor
@@ -35,7 +36,6 @@ from barkgen.material.maps import (
     roughness_map,
 )
 from barkgen.material.shading import Light, estimate_light, remove_shading
-from barkgen._shared.arrays import as_uint8
 
 
 @dataclass(frozen=True)
@@ -202,10 +202,14 @@ class MaterialSet:
             "displacement_depth": round(self.depth / self.shape[1], 6),
             "displacement_midlevel": round(self.midlevel, 8),
             "normal_convention": {"NormalGL": "OpenGL (+Y up, glTF)", "NormalDX": "DirectX (+Y down)"},
-            "light": None if self.light is None else {
-                "azimuth": self.light.azimuth, "elevation": self.light.elevation,
+            "light": None
+            if self.light is None
+            else {
+                "azimuth": self.light.azimuth,
+                "elevation": self.light.elevation,
                 "correlation": None if self.light.correlation is None else round(self.light.correlation, 4),
-                "shading_strength": None if self.shading_strength is None else round(self.shading_strength, 4)},
+                "shading_strength": None if self.shading_strength is None else round(self.shading_strength, 4),
+            },
             "barkgen_version": __version__,
         }
         meta.update(extra)
@@ -243,9 +247,13 @@ def estimate_material_memory(photo_shape: tuple[int, int]) -> int:
     return BASE_BYTES + MATERIAL_PHOTO_BYTES_PER_PIXEL * photo_shape[0] * photo_shape[1]
 
 
-def make_material(photo: np.ndarray, options: MaterialOptions | None = None, *,
-                  label_map: np.ndarray | None = None,
-                  edits: Iterable[HeightEdit] = ()) -> MaterialSet:
+def make_material(
+    photo: np.ndarray,
+    options: MaterialOptions | None = None,
+    *,
+    label_map: np.ndarray | None = None,
+    edits: Iterable[HeightEdit] = (),
+) -> MaterialSet:
     """The material set of a bark photo, from the photo alone (see the module docstring).
 
     Parameters
@@ -280,15 +288,14 @@ def make_material(photo: np.ndarray, options: MaterialOptions | None = None, *,
     >>> make_material(photo).shape
     (64, 64)
     """
-    from barkgen.labels import color_regions
     from barkgen._shared.checks import check_image
+    from barkgen.labels import color_regions
     from barkgen.labels.regions import to_codes
     from barkgen.synth import resolve_exemplar_wrap
 
     options = options or MaterialOptions()
     h, w = np.shape(photo)[:2]
-    check_memory_budget(estimate_material_memory((h, w)), options.max_memory,
-                        f"the material set of a {w}x{h} photo")
+    check_memory_budget(estimate_material_memory((h, w)), options.max_memory, f"the material set of a {w}x{h} photo")
     rgb = check_image(photo)
     wrap = resolve_exemplar_wrap(options.exemplar_wrap, photo)
     if label_map is None:
@@ -304,15 +311,29 @@ def make_material(photo: np.ndarray, options: MaterialOptions | None = None, *,
     ao = np.clip(ao + cavities, 0.0, 1.0)
     light = options.light or estimate_light(rgb, normals)
     albedo, strength = remove_shading(rgb, normals, light)
-    return MaterialSet(color=albedo, height=height, normals=normals, ao=ao,
-                       roughness=roughness_map(height, ao), tile=all(wrap), light=light,
-                       shading_strength=strength, ao_cavities=cavities, wrap=wrap)
+    return MaterialSet(
+        color=albedo,
+        height=height,
+        normals=normals,
+        ao=ao,
+        roughness=roughness_map(height, ao),
+        tile=all(wrap),
+        light=light,
+        shading_strength=strength,
+        ao_cavities=cavities,
+        wrap=wrap,
+    )
 
 
-def transfer_material(source: MaterialSet, references: np.ndarray, *, tile: bool,
-                      ao_radius: int = AO_RADIUS,
-                      exemplar_wrap: tuple[bool, bool] = (False, False),
-                      blend: str = "gradient") -> MaterialSet:
+def transfer_material(
+    source: MaterialSet,
+    references: np.ndarray,
+    *,
+    tile: bool,
+    ao_radius: int = AO_RADIUS,
+    exemplar_wrap: tuple[bool, bool] = (False, False),
+    blend: str = "gradient",
+) -> MaterialSet:
     """The material set of a texture synthesized from the source's photo.
 
     The source's albedo goes through the synthesis's reference map as the colour does (its
@@ -358,15 +379,25 @@ def transfer_material(source: MaterialSet, references: np.ndarray, *, tile: bool
         return resolve_continuous(image, refs, tile=tile, wrap=exemplar_wrap)
 
     # the height's slopes too, so the normals recomputed from it have no creases at the borders
-    height = resolve_continuous(source.height, refs, tile=tile, wrap=exemplar_wrap,
-                                smooth_slopes=True)
+    height = resolve_continuous(source.height, refs, tile=tile, wrap=exemplar_wrap, smooth_slopes=True)
     normals, ao = derived_maps(height, tile=tile, ao_radius=ao_radius)
     cavities = None
     if source.ao_cavities is not None:
         cavities = carry(source.ao_cavities)
         ao = np.clip(ao + cavities, 0.0, 1.0)
-    color = (blend_seams(source.color, refs, tile=tile, wrap=exemplar_wrap) if blend == "gradient"
-             else apply_references(refs, source.color))
-    return MaterialSet(color=color, height=height, normals=normals, ao=ao,
-                       roughness=carry(source.roughness), tile=tile, light=source.light,
-                       shading_strength=source.shading_strength, ao_cavities=cavities)
+    color = (
+        blend_seams(source.color, refs, tile=tile, wrap=exemplar_wrap)
+        if blend == "gradient"
+        else apply_references(refs, source.color)
+    )
+    return MaterialSet(
+        color=color,
+        height=height,
+        normals=normals,
+        ao=ao,
+        roughness=carry(source.roughness),
+        tile=tile,
+        light=source.light,
+        shading_strength=source.shading_strength,
+        ao_cavities=cavities,
+    )

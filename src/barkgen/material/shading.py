@@ -32,6 +32,8 @@ MAX_STRENGTH = 8.0
 STRENGTH_STEPS = 16
 #: pixels sampled to fit the shading strength
 FIT_PIXELS = 262_144
+
+
 @dataclass(frozen=True)
 class Light:
     """A directional light.
@@ -224,8 +226,9 @@ def shading_strength(linear: np.ndarray, log_shade: np.ndarray, n_dot_l: np.ndar
     return 0.5 * (lo + hi)
 
 
-def remove_shading(photo: np.ndarray, normals: np.ndarray, light: Light, *,
-                   strength: float | None = None, floor: float = SHADING_FLOOR) -> tuple[np.ndarray, float]:
+def remove_shading(
+    photo: np.ndarray, normals: np.ndarray, light: Light, *, strength: float | None = None, floor: float = SHADING_FLOOR
+) -> tuple[np.ndarray, float]:
     """The photo's albedo: its shading divided out, and the shading strength used.
 
     The photo is divided, in linear light, by ``max(N·L, floor) ** strength`` relative to its

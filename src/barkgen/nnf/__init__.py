@@ -7,5 +7,11 @@ from barkgen.nnf.appearance import (
 )
 from barkgen.nnf.kcoherence import k_coherence_sets, k_coherence_sets_from_parent, knn_search
 
-__all__ = ["NeighbourhoodProjection", "k_coherence_sets", "k_coherence_sets_from_parent", "knn_search", "neighbourhood_pca",
-           "project_neighbourhoods"]
+__all__ = [
+    "NeighbourhoodProjection",
+    "k_coherence_sets",
+    "k_coherence_sets_from_parent",
+    "knn_search",
+    "neighbourhood_pca",
+    "project_neighbourhoods",
+]

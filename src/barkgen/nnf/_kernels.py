@@ -84,8 +84,9 @@ def select_spread_neighbours(knn, width, k, radius):  # pragma: no cover - compi
 
 
 @nb.njit(parallel=True, cache=True, fastmath=True)
-def refine_child_sets(parent_sets, coarse_w, coarse_h, features, height, width, k,
-                      radius):  # pragma: no cover - compiled
+def refine_child_sets(
+    parent_sets, coarse_w, coarse_h, features, height, width, k, radius
+):  # pragma: no cover - compiled
     """k-coherence sets of a pyramid level from those of the next coarser level.
 
     For each pixel, every entry of its parent's k-coherence set proposes its child with the same

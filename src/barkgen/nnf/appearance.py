@@ -52,9 +52,9 @@ def _sample_neighbourhoods(image: np.ndarray, size: int, max_samples: int) -> np
     return np.ascontiguousarray(sel.transpose(0, 2, 3, 1)).reshape(len(ys) * len(xs), -1)
 
 
-def neighbourhood_pca(image: np.ndarray, size: int, n_components: int,
-                      max_samples: int = 8192,
-                      wrap: bool | tuple[bool, bool] = False) -> NeighbourhoodProjection:
+def neighbourhood_pca(
+    image: np.ndarray, size: int, n_components: int, max_samples: int = 8192, wrap: bool | tuple[bool, bool] = False
+) -> NeighbourhoodProjection:
     """Fit the neighbourhood PCA of an ``(h, w, C)`` float32 feature image and project it.
 
     The principal axes are fitted on a regular grid of neighbourhoods (so the fit is independent of
@@ -81,12 +81,12 @@ def neighbourhood_pca(image: np.ndarray, size: int, n_components: int,
     mean_nb = (mean.reshape(size, size, c) / np.maximum(win[:, :, None], 1e-12)).astype(np.float32)
 
     features = project_neighbourhoods(image, weights, mean_nb, wrap=wrap)
-    return NeighbourhoodProjection(size=size, weights=weights, mean=mean_nb,
-                                   features=features, scale=1.0)
+    return NeighbourhoodProjection(size=size, weights=weights, mean=mean_nb, features=features, scale=1.0)
 
 
-def project_neighbourhoods(image: np.ndarray, weights: np.ndarray, mean: np.ndarray,
-                           wrap: bool | tuple[bool, bool] = False) -> np.ndarray:
+def project_neighbourhoods(
+    image: np.ndarray, weights: np.ndarray, mean: np.ndarray, wrap: bool | tuple[bool, bool] = False
+) -> np.ndarray:
     """Project every ``size x size`` neighbourhood of ``image`` ``(h, w, C)``:
     ``a(p) = sum weights[d, dy, dx, c] * (image[p + (dy, dx), c] - mean[dy, dx, c])``, one
     correlation filter per (component, channel) pair. Borders are reflected, or wrapped around
@@ -110,7 +110,6 @@ def project_neighbourhoods(image: np.ndarray, weights: np.ndarray, mean: np.ndar
         acc = np.zeros(image.shape[:2], np.float32)
         for ch in range(c):
             kern = np.ascontiguousarray(weights[k, :, :, ch])
-            acc += cv2.filter2D(channels[ch], cv2.CV_32F, kern, anchor=(r, r),
-                                borderType=cv2.BORDER_REFLECT_101)
-        features[:, :, k] = (acc[r:r + h, r:r + w] if wrap else acc) - offset[k]
+            acc += cv2.filter2D(channels[ch], cv2.CV_32F, kern, anchor=(r, r), borderType=cv2.BORDER_REFLECT_101)
+        features[:, :, k] = (acc[r : r + h, r : r + w] if wrap else acc) - offset[k]
     return np.ascontiguousarray(features.reshape(h * w, d))

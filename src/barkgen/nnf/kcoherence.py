@@ -46,8 +46,9 @@ def knn_search(features: np.ndarray, n_neighbours: int) -> tuple[np.ndarray, np.
     return dist, idx
 
 
-def k_coherence_sets(features: np.ndarray, width: int, k: int, radius: int = 2,
-                     search: int | None = None) -> tuple[np.ndarray, float]:
+def k_coherence_sets(
+    features: np.ndarray, width: int, k: int, radius: int = 2, search: int | None = None
+) -> tuple[np.ndarray, float]:
     """k-coherence sets of an exemplar level.
 
     Returns ``(sets, scale)``: ``sets`` is ``(h * w, k)`` int32 flat exemplar indices; ``scale``
@@ -58,8 +59,7 @@ def k_coherence_sets(features: np.ndarray, width: int, k: int, radius: int = 2,
 
     search = search or max(4 * k + 8, 32)
     dist, idx = knn_search(features, search)
-    sets = select_spread_neighbours(idx.astype(np.int32), np.int32(width), np.int32(k),
-                                    np.int32(radius))
+    sets = select_spread_neighbours(idx.astype(np.int32), np.int32(width), np.int32(k), np.int32(radius))
     return sets, _scale(features, sets)
 
 
@@ -70,9 +70,14 @@ def _scale(features: np.ndarray, sets: np.ndarray) -> float:
     return max(scale, 1e-6)
 
 
-def k_coherence_sets_from_parent(parent_sets: np.ndarray, parent_shape: tuple[int, int],
-                                 features: np.ndarray, shape: tuple[int, int], k: int,
-                                 radius: int = 2) -> tuple[np.ndarray, float]:
+def k_coherence_sets_from_parent(
+    parent_sets: np.ndarray,
+    parent_shape: tuple[int, int],
+    features: np.ndarray,
+    shape: tuple[int, int],
+    k: int,
+    radius: int = 2,
+) -> tuple[np.ndarray, float]:
     """k-coherence sets of a level propagated from the next coarser level's sets and refined
     on this level's appearance vectors (hierarchical search: the children of the parent's
     similar pixels and their 3x3 neighbours). Far cheaper than a fresh search on large levels,
@@ -80,16 +85,22 @@ def k_coherence_sets_from_parent(parent_sets: np.ndarray, parent_shape: tuple[in
     """
     from barkgen.nnf._kernels import refine_child_sets
 
-    sets = refine_child_sets(np.ascontiguousarray(parent_sets, dtype=np.int32),
-                             np.int32(parent_shape[1]), np.int32(parent_shape[0]),
-                             np.ascontiguousarray(features, dtype=np.float32),
-                             np.int32(shape[0]), np.int32(shape[1]), np.int32(k),
-                             np.int32(radius))
+    sets = refine_child_sets(
+        np.ascontiguousarray(parent_sets, dtype=np.int32),
+        np.int32(parent_shape[1]),
+        np.int32(parent_shape[0]),
+        np.ascontiguousarray(features, dtype=np.float32),
+        np.int32(shape[0]),
+        np.int32(shape[1]),
+        np.int32(k),
+        np.int32(radius),
+    )
     return sets, _scale(features, sets)
 
 
-def propagate_k_coherence(sets: np.ndarray, features: np.ndarray, shape: tuple[int, int],
-                          radius: int = 2, passes: int = 2) -> tuple[np.ndarray, float]:
+def propagate_k_coherence(
+    sets: np.ndarray, features: np.ndarray, shape: tuple[int, int], radius: int = 2, passes: int = 2
+) -> tuple[np.ndarray, float]:
     """k-coherence sets improved by ``passes`` of propagation (Tong et al. 2002: a pixel's
     neighbour's similar pixels, shifted back, are candidates for the pixel): the sets of a
     level refined from a parent's come near a direct search's at a small part of its cost."""
@@ -97,6 +108,11 @@ def propagate_k_coherence(sets: np.ndarray, features: np.ndarray, shape: tuple[i
 
     features = np.ascontiguousarray(features, dtype=np.float32)
     for _ in range(passes):
-        sets = propagate_sets(np.ascontiguousarray(sets, dtype=np.int32), features,
-                              np.int32(shape[0]), np.int32(shape[1]), np.int32(radius))
+        sets = propagate_sets(
+            np.ascontiguousarray(sets, dtype=np.int32),
+            features,
+            np.int32(shape[0]),
+            np.int32(shape[1]),
+            np.int32(radius),
+        )
     return sets, _scale(features, sets)

@@ -12,9 +12,9 @@ from barkgen.pipeline.core import (
     generate,
     preview_sheet,
 )
+from barkgen.pipeline.files import GENERATE_FILES, check_generate_names, encode_generate
 from barkgen.pipeline.options import LABEL_METHODS, GenerateOptions, analysis_key
 from barkgen.pipeline.progress import stage_at, stage_span
-from barkgen.pipeline.files import GENERATE_FILES, check_generate_names, encode_generate
 from barkgen.pipeline.warmup import warm_up
 
 __all__ = [

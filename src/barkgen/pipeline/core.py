@@ -16,22 +16,22 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from concurrent.futures import ThreadPoolExecutor
 from collections.abc import Mapping
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from barkgen.errors import InvalidInputError
-from barkgen.synth import resolve_exemplar_wrap
 from barkgen._shared.arrays import ProgressCallback
 from barkgen._shared.checks import MAX_PHOTO_PIXELS
 from barkgen._shared.memory import check_memory_budget
 from barkgen._shared.options import option_fields
-from barkgen.pipeline.options import GenerateOptions, analysis_key
 from barkgen._shared.threads import in_budget, thread_budget
+from barkgen.errors import InvalidInputError
+from barkgen.pipeline.options import GenerateOptions, analysis_key
 from barkgen.pipeline.progress import ANALYSIS_SHARES, share_spans, stage_progress
+from barkgen.synth import resolve_exemplar_wrap
 
 if TYPE_CHECKING:
     from barkgen.material import MaterialSet
@@ -41,6 +41,7 @@ if TYPE_CHECKING:
 #: (measured on the ten bark photos: joint at level 0/1/2 gave oak coherence 1.21/1.28/1.35x
 #: plain synthesis; the label-only engine's references need two levels to fit in colour)
 _INIT_LEVELS = {"joint": 0, "engine": 2}
+
 
 @dataclass
 class GenerateResult:
@@ -79,8 +80,9 @@ class GenerateResult:
 MATERIAL_BYTES_PER_PIXEL = 48
 
 
-def check_generate_memory(photo: np.ndarray, options: GenerateOptions,
-                          extra: Mapping[str, np.ndarray] | None = None) -> int:
+def check_generate_memory(
+    photo: np.ndarray, options: GenerateOptions, extra: Mapping[str, np.ndarray] | None = None
+) -> int:
     """The estimated peak memory of :func:`generate` (bytes), checked against
     ``options.max_memory`` before any work: texture-by-numbers' solver, the largest of the run,
     and the material set (each stage frees what it made before the next starts). A photo of
@@ -101,31 +103,36 @@ def check_generate_memory(photo: np.ndarray, options: GenerateOptions,
         raise ImageTooLargeError(
             f"the photo is {shape[1]}x{shape[0]} px ({shape[0] * shape[1] / 1e6:.0f} megapixels), more "
             f"than the {MAX_PHOTO_PIXELS / 1e6:.0f} megapixels a photo's analysis takes in bounded "
-            f"time; scale it down (bark's detail rarely needs more than 2 px per mm)")
+            f"time; scale it down (bark's detail rarely needs more than 2 px per mm)"
+        )
     channels = 1 if len(shape) == 2 else shape[2]
     extra_channels = sum(1 if np.ndim(e) == 2 else np.shape(e)[2] for e in (extra or {}).values())
-    itemsize = max([np.asarray(photo).dtype.itemsize]
-                   + [np.asarray(e).dtype.itemsize for e in (extra or {}).values()])
+    itemsize = max([np.asarray(photo).dtype.itemsize] + [np.asarray(e).dtype.itemsize for e in (extra or {}).values()])
     n_ex, n_out = shape[0] * shape[1], options.size[0] * options.size[1]
-    need = estimate_memory(shape[:2], options.size, channels + extra_channels, itemsize,
-                           (3 if channels >= 3 else 1) + 1 + extra_channels, TBN_CONFIG)
+    need = estimate_memory(
+        shape[:2],
+        options.size,
+        channels + extra_channels,
+        itemsize,
+        (3 if channels >= 3 else 1) + 1 + extra_channels,
+        TBN_CONFIG,
+    )
     need += 24 * (n_ex + n_out)  # label pyramids and tables
     if options.material:
         need += MATERIAL_BYTES_PER_PIXEL * (n_ex + n_out)
     h, w = options.size
-    return check_memory_budget(need, options.max_memory,
-                               f"output {w}x{h} from a {shape[1]}x{shape[0]} photo")
+    return check_memory_budget(need, options.max_memory, f"output {w}x{h} from a {shape[1]}x{shape[0]} photo")
 
 
-def _check_analysis(analysis: PhotoAnalysis, photo: np.ndarray, options: GenerateOptions,
-                    labels_in: np.ndarray | None) -> None:
+def _check_analysis(
+    analysis: PhotoAnalysis, photo: np.ndarray, options: GenerateOptions, labels_in: np.ndarray | None
+) -> None:
     """Refuse a shared :class:`PhotoAnalysis` that does not belong to this photo and options."""
     if labels_in is not None:
         raise InvalidInputError("give the label map to analyze_photo, not with an analysis")
     if analysis.options is not None and analysis_key(analysis.options) != analysis_key(options):
         names = ", ".join(f.name for f in option_fields(GenerateOptions) if f.info.analysis)
-        raise InvalidInputError(f"the photo analysis was made with other options (of {names}); "
-                                "analyse the photo again")
+        raise InvalidInputError(f"the photo analysis was made with other options (of {names}); analyse the photo again")
     if analysis.labels_in.shape[:2] != np.asarray(photo).shape[:2]:
         raise InvalidInputError("the photo analysis belongs to a photo of another size")
 
@@ -249,27 +256,39 @@ def analyze_photo(
         if labels_in.shape[:2] != np.asarray(photo).shape[:2]:
             raise InvalidInputError(
                 f"the label map is {labels_in.shape[1]}x{labels_in.shape[0]} px but the photo is "
-                f"{photo.shape[1]}x{photo.shape[0]} px; they must match")
+                f"{photo.shape[1]}x{photo.shape[0]} px; they must match"
+            )
         report("labels")
         # the photo's material set needs only the photo and its labels: it is made on the
         # second thread while the two solvers analyse the photo, which keep 1.3 of 2 cores busy
         # (the quickstart's analysis without its label map: 5.3 s one after the other, 4.2 s so)
-        material = (pool.submit(in_budget, options.threads, _photo_material, photo, labels_in, options, wrap)
-                    if options.material else None)
+        material = (
+            pool.submit(in_budget, options.threads, _photo_material, photo, labels_in, options, wrap)
+            if options.material
+            else None
+        )
         cache = AnalysisCache()
         if options.strategy in _INIT_LEVELS:
-            analyse_label_map(labels_in, options.size, cache,
-                              photo=photo if options.strategy == "joint" else None, exemplar_wrap=wrap)
+            analyse_label_map(
+                labels_in, options.size, cache, photo=photo if options.strategy == "joint" else None, exemplar_wrap=wrap
+            )
         report("label_map")
-        analyse_texture_by_numbers(photo, labels_in, options.size, cache,
-                                   feature_weight=options.feature_weight, extra=extra,
-                                   config=dataclasses.replace(TBN_CONFIG, threads=options.threads),
-                                   exemplar_wrap=wrap)
+        analyse_texture_by_numbers(
+            photo,
+            labels_in,
+            options.size,
+            cache,
+            feature_weight=options.feature_weight,
+            extra=extra,
+            config=dataclasses.replace(TBN_CONFIG, threads=options.threads),
+            exemplar_wrap=wrap,
+        )
         report("texture")
         material = material.result() if material is not None else None
         report("material")
-        return PhotoAnalysis(labels_in=labels_in, cache=cache, material=material, options=options,
-                             seconds=time.perf_counter() - t0)
+        return PhotoAnalysis(
+            labels_in=labels_in, cache=cache, material=material, options=options, seconds=time.perf_counter() - t0
+        )
 
 
 def generate(
@@ -314,8 +333,13 @@ def generate(
     timings: dict[str, float] = {}
     check_generate_memory(photo, options, extra)
     if analysis is None:
-        analysis = analyze_photo(photo, options, extra=extra, labels_in=labels_in,
-                                 progress=stage_progress(progress, "analysis", options.material))
+        analysis = analyze_photo(
+            photo,
+            options,
+            extra=extra,
+            labels_in=labels_in,
+            progress=stage_progress(progress, "analysis", options.material),
+        )
     else:
         _check_analysis(analysis, photo, options, labels_in)
     labels_in = analysis.labels_in
@@ -325,23 +349,43 @@ def generate(
 
     with thread_budget(options.threads):  # every pool sized, BLAS at one thread
         label_result = synthesize_label_map(
-            labels_in, options.size, strategy=options.strategy, tile=options.tile, seed=options.seed,
-            rotations=options.rotations, resume=resume, progress=stage_progress(progress, "label_map", options.material),
-            cache=analysis.cache, photo=photo, exemplar_wrap=wrap)
+            labels_in,
+            options.size,
+            strategy=options.strategy,
+            tile=options.tile,
+            seed=options.seed,
+            rotations=options.rotations,
+            resume=resume,
+            progress=stage_progress(progress, "label_map", options.material),
+            cache=analysis.cache,
+            photo=photo,
+            exemplar_wrap=wrap,
+        )
         t2 = time.perf_counter()
         timings["labels_out"] = t2 - t1
 
-        config = dataclasses.replace(TBN_CONFIG, threads=options.threads, max_memory=options.max_memory,
-                                     blend=options.blend)
+        config = dataclasses.replace(
+            TBN_CONFIG, threads=options.threads, max_memory=options.max_memory, blend=options.blend
+        )
         # the engines' label maps copy exemplar label pieces: the same pieces of the photo are a
         # label-exact, coherent start for texture-by-numbers (else its smart initialisation)
         init = label_result.references if label_result.references is not None else "smart"
         result = texture_by_numbers(
-            photo, labels_in, label_result.label_map, label_weight=options.label_weight,
-            feature_weight=options.feature_weight, init=init,
-            init_level=_INIT_LEVELS.get(options.strategy, 0), tile=options.tile, seed=options.seed,
-            extra=extra, config=config, progress=stage_progress(progress, "texture", options.material),
-            cache=analysis.cache, exemplar_wrap=wrap)
+            photo,
+            labels_in,
+            label_result.label_map,
+            label_weight=options.label_weight,
+            feature_weight=options.feature_weight,
+            init=init,
+            init_level=_INIT_LEVELS.get(options.strategy, 0),
+            tile=options.tile,
+            seed=options.seed,
+            extra=extra,
+            config=config,
+            progress=stage_progress(progress, "texture", options.material),
+            cache=analysis.cache,
+            exemplar_wrap=wrap,
+        )
         t3 = time.perf_counter()
         timings["texture"] = t3 - t2
         material = None
@@ -351,16 +395,32 @@ def generate(
             source = analysis.material
             if source is None:
                 source = _photo_material(photo, labels_in, options, wrap)
-            material = transfer_material(source, result.references, tile=options.tile,
-                                         exemplar_wrap=wrap, blend=options.blend)
+            material = transfer_material(
+                source, result.references, tile=options.tile, exemplar_wrap=wrap, blend=options.blend
+            )
             timings["material"] = time.perf_counter() - t3
             if progress:
                 progress(1000, 1000)
     # the analysis' own cost counts whether it ran here or was shared
     timings["total"] = analysis.seconds + time.perf_counter() - t1
 
+    report = _run_report(photo, options, wrap, labels_in, label_result, result, material, timings)
+    return GenerateResult(
+        texture=result.image,
+        labels_in=labels_in,
+        labels_out=label_result.label_map,
+        references=result.references,
+        extras=result.extras,
+        label_levels=label_result.levels,
+        report=report,
+        material=material,
+    )
+
+
+def _run_report(photo, options: GenerateOptions, wrap, labels_in, label_result, result, material, timings) -> dict:
+    """The JSON-ready report of a :func:`generate` run: its parameters, label areas and timings."""
     values = np.unique(labels_in)
-    report = {
+    return {
         "size": [options.size[1], options.size[0]],
         "photo_size": [int(np.asarray(photo).shape[1]), int(np.asarray(photo).shape[0])],
         "k": int(values.size),
@@ -383,27 +443,27 @@ def generate(
         "label_fractions_out": _fractions(label_result.label_map, values),
         "material": bool(options.material),
         "relief": options.relief if options.material else None,
-        "light": None if material is None or material.light is None else [material.light.azimuth,
-                                                                        material.light.elevation],
+        "light": None
+        if material is None or material.light is None
+        else [material.light.azimuth, material.light.elevation],
         "timings_s": {name: round(value, 3) for name, value in timings.items()},
     }
-    return GenerateResult(texture=result.image, labels_in=labels_in,
-                          labels_out=label_result.label_map, references=result.references,
-                          extras=result.extras, label_levels=label_result.levels, report=report,
-                          material=material)
 
 
-def _photo_material(photo: np.ndarray, labels_in: np.ndarray, options: GenerateOptions,
-                    wrap: tuple[bool, bool]):
+def _photo_material(photo: np.ndarray, labels_in: np.ndarray, options: GenerateOptions, wrap: tuple[bool, bool]):
     """The photo's own material set, its label map as the height's structure cue; wrapping
     along the axes the photo wraps along (``wrap``), as the solvers use it, so the maps carried
     through the reference map meet where the pieces run on across the photo's edge."""
     from barkgen.labels.regions import to_codes
     from barkgen.material import MaterialOptions, make_material
 
-    return make_material(photo, MaterialOptions(k=options.k, light=options.light, seed=ANALYSIS_SEED,
-                                                relief=options.relief, exemplar_wrap=wrap),
-                         label_map=to_codes(labels_in)[0])
+    return make_material(
+        photo,
+        MaterialOptions(
+            k=options.k, light=options.light, seed=ANALYSIS_SEED, relief=options.relief, exemplar_wrap=wrap
+        ),
+        label_map=to_codes(labels_in)[0],
+    )
 
 
 def preview_sheet(photo: np.ndarray, result: GenerateResult, tile_size: int = 320) -> np.ndarray:
@@ -423,11 +483,14 @@ def preview_sheet(photo: np.ndarray, result: GenerateResult, tile_size: int = 32
     ndarray of uint8, shape (H, 4 * (tile_size + 6), 3)
         The sheet (:func:`barkgen.labels.contact_sheet`), captioned.
     """
-    from barkgen.labels import contact_sheet, label_colour_map
     from barkgen._shared.arrays import as_uint8
+    from barkgen.labels import contact_sheet, label_colour_map
 
     values = np.unique(result.labels_in)
-    tiles = [as_uint8(photo), label_colour_map(result.labels_in, values),
-             label_colour_map(result.labels_out, values), as_uint8(result.texture)]
-    return contact_sheet(tiles, ["photo", "labels in", "labels out", "result"], columns=4,
-                         tile_size=tile_size)
+    tiles = [
+        as_uint8(photo),
+        label_colour_map(result.labels_in, values),
+        label_colour_map(result.labels_out, values),
+        as_uint8(result.texture),
+    ]
+    return contact_sheet(tiles, ["photo", "labels in", "labels out", "result"], columns=4, tile_size=tile_size)

@@ -20,9 +20,12 @@ from barkgen.pipeline.core import preview_sheet
 GENERATE_FILES = ("texture", "labels_in", "labels_out", "reference", "preview", "report")
 
 
-def check_generate_names(material_name: str | None = None, extras=(), *,
-                         words: tuple[str, str] = ("the material set's name", "the extra map name")
-                         ) -> None:
+def check_generate_names(
+    material_name: str | None = None,
+    extras=(),
+    *,
+    words: tuple[str, str] = ("the material set's name", "the extra map name"),
+) -> None:
     """Check, before any work, the names a run of :func:`~barkgen.pipeline.generate` will write
     beside its own files (:data:`GENERATE_FILES`): the material set's (a valid set name,
     :func:`barkgen.io.check_material_name`, that takes none of them) and each extra map's.
@@ -31,16 +34,17 @@ def check_generate_names(material_name: str | None = None, extras=(), *,
     if material_name is not None:
         check_material_name(material_name)
         if material_name in GENERATE_FILES:
-            raise InvalidInputError(f"{words[0]} {material_name!r} would overwrite one of "
-                                    "generate's own files; pick another")
+            raise InvalidInputError(
+                f"{words[0]} {material_name!r} would overwrite one of generate's own files; pick another"
+            )
     clash = sorted(set(extras) & set(GENERATE_FILES))
     if clash:
-        raise InvalidInputError(f"{words[1]} {clash[0]!r} is taken by one of generate's own "
-                                "files; pick another")
+        raise InvalidInputError(f"{words[1]} {clash[0]!r} is taken by one of generate's own files; pick another")
 
 
-def encode_generate(photo: np.ndarray, result, source: str, *, name: str = "bark",
-                    bits: int | None = None) -> dict[str, bytes]:
+def encode_generate(
+    photo: np.ndarray, result, source: str, *, name: str = "bark", bits: int | None = None
+) -> dict[str, bytes]:
     """Every file of a :class:`~barkgen.pipeline.GenerateResult`, encoded.
 
     ``texture.png``, ``labels_in.png``, ``labels_out.png``, ``reference.png``, ``preview.png``,
@@ -75,16 +79,17 @@ def encode_generate(photo: np.ndarray, result, source: str, *, name: str = "bark
     """
     source = utf8_text(source)
     report = {"barkgen": __version__, "photo": source, **result.report}
-    jobs = {"texture.png": partial(encode_png, result.texture, bits=bits),
-            "labels_in.png": partial(encode_png, result.labels_in),
-            "labels_out.png": partial(encode_png, result.labels_out),
-            "reference.png": partial(encode_reference, result.references, photo.shape[:2]),
-            "preview.png": lambda: encode_png(preview_sheet(photo, result))}
+    jobs = {
+        "texture.png": partial(encode_png, result.texture, bits=bits),
+        "labels_in.png": partial(encode_png, result.labels_in),
+        "labels_out.png": partial(encode_png, result.labels_out),
+        "reference.png": partial(encode_reference, result.references, photo.shape[:2]),
+        "preview.png": lambda: encode_png(preview_sheet(photo, result)),
+    }
     jobs.update({f"{extra}.png": partial(encode_png, arr) for extra, arr in result.extras.items()})
     files = encode_concurrently(jobs)
     if result.material is not None:
-        material_files = encode_material(result.material, name, seed=result.report["seed"],
-                                         source_photo=source)
+        material_files = encode_material(result.material, name, seed=result.report["seed"], source_photo=source)
         clash = sorted(set(material_files) & (set(files) | {"report.json"}))
         if clash:
             raise InvalidInputError(f"--name {name!r} makes {clash[0]}, which is taken; pick another")

@@ -91,53 +91,86 @@ class GenerateOptions:
     """
 
     size: tuple[int, int] = option(
-        (1024, 1024), "Output size WIDTHxHEIGHT.", parse=parse_size, text=_size_text,
-        analysis=True)
-    k: int = option(3, "Number of labels of the photo's label map (1-16).", kind=int,
-                    minimum=1, maximum=16, analysis=True)
+        (1024, 1024), "Output size WIDTHxHEIGHT.", parse=parse_size, text=_size_text, analysis=True
+    )
+    k: int = option(
+        3, "Number of labels of the photo's label map (1-16).", kind=int, minimum=1, maximum=16, analysis=True
+    )
     method: str = option(
-        "color", "Input label map: color (laitoch2018 §3.5) or texton (wang2003 §3.2).",
-        choices=LABEL_METHODS, analysis=True, fronts=_NOT_WEB)
+        "color",
+        "Input label map: color (laitoch2018 §3.5) or texton (wang2003 §3.2).",
+        choices=LABEL_METHODS,
+        analysis=True,
+        fronts=_NOT_WEB,
+    )
     strategy: str = option(
-        "joint", "Output label maps: joint (the core engine on one-hot label channels and the "
+        "joint",
+        "Output label maps: joint (the core engine on one-hot label channels and the "
         "photo's colours), engine (label channels alone) or layered (Rosenberger et al.'s layered "
-        "shape synthesis, laitoch2018 §3.6).", choices=("joint", "engine", "layered"), analysis=True)
+        "shape synthesis, laitoch2018 §3.6).",
+        choices=("joint", "engine", "layered"),
+        analysis=True,
+    )
     rotations: str = option(
-        "vertical", "Layered strategy: boundary patches may turn none, vertical (180°) or all "
-        "(90° steps).", choices=("none", "vertical", "all"))
+        "vertical",
+        "Layered strategy: boundary patches may turn none, vertical (180°) or all (90° steps).",
+        choices=("none", "vertical", "all"),
+    )
     tile: bool = option(False, "Make the output tile seamlessly.", kind=bool)
-    seed: int = option(0, "Random seed (same seed, same bytes).", kind=int, minimum=0,
-                       fronts=("cli", "web"))  # a batch spec's seeds are its entries' own
-    label_weight: float = option(20.0, "Texture-by-numbers' label weight (laitoch2018 eq. 3.1).",
-                                 kind=float, minimum=0)
+    seed: int = option(
+        0, "Random seed (same seed, same bytes).", kind=int, minimum=0, fronts=("cli", "web")
+    )  # a batch spec's seeds are its entries' own
+    label_weight: float = option(20.0, "Texture-by-numbers' label weight (laitoch2018 eq. 3.1).", kind=float, minimum=0)
     feature_weight: float = option(
-        8.0, "Texture-by-numbers' feature-distance weight (laitoch2018 eq. 3.3).", kind=float,
-        minimum=0, analysis=True)
-    threads: int | None = option(None, "Worker threads (default: all cores).", kind=int,
-                                 minimum=1, fronts=("cli",))
+        8.0, "Texture-by-numbers' feature-distance weight (laitoch2018 eq. 3.3).", kind=float, minimum=0, analysis=True
+    )
+    threads: int | None = option(None, "Worker threads (default: all cores).", kind=int, minimum=1, fronts=("cli",))
     max_memory: int | None = option(
-        None, "Refuse jobs estimated to need more memory than this, e.g. 8G (default: what the "
-        "machine has free).", parse=parse_memory, fronts=("cli",))
+        None,
+        "Refuse jobs estimated to need more memory than this, e.g. 8G (default: what the machine has free).",
+        parse=parse_memory,
+        fronts=("cli",),
+    )
     material: bool = option(
-        False, "Also make the material set of the new bark (NAME_Color, NormalGL/DX, Displacement "
-        "16-bit, Roughness, AmbientOcclusion, NAME.json).", kind=bool, analysis=True)
+        False,
+        "Also make the material set of the new bark (NAME_Color, NormalGL/DX, Displacement "
+        "16-bit, Roughness, AmbientOcclusion, NAME.json).",
+        kind=bool,
+        analysis=True,
+    )
     light: Light | None = option(
-        None, "The photo's light AZ,EL in degrees (azimuth counter-clockwise from the right, "
+        None,
+        "The photo's light AZ,EL in degrees (azimuth counter-clockwise from the right, "
         "elevation above the surface) for shading removal; needs material. Default: estimated.",
-        parse=_parse_light, text=_light_text, analysis=True)
+        parse=_parse_light,
+        text=_light_text,
+        analysis=True,
+    )
     relief: float = option(
-        1.0, "Relief strength of the estimated height (1 = as fitted on scanned bark; 2 doubles "
-        "its depth and its slopes; normals and AO follow); needs material.", kind=float,
-        minimum=0, maximum=100, analysis=True)
+        1.0,
+        "Relief strength of the estimated height (1 = as fitted on scanned bark; 2 doubles "
+        "its depth and its slopes; normals and AO follow); needs material.",
+        kind=float,
+        minimum=0,
+        maximum=100,
+        analysis=True,
+    )
     exemplar_wrap: str = option(
-        "auto", "auto: the photo is used as a torus along each axis along which it tiles itself "
+        "auto",
+        "auto: the photo is used as a torus along each axis along which it tiles itself "
         "(its last row continues into its first), so pieces run on across its edge; yes / no: "
-        "force it.", flag="--exemplar-wraps", choices=("auto", "yes", "no"), analysis=True,
-        fronts=_NOT_WEB)
+        "force it.",
+        flag="--exemplar-wraps",
+        choices=("auto", "yes", "no"),
+        analysis=True,
+        fronts=_NOT_WEB,
+    )
     blend: str = option(
-        "gradient", "gradient: the colour's seams between copied pieces blended in the gradient "
+        "gradient",
+        "gradient: the colour's seams between copied pieces blended in the gradient "
         "domain (Pérez et al. 2003); none: every pixel an exact copy of the photo's.",
-        choices=("gradient", "none"))
+        choices=("gradient", "none"),
+    )
 
     def __post_init__(self) -> None:
         from barkgen._shared.checks import check_k, check_seed
@@ -171,5 +204,4 @@ class GenerateOptions:
 def analysis_key(options: GenerateOptions) -> tuple:
     """The options a :class:`PhotoAnalysis` depends on (the fields declared ``analysis=True``),
     as a hashable tuple: two runs whose keys agree may share one analysis."""
-    return tuple((f.name, getattr(options, f.name))
-                 for f in option_fields(type(options)) if f.info.analysis)
+    return tuple((f.name, getattr(options, f.name)) for f in option_fields(type(options)) if f.info.analysis)

@@ -18,10 +18,18 @@ ANALYSIS_SHARES = {"labels": 0.37, "label_map": 0.38, "texture": 0.24, "material
 
 
 #: what the progress bar says while each stage (and each step of the analysis) runs
-_STAGE_TITLES = {"analysis": "analysing the photo", "label_map": "growing the label map",
-                 "texture": "texture-by-numbers", "material": "making the material set"}
-_ANALYSIS_TITLES = {"labels": "its label map", "label_map": "its label shapes",
-                    "texture": "its texture", "material": "its relief"}
+_STAGE_TITLES = {
+    "analysis": "analysing the photo",
+    "label_map": "growing the label map",
+    "texture": "texture-by-numbers",
+    "material": "making the material set",
+}
+_ANALYSIS_TITLES = {
+    "labels": "its label map",
+    "label_map": "its label shapes",
+    "texture": "its texture",
+    "material": "its relief",
+}
 
 
 #: how far below a stage's end a reported fraction may fall by rounding to 1000ths
@@ -72,8 +80,7 @@ def stage_at(fraction: float, material: bool) -> str:
     return f"{_STAGE_TITLES['analysis']}: {_ANALYSIS_TITLES[step]}"
 
 
-def stage_progress(progress: ProgressCallback | None, stage: str,
-                    material: bool) -> ProgressCallback | None:
+def stage_progress(progress: ProgressCallback | None, stage: str, material: bool) -> ProgressCallback | None:
     """``progress`` seen from within ``stage``: its ``(done, total)`` mapped into the stage's span
     of the run, in 1000ths (None stays None)."""
     if progress is None:

@@ -32,8 +32,7 @@ def check_stages(stages: str | Iterable[str] | None) -> list[str]:
     wanted = list(STAGES) if stages is None else [s.strip() for s in stages if s.strip()]
     unknown = sorted(set(wanted) - set(STAGES))
     if unknown or not wanted:
-        raise InvalidInputError(f"unknown stage {unknown[0] if unknown else ''!r}; "
-                                f"choose from {', '.join(STAGES)}")
+        raise InvalidInputError(f"unknown stage {unknown[0] if unknown else ''!r}; choose from {', '.join(STAGES)}")
     return wanted
 
 
@@ -57,12 +56,11 @@ def _synth(crop) -> None:
 def _generate(crop, folder: Path) -> None:
     from barkgen.io import write_folder_atomic
     from barkgen.pipeline.core import generate
-    from barkgen.pipeline.options import GenerateOptions
     from barkgen.pipeline.files import encode_generate
+    from barkgen.pipeline.options import GenerateOptions
 
     for wrap in ("no", "yes"):
-        options = GenerateOptions(size=(96, 96), tile=True, seed=0, material=True,
-                                  exemplar_wrap=wrap)
+        options = GenerateOptions(size=(96, 96), tile=True, seed=0, material=True, exemplar_wrap=wrap)
         result = generate(crop, options)
     write_folder_atomic(folder, encode_generate(crop, result, "warm-up", name="bark"))
 
@@ -75,8 +73,9 @@ def _preview(folder: Path) -> None:
     render_trunk(material, (96, 96), TrunkView())
 
 
-def warm_up(stages: str | Iterable[str] | None = None, *,
-            on_stage: Callable[[str, float], None] | None = None) -> dict[str, float]:
+def warm_up(
+    stages: str | Iterable[str] | None = None, *, on_stage: Callable[[str, float], None] | None = None
+) -> dict[str, float]:
     """Compile barkgen's numba kernels into their on-disk cache, so that the first real run is
     as fast as later ones (about 30 s once per install; seconds when the cache is warm).
 

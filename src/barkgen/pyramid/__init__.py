@@ -20,8 +20,12 @@ def level_shape(shape: tuple[int, int], level: int) -> tuple[int, int]:
     return (-(-h // f), -(-w // f))
 
 
-def count_levels(exemplar_shape: tuple[int, int], output_shape: tuple[int, int],
-                 coarsest_exemplar: int = 32, coarsest_output: int = 16) -> int:
+def count_levels(
+    exemplar_shape: tuple[int, int],
+    output_shape: tuple[int, int],
+    coarsest_exemplar: int = 32,
+    coarsest_output: int = 16,
+) -> int:
     """Number of levels so that the coarsest exemplar keeps >= ``coarsest_exemplar`` px on its
     short side and the coarsest output >= ``coarsest_output`` px."""
     ex = min(exemplar_shape)
@@ -44,14 +48,15 @@ def _pyr_down(image: np.ndarray, wrap: tuple[bool, bool] = (False, False)) -> np
     if py or px:
         image = np.pad(image, ((py, py), (px, px), (0, 0)), mode="wrap")
     dst = ((w + 2 * px + 1) // 2, (h + 2 * py + 1) // 2)
-    chans = [cv2.pyrDown(np.ascontiguousarray(image[:, :, c]), dstsize=dst,
-                         borderType=cv2.BORDER_REFLECT_101) for c in range(image.shape[2])]
+    chans = [
+        cv2.pyrDown(np.ascontiguousarray(image[:, :, c]), dstsize=dst, borderType=cv2.BORDER_REFLECT_101)
+        for c in range(image.shape[2])
+    ]
     out = np.stack(chans, axis=-1)
-    return np.ascontiguousarray(out[py // 2:py // 2 + (h + 1) // 2, px // 2:px // 2 + (w + 1) // 2])
+    return np.ascontiguousarray(out[py // 2 : py // 2 + (h + 1) // 2, px // 2 : px // 2 + (w + 1) // 2])
 
 
-def gaussian_pyramid(image: np.ndarray, n_levels: int,
-                     wrap: tuple[bool, bool] = (False, False)) -> list[np.ndarray]:
+def gaussian_pyramid(image: np.ndarray, n_levels: int, wrap: tuple[bool, bool] = (False, False)) -> list[np.ndarray]:
     """Gaussian pyramid of an ``(H, W, C)`` float32 image, finest level first.
 
     Each level is blurred with the 5-tap binomial kernel and subsampled by two; level sizes follow

@@ -12,9 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from barkgen.color import linear_to_srgb, srgb_to_linear
 from barkgen.errors import InvalidInputError
 from barkgen.material.materialset import MaterialSet
-from barkgen.color import linear_to_srgb, srgb_to_linear
 from barkgen.material.shading import Light
 from barkgen.render._kernels import render_rows
 
@@ -59,8 +59,9 @@ def _stack_maps(material: MaterialSet) -> np.ndarray:
     return maps
 
 
-def render_trunk(material: MaterialSet, size: tuple[int, int] = (1024, 1024),
-                 view: TrunkView | None = None) -> np.ndarray:
+def render_trunk(
+    material: MaterialSet, size: tuple[int, int] = (1024, 1024), view: TrunkView | None = None
+) -> np.ndarray:
     """Render ``material`` on a vertical trunk seen from the side; ``size`` ``(height, width)``;
     returns uint8 sRGB ``(height, width, 3)``."""
     view = view or TrunkView()
@@ -71,8 +72,18 @@ def render_trunk(material: MaterialSet, size: tuple[int, int] = (1024, 1024),
     tex_w = material.shape[1]
     texel = 2 * np.pi * radius / view.repeat / tex_w  # screen px per texel
     amplitude = material.depth * texel * view.displacement
-    linear = render_rows(_stack_maps(material), out_h, out_w, radius, texel, amplitude, material.midlevel,
-                         view.light.vector.astype(np.float64), AMBIENT, BACKGROUND)
+    linear = render_rows(
+        _stack_maps(material),
+        out_h,
+        out_w,
+        radius,
+        texel,
+        amplitude,
+        material.midlevel,
+        view.light.vector.astype(np.float64),
+        AMBIENT,
+        BACKGROUND,
+    )
     return np.floor(linear_to_srgb(linear) * 255 + 0.5).astype(np.uint8)
 
 
@@ -87,8 +98,9 @@ class TrunkMesh:
     uv: np.ndarray
 
 
-def trunk_mesh(material: MaterialSet, *, segments: int = 256, radius_m: float = 0.15,
-               view: TrunkView | None = None) -> TrunkMesh:
+def trunk_mesh(
+    material: MaterialSet, *, segments: int = 256, radius_m: float = 0.15, view: TrunkView | None = None
+) -> TrunkMesh:
     """The trunk as a mesh whose vertices carry the relief (displacement baked into the
     geometry; the normal map adds the detail between vertices). ``segments`` around; rings
     along keep square cells; the trunk is as tall as its circumference. Of ``view`` only
@@ -104,8 +116,8 @@ def trunk_mesh(material: MaterialSet, *, segments: int = 256, radius_m: float = 
     amplitude = material.depth * metres_per_texel * view.displacement
     j = np.arange(segments + 1)
     i = np.arange(rings + 1)
-    u = j / segments * view.repeat                        # texture repeats round the trunk
-    v = i / rings * view.repeat * tex_w / tex_h          # and keeps its aspect along it
+    u = j / segments * view.repeat  # texture repeats round the trunk
+    v = i / rings * view.repeat * tex_w / tex_h  # and keeps its aspect along it
     ty = np.floor((v * tex_h) % tex_h).astype(int)
     tx = np.floor((u * tex_w) % tex_w).astype(int)
     tx[-1] = tx[0]  # the seam's two copies of a vertex take the same relief: no crack
@@ -121,8 +133,7 @@ def trunk_mesh(material: MaterialSet, *, segments: int = 256, radius_m: float = 
     a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()
     c, d = idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
     faces = np.concatenate([np.stack([a, c, b], 1), np.stack([b, c, d], 1)])
-    return TrunkMesh(vertices=vertices.astype(np.float32), faces=faces.astype(np.int64),
-                     uv=uv.astype(np.float32))
+    return TrunkMesh(vertices=vertices.astype(np.float32), faces=faces.astype(np.int64), uv=uv.astype(np.float32))
 
 
 __all__ = ["DEFAULT_LIGHT", "TrunkMesh", "TrunkView", "render_trunk", "trunk_mesh"]

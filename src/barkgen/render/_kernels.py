@@ -24,9 +24,18 @@ def _bilinear(img: np.ndarray, u: float, v: float, c: int) -> float:
 
 
 @njit(parallel=True, cache=True)
-def render_rows(maps: np.ndarray, out_h: int, out_w: int, radius: float, texel: float,
-                amplitude: float, midlevel: float, light: np.ndarray, ambient: float,
-                background: np.ndarray) -> np.ndarray:
+def render_rows(
+    maps: np.ndarray,
+    out_h: int,
+    out_w: int,
+    radius: float,
+    texel: float,
+    amplitude: float,
+    midlevel: float,
+    light: np.ndarray,
+    ambient: float,
+    background: np.ndarray,
+) -> np.ndarray:
     """Orthographic view of a vertical cylinder carrying the material ``maps`` (h, w, 9):
     linear albedo RGB, displacement 0..1, normal (OpenGL) xyz, AO, roughness.
 
@@ -85,9 +94,9 @@ def render_rows(maps: np.ndarray, out_h: int, out_w: int, radius: float, texel: 
             lam = max(nx * light[0] + ny * light[1] + nz * light[2], 0.0)
             ao = _bilinear(maps, u, v, 7)
             rough = min(max(_bilinear(maps, u, v, 8), 0.05), 1.0)
-            shininess = 2.0 / (rough ** 4) - 2.0
+            shininess = 2.0 / (rough**4) - 2.0
             spec_dot = max(nx * hx + ny * hy + nz * hz, 0.0)
-            spec = 0.04 * (shininess + 8.0) / (8.0 * np.pi) * spec_dot ** shininess * lam
+            spec = 0.04 * (shininess + 8.0) / (8.0 * np.pi) * spec_dot**shininess * lam
             for c in range(3):
                 albedo = _bilinear(maps, u, v, c)
                 out[y, x, c] = albedo * (ambient * ao + (1.0 - ambient) * lam * 1.6) + spec

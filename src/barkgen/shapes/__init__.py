@@ -36,6 +36,7 @@ from barkgen.shapes.patches import (
 __all__ = [
     "LabelMapResult",
     "ROTATIONS",
+    "check_rotations",
     "STRATEGIES",
     "ShapeConfig",
     "analyse_label_map",

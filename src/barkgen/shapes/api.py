@@ -27,8 +27,9 @@ STRATEGIES = ("engine", "joint", "layered")
 LAYERED_BYTES_PER_PIXEL = 48
 
 
-def estimate_label_map_memory(exemplar_shape: tuple[int, int], out_shape: tuple[int, int],
-                              strategy: str, n_labels: int) -> int:
+def estimate_label_map_memory(
+    exemplar_shape: tuple[int, int], out_shape: tuple[int, int], strategy: str, n_labels: int
+) -> int:
     """Estimated peak memory (bytes) of :func:`synthesize_label_map`, from the sizes alone."""
     if strategy in ("engine", "joint"):
         from barkgen.shapes.engine import estimate_engine_memory
@@ -70,8 +71,9 @@ class LabelMapResult:
     timings: dict = field(default_factory=dict)
 
 
-def label_map_levels(exemplar_shape: tuple[int, int], size, strategy: str = "engine",
-                     config: ShapeConfig | None = None) -> list[tuple[int, int]]:
+def label_map_levels(
+    exemplar_shape: tuple[int, int], size, strategy: str = "engine", config: ShapeConfig | None = None
+) -> list[tuple[int, int]]:
     """The ``(height, width)`` of every pyramid level of an output label map, finest first.
 
     Parameters
@@ -117,13 +119,15 @@ def _resume_codes(resume, palette: np.ndarray, shapes: list[tuple[int, int]]) ->
         sizes = ", ".join(f"level {i}: {w}x{h}" for i, (h, w) in enumerate(shapes))
         raise InvalidInputError(
             f"the edited level is {codes.shape[1]}x{codes.shape[0]} px, which is not "
-            f"{'a level' if level < 0 else f'level {int(level)}'} of this output ({sizes})")
+            f"{'a level' if level < 0 else f'level {int(level)}'} of this output ({sizes})"
+        )
     unknown = np.setdiff1d(values, palette)
     if unknown.size:
         shown = ", ".join(str(int(v)) for v in unknown[:8])
         raise InvalidInputError(
             f"the edited level uses grey value(s) {shown} that are not labels of the exemplar "
-            f"label map ({', '.join(str(int(v)) for v in palette)})")
+            f"label map ({', '.join(str(int(v)) for v in palette)})"
+        )
     return int(level), np.searchsorted(palette, values)[codes].astype(np.int32)
 
 
@@ -218,8 +222,11 @@ def synthesize_label_map(
     out_shape = parse_output_shape(size)
     codes, palette = to_codes(label_map)
     photo = _check_photo(photo, codes.shape, strategy)
-    check_memory_budget(estimate_label_map_memory(codes.shape, out_shape, strategy, palette.size),
-                        max_memory, f"label map {out_shape[1]}x{out_shape[0]}")
+    check_memory_budget(
+        estimate_label_map_memory(codes.shape, out_shape, strategy, palette.size),
+        max_memory,
+        f"label map {out_shape[1]}x{out_shape[0]}",
+    )
     config = config or ShapeConfig()
     shapes = label_map_levels(codes.shape, out_shape, strategy, config)
     start = _resume_codes(resume, palette, shapes) if resume is not None else None
@@ -235,26 +242,62 @@ def synthesize_label_map(
     if strategy in ("engine", "joint"):
         from barkgen.shapes.engine import synthesize_codes
 
-        out, references = synthesize_codes(codes, palette.size, out_shape, tile=tile,
-                                           seed=int(seed), start=start, on_level=on_level,
-                                           progress=progress, cache=cache, photo=photo,
-                                           exemplar_wrap=_wrap(exemplar_wrap, codes, photo))
+        out, references = synthesize_codes(
+            codes,
+            palette.size,
+            out_shape,
+            tile=tile,
+            seed=int(seed),
+            start=start,
+            on_level=on_level,
+            progress=progress,
+            cache=cache,
+            photo=photo,
+            exemplar_wrap=_wrap(exemplar_wrap, codes, photo),
+        )
     else:
-        out, order_values = _layered_codes(codes, palette, out_shape, shapes, layer_order,
-                                           turns=turns, tile=tile, config=config, seed=int(seed),
-                                           start=start, on_level=on_level, progress=progress)
+        out, order_values = _layered_codes(
+            codes,
+            palette,
+            out_shape,
+            shapes,
+            layer_order,
+            turns=turns,
+            tile=tile,
+            config=config,
+            seed=int(seed),
+            start=start,
+            on_level=on_level,
+            progress=progress,
+        )
     label_out = palette[out]
     levels[0] = label_out
-    return LabelMapResult(label_map=label_out, levels=levels, strategy=strategy,
-                          layer_order=order_values, references=references,
-                          resumed_level=None if start is None else start[0],
-                          timings={"label_map": time.perf_counter() - t0})
+    return LabelMapResult(
+        label_map=label_out,
+        levels=levels,
+        strategy=strategy,
+        layer_order=order_values,
+        references=references,
+        resumed_level=None if start is None else start[0],
+        timings={"label_map": time.perf_counter() - t0},
+    )
 
 
-def _layered_codes(codes: np.ndarray, palette: np.ndarray, out_shape: tuple[int, int],
-                   shapes: list[tuple[int, int]], layer_order: list[int] | None, *, turns, tile: bool,
-                   config: ShapeConfig, seed: int, start, on_level,
-                   progress: ProgressCallback | None) -> tuple[np.ndarray, list[int]]:
+def _layered_codes(
+    codes: np.ndarray,
+    palette: np.ndarray,
+    out_shape: tuple[int, int],
+    shapes: list[tuple[int, int]],
+    layer_order: list[int] | None,
+    *,
+    turns,
+    tile: bool,
+    config: ShapeConfig,
+    seed: int,
+    start,
+    on_level,
+    progress: ProgressCallback | None,
+) -> tuple[np.ndarray, list[int]]:
     """The layered strategy (rosenberger2009, laitoch2018 §3.6): the output codes and the layer
     order used, as grey values bottom layer first."""
     from barkgen.shapes.layered import synthesize_layers
@@ -273,8 +316,18 @@ def _layered_codes(codes: np.ndarray, palette: np.ndarray, out_shape: tuple[int,
             progress(done[0], n_ticks)
 
     rng = np.random.default_rng(seed)
-    out = synthesize_layers(ex_levels, out_shape, order, quarter_turns=turns, tile=tile,
-                            config=config, rng=rng, start=start, on_level=on_level, tick=tick)
+    out = synthesize_layers(
+        ex_levels,
+        out_shape,
+        order,
+        quarter_turns=turns,
+        tile=tile,
+        config=config,
+        rng=rng,
+        start=start,
+        on_level=on_level,
+        tick=tick,
+    )
     return out, [int(palette[i]) for i in order]
 
 
@@ -283,12 +336,15 @@ def _check_photo(photo: np.ndarray | None, shape: tuple[int, int], strategy: str
     if strategy != "joint":
         return None
     if photo is None:
-        raise InvalidInputError("the joint strategy matches the photo's colours too: give the photo "
-                                "the label map belongs to")
+        raise InvalidInputError(
+            "the joint strategy matches the photo's colours too: give the photo the label map belongs to"
+        )
     photo = np.asarray(photo)
     if photo.ndim not in (2, 3) or photo.shape[:2] != tuple(shape):
-        raise InvalidInputError(f"the photo ({'x'.join(str(v) for v in photo.shape[1::-1])} px) and "
-                                f"the label map ({shape[1]}x{shape[0]} px) must have the same size")
+        raise InvalidInputError(
+            f"the photo ({'x'.join(str(v) for v in photo.shape[1::-1])} px) and "
+            f"the label map ({shape[1]}x{shape[0]} px) must have the same size"
+        )
     return photo
 
 
@@ -299,9 +355,14 @@ def _wrap(mode, codes: np.ndarray, photo: np.ndarray | None) -> tuple[bool, bool
     return resolve_exemplar_wrap(mode, codes if photo is None else photo)
 
 
-def analyse_label_map(label_map: np.ndarray, size, cache: AnalysisCache, *,
-                      photo: np.ndarray | None = None,
-                      exemplar_wrap: str | bool | tuple[bool, bool] = "auto") -> AnalysisCache:
+def analyse_label_map(
+    label_map: np.ndarray,
+    size,
+    cache: AnalysisCache,
+    *,
+    photo: np.ndarray | None = None,
+    exemplar_wrap: str | bool | tuple[bool, bool] = "auto",
+) -> AnalysisCache:
     """Run the engine strategy's exemplar analysis for outputs of ``size`` into ``cache``.
 
     With ``photo``, the joint strategy's. Every :func:`synthesize_label_map` of this label map
@@ -333,5 +394,11 @@ def analyse_label_map(label_map: np.ndarray, size, cache: AnalysisCache, *,
 
     codes, palette = to_codes(label_map)
     photo = None if photo is None else _check_photo(photo, codes.shape, "joint")
-    return analyse_codes(codes, palette.size, parse_output_shape(size), cache, photo=photo,
-                         exemplar_wrap=_wrap(exemplar_wrap, codes, photo))
+    return analyse_codes(
+        codes,
+        palette.size,
+        parse_output_shape(size),
+        cache,
+        photo=photo,
+        exemplar_wrap=_wrap(exemplar_wrap, codes, photo),
+    )

@@ -104,8 +104,9 @@ class ExemplarBoundary:
     """The boundary patches of one binary exemplar shape (one pyramid level of one layer), with
     the allowed rotations, packed for faiss and as +1/-1 patches for the weights of eq. 3.10."""
 
-    def __init__(self, shape: np.ndarray, quarter_turns: tuple[int, ...], config: ShapeConfig,
-                 rng: np.random.Generator) -> None:
+    def __init__(
+        self, shape: np.ndarray, quarter_turns: tuple[int, ...], config: ShapeConfig, rng: np.random.Generator
+    ) -> None:
         ys, xs = subsample(*boundary_pixels(shape, tile=False), config.max_exemplar_patches, rng)
         self.count = len(ys)
         self.fraction = float(np.mean(shape))
@@ -113,12 +114,13 @@ class ExemplarBoundary:
             self.index = None
             return
         patches, _ = rotated(extract_patches(shape, ys, xs, config.patch), quarter_turns)
-        self.signed = (patches.astype(np.float32) * 2 - 1)
+        self.signed = patches.astype(np.float32) * 2 - 1
         self.index = binary_index(pack(patches))
 
 
-def match_boundary(codes: np.ndarray, exemplar: ExemplarBoundary, candidates: int,
-                   rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+def match_boundary(
+    codes: np.ndarray, exemplar: ExemplarBoundary, candidates: int, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray]:
     """Greedy boundary-patch matching (laitoch2018 §3.6.2) of the packed synthesized patches
     ``codes``: returns, per synthesized patch, the exemplar row (patch and rotation) and its
     distance ``D`` (differing pixels).
@@ -179,9 +181,17 @@ def dynamic_threshold(weights: np.ndarray, need: int, limit: float) -> float:
     return float(np.clip(exact, -limit, limit))
 
 
-def adjust_shape(shape: np.ndarray, exemplar: ExemplarBoundary, *, mask: np.ndarray | None,
-                 iterations: int, config: ShapeConfig, tile: bool, rng: np.random.Generator,
-                 fraction: float | None = None) -> np.ndarray:
+def adjust_shape(
+    shape: np.ndarray,
+    exemplar: ExemplarBoundary,
+    *,
+    mask: np.ndarray | None,
+    iterations: int,
+    config: ShapeConfig,
+    tile: bool,
+    rng: np.random.Generator,
+    fraction: float | None = None,
+) -> np.ndarray:
     """Optimise the binary ``shape`` towards the exemplar's boundary patches (§3.6.2–3.6.3).
 
     Each iteration superimposes the matched exemplar patches on the boundary (eq. 3.10) into a
@@ -205,11 +215,11 @@ def adjust_shape(shape: np.ndarray, exemplar: ExemplarBoundary, *, mask: np.ndar
         ys, xs = boundary_pixels(s, tile)
         if len(ys) == 0:
             break
-        rows, dist = match_boundary(pack(extract_patches(s, ys, xs, config.patch, tile)),
-                                    exemplar, config.candidates, rng)
+        rows, dist = match_boundary(
+            pack(extract_patches(s, ys, xs, config.patch, tile)), exemplar, config.candidates, rng
+        )
         w = np.zeros(s.shape, np.float32)
-        K.accumulate_weights(ys, xs, exemplar.signed[rows], 1.0 / (1.0 + dist), falloff,
-                             bool(tile), w)
+        K.accumulate_weights(ys, xs, exemplar.signed[rows], 1.0 / (1.0 + dist), falloff, bool(tile), w)
         # only pixels next to the boundary may change: the boundary moves, no holes or specks
         # open up away from it
         near = (w != 0) & _band(ys, xs, s.shape, tile)

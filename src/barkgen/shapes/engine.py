@@ -69,8 +69,7 @@ from barkgen.synth import (
 #: the solver for label maps: the pyramid stops where label regions still exist (as for
 #: texture-by-numbers); one-hot channels need few appearance dimensions; no expansion moves
 #: (one-hot borders have one cost wherever they run)
-LABEL_ENGINE_CONFIG = SynthesisConfig(coarsest_exemplar=32, pca_components=6,
-                                      seam_expansion_band=0)
+LABEL_ENGINE_CONFIG = SynthesisConfig(coarsest_exemplar=32, pca_components=6, seam_expansion_band=0)
 #: weight of the label-area term (:class:`barkgen.synth.LabelBalance`)
 BALANCE_WEIGHT = 64.0
 #: side of the squares of the coarsest level's random patchwork start
@@ -109,8 +108,13 @@ START_AREA_WEIGHT = 2.0
 START_SEAM_WEIGHT = 4.0
 
 
-def engine_levels(exemplar_shape: tuple[int, int], out_shape: tuple[int, int],
-                  config: SynthesisConfig | None = None, *, joint: bool = False) -> int:
+def engine_levels(
+    exemplar_shape: tuple[int, int],
+    out_shape: tuple[int, int],
+    config: SynthesisConfig | None = None,
+    *,
+    joint: bool = False,
+) -> int:
     """Pyramid levels of the engine (or, ``joint``, the joint) strategy."""
     config = config or (JOINT_CONFIG if joint else LABEL_ENGINE_CONFIG)
     return count_levels(exemplar_shape, out_shape, config.coarsest_exemplar)
@@ -129,8 +133,9 @@ def label_shares(codes: np.ndarray, n_labels: int, n_levels: int) -> list[np.nda
     return [np.ascontiguousarray(lvl.reshape(-1, n_labels)) for lvl in gaussian_pyramid(onehot, n_levels)]
 
 
-def block_initialization(exemplar_shape: tuple[int, int], out_shape: tuple[int, int], block: int,
-                         rng: np.random.Generator) -> np.ndarray:
+def block_initialization(
+    exemplar_shape: tuple[int, int], out_shape: tuple[int, int], block: int, rng: np.random.Generator
+) -> np.ndarray:
     """References of a random patchwork: the output is cut into ``block`` x ``block`` squares,
     each copying an exemplar square at a random place (flat indices into the exemplar). Unlike
     independent random pixels, small isolated label regions (lenticels, knots) survive it."""
@@ -139,21 +144,27 @@ def block_initialization(exemplar_shape: tuple[int, int], out_shape: tuple[int, 
     ny, nx = -(-out_shape[0] // bh), -(-out_shape[1] // bw)
     y0 = rng.integers(0, h - bh + 1, size=(ny, nx))
     x0 = rng.integers(0, w - bw + 1, size=(ny, nx))
-    yy, xx = np.mgrid[0:out_shape[0], 0:out_shape[1]]
+    yy, xx = np.mgrid[0 : out_shape[0], 0 : out_shape[1]]
     by, bx = yy // bh, xx // bw
     return ((y0[by, bx] + yy % bh) * w + x0[by, bx] + xx % bw).astype(np.int32)
 
 
-def synthesize_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int], *,
-                     tile: bool, seed: int, start: tuple[int, np.ndarray] | None = None,
-                     on_level: Callable[[int, np.ndarray], None] | None = None,
-                     progress: ProgressCallback | None = None,
-                     config: SynthesisConfig | None = None,
-                     balance_weight: float | None = None,
-                     cache: AnalysisCache | None = None,
-                     photo: np.ndarray | None = None,
-                     exemplar_wrap: tuple[bool, bool] = (False, False)
-                     ) -> tuple[np.ndarray, np.ndarray]:
+def synthesize_codes(
+    codes: np.ndarray,
+    n_labels: int,
+    out_shape: tuple[int, int],
+    *,
+    tile: bool,
+    seed: int,
+    start: tuple[int, np.ndarray] | None = None,
+    on_level: Callable[[int, np.ndarray], None] | None = None,
+    progress: ProgressCallback | None = None,
+    config: SynthesisConfig | None = None,
+    balance_weight: float | None = None,
+    cache: AnalysisCache | None = None,
+    photo: np.ndarray | None = None,
+    exemplar_wrap: tuple[bool, bool] = (False, False),
+) -> tuple[np.ndarray, np.ndarray]:
     """Synthesize label codes ``(H, W)`` from the exemplar's ``codes`` with the core solver;
     returns them and their reference map ``(H, W, 2)`` (exemplar ``(y, x)`` per pixel).
 
@@ -181,9 +192,17 @@ def synthesize_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int
         level, edited = start
         ex_levels = label_pyramid(codes, n_labels, n_levels)
         resume = (level, smart_initialization(ex_levels[level], edited.astype(np.int32), rng, tile=tile))
-        guidance = edit_guidance(codes, features, upsample_codes(edited, out_shape, n_labels, tile=tile),
-                                 n_labels, n_levels, tile=tile, softness=EDIT_SOFTNESS * 2.0**level,
-                                 exemplar_levels=ex_levels, exemplar_wrap=exemplar_wrap)
+        guidance = edit_guidance(
+            codes,
+            features,
+            upsample_codes(edited, out_shape, n_labels, tile=tile),
+            n_labels,
+            n_levels,
+            tile=tile,
+            softness=EDIT_SOFTNESS * 2.0**level,
+            exemplar_levels=ex_levels,
+            exemplar_wrap=exemplar_wrap,
+        )
         balance = None
     else:
         shares = label_shares(codes, n_labels, n_levels)
@@ -193,44 +212,75 @@ def synthesize_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int
         balance = LabelBalance(shares=shares, fractions=fractions, weight=balance_weight)
         if joint:
             cache = cache if cache is not None else AnalysisCache()
-            resume, coarse_levels = _choose_coarse_start(ex, features, out_shape, n_levels, config,
-                                                         balance, tile=tile, rng=rng, cache=cache,
-                                                         exemplar_wrap=exemplar_wrap)
+            resume, coarse_levels = _choose_coarse_start(
+                ex,
+                features,
+                out_shape,
+                n_levels,
+                config,
+                balance,
+                tile=tile,
+                rng=rng,
+                cache=cache,
+                exemplar_wrap=exemplar_wrap,
+            )
             for lvl, image in coarse_levels if on_level is not None else ():
                 on_level(lvl, image)
         else:
             # labels alone need the patchwork start to keep small regions
             level = n_levels - 1
-            resume = (level, block_initialization(level_shape(codes.shape, level),
-                                                  level_shape(out_shape, level), INIT_BLOCK, rng))
+            resume = (
+                level,
+                block_initialization(level_shape(codes.shape, level), level_shape(out_shape, level), INIT_BLOCK, rng),
+            )
 
     def debug(name: str, image: np.ndarray) -> None:
         if on_level is not None and name.endswith("_result"):
             on_level(int(name[5:-7]), image.astype(np.int32))
 
     finest = finest_level(n_levels, joint=joint, resumed=start is not None)
-    result = solve(exemplar=ex, extras={}, features=features, out_shape=out_shape, n_levels=n_levels,
-                   config=config, seed=seed,
-                   tile=tile, guidance=guidance, progress=progress, debug=debug, start=resume,
-                   balance=balance, cache=cache, exemplar_wrap=exemplar_wrap,
-                   seam_channels=features.shape[2] - n_labels if joint else None,
-                   stop_level=finest)
+    result = solve(
+        exemplar=ex,
+        extras={},
+        features=features,
+        out_shape=out_shape,
+        n_levels=n_levels,
+        config=config,
+        seed=seed,
+        tile=tile,
+        guidance=guidance,
+        progress=progress,
+        debug=debug,
+        start=resume,
+        balance=balance,
+        cache=cache,
+        exemplar_wrap=exemplar_wrap,
+        seam_channels=features.shape[2] - n_labels if joint else None,
+        stop_level=finest,
+    )
     references = result.references
     for lvl in reversed(range(finest)):
-        references = upsample_references(references, level_shape(out_shape, lvl),
-                                         level_shape(codes.shape, lvl), exemplar_wrap)
+        references = upsample_references(
+            references, level_shape(out_shape, lvl), level_shape(codes.shape, lvl), exemplar_wrap
+        )
     if finest > 0 and joint:
-        references = _move_finest_seams(references, features[..., :features.shape[2] - n_labels],
-                                        tile, exemplar_wrap, config, rng)
+        references = _move_finest_seams(
+            references, features[..., : features.shape[2] - n_labels], tile, exemplar_wrap, config, rng
+        )
     out_codes = codes[references[..., 0], references[..., 1]].astype(np.int32)
     if finest > 0 and on_level is not None:
         on_level(0, out_codes)
     return out_codes, references
 
 
-def _move_finest_seams(references: np.ndarray, colour: np.ndarray, tile: bool,
-                       exemplar_wrap: tuple[bool, bool], config: SynthesisConfig,
-                       rng: np.random.Generator) -> np.ndarray:
+def _move_finest_seams(
+    references: np.ndarray,
+    colour: np.ndarray,
+    tile: bool,
+    exemplar_wrap: tuple[bool, bool],
+    config: SynthesisConfig,
+    rng: np.random.Generator,
+) -> np.ndarray:
     """The finest level's reference map, up-sampled from the level above, with its seams moved
     onto the photo's low-error paths: expansion moves on the photo's colour
     (:func:`barkgen.synth.expand_pieces`) take them off the up-sampling's 2x2 grid,
@@ -245,18 +295,25 @@ def _move_finest_seams(references: np.ndarray, colour: np.ndarray, tile: bool,
     if config.seam_expansion_band:
         flat = references[..., 0] * w + references[..., 1]
         unguided = (np.zeros(1, np.int32), np.zeros((1, 1), np.int32))
-        moved = expand_pieces(flat, exemplar_grid((h, w), exemplar_wrap), colour, tile,
-                              np.full(flat.shape, -1, np.int64), unguided,
-                              band=config.seam_expansion_band, rounds=config.seam_expansion_rounds)
+        moved = expand_pieces(
+            flat,
+            exemplar_grid((h, w), exemplar_wrap),
+            colour,
+            tile,
+            np.full(flat.shape, -1, np.int64),
+            unguided,
+            band=config.seam_expansion_band,
+            rounds=config.seam_expansion_rounds,
+        )
         references = np.stack(np.divmod(moved, w), axis=-1).astype(np.int32)
     if config.seam_cut_run:
-        references = cut_straight_seams(references, colour, tile=tile, wrap=exemplar_wrap,
-                                        min_run=config.seam_cut_run, rng=rng)
+        references = cut_straight_seams(
+            references, colour, tile=tile, wrap=exemplar_wrap, min_run=config.seam_cut_run, rng=rng
+        )
     return references
 
 
-def start_score(references: np.ndarray, exemplar_width: int, shares: np.ndarray,
-                fractions: np.ndarray) -> float:
+def start_score(references: np.ndarray, exemplar_width: int, shares: np.ndarray, fractions: np.ndarray) -> float:
     """How far a level's references ``(h, w)`` (flat indices into an exemplar level of
     ``exemplar_width`` columns) are from a good start, the sum of:
 
@@ -279,11 +336,19 @@ def start_score(references: np.ndarray, exemplar_width: int, shares: np.ndarray,
     return START_AREA_WEIGHT * area_error + (1.0 - coverage) + START_SEAM_WEIGHT * seams
 
 
-def _choose_coarse_start(ex: np.ndarray, features: np.ndarray, out_shape: tuple[int, int],
-                         n_levels: int, config: SynthesisConfig, balance: LabelBalance, *,
-                         tile: bool, rng: np.random.Generator, cache: AnalysisCache,
-                         exemplar_wrap: tuple[bool, bool] = (False, False)
-                         ) -> tuple[tuple[int, np.ndarray] | None, list]:
+def _choose_coarse_start(
+    ex: np.ndarray,
+    features: np.ndarray,
+    out_shape: tuple[int, int],
+    n_levels: int,
+    config: SynthesisConfig,
+    balance: LabelBalance,
+    *,
+    tile: bool,
+    rng: np.random.Generator,
+    cache: AnalysisCache,
+    exemplar_wrap: tuple[bool, bool] = (False, False),
+) -> tuple[tuple[int, np.ndarray] | None, list]:
     """The joint strategy's start: :data:`JOINT_CANDIDATES` runs of the coarsest levels down to
     :data:`JOINT_SELECT_DEPTH` below the coarsest, each from its own seed and with
     :data:`JOINT_CANDIDATE_BALANCE` of the area term; the one with the lowest
@@ -301,17 +366,27 @@ def _choose_coarse_start(ex: np.ndarray, features: np.ndarray, out_shape: tuple[
     for candidate_seed in rng.integers(0, 2**31, size=JOINT_CANDIDATES):
         results: list = []
 
-        def keep(name: str, image: np.ndarray) -> None:
+        def keep(name: str, image: np.ndarray, results: list = results) -> None:
             if name.endswith("_result"):
                 results.append((int(name[5:-7]), image.astype(np.int32)))
 
-        run = solve(exemplar=ex, extras={}, features=features, out_shape=out_shape, n_levels=n_levels,
-                    config=config,
-                    seed=int(candidate_seed), tile=tile, debug=keep, cache=cache, stop_level=level,
-                    balance=gentle, exemplar_wrap=exemplar_wrap)
+        run = solve(
+            exemplar=ex,
+            extras={},
+            features=features,
+            out_shape=out_shape,
+            n_levels=n_levels,
+            config=config,
+            seed=int(candidate_seed),
+            tile=tile,
+            debug=keep,
+            cache=cache,
+            stop_level=level,
+            balance=gentle,
+            exemplar_wrap=exemplar_wrap,
+        )
         references = run.references[..., 0] * run.exemplar_shape[1] + run.references[..., 1]
-        score = start_score(references, run.exemplar_shape[1], balance.shares[level],
-                            balance.fractions)
+        score = start_score(references, run.exemplar_shape[1], balance.shares[level], balance.fractions)
         if best is None or score < best[0]:
             best = (score, references.astype(np.int32), results[:-1])
     return (level, best[1]), best[2]
@@ -326,8 +401,7 @@ EDIT_SOFTNESS = 0.5
 EDIT_VOTE_DISCOUNT = 1.0
 
 
-def upsample_codes(edited: np.ndarray, out_shape: tuple[int, int], n_labels: int, *,
-                   tile: bool) -> np.ndarray:
+def upsample_codes(edited: np.ndarray, out_shape: tuple[int, int], n_labels: int, *, tile: bool) -> np.ndarray:
     """An edited level brought to ``out_shape`` with smooth boundaries: each label's indicator
     resized bilinearly (wrapping when ``tile``), then the largest one per pixel (nearest
     resizing would give staircase boundaries of the level's pixel size)."""
@@ -342,11 +416,14 @@ def upsample_codes(edited: np.ndarray, out_shape: tuple[int, int], n_labels: int
         if pad:
             ind = np.pad(ind, pad, mode="wrap")
         scale_y, scale_x = h / edited.shape[0], w / edited.shape[1]
-        big = cv2.resize(ind, (int(round(ind.shape[1] * scale_x)), int(round(ind.shape[0] * scale_y))),
-                         interpolation=cv2.INTER_LINEAR)
+        big = cv2.resize(
+            ind,
+            (int(round(ind.shape[1] * scale_x)), int(round(ind.shape[0] * scale_y))),
+            interpolation=cv2.INTER_LINEAR,
+        )
         if pad:
             oy, ox = int(round(pad * scale_y)), int(round(pad * scale_x))
-            big = big[oy:oy + h, ox:ox + w]
+            big = big[oy : oy + h, ox : ox + w]
         big = cv2.resize(big, (w, h), interpolation=cv2.INTER_LINEAR) if big.shape != (h, w) else big
         better = big > best
         best[better] = big[better]
@@ -354,10 +431,18 @@ def upsample_codes(edited: np.ndarray, out_shape: tuple[int, int], n_labels: int
     return result
 
 
-def edit_guidance(codes: np.ndarray, features: np.ndarray, target: np.ndarray, n_labels: int,
-                  n_levels: int, *, tile: bool, softness: float = 0.0,
-                  exemplar_levels: list | None = None,
-                  exemplar_wrap: tuple[bool, bool] = (False, False)) -> Guidance:
+def edit_guidance(
+    codes: np.ndarray,
+    features: np.ndarray,
+    target: np.ndarray,
+    n_labels: int,
+    n_levels: int,
+    *,
+    tile: bool,
+    softness: float = 0.0,
+    exemplar_levels: list | None = None,
+    exemplar_wrap: tuple[bool, bool] = (False, False),
+) -> Guidance:
     """The :class:`~barkgen.synth.Guidance` that makes the label engine follow a target
     label map (texture-by-numbers of the label map itself, laitoch2018 §3.3) as a soft guide:
     the target's channels are blurred by ``softness`` px (boundaries may move that much to take
@@ -367,30 +452,40 @@ def edit_guidance(codes: np.ndarray, features: np.ndarray, target: np.ndarray, n
     import cv2
 
     variance = float(features.reshape(-1, features.shape[-1]).var(axis=0).sum())
-    guide_a, guide_b = guide_channels(codes, target, n_labels, np.sqrt(EDIT_WEIGHT * variance / 2.0),
-                                      exemplar_wrap=exemplar_wrap, target_wrap=tile)
+    guide_a, guide_b = guide_channels(
+        codes, target, n_labels, np.sqrt(EDIT_WEIGHT * variance / 2.0), exemplar_wrap=exemplar_wrap, target_wrap=tile
+    )
     if softness > 0:
         pad = int(np.ceil(3 * softness)) if tile else 0  # OpenCV blurs cannot wrap: pad first
         padded = np.pad(guide_b, ((pad, pad), (pad, pad), (0, 0)), mode="wrap") if pad else guide_b
-        blurred = np.stack([cv2.GaussianBlur(padded[..., c], (0, 0), softness,
-                                             borderType=cv2.BORDER_REFLECT_101)
-                            for c in range(padded.shape[-1])], axis=-1)
+        blurred = np.stack(
+            [
+                cv2.GaussianBlur(padded[..., c], (0, 0), softness, borderType=cv2.BORDER_REFLECT_101)
+                for c in range(padded.shape[-1])
+            ],
+            axis=-1,
+        )
         h, w = guide_b.shape[:2]
-        guide_b = np.ascontiguousarray(blurred[pad:pad + h, pad:pad + w], dtype=np.float32)
+        guide_b = np.ascontiguousarray(blurred[pad : pad + h, pad : pad + w], dtype=np.float32)
     pyr_a = exemplar_levels or label_pyramid(codes, n_labels, n_levels)
     pyr_b = label_pyramid(target, n_labels, n_levels)
 
     def initial(a: np.ndarray, b: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         return smart_initialization(a, b, rng, tile=tile, exemplar_wrap=exemplar_wrap)
 
-    return Guidance(levels=[level_guide(a, b, n_labels) for a, b in zip(pyr_a, pyr_b)],
-                    exemplar_guides=gaussian_pyramid(guide_a, n_levels),
-                    target_guides=gaussian_pyramid(guide_b, n_levels), initial_references=initial,
-                    vote_discount=EDIT_VOTE_DISCOUNT, cleanup_passes=0)
+    return Guidance(
+        levels=[level_guide(a, b, n_labels) for a, b in zip(pyr_a, pyr_b)],
+        exemplar_guides=gaussian_pyramid(guide_a, n_levels),
+        target_guides=gaussian_pyramid(guide_b, n_levels),
+        initial_references=initial,
+        vote_discount=EDIT_VOTE_DISCOUNT,
+        cleanup_passes=0,
+    )
 
 
-def estimate_engine_memory(exemplar_shape: tuple[int, int], out_shape: tuple[int, int],
-                           n_labels: int, *, joint: bool) -> int:
+def estimate_engine_memory(
+    exemplar_shape: tuple[int, int], out_shape: tuple[int, int], n_labels: int, *, joint: bool
+) -> int:
     """Estimated peak memory (bytes) of :func:`synthesize_codes`: the solver's
     (:func:`barkgen.synth.estimate_memory`) on the label channels (and the photo's three
     colour channels when ``joint``), plus the label pyramids and tables. Measured peaks from
@@ -409,8 +504,9 @@ def _features(codes: np.ndarray, n_labels: int, wrap: tuple[bool, bool]) -> np.n
     return guide_channels(codes, codes[:1, :1], n_labels, 1.0, exemplar_wrap=wrap)[0]
 
 
-def joint_features(codes: np.ndarray, n_labels: int, photo: np.ndarray,
-                   wrap: tuple[bool, bool] = (False, False)) -> np.ndarray:
+def joint_features(
+    codes: np.ndarray, n_labels: int, photo: np.ndarray, wrap: tuple[bool, bool] = (False, False)
+) -> np.ndarray:
     """What the joint strategy matches: the photo's CIELAB colour and the soft one-hot label
     channels (blurred round the photo's ``wrap``), scaled so that their total variance is
     :data:`JOINT_LABEL_WEIGHT` times the colour's."""
@@ -419,27 +515,32 @@ def joint_features(codes: np.ndarray, n_labels: int, photo: np.ndarray,
     colour_var = float(colour.reshape(-1, colour.shape[-1]).var(axis=0).sum())
     label_var = float(labels.reshape(-1, labels.shape[-1]).var(axis=0).sum())
     scale = np.sqrt(JOINT_LABEL_WEIGHT * colour_var / max(label_var, 1e-12))
-    return np.ascontiguousarray(np.concatenate([colour, labels * np.float32(scale)], axis=2),
-                                dtype=np.float32)
+    return np.ascontiguousarray(np.concatenate([colour, labels * np.float32(scale)], axis=2), dtype=np.float32)
 
 
-def analyse_codes(codes: np.ndarray, n_labels: int, out_shape: tuple[int, int], cache: AnalysisCache,
-                  config: SynthesisConfig | None = None,
-                  photo: np.ndarray | None = None,
-                  exemplar_wrap: tuple[bool, bool] = (False, False)) -> AnalysisCache:
+def analyse_codes(
+    codes: np.ndarray,
+    n_labels: int,
+    out_shape: tuple[int, int],
+    cache: AnalysisCache,
+    config: SynthesisConfig | None = None,
+    photo: np.ndarray | None = None,
+    exemplar_wrap: tuple[bool, bool] = (False, False),
+) -> AnalysisCache:
     """The k-coherence analysis that :func:`synthesize_codes` needs for outputs of
     ``out_shape`` (with ``photo``: the joint strategy's), run into ``cache`` ahead of any
     synthesis."""
     features, config = _solver_inputs(codes, n_labels, photo, config, exemplar_wrap)
     n_levels = engine_levels(codes.shape, out_shape, config)
-    cache.analyse(features, n_levels, config, wrap=exemplar_wrap,
-                  finest=finest_level(n_levels, joint=photo is not None))
+    cache.analyse(
+        features, n_levels, config, wrap=exemplar_wrap, finest=finest_level(n_levels, joint=photo is not None)
+    )
     return cache
 
 
-def _solver_inputs(codes: np.ndarray, n_labels: int, photo: np.ndarray | None,
-                   config: SynthesisConfig | None,
-                   wrap: tuple[bool, bool]) -> tuple[np.ndarray, SynthesisConfig]:
+def _solver_inputs(
+    codes: np.ndarray, n_labels: int, photo: np.ndarray | None, config: SynthesisConfig | None, wrap: tuple[bool, bool]
+) -> tuple[np.ndarray, SynthesisConfig]:
     """What the solver matches and its configuration: the engine's (no ``photo``) or the joint
     strategy's, unless ``config`` is given; round the exemplar's ``wrap``."""
     if photo is None:

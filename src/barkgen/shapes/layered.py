@@ -68,9 +68,10 @@ def automatic_layer_order(codes: np.ndarray, n_labels: int) -> list[int]:
     if n_labels <= 2:
         return sorted(labels, key=lambda lab: -area[lab])
     if n_labels <= _EXHAUSTIVE_ORDER:
-        best = max(itertools.permutations(labels),
-                   key=lambda p: (sum(adj[p[i], p[i + 1]] for i in range(n_labels - 1)),
-                                  area[p[0]] - area[p[-1]]))
+        best = max(
+            itertools.permutations(labels),
+            key=lambda p: (sum(adj[p[i], p[i + 1]] for i in range(n_labels - 1)), area[p[0]] - area[p[-1]]),
+        )
         order = list(best)
     else:
         order = [int(np.argmax(area))]
@@ -101,8 +102,7 @@ def _top_fraction(score: np.ndarray, allowed: np.ndarray, count: int) -> np.ndar
     return out
 
 
-def random_layers(shape: tuple[int, int], fractions: list[float], tile: bool,
-                  rng: np.random.Generator) -> np.ndarray:
+def random_layers(shape: tuple[int, int], fractions: list[float], tile: bool, rng: np.random.Generator) -> np.ndarray:
     """Random initialisation (laitoch2018 §3.6): smooth random noise, each layer the highest
     noise values inside the layer below, with the exemplar's area fraction. Returns ranks."""
     rank = np.zeros(shape, np.int32)
@@ -124,19 +124,26 @@ def upsample_ranks(rank: np.ndarray, shape: tuple[int, int], n_layers: int, tile
     for i in range(1, n_layers):
         big = np.repeat(np.repeat((rank >= i).astype(np.float32), 2, 0), 2, 1)[:h, :w]
         padded = np.pad(big, 1, mode="wrap" if tile else "edge")
-        box = sum(padded[dy:dy + h, dx:dx + w] for dy in range(3) for dx in range(3)) / 9.0
+        box = sum(padded[dy : dy + h, dx : dx + w] for dy in range(3) for dx in range(3)) / 9.0
         layer = (box > 0.5) & below
         out += layer
         below = layer
     return out
 
 
-def synthesize_layers(exemplar_levels: list[np.ndarray], out_shape: tuple[int, int],
-                      order: list[int], *, quarter_turns: tuple[int, ...], tile: bool,
-                      config: ShapeConfig, rng: np.random.Generator,
-                      start: tuple[int, np.ndarray] | None = None,
-                      on_level: Callable[[int, np.ndarray], None] | None = None,
-                      tick: Callable[[], None] | None = None) -> np.ndarray:
+def synthesize_layers(
+    exemplar_levels: list[np.ndarray],
+    out_shape: tuple[int, int],
+    order: list[int],
+    *,
+    quarter_turns: tuple[int, ...],
+    tile: bool,
+    config: ShapeConfig,
+    rng: np.random.Generator,
+    start: tuple[int, np.ndarray] | None = None,
+    on_level: Callable[[int, np.ndarray], None] | None = None,
+    tick: Callable[[], None] | None = None,
+) -> np.ndarray:
     """Layered synthesis over the pyramid. ``exemplar_levels``: the exemplar's label codes per
     level, finest first. ``order``: labels bottom layer first. ``start``: ``(level, codes)`` to
     resume from (an edited level); else a random start at the coarsest level. ``on_level(level,
@@ -166,9 +173,16 @@ def synthesize_layers(exemplar_levels: list[np.ndarray], out_shape: tuple[int, i
         new_rank = np.zeros(shape, np.int32)
         for i in range(1, n_layers):
             boundary = ExemplarBoundary((ex_rank >= i).astype(np.uint8), quarter_turns, config, rng)
-            layer = adjust_shape((rank >= i).astype(np.uint8), boundary, mask=below,
-                                 iterations=iterations, config=config, tile=tile, rng=rng,
-                                 fraction=None if kept is None else kept[i])
+            layer = adjust_shape(
+                (rank >= i).astype(np.uint8),
+                boundary,
+                mask=below,
+                iterations=iterations,
+                config=config,
+                tile=tile,
+                rng=rng,
+                fraction=None if kept is None else kept[i],
+            )
             new_rank += layer
             below = layer
             if tick:

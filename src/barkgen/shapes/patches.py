@@ -24,8 +24,7 @@ def check_rotations(rotations: str) -> tuple[int, ...]:
     try:
         return ROTATIONS[rotations]
     except (KeyError, TypeError):
-        raise InvalidInputError(
-            f"rotations must be one of {', '.join(ROTATIONS)}, not {rotations!r}") from None
+        raise InvalidInputError(f"rotations must be one of {', '.join(ROTATIONS)}, not {rotations!r}") from None
 
 
 def boundary_pixels(shape: np.ndarray, tile: bool = False) -> tuple[np.ndarray, np.ndarray]:
@@ -40,8 +39,7 @@ def boundary_pixels(shape: np.ndarray, tile: bool = False) -> tuple[np.ndarray, 
     return ys.astype(np.int32), xs.astype(np.int32)
 
 
-def extract_patches(shape: np.ndarray, ys: np.ndarray, xs: np.ndarray, size: int,
-                    tile: bool = False) -> np.ndarray:
+def extract_patches(shape: np.ndarray, ys: np.ndarray, xs: np.ndarray, size: int, tile: bool = False) -> np.ndarray:
     """The ``size x size`` neighbourhoods ``(m, size, size)`` uint8 of a binary ``shape`` at
     ``(ys, xs)``: wrapped when ``tile``, else the border pixels are repeated."""
     r = size // 2
@@ -82,8 +80,15 @@ def subsample(ys: np.ndarray, xs: np.ndarray, limit: int, rng: np.random.Generat
     return ys, xs
 
 
-def _one_sided(a: np.ndarray, b: np.ndarray, size: int, turns: tuple[int, ...], tile: bool,
-               max_samples: int, rng: np.random.Generator) -> tuple[float, int]:
+def _one_sided(
+    a: np.ndarray,
+    b: np.ndarray,
+    size: int,
+    turns: tuple[int, ...],
+    tile: bool,
+    max_samples: int,
+    rng: np.random.Generator,
+) -> tuple[float, int]:
     """Sum over (sampled) boundary pixels x1 of ``a`` of D(x1, b) (eq. 3.8), and their count."""
     ay, ax = boundary_pixels(a, tile)
     by, bx = boundary_pixels(b, tile)
@@ -101,9 +106,16 @@ def _one_sided(a: np.ndarray, b: np.ndarray, size: int, turns: tuple[int, ...], 
     return float(dist[:, 0].mean()) * n_a, n_a
 
 
-def shape_dissimilarity(shape_a: np.ndarray, shape_b: np.ndarray, *, patch: int = 9,
-                        rotations: str = "vertical", tile: bool = False,
-                        max_samples: int = 20000, seed: int = 0) -> float:
+def shape_dissimilarity(
+    shape_a: np.ndarray,
+    shape_b: np.ndarray,
+    *,
+    patch: int = 9,
+    rotations: str = "vertical",
+    tile: bool = False,
+    max_samples: int = 20000,
+    seed: int = 0,
+) -> float:
     """``D(S1, S2)`` of laitoch2018 eq. 3.9: how much two shapes' boundaries differ.
 
     The sum, over the boundary pixels of each shape, of the number of differing pixels to the
@@ -152,9 +164,16 @@ def shape_dissimilarity(shape_a: np.ndarray, shape_b: np.ndarray, *, patch: int 
     return (sa + sb) / (na + nb)
 
 
-def label_dissimilarity(labels_a: np.ndarray, labels_b: np.ndarray, *, patch: int = 9,
-                        rotations: str = "vertical", tile: bool = False,
-                        max_samples: int = 20000, seed: int = 0) -> dict[int, float]:
+def label_dissimilarity(
+    labels_a: np.ndarray,
+    labels_b: np.ndarray,
+    *,
+    patch: int = 9,
+    rotations: str = "vertical",
+    tile: bool = False,
+    max_samples: int = 20000,
+    seed: int = 0,
+) -> dict[int, float]:
     """laitoch2018 eq. 3.9 per label: ``{label value: D(A == label, B == label)}``.
 
     Parameters
@@ -181,6 +200,9 @@ def label_dissimilarity(labels_a: np.ndarray, labels_b: np.ndarray, *, patch: in
     b = np.asarray(labels_b)
     if a.ndim != 2 or b.ndim != 2:
         raise InvalidInputError("label dissimilarity needs 2-D (grey) label maps")
-    return {int(v): shape_dissimilarity(a == v, b == v, patch=patch, rotations=rotations,
-                                        tile=tile, max_samples=max_samples, seed=seed)
-            for v in np.unique(a)}
+    return {
+        int(v): shape_dissimilarity(
+            a == v, b == v, patch=patch, rotations=rotations, tile=tile, max_samples=max_samples, seed=seed
+        )
+        for v in np.unique(a)
+    }

@@ -55,12 +55,10 @@ class LevelAnalysis:
     def grid(self) -> tuple:
         """``(coords_y, coords_x, height, width, wrap_rows, wrap_columns)``: the level's exemplar
         grid as the kernels take it (``exemplar`` in :mod:`barkgen.synth._kernels`)."""
-        return (self.coords_y, self.coords_x, int(self.height), int(self.width),
-                bool(self.wrap[0]), bool(self.wrap[1]))
+        return (self.coords_y, self.coords_x, int(self.height), int(self.width), bool(self.wrap[0]), bool(self.wrap[1]))
 
 
-def matching_features(exemplar: np.ndarray, extras: Mapping[str, np.ndarray] | None,
-                      extra_weight: float) -> np.ndarray:
+def matching_features(exemplar: np.ndarray, extras: Mapping[str, np.ndarray] | None, extra_weight: float) -> np.ndarray:
     """Per-pixel features used for matching: CIELAB (L in 0..100) or L alone for grey images,
     plus each extra channel scaled to 0..100 and weighted (laitoch2018 §3.3.1, extra channels).
     """
@@ -79,10 +77,16 @@ def schedule_sizes(config: SynthesisConfig, level: int, n_levels: int) -> list[i
     return sorted({s for s, _ in config.schedule_for(level, n_levels)}, reverse=True)
 
 
-def analyse_exemplar(features: np.ndarray, n_levels: int, config: SynthesisConfig,
-                     progress: Callable[[], None] | None = None,
-                     wrap: tuple[bool, bool] = (False, False), *, finest: int = 0,
-                     known: list[LevelAnalysis | None] | None = None) -> list[LevelAnalysis | None]:
+def analyse_exemplar(
+    features: np.ndarray,
+    n_levels: int,
+    config: SynthesisConfig,
+    progress: Callable[[], None] | None = None,
+    wrap: tuple[bool, bool] = (False, False),
+    *,
+    finest: int = 0,
+    known: list[LevelAnalysis | None] | None = None,
+) -> list[LevelAnalysis | None]:
     """k-coherence analysis phase on the pyramid levels ``finest`` to ``n_levels - 1`` of the
     exemplar features (the finer ones are ``None``: a solve that stops above them never reads
     them); ``wrap`` ``(rows, columns)``: the exemplar tiles along that axis
@@ -104,30 +108,31 @@ def analyse_exemplar(features: np.ndarray, n_levels: int, config: SynthesisConfi
             continue
         img = pyramid[lvl]
         h, w, c = img.shape
-        projections = {s: neighbourhood_pca(img, s, config.pca_components, wrap=wrap)
-                       for s in schedule_sizes(config, lvl, n_levels)}
+        projections = {
+            s: neighbourhood_pca(img, s, config.pca_components, wrap=wrap)
+            for s in schedule_sizes(config, lvl, n_levels)
+        }
         largest = projections[max(projections)]
         if parent is None or h * w <= DIRECT_SEARCH_LIMIT:
             ksets, scale = k_coherence_sets(largest.features, w, config.k, radius=2)
         else:
             ksets, scale = k_coherence_sets_from_parent(
-                parent.ksets, (parent.height, parent.width), largest.features, (h, w),
-                config.k, radius=2)
+                parent.ksets, (parent.height, parent.width), largest.features, (h, w), config.k, radius=2
+            )
             if parent.features is None:  # seeded by _guide_sets: no solve checks these sets
                 ksets, scale = propagate_k_coherence(ksets, largest.features, (h, w))
         cy, cx = np.divmod(np.arange(h * w, dtype=np.int32), np.int32(w))
-        kernel_weights = {size: np.ascontiguousarray(p.weights.transpose(1, 2, 3, 0))
-                          for size, p in projections.items()}
-        parent = LevelAnalysis(h, w, img.reshape(h * w, c), cy, cx, projections, kernel_weights,
-                               ksets, scale, wrap)
+        kernel_weights = {
+            size: np.ascontiguousarray(p.weights.transpose(1, 2, 3, 0)) for size, p in projections.items()
+        }
+        parent = LevelAnalysis(h, w, img.reshape(h * w, c), cy, cx, projections, kernel_weights, ksets, scale, wrap)
         levels[lvl] = parent
         if progress:
             progress()
     return levels  # type: ignore[return-value]
 
 
-def _guide_sets(image: np.ndarray, size: int, config: SynthesisConfig,
-                wrap: tuple[bool, bool]) -> LevelAnalysis:
+def _guide_sets(image: np.ndarray, size: int, config: SynthesisConfig, wrap: tuple[bool, bool]) -> LevelAnalysis:
     """The k-coherence sets of the first level coarser than ``image`` with at most
     :data:`GUIDED_SEARCH_LIMIT` pixels, by a direct search: the parent from which ``image``'s
     own sets are refined (and then propagated). Only the sets and the shape are filled in: no
@@ -156,31 +161,38 @@ class AnalysisCache:
         self._entries: dict[str, list[LevelAnalysis]] = {}
 
     @staticmethod
-    def key(features: np.ndarray, n_levels: int, config: SynthesisConfig,
-            wrap: tuple[bool, bool] = (False, False)) -> str:
+    def key(
+        features: np.ndarray, n_levels: int, config: SynthesisConfig, wrap: tuple[bool, bool] = (False, False)
+    ) -> str:
         digest = hashlib.sha256()  # (OpenSSL's SHA-256: 2.3x blake2b's speed on SHA-NI CPUs)
         # the schedules' neighbourhood sizes, not their iteration counts: those are all the
         # analysis depends on
         sizes = tuple(tuple(schedule_sizes(config, lvl, n_levels)) for lvl in range(n_levels))
-        key = (features.shape, features.dtype.str, int(n_levels), config.k, config.pca_components,
-               sizes)
+        key = (features.shape, features.dtype.str, int(n_levels), config.k, config.pca_components, sizes)
         if any(wrap):  # (the key of an exemplar that does not wrap is as it always was)
             key += (bool(wrap[0]), bool(wrap[1]))
         digest.update(repr(key).encode())
         digest.update(memoryview(np.ascontiguousarray(features)).cast("B"))
         return digest.hexdigest()
 
-    def analyse(self, features: np.ndarray, n_levels: int, config: SynthesisConfig,
-                progress: Callable[[], None] | None = None,
-                wrap: tuple[bool, bool] = (False, False), *,
-                finest: int = 0) -> list[LevelAnalysis | None]:
+    def analyse(
+        self,
+        features: np.ndarray,
+        n_levels: int,
+        config: SynthesisConfig,
+        progress: Callable[[], None] | None = None,
+        wrap: tuple[bool, bool] = (False, False),
+        *,
+        finest: int = 0,
+    ) -> list[LevelAnalysis | None]:
         """:func:`analyse_exemplar` of the levels ``finest`` and coarser, each computed on the
         first call that needs it for these inputs only."""
         key = self.key(features, n_levels, config, wrap)
         levels = self._entries.get(key)
         if levels is None or levels[finest] is None:
-            levels = self._entries[key] = analyse_exemplar(features, n_levels, config, progress,
-                                                           wrap, finest=finest, known=levels)
+            levels = self._entries[key] = analyse_exemplar(
+                features, n_levels, config, progress, wrap, finest=finest, known=levels
+            )
         elif progress is not None:
             for _ in range(n_levels - finest):
                 progress()

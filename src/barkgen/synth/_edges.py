@@ -91,12 +91,10 @@ def check_wrap_mode(mode: str | bool | tuple[bool, bool]) -> None:
             raise InvalidInputError(f"exemplar_wrap must be a (rows, columns) pair of bools, not {mode!r}")
         return
     if mode not in WRAP_MODES:
-        raise InvalidInputError(
-            f"exemplar_wrap must be one of {', '.join(WRAP_MODES)}, not {mode!r}")
+        raise InvalidInputError(f"exemplar_wrap must be one of {', '.join(WRAP_MODES)}, not {mode!r}")
 
 
-def resolve_exemplar_wrap(mode: str | bool | tuple[bool, bool],
-                          image: np.ndarray) -> tuple[bool, bool]:
+def resolve_exemplar_wrap(mode: str | bool | tuple[bool, bool], image: np.ndarray) -> tuple[bool, bool]:
     """``(rows, columns)`` from an ``exemplar_wrap`` setting: ``"auto"`` (:func:`exemplar_wraps`
     of ``image``), ``"yes"``/``True`` (both axes), ``"no"``/``False`` (neither) or a pair."""
     check_wrap_mode(mode)

@@ -119,8 +119,7 @@ def _shifted_neighbour_source(refs, y, x, dy, dx, tile, exemplar):
 
 
 @nb.njit
-def _project_query(refs, y, x, tile, exemplar, ex_feat, projection, q, ex_labels, target,
-                   n_random):
+def _project_query(refs, y, x, tile, exemplar, ex_feat, projection, q, ex_labels, target, n_random):
     """The output neighbourhood of (y, x) (resolved references) projected into appearance space
     into ``q``; returns how many of its pixels have the wrong label (counted when
     ``n_random`` > 0).
@@ -209,14 +208,14 @@ def _label_candidates(best, best_cost, y, x, r, tile, exemplar, costs, guide, qu
             if vy < 0 or vx < 0:
                 continue
             v2 = vy * ex_w + vx
-        best, best_cost = _consider(v2, penalty[v2] + kset_cost, best, best_cost, fb, y, x,
-                                    ex_y, ex_x, query)
+        best, best_cost = _consider(v2, penalty[v2] + kset_cost, best, best_cost, fb, y, x, ex_y, ex_x, query)
     return best, best_cost
 
 
 @nb.njit(parallel=True, cache=True, fastmath=True)
-def m_step(refs, exemplar, ex_feat, projection, ksets, costs, grid, tile, forbid, guide,
-           match):  # pragma: no cover - compiled
+def m_step(
+    refs, exemplar, ex_feat, projection, ksets, costs, grid, tile, forbid, guide, match
+):  # pragma: no cover - compiled
     """M-step on the sparse grid ``(oy + i * stride, ox + j * stride)``, ``grid = (stride, oy,
     ox)``; ``projection = (proj_w, proj_mean, appearance)``, ``costs = (penalty, kset_cost)``,
     ``guide = (guide_ex, guide_out, ex_labels, target, pool, pool_start, n_random,
@@ -260,8 +259,7 @@ def m_step(refs, exemplar, ex_feat, projection, ksets, costs, grid, tile, forbid
         seen = np.empty(9, np.int32)
         query = (appearance, q, guide_ex, guide_out)
         for x in range(ox, W, stride):
-            n_wrong = _project_query(refs, y, x, tile, exemplar, ex_feat, projection, q,
-                                     ex_labels, target, n_random)
+            n_wrong = _project_query(refs, y, x, tile, exemplar, ex_feat, projection, q, ex_labels, target, n_random)
             best = np.int64(refs[y, x])
             best_cost = np.inf
             n_seen = 0
@@ -277,15 +275,14 @@ def m_step(refs, exemplar, ex_feat, projection, ksets, costs, grid, tile, forbid
                     n_seen += 1
                     if fb >= 0 and offset_code(ex_y[u], ex_x[u], y, x) == fb:
                         continue  # (its k-coherence set goes with it)
-                    best, best_cost = _consider(u, penalty[u], best, best_cost, -1, y, x, ex_y,
-                                                ex_x, query)
+                    best, best_cost = _consider(u, penalty[u], best, best_cost, -1, y, x, ex_y, ex_x, query)
                     for t in range(K):
                         v2 = ksets[u, t]
-                        best, best_cost = _consider(v2, penalty[v2] + kset_cost, best, best_cost,
-                                                    fb, y, x, ex_y, ex_x, query)
+                        best, best_cost = _consider(
+                            v2, penalty[v2] + kset_cost, best, best_cost, fb, y, x, ex_y, ex_x, query
+                        )
             if n_wrong > 0:
-                best, best_cost = _label_candidates(best, best_cost, y, x, r, tile, exemplar,
-                                                    costs, guide, query, fb)
+                best, best_cost = _label_candidates(best, best_cost, y, x, r, tile, exemplar, costs, guide, query, fb)
             match[y, x] = best
 
 
@@ -389,8 +386,7 @@ def _least_squares_vote(votes, vw, nv, uniq, usup, nu, top, ex_feat, avg):
 
 
 @nb.njit(parallel=True, cache=True, fastmath=True)
-def e_step(match, refs, exemplar, ex_feat, votes, tile, forbid, labels,
-           out):  # pragma: no cover - compiled
+def e_step(match, refs, exemplar, ex_feat, votes, tile, forbid, labels, out):  # pragma: no cover - compiled
     """E-step (laitoch2018 eq. 3.5, Han et al. 2006): every output pixel collects the
     forward-shifted references voted by the matched neighbourhoods that cover it (Gaussian
     weights by distance to the neighbourhood centre) and takes the reference with the largest
@@ -495,8 +491,9 @@ def e_step(match, refs, exemplar, ex_feat, votes, tile, forbid, labels,
 
 
 @nb.njit(parallel=True, cache=True)
-def upsample_state(refs, forbid, coarse_y, coarse_x, fine_h, fine_w, wrap_y, wrap_x, out_refs,
-                   out_forbid):  # pragma: no cover - compiled
+def upsample_state(
+    refs, forbid, coarse_y, coarse_x, fine_h, fine_w, wrap_y, wrap_x, out_refs, out_forbid
+):  # pragma: no cover - compiled
     """Exact reference up-sampling (laitoch2018 §3.3.2): output pixel (y, x) takes the child
     (2v + y % 2, 2u + x % 2) of the exemplar reference (v, u) of its parent (y // 2, x // 2)
     (on an exemplar of odd side, a child past its edge is its first row or column when it wraps,

@@ -15,8 +15,7 @@ import numpy as np
 from barkgen.synth._analysis import LevelAnalysis
 
 
-def jitter_references(refs: np.ndarray, level: LevelAnalysis, amplitude: int,
-            rng: np.random.Generator) -> np.ndarray:
+def jitter_references(refs: np.ndarray, level: LevelAnalysis, amplitude: int, rng: np.random.Generator) -> np.ndarray:
     """Displace every reference by a seeded random offset in [-amplitude, amplitude]
     (Lefebvre & Hoppe 2005, controllable jitter)."""
     if amplitude <= 0:
@@ -29,8 +28,9 @@ def jitter_references(refs: np.ndarray, level: LevelAnalysis, amplitude: int,
     return np.ascontiguousarray(ry * level.width + rx, dtype=np.int32)
 
 
-def occurrence_penalty(refs: np.ndarray, level: LevelAnalysis, weight: float,
-                        radius: int, expected_use: np.ndarray | None = None) -> np.ndarray:
+def occurrence_penalty(
+    refs: np.ndarray, level: LevelAnalysis, weight: float, radius: int, expected_use: np.ndarray | None = None
+) -> np.ndarray:
     """Cost per exemplar pixel from how much more (or less) often its region is referenced than a
     uniform use of the exemplar would give (occurrence map, Kaspar et al. 2015 §5). With a guide,
     ``expected_use`` gives each exemplar pixel's uniform share (per label)."""
@@ -63,7 +63,7 @@ def box_blur(image: np.ndarray, k: int, wrap: tuple[bool, bool]) -> np.ndarray:
     r = k // 2
     pad = np.pad(image, ((r, r), (0, 0)), mode="wrap" if wrap[0] else "reflect")
     pad = np.pad(pad, ((0, 0), (r, r)), mode="wrap" if wrap[1] else "reflect")
-    return np.ascontiguousarray(cv2.blur(pad, (k, k))[r:r + image.shape[0], r:r + image.shape[1]])
+    return np.ascontiguousarray(cv2.blur(pad, (k, k))[r : r + image.shape[0], r : r + image.shape[1]])
 
 
 @dataclass

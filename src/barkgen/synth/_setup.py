@@ -25,16 +25,17 @@ from barkgen.synth._solver import SynthesisResult, solve
 MIN_EXEMPLAR_SIDE = 16
 
 
-def validate_inputs(exemplar: np.ndarray, size: int | tuple[int, int], seed: int,
-                    extra: Mapping[str, np.ndarray] | None) -> tuple[np.ndarray, tuple[int, int], dict]:
+def validate_inputs(
+    exemplar: np.ndarray, size: int | tuple[int, int], seed: int, extra: Mapping[str, np.ndarray] | None
+) -> tuple[np.ndarray, tuple[int, int], dict]:
     """Check the exemplar, output size, seed and extra maps; return them normalised."""
     ex = as_hw_c("exemplar", exemplar)
     if ex.shape[2] not in (1, 3):
         raise InvalidInputError(f"exemplar must have 1 or 3 channels, not {ex.shape[2]}")
     if min(ex.shape[:2]) < MIN_EXEMPLAR_SIDE:
         raise InvalidInputError(
-            f"exemplar is {ex.shape[1]}x{ex.shape[0]} px; it must be at least "
-            f"{MIN_EXEMPLAR_SIDE} px on each side")
+            f"exemplar is {ex.shape[1]}x{ex.shape[0]} px; it must be at least {MIN_EXEMPLAR_SIDE} px on each side"
+        )
     out_shape = parse_output_shape(size)
     if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool) or seed < 0:
         raise InvalidInputError(f"seed must be a non-negative integer, not {seed!r}")
@@ -44,33 +45,49 @@ def validate_inputs(exemplar: np.ndarray, size: int | tuple[int, int], seed: int
         if e.shape[:2] != ex.shape[:2]:
             raise InvalidInputError(
                 f"extra map {name!r} is {e.shape[1]}x{e.shape[0]} px but the exemplar is "
-                f"{ex.shape[1]}x{ex.shape[0]} px; they must match")
+                f"{ex.shape[1]}x{ex.shape[0]} px; they must match"
+            )
         extras[name] = e
     return ex, out_shape, extras
 
 
-def check_memory(ex: np.ndarray, extras: Mapping[str, np.ndarray], out_shape: tuple[int, int],
-                 feature_channels: int, config: SynthesisConfig, guided: bool = False) -> None:
+def check_memory(
+    ex: np.ndarray,
+    extras: Mapping[str, np.ndarray],
+    out_shape: tuple[int, int],
+    feature_channels: int,
+    config: SynthesisConfig,
+    guided: bool = False,
+) -> None:
     """Raise :class:`MemoryBudgetError` before any work if the job would not fit the budget."""
-    need = estimate_memory(ex.shape[:2], out_shape,
-                           ex.shape[2] + sum(e.shape[2] for e in extras.values()),
-                           max([ex.dtype.itemsize] + [e.dtype.itemsize for e in extras.values()]),
-                           feature_channels, config)
+    need = estimate_memory(
+        ex.shape[:2],
+        out_shape,
+        ex.shape[2] + sum(e.shape[2] for e in extras.values()),
+        max([ex.dtype.itemsize] + [e.dtype.itemsize for e in extras.values()]),
+        feature_channels,
+        config,
+    )
     if guided:  # label pyramids and tables
         need += 24 * out_shape[0] * out_shape[1] + 24 * ex.shape[0] * ex.shape[1]
     check_memory_budget(need, config.max_memory, f"output {out_shape[1]}x{out_shape[0]}")
 
 
-def estimate_memory(exemplar_shape: tuple[int, int], output_shape: tuple[int, int],
-                    channels: int, bytes_per_channel: int, feature_channels: int,
-                    config: SynthesisConfig) -> int:
+def estimate_memory(
+    exemplar_shape: tuple[int, int],
+    output_shape: tuple[int, int],
+    channels: int,
+    bytes_per_channel: int,
+    feature_channels: int,
+    config: SynthesisConfig,
+) -> int:
     """Estimated peak memory of a synthesis, in bytes (made before any work starts)."""
     n_ex = exemplar_shape[0] * exemplar_shape[1]
     n_out = output_shape[0] * output_shape[1]
-    sizes = {s for sched in (config.schedule_coarsest, config.schedule_middle,
-                             config.schedule_finest) for s, _ in sched}
-    per_ex = (feature_channels * 4 * 3 + config.pca_components * 4 * len(sizes) * 1.4
-              + config.k * 4 * 1.4 + 8)
+    sizes = {
+        s for sched in (config.schedule_coarsest, config.schedule_middle, config.schedule_finest) for s, _ in sched
+    }
+    per_ex = feature_channels * 4 * 3 + config.pca_components * 4 * len(sizes) * 1.4 + config.k * 4 * 1.4 + 8
     per_out = 100 + 3 * channels * bytes_per_channel
     if config.blend == "gradient":  # one channel's screened Poisson solve at a time (float64)
         per_out += 80
@@ -98,8 +115,9 @@ class Front:
     def check(self, ex: np.ndarray) -> None:
         """Raise :class:`InvalidInputError` if the front's own inputs do not fit ``ex``."""
 
-    def features(self, ex: np.ndarray, extras: Mapping[str, np.ndarray], wrap: tuple[bool, bool],
-                 config: SynthesisConfig) -> np.ndarray:
+    def features(
+        self, ex: np.ndarray, extras: Mapping[str, np.ndarray], wrap: tuple[bool, bool], config: SynthesisConfig
+    ) -> np.ndarray:
         """``(h, w, F)`` float32: what the solver matches."""
         return matching_features(ex, extras, config.extra_weight)
 
@@ -129,18 +147,35 @@ class SolveSetup:
         """:func:`solve` on these inputs (``options``: its other keywords: ``guidance``,
         ``progress``, ``debug``, ``start``, ``cache``), the colour compared by the seam costs;
         the image as flat as the exemplar was given."""
-        result = solve(exemplar=self.exemplar, extras=self.extras, features=self.features,
-                       out_shape=self.out_shape, n_levels=self.n_levels, config=self.config,
-                       seed=self.seed, tile=self.tile, exemplar_wrap=self.wrap,
-                       seam_channels=colour_channels(self.exemplar), **options)
+        result = solve(
+            exemplar=self.exemplar,
+            extras=self.extras,
+            features=self.features,
+            out_shape=self.out_shape,
+            n_levels=self.n_levels,
+            config=self.config,
+            seed=self.seed,
+            tile=self.tile,
+            exemplar_wrap=self.wrap,
+            seam_channels=colour_channels(self.exemplar),
+            **options,
+        )
         if self.flat:
             result.image = result.image[:, :, 0]
         return result
 
 
-def set_up(exemplar: np.ndarray, size: int | tuple[int, int], *, seed: int,
-           extra: Mapping[str, np.ndarray] | None, config: SynthesisConfig, tile: bool,
-           exemplar_wrap: str | bool | tuple[bool, bool], front: Front | None = None) -> SolveSetup:
+def set_up(
+    exemplar: np.ndarray,
+    size: int | tuple[int, int],
+    *,
+    seed: int,
+    extra: Mapping[str, np.ndarray] | None,
+    config: SynthesisConfig,
+    tile: bool,
+    exemplar_wrap: str | bool | tuple[bool, bool],
+    front: Front | None = None,
+) -> SolveSetup:
     """Validate the inputs (and the ``front``'s own), check the memory budget, resolve the
     exemplar's wrap, make the matching features and choose the pyramid's depth, in that order
     and before any solver work (see :class:`SolveSetup`)."""
@@ -152,5 +187,16 @@ def set_up(exemplar: np.ndarray, size: int | tuple[int, int], *, seed: int,
     wrap = resolve_exemplar_wrap(exemplar_wrap, ex)
     feats = front.features(ex, extras, wrap, config)
     n_levels = count_levels(ex.shape[:2], out_shape, config.coarsest_exemplar)
-    return SolveSetup(ex, extras, out_shape, wrap, feats, n_levels, config, seed, tile,
-                      flat=np.asarray(exemplar).ndim == 2, front=front)
+    return SolveSetup(
+        ex,
+        extras,
+        out_shape,
+        wrap,
+        feats,
+        n_levels,
+        config,
+        seed,
+        tile,
+        flat=np.asarray(exemplar).ndim == 2,
+        front=front,
+    )

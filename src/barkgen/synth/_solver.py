@@ -155,14 +155,23 @@ class LevelContext:
     seam_image: np.ndarray
 
 
-def _level_context(la: LevelAnalysis, lvl: int, n_levels: int, shape: tuple[int, int],
-                   config: SynthesisConfig, rng: np.random.Generator, tile: bool,
-                   guidance: Guidance | None, seam_channels: int | None) -> LevelContext:
+def _level_context(
+    la: LevelAnalysis,
+    lvl: int,
+    n_levels: int,
+    shape: tuple[int, int],
+    config: SynthesisConfig,
+    rng: np.random.Generator,
+    tile: bool,
+    guidance: Guidance | None,
+    seam_channels: int | None,
+) -> LevelContext:
     """The :class:`LevelContext` of level ``lvl``: its guide (:func:`level_guidance`) and its
     seam image made."""
     guide = level_guidance(guidance, lvl, n_levels, config, shape, la.wrap, tile)
     seam_image = np.ascontiguousarray(la.features[:, :seam_channels]).reshape(
-        la.height, la.width, -1)  # what the seam costs compare, as an image
+        la.height, la.width, -1
+    )  # what the seam costs compare, as an image
     return LevelContext(la, lvl, n_levels, shape, config, rng, tile, guide, seam_image)
 
 
@@ -172,20 +181,33 @@ def _initial_state(ctx: LevelContext, guidance: Guidance | None) -> np.ndarray:
     if guidance is None:
         return ctx.rng.integers(0, la.height * la.width, size=ctx.shape, dtype=np.int32)
     lg = guidance.levels[ctx.level]
-    return np.ascontiguousarray(guidance.initial_references(
-        lg.exemplar_labels.reshape(la.height, la.width), lg.target_labels, ctx.rng), dtype=np.int32)
+    return np.ascontiguousarray(
+        guidance.initial_references(lg.exemplar_labels.reshape(la.height, la.width), lg.target_labels, ctx.rng),
+        dtype=np.int32,
+    )
 
 
-def _upsampled_state(ctx: LevelContext, refs: np.ndarray, forbid: np.ndarray,
-                     coarse: LevelAnalysis) -> tuple[np.ndarray, np.ndarray]:
+def _upsampled_state(
+    ctx: LevelContext, refs: np.ndarray, forbid: np.ndarray, coarse: LevelAnalysis
+) -> tuple[np.ndarray, np.ndarray]:
     """The coarser level's state up-sampled exactly (laitoch2018 §3.3.4), shifted and jittered."""
     import barkgen.synth._kernels as K
 
     la, shape, lvl, rng = ctx.analysis, ctx.shape, ctx.level, ctx.rng
     fine_refs = np.empty(shape, np.int32)
     fine_forbid = np.empty(shape, np.int64)
-    K.upsample_state(refs, forbid, coarse.coords_y, coarse.coords_x, la.height, la.width,
-                     la.wrap[0], la.wrap[1], fine_refs, fine_forbid)
+    K.upsample_state(
+        refs,
+        forbid,
+        coarse.coords_y,
+        coarse.coords_x,
+        la.height,
+        la.width,
+        la.wrap[0],
+        la.wrap[1],
+        fine_refs,
+        fine_forbid,
+    )
     refs, forbid = fine_refs, fine_forbid
     if ctx.tile and lvl > 0 and not ctx.guide.guided:
         # seams formed at coarse levels lie on the block grid of the upsampling; a random
@@ -200,9 +222,12 @@ def _upsampled_state(ctx: LevelContext, refs: np.ndarray, forbid: np.ndarray,
     return refs, forbid
 
 
-def upsample_references(references: np.ndarray, out_shape: tuple[int, int],
-                        exemplar_shape: tuple[int, int],
-                        exemplar_wrap: tuple[bool, bool] = (False, False)) -> np.ndarray:
+def upsample_references(
+    references: np.ndarray,
+    out_shape: tuple[int, int],
+    exemplar_shape: tuple[int, int],
+    exemplar_wrap: tuple[bool, bool] = (False, False),
+) -> np.ndarray:
     """A level's reference map brought exactly to the next finer level (laitoch2018 §3.3.2,
     as the solver does between levels): output pixel ``(y, x)`` of ``out_shape`` takes the
     child ``(2v + y % 2, 2u + x % 2)`` of its parent's exemplar position ``(v, u)``; on an
@@ -221,14 +246,19 @@ def upsample_references(references: np.ndarray, out_shape: tuple[int, int],
     return np.stack([fy, fx], axis=-1).astype(np.int32)
 
 
-def _iterate(ctx: LevelContext, refs: np.ndarray, forbid: np.ndarray, schedule: list[int],
-             occurrence: Callable[[np.ndarray], np.ndarray], tick: Callable[[], None]) -> np.ndarray:
+def _iterate(
+    ctx: LevelContext,
+    refs: np.ndarray,
+    forbid: np.ndarray,
+    schedule: list[int],
+    occurrence: Callable[[np.ndarray], np.ndarray],
+    tick: Callable[[], None],
+) -> np.ndarray:
     """One level's M-step / E-step iterations (laitoch2018 eqs. 3.4-3.5), each followed by the
     copy-size control and the border-seam hand-back; returns the level's reference map."""
     import barkgen.synth._kernels as K
 
-    la, lvl, config, rng, guide, tile = (ctx.analysis, ctx.level, ctx.config, ctx.rng, ctx.guide,
-                                         ctx.tile)
+    la, lvl, config, rng, guide, tile = (ctx.analysis, ctx.level, ctx.config, ctx.rng, ctx.guide, ctx.tile)
     shape = refs.shape
     wrap = la.wrap
     match = np.empty(shape, np.int32)
@@ -240,16 +270,41 @@ def _iterate(ctx: LevelContext, refs: np.ndarray, forbid: np.ndarray, schedule: 
         oy, ox = (int(v) for v in rng.integers(0, stride, size=2))
         key = np.uint64(rng.integers(0, 2**63)) if guide.guided else np.uint64(0)
         match.fill(-1)
-        kernel_guide = (guide.guide_ex.get(nb_size, NO_GUIDE_EX),
-                        guide.guide_out.get(nb_size, NO_GUIDE_OUT), guide.ex_labels,
-                        guide.target, guide.pool, guide.pool_start, guide.n_random, key)
-        K.m_step(refs, la.grid, la.features, (la.kernel_weights[nb_size], proj.mean, proj.features),
-                 la.ksets, (penalty, np.float32(config.kset_cost * la.scale)), (stride, oy, ox),
-                 tile, forbid, kernel_guide, match)
-        votes = (min(nb_size // 2, config.vote_radius), stride, oy, ox,
-                 np.float32(max(nb_size / 3.0, 1.0)))
-        K.e_step(match, refs, la.grid, la.features, votes, tile, forbid,
-                 (guide.ex_labels, guide.target, np.float32(guide.discount)), new)
+        kernel_guide = (
+            guide.guide_ex.get(nb_size, NO_GUIDE_EX),
+            guide.guide_out.get(nb_size, NO_GUIDE_OUT),
+            guide.ex_labels,
+            guide.target,
+            guide.pool,
+            guide.pool_start,
+            guide.n_random,
+            key,
+        )
+        K.m_step(
+            refs,
+            la.grid,
+            la.features,
+            (la.kernel_weights[nb_size], proj.mean, proj.features),
+            la.ksets,
+            (penalty, np.float32(config.kset_cost * la.scale)),
+            (stride, oy, ox),
+            tile,
+            forbid,
+            kernel_guide,
+            match,
+        )
+        votes = (min(nb_size // 2, config.vote_radius), stride, oy, ox, np.float32(max(nb_size / 3.0, 1.0)))
+        K.e_step(
+            match,
+            refs,
+            la.grid,
+            la.features,
+            votes,
+            tile,
+            forbid,
+            (guide.ex_labels, guide.target, np.float32(guide.discount)),
+            new,
+        )
         refs, new = new, refs
         if config.max_copy < 1.0 and (lvl > 0 or step < len(schedule) - 1):
             # (cuts act through the following iterations, none after the very last one)
@@ -274,9 +329,18 @@ def _refine_seams(ctx: LevelContext, refs: np.ndarray, forbid: np.ndarray) -> np
     for sweep in range(ctx.config.seam_sweeps):
         moved = 0
         for parity in (0, 1):
-            moved += K.refine_seams(refs, ctx.seam_image, ctx.analysis.grid, tile, parity, forbid,
-                                    (guide.ex_labels, guide.target),
-                                    every if sweep == 0 else after, moved_map, new)
+            moved += K.refine_seams(
+                refs,
+                ctx.seam_image,
+                ctx.analysis.grid,
+                tile,
+                parity,
+                forbid,
+                (guide.ex_labels, guide.target),
+                every if sweep == 0 else after,
+                moved_map,
+                new,
+            )
             refs, new = new, refs
             moved_map, after = after, moved_map
         if moved == 0:
@@ -291,18 +355,37 @@ def _move_seams(ctx: LevelContext, refs: np.ndarray, forbid: np.ndarray) -> np.n
     la, lvl, config, guide, tile = ctx.analysis, ctx.level, ctx.config, ctx.guide, ctx.tile
     refs = _refine_seams(ctx, refs, forbid)
     if config.seam_expansion_band and lvl == 0:
-        refs = expand_pieces(refs, la.grid, ctx.seam_image, tile, forbid,
-                             (guide.ex_labels, guide.target),
-                             band=config.seam_expansion_band, rounds=config.seam_expansion_rounds)
+        refs = expand_pieces(
+            refs,
+            la.grid,
+            ctx.seam_image,
+            tile,
+            forbid,
+            (guide.ex_labels, guide.target),
+            band=config.seam_expansion_band,
+            rounds=config.seam_expansion_rounds,
+        )
     if config.seam_cut_run and lvl <= config.seam_cut_levels - 1:
-        refs = cut_seams(refs, la, ctx.seam_image, tile, config.seam_cut_run,
-                         (guide.ex_labels, guide.target) if guide.guided else None, ctx.rng)
+        refs = cut_seams(
+            refs,
+            la,
+            ctx.seam_image,
+            tile,
+            config.seam_cut_run,
+            (guide.ex_labels, guide.target) if guide.guided else None,
+            ctx.rng,
+        )
     return refs
 
 
-def _solve_level(ctx: LevelContext, refs: np.ndarray, forbid: np.ndarray,
-                 balance: LabelBalance | None, cleanup_passes: int,
-                 tick: Callable[[], None]) -> np.ndarray:
+def _solve_level(
+    ctx: LevelContext,
+    refs: np.ndarray,
+    forbid: np.ndarray,
+    balance: LabelBalance | None,
+    cleanup_passes: int,
+    tick: Callable[[], None],
+) -> np.ndarray:
     """The level of ``ctx`` from its starting state: iterations, seam sweeps, straight-seam
     cuts and (finest level, guided) ``cleanup_passes`` passes of the label clean-up."""
     la, lvl, config, tile = ctx.analysis, ctx.level, ctx.config, ctx.tile
@@ -313,8 +396,7 @@ def _solve_level(ctx: LevelContext, refs: np.ndarray, forbid: np.ndarray,
             cost += balance.penalty(refs, lvl, la.scale)
         return cost
 
-    schedule = [size for size, iters in config.schedule_for(lvl, ctx.n_levels)
-                for _ in range(iters)]
+    schedule = [size for size, iters in config.schedule_for(lvl, ctx.n_levels) for _ in range(iters)]
     refs = _iterate(ctx, refs, forbid, schedule, occurrence, tick)
     refs = _move_seams(ctx, refs, forbid)
     if lvl == 0 and config.seam_cut_run and not all(la.wrap):
@@ -329,16 +411,26 @@ def _solve_level(ctx: LevelContext, refs: np.ndarray, forbid: np.ndarray,
     return refs
 
 
-def solve(*, exemplar: np.ndarray, extras: Mapping[str, np.ndarray], features: np.ndarray,
-          out_shape: tuple[int, int], n_levels: int, config: SynthesisConfig, seed: int,
-          tile: bool, guidance: Guidance | None = None,
-          progress: ProgressCallback | None = None,
-          debug: DebugCallback | None = None,
-          start: tuple[int, np.ndarray] | None = None,
-          balance: LabelBalance | None = None,
-          cache: AnalysisCache | None = None, stop_level: int = 0,
-          exemplar_wrap: tuple[bool, bool] = (False, False),
-          seam_channels: int | None = None) -> SynthesisResult:
+def solve(
+    *,
+    exemplar: np.ndarray,
+    extras: Mapping[str, np.ndarray],
+    features: np.ndarray,
+    out_shape: tuple[int, int],
+    n_levels: int,
+    config: SynthesisConfig,
+    seed: int,
+    tile: bool,
+    guidance: Guidance | None = None,
+    progress: ProgressCallback | None = None,
+    debug: DebugCallback | None = None,
+    start: tuple[int, np.ndarray] | None = None,
+    balance: LabelBalance | None = None,
+    cache: AnalysisCache | None = None,
+    stop_level: int = 0,
+    exemplar_wrap: tuple[bool, bool] = (False, False),
+    seam_channels: int | None = None,
+) -> SynthesisResult:
     """The coarse-to-fine discrete solver shared by :func:`synthesize` and texture-by-numbers
     (mazzolini2012 §4.1, laitoch2018 §3.3); every argument is a keyword.
 
@@ -364,8 +456,11 @@ def solve(*, exemplar: np.ndarray, extras: Mapping[str, np.ndarray], features: n
         raise InvalidInputError(f"stop_level must be in 0..{n_levels - 1}")
     with thread_budget(config.threads):  # every pool sized, BLAS at one thread
         rng = np.random.default_rng(int(seed))
-        total = n_levels - stop_level + sum(it for lvl in range(stop_level, n_levels)
-                                            for _, it in config.schedule_for(lvl, n_levels))
+        total = (
+            n_levels
+            - stop_level
+            + sum(it for lvl in range(stop_level, n_levels) for _, it in config.schedule_for(lvl, n_levels))
+        )
         done = 0
 
         def tick() -> None:
@@ -389,8 +484,10 @@ def solve(*, exemplar: np.ndarray, extras: Mapping[str, np.ndarray], features: n
                     tick()
                 continue
             if debug is not None:
-                debug(f"level{lvl}_exemplar", level_image(ex, np.arange(la.height * la.width).reshape(
-                    la.height, la.width), lvl))
+                debug(
+                    f"level{lvl}_exemplar",
+                    level_image(ex, np.arange(la.height * la.width).reshape(la.height, la.width), lvl),
+                )
             ctx = _level_context(la, lvl, n_levels, shape, config, rng, tile, guidance, seam_channels)
             if start is not None and lvl == start[0]:
                 refs = np.ascontiguousarray(start[1], dtype=np.int32)
@@ -402,25 +499,41 @@ def solve(*, exemplar: np.ndarray, extras: Mapping[str, np.ndarray], features: n
                 forbid = np.full(shape, -1, np.int64)
             else:
                 refs, forbid = _upsampled_state(ctx, refs, forbid, levels[lvl + 1])
-            refs = _solve_level(ctx, refs, forbid, balance,
-                                guidance.cleanup_passes if guidance is not None else 0, tick)
+            refs = _solve_level(
+                ctx, refs, forbid, balance, guidance.cleanup_passes if guidance is not None else 0, tick
+            )
             if debug is not None:
                 debug(f"level{lvl}_result", level_image(ex, refs, lvl))
         timings = {"analysis": t1 - t0, "synthesis": time.perf_counter() - t1}
-        return _result(ex, extras, refs, levels, stop_level, out_shape, wrap, seed, tile, timings,
-                       config.blend)
+        return _result(ex, extras, refs, levels, stop_level, out_shape, wrap, seed, tile, timings, config.blend)
 
 
-def _result(ex: np.ndarray, extras: Mapping[str, np.ndarray], refs: np.ndarray, levels: list,
-            stop_level: int, out_shape: tuple[int, int], wrap: tuple[bool, bool], seed: int,
-            tile: bool, timings: dict[str, float], blend: str) -> SynthesisResult:
+def _result(
+    ex: np.ndarray,
+    extras: Mapping[str, np.ndarray],
+    refs: np.ndarray,
+    levels: list,
+    stop_level: int,
+    out_shape: tuple[int, int],
+    wrap: tuple[bool, bool],
+    seed: int,
+    tile: bool,
+    timings: dict[str, float],
+    blend: str,
+) -> SynthesisResult:
     """The :class:`SynthesisResult` of the last level solved (see :func:`solve`)."""
     if stop_level > 0:
         la = levels[stop_level]
         references = np.stack([la.coords_y[refs], la.coords_x[refs]], axis=-1).astype(np.int32)
-        return SynthesisResult(image=level_image(ex, refs, stop_level), references=references,
-                               exemplar_shape=(la.height, la.width), exemplar_wrap=wrap,
-                               seed=int(seed), tile=bool(tile), timings=timings)
+        return SynthesisResult(
+            image=level_image(ex, refs, stop_level),
+            references=references,
+            exemplar_shape=(la.height, la.width),
+            exemplar_wrap=wrap,
+            seed=int(seed),
+            tile=bool(tile),
+            timings=timings,
+        )
     h, w = ex.shape[:2]
     ry, rx = levels[0].coords_y[refs], levels[0].coords_x[refs]
     references = np.stack([ry, rx], axis=-1).astype(np.int32)
@@ -433,9 +546,19 @@ def _result(ex: np.ndarray, extras: Mapping[str, np.ndarray], refs: np.ndarray, 
     # so the borders of the copied pieces leave no cliffs in them; each wraps only where its
     # own edges meet
     extra_wraps = {name: map_wraps(e, wrap) for name, e in extras.items()}
-    out_extras = {name: resolve_continuous(e, references, tile=tile, wrap=extra_wraps[name])
-                  for name, e in extras.items()}
+    out_extras = {
+        name: resolve_continuous(e, references, tile=tile, wrap=extra_wraps[name]) for name, e in extras.items()
+    }
     timings["synthesis"] += time.perf_counter() - t0
-    return SynthesisResult(image=image, references=references, extras=out_extras,
-                           exemplar_shape=(h, w), exemplar_wrap=wrap, seed=int(seed),
-                           tile=bool(tile), timings=timings, extra_wraps=extra_wraps, blend=blend)
+    return SynthesisResult(
+        image=image,
+        references=references,
+        extras=out_extras,
+        exemplar_shape=(h, w),
+        exemplar_wrap=wrap,
+        seed=int(seed),
+        tile=bool(tile),
+        timings=timings,
+        extra_wraps=extra_wraps,
+        blend=blend,
+    )

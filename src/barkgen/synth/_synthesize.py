@@ -86,8 +86,7 @@ def synthesize(
     ((96, 128, 3), (96, 128, 2))
     """
     config = config or SynthesisConfig()
-    setup = set_up(exemplar, size, seed=seed, extra=extra, config=config, tile=tile,
-                   exemplar_wrap=exemplar_wrap)
+    setup = set_up(exemplar, size, seed=seed, extra=extra, config=config, tile=tile, exemplar_wrap=exemplar_wrap)
     return setup.solve(progress=progress)
 
 
@@ -132,9 +131,9 @@ def apply_references(references: np.ndarray, image: np.ndarray) -> np.ndarray:
         raise InvalidInputError(f"references must have shape (H, W, 2), not {refs.shape}")
     if img.ndim not in (2, 3):
         raise InvalidInputError(f"image must be (H, W) or (H, W, C), not {img.shape}")
-    if refs.size and (refs.min() < 0 or refs[:, :, 0].max() >= img.shape[0]
-                      or refs[:, :, 1].max() >= img.shape[1]):
+    if refs.size and (refs.min() < 0 or refs[:, :, 0].max() >= img.shape[0] or refs[:, :, 1].max() >= img.shape[1]):
         raise InvalidInputError(
             f"the reference map points outside a {img.shape[1]}x{img.shape[0]} image; "
-            "apply it to a map of the exemplar's size")
+            "apply it to a map of the exemplar's size"
+        )
     return img[refs[:, :, 0], refs[:, :, 1]]

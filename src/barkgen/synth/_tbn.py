@@ -54,9 +54,14 @@ INITIALIZATIONS = ("smart", "random")
 #: (the texture's step ratio across seams on the sample, seeds 0/1: 1.54/1.47 -> 1.51/1.45);
 #: no expansion moves: the labels pin most borders (generate's texture step ratio, sample seed
 #: 0: 1.43 with them, 1.40 without, once the label map's own seams have had them)
-TBN_CONFIG = SynthesisConfig(coarsest_exemplar=32, schedule_coarsest=((9, 3), (7, 2), (5, 2)),
-                             schedule_middle=((7, 1), (5, 1)), pca_components=6, seam_cut_run=8,
-                             seam_expansion_band=0)
+TBN_CONFIG = SynthesisConfig(
+    coarsest_exemplar=32,
+    schedule_coarsest=((9, 3), (7, 2), (5, 2)),
+    schedule_middle=((7, 1), (5, 1)),
+    pca_components=6,
+    seam_cut_run=8,
+    seam_expansion_band=0,
+)
 
 #: a reference map given as ``init`` is taken up at this pyramid level (0 = finest) unless
 #: ``init_level`` says otherwise: its coarser structure is kept, the solver refines the finer levels
@@ -66,8 +71,9 @@ REFERENCE_START_LEVEL = 2
 FEATURE_DISTANCE_CLIP = 16.0
 
 
-def feature_distance_channel(exemplar_labels: np.ndarray, colour_variance: float,
-                             feature_weight: float, wrap: tuple[bool, bool] = (False, False)) -> np.ndarray:
+def feature_distance_channel(
+    exemplar_labels: np.ndarray, colour_variance: float, feature_weight: float, wrap: tuple[bool, bool] = (False, False)
+) -> np.ndarray:
     """The feature-distance map as a matching channel (laitoch2018 eq. 3.3): distance to the
     nearest label boundary (across the photo's edge where it wraps, ``wrap``), capped at
     :data:`FEATURE_DISTANCE_CLIP` px and scaled so a difference of the full cap costs
@@ -86,15 +92,17 @@ def _label_colours(n_labels: int) -> np.ndarray:
     return cv2.cvtColor(hsv[None], cv2.COLOR_HSV2RGB)[0]
 
 
-def _level_references(references, out_shape: tuple[int, int], exemplar_shape: tuple[int, int],
-                      level: int) -> np.ndarray:
+def _level_references(
+    references, out_shape: tuple[int, int], exemplar_shape: tuple[int, int], level: int
+) -> np.ndarray:
     """A full-resolution reference map brought to pyramid ``level``: every ``2**level``-th
     output pixel's exemplar position, scaled down, as flat indices into the level's exemplar."""
     refs = np.asarray(references)
     if refs.shape != out_shape + (2,) or not np.issubdtype(refs.dtype, np.integer):
         raise InvalidInputError(
             f"an initial reference map must be an integer array of shape {out_shape + (2,)}, not "
-            f"{refs.dtype} {refs.shape}")
+            f"{refs.dtype} {refs.shape}"
+        )
     if refs.min() < 0 or (refs[..., 0] >= exemplar_shape[0]).any() or (refs[..., 1] >= exemplar_shape[1]).any():
         raise InvalidInputError("the initial reference map points outside the exemplar")
     lh, lw = level_shape(exemplar_shape, level)
@@ -188,14 +196,27 @@ def texture_by_numbers(
     config = config or TBN_CONFIG
     target = _check_arguments(target_labels, init, init_level, label_weight, feature_weight)
     front = _LabelFront(exemplar_labels, target, feature_weight)
-    setup = set_up(exemplar, target.shape[:2], seed=seed, extra=extra, config=config, tile=tile,
-                   exemplar_wrap=exemplar_wrap, front=front)
+    setup = set_up(
+        exemplar,
+        target.shape[:2],
+        seed=seed,
+        extra=extra,
+        config=config,
+        tile=tile,
+        exemplar_wrap=exemplar_wrap,
+        front=front,
+    )
     labels, colour_variance = front.labels, front.colour_variance
     wrap, n_levels = setup.wrap, setup.n_levels
     # a pixel whose soft label differs completely costs label_weight x the colour variance
-    guide_a, guide_b = guide_channels(labels.exemplar, labels.target, labels.n_labels,
-                                      np.sqrt(label_weight * colour_variance / 2.0),
-                                      exemplar_wrap=wrap, target_wrap=tile)
+    guide_a, guide_b = guide_channels(
+        labels.exemplar,
+        labels.target,
+        labels.n_labels,
+        np.sqrt(label_weight * colour_variance / 2.0),
+        exemplar_wrap=wrap,
+        target_wrap=tile,
+    )
 
     pyr_a = label_pyramid(labels.exemplar, labels.n_labels, n_levels)
     pyr_b = label_pyramid(labels.target, labels.n_labels, n_levels)
@@ -204,11 +225,13 @@ def texture_by_numbers(
     if debug is not None:
         _show_labels(debug, labels, pyr_a, pyr_b, wrap)
 
-    start, initial = _start(init, init_level, n_levels, setup.out_shape, setup.exemplar.shape[:2],
-                            tile, wrap)
-    guidance = Guidance(levels=guides, exemplar_guides=gaussian_pyramid(guide_a, n_levels, wrap),
-                        target_guides=gaussian_pyramid(guide_b, n_levels, (tile, tile)),
-                        initial_references=initial)
+    start, initial = _start(init, init_level, n_levels, setup.out_shape, setup.exemplar.shape[:2], tile, wrap)
+    guidance = Guidance(
+        levels=guides,
+        exemplar_guides=gaussian_pyramid(guide_a, n_levels, wrap),
+        target_guides=gaussian_pyramid(guide_b, n_levels, (tile, tile)),
+        initial_references=initial,
+    )
     return setup.solve(guidance=guidance, progress=progress, debug=debug, start=start, cache=cache)
 
 
@@ -231,15 +254,24 @@ class _LabelFront(Front):
     def check(self, ex: np.ndarray) -> None:
         self.labels = encode_label_maps(self.exemplar_labels, self.target, ex.shape[:2])
 
-    def features(self, ex: np.ndarray, extras: Mapping[str, np.ndarray], wrap: tuple[bool, bool],
-                 config: SynthesisConfig) -> np.ndarray:
-        feats, self.colour_variance = _matching_features(ex, extras, self.labels.exemplar,
-                                                         self.feature_weight, config, wrap)
+    def features(
+        self, ex: np.ndarray, extras: Mapping[str, np.ndarray], wrap: tuple[bool, bool], config: SynthesisConfig
+    ) -> np.ndarray:
+        feats, self.colour_variance = _matching_features(
+            ex, extras, self.labels.exemplar, self.feature_weight, config, wrap
+        )
         return feats
 
 
-def _start(init, init_level: int, n_levels: int, out_shape: tuple[int, int],
-           exemplar_shape: tuple[int, int], tile: bool, wrap: tuple[bool, bool]):
+def _start(
+    init,
+    init_level: int,
+    n_levels: int,
+    out_shape: tuple[int, int],
+    exemplar_shape: tuple[int, int],
+    tile: bool,
+    wrap: tuple[bool, bool],
+):
     """``(start, initial)``: the level and reference map a given ``init`` starts from (else
     None), and the initialisation of the coarsest level otherwise (laitoch2018 §3.4)."""
     if not isinstance(init, str):
@@ -247,6 +279,7 @@ def _start(init, init_level: int, n_levels: int, out_shape: tuple[int, int],
         # (the initialisation is not used: the solver starts from the given level)
         return (level, _level_references(init, out_shape, exemplar_shape, level)), random_initialization
     if init == "smart":
+
         def initial(a: np.ndarray, b: np.ndarray, rng: np.random.Generator) -> np.ndarray:
             return smart_initialization(a, b, rng, tile=tile, exemplar_wrap=wrap)
 
@@ -254,38 +287,41 @@ def _start(init, init_level: int, n_levels: int, out_shape: tuple[int, int],
     return None, random_initialization
 
 
-def _check_arguments(target_labels, init, init_level, label_weight: float,
-                     feature_weight: float) -> np.ndarray:
+def _check_arguments(target_labels, init, init_level, label_weight: float, feature_weight: float) -> np.ndarray:
     """:func:`texture_by_numbers`' own arguments checked; the target label map as an array."""
     if not isinstance(init_level, (int, np.integer)) or init_level < 0:
         raise InvalidInputError(f"init_level must be a pyramid level >= 0, not {init_level!r}")
     if isinstance(init, str) and init not in INITIALIZATIONS:
-        raise InvalidInputError(f"init must be one of {', '.join(INITIALIZATIONS)} or a reference "
-                                f"map, not {init!r}")
+        raise InvalidInputError(f"init must be one of {', '.join(INITIALIZATIONS)} or a reference map, not {init!r}")
     for name, value in (("label_weight", label_weight), ("feature_weight", feature_weight)):
         if not isinstance(value, (int, float, np.number)) or not np.isfinite(value) or value < 0:
             raise InvalidInputError(f"{name} must be a non-negative number, not {value!r}")
     target = np.asarray(target_labels)
     if target.ndim not in (2, 3):
-        raise InvalidInputError(f"target label map must be an (H, W) or (H, W, C) image, not "
-                                f"shape {target.shape}")
+        raise InvalidInputError(f"target label map must be an (H, W) or (H, W, C) image, not shape {target.shape}")
     return target
 
 
-def _show_labels(debug: DebugCallback, labels, pyr_a: list, pyr_b: list,
-                 wrap: tuple[bool, bool]) -> None:
+def _show_labels(debug: DebugCallback, labels, pyr_a: list, pyr_b: list, wrap: tuple[bool, bool]) -> None:
     """The label pyramids and the feature-distance map, to the ``debug`` callback."""
     colours = _label_colours(labels.n_labels)
     for lvl, (a, b) in enumerate(zip(pyr_a, pyr_b)):
         debug(f"level{lvl}_exemplar_labels", colours[a])
         debug(f"level{lvl}_target_labels", colours[b])
-    debug("feature_distance", as_uint8(
-        boundary_distance(labels.exemplar, FEATURE_DISTANCE_CLIP, wrap=wrap) / FEATURE_DISTANCE_CLIP))
+    debug(
+        "feature_distance",
+        as_uint8(boundary_distance(labels.exemplar, FEATURE_DISTANCE_CLIP, wrap=wrap) / FEATURE_DISTANCE_CLIP),
+    )
 
 
-def _matching_features(ex: np.ndarray, extras: Mapping[str, np.ndarray], exemplar_codes: np.ndarray,
-                       feature_weight: float, config: SynthesisConfig,
-                       wrap: tuple[bool, bool]) -> tuple[np.ndarray, float]:
+def _matching_features(
+    ex: np.ndarray,
+    extras: Mapping[str, np.ndarray],
+    exemplar_codes: np.ndarray,
+    feature_weight: float,
+    config: SynthesisConfig,
+    wrap: tuple[bool, bool],
+) -> tuple[np.ndarray, float]:
     """What texture-by-numbers matches in the exemplar: colour (+ extras) and the
     feature-distance channel (round the exemplar's ``wrap``); returns them and the exemplar's
     colour variance."""
@@ -338,6 +374,5 @@ def analyse_texture_by_numbers(
     labels = encode_label_maps(exemplar_labels, exemplar_labels, ex.shape[:2])
     wrap = resolve_exemplar_wrap(exemplar_wrap, ex)
     feats, _ = _matching_features(ex, extras, labels.exemplar, feature_weight, config, wrap)
-    cache.analyse(feats, count_levels(ex.shape[:2], out_shape, config.coarsest_exemplar), config,
-                  wrap=wrap)
+    cache.analyse(feats, count_levels(ex.shape[:2], out_shape, config.coarsest_exemplar), config, wrap=wrap)
     return cache

@@ -32,8 +32,17 @@ from barkgen.web.routes_pages import router as page_routes
 from barkgen.web.routes_results import router as result_routes
 from barkgen.web.state import STATIC, AppState, WebLimits
 
-__all__ = ["AppState", "BodyLimit", "BodyTooLarge", "SameOrigin", "WebLimits", "allowed_hosts",
-           "create_app", "is_loopback", "serve"]
+__all__ = [
+    "AppState",
+    "BodyLimit",
+    "BodyTooLarge",
+    "SameOrigin",
+    "WebLimits",
+    "allowed_hosts",
+    "create_app",
+    "is_loopback",
+    "serve",
+]
 
 #: barkgen's errors as HTTP status codes (the most specific class that matches wins)
 ERROR_STATUS = {NotFoundError: 404, ImageTooLargeError: 413, QueueFullError: 429, BarkgenError: 400}
@@ -65,13 +74,13 @@ async def _answer_invalid_request(request, exc) -> JSONResponse:
     """422 with FastAPI's own detail, minus the values it echoes: a NaN seed or an exemplar id
     of 1e400 cannot be written as JSON, and the default answer to them was a 500 (and a
     traceback in the log). Each error keeps where and what; the input is left out."""
-    detail = [{key: value for key, value in error.items() if key in ("loc", "msg", "type")}
-              for error in exc.errors()]
+    detail = [{key: value for key, value in error.items() if key in ("loc", "msg", "type")} for error in exc.errors()]
     return JSONResponse(status_code=422, content={"detail": detail})
 
 
-def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: bool = True,
-               hosts: list[str] | None = None) -> FastAPI:
+def create_app(
+    library: Library, *, limits: WebLimits | None = None, run_jobs: bool = True, hosts: list[str] | None = None
+) -> FastAPI:
     """The app on ``library``. ``run_jobs=False`` queues jobs without running them (tests);
     ``hosts``: the Host names it answers (None: any; :func:`serve` passes
     :func:`allowed_hosts`)."""
@@ -86,8 +95,13 @@ def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: b
 
     # no /docs or /redoc: FastAPI's pages load their scripts from a CDN, and the app works
     # offline and loads nothing from elsewhere; the schema itself stays at /openapi.json
-    app = FastAPI(title="barkgen", lifespan=lifespan, docs_url=None, redoc_url=None,
-                  description="Bark textures from one photo: library, jobs, results.")
+    app = FastAPI(
+        title="barkgen",
+        lifespan=lifespan,
+        docs_url=None,
+        redoc_url=None,
+        description="Bark textures from one photo: library, jobs, results.",
+    )
     app.state.barkgen = state
     app.state.library = library
     app.state.jobs = state.jobs
@@ -106,8 +120,9 @@ def create_app(library: Library, *, limits: WebLimits | None = None, run_jobs: b
     return app
 
 
-def serve(library: Library, host: str = "127.0.0.1", port: int = 8000, *,
-          limits: WebLimits | None = None, on_ready=None) -> None:
+def serve(
+    library: Library, host: str = "127.0.0.1", port: int = 8000, *, limits: WebLimits | None = None, on_ready=None
+) -> None:
     """Run the app with uvicorn until interrupted. ``on_ready(url)`` is called once it listens."""
     import uvicorn
 

@@ -36,8 +36,11 @@ VENDOR = Path(__file__).parent / "static" / "vendor" / "three"
 def assets_present(folder: Path = VENDOR) -> bool:
     """True when every vendored file is there, of the pinned version."""
     stamp = folder / "VERSION"
-    return (stamp.is_file() and stamp.read_text().strip() == THREE_VERSION
-            and all((folder / target).is_file() for target in THREE_FILES.values()))
+    return (
+        stamp.is_file()
+        and stamp.read_text().strip() == THREE_VERSION
+        and all((folder / target).is_file() for target in THREE_FILES.values())
+    )
 
 
 def missing_warning(folder: Path | None = None) -> str | None:
@@ -46,8 +49,10 @@ def missing_warning(folder: Path | None = None) -> str | None:
     folder = VENDOR if folder is None else folder
     if assets_present(folder):
         return None
-    return (f"barkgen: warning: three.js {THREE_VERSION} is missing from {folder}, so the web "
-            "app's 3D trunk view is off; `python -m barkgen.web.assets` fetches it")
+    return (
+        f"barkgen: warning: three.js {THREE_VERSION} is missing from {folder}, so the web "
+        "app's 3D trunk view is off; `python -m barkgen.web.assets` fetches it"
+    )
 
 
 def fetch_three(folder: Path = VENDOR, *, url: str = THREE_TARBALL, timeout: float = 60.0) -> Path:
@@ -83,8 +88,11 @@ def main() -> int:
     try:
         fetch_three()
     except Exception as exc:  # network down, registry refused, ...: one line
-        print(f"barkgen: warning: could not fetch three.js {THREE_VERSION} from the npm registry "
-              f"({exc}); the web app's 3D trunk view will be off", file=sys.stderr)
+        print(
+            f"barkgen: warning: could not fetch three.js {THREE_VERSION} from the npm registry "
+            f"({exc}); the web app's 3D trunk view will be off",
+            file=sys.stderr,
+        )
         return 1
     print(f"barkgen: three.js {THREE_VERSION} (MIT) -> {VENDOR}", file=sys.stderr)
     return 0

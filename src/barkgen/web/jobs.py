@@ -142,15 +142,23 @@ class JobManager:
     def stopping(self) -> bool:
         return self._stopping
 
-    def submit(self, exemplar_id: int, params: dict, spec: dict, parent_id: int | None = None,
-               labels_key: dict | None = None) -> Job:
+    def submit(
+        self, exemplar_id: int, params: dict, spec: dict, parent_id: int | None = None, labels_key: dict | None = None
+    ) -> Job:
         """Queue a job; ``spec``: the :class:`JobSpec` fields but ``job_id``, ``photo`` and
         ``photo_hash`` (the photo is read from the library when the job starts). Raises
         :class:`QueueFullError` when :data:`MAX_QUEUED` jobs are waiting. ``labels_key``: the
         analysis key under which the result's input label map is kept for the next jobs."""
         job_id = secrets.token_hex(8)
-        job = Job(id=job_id, exemplar_id=exemplar_id, params=params, spec=spec, parent_id=parent_id,
-                  labels_key=labels_key, order=next(self._counter))
+        job = Job(
+            id=job_id,
+            exemplar_id=exemplar_id,
+            params=params,
+            spec=spec,
+            parent_id=parent_id,
+            labels_key=labels_key,
+            order=next(self._counter),
+        )
         with self._lock:
             self._check_room()
             self._jobs[job_id] = job
@@ -167,12 +175,23 @@ class JobManager:
         queued or running is returned instead of a second one."""
         with self._lock:
             for job in self._jobs.values():
-                if (job.kind == "labels" and job.exemplar_id == exemplar_id
-                        and job.params["k"] == k and job.state not in FINISHED):
+                if (
+                    job.kind == "labels"
+                    and job.exemplar_id == exemplar_id
+                    and job.params["k"] == k
+                    and job.state not in FINISHED
+                ):
                     return job
             self._check_room()
-            job = Job(id=secrets.token_hex(8), exemplar_id=exemplar_id, params={"k": k}, spec={},
-                      labels_key=labels_key, kind="labels", order=next(self._counter))
+            job = Job(
+                id=secrets.token_hex(8),
+                exemplar_id=exemplar_id,
+                params={"k": k},
+                spec={},
+                labels_key=labels_key,
+                kind="labels",
+                order=next(self._counter),
+            )
             self._jobs[job.id] = job
             ahead = sum(1 for queued in self._queue if self._jobs[queued].kind == "labels")
             self._queue.insert(ahead, job.id)
@@ -195,8 +214,10 @@ class JobManager:
         """Queued and running jobs first (in queue order), then finished ones, newest first."""
         with self._lock:
             place = {job_id: i for i, job_id in enumerate(self._queue)}
-            jobs = sorted(self._jobs.values(), key=lambda j: (
-                j.state in FINISHED, place.get(j.id, -1) if j.state not in FINISHED else -j.order))
+            jobs = sorted(
+                self._jobs.values(),
+                key=lambda j: (j.state in FINISHED, place.get(j.id, -1) if j.state not in FINISHED else -j.order),
+            )
             return [self._describe(j) for j in jobs]
 
     def cancel(self, job_id: str) -> dict | None:
@@ -216,25 +237,34 @@ class JobManager:
     def cancel_exemplar(self, exemplar_id: int) -> None:
         """Cancel every queued or running job of an exemplar (it is being removed)."""
         with self._lock:
-            ids = [j.id for j in self._jobs.values()
-                   if j.exemplar_id == exemplar_id and j.state not in FINISHED]
+            ids = [j.id for j in self._jobs.values() if j.exemplar_id == exemplar_id and j.state not in FINISHED]
         for job_id in ids:
             self.cancel(job_id)
 
     # -- internals (call with the lock held) ------------------------------------------------
     def _check_room(self) -> None:
         if len(self._queue) >= MAX_QUEUED:
-            raise QueueFullError(f"the queue is full ({MAX_QUEUED} jobs waiting); try again when "
-                                 "some are done")
+            raise QueueFullError(f"the queue is full ({MAX_QUEUED} jobs waiting); try again when some are done")
 
     def _describe(self, job: Job) -> dict:
         position = self._queue.index(job.id) + (1 if self._running() else 0) if job.state == "queued" else 0
-        return {"id": job.id, "kind": job.kind, "number": job.order, "state": job.state,
-                "progress": round(job.progress, 4),
-                "stage": job.stage if job.state == "running" else None,
-                "queue_position": position, "result_id": job.result_id, "error": job.error,
-                "exemplar_id": job.exemplar_id, "params": job.params, "version": job.version,
-                "created": job.created, "started": job.started, "finished": job.finished}
+        return {
+            "id": job.id,
+            "kind": job.kind,
+            "number": job.order,
+            "state": job.state,
+            "progress": round(job.progress, 4),
+            "stage": job.stage if job.state == "running" else None,
+            "queue_position": position,
+            "result_id": job.result_id,
+            "error": job.error,
+            "exemplar_id": job.exemplar_id,
+            "params": job.params,
+            "version": job.version,
+            "created": job.created,
+            "started": job.started,
+            "finished": job.finished,
+        }
 
     def _running(self) -> bool:
         return any(j.state == "running" for j in self._jobs.values())
@@ -253,7 +283,7 @@ class JobManager:
 
     def _forget_old(self) -> None:
         finished = [j for j in self._jobs.values() if j.state in FINISHED]
-        old = sorted(finished, key=lambda j: j.order)[:max(0, len(finished) - JOBS_KEPT)]
+        old = sorted(finished, key=lambda j: j.order)[: max(0, len(finished) - JOBS_KEPT)]
         for job in old:
             del self._jobs[job.id]
         if old:
@@ -261,12 +291,25 @@ class JobManager:
 
     def _save(self, job: Job) -> None:
         """Keep the job's state in the library (its spec only while it may still run)."""
-        self._keep(self.library.jobs.save, {
-            "id": job.id, "number": job.order, "kind": job.kind, "exemplar_id": job.exemplar_id,
-            "params": job.params, "state": job.state,
-            "spec": spec_to_json(job.spec) if job.state not in FINISHED else None,
-            "parent_id": job.parent_id, "labels_key": job.labels_key, "result_id": job.result_id,
-            "error": job.error, "created": job.created, "started": job.started, "finished": job.finished})
+        self._keep(
+            self.library.jobs.save,
+            {
+                "id": job.id,
+                "number": job.order,
+                "kind": job.kind,
+                "exemplar_id": job.exemplar_id,
+                "params": job.params,
+                "state": job.state,
+                "spec": spec_to_json(job.spec) if job.state not in FINISHED else None,
+                "parent_id": job.parent_id,
+                "labels_key": job.labels_key,
+                "result_id": job.result_id,
+                "error": job.error,
+                "created": job.created,
+                "started": job.started,
+                "finished": job.finished,
+            },
+        )
 
     @staticmethod
     def _keep(write, argument) -> None:
@@ -284,11 +327,22 @@ class JobManager:
             _log.warning("the kept job queue cannot be read (%s)", exc)
             return
         for record in records:
-            job = Job(id=record["id"], exemplar_id=record["exemplar_id"], params=record["params"],
-                      spec=spec_from_json(record["spec"]), parent_id=record["parent_id"],
-                      labels_key=record["labels_key"], kind=record["kind"], state=record["state"],
-                      result_id=record["result_id"], error=record["error"], created=record["created"],
-                      started=record["started"], finished=record["finished"], order=record["number"])
+            job = Job(
+                id=record["id"],
+                exemplar_id=record["exemplar_id"],
+                params=record["params"],
+                spec=spec_from_json(record["spec"]),
+                parent_id=record["parent_id"],
+                labels_key=record["labels_key"],
+                kind=record["kind"],
+                state=record["state"],
+                result_id=record["result_id"],
+                error=record["error"],
+                created=record["created"],
+                started=record["started"],
+                finished=record["finished"],
+                order=record["number"],
+            )
             self._jobs[job.id] = job
             if job.state == "running":
                 self._set(job, state="failed", error=INTERRUPTED, spec=None, finished=time.time())
@@ -332,8 +386,7 @@ class JobManager:
         self._end_worker()  # a worker that died between jobs: reap it, close its pipe
         context = multiprocessing.get_context("spawn")
         parent, child = context.Pipe()
-        self._process = context.Process(target=worker_main, args=(child,), daemon=True,
-                                        name="barkgen-worker")
+        self._process = context.Process(target=worker_main, args=(child,), daemon=True, name="barkgen-worker")
         self._process.start()
         child.close()
         self._conn = parent
@@ -377,8 +430,7 @@ class JobManager:
                     self._process.join(timeout=5)
                 code = self._process.exitcode if self._process is not None else None
                 self._end_worker()
-                self._finish(job, state="failed",
-                             error=f"the worker process ended (exit code {code}; out of memory?)")
+                self._finish(job, state="failed", error=f"the worker process ended (exit code {code}; out of memory?)")
                 return
             if message is None:
                 continue
@@ -390,8 +442,9 @@ class JobManager:
                 return
             elif isinstance(message, Done) and job.kind == "labels":
                 try:
-                    self.library.put_analysis(job.exemplar_id, "labels_in", job.labels_key,
-                                              message.files["labels_in.png"])
+                    self.library.put_analysis(
+                        job.exemplar_id, "labels_in", job.labels_key, message.files["labels_in.png"]
+                    )
                 except Exception as exc:  # the exemplar was removed, disk full, ...
                     self._finish(job, state="failed", error=f"could not store the label map ({exc})")
                     return
@@ -400,16 +453,20 @@ class JobManager:
             elif isinstance(message, Done):
                 files, report = message.files, message.report
                 try:
-                    result = self.library.add_result(job.exemplar_id, job.params, job.params["seed"],
-                                                     files, report.get("timings_s", {}),
-                                                     parent_id=job.parent_id)
+                    result = self.library.add_result(
+                        job.exemplar_id,
+                        job.params,
+                        job.params["seed"],
+                        files,
+                        report.get("timings_s", {}),
+                        parent_id=job.parent_id,
+                    )
                 except Exception as exc:  # the exemplar was removed, disk full, ...
                     self._finish(job, state="failed", error=f"could not store the result ({exc})")
                     return
                 if job.labels_key is not None and "labels_in.png" in files:
                     try:  # the next jobs of this photo and k skip its label map
-                        self.library.put_analysis(job.exemplar_id, "labels_in", job.labels_key,
-                                                  files["labels_in.png"])
+                        self.library.put_analysis(job.exemplar_id, "labels_in", job.labels_key, files["labels_in.png"])
                     except Exception:  # noqa: BLE001 - only a cache
                         pass
                 self._finish(job, state="done", progress=1.0, result_id=result.id)

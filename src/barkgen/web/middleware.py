@@ -66,6 +66,7 @@ class SameOrigin:
         fetched_from = headers.get(b"sec-fetch-site", b"").decode("latin-1")
         from_elsewhere = fetched_from in ("cross-site", "same-site") and scope["path"].startswith("/api/")
         if foreign or from_elsewhere:
-            return await JSONResponse({"detail": "cross-site requests are not allowed"},
-                                      status_code=403)(scope, receive, send)
+            return await JSONResponse({"detail": "cross-site requests are not allowed"}, status_code=403)(
+                scope, receive, send
+            )
         return await self.app(scope, receive, send)

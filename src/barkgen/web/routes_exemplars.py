@@ -29,16 +29,26 @@ router = APIRouter()
 
 def exemplar_json(exemplar) -> dict:
     """An exemplar as the API shows it: its record and the URLs of its pictures."""
-    return {**exemplar.to_dict(), "photo_url": f"/api/exemplars/{exemplar.id}/photo",
-            "thumbnail_url": f"/api/exemplars/{exemplar.id}/thumbnail.jpg"}
+    return {
+        **exemplar.to_dict(),
+        "photo_url": f"/api/exemplars/{exemplar.id}/photo",
+        "thumbnail_url": f"/api/exemplars/{exemplar.id}/thumbnail.jpg",
+    }
 
 
 def all_exemplars(state: AppState) -> list[dict]:
     return [exemplar_json(e) for e in state.library.exemplars()]
 
 
-def store_upload(state: AppState, data: bytes, filename: str | None, *, name: str | None = None,
-                 species: str | None = None, licence: str | None = None) -> dict:
+def store_upload(
+    state: AppState,
+    data: bytes,
+    filename: str | None,
+    *,
+    name: str | None = None,
+    species: str | None = None,
+    licence: str | None = None,
+) -> dict:
     """Add an uploaded photo to the library: ``{"id", "existing"}``, ``existing`` true when the
     same photo is there already (its entry is answered, nothing is added). The client's file
     name is only a default display name: it never touches the filesystem."""
@@ -50,17 +60,21 @@ def store_upload(state: AppState, data: bytes, filename: str | None, *, name: st
         existing = state.library.find_exemplar(data)
         if existing is not None:
             return {"id": existing.id, "existing": True}
-        exemplar = state.library.add_exemplar(data, display, species=species or None,
-                                              licence=licence or None, source="uploaded",
-                                              max_pixels=limits.max_upload_pixels)
+        exemplar = state.library.add_exemplar(
+            data,
+            display,
+            species=species or None,
+            licence=licence or None,
+            source="uploaded",
+            max_pixels=limits.max_upload_pixels,
+        )
     return {"id": exemplar.id, "existing": False}
 
 
 def exemplar_details(state: AppState, exemplar_id: int) -> dict:
     """An exemplar with the summaries of its results."""
     exemplar = state.library.exemplar(exemplar_id)
-    return {**exemplar_json(exemplar),
-            "results": [result_summary(r) for r in state.library.results(exemplar_id)]}
+    return {**exemplar_json(exemplar), "results": [result_summary(r) for r in state.library.results(exemplar_id)]}
 
 
 def delete_exemplar(state: AppState, exemplar_id: int) -> dict:
@@ -116,8 +130,9 @@ def coloured_labels(state: AppState, exemplar_id: int, k: int) -> bytes:
     state.library.exemplar(exemplar_id)
     grey = state.library.analysis(exemplar_id, "labels_in", labels_key(k))
     if grey is None:
-        raise NotFoundError(f"the label map of {k} labels is not made yet: "
-                            f"POST /api/exemplars/{exemplar_id}/labels?k={k} first")
+        raise NotFoundError(
+            f"the label map of {k} labels is not made yet: POST /api/exemplars/{exemplar_id}/labels?k={k} first"
+        )
     return encode_png(label_colour_map(decode_image(grey, "labels")[..., 0]))
 
 
@@ -128,11 +143,17 @@ def list_exemplars(state: State):
 
 
 @router.post("/api/exemplars", status_code=201)
-async def add_exemplar(state: State, file: UploadFile = File(...), name: str | None = Form(None),
-                       species: str | None = Form(None), licence: str | None = Form(None)):
+async def add_exemplar(
+    state: State,
+    file: UploadFile = File(...),
+    name: str | None = Form(None),
+    species: str | None = Form(None),
+    licence: str | None = Form(None),
+):
     data = await file.read(state.limits.max_upload_bytes + 1)
-    answer = await run_in_threadpool(store_upload, state, data, file.filename, name=name,
-                                     species=species, licence=licence)
+    answer = await run_in_threadpool(
+        store_upload, state, data, file.filename, name=name, species=species, licence=licence
+    )
     if answer["existing"]:  # the same photo again: its entry (the page says so)
         return JSONResponse(answer, status_code=200)
     return answer

@@ -77,16 +77,17 @@ def _shown(field: OptionField, value):
 def request_options(request: BaseModel, options_class: type = GenerateOptions, **given) -> dict:
     """The ``options_class`` keywords of a request: each web field read from its text (a size,
     a light), ``given`` in place of the request's own."""
-    return {f.name: given[f.name] if f.name in given else f.read(getattr(request, f.name))
-            for f in option_fields(options_class, "web")}
+    return {
+        f.name: given[f.name] if f.name in given else f.read(getattr(request, f.name))
+        for f in option_fields(options_class, "web")
+    }
 
 
 def check_size(limits: WebLimits, text: str) -> tuple[int, int]:
     """``"WxH"`` as ``(height, width)``, within the server's largest output side."""
     height, width = parse_size(text)
     if max(width, height) > limits.max_output_side:
-        raise InvalidInputError(f"size {text} is larger than this server's limit of "
-                                f"{limits.max_output_side} px a side")
+        raise InvalidInputError(f"size {text} is larger than this server's limit of {limits.max_output_side} px a side")
     return height, width
 
 
@@ -102,13 +103,14 @@ def _painted_codes(painted: np.ndarray, count: int) -> np.ndarray:
     off = codes < 0
     if off.any():
         y, x = np.argwhere(off)[0]
-        raise InvalidInputError(f"the painted pixel at x={x}, y={y} has colour {tuple(int(c) for c in rgb[y, x])}, "
-                                "which is no label's colour; paint with the palette only")
+        raise InvalidInputError(
+            f"the painted pixel at x={x}, y={y} has colour {tuple(int(c) for c in rgb[y, x])}, "
+            "which is no label's colour; paint with the palette only"
+        )
     return codes
 
 
-def painted_level(state: AppState, request: ResumeRequest, exemplar_id: int,
-                  params: dict) -> tuple[int, np.ndarray]:
+def painted_level(state: AppState, request: ResumeRequest, exemplar_id: int, params: dict) -> tuple[int, np.ndarray]:
     """The painted level as a label map of the parent result's label values."""
     library = state.library
     parent = library.result(request.result_id)
@@ -131,8 +133,10 @@ def painted_level(state: AppState, request: ResumeRequest, exemplar_id: int,
         painted = decode_image(data, "the painted labels", max_pixels=state.limits.max_upload_pixels)
     level = decode_image(library.result_file(parent.id, level_name), "level")[..., 0]
     if painted.shape[:2] != level.shape:
-        raise InvalidInputError(f"the painted labels are {painted.shape[1]}x{painted.shape[0]} px but level "
-                                f"{request.level} is {level.shape[1]}x{level.shape[0]} px")
+        raise InvalidInputError(
+            f"the painted labels are {painted.shape[1]}x{painted.shape[0]} px but level "
+            f"{request.level} is {level.shape[1]}x{level.shape[0]} px"
+        )
     values = np.unique(decode_image(library.result_file(parent.id, "labels_in.png"), "labels"))
     codes = _painted_codes(painted, values.size)
     return request.level, values[codes].astype(level.dtype)
@@ -147,24 +151,42 @@ def start_job(state: AppState, request: JobRequest) -> dict:
     seed = request.seed if request.seed is not None else secrets.randbelow(100_000)
     values = {**request_options(request, size=(height, width), seed=seed), "method": LABEL_METHOD}
     options = GenerateOptions(**values)
-    params = {"size": [width, height], "k": options.k, "tile": options.tile, "seed": seed,
-              "material": options.material, "resumed_from": None}
+    params = {
+        "size": [width, height],
+        "k": options.k,
+        "tile": options.tile,
+        "seed": seed,
+        "material": options.material,
+        "resumed_from": None,
+    }
     # the other options, where the request changed them
-    params.update({f.name: _shown(f, getattr(options, f.name))
-                   for f in option_fields(GenerateOptions, "web")
-                   if f.name not in params and getattr(options, f.name) != f.default})
+    params.update(
+        {
+            f.name: _shown(f, getattr(options, f.name))
+            for f in option_fields(GenerateOptions, "web")
+            if f.name not in params and getattr(options, f.name) != f.default
+        }
+    )
     resume = None
     if request.resume is not None:
         resume = painted_level(state, request.resume, exemplar.id, params)
         params["resumed_from"] = {"result_id": request.resume.result_id, "level": resume[0]}
     # the photo's label map when a page has made it already (else the worker makes it)
     grey = library.analysis(exemplar.id, "labels_in", labels_key(options.k))
-    spec = {"source": exemplar.name, "set_name": f"bark{exemplar.id}_seed{seed}",
-            "options": values,
-            "labels_in": grey, "resume": resume}
-    job = state.jobs.submit(exemplar.id, params, spec,
-                            parent_id=request.resume.result_id if request.resume else None,
-                            labels_key=labels_key(options.k) if grey is None else None)
+    spec = {
+        "source": exemplar.name,
+        "set_name": f"bark{exemplar.id}_seed{seed}",
+        "options": values,
+        "labels_in": grey,
+        "resume": resume,
+    }
+    job = state.jobs.submit(
+        exemplar.id,
+        params,
+        spec,
+        parent_id=request.resume.result_id if request.resume else None,
+        labels_key=labels_key(options.k) if grey is None else None,
+    )
     return {"id": job.id}
 
 
@@ -182,8 +204,9 @@ def stop_job(state: AppState, job_id: str) -> dict:
     return state.jobs.cancel(job_id)
 
 
-async def job_event_stream(state: AppState, snapshot: dict,
-                           is_disconnected: Callable[[], Awaitable[bool]]) -> AsyncIterator[str]:
+async def job_event_stream(
+    state: AppState, snapshot: dict, is_disconnected: Callable[[], Awaitable[bool]]
+) -> AsyncIterator[str]:
     """Server-sent events of a job (``snapshot``: its JSON now): its JSON on every change (or
     every 10 s, to keep the stream alive) until it is finished, the server stops or the page
     goes (``is_disconnected``)."""
@@ -229,6 +252,8 @@ def cancel_job(job_id: str, state: State):
 async def job_events(job_id: str, request: Request, state: State):
     """Server-sent events: the job's JSON on every change, until it is finished."""
     snapshot = job_snapshot(state, job_id)
-    return StreamingResponse(job_event_stream(state, snapshot, request.is_disconnected),
-                             media_type="text/event-stream",
-                             headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
+    return StreamingResponse(
+        job_event_stream(state, snapshot, request.is_disconnected),
+        media_type="text/event-stream",
+        headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"},
+    )

@@ -41,7 +41,7 @@ _FILE_NOTES = {
     "labels_in.png": "the photo's label map (one grey value per region type)",
     "labels_out.png": "the new bark's label map (same grey values)",
     "reference.png": "16-bit: for each output pixel, the photo pixel (x, y) it copies "
-                     "(barkgen apply-reference re-applies it to any map of the photo)",
+    "(barkgen apply-reference re-applies it to any map of the photo)",
     "preview.png": "contact sheet: photo, labels in, labels out, result",
     "report.json": "parameters, seed, label areas and timings of the run",
 }
@@ -49,8 +49,13 @@ _FILE_NOTES = {
 
 def result_summary(result) -> dict:
     """A result as lists show it."""
-    return {"id": result.id, "exemplar_id": result.exemplar_id, "created": result.created,
-            "params": result.params, "thumbnail_url": f"/api/results/{result.id}/files/thumbnail.jpg"}
+    return {
+        "id": result.id,
+        "exemplar_id": result.exemplar_id,
+        "created": result.created,
+        "params": result.params,
+        "thumbnail_url": f"/api/results/{result.id}/files/thumbnail.jpg",
+    }
 
 
 def _label_values(state: AppState, result_id: int) -> np.ndarray:
@@ -69,15 +74,17 @@ def _levels(state: AppState, result, base: str) -> list[dict]:
             levels.append(int(m.group(1)))
             with Image.open(io.BytesIO(state.library.result_file(result.id, name))) as header:
                 sizes.append(header.size)
-    return [{"level": n, "width": w, "height": h, "url": f"{base}/labels/level_{n}.png"}
-            for n, (w, h) in sorted(zip(levels, sizes))]
+    return [
+        {"level": n, "width": w, "height": h, "url": f"{base}/labels/level_{n}.png"}
+        for n, (w, h) in sorted(zip(levels, sizes))
+    ]
 
 
 def result_json(state: AppState, result) -> dict:
     """A result as its page shows it: files, material maps, levels, palette and legend."""
     base = f"/api/results/{result.id}"
     files = {name: f"{base}/files/{name}" for name in result.files}
-    material_name = next((n[:-len("_Color.png")] for n in result.files if n.endswith("_Color.png")), None)
+    material_name = next((n[: -len("_Color.png")] for n in result.files if n.endswith("_Color.png")), None)
     maps = None
     depth = None
     if material_name is not None:
@@ -88,13 +95,20 @@ def result_json(state: AppState, result) -> dict:
         depth = meta.get("displacement_depth_px")
     levels = _levels(state, result, base)
     values = _label_values(state, result.id)
-    return {**result_summary(result), "timings": result.timings, "parent_id": result.parent_id,
-            "files": files, "labels_in_url": f"{base}/labels/labels_in.png",
-            "labels_out_url": f"{base}/labels/labels_out.png", "maps": maps,
-            "displacement_depth_px": depth, "levels": levels,
-            "palette": label_colours(values.size).tolist(),
-            "label_looks": label_looks(state, result.exemplar_id, result.id, values),
-            "download_url": f"{base}/download"}
+    return {
+        **result_summary(result),
+        "timings": result.timings,
+        "parent_id": result.parent_id,
+        "files": files,
+        "labels_in_url": f"{base}/labels/labels_in.png",
+        "labels_out_url": f"{base}/labels/labels_out.png",
+        "maps": maps,
+        "displacement_depth_px": depth,
+        "levels": levels,
+        "palette": label_colours(values.size).tolist(),
+        "label_looks": label_looks(state, result.exemplar_id, result.id, values),
+        "download_url": f"{base}/download",
+    }
 
 
 def label_looks(state: AppState, exemplar_id: int, result_id: int, values: np.ndarray) -> list[dict]:
@@ -145,11 +159,20 @@ def coloured_result_labels(state: AppState, result_id: int, name: str) -> bytes:
 def zip_readme(photo: str, result, names: list[str]) -> str:
     """What each file of a downloaded result is."""
     width, height = result.params["size"]
-    lines = [f"barkgen result {result.id}: {width}x{height} px from \"{photo}\", seed {result.params['seed']}"
-             f"{', tileable' if result.params.get('tile') else ''}.", ""]
+    lines = [
+        f'barkgen result {result.id}: {width}x{height} px from "{photo}", seed {result.params["seed"]}'
+        f"{', tileable' if result.params.get('tile') else ''}.",
+        "",
+    ]
     for name in names:
-        note = next((text for key, text in _FILE_NOTES.items() if name == key or
-                     (key.startswith(("_", ".")) and name.endswith(key) and name != "report.json")), "")
+        note = next(
+            (
+                text
+                for key, text in _FILE_NOTES.items()
+                if name == key or (key.startswith(("_", ".")) and name.endswith(key) and name != "report.json")
+            ),
+            "",
+        )
         lines.append(f"{name:40s} {note}".rstrip())
     return "\n".join(lines) + "\n"
 
@@ -205,5 +228,6 @@ def download(result_id: int, state: State):
     """The result as a zip: the material set (ambientCG names) when it has one, the texture,
     its label maps, reference map, contact sheet and report."""
     filename, data = result_zip(state, result_id)
-    return Response(data, media_type="application/zip", headers={
-        "Content-Disposition": f'attachment; filename="{filename}"'})
+    return Response(
+        data, media_type="application/zip", headers={"Content-Disposition": f'attachment; filename="{filename}"'}
+    )

@@ -9,17 +9,18 @@ them without a server: ``AppState(library, JobManager(library))``.
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Callable
+from typing import Annotated
 
 from fastapi import Depends, Request
 from fastapi.responses import Response
 
+from barkgen._shared.checks import MAX_PHOTO_PIXELS
 from barkgen.library import Library
 from barkgen.pipeline import ANALYSIS_SEED
 from barkgen.web.jobs import JobManager
-from barkgen._shared.checks import MAX_PHOTO_PIXELS
 
 STATIC = Path(__file__).parent / "static"
 #: label maps of the photos are made the way `barkgen generate` makes them

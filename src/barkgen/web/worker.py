@@ -18,7 +18,6 @@ from dataclasses import dataclass
 import numpy as np
 
 
-
 @dataclass(frozen=True)
 class Progress:
     """A job's progress: the fraction done and the stage it is in."""
@@ -111,13 +110,14 @@ def encode_result(photo: np.ndarray, result, spec: JobSpec) -> dict[str, bytes]:
 
     from PIL import Image
 
+    from barkgen._shared.arrays import as_uint8
     from barkgen.io import encode_png
     from barkgen.pipeline import encode_generate
-    from barkgen._shared.arrays import as_uint8
 
     files = encode_generate(photo, result, spec.source, name=spec.set_name)
-    files.update({f"level_{i}.png": encode_png(level)
-                  for i, level in enumerate(result.label_levels) if level is not None})
+    files.update(
+        {f"level_{i}.png": encode_png(level) for i, level in enumerate(result.label_levels) if level is not None}
+    )
     thumb = Image.fromarray(as_uint8(result.texture).squeeze())
     thumb.thumbnail((320, 320))
     buffer = io.BytesIO()
@@ -159,9 +159,12 @@ def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
         if analysis is None:
             # generate() given an analysis reports from the end of its analysis stage on
             share = stage_span("analysis", options.material)[1]
-            analysis = analyze_photo(photo, options, labels_in=labels_in,
-                                     progress=lambda done, total: progress(
-                                         round(1000 * share * done / max(total, 1)), 1000))
+            analysis = analyze_photo(
+                photo,
+                options,
+                labels_in=labels_in,
+                progress=lambda done, total: progress(round(1000 * share * done / max(total, 1)), 1000),
+            )
             analyses[key] = analysis
             while len(analyses) > ANALYSES_KEPT:
                 analyses.popitem(last=False)

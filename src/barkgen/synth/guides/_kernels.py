@@ -68,8 +68,7 @@ def _seed_match(pad, pool, seed, salt, neighbourhood, params, usage, cand, dist)
     for t in range(32):
         a = pool[np.int64(_mix(salt ^ np.uint64(seed * 32 + t + 1)) % np.uint64(pool.size))]
         qy = a // w
-        d = _guide_distance(pad_a, pad_da, qy, a - qy * w, nb_lab, nb_dist, radius,
-                            label_weight, bound)
+        d = _guide_distance(pad_a, pad_da, qy, a - qy * w, nb_lab, nb_dist, radius, label_weight, bound)
         if d + tolerance < bound:
             bound = d + tolerance
     # a regular subsample with a random phase: at most max_candidates of the exemplar's pixels
@@ -80,8 +79,7 @@ def _seed_match(pad, pool, seed, salt, neighbourhood, params, usage, cand, dist)
     for i in range(phase, pool.size, step):
         a = pool[i]
         qy = a // w
-        d = _guide_distance(pad_a, pad_da, qy, a - qy * w, nb_lab, nb_dist, radius,
-                            label_weight, bound)
+        d = _guide_distance(pad_a, pad_da, qy, a - qy * w, nb_lab, nb_dist, radius, label_weight, bound)
         cand[n_cand] = a
         dist[n_cand] = d
         n_cand += 1
@@ -105,8 +103,7 @@ def _seed_match(pad, pool, seed, salt, neighbourhood, params, usage, cand, dist)
 
 
 @nb.njit(cache=True)
-def grow_regions(exemplar, target, label_pools, order, params, tile, salt,
-                 refs):  # pragma: no cover - compiled
+def grow_regions(exemplar, target, label_pools, order, params, tile, salt, refs):  # pragma: no cover - compiled
     """Seeded region growing of Bonneel et al. 2010's first pass (laitoch2018 §3.4.2).
 
     Output pixels are taken as seeds in ``order`` (a random permutation); an unfilled seed ``pB``
@@ -155,9 +152,8 @@ def grow_regions(exemplar, target, label_pools, order, params, tile, salt,
         _load_output(idb, db, by, bx, radius, tile, nb_lab, nb_dist)
         # candidates: the exemplar pixels of the seed's label
         own = idb[by, bx]
-        pool = label_pool[label_start[own]:label_start[own + 1]]
-        best, best_d = _seed_match((pad_a, pad_da), pool, seed, salt, (nb_lab, nb_dist), params,
-                                   usage, cand, dist)
+        pool = label_pool[label_start[own] : label_start[own + 1]]
+        best, best_d = _seed_match((pad_a, pad_da), pool, seed, salt, (nb_lab, nb_dist), params, usage, cand, dist)
         ay = best // w
         ax = best - ay * w
         threshold = (best_d + 5.0) * 1.25
@@ -190,8 +186,7 @@ def grow_regions(exemplar, target, label_pools, order, params, tile, salt,
                     continue
                 tested[p] = n_regions
                 _load_output(idb, db, vy, vx, radius, tile, nb_lab, nb_dist)
-                if _guide_distance(pad_a, pad_da, sy, sx, nb_lab, nb_dist, radius, label_weight,
-                                   threshold) < threshold:
+                if _guide_distance(pad_a, pad_da, sy, sx, nb_lab, nb_dist, radius, label_weight, threshold) < threshold:
                     a = sy * w + sx
                     refs[p] = a
                     usage[a] += 1

@@ -84,8 +84,9 @@ def _describe(value: np.ndarray) -> str:
     return str(v[0]) if len(v) == 1 else "(" + ", ".join(map(str, v)) + ")"
 
 
-def encode_label_maps(exemplar_labels: np.ndarray, target_labels: np.ndarray,
-                      exemplar_shape: tuple[int, int] | None = None) -> LabelMaps:
+def encode_label_maps(
+    exemplar_labels: np.ndarray, target_labels: np.ndarray, exemplar_shape: tuple[int, int] | None = None
+) -> LabelMaps:
     """Encode the exemplar's and the target's label maps to integer codes over one palette.
 
     Raises:
@@ -98,19 +99,22 @@ def encode_label_maps(exemplar_labels: np.ndarray, target_labels: np.ndarray,
     if exemplar_shape is not None and a.shape[:2] != tuple(exemplar_shape):
         raise InvalidInputError(
             f"the exemplar label map is {a.shape[1]}x{a.shape[0]} px but the exemplar is "
-            f"{exemplar_shape[1]}x{exemplar_shape[0]} px; they must match")
+            f"{exemplar_shape[1]}x{exemplar_shape[0]} px; they must match"
+        )
     values_a, codes_a = _unique_values(a)
     values_b, codes_b = _unique_values(b)
     for name, values in (("exemplar", values_a), ("target", values_b)):
         if len(values) > MAX_LABELS:
             raise InvalidInputError(
                 f"the {name} label map has {len(values)} distinct values; at most {MAX_LABELS} "
-                "labels are supported (label maps must be lossless: PNG, not JPEG)")
+                "labels are supported (label maps must be lossless: PNG, not JPEG)"
+            )
     if a.shape[2] != b.shape[2]:
         kinds = {1: "grey", 3: "colour"}
         raise InvalidInputError(
             f"the exemplar label map is {kinds[a.shape[2]]} but the target label map is "
-            f"{kinds[b.shape[2]]}; both must use the same label values")
+            f"{kinds[b.shape[2]]}; both must use the same label values"
+        )
     # every target value must be one of the exemplar's
     va = values_a.astype(np.float64)
     vb = values_b.astype(np.float64)
@@ -120,10 +124,10 @@ def encode_label_maps(exemplar_labels: np.ndarray, target_labels: np.ndarray,
         shown = ", ".join(_describe(v) for v in values_b[missing][:5])
         raise InvalidInputError(
             f"the target label map uses label(s) {shown} that the exemplar label map does not "
-            "have; every target label needs exemplar pixels to copy")
+            "have; every target label needs exemplar pixels to copy"
+        )
     to_a = eq.argmax(axis=1)
-    return LabelMaps(exemplar=codes_a.astype(np.int32), target=to_a[codes_b].astype(np.int32),
-                     palette=values_a)
+    return LabelMaps(exemplar=codes_a.astype(np.int32), target=to_a[codes_b].astype(np.int32), palette=values_a)
 
 
 def label_pyramid(codes: np.ndarray, n_labels: int, n_levels: int) -> list[np.ndarray]:
@@ -143,8 +147,7 @@ def label_pyramid(codes: np.ndarray, n_labels: int, n_levels: int) -> list[np.nd
             continue
         for lvl in range(1, n_levels):
             h, w = ind.shape
-            ind = cv2.pyrDown(ind, dstsize=((w + 1) // 2, (h + 1) // 2),
-                              borderType=cv2.BORDER_REFLECT_101)
+            ind = cv2.pyrDown(ind, dstsize=((w + 1) // 2, (h + 1) // 2), borderType=cv2.BORDER_REFLECT_101)
             if best[lvl] is None:
                 best[lvl] = np.full(ind.shape, label, np.int32)
                 score[lvl] = ind.copy()
@@ -155,8 +158,7 @@ def label_pyramid(codes: np.ndarray, n_labels: int, n_levels: int) -> list[np.nd
     return levels + best[1:]
 
 
-def boundary_distance(codes: np.ndarray, clip: float | None = None, *,
-                      wrap: Wrap = False) -> np.ndarray:
+def boundary_distance(codes: np.ndarray, clip: float | None = None, *, wrap: Wrap = False) -> np.ndarray:
     """Distance, in pixels, from every pixel to the nearest label boundary (a pixel with a
     4-neighbour of another label), by the 3x3 chamfer distance transform with Borgefors'
     weights (the 3-4 DT of laitoch2018 §3.4.2, as computed by OpenCV). ``clip`` caps it.
@@ -219,14 +221,17 @@ def level_guide(exemplar_labels: np.ndarray, target_labels: np.ndarray, n_labels
     offsets = np.concatenate([[0], np.cumsum(count_a)])
     everything = np.arange(ea.size, dtype=np.int32)
     for lab in range(n_labels):
-        members = order[offsets[lab]:offsets[lab + 1]] if count_a[lab] else everything
+        members = order[offsets[lab] : offsets[lab + 1]] if count_a[lab] else everything
         pools.append(members)
         start.append(start[-1] + len(members))
     expected = (count_b / np.maximum(count_a, 1)).astype(np.float32)[ea]
-    return LevelGuide(exemplar_labels=ea, target_labels=tb,
-                      pool=np.ascontiguousarray(np.concatenate(pools), dtype=np.int32),
-                      pool_start=np.asarray(start, np.int32),
-                      expected_use=np.ascontiguousarray(expected))
+    return LevelGuide(
+        exemplar_labels=ea,
+        target_labels=tb,
+        pool=np.ascontiguousarray(np.concatenate(pools), dtype=np.int32),
+        pool_start=np.asarray(start, np.int32),
+        expected_use=np.ascontiguousarray(expected),
+    )
 
 
 #: px of Gaussian blur of the label indicators that make the guide channels
@@ -237,9 +242,15 @@ RARE_LABEL_BOOST = 16.0
 MAX_GUIDE_CHANNELS = 8
 
 
-def guide_channels(exemplar_codes: np.ndarray, target_codes: np.ndarray, n_labels: int,
-                   scale: float, *, exemplar_wrap: Wrap = False,
-                   target_wrap: Wrap = False) -> tuple[np.ndarray, np.ndarray]:
+def guide_channels(
+    exemplar_codes: np.ndarray,
+    target_codes: np.ndarray,
+    n_labels: int,
+    scale: float,
+    *,
+    exemplar_wrap: Wrap = False,
+    target_wrap: Wrap = False,
+) -> tuple[np.ndarray, np.ndarray]:
     """Soft-label guide channels of the exemplar (``A``) and the target (``B``): each label's
     indicator, blurred by a Gaussian of :data:`GUIDE_BLUR` px (a boundary one pixel off then costs
     little), weighted up when the label is rare and multiplied by ``scale``; with more than
@@ -259,8 +270,10 @@ def guide_channels(exemplar_codes: np.ndarray, target_codes: np.ndarray, n_label
             return cv2.GaussianBlur(indicator, (0, 0), GUIDE_BLUR, borderType=cv2.BORDER_REFLECT_101)
 
         reach = int(np.ceil(4 * GUIDE_BLUR)) + 1
-        chans = [on_torus(blurred, (codes == lab).astype(np.float32), reach, wrap) * np.float32(boost[lab])
-                 for lab in range(n_labels)]
+        chans = [
+            on_torus(blurred, (codes == lab).astype(np.float32), reach, wrap) * np.float32(boost[lab])
+            for lab in range(n_labels)
+        ]
         return np.stack(chans, axis=-1)
 
     ga, gb = soft(exemplar_codes, exemplar_wrap), soft(target_codes, target_wrap)
@@ -271,5 +284,7 @@ def guide_channels(exemplar_codes: np.ndarray, target_codes: np.ndarray, n_label
         basis = vt[:MAX_GUIDE_CHANNELS].T.astype(np.float32)
         ga = (ga - mean) @ basis
         gb = (gb - mean) @ basis
-    return (np.ascontiguousarray(ga * np.float32(scale), dtype=np.float32),
-            np.ascontiguousarray(gb * np.float32(scale), dtype=np.float32))
+    return (
+        np.ascontiguousarray(ga * np.float32(scale), dtype=np.float32),
+        np.ascontiguousarray(gb * np.float32(scale), dtype=np.float32),
+    )

@@ -65,29 +65,43 @@ NO_GUIDE_EX = np.zeros((1, 0), np.float32)
 NO_GUIDE_OUT = np.zeros((1, 1, 0), np.float32)
 
 
-def level_guidance(guidance: Guidance | None, lvl: int, n_levels: int, config: SynthesisConfig,
-                   shape: tuple[int, int], wrap: tuple[bool, bool], tile: bool) -> LevelGuidance:
+def level_guidance(
+    guidance: Guidance | None,
+    lvl: int,
+    n_levels: int,
+    config: SynthesisConfig,
+    shape: tuple[int, int],
+    wrap: tuple[bool, bool],
+    tile: bool,
+) -> LevelGuidance:
     """The label tables of level ``lvl`` and the appearance-space label neighbourhoods of the
     exemplar and of the target for each neighbourhood size of the level's schedule
     (laitoch2018 §3.3, eq. 3.2)."""
     if guidance is None:
-        return LevelGuidance(NO_LABELS, NO_TARGET, NO_LABELS, NO_POOL_START, None, 0, 1.0,
-                             {}, {}, False)
+        return LevelGuidance(NO_LABELS, NO_TARGET, NO_LABELS, NO_POOL_START, None, 0, 1.0, {}, {}, False)
     lg = guidance.levels[lvl]
     guide_ex, guide_out = {}, {}
     for nb_size in schedule_sizes(config, lvl, n_levels):
-        gp = neighbourhood_pca(guidance.exemplar_guides[lvl], nb_size, guidance.components,
-                               wrap=wrap)
+        gp = neighbourhood_pca(guidance.exemplar_guides[lvl], nb_size, guidance.components, wrap=wrap)
         guide_ex[nb_size] = gp.features
         guide_out[nb_size] = project_neighbourhoods(
-            guidance.target_guides[lvl], gp.weights, gp.mean, wrap=tile).reshape(shape + (-1,))
-    return LevelGuidance(lg.exemplar_labels, lg.target_labels, lg.pool, lg.pool_start,
-                         lg.expected_use, guidance.random_candidates, guidance.vote_discount,
-                         guide_ex, guide_out, True)
+            guidance.target_guides[lvl], gp.weights, gp.mean, wrap=tile
+        ).reshape(shape + (-1,))
+    return LevelGuidance(
+        lg.exemplar_labels,
+        lg.target_labels,
+        lg.pool,
+        lg.pool_start,
+        lg.expected_use,
+        guidance.random_candidates,
+        guidance.vote_discount,
+        guide_ex,
+        guide_out,
+        True,
+    )
 
 
-def enforce_labels(refs: np.ndarray, grid: tuple, guide: LevelGuidance, passes: int,
-                   tile: bool) -> np.ndarray:
+def enforce_labels(refs: np.ndarray, grid: tuple, guide: LevelGuidance, passes: int, tile: bool) -> np.ndarray:
     """Texture-by-numbers' label clean-up after the finest level
     (``guides._kernels.enforce_labels``), at most ``passes`` passes on the level's exemplar
     ``grid`` (:attr:`barkgen.synth._analysis.LevelAnalysis.grid`)."""

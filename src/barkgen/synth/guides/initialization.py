@@ -23,8 +23,9 @@ SMART_CANDIDATES = 256
 SMART_DISTANCE_CLIP = 16.0
 
 
-def random_initialization(exemplar_labels: np.ndarray, target_labels: np.ndarray,
-                          rng: np.random.Generator) -> np.ndarray:
+def random_initialization(
+    exemplar_labels: np.ndarray, target_labels: np.ndarray, rng: np.random.Generator
+) -> np.ndarray:
     """laitoch2018 §3.4.1: every output pixel references a random exemplar pixel of its label."""
     n_labels = int(max(exemplar_labels.max(), target_labels.max())) + 1
     guide = level_guide(exemplar_labels, target_labels, n_labels)
@@ -35,10 +36,15 @@ def random_initialization(exemplar_labels: np.ndarray, target_labels: np.ndarray
     return np.ascontiguousarray(guide.pool[start + np.minimum(pick, count - 1)], dtype=np.int32)
 
 
-def smart_initialization(exemplar_labels: np.ndarray, target_labels: np.ndarray,
-                         rng: np.random.Generator, *, tile: bool = False,
-                         label_weight: float = SMART_LABEL_WEIGHT,
-                         exemplar_wrap: tuple[bool, bool] = (False, False)) -> np.ndarray:
+def smart_initialization(
+    exemplar_labels: np.ndarray,
+    target_labels: np.ndarray,
+    rng: np.random.Generator,
+    *,
+    tile: bool = False,
+    label_weight: float = SMART_LABEL_WEIGHT,
+    exemplar_wrap: tuple[bool, bool] = (False, False),
+) -> np.ndarray:
     """Texture-synthesis-based initialisation (laitoch2018 §3.4.2; the first pass of Bonneel et
     al. 2010 as Fan et al. 2012 use it).
 
@@ -61,6 +67,5 @@ def smart_initialization(exemplar_labels: np.ndarray, target_labels: np.ndarray,
     salt = np.uint64(rng.integers(0, 2**63))
     refs = np.full(idb.size, -1, np.int32)
     params = (SMART_RADIUS, float(label_weight), SMART_TOLERANCE, SMART_CANDIDATES)
-    K.grow_regions((ida, da), (idb, db), (guide.pool, guide.pool_start), order, params, bool(tile),
-                   salt, refs)
+    K.grow_regions((ida, da), (idb, db), (guide.pool, guide.pool_start), order, params, bool(tile), salt, refs)
     return refs.reshape(idb.shape)

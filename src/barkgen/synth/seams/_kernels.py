@@ -133,8 +133,7 @@ def _seam_cost(feat, ex_h, ex_w, wrap_y, wrap_x, cy, cx, fy, fx, dy, dx):
 
 
 @nb.njit(parallel=True, cache=True, fastmath=True)
-def refine_seams(refs, feat, exemplar, tile, parity, forbid, labels, after, moved,
-                 out):  # pragma: no cover - compiled
+def refine_seams(refs, feat, exemplar, tile, parity, forbid, labels, after, moved, out):  # pragma: no cover - compiled
     """One half-sweep of seam optimisation (Kwatra et al. 2003, §3: the seam cost minimised by
     local moves): every output pixel with ``(y + x) % 2 == parity`` takes, among its own
     reference and the forward-shifted references of its 4 neighbours (each continues a
@@ -204,8 +203,7 @@ def refine_seams(refs, feat, exemplar, tile, parity, forbid, labels, after, move
                     if not inside:
                         continue
                     f = refs[qy, qx]
-                    cost += _seam_cost(feat, ex_h, ex_w, wrap_y, wrap_x, ex_y[c], ex_x[c],
-                                       ex_y[f], ex_x[f], dy, dx)
+                    cost += _seam_cost(feat, ex_h, ex_w, wrap_y, wrap_x, ex_y[c], ex_x[c], ex_y[f], ex_x[f], dy, dx)
                 if cost < best_cost - 1e-6:
                     best_cost = cost
                     best = c
@@ -288,8 +286,7 @@ def seam_runs(ry, rx, ex_h, ex_w, wrap_y, wrap_x, tile, min_run):  # pragma: no 
 
 
 @nb.njit(cache=True)
-def seam_band(ry, rx, feat, wrap_y, wrap_x, tile, i, cols, band,
-              out):  # pragma: no cover - compiled
+def seam_band(ry, rx, feat, wrap_y, wrap_x, tile, i, cols, band, out):  # pragma: no cover - compiled
     """The graph of one straight seam's re-cut (``barkgen.synth.seams.cuts``), between output rows
     ``i`` and ``i + 1`` along columns ``cols``, over the ``2 * band`` rows around it.
 
@@ -329,8 +326,9 @@ def seam_band(ry, rx, feat, wrap_y, wrap_x, tile, i, cols, band,
             cand_x[1, k, c] = rx[j, x]
             valid[1, k, c] = vy >= 0
             side = 0 if off <= 0 else 1
-            member[k, c] = (inside and valid[side, k, c] and ry[y, x] == cand_y[side, k, c]
-                            and rx[y, x] == cand_x[side, k, c])
+            member[k, c] = (
+                inside and valid[side, k, c] and ry[y, x] == cand_y[side, k, c] and rx[y, x] == cand_x[side, k, c]
+            )
         # unbroken from the seam: rows i, i - 1, ... and i + 1, i + 2, ...
         for k in range(band - 2, -1, -1):
             member[k, c] = member[k, c] and member[k + 1, c]
@@ -364,9 +362,19 @@ def seam_band(ry, rx, feat, wrap_y, wrap_x, tile, i, cols, band,
                 elif qy < 0 or qy >= H or qx < 0 or qx >= W:
                     continue
                 for lab in range(2):
-                    cost[lab, k, c] += _seam_cost(feat, ex_h, ex_w, wrap_y, wrap_x,
-                                                        cand_y[lab, k, c], cand_x[lab, k, c],
-                                                        ry[qy, qx], rx[qy, qx], dy, dx)
+                    cost[lab, k, c] += _seam_cost(
+                        feat,
+                        ex_h,
+                        ex_w,
+                        wrap_y,
+                        wrap_x,
+                        cand_y[lab, k, c],
+                        cand_x[lab, k, c],
+                        ry[qy, qx],
+                        rx[qy, qx],
+                        dy,
+                        dx,
+                    )
             for t in range(2):  # pairs with the band pixel below (t = 0) and to the right
                 kk = k + 1 - t
                 cc = c + t
@@ -377,9 +385,19 @@ def seam_band(ry, rx, feat, wrap_y, wrap_x, tile, i, cols, band,
                 e = np.empty((2, 2))
                 for u in range(2):
                     for v in range(2):
-                        e[u, v] = _seam_cost(feat, ex_h, ex_w, wrap_y, wrap_x,
-                                                   cand_y[u, k, c], cand_x[u, k, c],
-                                                   cand_y[v, kk, cc], cand_x[v, kk, cc], dy, dx)
+                        e[u, v] = _seam_cost(
+                            feat,
+                            ex_h,
+                            ex_w,
+                            wrap_y,
+                            wrap_x,
+                            cand_y[u, k, c],
+                            cand_x[u, k, c],
+                            cand_y[v, kk, cc],
+                            cand_x[v, kk, cc],
+                            dy,
+                            dx,
+                        )
                 cost[1, k, c] += e[1, 0] - e[0, 0]
                 cost[1, kk, cc] += e[1, 1] - e[1, 0]
                 w = max(e[0, 1] + e[1, 0] - e[0, 0] - e[1, 1], 0.0)
@@ -428,8 +446,9 @@ def border_costs(refs, codes, feat, exemplar, tile, out):  # pragma: no cover - 
 
 
 @nb.njit(cache=True)
-def expansion_nodes(refs, codes, alpha, members, exemplar, tile, keep, labels, band,
-                    node_of, out):  # pragma: no cover - compiled
+def expansion_nodes(
+    refs, codes, alpha, members, exemplar, tile, keep, labels, band, node_of, out
+):  # pragma: no cover - compiled
     """The nodes of the expansion move of piece offset ``alpha``: every output pixel within
     ``band`` pixels (a square) of a border pixel of the piece (``members``: the flat output
     indices whose offset code was ``alpha`` when the round began; those no longer ``alpha`` in
@@ -490,8 +509,7 @@ def expansion_nodes(refs, codes, alpha, members, exemplar, tile, keep, labels, b
                 if fb >= 0 and offset_code(ay, ax, qy, qx) == fb:
                     continue
                 u = ay * ex_w + ax
-                if guided and ex_labels[u] != target[qy, qx] \
-                        and ex_labels[refs[qy, qx]] == target[qy, qx]:
+                if guided and ex_labels[u] != target[qy, qx] and ex_labels[refs[qy, qx]] == target[qy, qx]:
                     continue
                 node_of[qy, qx] = n
                 node_y[n] = qy
@@ -502,8 +520,7 @@ def expansion_nodes(refs, codes, alpha, members, exemplar, tile, keep, labels, b
 
 
 @nb.njit(parallel=True, cache=True, fastmath=True)
-def expansion_terms(refs, node_of, nodes, n, feat, exemplar, tile,
-                    out):  # pragma: no cover - compiled
+def expansion_terms(refs, node_of, nodes, n, feat, exemplar, tile, out):  # pragma: no cover - compiled
     """The terms of one expansion move's graph over its ``n`` nodes (``nodes = (node_y, node_x,
     node_ref)`` from :func:`expansion_nodes`): choice 0 keeps a node's reference, choice 1 takes
     the piece's. The energy is Kwatra et al. 2003's seam cost (:func:`_pair_cost` on ``feat``,

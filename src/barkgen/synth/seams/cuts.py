@@ -56,8 +56,9 @@ class _Exemplar:
         return _Exemplar(self.features.transpose(1, 0, 2), (self.wrap[1], self.wrap[0]))
 
 
-def _meander_cost(cost: np.ndarray, member: np.ndarray, w_down: np.ndarray,
-                  w_right: np.ndarray, rng: np.random.Generator) -> None:
+def _meander_cost(
+    cost: np.ndarray, member: np.ndarray, w_down: np.ndarray, w_right: np.ndarray, rng: np.random.Generator
+) -> None:
     """Add, in place, the pull of a random meander to the unary ``cost`` ``(2, 2 * BAND, L)``
     of one seam's band: a pixel above the meander pays for taking the lower piece (choice 1),
     one below it for the upper piece."""
@@ -74,8 +75,16 @@ def _meander_cost(cost: np.ndarray, member: np.ndarray, w_down: np.ndarray,
     cost[0] += np.where(offset > line[None, :], weight, 0.0)
 
 
-def _cut_run(ry: np.ndarray, rx: np.ndarray, i: int, cols: np.ndarray, ex: _Exemplar,
-             tile: bool, allowed=None, meander: np.random.Generator | None = None) -> int:
+def _cut_run(
+    ry: np.ndarray,
+    rx: np.ndarray,
+    i: int,
+    cols: np.ndarray,
+    ex: _Exemplar,
+    tile: bool,
+    allowed=None,
+    meander: np.random.Generator | None = None,
+) -> int:
     """Re-cut the straight seam between output rows ``i`` and ``i + 1`` along ``cols``, in place:
     each column's pixel of row ``i`` continued up and down is its choice A, that of row ``i + 1``
     its choice B (several pieces may stand along the seam); the graph is built by
@@ -95,9 +104,21 @@ def _cut_run(ry: np.ndarray, rx: np.ndarray, i: int, cols: np.ndarray, ex: _Exem
     cost = np.empty((2,) + shape)
     w_down = np.empty(shape)
     w_right = np.empty(shape)
-    if K.seam_band(ry, rx, ex.features, ex.wrap[0], ex.wrap[1], tile, i,
-                   np.ascontiguousarray(cols, dtype=np.int64), BAND,
-                   (cand_y, cand_x, valid, member, cost, w_down, w_right)) < 2:
+    if (
+        K.seam_band(
+            ry,
+            rx,
+            ex.features,
+            ex.wrap[0],
+            ex.wrap[1],
+            tile,
+            i,
+            np.ascontiguousarray(cols, dtype=np.int64),
+            BAND,
+            (cand_y, cand_x, valid, member, cost, w_down, w_right),
+        )
+        < 2
+    ):
         return 0
     rows = np.mod(i - BAND + 1 + np.arange(2 * BAND), H)
     ys, xs = np.broadcast_arrays(rows[:, None], cols[None, :])
@@ -114,8 +135,7 @@ def _cut_run(ry: np.ndarray, rx: np.ndarray, i: int, cols: np.ndarray, ex: _Exem
     g.add_grid_edges(nodes, weights=w_down, structure=_BELOW, symmetric=False)
     g.add_grid_edges(nodes, weights=w_right, structure=_RIGHT, symmetric=False)
     # source side = choice A: a node there pays its edge to the sink, which carries A's cost
-    g.add_grid_tedges(nodes, np.where(member, cost[1] - low, 0.0),
-                      np.where(member, cost[0] - low, 0.0))
+    g.add_grid_tedges(nodes, np.where(member, cost[1] - low, 0.0), np.where(member, cost[0] - low, 0.0))
     g.maxflow()
     take_b = g.get_grid_segments(nodes)[member]
     new_y = np.where(take_b, cand_y[1][member], cand_y[0][member])
@@ -127,8 +147,7 @@ def _cut_run(ry: np.ndarray, rx: np.ndarray, i: int, cols: np.ndarray, ex: _Exem
     return changed
 
 
-def _cut_rows(ry, rx, ex: _Exemplar, tile: bool, min_run: int, allowed,
-              meander: np.random.Generator | None) -> int:
+def _cut_rows(ry, rx, ex: _Exemplar, tile: bool, min_run: int, allowed, meander: np.random.Generator | None) -> int:
     """Re-cut every straight seam between rows at least ``min_run`` long; returns pixels changed."""
     import barkgen.synth.seams._kernels as K
 
@@ -138,15 +157,21 @@ def _cut_rows(ry, rx, ex: _Exemplar, tile: bool, min_run: int, allowed,
     for i, start, length in runs:
         cols = np.arange(start, start + length)
         cols = np.mod(cols, W) if tile else cols
-        changed += _cut_run(ry, rx, int(i), cols, ex, tile, allowed,
-                            meander if length >= MEANDER_MIN_RUN else None)
+        changed += _cut_run(ry, rx, int(i), cols, ex, tile, allowed, meander if length >= MEANDER_MIN_RUN else None)
     return changed
 
 
-def cut_straight_seams(references: np.ndarray, features: np.ndarray, *, tile: bool,
-                       wrap: tuple[bool, bool] = (False, False), min_run: int = MIN_RUN,
-                       rounds: int = 2, allowed=None,
-                       rng: np.random.Generator | None = None) -> np.ndarray:
+def cut_straight_seams(
+    references: np.ndarray,
+    features: np.ndarray,
+    *,
+    tile: bool,
+    wrap: tuple[bool, bool] = (False, False),
+    min_run: int = MIN_RUN,
+    rounds: int = 2,
+    allowed=None,
+    rng: np.random.Generator | None = None,
+) -> np.ndarray:
     """Re-cut the straight seams of a reference map along minimum-cost paths (Kwatra 2003).
 
     Args:

@@ -78,9 +78,17 @@ def rare_references(refs: np.ndarray, grid: tuple) -> np.ndarray:
     return np.ascontiguousarray((local < RARE_SHARE * refs.size / (ex_h * ex_w)).ravel())
 
 
-def expand_pieces(refs: np.ndarray, grid: tuple, features: np.ndarray, tile: bool,
-                  forbid: np.ndarray, labels: tuple[np.ndarray, np.ndarray], *, band: int,
-                  rounds: int) -> np.ndarray:
+def expand_pieces(
+    refs: np.ndarray,
+    grid: tuple,
+    features: np.ndarray,
+    tile: bool,
+    forbid: np.ndarray,
+    labels: tuple[np.ndarray, np.ndarray],
+    *,
+    band: int,
+    rounds: int,
+) -> np.ndarray:
     """``refs`` ``(H, W)`` int32 with its seams moved by ``rounds`` rounds of expansion moves.
 
     Parameters
@@ -147,14 +155,31 @@ def expand_pieces(refs: np.ndarray, grid: tuple, features: np.ndarray, tile: boo
         moved = 0
         for k in big:
             alpha = uniq[k]
-            members = order[start[k]:start[k] + count[k]]
-            n, n_touched = XK.expansion_nodes(refs, codes, alpha, members, grid, tile,
-                                              (forbid, rare, border_cost, least), labels, band,
-                                              node_of,
-                                              (node_y, node_x, node_ref, touched))
+            members = order[start[k] : start[k] + count[k]]
+            n, n_touched = XK.expansion_nodes(
+                refs,
+                codes,
+                alpha,
+                members,
+                grid,
+                tile,
+                (forbid, rare, border_cost, least),
+                labels,
+                band,
+                node_of,
+                (node_y, node_x, node_ref, touched),
+            )
             if n:
-                m = XK.expansion_terms(refs, node_of, (node_y, node_x, node_ref), n, feat,
-                                       grid, tile, (unary, edge_i, edge_j, edge_cap, partner))
+                m = XK.expansion_terms(
+                    refs,
+                    node_of,
+                    (node_y, node_x, node_ref),
+                    n,
+                    feat,
+                    grid,
+                    tile,
+                    (unary, edge_i, edge_j, edge_cap, partner),
+                )
                 graph = maxflow.Graph[float](n, m)
                 ids = graph.add_nodes(n)
                 # a node on the sink side (choice 1) pays its source capacity

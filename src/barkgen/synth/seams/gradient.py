@@ -39,8 +39,7 @@ BLEND_MODES = ("none", "gradient")
 BLEND_SCREENING = 0.1
 
 
-def exemplar_steps(source: np.ndarray, wrap: tuple[bool, bool] = (False, False)
-                   ) -> tuple[np.ndarray, np.ndarray]:
+def exemplar_steps(source: np.ndarray, wrap: tuple[bool, bool] = (False, False)) -> tuple[np.ndarray, np.ndarray]:
     """``(sy, sx)``, each ``(h, w, C)`` float64: the exemplar map's forward steps down and to the
     right at every pixel (from its last row or column: to the first where the exemplar wraps,
     else the step that reaches it)."""
@@ -53,14 +52,14 @@ def exemplar_steps(source: np.ndarray, wrap: tuple[bool, bool] = (False, False)
             steps.append(np.roll(src, -1, axis=axis) - src)
             continue
         d = np.diff(src, axis=axis)
-        last = np.take(d, [-1], axis=axis) if src.shape[axis] > 1 else np.zeros_like(
-            np.take(src, [0], axis=axis))
+        last = np.take(d, [-1], axis=axis) if src.shape[axis] > 1 else np.zeros_like(np.take(src, [0], axis=axis))
         steps.append(np.concatenate([d, last], axis=axis))
     return steps[0], steps[1]
 
 
-def carried_gradients(source: np.ndarray, references: np.ndarray,
-                      wrap: tuple[bool, bool] = (False, False)) -> tuple[np.ndarray, np.ndarray]:
+def carried_gradients(
+    source: np.ndarray, references: np.ndarray, wrap: tuple[bool, bool] = (False, False)
+) -> tuple[np.ndarray, np.ndarray]:
     """``(gy, gx)``, each ``(H, W, C)`` float64: the exemplar map's forward steps
     (:func:`exemplar_steps`) at each output pixel's reference: the steps its piece would take
     if it went on."""
@@ -75,8 +74,9 @@ def _eigenvalues(n: int, tile: bool) -> np.ndarray:
     return 2.0 - 2.0 * np.cos((2.0 if tile else 1.0) * np.pi * k / n)
 
 
-def screened_poisson(plain: np.ndarray, gy: np.ndarray, gx: np.ndarray, *, tile: bool,
-                     screening: float = SCREENING) -> np.ndarray:
+def screened_poisson(
+    plain: np.ndarray, gy: np.ndarray, gx: np.ndarray, *, tile: bool, screening: float = SCREENING
+) -> np.ndarray:
     """The ``u`` minimising ``|grad u - (gy, gx)|^2 + screening * |u - plain|^2`` over an
     ``(H, W, C)`` map, forward differences; on the torus when ``tile``, else with a Neumann
     border (the last row's ``gy`` and last column's ``gx`` are not used)."""
@@ -99,12 +99,17 @@ def screened_poisson(plain: np.ndarray, gy: np.ndarray, gx: np.ndarray, *, tile:
     denom = (screening + _eigenvalues(H, tile)[:, None] + _eigenvalues(W, tile)[None, :])[:, :, None]
     if tile:
         return np.real(sfft.ifft2(sfft.fft2(rhs, axes=(0, 1)) / denom, axes=(0, 1)))
-    return sfft.idctn(sfft.dctn(rhs, type=2, axes=(0, 1), norm="ortho") / denom, type=2,
-                      axes=(0, 1), norm="ortho")
+    return sfft.idctn(sfft.dctn(rhs, type=2, axes=(0, 1), norm="ortho") / denom, type=2, axes=(0, 1), norm="ortho")
 
 
-def _integrate(source: np.ndarray, references: np.ndarray, tile: bool, wrap: tuple[bool, bool],
-               screening: float, smooth_slopes: bool) -> np.ndarray:
+def _integrate(
+    source: np.ndarray,
+    references: np.ndarray,
+    tile: bool,
+    wrap: tuple[bool, bool],
+    screening: float,
+    smooth_slopes: bool,
+) -> np.ndarray:
     """The gradient-domain map ``(H, W, C)`` float64 of an ``(h, w, C)`` exemplar map."""
     ry, rx = references[..., 0], references[..., 1]
     plain = np.asarray(source, dtype=np.float64)[ry, rx]
@@ -127,9 +132,14 @@ def check_blend(mode: str) -> str:
     return mode
 
 
-def blend_seams(source: np.ndarray, references: np.ndarray, *, tile: bool,
-                wrap: tuple[bool, bool] = (False, False),
-                screening: float = BLEND_SCREENING) -> np.ndarray:
+def blend_seams(
+    source: np.ndarray,
+    references: np.ndarray,
+    *,
+    tile: bool,
+    wrap: tuple[bool, bool] = (False, False),
+    screening: float = BLEND_SCREENING,
+) -> np.ndarray:
     """The colour (or any local map) of the exemplar through a reference map, its seams blended
     in the gradient domain.
 
@@ -151,13 +161,24 @@ def blend_seams(source: np.ndarray, references: np.ndarray, *, tile: bool,
     if src.ndim == 2:
         return resolve_continuous(src, references, tile=tile, wrap=wrap, screening=screening)
     # channel by channel: the solve's float64 transforms of one channel at a time
-    return np.stack([resolve_continuous(src[..., c], references, tile=tile, wrap=wrap,
-                                        screening=screening) for c in range(src.shape[2])], axis=-1)
+    return np.stack(
+        [
+            resolve_continuous(src[..., c], references, tile=tile, wrap=wrap, screening=screening)
+            for c in range(src.shape[2])
+        ],
+        axis=-1,
+    )
 
 
-def resolve_continuous(source: np.ndarray, references: np.ndarray, *, tile: bool,
-                       wrap: tuple[bool, bool] = (False, False),
-                       screening: float = SCREENING, smooth_slopes: bool = False) -> np.ndarray:
+def resolve_continuous(
+    source: np.ndarray,
+    references: np.ndarray,
+    *,
+    tile: bool,
+    wrap: tuple[bool, bool] = (False, False),
+    screening: float = SCREENING,
+    smooth_slopes: bool = False,
+) -> np.ndarray:
     """A continuous map of the exemplar (height, roughness, ...) through a reference map
     ``(H, W, 2)`` in the gradient domain (see the module): continuous across the borders of the
     copied pieces, tileable when ``tile``. ``smooth_slopes``: the slopes too are continuous
@@ -179,4 +200,3 @@ def resolve_continuous(source: np.ndarray, references: np.ndarray, *, tile: bool
             u = np.clip(u, 0.0, 1.0)
         u = u.astype(src.dtype)
     return u[:, :, 0] if flat else u
-

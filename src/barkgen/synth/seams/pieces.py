@@ -41,8 +41,9 @@ CUT_MEANDER_AMPLITUDE = 0.05
 CUT_MEANDER_PERIOD = 0.4
 
 
-def limit_copies(refs: np.ndarray, level: LevelAnalysis, max_area: float,
-                  forbid: np.ndarray, tile: bool, rng: np.random.Generator) -> int:
+def limit_copies(
+    refs: np.ndarray, level: LevelAnalysis, max_area: float, forbid: np.ndarray, tile: bool, rng: np.random.Generator
+) -> int:
     """Copy-size control: find the pieces copied verbatim (``seams._kernels.label_pieces``: a piece that
     runs round a tiled output or across a wrapping exemplar's edge is one) larger than
     ``max_area`` pixels and forbid their offsets on a cross-shaped band through each one's
@@ -75,8 +76,7 @@ def limit_copies(refs: np.ndarray, level: LevelAnalysis, max_area: float,
         H, W = refs.shape
         cy = _circular_centre(lab, ys, H, n)
         cx = _circular_centre(lab, xs, W, n)
-        band = ((_circular_gap(ys, cy[lab] + swing_y, H) <= 1.0)
-                | (_circular_gap(xs, cx[lab] + swing_x, W) <= 1.0))
+        band = (_circular_gap(ys, cy[lab] + swing_y, H) <= 1.0) | (_circular_gap(xs, cx[lab] + swing_x, W) <= 1.0)
     else:
         cy = np.bincount(lab, ys, minlength=sizes.size) / np.maximum(n, 1)
         cx = np.bincount(lab, xs, minlength=sizes.size) / np.maximum(n, 1)
@@ -92,8 +92,7 @@ def limit_copies(refs: np.ndarray, level: LevelAnalysis, max_area: float,
 UNSTICK_DEPTH = 4
 
 
-def unstick_border_seams(refs: np.ndarray, level: LevelAnalysis, forbid: np.ndarray,
-                          tile: bool, min_run: int) -> int:
+def unstick_border_seams(refs: np.ndarray, level: LevelAnalysis, forbid: np.ndarray, tile: bool, min_run: int) -> int:
     """Where a straight seam joins two pieces that both end at the exemplar's border there
     (the upper one on its last row, the lower one on its first, along an axis that does not
     wrap), no cut can move it: neither piece continues past the border. The lower piece's offset
@@ -112,8 +111,14 @@ def unstick_border_seams(refs: np.ndarray, level: LevelAnalysis, forbid: np.ndar
         if axis == 0:
             a, b, n_ex, wy, wx, fb = ry, rx, (h, w), level.wrap[0], level.wrap[1], forbid
         else:
-            a, b, n_ex, wy, wx, fb = (cv2.transpose(rx), cv2.transpose(ry), (w, h),
-                                      level.wrap[1], level.wrap[0], forbid.T)
+            a, b, n_ex, wy, wx, fb = (
+                cv2.transpose(rx),
+                cv2.transpose(ry),
+                (w, h),
+                level.wrap[1],
+                level.wrap[0],
+                forbid.T,
+            )
         H, W = a.shape
         runs = K.seam_runs(a, b, n_ex[0], n_ex[1], wy, wx, tile, min_run)
         for i, start, length in runs:
@@ -164,13 +169,21 @@ def roll_state(refs: np.ndarray, forbid: np.ndarray, shift: tuple[int, int]) -> 
     # an offset is relative to the position; after the shift the position is (y + sy) mod H
     moved = offset_codes(dy - ((ys + shift[0]) % H - ys), dx - ((xs + shift[1]) % W - xs))
     moved = np.where(forbid >= 0, moved, -1)
-    return (np.ascontiguousarray(np.roll(refs, shift, axis=(0, 1))),
-            np.ascontiguousarray(np.roll(moved, shift, axis=(0, 1))))
+    return (
+        np.ascontiguousarray(np.roll(refs, shift, axis=(0, 1))),
+        np.ascontiguousarray(np.roll(moved, shift, axis=(0, 1))),
+    )
 
 
-def cut_seams(refs: np.ndarray, level: LevelAnalysis, features: np.ndarray, tile: bool,
-               min_run: int, labels: tuple[np.ndarray, np.ndarray] | None,
-               rng: np.random.Generator) -> np.ndarray:
+def cut_seams(
+    refs: np.ndarray,
+    level: LevelAnalysis,
+    features: np.ndarray,
+    tile: bool,
+    min_run: int,
+    labels: tuple[np.ndarray, np.ndarray] | None,
+    rng: np.random.Generator,
+) -> np.ndarray:
     """The level's reference map with its straight seams re-cut (:mod:`barkgen.synth.seams.cuts`);
     ``features`` ``(h, w, C)``: what the seam cost compares; ``labels`` ``(exemplar labels,
     target labels)`` keeps texture-by-numbers' labels; ``rng`` draws the meanders."""
@@ -184,6 +197,5 @@ def cut_seams(refs: np.ndarray, level: LevelAnalysis, features: np.ndarray, tile
             return ex_labels[ey * level.width + ex] == target[ys, xs]
 
     coords = np.stack([level.coords_y[refs], level.coords_x[refs]], axis=-1)
-    cut = cut_straight_seams(coords, features, tile=tile, wrap=level.wrap, min_run=min_run,
-                             allowed=allowed, rng=rng)
+    cut = cut_straight_seams(coords, features, tile=tile, wrap=level.wrap, min_run=min_run, allowed=allowed, rng=rng)
     return np.ascontiguousarray(cut[..., 0] * level.width + cut[..., 1], dtype=np.int32)
