@@ -9,6 +9,11 @@ wrap_y, wrap_x)``: the row and column of each flat index (division-free decoding
 size, and whether the exemplar tiles along its rows / columns
 (:attr:`barkgen.synth._analysis.LevelAnalysis.grid`).
 
+Here are the M- and E-steps, the exact up-sampling and the helpers shared with the kernels of
+the wings: the seam kernels (local seam moves, pieces, straight runs, cut bands, expansion
+moves) are in :mod:`barkgen.synth.seams._kernels`, texture-by-numbers' (region growing, label
+clean-up) in :mod:`barkgen.synth.guides._kernels`.
+
 The small helpers are plain ``@nb.njit`` functions, not inlined at numba's IR level
 (``inline="always"``): LLVM inlines them anyway when it optimises the kernel, so the machine code
 and the bytes are the same, and the kernels compile in half the time (the quickstart's first run
