@@ -510,7 +510,7 @@ def read_centre_crop(path: str | os.PathLike, size: int) -> np.ndarray:
     """The ``size x size`` RGB centre crop of an image file, its short side resized to ``size`` first.
 
     Lanczos resampling, decoded by Pillow, as the team's compare.py prepares exemplars: the
-    benchmarks' and tests' way of reading a photo of ``../shared/data``.
+    benchmarks' and tests' way of reading a photo of the team's data folder (``BARKGEN_SHARED``).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Material sets on disk (ambientCG names, ``../shared/research/anchors-materials.md`` §2) and
+"""Material sets on disk (ambientCG's file names) and
 the trunk as glTF 2.0 binary.
 
 A set folder holds ``NAME_Color.png`` (sRGB), ``NAME_NormalGL.png`` / ``NAME_NormalDX.png``,

@@ -20,7 +20,7 @@ editor (:mod:`barkgen.material.editor`) can then refine:
 
 Heights are in pixels: a unit slope is 45°. The weights were chosen by least squares of the
 height's gradient against the gradients integrated from four scanned normal maps
-(``../shared/data/bark_maps``); ``benchmarks/bench_material.py`` reports only leave-one-out
+(the team's data folder, ``BARKGEN_SHARED``); ``benchmarks/bench_material.py`` reports only leave-one-out
 figures for them.
 """
 

@@ -1,5 +1,5 @@
 """Normal, ambient-occlusion and roughness maps from a height field (mazzolini2012 §7.1's future
-work, in the conventions of ``../shared/research/anchors-materials.md`` §2).
+work, in ambientCG's conventions: OpenGL normals, AO and roughness in [0, 1]).
 
 Heights are in pixels (a unit slope is 45°). Normals are tangent-space unit vectors
 ``(x right, y up, z out)`` — the OpenGL / glTF convention; :func:`to_directx` flips green for

@@ -15,8 +15,8 @@ Schedule = tuple[tuple[int, int], ...]
 class SynthesisConfig:
     """Parameters of the k-coherence discrete solver.
 
-    Defaults are tuned on the bark photos of the team's evaluation set (see the README's
-    benchmark section); every field is validated once, here.
+    Defaults are tuned on the bark photos of the team's evaluation set (see the docs'
+    benchmark pages); every field is validated once, here.
 
     Attributes
     ----------

@@ -3,7 +3,7 @@ the result with its maps on a WebGL trunk, a label painter to steer the large-sc
 (laitoch2018 §1) and the material set as a zip.
 
 The pages (``static/*.html``, plain JavaScript) drive the JSON API, which scripts can use too
-(README, "Web app"). This module builds the app: its state (:class:`~.state.AppState`), its
+(docs, "Web app and library"). This module builds the app: its state (:class:`~.state.AppState`), its
 middleware (:mod:`.middleware`), the one place barkgen's errors become HTTP codes, and the
 routers of :mod:`.routes_pages`, :mod:`.routes_exemplars`, :mod:`.routes_jobs` and
 :mod:`.routes_results`, whose endpoints wrap plain functions. The app adds no algorithm: it
