@@ -206,6 +206,11 @@ def digest(path: Path) -> str:
         for key in ("photo", "source_photo"):  # paths in this run's temporary folder
             if isinstance(report.get(key), str):
                 report[key] = Path(report[key]).name
+        # the hashes of the run's other JSON files (they hold the run's paths): each of those
+        # files is digested here itself, normalised
+        recorded = report.get("file_sha256")
+        if isinstance(recorded, dict):
+            report["file_sha256"] = {n: h for n, h in recorded.items() if not n.endswith(".json")}
         data = json.dumps(report, sort_keys=True).encode()
     return hashlib.sha256(data).hexdigest()
 

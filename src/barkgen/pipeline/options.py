@@ -193,7 +193,9 @@ class GenerateOptions:
         if not (np.isfinite(self.relief) and 0 < self.relief <= 100):
             raise InvalidInputError(f"relief must be in (0, 100], not {self.relief:g}")
         if not self.material and (self.light is not None or self.relief != 1.0):
-            raise InvalidInputError("light and relief apply to the material set: turn material on")
+            raise InvalidInputError(
+                "light and relief apply to the material set: turn material on (--material; material: true in a spec)"
+            )
         if self.light is not None:
             from barkgen.material import Light
 
