@@ -72,7 +72,7 @@ def _chains(g: SkeletonGraph) -> list[_Chain]:
             for j in range(i + 1, len(inc)):
                 pairs.append((float(-np.dot(dirs[i], dirs[j])), i, j))
         pairs.sort(reverse=True)
-        used = set()
+        used: set[int] = set()
         for score, i, j in pairs:
             if score < np.cos(np.radians(70.0)) or i in used or j in used:
                 continue
@@ -100,7 +100,8 @@ def _chains(g: SkeletonGraph) -> list[_Chain]:
             e, back_end = f, 1 - fend
         start_end = back_end  # the chain leaves edge e through its other end
         nodes = [g.ea[e] if start_end == 0 else g.eb[e]]
-        xys, rs = [], []
+        xys: list[np.ndarray] = []
+        rs: list[np.ndarray] = []
         while True:
             done.add(e)
             xy, r = g.oriented(e, start_end)
@@ -188,8 +189,9 @@ def _hierarchy(g: SkeletonGraph, chains: list[_Chain], step: float) -> list[Bran
         branches.append(Branch(pts))
     for bi, (ci, rev) in enumerate(order):
         c = chains[ci]
-        if parents[bi] is not None:
-            pc, n = parents[bi]
+        parent_link = parents[bi]
+        if parent_link is not None:
+            pc, n = parent_link
             pb = placed[pc]
             branches[bi].parent = pb
             branches[bi].parent_vertex = _nearest_vertex(pts_of[pb], g.pos[n])

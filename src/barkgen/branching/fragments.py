@@ -203,6 +203,7 @@ def source_banks(source: Structure, width: int, height: int, spec: FragmentSpec)
         for ref, vertex, rev in ((b.parent, b.parent_vertex, False), (b.joins, b.join_vertex, True)):
             if ref is None or arcs[i].length <= 0 or arcs[ref].length <= 0:
                 continue
+            assert vertex is not None  # set with its link (Structure.validate)
             f = _junction(arcs[ref], vertex, arcs[i], rev, k, spec)
             if inside(f):
                 junction.append(f)
@@ -227,6 +228,7 @@ def target_plan(target: Structure, spec: FragmentSpec, with_junctions: bool) -> 
         if arc.length <= 0:
             continue
         if b.parent is not None and with_junctions and arcs[b.parent].length > 0:
+            assert b.parent_vertex is not None  # set with parent (Structure.validate)
             j = _junction(arcs[b.parent], b.parent_vertex, arc, False, k, spec)
             plan.append(j)
             ts = _centres(arc, 0.0, j.radius, spec)
@@ -234,6 +236,7 @@ def target_plan(target: Structure, spec: FragmentSpec, with_junctions: bool) -> 
             ts = _centres(arc, 0.0, None, spec)
         plan.extend(_regulars(arc, ts, spec))
         if b.joins is not None and with_junctions and arcs[b.joins].length > 0:
+            assert b.join_vertex is not None  # set with joins (Structure.validate)
             merges.append(_junction(arcs[b.joins], b.join_vertex, arc, True, k, spec))
     # samples outside the canvas do not count in the shape cost (where the crack goes there is
     # invisible)

@@ -78,9 +78,22 @@ class SkeletonGraph:
 
     def oriented(self, e: int, end: int) -> tuple[np.ndarray, np.ndarray]:
         """The edge's points and thickness running away from its end ``end``."""
+        xy, r = self.points(e), self.thickness(e)
         if end == 0:
-            return self.xy[e], self.r[e]
-        return self.xy[e][::-1], self.r[e][::-1]
+            return xy, r
+        return xy[::-1], r[::-1]
+
+    def points(self, e: int) -> np.ndarray:
+        """The pixel path of edge ``e`` (alive: a removed edge has none)."""
+        xy = self.xy[e]
+        assert xy is not None, f"edge {e} was removed"
+        return xy
+
+    def thickness(self, e: int) -> np.ndarray:
+        """The crack half-width at every point of edge ``e`` (alive: a removed edge has none)."""
+        r = self.r[e]
+        assert r is not None, f"edge {e} was removed"
+        return r
 
     def edges(self) -> list[int]:
         return [e for e, ok in enumerate(self.alive) if ok]
@@ -172,7 +185,7 @@ def direction(xy: np.ndarray, reach: float) -> np.ndarray:
 
 def _split_edge(g: SkeletonGraph, e: int, k: int) -> int:
     """Cut edge ``e`` at its inner point ``k`` by a new node; returns the node."""
-    xy, r, s, a, b = g.xy[e], g.r[e], g.s[e], g.ea[e], g.eb[e]
+    xy, r, s, a, b = g.points(e), g.thickness(e), g.s[e], g.ea[e], g.eb[e]
     g.remove_edge(e)
     m = g.add_node(xy[k], r[k])
     g.add_edge(a, m, xy[: k + 1].copy(), r[: k + 1].copy(), s)
@@ -188,9 +201,9 @@ def _bridge_gaps(g: SkeletonGraph, strength: float) -> None:
     tips = [n for n in range(len(g.pos)) if g.degree(n) == 1]
     if not edges or not tips:
         return
-    pts_a = np.concatenate([g.xy[e] for e in edges])
-    owner_a = np.concatenate([np.full(len(g.xy[e]), e) for e in edges])
-    index_a = np.concatenate([np.arange(len(g.xy[e])) for e in edges])
+    pts_a = np.concatenate([g.points(e) for e in edges])
+    owner_a = np.concatenate([np.full(len(g.points(e)), e) for e in edges])
+    index_a = np.concatenate([np.arange(len(g.points(e))) for e in edges])
     tip_edge = np.empty(len(tips), np.int64)
     p0 = np.empty((len(tips), 2))
     out_dir = np.empty((len(tips), 2))
@@ -235,7 +248,7 @@ def _bridge_gaps(g: SkeletonGraph, strength: float) -> None:
             continue
         if kk == 0:
             target = g.ea[f]
-        elif kk == len(g.xy[f]) - 1:
+        elif kk == len(g.points(f)) - 1:
             target = g.eb[f]
         else:
             target = _split_edge(g, f, kk)
@@ -274,7 +287,7 @@ def _prune(g: SkeletonGraph, high: float | None, *, isolated: bool = True) -> No
             if da == 1 and db == 1:
                 if not isolated:
                     continue
-                rmed = float(g.r[e].mean())
+                rmed = float(g.thickness(e).mean())
                 if length < max(10.0, 6.0 * rmed) or (high is not None and g.s[e] < WEAK * high):
                     g.remove_edge(e)
                     changed = True
@@ -310,18 +323,18 @@ def _contract(g: SkeletonGraph, e: int) -> None:
             continue
         if end == 0:
             g.ea[f] = a
-            g.xy[f][0] = new
+            g.points(f)[0] = new
         else:
             g.eb[f] = a
-            g.xy[f][-1] = new
+            g.points(f)[-1] = new
         g.inc[a].append((f, end))
     g.inc[b] = []
     for f, end in g.inc[a]:
         if end == 0:
-            g.xy[f][0] = new
+            g.points(f)[0] = new
         else:
-            g.xy[f][-1] = new
-        g.len[f] = path_length(g.xy[f])
+            g.points(f)[-1] = new
+        g.len[f] = path_length(g.points(f))
 
 
 def _smooth_edge(
@@ -342,7 +355,7 @@ def _fix_junction_thickness(g: SkeletonGraph) -> None:
         reach0 = g.rad[a] + 1.0 if g.degree(a) >= 3 else 0.0
         reach1 = g.rad[b] + 1.0 if g.degree(b) >= 3 else 0.0
         if reach0 > 0 or reach1 > 0:
-            g.r[e] = flatten_ends(g.xy[e], g.r[e], reach0, reach1)
+            g.r[e] = flatten_ends(g.points(e), g.thickness(e), reach0, reach1)
 
 
 def _split_loops(g: SkeletonGraph) -> None:
@@ -350,7 +363,7 @@ def _split_loops(g: SkeletonGraph) -> None:
     for e in g.edges():
         if g.ea[e] != g.eb[e]:
             continue
-        xy, r, s, a = g.xy[e], g.r[e], g.s[e], g.ea[e]
+        xy, r, s, a = g.points(e), g.thickness(e), g.s[e], g.ea[e]
         arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
         m = int(np.clip(np.searchsorted(arc, arc[-1] / 2), 1, len(xy) - 2))
         g.remove_edge(e)
@@ -376,7 +389,7 @@ def skeleton_graph(mask: np.ndarray, resp: np.ndarray | None, high: float | None
     _prune(g, high)
     _fix_junction_thickness(g)
     for e in g.edges():
-        g.xy[e], g.r[e] = _smooth_edge(g.xy[e], g.r[e])
-        g.len[e] = path_length(g.xy[e])
+        g.xy[e], g.r[e] = _smooth_edge(g.points(e), g.thickness(e))
+        g.len[e] = path_length(g.points(e))
     _split_loops(g)
     return g

@@ -19,6 +19,8 @@ truncation; float32 rounding of the eigenvalues; 4-connected hysteresis where th
 
 from __future__ import annotations
 
+from typing import cast
+
 import numpy as np
 
 from barkgen.errors import InvalidInputError
@@ -163,7 +165,7 @@ def fill_slivers(mask: np.ndarray, max_inradius: float) -> np.ndarray:
     n, lab, stats, _ = cv2.connectedComponentsWithStats(holes, connectivity=4)
     dist = cv2.distanceTransform(holes, cv2.DIST_L2, 3)
     inr = np.zeros(n, np.float32)
-    np.maximum.at(inr, lab.ravel(), dist.ravel())
+    np.maximum.at(inr, cast(np.ndarray, lab).ravel(), dist.ravel())  # cv2's stubs: any MatLike
     h, w = mask.shape
     x0, y0 = stats[:, cv2.CC_STAT_LEFT], stats[:, cv2.CC_STAT_TOP]
     x1, y1 = x0 + stats[:, cv2.CC_STAT_WIDTH], y0 + stats[:, cv2.CC_STAT_HEIGHT]

@@ -120,7 +120,7 @@ def _furcation_distances(furcation_at: np.ndarray) -> np.ndarray:
     """``n-`` and ``n+`` of every vertex: index distances to the previous and next furcation
     (or the branch's ends), as two columns."""
     n = len(furcation_at)
-    i = np.arange(n, dtype=np.float64)
+    i: np.ndarray = np.arange(n, dtype=np.float64)
     marks = np.flatnonzero(furcation_at)
     if len(marks) == 0:
         out = np.empty((n, 2))
@@ -236,8 +236,10 @@ def _resampled(source: Structure, h: float) -> list[Branch]:
     # vertex indices of links move with the resampling: map them by arc length
     for b_new, b_old in zip(branches, source.branches):
         if b_old.parent is not None:
+            assert b_old.parent_vertex is not None  # set with parent (Structure.validate)
             b_new.parent_vertex = _remap_vertex(source.branches[b_old.parent], b_old.parent_vertex, h)
         if b_old.joins is not None:
+            assert b_old.join_vertex is not None  # set with joins (Structure.validate)
             b_new.join_vertex = _remap_vertex(source.branches[b_old.joins], b_old.join_vertex, h)
     return branches
 
@@ -309,16 +311,17 @@ def _furcation_classifier(branches: list[Branch], k: int):
         if b.parent is None:
             continue
         children[b.parent] += 1
+        assert b.parent_vertex is not None  # set with parent (Structure.validate)
         v = int(b.parent_vertex)
         furcation_at[b.parent][v] = True
         fur_rows.append((b.parent, v, ci))
-    feats, labels = [], []
+    feat_rows, label_rows = [], []
     for bi, b in enumerate(branches):
         va = vertex_angles(b.points)
-        feats.append(_vertex_features(va, b.thickness, k, furcation_at[bi]))
-        labels.append(furcation_at[bi])
-    feats = np.concatenate(feats)
-    labels = np.concatenate(labels)
+        feat_rows.append(_vertex_features(va, b.thickness, k, furcation_at[bi]))
+        label_rows.append(furcation_at[bi])
+    feats = np.concatenate(feat_rows)
+    labels = np.concatenate(label_rows)
     feat_mean = feats.mean(axis=0)
     feat_scale = feats.std(axis=0) + 1e-6
     svm_w, svm_b, platt = None, 0.0, (0.0, 0.0)
@@ -384,6 +387,7 @@ def _join_angles(branches: list[Branch]) -> np.ndarray:
             continue
         target = branches[b.joins]
         d = b.points[-1, :2] - b.points[-2, :2]
+        assert b.join_vertex is not None  # set with joins (Structure.validate)
         inc = abs(_wrap(np.arctan2(d[1], d[0]) - _tangent(target.points, int(b.join_vertex))))
         join_angles.append(min(inc, np.pi - inc))
     return np.asarray(join_angles, float)

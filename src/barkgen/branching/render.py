@@ -281,6 +281,7 @@ def _check_inputs(image: object, source: object, target: object) -> tuple[np.nda
                 raise InvalidInputError(f"{name} structure: branch {i} needs at least two finite x, y, thickness rows")
             if (p[:, 2] <= 0).any():
                 raise InvalidInputError(f"{name} structure: branch {i} has a thickness <= 0")
+    assert isinstance(source, Structure) and isinstance(target, Structure)  # checked just above
     if tuple(source.size) != (w, h):
         raise InvalidInputError(
             f"the source structure is for a {source.width}x{source.height} image, the source image is {w}x{h}"
@@ -388,6 +389,7 @@ class _Renderer:
         )
         if mapx.size == 0:
             return False
+        given: np.ndarray
         if self.opts.interpolation == "nearest":
             given = self._no_pixels
         else:

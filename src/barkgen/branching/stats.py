@@ -3,6 +3,7 @@ intersections, and a picture of the histograms side by side."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import cv2
@@ -150,7 +151,7 @@ def comparison_plot(cmp: StructureComparison, width: int = 960, height: int = 36
     img = np.full((height, width, 3), 255, np.uint8)
     pad, gap = 40, 40
     panel_w = (width - 2 * pad - gap) // 2
-    panels = (
+    panels: tuple[tuple[np.ndarray, np.ndarray, np.ndarray, str, Callable[[float], float]], ...] = (
         (
             cmp.angle_edges,
             cmp.source_angles,

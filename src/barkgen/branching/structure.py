@@ -11,6 +11,7 @@ cannot go).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TypeGuard
 
 import numpy as np
 
@@ -162,7 +163,7 @@ def junction_radius(parent_thickness: float, child_thickness: float, step: float
     return parent_thickness + child_thickness + step
 
 
-def _is_number(v: object) -> bool:
+def _is_number(v: object) -> TypeGuard[float]:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and bool(np.isfinite(v))
 
 
