@@ -82,7 +82,7 @@ def local_spectra(luminance: np.ndarray, tloc: int) -> np.ndarray:
             phase = -2.0 * np.pi * (fy * u[:, None] + fx * u[None, :]) / t
             re = cv2.filter2D(image, -1, (taper * np.cos(phase)).astype(np.float32), borderType=cv2.BORDER_REFLECT)
             im = cv2.filter2D(image, -1, (taper * np.sin(phase)).astype(np.float32), borderType=cv2.BORDER_REFLECT)
-            power = (re * re + im * im) / norm
+            power: np.ndarray = (re * re + im * im) / norm
             power = cv2.blur(power, (t + 1, t + 1), borderType=cv2.BORDER_REFLECT)  # Welch average
             twin = 2.0 if 0 < fx < t - fx else 1.0  # the conjugate twin of the other half plane
             features.append(np.sqrt(np.maximum(power, 0.0) * (twin / (t * t))))

@@ -214,7 +214,7 @@ def _matching_samples(
     ]
 
 
-def _graph_cut(canvas: np.ndarray, piece: np.ndarray, keep: np.ndarray, take: np.ndarray) -> np.ndarray:
+def _graph_cut(canvas: np.ndarray, piece: np.ndarray, keep: np.ndarray, take: np.ndarray) -> tuple[np.ndarray, float]:
     """Boolean mask of the pixels to take from ``piece`` so that the seam between ``canvas``
     and ``piece`` has the least colour difference (Kwatra et al. 2003): ``keep`` pixels stay
     on the canvas, ``take`` pixels come from the piece, the others are free. Also returns the
@@ -363,7 +363,7 @@ def build_tiles(
             frame = np.zeros_like(pieces["N"])
             for name, piece in pieces.items():
                 frame[geometry[name][0]] = piece[geometry[name][0]]
-            made = []
+            made: list[tuple[float, int, np.ndarray, list[np.ndarray] | None, np.ndarray]] = []
             for canvas in _matching_samples(index_of_samples, frame, 2 * variants, rng, pool):
                 seam = 0.0
                 stack = (
@@ -388,9 +388,11 @@ def build_tiles(
             for _, _, canvas, stack, origin in made[:variants]:
                 tiles[index] = canvas
                 if blend:
+                    assert guidance is not None and stack is not None  # both made when blending
                     guidance[index] = _seam_guidance(canvas[:, :, :3], np.stack(stack), origin)
                 index += 1
     if blend:
+        assert guidance is not None  # made when blending
         for start in range(0, n_tiles, 64):  # bounded memory for large tiles
             part = slice(start, start + 64)
             tiles[part, :, :, :3] = poisson_blend(tiles[part, :, :, :3], guidance[part])

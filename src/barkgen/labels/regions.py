@@ -215,8 +215,8 @@ def remove_small_regions(codes: np.ndarray, min_region: int, wrap: Wrap = False)
         big[0] = False  # background of the mask
         keep |= big[comp]
     if not keep.any():  # everything tiny: keep the largest region of the commonest label
-        lab = np.bincount(codes.ravel()).argmax()
-        mask = (codes == lab).astype(np.uint8)
+        commonest = np.bincount(codes.ravel()).argmax()
+        mask = (codes == commonest).astype(np.uint8)
         _, comp, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
         keep = comp == 1 + np.argmax(stats[1:, cv2.CC_STAT_AREA])
     out = np.where(keep, codes, -1)

@@ -32,15 +32,17 @@ def knn_search(features: np.ndarray, n_neighbours: int) -> tuple[np.ndarray, np.
 
     import faiss
 
+    index: faiss.Index
     if n <= _FLAT_LIMIT:
         index = faiss.IndexFlatL2(d)
     else:
         nlist = int(4 * np.sqrt(n))
         quantizer = faiss.IndexFlatL2(d)
-        index = faiss.IndexIVFFlat(quantizer, d, nlist)
+        inverted = faiss.IndexIVFFlat(quantizer, d, nlist)
         step = max(1, n // (nlist * 48))
-        index.train(x[::step])
-        index.nprobe = 10
+        inverted.train(x[::step])
+        inverted.nprobe = 10
+        index = inverted
     index.add(x)
     dist, idx = index.search(x, kk)
     return dist, idx

@@ -102,9 +102,9 @@ def label_map_levels(
     if strategy in ("engine", "joint"):
         from barkgen.shapes.engine import engine_levels
 
-        n = engine_levels(tuple(exemplar_shape), out_shape, joint=strategy == "joint")
+        n = engine_levels(exemplar_shape, out_shape, joint=strategy == "joint")
     else:
-        n = count_levels(tuple(exemplar_shape), out_shape, (config or ShapeConfig()).coarsest_exemplar)
+        n = count_levels(exemplar_shape, out_shape, (config or ShapeConfig()).coarsest_exemplar)
     return [level_shape(out_shape, lvl) for lvl in range(n)]
 
 

@@ -132,6 +132,7 @@ def match_boundary(
     """
     import barkgen.shapes._kernels as K
 
+    assert exemplar.index is not None  # an exemplar without boundary is never matched (adjust_shape)
     n_s, n_e = codes.shape[0], exemplar.count
     k = min(candidates, exemplar.index.ntotal)
     dist, rows = exemplar.index.search(np.ascontiguousarray(codes), k)

@@ -186,6 +186,7 @@ def synthesize_codes(
     ex = codes.astype(np.uint8)[:, :, None]
     rng = np.random.default_rng([int(seed), 1])
     guidance = None
+    resume: tuple[int, np.ndarray] | None
     if start is not None:
         # an edit sets the layout, and its own label areas: no area term pulls against it, and
         # the edit guides every finer level
@@ -224,8 +225,9 @@ def synthesize_codes(
                 cache=cache,
                 exemplar_wrap=exemplar_wrap,
             )
-            for lvl, image in coarse_levels if on_level is not None else ():
-                on_level(lvl, image)
+            if on_level is not None:
+                for lvl, image in coarse_levels:
+                    on_level(lvl, image)
         else:
             # labels alone need the patchwork start to keep small regions
             level = n_levels - 1
@@ -362,7 +364,7 @@ def _choose_coarse_start(
     if level < 1:
         return None, []
     gentle = dataclasses.replace(balance, weight=balance.weight * JOINT_CANDIDATE_BALANCE)
-    best = None
+    best: tuple[float, np.ndarray, list] | None = None
     for candidate_seed in rng.integers(0, 2**31, size=JOINT_CANDIDATES):
         results: list = []
 
@@ -389,6 +391,7 @@ def _choose_coarse_start(
         score = start_score(references, run.exemplar_shape[1], balance.shares[level], balance.fractions)
         if best is None or score < best[0]:
             best = (score, references.astype(np.int32), results[:-1])
+    assert best is not None  # JOINT_CANDIDATES >= 1 runs
     return (level, best[1]), best[2]
 
 

@@ -10,6 +10,8 @@ Python.
 
 from __future__ import annotations
 
+from typing import Literal
+
 import numpy as np
 
 from barkgen.errors import InvalidInputError
@@ -43,7 +45,7 @@ def extract_patches(shape: np.ndarray, ys: np.ndarray, xs: np.ndarray, size: int
     """The ``size x size`` neighbourhoods ``(m, size, size)`` uint8 of a binary ``shape`` at
     ``(ys, xs)``: wrapped when ``tile``, else the border pixels are repeated."""
     r = size // 2
-    mode = "wrap" if tile else "edge"
+    mode: Literal["wrap", "edge"] = "wrap" if tile else "edge"
     padded = np.pad(np.asarray(shape, dtype=np.uint8), r, mode=mode)
     off = np.arange(size)
     return padded[ys[:, None, None] + off[None, :, None], xs[:, None, None] + off[None, None, :]]
