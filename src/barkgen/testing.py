@@ -99,7 +99,7 @@ def _features(rgb_u8: np.ndarray) -> np.ndarray:
     import cv2
 
     lab = cv2.cvtColor(rgb_u8, cv2.COLOR_RGB2LAB).astype(np.float32)
-    feats = [lab[..., c] for c in range(3)]
+    feats: list[np.ndarray] = [lab[..., c] for c in range(3)]
     for c, size in ((0, 7), (1, 7), (2, 7), (0, 15)):
         m = cv2.blur(lab[..., c], (size, size))
         m2 = cv2.blur(lab[..., c] ** 2, (size, size))

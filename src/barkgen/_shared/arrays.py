@@ -4,6 +4,7 @@ and images that wrap round (a photo that tiles along an axis is a torus along it
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any, cast
 
 import numpy as np
 
@@ -35,7 +36,7 @@ def pad_wrapped(image: np.ndarray, pad: int, tile: Wrap, other: str | None = "re
             continue
         widths = [(0, 0), (0, 0)] + rest
         widths[axis] = (pad, pad)
-        out = np.pad(out, widths, mode="wrap" if wraps else other)
+        out = np.pad(out, widths, mode=cast(Any, "wrap" if wraps else other))  # numpy types mode as a Literal
     return out
 
 

@@ -18,7 +18,7 @@ from contextlib import contextmanager
 def _cores() -> int:
     import numba
 
-    return int(numba.config.NUMBA_NUM_THREADS)
+    return int(numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]  # numba sets its config at run time
 
 
 @contextmanager

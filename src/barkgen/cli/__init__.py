@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import signal
 import sys
+from typing import Any, NoReturn
 
 
 def _terminate(signum, frame) -> None:
@@ -18,7 +19,7 @@ def _terminate(signum, frame) -> None:
     raise KeyboardInterrupt
 
 
-def main(argv: list[str] | None = None) -> None:
+def main(argv: list[str] | None = None) -> NoReturn:
     """Run the ``barkgen`` CLI (exits the process with the command's status)."""
     from barkgen._shared.extras import require_extra
     from barkgen.errors import MissingExtraError
@@ -38,7 +39,7 @@ def main(argv: list[str] | None = None) -> None:
         pass
 
     # click's UsageError, whichever click typer runs on (its own copy, or click itself)
-    usage_error = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "UsageError")
+    usage_error: Any = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "UsageError")
     try:
         status = app(args=argv, prog_name="barkgen", standalone_mode=False)
     except usage_error as exc:

@@ -216,7 +216,8 @@ def _set_files(folder: Path) -> list[Path]:
         name, meta = find_material(folder)
     except BarkgenError:
         return []
-    listed = meta.get("files") if isinstance(meta.get("files"), list) else []
+    files = meta.get("files")
+    listed = files if isinstance(files, list) else []
     return [folder / f"{name}.json"] + [folder / n for n in listed if isinstance(n, str)]
 
 

@@ -15,7 +15,7 @@ import logging
 import sys
 import warnings
 from collections.abc import Callable
-from typing import Annotated, Optional, TypeVar
+from typing import Annotated, Any, Optional, TypeVar
 
 import typer
 
@@ -57,7 +57,7 @@ COMMAND_MODULES = (synth, labels, shapes, generate, material, serve, warmup)
 #: the groups of sub-commands (``barkgen bilayer analyze`` ...), in the order of ``--help``
 GROUPS = (("bilayer", bilayer), ("library", library), ("branches", branches))
 
-_TYPER_SETTINGS = dict(
+_TYPER_SETTINGS: dict[str, Any] = dict(
     add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False, rich_markup_mode=None
 )
 

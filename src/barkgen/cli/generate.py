@@ -78,8 +78,10 @@ def generate_command(
     with progress_bar(not quiet, "generating", describe) as progress:
         result = generate(image, options, extra=extras, labels_in=label_map, resume=edited, progress=progress)
         files = encode_generate(image, result, str(src), name=name, bits=bits)
-    levels = {} if save_levels is None else level_files(result.label_levels)
-    write_run(output_dir, files, stale, {save_levels / n: data for n, data in levels.items()})
+    levels: dict[Path, bytes] = {}
+    if save_levels is not None:
+        levels = {save_levels / n: data for n, data in level_files(result.label_levels).items()}
+    write_run(output_dir, files, stale, levels)
     if not quiet:
         h, w = result.texture.shape[:2]
         typer.echo(

@@ -70,6 +70,7 @@ def labels_command(
         sheet = label_preview(image, label_map) if preview is not None else None
     files = {output: encode_png(label_map)}
     if sheet is not None:
+        assert preview is not None  # the sheet is made for a preview
         files[preview] = encode_png(sheet)
     write_outputs(files)  # both or neither (a full disk)
     if not quiet:

@@ -94,6 +94,7 @@ def material_command(
     write_files(output_dir, files)
     if not quiet:
         lt = material.light
+        assert lt is not None  # make_material sets the light it used
         typer.echo(
             f"wrote {output_dir}/{name}_*.png ({w}x{h}; light {lt.azimuth:g},{lt.elevation:g}; "
             f"depth {material.depth:.1f} px{_wrap_note(material.wraps)}) in {time.perf_counter() - start:.1f} s",

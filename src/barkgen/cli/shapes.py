@@ -92,8 +92,10 @@ def shapes_command(
             exemplar_wrap=exemplar_wraps,
             max_memory=budget,
         )
-    levels = {} if save_levels is None else level_files(result.levels)
-    write_outputs({output: encode_png(result.label_map)} | {save_levels / n: d for n, d in levels.items()})
+    levels: dict[Path, bytes] = {}
+    if save_levels is not None:
+        levels = {save_levels / n: d for n, d in level_files(result.levels).items()}
+    write_outputs({output: encode_png(result.label_map)} | levels)
     if not quiet:
         typer.echo(
             f"wrote {output} ({out_shape[1]}x{out_shape[0]}, {strategy}) in {result.timings['label_map']:.2f} s",

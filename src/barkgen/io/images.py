@@ -274,6 +274,7 @@ def decode_image(data: bytes, name: str | os.PathLike = "image", *, max_pixels: 
                 f"{name}: {width}x{height} px is {width * height / 1e6:.1f} "
                 f"megapixels, more than the limit of {max_pixels / 1e6:g}"
             )
+    arr: np.ndarray | None
     if data[:4] in _TIFF_MAGIC:
         import tifffile
 
@@ -534,7 +535,7 @@ def read_centre_crop(path: str | os.PathLike, size: int) -> np.ndarray:
     im = Image.open(path).convert("RGB")
     w, h = im.size
     s = size / min(w, h)
-    im = im.resize((max(size, round(w * s)), max(size, round(h * s))), Image.LANCZOS)
+    im = im.resize((max(size, round(w * s)), max(size, round(h * s))), Image.Resampling.LANCZOS)
     w, h = im.size
     left, top = (w - size) // 2, (h - size) // 2
     return np.asarray(im.crop((left, top, left + size, top + size)))

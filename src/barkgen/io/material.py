@@ -14,6 +14,7 @@ import os
 import re
 from functools import partial
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
@@ -267,4 +268,4 @@ def encode_glb(mesh, material) -> bytes:
         visual=trimesh.visual.TextureVisuals(uv=uv, material=pbr),
         process=False,
     )
-    return bytes(tm.export(file_type="glb", include_normals=True))
+    return bytes(cast(bytes, tm.export(file_type="glb", include_normals=True)))  # (a GLB export is bytes)

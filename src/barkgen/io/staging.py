@@ -66,12 +66,10 @@ def remove_stale_temporaries(folder: str | os.PathLike) -> int:
     except OSError:
         return 0
     for path in candidates:
+        match = TEMPORARY_NAME.match(path.name)
+        assert match is not None  # the candidates are the names it matches
         try:
-            if (
-                path.is_file()
-                and not path.is_symlink()
-                and not process_alive(int(TEMPORARY_NAME.match(path.name).group(1)))
-            ):
+            if path.is_file() and not path.is_symlink() and not process_alive(int(match.group(1))):
                 path.unlink()
                 removed += 1
         except OSError:

@@ -101,6 +101,7 @@ def parse_edits(document: object) -> list[HeightEdit]:
     version = document.get("version") if isinstance(document, Mapping) else None
     if type(version) is not int or version != EDITS_VERSION:
         raise InvalidInputError(f'an edit list must be a JSON object with "version": {EDITS_VERSION}')
+    assert isinstance(document, Mapping)  # else its version is None: refused above
     unknown = set(document) - {"version", "edits"}
     if unknown:
         raise InvalidInputError(f"unknown key(s) in the edit list: {', '.join(sorted(unknown))}")
@@ -252,7 +253,7 @@ class HeightEditor:
             diff = padded[pad + dy : pad + dy + lum.shape[0], pad + dx : pad + dx + lum.shape[1]] - v
             dist += diff * diff
         dist = np.sqrt(dist / len(offsets))
-        weight = np.clip(1.0 - dist / threshold, 0.0, 1.0)
+        weight: np.ndarray = np.clip(1.0 - dist / threshold, 0.0, 1.0)
         if factor > 1:
             weight = cv2.resize(weight, (w, h), interpolation=cv2.INTER_LINEAR)
         weight[y, x] = 1.0

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from barkgen._shared.arrays import as_uint8
+from barkgen._shared.arrays import Wrap, as_uint8
 from barkgen._shared.memory import BASE_BYTES, check_budget_value, check_memory_budget
 from barkgen.errors import InvalidInputError
 from barkgen.material.editor import HeightEdit, HeightEditor
@@ -216,15 +216,15 @@ class MaterialSet:
         return meta
 
 
-def derived_maps(height: np.ndarray, *, tile: bool, ao_radius: int = AO_RADIUS) -> tuple[np.ndarray, np.ndarray]:
+def derived_maps(height: np.ndarray, *, tile: Wrap, ao_radius: int = AO_RADIUS) -> tuple[np.ndarray, np.ndarray]:
     """Normals (OpenGL) and ambient occlusion of a height field.
 
     Parameters
     ----------
     height : ndarray, shape (h, w)
         Height in pixels.
-    tile : bool
-        The height wraps.
+    tile : bool or (bool, bool)
+        The height wraps (both axes, or ``(rows, columns)``).
     ao_radius : int, default AO_RADIUS
         Reach of the occlusion in px.
 

@@ -151,6 +151,7 @@ def estimate_light(photo: np.ndarray, normals: np.ndarray) -> Light:
     cov_nn = n.T @ n / lum.size
     var_l = float(lum @ lum) / lum.size
     best = Light(0.0, 90.0, -np.inf)
+    best_corr = -np.inf  # best.correlation, as a float
     for el in ELEVATIONS:
         for az in AZIMUTHS:
             v = Light(float(az), el).vector.astype(np.float64)
@@ -158,11 +159,11 @@ def estimate_light(photo: np.ndarray, normals: np.ndarray) -> Light:
             if var_s <= 0 or var_l <= 0:
                 continue
             corr = float(v @ cov_ln) / float(np.sqrt(var_s * var_l))
-            if corr > best.correlation:
-                best = Light(float(az), el, corr)
+            if corr > best_corr:
+                best, best_corr = Light(float(az), el, corr), corr
             if el == 90.0:
                 break  # every azimuth is the same light
-    if not np.isfinite(best.correlation):  # a flat photo or flat normals: nothing to match
+    if not np.isfinite(best_corr):  # a flat photo or flat normals: nothing to match
         return Light(0.0, 90.0, 0.0)
     return best
 

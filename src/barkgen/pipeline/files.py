@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from functools import partial
 
 import numpy as np
@@ -79,7 +80,7 @@ def encode_generate(
     """
     source = utf8_text(source)
     report = {"barkgen": __version__, "photo": source, **result.report}
-    jobs = {
+    jobs: dict[str, Callable[[], bytes]] = {
         "texture.png": partial(encode_png, result.texture, bits=bits),
         "labels_in.png": partial(encode_png, result.labels_in),
         "labels_out.png": partial(encode_png, result.labels_out),

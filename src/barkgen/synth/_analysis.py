@@ -129,7 +129,7 @@ def analyse_exemplar(
         levels[lvl] = parent
         if progress:
             progress()
-    return levels  # type: ignore[return-value]
+    return levels
 
 
 def _guide_sets(image: np.ndarray, size: int, config: SynthesisConfig, wrap: tuple[bool, bool]) -> LevelAnalysis:
@@ -143,7 +143,8 @@ def _guide_sets(image: np.ndarray, size: int, config: SynthesisConfig, wrap: tup
     h, w = level.shape[:2]
     features = neighbourhood_pca(level, size, config.pca_components, wrap=wrap).features
     ksets, scale = k_coherence_sets(features, w, config.k, radius=2)
-    return LevelAnalysis(h, w, None, None, None, {}, {}, ksets, scale, wrap)
+    # (a guide level has no features or coordinates: nothing reads them)
+    return LevelAnalysis(h, w, None, None, None, {}, {}, ksets, scale, wrap)  # type: ignore[arg-type]
 
 
 class AnalysisCache:
@@ -158,7 +159,7 @@ class AnalysisCache:
     """
 
     def __init__(self) -> None:
-        self._entries: dict[str, list[LevelAnalysis]] = {}
+        self._entries: dict[str, list[LevelAnalysis | None]] = {}
 
     @staticmethod
     def key(
@@ -168,11 +169,11 @@ class AnalysisCache:
         # the schedules' neighbourhood sizes, not their iteration counts: those are all the
         # analysis depends on
         sizes = tuple(tuple(schedule_sizes(config, lvl, n_levels)) for lvl in range(n_levels))
-        key = (features.shape, features.dtype.str, int(n_levels), config.k, config.pca_components, sizes)
+        key: tuple = (features.shape, features.dtype.str, int(n_levels), config.k, config.pca_components, sizes)
         if any(wrap):  # (the key of an exemplar that does not wrap is as it always was)
             key += (bool(wrap[0]), bool(wrap[1]))
         digest.update(repr(key).encode())
-        digest.update(memoryview(np.ascontiguousarray(features)).cast("B"))
+        digest.update(np.ascontiguousarray(features).data.cast("B"))
         return digest.hexdigest()
 
     def analyse(

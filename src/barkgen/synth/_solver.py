@@ -483,6 +483,7 @@ def solve(
                 for _ in range(sum(it for _, it in config.schedule_for(lvl, n_levels))):
                     tick()
                 continue
+            assert la is not None  # the cache analysed every level from stop_level up
             if debug is not None:
                 debug(
                     f"level{lvl}_exemplar",
@@ -498,13 +499,16 @@ def solve(
                     debug("initialization", level_image(ex, refs, lvl))
                 forbid = np.full(shape, -1, np.int64)
             else:
-                refs, forbid = _upsampled_state(ctx, refs, forbid, levels[lvl + 1])
+                coarser = levels[lvl + 1]
+                assert forbid is not None and coarser is not None  # set with refs, on the level above
+                refs, forbid = _upsampled_state(ctx, refs, forbid, coarser)
             refs = _solve_level(
                 ctx, refs, forbid, balance, guidance.cleanup_passes if guidance is not None else 0, tick
             )
             if debug is not None:
                 debug(f"level{lvl}_result", level_image(ex, refs, lvl))
         timings = {"analysis": t1 - t0, "synthesis": time.perf_counter() - t1}
+        assert refs is not None  # the finest level ran
         return _result(ex, extras, refs, levels, stop_level, out_shape, wrap, seed, tile, timings, config.blend)
 
 

@@ -207,6 +207,7 @@ def texture_by_numbers(
         front=front,
     )
     labels, colour_variance = front.labels, front.colour_variance
+    assert labels is not None  # set_up checked the exemplar: front.check encoded the maps
     wrap, n_levels = setup.wrap, setup.n_levels
     # a pixel whose soft label differs completely costs label_weight x the colour variance
     guide_a, guide_b = guide_channels(
@@ -257,6 +258,7 @@ class _LabelFront(Front):
     def features(
         self, ex: np.ndarray, extras: Mapping[str, np.ndarray], wrap: tuple[bool, bool], config: SynthesisConfig
     ) -> np.ndarray:
+        assert self.labels is not None  # check runs first
         feats, self.colour_variance = _matching_features(
             ex, extras, self.labels.exemplar, self.feature_weight, config, wrap
         )

@@ -142,5 +142,5 @@ def serve(
                 shown = f"[{shown}]" if ":" in shown else shown
                 on_ready(f"http://{shown}:{port}/")
 
-        server.startup = startup
+        server.startup = startup  # type: ignore[method-assign]  # wrapped: uvicorn has no on-listening hook
     asyncio.run(server.serve())

@@ -72,7 +72,9 @@ def fetch_three(folder: Path = VENDOR, *, url: str = THREE_TARBALL, timeout: flo
         for name, target in THREE_FILES.items():
             path = folder / target
             path.parent.mkdir(parents=True, exist_ok=True)
-            content = archive.extractfile(members[name]).read()
+            member = archive.extractfile(members[name])
+            assert member is not None  # THREE_FILES are regular files
+            content = member.read()
             fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-")
             with os.fdopen(fd, "wb") as fh:
                 fh.write(content)

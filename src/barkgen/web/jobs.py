@@ -26,6 +26,9 @@ import threading
 import time
 from collections import deque
 from dataclasses import dataclass, field
+from multiprocessing.connection import Connection
+from multiprocessing.process import BaseProcess
+from typing import cast
 
 import numpy as np
 
@@ -117,8 +120,8 @@ class JobManager:
         self._cancel: set[str] = set()
         self._stopping = False
         self._thread: threading.Thread | None = None
-        self._process = None
-        self._conn = None
+        self._process: BaseProcess | None = None
+        self._conn: Connection | None = None
         with self._lock:
             self._restore()
 
@@ -364,10 +367,11 @@ class JobManager:
             try:
                 exemplar = self.library.exemplar(job.exemplar_id)
                 photo = self.library.photo_bytes(exemplar.id)
+                spec: JobSpec | LabelSpec
                 if job.kind == "labels":
                     spec = LabelSpec(job_id=job.id, photo=photo, k=job.params["k"])
-                else:
-                    spec = JobSpec(job_id=job.id, photo=photo, photo_hash=exemplar.image_hash, **fields)
+                else:  # (a job without its fields: the TypeError below)
+                    spec = JobSpec(job_id=job.id, photo=photo, photo_hash=exemplar.image_hash, **cast(dict, fields))
             except (NotFoundError, OSError) as exc:
                 self._finish(job, state="failed", error=f"the photo is gone ({exc})")
                 continue
@@ -404,9 +408,10 @@ class JobManager:
             self._cancel.discard(job.id)
             self._set(job, spec=None, finished=time.time(), **changes)
 
-    def _execute(self, job: Job, spec: JobSpec) -> None:
+    def _execute(self, job: Job, spec: JobSpec | LabelSpec) -> None:
         try:
             self._ensure_worker()
+            assert self._conn is not None  # _ensure_worker made the pipe
             self._conn.send(spec)
         except (OSError, EOFError) as exc:
             self._end_worker()
@@ -422,6 +427,7 @@ class JobManager:
                 else:
                     self._finish(job, state="cancelled")
                 return
+            assert self._conn is not None  # until _end_worker, which returns
             try:
                 ready = self._conn.poll(0.1)
                 message = self._conn.recv() if ready else None
@@ -443,7 +449,7 @@ class JobManager:
             elif isinstance(message, Done) and job.kind == "labels":
                 try:
                     self.library.put_analysis(
-                        job.exemplar_id, "labels_in", job.labels_key, message.files["labels_in.png"]
+                        job.exemplar_id, "labels_in", cast(dict, job.labels_key), message.files["labels_in.png"]
                     )
                 except Exception as exc:  # the exemplar was removed, disk full, ...
                     self._finish(job, state="failed", error=f"could not store the label map ({exc})")

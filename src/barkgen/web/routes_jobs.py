@@ -18,7 +18,7 @@ import re
 import secrets
 import warnings
 from collections.abc import AsyncIterator, Awaitable, Callable
-from typing import Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from fastapi import APIRouter, Request
@@ -55,9 +55,9 @@ def job_request_model(options_class: type = GenerateOptions) -> type[BaseModel]:
     fields: dict = {"exemplar_id": (int, ...), "resume": (ResumeRequest | None, None)}
     for f in option_fields(options_class, "web"):
         default = WEB_DEFAULTS.get(f.name, f.default_text)
-        kind = Literal[f.info.choices] if f.info.choices else f.info.kind
+        kind: Any = Literal[f.info.choices] if f.info.choices else f.info.kind
         kind = kind if default is not None else kind | None
-        limits = {}
+        limits: dict[str, Any] = {}
         if f.info.kind in (int, float):
             limits = {"ge": f.info.minimum, "le": f.info.maximum}
         if f.name == "seed":
@@ -66,7 +66,10 @@ def job_request_model(options_class: type = GenerateOptions) -> type[BaseModel]:
     return create_model("JobRequest", **fields)
 
 
-JobRequest = job_request_model()
+if TYPE_CHECKING:  # create_model's class: its fields are known at run time only
+    JobRequest = Any
+else:
+    JobRequest = job_request_model()
 
 
 def _shown(field: OptionField, value):
@@ -198,7 +201,7 @@ def job_snapshot(state: AppState, job_id: str) -> dict:
     return snapshot
 
 
-def stop_job(state: AppState, job_id: str) -> dict:
+def stop_job(state: AppState, job_id: str) -> dict | None:
     """Cancel a queued or running job (a finished one stays as it is): the job's JSON."""
     job_snapshot(state, job_id)
     return state.jobs.cancel(job_id)

@@ -13,6 +13,7 @@ as an extra matching channel so that matched neighbourhoods agree on where the e
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -139,8 +140,9 @@ def label_pyramid(codes: np.ndarray, n_labels: int, n_levels: int) -> list[np.nd
     levels = [np.ascontiguousarray(codes, dtype=np.int32)]
     if n_levels == 1:
         return levels
-    best = [None] * n_levels
-    score = [None] * n_levels
+    # each level's arrays, from its first label present on
+    best: list[Any] = [None] * n_levels
+    score: list[Any] = [None] * n_levels
     for label in range(n_labels):
         ind = (codes == label).astype(np.float32)
         if not ind.any():

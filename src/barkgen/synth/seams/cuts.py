@@ -191,8 +191,8 @@ def cut_straight_seams(
         piece that borders them, continued.
     """
     refs = np.asarray(references)
-    ry = np.ascontiguousarray(refs[..., 0], dtype=np.int32)
-    rx = np.ascontiguousarray(refs[..., 1], dtype=np.int32)
+    ry: np.ndarray = np.ascontiguousarray(refs[..., 0], dtype=np.int32)
+    rx: np.ndarray = np.ascontiguousarray(refs[..., 1], dtype=np.int32)
     ex = _Exemplar(features, wrap)
     ext = ex.transposed()
     allowed_t = None if allowed is None else (lambda ys, xs, ey, exx: allowed(xs, ys, exx, ey))

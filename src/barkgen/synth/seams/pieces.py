@@ -105,6 +105,8 @@ def unstick_border_seams(refs: np.ndarray, level: LevelAnalysis, forbid: np.ndar
     rx = np.ascontiguousarray(level.coords_x[refs], dtype=np.int32)
     h, w = level.height, level.width
     treated = 0
+    a: np.ndarray  # (cv2.transpose is typed as any numeric array)
+    b: np.ndarray
     for axis in (0, 1):
         if level.wrap[axis]:
             continue
