@@ -4,13 +4,7 @@
 # sheet, in out/ (and a 2x2 tiling preview to check the seams by eye).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-VENV=${BARKGEN_VENV:-.venv}
-[ -x "$VENV/bin/python" ] || python3 -m venv "$VENV"
-log=$(mktemp)
-if ! "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check -e ".[all]" >"$log" 2>&1; then
-  cat "$log" >&2; rm -f "$log"; echo "barkgen: installing dependencies failed" >&2; exit 1
-fi
-rm -f "$log"
+. scripts/_venv.sh all
 "$VENV/bin/python" -m barkgen.web.assets || true  # three.js for `barkgen serve`'s 3D trunk
 # compile the numba kernels into their cache once, as part of the set-up (about 30 s), so that
 # the first run is as fast as every later one

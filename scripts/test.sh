@@ -3,13 +3,7 @@
 # Extra arguments go to pytest (e.g. -k cli, -x).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-VENV=${BARKGEN_VENV:-.venv}
-[ -x "$VENV/bin/python" ] || python3 -m venv "$VENV"
-log=$(mktemp)
-if ! "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check -e ".[dev]" >"$log" 2>&1; then
-  cat "$log" >&2; rm -f "$log"; echo "barkgen: installing dependencies failed" >&2; exit 1
-fi
-rm -f "$log"
+. scripts/_venv.sh dev
 # the web app's three.js (npm registry, integrity-checked) and, for its browser tests, Debian's
 # Chromium (Playwright drives it; no browser download)
 "$VENV/bin/python" -m barkgen.web.assets || true
