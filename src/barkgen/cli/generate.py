@@ -3,6 +3,7 @@ laitoch2018 Figure 1.2) and ``batch`` (many seeds of many photos on Dask, the sa
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import sys
 from pathlib import Path
@@ -31,13 +32,19 @@ from barkgen.cli._common import (
     write_run,
 )
 from barkgen.cli._options import with_options
+from barkgen.errors import InvalidInputError
 from barkgen.pipeline import GenerateOptions
 
 
 @with_options(GenerateOptions)
 def generate_command(
     photo: Annotated[
-        Optional[Path], typer.Argument(help="Bark photo (PNG/JPEG/TIFF/WebP). Default: the bundled sample.")
+        Optional[Path],
+        typer.Argument(
+            help="Bark photo (PNG/JPEG/TIFF/WebP), or a folder holding a scanned material set (ambientCG, "
+            "Poly Haven or Megascans names: NAME_Color, _NormalGL/_nor_gl, _Roughness/_Gloss, _AO, ...): its own "
+            "maps are carried into the new set (--material is then on). Default: the bundled sample."
+        ),
     ] = None,
     output_dir: Annotated[Path, typer.Option("-o", "--output", help="Output folder.")] = Path("out"),
     labels: Annotated[
@@ -57,11 +64,16 @@ def generate_command(
     report.json and preview.png (+ NAME.png per --extra, + the material set with --material)
     into the output folder."""
     from barkgen.data import sample_exemplar_path
-    from barkgen.io import read_image
+    from barkgen.io import read_image, read_scanned_set
     from barkgen.pipeline import encode_generate, generate, stage_at
 
     check_bits(bits)
     check_folder(output_dir, "output")
+    set_folder = photo if photo is not None and photo.is_dir() else None
+    if set_folder is not None:  # a scanned set in: a set out
+        options = dataclasses.replace(options, material=True)
+        if output_dir.resolve() == set_folder.resolve():
+            raise InvalidInputError(f"{output_dir} is the scanned set's folder; write the new set to another")
     _check_generate_names(name, options.material)
     if save_levels is not None:
         check_folder(save_levels, "--save-levels")
@@ -70,13 +82,16 @@ def generate_command(
     stale = previous_run_files(output_dir)
     refuse_inputs(_run_targets(output_dir, name if options.material else None, extra_paths, stale))
     src = photo if photo is not None else sample_exemplar_path()
-    image = read_image(src)
+    scan = read_scanned_set(set_folder) if set_folder is not None else None
+    image = scan.color if scan is not None else read_image(src)
     extras = {name: read_image(p) for name, p in extra_paths.items()}
     label_map = read_image(labels) if labels is not None else None
     edited = read_resume(resume) if resume is not None else None
     describe = functools.partial(stage_at, material=options.material)
     with progress_bar(not quiet, "generating", describe) as progress:
-        result = generate(image, options, extra=extras, labels_in=label_map, resume=edited, progress=progress)
+        result = generate(
+            image, options, extra=extras, labels_in=label_map, resume=edited, progress=progress, scan=scan
+        )
         files = encode_generate(image, result, str(src), name=name, bits=bits)
     levels = {} if save_levels is None else level_files(result.label_levels)
     write_run(output_dir, files, stale, {save_levels / n: data for n, data in levels.items()})

@@ -32,6 +32,7 @@ from barkgen.io.material import (
     read_material,
 )
 from barkgen.io.references import encode_reference, read_reference, write_reference
+from barkgen.io.scanned import ScannedSet, is_set_folder, map_kind, read_scanned_set, recognise_set
 from barkgen.io.staging import (
     commit_staged,
     discard_staged,
@@ -42,6 +43,11 @@ from barkgen.io.staging import (
 )
 
 __all__ = [
+    "ScannedSet",
+    "is_set_folder",
+    "map_kind",
+    "read_scanned_set",
+    "recognise_set",
     "check_replaceable",
     "file_record",
     "owned_files",
