@@ -16,6 +16,7 @@ from barkgen.cli._common import (
     ExtraOption,
     LibraryOption,
     NameOption,
+    PresetOption,
     QuietOption,
     ResumeOption,
     SaveLevelsOption,
@@ -55,6 +56,7 @@ def generate_command(
     resume: ResumeOption = None,
     bits: BitsOption = None,
     name: NameOption = "bark",
+    preset: PresetOption = "ambientcg",
     quiet: QuietOption = False,
     *,
     options: GenerateOptions,
@@ -65,6 +67,7 @@ def generate_command(
     into the output folder."""
     from barkgen.data import sample_exemplar_path
     from barkgen.io import read_image, read_scanned_set
+    from barkgen.material.presets import check_preset
     from barkgen.pipeline import encode_generate, generate, stage_at
 
     check_bits(bits)
@@ -75,12 +78,13 @@ def generate_command(
         if output_dir.resolve() == set_folder.resolve():
             raise InvalidInputError(f"{output_dir} is the scanned set's folder; write the new set to another")
     _check_generate_names(name, options.material)
+    check_preset(preset)
     if save_levels is not None:
         check_folder(save_levels, "--save-levels")
         refuse_input_folder(save_levels, "--save-levels")
     extra_paths = _extra_paths(extra)
     stale = previous_run_files(output_dir)
-    refuse_inputs(_run_targets(output_dir, name if options.material else None, extra_paths, stale))
+    refuse_inputs(_run_targets(output_dir, name if options.material else None, extra_paths, stale, preset))
     src = photo if photo is not None else sample_exemplar_path()
     scan = read_scanned_set(set_folder) if set_folder is not None else None
     image = scan.color if scan is not None else read_image(src)
@@ -92,7 +96,7 @@ def generate_command(
         result = generate(
             image, options, extra=extras, labels_in=label_map, resume=edited, progress=progress, scan=scan
         )
-        files = encode_generate(image, result, str(src), name=name, bits=bits)
+        files = encode_generate(image, result, str(src), name=name, bits=bits, preset=preset)
     levels = {} if save_levels is None else level_files(result.label_levels)
     write_run(output_dir, files, stale, {save_levels / n: data for n, data in levels.items()})
     if not quiet:
@@ -105,13 +109,17 @@ def generate_command(
         )
 
 
-def _run_targets(folder: Path, material_name: str | None, extras, stale) -> list[Path]:
+def _run_targets(folder: Path, material_name: str | None, extras, stale, preset: str = "ambientcg") -> list[Path]:
     """The files of ``folder`` a run will write or remove (its own, the material set's, each
     extra's, and the previous run's): none may be an input."""
     from barkgen.pipeline import GENERATE_FILES
 
     names = {f"{n}.png" for n in GENERATE_FILES} | {"report.json"} | {f"{n}.png" for n in extras}
     names |= set(stale)
+    if material_name is not None:
+        from barkgen.io.material import material_file_names
+
+        names |= set(material_file_names(material_name, preset))
     if material_name is not None and folder.is_dir():
         names |= {
             p.name

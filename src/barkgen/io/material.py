@@ -54,13 +54,18 @@ def utf8_text(text: str) -> str:
     return text.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
 
 
-def material_file_names(name: str) -> list[str]:
-    """The files of a set called ``name`` (:func:`encode_material` writes exactly these), known
-    before the set is made: a command refuses, before any work, to write one that is an input."""
-    return [f"{name}_{suffix}.png" for suffix in MAP_SUFFIXES] + [f"{name}.json"]
+def material_file_names(name: str, preset: str = "ambientcg") -> list[str]:
+    """The files a set called ``name`` may have in ``preset``'s layout (:func:`encode_material`
+    writes these, the metalness and opacity maps only where the set has them), known before
+    the set is made: a command refuses, before any work, to write one that is an input."""
+    from barkgen.material.presets import preset_file_names
+
+    if preset == "ambientcg":
+        return [f"{name}_{suffix}.png" for suffix in MAP_SUFFIXES] + [f"{name}.json"]
+    return preset_file_names(name, preset) + [f"{name}.json"]
 
 
-def encode_material(material, name: str, **metadata) -> dict[str, bytes]:
+def encode_material(material, name: str, preset: str = "ambientcg", **metadata) -> dict[str, bytes]:
     """Every file of a :class:`~barkgen.material.MaterialSet`, encoded before any is written.
 
     Parameters
@@ -69,28 +74,61 @@ def encode_material(material, name: str, **metadata) -> dict[str, bytes]:
         The set.
     name : str
         Its ``NAME`` (:func:`check_material_name`).
+    preset : {"ambientcg", "blender", "unreal", "unity", "gltf"}, default "ambientcg"
+        The engine whose names and packing the files follow
+        (:mod:`barkgen.material.presets`); ``blender`` adds ``NAME.mtlx``, a MaterialX document
+        wiring the maps, with the displacement's scale and midlevel set.
     **metadata
         Added to ``NAME.json`` (seed, source photo, ...).
 
     Returns
     -------
     dict of str to bytes
+        The preset's images, ``NAME.json`` (and ``NAME.mtlx``). ``ambientcg``:
         ``NAME_Color.png``, ``NAME_NormalGL.png``, ``NAME_NormalDX.png``,
-        ``NAME_Displacement.png``, ``NAME_Roughness.png``, ``NAME_AmbientOcclusion.png`` and
-        ``NAME.json``.
+        ``NAME_Displacement.png``, ``NAME_Roughness.png``, ``NAME_AmbientOcclusion.png``.
 
     Raises
     ------
     InvalidInputError
-        A bad name.
+        A bad name or preset.
+    MissingExtraError
+        ``blender`` without the ``[materialx]`` extra.
     """
+    from barkgen.material.presets import NORMAL_FILES, PACKING, check_preset, preset_images
+
     check_material_name(name)
+    check_preset(preset)
     metadata = {k: utf8_text(v) if isinstance(v, str) else v for k, v in metadata.items()}
-    files = encode_concurrently({fname: partial(encode_png, pixels) for fname, pixels in material.images(name).items()})
+    images = preset_images(material, name, preset)
+    files = encode_concurrently({fname: partial(encode_png, pixels) for fname, pixels in images.items()})
     meta = material.metadata(name=name, **metadata)
+    if preset != "ambientcg":  # (an ambientCG set's record is as it always was)
+        meta["preset"] = preset
+        meta["normal_convention"] = NORMAL_FILES[preset]
+        if preset in PACKING:
+            meta["packing"] = PACKING[preset]
+    if preset == "blender":
+        files[f"{name}.mtlx"] = _mtlx(material, name, images)
     meta["files"] = sorted(files)
     files[f"{name}.json"] = (json.dumps(meta, indent=2) + "\n").encode()
     return files
+
+
+def _mtlx(material, name: str, images: dict) -> bytes:
+    """The Blender preset's ``NAME.mtlx`` wiring the set's images."""
+    from barkgen.io.materialx import encode_mtlx
+
+    suffixes = {
+        "color": "Color",
+        "normal": "NormalGL",
+        "roughness": "Roughness",
+        "displacement": "Displacement",
+        "metalness": "Metalness",
+        "opacity": "Opacity",
+    }
+    files = {key: f"{name}_{suffix}.png" for key, suffix in suffixes.items() if f"{name}_{suffix}.png" in images}
+    return encode_mtlx(name, files, depth=material.depth / material.shape[1], midlevel=material.midlevel)
 
 
 def find_material(folder: str | os.PathLike) -> tuple[str, dict]:

@@ -20,7 +20,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from barkgen._shared.arrays import as_uint8
 from barkgen._shared.memory import BASE_BYTES, check_budget_value, check_memory_budget
 from barkgen.errors import InvalidInputError
 from barkgen.material.editor import HeightEdit, HeightEditor
@@ -207,9 +206,9 @@ class MaterialSet:
 
     def _pixels(self, kind: str, values: np.ndarray) -> np.ndarray:
         """A map in [0, 1] as its file's pixels: 16-bit where :attr:`bits` says so, else 8."""
-        if self.bits.get(kind, 8) == 16:
-            return np.round(np.clip(values, 0.0, 1.0) * 65535.0).astype(np.uint16)
-        return as_uint8(values)
+        from barkgen.material.presets import encode_unit
+
+        return encode_unit(values, self.bits.get(kind, 8))
 
     @property
     def wraps(self) -> tuple[bool, bool]:

@@ -43,7 +43,13 @@ def check_generate_names(
 
 
 def encode_generate(
-    photo: np.ndarray, result, source: str, *, name: str = "bark", bits: int | None = None
+    photo: np.ndarray,
+    result,
+    source: str,
+    *,
+    name: str = "bark",
+    bits: int | None = None,
+    preset: str = "ambientcg",
 ) -> dict[str, bytes]:
     """Every file of a :class:`~barkgen.pipeline.GenerateResult`, encoded.
 
@@ -66,6 +72,8 @@ def encode_generate(
         The material set's ``NAME``.
     bits : {8, 16}, optional
         Bit depth of ``texture.png`` (default: the photo's).
+    preset : {"ambientcg", "blender", "unreal", "unity", "gltf"}, default "ambientcg"
+        The material set's layout (:mod:`barkgen.material.presets`).
 
     Returns
     -------
@@ -89,7 +97,7 @@ def encode_generate(
     jobs.update({f"{extra}.png": partial(encode_png, arr) for extra, arr in result.extras.items()})
     files = encode_concurrently(jobs)
     if result.material is not None:
-        material_files = encode_material(result.material, name, seed=result.report["seed"], source_photo=source)
+        material_files = encode_material(result.material, name, preset, seed=result.report["seed"], source_photo=source)
         clash = sorted(set(material_files) & (set(files) | {"report.json"}))
         if clash:
             raise InvalidInputError(f"--name {name!r} makes {clash[0]}, which is taken; pick another")
