@@ -9,6 +9,7 @@ from barkgen.io.folders import (
     remove_staging,
     write_folder_atomic,
 )
+from barkgen.io.gltf import add_tangents, encode_glb, vertex_tangents
 from barkgen.io.images import (
     AlphaDroppedWarning,
     ImageContentWarning,
@@ -26,7 +27,6 @@ from barkgen.io.images import (
 from barkgen.io.material import (
     MAP_SUFFIXES,
     check_material_name,
-    encode_glb,
     encode_material,
     find_material,
     read_material,
@@ -62,6 +62,8 @@ __all__ = [
     "MAP_SUFFIXES",
     "check_material_name",
     "encode_glb",
+    "add_tangents",
+    "vertex_tangents",
     "encode_material",
     "find_material",
     "read_material",
