@@ -57,23 +57,26 @@ def scan_folder(root: Path, name: str) -> Path:
     return folder
 
 
-def inside_pieces(references: np.ndarray, shape, band: int = 8) -> np.ndarray:
+def inside_pieces(references: np.ndarray, shape, wrap, band: int = 8) -> np.ndarray:
     import cv2
 
     from barkgen.synth import piece_borders
 
-    inside = (~piece_borders(references, shape, tile=True)).astype(np.uint8)
+    inside = (~piece_borders(references, shape, tile=True, wrap=wrap)).astype(np.uint8)
     pad = band + 1
     return cv2.distanceTransform(np.pad(inside, pad, mode="wrap"), cv2.DIST_L2, 3)[pad:-pad, pad:-pad] >= band
 
 
-def step_ratios(result, images: dict[str, np.ndarray]) -> dict[str, float | None]:
+def step_ratios(result, exemplar_shape, images: dict[str, np.ndarray]) -> dict[str, float | None]:
+    """seams.py's step ratio of each map, with ``--wrap-exemplar`` when the scan wraps (a piece
+    running on across the scan's edge is then one piece, as the solver used it)."""
     sys.path.insert(0, str(SHARED / "eval"))
     import seams
 
     refs = result.references
-    ex = result.material.shape if result.material is not None else None
-    hs, vs = seams.seam_masks(refs[..., 0].astype(np.int64), refs[..., 1].astype(np.int64), ex, tile=True)
+    wraps = any(result.report["exemplar_wrap"])
+    y, x = refs[..., 0].astype(np.int64), refs[..., 1].astype(np.int64)
+    hs, vs = seams.seam_masks(y, x, tuple(exemplar_shape), tile=True, wrap_exemplar=wraps)
     out = {}
     for name, pixels in images.items():
         scale = 65535.0 if pixels.dtype == np.uint16 else 255.0
@@ -130,7 +133,8 @@ def measure(name: str, size: int, root: Path) -> dict:
     result = generate(scan.color, GenerateOptions(size=(size, size), tile=True, seed=0, material=True), scan=scan)
     with_set = time.perf_counter() - t0
     m, refs = result.material, result.references
-    deep = inside_pieces(refs, scan.shape)
+    wrap = tuple(result.report["exemplar_wrap"])
+    deep = inside_pieces(refs, scan.shape, wrap)
     copied = scan.normals[refs[..., 0], refs[..., 1]].astype(np.float64)
     angle = np.degrees(np.arccos(np.clip((m.normals * copied).sum(2), -1, 1)))[deep]
     local = max(
@@ -139,10 +143,12 @@ def measure(name: str, size: int, root: Path) -> dict:
     images = m.images("b")
     ratios = step_ratios(
         result,
+        scan.shape,
         {k: images[f"b_{k}.png"] for k in ("Color", "NormalGL", "Displacement", "AmbientOcclusion", "Roughness")},
     )
     return {
         "scan": name.split("_")[0],
+        "wraps": "".join("yx"[i] for i in range(2) if wrap[i]) or "no",
         "set s": with_set,
         "colour s": colour_only,
         "ratio": with_set / colour_only,
