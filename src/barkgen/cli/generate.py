@@ -57,6 +57,16 @@ def generate_command(
     bits: BitsOption = None,
     name: NameOption = "bark",
     preset: PresetOption = "ambientcg",
+    sizes: Annotated[
+        Optional[str],
+        typer.Option(
+            "--sizes",
+            metavar="1k,2k,4k",
+            help="Write the material set at several widths from one run, each as NAME_1K_*, NAME_2K_*, ...: the "
+            "same bark resampled, not re-synthesized. The output is as wide as the largest (--size gives the "
+            "aspect). Implies --material.",
+        ),
+    ] = None,
     quiet: QuietOption = False,
     *,
     options: GenerateOptions,
@@ -68,7 +78,7 @@ def generate_command(
     from barkgen.data import sample_exemplar_path
     from barkgen.io import read_image, read_scanned_set
     from barkgen.material.presets import check_preset
-    from barkgen.pipeline import encode_generate, generate, stage_at
+    from barkgen.pipeline import encode_generate, generate, sized_set_names, stage_at
 
     check_bits(bits)
     check_folder(output_dir, "output")
@@ -77,6 +87,10 @@ def generate_command(
         options = dataclasses.replace(options, material=True)
         if output_dir.resolve() == set_folder.resolve():
             raise InvalidInputError(f"{output_dir} is the scanned set's folder; write the new set to another")
+    widths = parse_widths(sizes)
+    if widths:  # the output as wide as the largest set, in --size's aspect
+        h, w = options.size
+        options = dataclasses.replace(options, material=True, size=(max(1, round(h * widths[-1] / w)), widths[-1]))
     _check_generate_names(name, options.material)
     check_preset(preset)
     if save_levels is not None:
@@ -84,7 +98,8 @@ def generate_command(
         refuse_input_folder(save_levels, "--save-levels")
     extra_paths = _extra_paths(extra)
     stale = previous_run_files(output_dir)
-    refuse_inputs(_run_targets(output_dir, name if options.material else None, extra_paths, stale, preset))
+    set_names = sized_set_names(name, widths) if options.material else []
+    refuse_inputs(_run_targets(output_dir, set_names, extra_paths, stale, preset))
     src = photo if photo is not None else sample_exemplar_path()
     scan = read_scanned_set(set_folder) if set_folder is not None else None
     image = scan.color if scan is not None else read_image(src)
@@ -96,7 +111,7 @@ def generate_command(
         result = generate(
             image, options, extra=extras, labels_in=label_map, resume=edited, progress=progress, scan=scan
         )
-        files = encode_generate(image, result, str(src), name=name, bits=bits, preset=preset)
+        files = encode_generate(image, result, str(src), name=name, bits=bits, preset=preset, sizes=widths)
     levels = {} if save_levels is None else level_files(result.label_levels)
     write_run(output_dir, files, stale, {save_levels / n: data for n, data in levels.items()})
     if not quiet:
@@ -109,23 +124,34 @@ def generate_command(
         )
 
 
-def _run_targets(folder: Path, material_name: str | None, extras, stale, preset: str = "ambientcg") -> list[Path]:
+def parse_widths(text: str | None) -> list[int]:
+    """``--sizes 1k,2k,4k`` (or pixel widths ``512,1024``) -> sorted widths; ``None`` -> ``[]``."""
+    if text is None:
+        return []
+    widths = set()
+    for item in text.split(","):
+        word = item.strip().lower()
+        number = word[:-1] if word.endswith("k") else word
+        if not number.isdigit() or len(number) > 6 or int(number) == 0:
+            raise InvalidInputError(f"--sizes: {item.strip()!r} is no width (e.g. 1k,2k,4k or 512,1024)")
+        widths.add(int(number) * (1024 if word.endswith("k") else 1))
+    return sorted(widths)
+
+
+def _run_targets(folder: Path, set_names: list[str], extras, stale, preset: str = "ambientcg") -> list[Path]:
     """The files of ``folder`` a run will write or remove (its own, the material set's, each
     extra's, and the previous run's): none may be an input."""
+    from barkgen.io.material import material_file_names
     from barkgen.pipeline import GENERATE_FILES
 
     names = {f"{n}.png" for n in GENERATE_FILES} | {"report.json"} | {f"{n}.png" for n in extras}
     names |= set(stale)
-    if material_name is not None:
-        from barkgen.io.material import material_file_names
-
-        names |= set(material_file_names(material_name, preset))
-    if material_name is not None and folder.is_dir():
-        names |= {
-            p.name
-            for p in folder.iterdir()
-            if p.name.startswith(f"{material_name}_") or p.name == f"{material_name}.json"
-        }
+    for set_name in set_names:
+        names |= set(material_file_names(set_name, preset))
+        if folder.is_dir():
+            names |= {
+                p.name for p in folder.iterdir() if p.name.startswith(f"{set_name}_") or p.name == f"{set_name}.json"
+            }
     return [folder / n for n in sorted(names)]
 
 

@@ -210,6 +210,46 @@ class MaterialSet:
 
         return encode_unit(values, self.bits.get(kind, 8))
 
+    def resampled(self, shape: tuple[int, int]) -> MaterialSet:
+        """The same set at another size ``(h, w)``, resampled, not re-made: values averaged over
+        each new pixel's area when shrinking (cv2's INTER_AREA), linear between pixel centres
+        when enlarging (on the torus along the axes it wraps); normals averaged and
+        renormalised; the height in the new pixels (times the scale, so the slopes and the
+        displacement's depth as a fraction of the width stay)."""
+        import cv2
+        from scipy import ndimage
+
+        h, w = int(shape[0]), int(shape[1])
+        if (h, w) == self.shape:
+            return self
+        wraps = self.wraps
+        scale_y, scale_x = h / self.shape[0], w / self.shape[1]
+
+        def resize(values: np.ndarray) -> np.ndarray:
+            arr = np.asarray(values, np.float32)
+            if scale_y <= 1 and scale_x <= 1:
+                return cv2.resize(arr, (w, h), interpolation=cv2.INTER_AREA).reshape((h, w) + arr.shape[2:])
+            out = arr
+            for axis, (size, wrap) in enumerate(((h, wraps[0]), (w, wraps[1]))):
+                zoom = [1.0] * arr.ndim
+                zoom[axis] = size / arr.shape[axis]
+                out = ndimage.zoom(out, zoom, order=1, mode="grid-wrap" if wrap else "nearest", grid_mode=True)
+            return out.astype(np.float32)
+
+        normals = resize(self.normals)
+        normals /= np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-6)
+        optional = {k: None if getattr(self, k) is None else resize(getattr(self, k)) for k in ("metalness", "opacity")}
+        return dataclasses.replace(
+            self,
+            color=resize(self.color),
+            height=resize(self.height) * float(np.sqrt(scale_y * scale_x)),
+            normals=normals,
+            ao=resize(self.ao),
+            roughness=resize(self.roughness),
+            ao_cavities=None if self.ao_cavities is None else resize(self.ao_cavities),
+            **optional,
+        )
+
     @property
     def wraps(self) -> tuple[bool, bool]:
         """``(rows, columns)``: the axes along which the maps wrap."""

@@ -12,7 +12,7 @@ from barkgen.pipeline.core import (
     generate,
     preview_sheet,
 )
-from barkgen.pipeline.files import GENERATE_FILES, check_generate_names, encode_generate
+from barkgen.pipeline.files import GENERATE_FILES, check_generate_names, encode_generate, size_tag, sized_set_names
 from barkgen.pipeline.options import LABEL_METHODS, GenerateOptions, analysis_key
 from barkgen.pipeline.progress import stage_at, stage_span
 from barkgen.pipeline.warmup import warm_up
@@ -30,6 +30,8 @@ __all__ = [
     "encode_generate",
     "generate",
     "preview_sheet",
+    "size_tag",
+    "sized_set_names",
     "stage_at",
     "stage_span",
     "warm_up",
