@@ -78,7 +78,7 @@ def generate_command(
     from barkgen.data import sample_exemplar_path
     from barkgen.io import read_image, read_scanned_set
     from barkgen.material.presets import check_preset
-    from barkgen.pipeline import encode_generate, generate, sized_set_names, stage_at
+    from barkgen.pipeline import encode_generate, generate, parse_sizes, sized_options, sized_set_names, stage_at
 
     check_bits(bits)
     check_folder(output_dir, "output")
@@ -87,10 +87,8 @@ def generate_command(
         options = dataclasses.replace(options, material=True)
         if output_dir.resolve() == set_folder.resolve():
             raise InvalidInputError(f"{output_dir} is the scanned set's folder; write the new set to another")
-    widths = parse_widths(sizes)
-    if widths:  # the output as wide as the largest set, in --size's aspect
-        h, w = options.size
-        options = dataclasses.replace(options, material=True, size=(max(1, round(h * widths[-1] / w)), widths[-1]))
+    widths = parse_sizes(sizes, "--sizes")
+    options = sized_options(options, widths)
     _check_generate_names(name, options.material)
     check_preset(preset)
     if save_levels is not None:
@@ -122,20 +120,6 @@ def generate_command(
             f"{result.report['timings_s']['total']:.1f} s",
             err=True,
         )
-
-
-def parse_widths(text: str | None) -> list[int]:
-    """``--sizes 1k,2k,4k`` (or pixel widths ``512,1024``) -> sorted widths; ``None`` -> ``[]``."""
-    if text is None:
-        return []
-    widths = set()
-    for item in text.split(","):
-        word = item.strip().lower()
-        number = word[:-1] if word.endswith("k") else word
-        if not number.isdigit() or len(number) > 6 or int(number) == 0:
-            raise InvalidInputError(f"--sizes: {item.strip()!r} is no width (e.g. 1k,2k,4k or 512,1024)")
-        widths.add(int(number) * (1024 if word.endswith("k") else 1))
-    return sorted(widths)
 
 
 def _run_targets(folder: Path, set_names: list[str], extras, stale, preset: str = "ambientcg") -> list[Path]:

@@ -119,6 +119,35 @@ def encode_generate(
     return files
 
 
+def parse_sizes(value, where: str = "sizes") -> list[int]:
+    """Widths of a set of sizes, sorted: ``"1k,2k,4k"`` or ``"512,1024"`` (the CLI's
+    ``--sizes``), or a list of such items (a batch spec's ``sizes``); ``None`` -> ``[]``."""
+    if value is None:
+        return []
+    items = value.split(",") if isinstance(value, str) else value
+    if not isinstance(items, (list, tuple)):
+        raise InvalidInputError(f"{where}: {value!r} is no list of widths (e.g. 1k,2k,4k or 512,1024)")
+    widths = set()
+    for item in items:
+        word = str(item).strip().lower()
+        number = word[:-1] if word.endswith("k") else word
+        if isinstance(item, bool) or not number.isdigit() or len(number) > 6 or int(number) == 0:
+            raise InvalidInputError(f"{where}: {str(item).strip()!r} is no width (e.g. 1k,2k,4k or 512,1024)")
+        widths.add(int(number) * (1024 if word.endswith("k") else 1))
+    return sorted(widths)
+
+
+def sized_options(options, widths: Sequence[int]):
+    """The options of a run that writes its set at ``widths``: the output as wide as the
+    largest, in ``options.size``'s aspect, with the material set on."""
+    if not widths:
+        return options
+    import dataclasses
+
+    h, w = options.size
+    return dataclasses.replace(options, material=True, size=(max(1, round(h * widths[-1] / w)), widths[-1]))
+
+
 def size_tag(width: int) -> str:
     """A set's resolution tag, as ambientCG and Poly Haven write it: ``1K`` for 1024 px, ``2K``,
     ...; ``768px`` for a width that is no multiple of 1024."""
