@@ -7,6 +7,11 @@ cd "$(dirname "$0")/.."
 # the web app's three.js (npm registry, integrity-checked) and, for its browser tests, Debian's
 # Chromium (Playwright drives it; no browser download)
 "$VENV/bin/python" -m barkgen.web.assets || true
+# the Khronos glTF validator (npm registry) for the glb tests, run offline in node
+if command -v npm >/dev/null && [ ! -d .cache/node/node_modules/gltf-validator ]; then
+  npm install --prefix .cache/node --no-audit --no-fund --silent gltf-validator@2.0.0-dev.3.10 >/dev/null 2>&1 \
+    || echo "barkgen: warning: gltf-validator did not install; the glb validation tests will skip" >&2
+fi
 if [ ! -x /usr/bin/chromium ] && command -v apt-get >/dev/null && [ "$(id -u)" = 0 ]; then
   echo "barkgen: installing Debian's chromium for the browser tests" >&2
   { apt-get install -y -q chromium || { apt-get update -q && apt-get install -y -q chromium; }; } \

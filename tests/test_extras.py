@@ -24,6 +24,7 @@ FRONT_END_MODULES = (
     "yaml",
     "bokeh",
     "trimesh",
+    "MaterialX",
 )
 
 #: run first in a child Python: these top-level modules then cannot be found, as if not installed

@@ -82,7 +82,7 @@ def test_a_new_field_reaches_batch_specs():
     pytest.importorskip("yaml")
     from barkgen.batch.spec import _options
 
-    options, bits, name = _options(
+    options, _files = _options(
         "exemplar 1", {"dummy_strength": 2, "dummy_mode": "hard", "size": 64}, None, DummyOptions
     )
     assert isinstance(options, DummyOptions), "the batch spec lacks the options class"

@@ -495,3 +495,46 @@ def test_another_programs_manifest_is_neither_changed_nor_trusted(photos, tmp_pa
     assert (out / "manifest.sqlite").read_bytes() == before and sorted(p.name for p in out.iterdir()) == [
         "manifest.sqlite"
     ]
+
+
+def test_a_scanned_set_folder_with_a_preset_and_sizes_makes_generates_files(tmp_path):
+    """A spec's ``path`` may be a scanned set's folder (issue 32); ``preset`` and ``sizes`` are
+    spec keys; the variant's files are ``barkgen generate SETDIR``'s with the same flags."""
+    from conftest import SHARED
+
+    from barkgen.batch import load_spec, run_batch
+
+    maps = SHARED / "data" / "bark_maps"
+    if not (maps / "pine_plated_01_normal.jpg").is_file():
+        pytest.skip(f"needs the team's shared folder with data/bark_maps at {SHARED}")
+    folder = tmp_path / "pineset"
+    folder.mkdir()
+    write_png(folder / "pine_plated_01.png", read_image(SHARED / "data" / "bark" / "pine_plated_01.jpg")[:128, :128])
+    for kind in ("normal", "ao", "roughness"):
+        write_png(folder / f"pine_plated_01_{kind}.png", read_image(maps / f"pine_plated_01_{kind}.jpg")[:128, :128])
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(
+        json.dumps(
+            {
+                "size": "128x96",
+                "tile": True,
+                "preset": "unreal",
+                "sizes": ["64", "128"],
+                "exemplars": [{"path": "pineset", "seeds": [2]}],
+            }
+        )
+    )
+    out = tmp_path / "out"
+    report = run_batch(load_spec(spec), out, workers=1)
+    assert report.failed == [] and report.made == 1
+    gen = tmp_path / "gen"
+    flags = ["--size", "128x96", "--tile", "--seed", "2", "--preset", "unreal", "--sizes", "64,128", "-q"]
+    r = run("generate", str(folder), "-o", str(gen), *flags)
+    assert r.returncode == 0, r.stderr
+    batch = out / "pineset" / "2"
+    names = sorted(p.name for p in gen.iterdir())
+    assert names == sorted(p.name for p in batch.iterdir())
+    assert "bark_64px_ORM.png" in names and "bark_128px_NormalDX.png" in names
+    for name in names:
+        if name.endswith(".png"):
+            assert (gen / name).read_bytes() == (batch / name).read_bytes(), name

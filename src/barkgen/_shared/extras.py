@@ -18,6 +18,7 @@ EXTRAS: dict[str, tuple[str, ...]] = {
     "web": ("fastapi", "uvicorn", "multipart"),
     "batch": ("distributed", "dask", "yaml"),
     "gltf": ("trimesh",),
+    "materialx": ("MaterialX",),
 }
 
 

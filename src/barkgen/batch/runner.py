@@ -62,21 +62,24 @@ def _photo_task(photo):
     return photo
 
 
-def _analyse_task(photo, labels, options):
-    """Worker side: the photo's analysis (:func:`barkgen.pipeline.analyze_photo`)."""
+def _analyse_task(photo, labels, options, scan=None):
+    """Worker side: the photo's analysis (:func:`barkgen.pipeline.analyze_photo`; a scanned
+    set's own maps make its material set)."""
     from barkgen.pipeline import analyze_photo
 
-    return analyze_photo(photo, options, labels_in=labels)
+    return analyze_photo(photo, options, labels_in=labels, scan=scan)
 
 
-def _variant_task(photo, analysis, options, source: str, material_name: str, bits: int | None):
+def _variant_task(photo, analysis, options, source: str, job: ExemplarJob):
     """Worker side: one variant from the shared analysis, encoded exactly as
-    ``barkgen generate`` encodes it."""
+    ``barkgen generate`` encodes it (the job's material name, bits, preset and sizes)."""
     from barkgen.pipeline import encode_generate, generate
 
     t0 = time.perf_counter()
     result = generate(photo, options, analysis=analysis)
-    files = encode_generate(photo, result, source, name=material_name, bits=bits)
+    files = encode_generate(
+        photo, result, source, name=job.material_name, bits=job.bits, preset=job.preset, sizes=job.sizes
+    )
     try:
         from distributed import get_worker
 
@@ -267,20 +270,23 @@ def run_batch(
 
 
 def _read_inputs(job: ExemplarJob):
-    """A job's photo (and label map), read and checked as the pipeline will check them."""
+    """A job's photo (and label map, and scanned set when its path is a set's folder), read and
+    checked as the pipeline will check them."""
     from barkgen._shared.checks import MAX_PHOTO_PIXELS, check_image
     from barkgen.errors import BarkgenError, ImageTooLargeError
-    from barkgen.io import image_size, read_image
+    from barkgen.io import image_size, read_image, read_scanned_set
     from barkgen.pipeline.core import check_generate_memory
 
     try:
-        width, height = image_size(job.path)  # from the header: a 144 MP photo is not decoded
-        if width * height > MAX_PHOTO_PIXELS:
-            raise ImageTooLargeError(
-                f"{width}x{height} px is more than the {MAX_PHOTO_PIXELS / 1e6:g} "
-                "megapixels a photo may be; scale it down"
-            )
-        photo = read_image(job.path)
+        scan = read_scanned_set(job.path) if job.path.is_dir() else None
+        if scan is None:
+            width, height = image_size(job.path)  # from the header: a 144 MP photo is not decoded
+            if width * height > MAX_PHOTO_PIXELS:
+                raise ImageTooLargeError(
+                    f"{width}x{height} px is more than the {MAX_PHOTO_PIXELS / 1e6:g} "
+                    "megapixels a photo may be; scale it down"
+                )
+        photo = scan.color if scan is not None else read_image(job.path)
         check_image(photo)
         check_generate_memory(photo, job.options)  # before the cluster, not inside a worker
         labels = None if job.labels is None else read_image(job.labels)
@@ -291,7 +297,7 @@ def _read_inputs(job: ExemplarJob):
             )
     except BarkgenError as exc:
         raise InvalidInputError(f"exemplar {job.name!r}: {exc}") from None
-    return photo, labels
+    return photo, labels, scan
 
 
 def _run(
@@ -303,7 +309,7 @@ def _run(
     remaining: dict[str, int] = {}
     shared: dict[str, list] = {}
     for job, seeds in todo:
-        photo, labels = inputs[job.name]
+        photo, labels, scan = inputs[job.name]
         with warnings.catch_warnings():  # a 4096² photo is a "large graph"; it is sent once
             warnings.filterwarnings("ignore", message="Sending large graph")
             photo_f = client.submit(
@@ -314,6 +320,7 @@ def _run(
             photo_f,
             labels,
             job.options,
+            scan,
             pure=False,
             key=f"barkgen-analyse-{job.name}-{os.urandom(4).hex()}",
         )
@@ -327,8 +334,7 @@ def _run(
                 analysis_f,
                 job.options_for(seed),
                 job.source_name,
-                job.material_name,
-                job.bits,
+                job,
                 pure=False,
                 key=f"barkgen-variant-{job.name}-{seed}-{os.urandom(4).hex()}",
             )

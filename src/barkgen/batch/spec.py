@@ -31,8 +31,8 @@ from barkgen.errors import BarkgenError, InvalidInputError
 from barkgen.pipeline import GenerateOptions
 
 #: keys a spec may set at the top level or per exemplar besides GenerateOptions' fields: the
-#: texture's bits and the material set's file name
-FILE_KEYS = ("bits", "material_name")
+#: texture's bits, the material set's file name, its preset and its set of sizes
+FILE_KEYS = ("bits", "material_name", "preset", "sizes")
 #: every option key: the GenerateOptions fields batch offers (barkgen._shared.options), and
 #: FILE_KEYS
 OPTION_KEYS = tuple(f.name for f in option_fields(GenerateOptions, "batch")) + FILE_KEYS
@@ -63,6 +63,8 @@ class ExemplarJob:
     labels: Path | None = None
     bits: int | None = None
     material_name: str = "bark"
+    preset: str = "ambientcg"
+    sizes: tuple[int, ...] = ()
     source: str | None = None
 
     @property
@@ -86,6 +88,9 @@ class ExemplarJob:
                 "labels": None if self.labels is None else str(self.labels),
                 "bits": self.bits,
                 "material_name": self.material_name,
+                # (only where set: the fingerprints of earlier batches stay as they were)
+                **({"preset": self.preset} if self.preset != "ambientcg" else {}),
+                **({"sizes": list(self.sizes)} if self.sizes else {}),
                 **opts,
             },
             sort_keys=True,
@@ -157,9 +162,11 @@ def _option_value(where: str, field: OptionField, value):
 
 def _options(
     where: str, values: dict, threads: int | None, options_class: type = GenerateOptions
-) -> tuple[GenerateOptions, int | None, str]:
-    """GenerateOptions (or ``options_class``) from a spec's option keys (errors say where)."""
-    from barkgen.pipeline import check_generate_names
+) -> tuple[GenerateOptions, dict]:
+    """GenerateOptions (or ``options_class``) from a spec's option keys, and the files' own
+    (``bits``, ``material_name``, ``preset``, ``sizes``: :data:`FILE_KEYS`); errors say where."""
+    from barkgen.material.presets import check_preset
+    from barkgen.pipeline import check_generate_names, parse_sizes, sized_options
 
     try:
         kwargs = {
@@ -172,7 +179,10 @@ def _options(
             raise InvalidInputError(f"bits must be 8 or 16, not {bits!r}")
         name = values.get("material_name", "bark")
         check_generate_names(str(name), words=("material_name", "extra"))
-        return options_class(threads=threads, **kwargs), bits, str(name)
+        preset = check_preset(str(values.get("preset", "ambientcg")))
+        sizes = parse_sizes(values.get("sizes"), "sizes")
+        options = sized_options(options_class(threads=threads, **kwargs), sizes)
+        return options, {"bits": bits, "material_name": str(name), "preset": preset, "sizes": tuple(sizes)}
     except BarkgenError as exc:
         message = str(exc)
         if message.startswith(where):
@@ -210,12 +220,13 @@ def _seeds(where: str, entry: dict) -> tuple[int, ...]:
     return tuple(range(base, base + count))
 
 
-def _path(root: Path, where: str, key: str, value) -> Path:
+def _path(root: Path, where: str, key: str, value, folder: bool = False) -> Path:
+    """A spec's file (or, with ``folder``, a scanned set's folder too), relative to ``root``."""
     if not isinstance(value, str) or not value.strip():
         raise InvalidInputError(f"{where}: {key} must be a file path, not {value!r}")
     path = Path(value).expanduser()
     path = path if path.is_absolute() else root / path
-    if not path.is_file():
+    if not (path.is_file() or (folder and path.is_dir())):
         raise InvalidInputError(f"{where}: {key} {value!r} not found ({path})")
     return path
 
@@ -279,8 +290,8 @@ def parse_spec(document, root: str | Path = ".", *, threads: int | None = None, 
         elif "path" not in entry:
             raise InvalidInputError(f"{where}: path (the bark photo) or library (an exemplar id) is missing")
         else:
-            path = _path(root, where, "path", entry["path"])
-            default_name = path.stem
+            path = _path(root, where, "path", entry["path"], folder=True)
+            default_name = path.name if path.is_dir() else path.stem
         name = entry.get("name", default_name)
         if not isinstance(name, str) or not _NAME_RE.match(name) or name in (".", ".."):
             raise InvalidInputError(
@@ -295,9 +306,9 @@ def parse_spec(document, root: str | Path = ".", *, threads: int | None = None, 
             )
         names[name.lower()] = i
         labels = _path(root, where, "labels", entry["labels"]) if "labels" in entry else None
-        options, bits, material_name = _options(
-            where, {**shared, **{k: v for k, v in entry.items() if k in OPTION_KEYS}}, threads
-        )
+        options, files = _options(where, {**shared, **{k: v for k, v in entry.items() if k in OPTION_KEYS}}, threads)
+        if path.is_dir():  # a scanned set: its maps go into the material set
+            options = dataclasses.replace(options, material=True)
         jobs.append(
             ExemplarJob(
                 name=name,
@@ -305,9 +316,8 @@ def parse_spec(document, root: str | Path = ".", *, threads: int | None = None, 
                 seeds=_seeds(where, entry),
                 options=options,
                 labels=labels,
-                bits=bits,
-                material_name=material_name,
                 source=source,
+                **files,
             )
         )
         total += len(jobs[-1].seeds)

@@ -401,6 +401,17 @@ LibraryOption = Annotated[
         "--library", help="Library folder (default: $BARKGEN_LIBRARY, else barkgen/library in your user data folder)."
     ),
 ]
+PresetOption = Annotated[
+    str,
+    typer.Option(
+        "--preset",
+        metavar="{ambientcg,blender,unreal,unity,gltf}",
+        help="The material set's layout, as each engine reads it: ambientcg (NAME_Color, NormalGL and "
+        "NormalDX, Displacement, Roughness, AmbientOcclusion), blender (NormalGL only, so Node Wrangler wires "
+        "it, and NAME.mtlx with the displacement's scale and midlevel), unreal (BaseColor, NormalDX, ORM), "
+        "unity (BaseMap, NormalGL, HDRP MaskMap) or gltf (BaseColor, NormalGL, ORM).",
+    ),
+]
 NameOption = Annotated[
     str, typer.Option("--name", help="Material set name: files NAME_Color.png, NAME_NormalGL.png, ..., NAME.json.")
 ]

@@ -3,6 +3,7 @@ laitoch2018 Figure 1.2) and ``batch`` (many seeds of many photos on Dask, the sa
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import sys
 from pathlib import Path
@@ -15,6 +16,7 @@ from barkgen.cli._common import (
     ExtraOption,
     LibraryOption,
     NameOption,
+    PresetOption,
     QuietOption,
     ResumeOption,
     SaveLevelsOption,
@@ -31,13 +33,19 @@ from barkgen.cli._common import (
     write_run,
 )
 from barkgen.cli._options import with_options
+from barkgen.errors import InvalidInputError
 from barkgen.pipeline import GenerateOptions
 
 
 @with_options(GenerateOptions)
 def generate_command(
     photo: Annotated[
-        Optional[Path], typer.Argument(help="Bark photo (PNG/JPEG/TIFF/WebP). Default: the bundled sample.")
+        Optional[Path],
+        typer.Argument(
+            help="Bark photo (PNG/JPEG/TIFF/WebP), or a folder holding a scanned material set (ambientCG, "
+            "Poly Haven or Megascans names: NAME_Color, _NormalGL/_nor_gl, _Roughness/_Gloss, _AO, ...): its own "
+            "maps are carried into the new set (--material is then on). Default: the bundled sample."
+        ),
     ] = None,
     output_dir: Annotated[Path, typer.Option("-o", "--output", help="Output folder.")] = Path("out"),
     labels: Annotated[
@@ -48,6 +56,17 @@ def generate_command(
     resume: ResumeOption = None,
     bits: BitsOption = None,
     name: NameOption = "bark",
+    preset: PresetOption = "ambientcg",
+    sizes: Annotated[
+        Optional[str],
+        typer.Option(
+            "--sizes",
+            metavar="1k,2k,4k",
+            help="Write the material set at several widths from one run, each as NAME_1K_*, NAME_2K_*, ...: the "
+            "same bark resampled, not re-synthesized. The output is as wide as the largest (--size gives the "
+            "aspect). Implies --material.",
+        ),
+    ] = None,
     quiet: QuietOption = False,
     *,
     options: GenerateOptions,
@@ -57,27 +76,40 @@ def generate_command(
     report.json and preview.png (+ NAME.png per --extra, + the material set with --material)
     into the output folder."""
     from barkgen.data import sample_exemplar_path
-    from barkgen.io import read_image
-    from barkgen.pipeline import encode_generate, generate, stage_at
+    from barkgen.io import read_image, read_scanned_set
+    from barkgen.material.presets import check_preset
+    from barkgen.pipeline import encode_generate, generate, parse_sizes, sized_options, sized_set_names, stage_at
 
     check_bits(bits)
     check_folder(output_dir, "output")
+    set_folder = photo if photo is not None and photo.is_dir() else None
+    if set_folder is not None:  # a scanned set in: a set out
+        options = dataclasses.replace(options, material=True)
+        if output_dir.resolve() == set_folder.resolve():
+            raise InvalidInputError(f"{output_dir} is the scanned set's folder; write the new set to another")
+    widths = parse_sizes(sizes, "--sizes")
+    options = sized_options(options, widths)
     _check_generate_names(name, options.material)
+    check_preset(preset)
     if save_levels is not None:
         check_folder(save_levels, "--save-levels")
         refuse_input_folder(save_levels, "--save-levels")
     extra_paths = _extra_paths(extra)
     stale = previous_run_files(output_dir)
-    refuse_inputs(_run_targets(output_dir, name if options.material else None, extra_paths, stale))
+    set_names = sized_set_names(name, widths) if options.material else []
+    refuse_inputs(_run_targets(output_dir, set_names, extra_paths, stale, preset))
     src = photo if photo is not None else sample_exemplar_path()
-    image = read_image(src)
+    scan = read_scanned_set(set_folder) if set_folder is not None else None
+    image = scan.color if scan is not None else read_image(src)
     extras = {name: read_image(p) for name, p in extra_paths.items()}
     label_map = read_image(labels) if labels is not None else None
     edited = read_resume(resume) if resume is not None else None
     describe = functools.partial(stage_at, material=options.material)
     with progress_bar(not quiet, "generating", describe) as progress:
-        result = generate(image, options, extra=extras, labels_in=label_map, resume=edited, progress=progress)
-        files = encode_generate(image, result, str(src), name=name, bits=bits)
+        result = generate(
+            image, options, extra=extras, labels_in=label_map, resume=edited, progress=progress, scan=scan
+        )
+        files = encode_generate(image, result, str(src), name=name, bits=bits, preset=preset, sizes=widths)
     levels: dict[Path, bytes] = {}
     if save_levels is not None:
         levels = {save_levels / n: data for n, data in level_files(result.label_levels).items()}
@@ -92,19 +124,20 @@ def generate_command(
         )
 
 
-def _run_targets(folder: Path, material_name: str | None, extras, stale) -> list[Path]:
+def _run_targets(folder: Path, set_names: list[str], extras, stale, preset: str = "ambientcg") -> list[Path]:
     """The files of ``folder`` a run will write or remove (its own, the material set's, each
     extra's, and the previous run's): none may be an input."""
+    from barkgen.io.material import material_file_names
     from barkgen.pipeline import GENERATE_FILES
 
     names = {f"{n}.png" for n in GENERATE_FILES} | {"report.json"} | {f"{n}.png" for n in extras}
     names |= set(stale)
-    if material_name is not None and folder.is_dir():
-        names |= {
-            p.name
-            for p in folder.iterdir()
-            if p.name.startswith(f"{material_name}_") or p.name == f"{material_name}.json"
-        }
+    for set_name in set_names:
+        names |= set(material_file_names(set_name, preset))
+        if folder.is_dir():
+            names |= {
+                p.name for p in folder.iterdir() if p.name.startswith(f"{set_name}_") or p.name == f"{set_name}.json"
+            }
     return [folder / n for n in sorted(names)]
 
 

@@ -17,6 +17,7 @@ from barkgen.cli._common import (
     MaxMemoryOption,
     NameOption,
     OutputOption,
+    PresetOption,
     QuietOption,
     ReliefOption,
     SeedOption,
@@ -39,6 +40,7 @@ def material_command(
     photo: Annotated[Optional[Path], typer.Argument(help="Bark photo. Default: the bundled sample.")] = None,
     output_dir: Annotated[Path, typer.Option("-o", "--output", help="Output folder.")] = Path("material"),
     name: NameOption = "bark",
+    preset: PresetOption = "ambientcg",
     k: Annotated[int, typer.Option("--k", help="Labels of the structure cue (1-16).")] = 3,
     light: LightOption = None,
     relief: ReliefOption = 1.0,
@@ -66,10 +68,12 @@ def material_command(
     from barkgen.io import check_material_name, encode_material, read_image
     from barkgen.io.material import material_file_names
     from barkgen.material import MaterialOptions, make_material
+    from barkgen.material.presets import check_preset
 
     check_material_name(name)
+    check_preset(preset)
     check_folder(output_dir, "output")
-    refuse_targets({f"output {n}": output_dir / n for n in material_file_names(name)})
+    refuse_targets({f"output {n}": output_dir / n for n in material_file_names(name, preset)})
     # k, seed and relief: MaterialOptions; edits outside the photo: the height editor
     options = MaterialOptions(
         k=k,
@@ -89,7 +93,13 @@ def material_command(
         if progress:
             progress(1, 1)
     files = encode_material(
-        material, name, seed=seed, source_photo=str(src), edits=len(edit_list), exemplar_wrap_mode=options.exemplar_wrap
+        material,
+        name,
+        preset,
+        seed=seed,
+        source_photo=str(src),
+        edits=len(edit_list),
+        exemplar_wrap_mode=options.exemplar_wrap,
     )
     write_files(output_dir, files)
     if not quiet:

@@ -9,6 +9,7 @@ from barkgen.io.folders import (
     remove_staging,
     write_folder_atomic,
 )
+from barkgen.io.gltf import add_tangents, encode_glb, vertex_tangents
 from barkgen.io.images import (
     AlphaDroppedWarning,
     ImageContentWarning,
@@ -26,12 +27,12 @@ from barkgen.io.images import (
 from barkgen.io.material import (
     MAP_SUFFIXES,
     check_material_name,
-    encode_glb,
     encode_material,
     find_material,
     read_material,
 )
 from barkgen.io.references import encode_reference, read_reference, write_reference
+from barkgen.io.scanned import ScannedSet, is_set_folder, map_kind, read_scanned_set, recognise_set
 from barkgen.io.staging import (
     commit_staged,
     discard_staged,
@@ -42,6 +43,11 @@ from barkgen.io.staging import (
 )
 
 __all__ = [
+    "ScannedSet",
+    "is_set_folder",
+    "map_kind",
+    "read_scanned_set",
+    "recognise_set",
     "check_replaceable",
     "file_record",
     "owned_files",
@@ -56,6 +62,8 @@ __all__ = [
     "MAP_SUFFIXES",
     "check_material_name",
     "encode_glb",
+    "add_tangents",
+    "vertex_tangents",
     "encode_material",
     "find_material",
     "read_material",

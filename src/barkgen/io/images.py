@@ -387,7 +387,7 @@ def encode_png(
     Parameters
     ----------
     image : ndarray of uint8 or uint16, shape (H, W) or (H, W, C)
-        Grey, grey + alpha, RGB or RGBA.
+        Grey, RGB or RGBA (packed maps such as Unity's mask map use the alpha channel).
     bits : {8, 16}, optional
         Convert to this depth first (:func:`to_bits`); default: the array's own.
     text : dict of str to str, optional
@@ -415,9 +415,9 @@ def encode_png(
     if arr.ndim == 3 and arr.shape[2] == 1:
         arr = arr[:, :, 0]
     if arr.ndim == 3:
-        if arr.shape[2] != 3:
+        if arr.shape[2] not in (3, 4):
             raise InvalidInputError(f"cannot write an image with {arr.shape[2]} channels")
-        arr = arr[:, :, ::-1]  # OpenCV writes BGR
+        arr = arr[:, :, [2, 1, 0, 3][: arr.shape[2]]]  # OpenCV writes BGR(A)
     ok, buf = cv2.imencode(".png", np.ascontiguousarray(arr), [cv2.IMWRITE_PNG_COMPRESSION, int(compression)])
     if not ok:
         raise InvalidInputError("PNG encoding failed")

@@ -14,7 +14,6 @@ import os
 import re
 from functools import partial
 from pathlib import Path
-from typing import cast
 
 import numpy as np
 
@@ -55,13 +54,18 @@ def utf8_text(text: str) -> str:
     return text.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
 
 
-def material_file_names(name: str) -> list[str]:
-    """The files of a set called ``name`` (:func:`encode_material` writes exactly these), known
-    before the set is made: a command refuses, before any work, to write one that is an input."""
-    return [f"{name}_{suffix}.png" for suffix in MAP_SUFFIXES] + [f"{name}.json"]
+def material_file_names(name: str, preset: str = "ambientcg") -> list[str]:
+    """The files a set called ``name`` may have in ``preset``'s layout (:func:`encode_material`
+    writes these, the metalness and opacity maps only where the set has them), known before
+    the set is made: a command refuses, before any work, to write one that is an input."""
+    from barkgen.material.presets import preset_file_names
+
+    if preset == "ambientcg":
+        return [f"{name}_{suffix}.png" for suffix in MAP_SUFFIXES] + [f"{name}.json"]
+    return preset_file_names(name, preset) + [f"{name}.json"]
 
 
-def encode_material(material, name: str, **metadata) -> dict[str, bytes]:
+def encode_material(material, name: str, preset: str = "ambientcg", **metadata) -> dict[str, bytes]:
     """Every file of a :class:`~barkgen.material.MaterialSet`, encoded before any is written.
 
     Parameters
@@ -70,28 +74,61 @@ def encode_material(material, name: str, **metadata) -> dict[str, bytes]:
         The set.
     name : str
         Its ``NAME`` (:func:`check_material_name`).
+    preset : {"ambientcg", "blender", "unreal", "unity", "gltf"}, default "ambientcg"
+        The engine whose names and packing the files follow
+        (:mod:`barkgen.material.presets`); ``blender`` adds ``NAME.mtlx``, a MaterialX document
+        wiring the maps, with the displacement's scale and midlevel set.
     **metadata
         Added to ``NAME.json`` (seed, source photo, ...).
 
     Returns
     -------
     dict of str to bytes
+        The preset's images, ``NAME.json`` (and ``NAME.mtlx``). ``ambientcg``:
         ``NAME_Color.png``, ``NAME_NormalGL.png``, ``NAME_NormalDX.png``,
-        ``NAME_Displacement.png``, ``NAME_Roughness.png``, ``NAME_AmbientOcclusion.png`` and
-        ``NAME.json``.
+        ``NAME_Displacement.png``, ``NAME_Roughness.png``, ``NAME_AmbientOcclusion.png``.
 
     Raises
     ------
     InvalidInputError
-        A bad name.
+        A bad name or preset.
+    MissingExtraError
+        ``blender`` without the ``[materialx]`` extra.
     """
+    from barkgen.material.presets import NORMAL_FILES, PACKING, check_preset, preset_images
+
     check_material_name(name)
+    check_preset(preset)
     metadata = {k: utf8_text(v) if isinstance(v, str) else v for k, v in metadata.items()}
-    files = encode_concurrently({fname: partial(encode_png, pixels) for fname, pixels in material.images(name).items()})
+    images = preset_images(material, name, preset)
+    files = encode_concurrently({fname: partial(encode_png, pixels) for fname, pixels in images.items()})
     meta = material.metadata(name=name, **metadata)
+    if preset != "ambientcg":  # (an ambientCG set's record is as it always was)
+        meta["preset"] = preset
+        meta["normal_convention"] = NORMAL_FILES[preset]
+        if preset in PACKING:
+            meta["packing"] = PACKING[preset]
+    if preset == "blender":
+        files[f"{name}.mtlx"] = _mtlx(material, name, images)
     meta["files"] = sorted(files)
     files[f"{name}.json"] = (json.dumps(meta, indent=2) + "\n").encode()
     return files
+
+
+def _mtlx(material, name: str, images: dict) -> bytes:
+    """The Blender preset's ``NAME.mtlx`` wiring the set's images."""
+    from barkgen.io.materialx import encode_mtlx
+
+    suffixes = {
+        "color": "Color",
+        "normal": "NormalGL",
+        "roughness": "Roughness",
+        "displacement": "Displacement",
+        "metalness": "Metalness",
+        "opacity": "Opacity",
+    }
+    files = {key: f"{name}_{suffix}.png" for key, suffix in suffixes.items() if f"{name}_{suffix}.png" in images}
+    return encode_mtlx(name, files, depth=material.depth / material.shape[1], midlevel=material.midlevel)
 
 
 def find_material(folder: str | os.PathLike) -> tuple[str, dict]:
@@ -210,62 +247,3 @@ def read_material(folder: str | os.PathLike):
         tile=tileable,
     )
     return material, meta
-
-
-def encode_glb(mesh, material) -> bytes:
-    """The trunk as a glTF 2.0 binary with the material set's textures (needs the ``[gltf]`` extra).
-
-    Base colour, normal (OpenGL, as glTF fixes) and one occlusion-roughness-metallic image
-    (R = AO, G = roughness, B = metalness 0) used for both slots.
-
-    Parameters
-    ----------
-    mesh : TrunkMesh
-        The trunk (:func:`barkgen.render.trunk_mesh`).
-    material : MaterialSet
-        The set whose maps become its textures.
-
-    Returns
-    -------
-    bytes
-        The ``.glb`` file.
-
-    Raises
-    ------
-    MissingExtraError
-        trimesh is not installed (``pip install 'barkgen[gltf]'``).
-
-    References
-    ----------
-    .. [1] laitoch2018, §5.4 (bark projected onto a cylinder).
-    """
-    from barkgen._shared.extras import require_extra
-
-    require_extra("gltf", "glTF export")
-    import trimesh
-    from PIL import Image
-
-    images = material.images("m")
-    orm = np.stack(
-        [images["m_AmbientOcclusion.png"], images["m_Roughness.png"], np.zeros_like(images["m_Roughness.png"])], axis=-1
-    )
-    orm_image = Image.fromarray(orm)
-    pbr = trimesh.visual.material.PBRMaterial(
-        name="bark",
-        baseColorTexture=Image.fromarray(images["m_Color.png"]),
-        normalTexture=Image.fromarray(images["m_NormalGL.png"]),
-        occlusionTexture=orm_image,
-        metallicRoughnessTexture=orm_image,
-        metallicFactor=0.0,
-        roughnessFactor=1.0,
-        doubleSided=False,
-    )
-    # trimesh keeps UVs with v up and flips them for glTF: hand it 1 - v
-    uv = np.column_stack([mesh.uv[:, 0], 1.0 - mesh.uv[:, 1]])
-    tm = trimesh.Trimesh(
-        vertices=mesh.vertices,
-        faces=mesh.faces,
-        visual=trimesh.visual.TextureVisuals(uv=uv, material=pbr),
-        process=False,
-    )
-    return bytes(cast(bytes, tm.export(file_type="glb", include_normals=True)))  # (a GLB export is bytes)

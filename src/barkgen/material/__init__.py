@@ -1,7 +1,8 @@
 """Material maps from a bark photo: height, normals, ambient occlusion, roughness and albedo
 (wang2003 §3.3-3.4; laitoch2018 §3.3.1; mazzolini2012 §7.1).
 
-Arrays in, arrays out: :func:`make_material` for a photo, :func:`transfer_material` for a
+Arrays in, arrays out: :func:`make_material` for a photo, :func:`scanned_material` for a
+scanned set (its own maps), :func:`transfer_material` for a
 texture synthesized from it, :class:`HeightEditor` for self-similarity height editing; the
 files (ambientCG names) are written by :func:`barkgen.io.write_material` and the CLI.
 """
@@ -25,6 +26,7 @@ from barkgen.material.materialset import (
     make_material,
     transfer_material,
 )
+from barkgen.material.scanned import integrate_normals, scanned_material
 from barkgen.material.shading import Light, estimate_light, parse_light, remove_shading, shading
 
 __all__ = [
@@ -42,6 +44,7 @@ __all__ = [
     "estimate_height",
     "estimate_light",
     "flip_green",
+    "integrate_normals",
     "make_material",
     "normal_map",
     "parse_edits",
@@ -49,6 +52,7 @@ __all__ = [
     "photo_cavities",
     "remove_shading",
     "roughness_map",
+    "scanned_material",
     "shading",
     "to_directx",
     "transfer_material",

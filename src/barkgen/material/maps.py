@@ -82,17 +82,20 @@ def to_directx(normals: np.ndarray) -> np.ndarray:
     return out
 
 
-def encode_normals(normals: np.ndarray) -> np.ndarray:
-    """Unit normals as the usual normal-map pixels, ``round((n + 1) * 127.5)``.
+def encode_normals(normals: np.ndarray, bits: int = 8) -> np.ndarray:
+    """Unit normals as the usual normal-map pixels, ``round((n + 1) * 127.5)`` (8-bit) or
+    ``round((n + 1) * 32767.5)`` (16-bit).
 
     Parameters
     ----------
     normals : ndarray, shape (h, w, 3)
         Unit normals (float, clipped to [-1, 1]).
+    bits : {8, 16}, default 8
+        Bits per channel.
 
     Returns
     -------
-    ndarray of uint8, shape (h, w, 3)
+    ndarray of uint8 or uint16, shape (h, w, 3)
         RGB normal-map pixels.
 
     Examples
@@ -102,27 +105,30 @@ def encode_normals(normals: np.ndarray) -> np.ndarray:
     [[[128, 128, 255]]]
     """
     n = np.clip(np.asarray(normals, np.float32), -1.0, 1.0)
+    if bits == 16:
+        return np.floor((n.astype(np.float64) + 1.0) * 32767.5 + 0.5).astype(np.uint16)
     return np.floor((n + 1.0) * 127.5 + 0.5).astype(np.uint8)
 
 
 def flip_green(rgb: np.ndarray) -> np.ndarray:
-    """An encoded normal map in the other convention (OpenGL <-> DirectX): ``255 - green``.
+    """An encoded normal map in the other convention (OpenGL <-> DirectX): ``255 - green``
+    (``65535 - green`` for 16-bit).
 
     Every other byte is unchanged; decoding the result gives exactly the normals with ``y``
     negated.
 
     Parameters
     ----------
-    rgb : ndarray of uint8, shape (h, w, 3)
+    rgb : ndarray of uint8 or uint16, shape (h, w, 3)
         Encoded normals (:func:`encode_normals`).
 
     Returns
     -------
-    ndarray of uint8, shape (h, w, 3)
-        The same normals in the other convention.
+    ndarray, shape (h, w, 3)
+        The same normals in the other convention, same dtype.
     """
     out = np.array(rgb, copy=True)
-    out[..., 1] = 255 - out[..., 1]
+    out[..., 1] = np.iinfo(out.dtype).max - out[..., 1]
     return out
 
 

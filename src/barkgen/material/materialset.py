@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from barkgen._shared.arrays import Wrap, as_uint8
+from barkgen._shared.arrays import Wrap
 from barkgen._shared.memory import BASE_BYTES, check_budget_value, check_memory_budget
 from barkgen.errors import InvalidInputError
 from barkgen.material.editor import HeightEdit, HeightEditor
@@ -128,6 +128,16 @@ class MaterialSet:
     wrap : (bool, bool) or None
         ``(rows, columns)``: the axes along which the maps wrap (a photo that tiles along one
         axis only); ``None``: as ``tile`` says, both or neither.
+    metalness, opacity : ndarray of float32, shape (h, w), or None
+        A scanned set's metalness and opacity in [0, 1] (``None``: the set has none).
+    scanned : tuple of str
+        The maps (of ``normals, height, ao, roughness, metalness, opacity``) that are a scanned
+        set's own (:func:`~barkgen.material.scanned_material`): :func:`transfer_material`
+        carries them as they are instead of recomputing them.
+    bits : dict of str to int
+        Bits per channel of a map's file (``color``, ``normals``, ``roughness``, ``ao``,
+        ``metalness``, ``opacity``) where it is 16: a 16-bit scan's maps stay 16-bit. The
+        displacement is always 16-bit.
     shape : tuple of int
         ``(h, w)``.
     depth : float
@@ -151,6 +161,10 @@ class MaterialSet:
     shading_strength: float | None = None
     ao_cavities: np.ndarray | None = None
     wrap: tuple[bool, bool] | None = None
+    metalness: np.ndarray | None = None
+    opacity: np.ndarray | None = None
+    scanned: tuple[str, ...] = ()
+    bits: dict[str, int] = field(default_factory=dict)
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -173,17 +187,69 @@ class MaterialSet:
 
     def images(self, name: str) -> dict[str, np.ndarray]:
         """The files of the set, ambientCG names (``NAME_Color.png`` ...) -> pixel arrays:
-        8-bit sRGB colour, 8-bit OpenGL and DirectX normals (differing only in green),
-        16-bit displacement, 8-bit linear roughness and AO."""
-        gl = encode_normals(self.normals)
-        return {
-            f"{name}_Color.png": as_uint8(self.color),
+        sRGB colour, OpenGL and DirectX normals (differing only in green), 16-bit displacement,
+        linear roughness and AO, and a scanned set's metalness and opacity where it has them;
+        8-bit unless :attr:`bits` says 16."""
+        gl = encode_normals(self.normals, self.bits.get("normals", 8))
+        images = {
+            f"{name}_Color.png": self._pixels("color", self.color),
             f"{name}_NormalGL.png": gl,
             f"{name}_NormalDX.png": flip_green(gl),
             f"{name}_Displacement.png": np.round(self.displacement() * 65535).astype(np.uint16),
-            f"{name}_Roughness.png": as_uint8(self.roughness),
-            f"{name}_AmbientOcclusion.png": as_uint8(self.ao),
+            f"{name}_Roughness.png": self._pixels("roughness", self.roughness),
+            f"{name}_AmbientOcclusion.png": self._pixels("ao", self.ao),
         }
+        for kind, suffix in (("metalness", "Metalness"), ("opacity", "Opacity")):
+            values = getattr(self, kind)
+            if values is not None:
+                images[f"{name}_{suffix}.png"] = self._pixels(kind, values)
+        return images
+
+    def _pixels(self, kind: str, values: np.ndarray) -> np.ndarray:
+        """A map in [0, 1] as its file's pixels: 16-bit where :attr:`bits` says so, else 8."""
+        from barkgen.material.presets import encode_unit
+
+        return encode_unit(values, self.bits.get(kind, 8))
+
+    def resampled(self, shape: tuple[int, int]) -> MaterialSet:
+        """The same set at another size ``(h, w)``, resampled, not re-made: values averaged over
+        each new pixel's area when shrinking (cv2's INTER_AREA), linear between pixel centres
+        when enlarging (on the torus along the axes it wraps); normals averaged and
+        renormalised; the height in the new pixels (times the scale, so the slopes and the
+        displacement's depth as a fraction of the width stay)."""
+        import cv2
+        from scipy import ndimage
+
+        h, w = int(shape[0]), int(shape[1])
+        if (h, w) == self.shape:
+            return self
+        wraps = self.wraps
+        scale_y, scale_x = h / self.shape[0], w / self.shape[1]
+
+        def resize(values: np.ndarray) -> np.ndarray:
+            arr = np.asarray(values, np.float32)
+            if scale_y <= 1 and scale_x <= 1:
+                return cv2.resize(arr, (w, h), interpolation=cv2.INTER_AREA).reshape((h, w) + arr.shape[2:])
+            out = arr
+            for axis, (size, wrap) in enumerate(((h, wraps[0]), (w, wraps[1]))):
+                zoom = [1.0] * arr.ndim
+                zoom[axis] = size / arr.shape[axis]
+                out = ndimage.zoom(out, zoom, order=1, mode="grid-wrap" if wrap else "nearest", grid_mode=True)
+            return out.astype(np.float32)
+
+        normals = resize(self.normals)
+        normals /= np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-6)
+        return dataclasses.replace(
+            self,
+            color=resize(self.color),
+            height=resize(self.height) * float(np.sqrt(scale_y * scale_x)),
+            normals=normals,
+            ao=resize(self.ao),
+            roughness=resize(self.roughness),
+            ao_cavities=None if self.ao_cavities is None else resize(self.ao_cavities),
+            metalness=None if self.metalness is None else resize(self.metalness),
+            opacity=None if self.opacity is None else resize(self.opacity),
+        )
 
     @property
     def wraps(self) -> tuple[bool, bool]:
@@ -212,6 +278,8 @@ class MaterialSet:
             },
             "barkgen_version": __version__,
         }
+        if self.scanned:  # a scanned set's: which maps are the scan's own, carried, not estimated
+            meta["scanned_maps"] = list(self.scanned)
         meta.update(extra)
         return meta
 
@@ -390,14 +458,41 @@ def transfer_material(
         if blend == "gradient"
         else apply_references(refs, source.color)
     )
+    scanned = _carry_scanned(source, refs, tile=tile, exemplar_wrap=exemplar_wrap)
     return MaterialSet(
         color=color,
         height=height,
-        normals=normals,
-        ao=ao,
-        roughness=carry(source.roughness),
+        normals=scanned.get("normals", normals),
+        ao=scanned.get("ao", ao),
+        roughness=scanned["roughness"] if "roughness" in scanned else carry(source.roughness),
         tile=tile,
         light=source.light,
         shading_strength=source.shading_strength,
         ao_cavities=cavities,
+        metalness=scanned.get("metalness"),
+        opacity=scanned.get("opacity"),
+        scanned=source.scanned,
+        bits=dict(source.bits),
     )
+
+
+def _carry_scanned(
+    source: MaterialSet, references: np.ndarray, *, tile: bool, exemplar_wrap: tuple[bool, bool]
+) -> dict[str, np.ndarray]:
+    """A scanned set's own local maps through the reference map as they are: exact inside the
+    copied pieces, continuous across their borders (:func:`barkgen.synth.resolve_local`);
+    normals as unit vectors (carried per component, renormalised)."""
+    from barkgen.synth import resolve_local
+
+    carried: dict[str, np.ndarray] = {}
+    for kind in ("normals", "ao", "roughness", "metalness", "opacity"):
+        values = getattr(source, kind)
+        if values is None or (kind not in source.scanned and kind not in ("metalness", "opacity")):
+            continue
+        out = resolve_local(values, references, tile=tile, wrap=exemplar_wrap)
+        if kind == "normals":
+            out /= np.maximum(np.linalg.norm(out, axis=2, keepdims=True), 1e-6)
+        else:
+            out = np.clip(out, 0.0, 1.0)
+        carried[kind] = out.astype(np.float32)
+    return carried

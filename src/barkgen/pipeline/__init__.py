@@ -12,7 +12,15 @@ from barkgen.pipeline.core import (
     generate,
     preview_sheet,
 )
-from barkgen.pipeline.files import GENERATE_FILES, check_generate_names, encode_generate
+from barkgen.pipeline.files import (
+    GENERATE_FILES,
+    check_generate_names,
+    encode_generate,
+    parse_sizes,
+    size_tag,
+    sized_options,
+    sized_set_names,
+)
 from barkgen.pipeline.options import LABEL_METHODS, GenerateOptions, analysis_key
 from barkgen.pipeline.progress import stage_at, stage_span
 from barkgen.pipeline.warmup import warm_up
@@ -29,7 +37,11 @@ __all__ = [
     "analyze_photo",
     "encode_generate",
     "generate",
+    "parse_sizes",
     "preview_sheet",
+    "size_tag",
+    "sized_options",
+    "sized_set_names",
     "stage_at",
     "stage_span",
     "warm_up",

@@ -34,6 +34,7 @@ from barkgen.pipeline.progress import ANALYSIS_SHARES, share_spans, stage_progre
 from barkgen.synth import resolve_exemplar_wrap
 
 if TYPE_CHECKING:
+    from barkgen.io import ScannedSet
     from barkgen.material import MaterialSet
     from barkgen.synth import AnalysisCache
 
@@ -137,6 +138,16 @@ def _check_analysis(
         raise InvalidInputError("the photo analysis belongs to a photo of another size")
 
 
+def _check_scan(scan: ScannedSet | None, photo: np.ndarray, options: GenerateOptions) -> None:
+    """A scanned set belongs to the photo (its colour) and goes into a material set."""
+    if scan is None:
+        return
+    if not options.material:
+        raise InvalidInputError("a scanned set's maps go into the material set: turn material on")
+    if tuple(scan.shape) != tuple(np.shape(photo)[:2]):
+        raise InvalidInputError("the scanned set is not the photo's: their sizes differ")
+
+
 def _fractions(label_map: np.ndarray, values: np.ndarray) -> dict[str, float]:
     return {str(int(v)): round(float(np.mean(label_map == v)), 4) for v in values}
 
@@ -186,6 +197,7 @@ def analyze_photo(
     extra: Mapping[str, np.ndarray] | None = None,
     labels_in: np.ndarray | None = None,
     progress: ProgressCallback | None = None,
+    scan: ScannedSet | None = None,
 ) -> PhotoAnalysis:
     """The per-photo part of :func:`generate`; the seed plays no part.
 
@@ -207,6 +219,10 @@ def analyze_photo(
         per label (renumbered to grey, darkest first).
     progress : callable, optional
         ``progress(done, total)`` callback.
+    scan : ScannedSet, optional
+        A scanned set whose colour is ``photo`` (:func:`barkgen.io.read_scanned_set`): its own
+        maps make the material set (:func:`barkgen.material.scanned_material`), nothing is
+        estimated that it has.
 
     Returns
     -------
@@ -238,6 +254,7 @@ def analyze_photo(
 
     options = options or GenerateOptions()
     check_generate_memory(photo, options, extra)
+    _check_scan(scan, photo, options)
     steps = share_spans(ANALYSIS_SHARES, options.material)
 
     def report(step: str) -> None:  # the end of the step's share of the analysis, in 1000ths
@@ -263,7 +280,7 @@ def analyze_photo(
         # second thread while the two solvers analyse the photo, which keep 1.3 of 2 cores busy
         # (the quickstart's analysis without its label map: 5.3 s one after the other, 4.2 s so)
         material = (
-            pool.submit(in_budget, options.threads, _photo_material, photo, labels_in, options, wrap)
+            pool.submit(in_budget, options.threads, _photo_material, photo, labels_in, options, wrap, scan)
             if options.material
             else None
         )
@@ -300,6 +317,7 @@ def generate(
     resume: np.ndarray | tuple[int, np.ndarray] | None = None,
     progress: ProgressCallback | None = None,
     analysis: PhotoAnalysis | None = None,
+    scan: ScannedSet | None = None,
 ) -> GenerateResult:
     """Turn a bark photo into new bark of ``options.size`` (laitoch2018 Figure 1.2).
 
@@ -321,6 +339,10 @@ def generate(
     analysis : PhotoAnalysis, optional
         :func:`analyze_photo` of the same photo, extras and options (the seed aside): skips
         the per-photo work, and the result is the same bytes as without it.
+    scan : ScannedSet, optional
+        A scanned set whose colour is ``photo``: the output's material set carries the scan's
+        own maps (normals as unit vectors, AO, roughness, metalness, opacity, its relief)
+        through the reference map instead of estimating them (needs ``options.material``).
 
     Returns
     -------
@@ -339,6 +361,7 @@ def generate(
             extra=extra,
             labels_in=labels_in,
             progress=stage_progress(progress, "analysis", options.material),
+            scan=scan,
         )
     else:
         _check_analysis(analysis, photo, options, labels_in)
@@ -394,7 +417,7 @@ def generate(
 
             source = analysis.material
             if source is None:
-                source = _photo_material(photo, labels_in, options, wrap)
+                source = _photo_material(photo, labels_in, options, wrap, scan)
             material = transfer_material(
                 source, result.references, tile=options.tile, exemplar_wrap=wrap, blend=options.blend
             )
@@ -450,12 +473,24 @@ def _run_report(photo, options: GenerateOptions, wrap, labels_in, label_result, 
     }
 
 
-def _photo_material(photo: np.ndarray, labels_in: np.ndarray, options: GenerateOptions, wrap: tuple[bool, bool]):
+def _photo_material(
+    photo: np.ndarray,
+    labels_in: np.ndarray,
+    options: GenerateOptions,
+    wrap: tuple[bool, bool],
+    scan: ScannedSet | None = None,
+):
     """The photo's own material set, its label map as the height's structure cue; wrapping
     along the axes the photo wraps along (``wrap``), as the solvers use it, so the maps carried
-    through the reference map meet where the pieces run on across the photo's edge."""
+    through the reference map meet where the pieces run on across the photo's edge. A scanned
+    set's own maps where it has them."""
     from barkgen.labels.regions import to_codes
-    from barkgen.material import MaterialOptions, make_material
+    from barkgen.material import MaterialOptions, make_material, scanned_material
+
+    if scan is not None:
+        return scanned_material(
+            scan, wrap=wrap, relief=options.relief, seed=ANALYSIS_SEED, k=options.k, label_map=to_codes(labels_in)[0]
+        )
 
     return make_material(
         photo,

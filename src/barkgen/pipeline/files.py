@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from functools import partial
 
 import numpy as np
@@ -44,7 +44,14 @@ def check_generate_names(
 
 
 def encode_generate(
-    photo: np.ndarray, result, source: str, *, name: str = "bark", bits: int | None = None
+    photo: np.ndarray,
+    result,
+    source: str,
+    *,
+    name: str = "bark",
+    bits: int | None = None,
+    preset: str = "ambientcg",
+    sizes: Sequence[int] = (),
 ) -> dict[str, bytes]:
     """Every file of a :class:`~barkgen.pipeline.GenerateResult`, encoded.
 
@@ -67,6 +74,12 @@ def encode_generate(
         The material set's ``NAME``.
     bits : {8, 16}, optional
         Bit depth of ``texture.png`` (default: the photo's).
+    preset : {"ambientcg", "blender", "unreal", "unity", "gltf"}, default "ambientcg"
+        The material set's layout (:mod:`barkgen.material.presets`).
+    sizes : sequence of int, optional
+        Widths of the material set to write, each as ``NAME_<tag>`` (``bark_2K_Color.png``,
+        :func:`size_tag`): the same bark resampled (:meth:`~barkgen.material.MaterialSet.resampled`),
+        not re-synthesized. Default: one set, the output's size, untagged.
 
     Returns
     -------
@@ -90,7 +103,11 @@ def encode_generate(
     jobs.update({f"{extra}.png": partial(encode_png, arr) for extra, arr in result.extras.items()})
     files = encode_concurrently(jobs)
     if result.material is not None:
-        material_files = encode_material(result.material, name, seed=result.report["seed"], source_photo=source)
+        material_files = {}
+        for set_name, material in _sized_sets(result.material, name, sizes):
+            material_files.update(
+                encode_material(material, set_name, preset, seed=result.report["seed"], source_photo=source)
+            )
         clash = sorted(set(material_files) & (set(files) | {"report.json"}))
         if clash:
             raise InvalidInputError(f"--name {name!r} makes {clash[0]}, which is taken; pick another")
@@ -100,3 +117,53 @@ def encode_generate(
     report[RECORD_HASHES] = file_record(files)
     files["report.json"] = (json.dumps(report, indent=2) + "\n").encode()
     return files
+
+
+def parse_sizes(value, where: str = "sizes") -> list[int]:
+    """Widths of a set of sizes, sorted: ``"1k,2k,4k"`` or ``"512,1024"`` (the CLI's
+    ``--sizes``), or a list of such items (a batch spec's ``sizes``); ``None`` -> ``[]``."""
+    if value is None:
+        return []
+    items = value.split(",") if isinstance(value, str) else value
+    if not isinstance(items, (list, tuple)):
+        raise InvalidInputError(f"{where}: {value!r} is no list of widths (e.g. 1k,2k,4k or 512,1024)")
+    widths = set()
+    for item in items:
+        word = str(item).strip().lower()
+        number = word[:-1] if word.endswith("k") else word
+        if isinstance(item, bool) or not number.isdigit() or len(number) > 6 or int(number) == 0:
+            raise InvalidInputError(f"{where}: {str(item).strip()!r} is no width (e.g. 1k,2k,4k or 512,1024)")
+        widths.add(int(number) * (1024 if word.endswith("k") else 1))
+    return sorted(widths)
+
+
+def sized_options(options, widths: Sequence[int]):
+    """The options of a run that writes its set at ``widths``: the output as wide as the
+    largest, in ``options.size``'s aspect, with the material set on."""
+    if not widths:
+        return options
+    import dataclasses
+
+    h, w = options.size
+    return dataclasses.replace(options, material=True, size=(max(1, round(h * widths[-1] / w)), widths[-1]))
+
+
+def size_tag(width: int) -> str:
+    """A set's resolution tag, as ambientCG and Poly Haven write it: ``1K`` for 1024 px, ``2K``,
+    ...; ``768px`` for a width that is no multiple of 1024."""
+    return f"{width // 1024}K" if width % 1024 == 0 else f"{width}px"
+
+
+def sized_set_names(name: str, sizes: Sequence[int]) -> list[str]:
+    """The names of the sets :func:`encode_generate` writes for ``sizes`` (``[name]`` without)."""
+    return [f"{name}_{size_tag(w)}" for w in sorted(set(sizes))] if sizes else [name]
+
+
+def _sized_sets(material, name: str, sizes: Sequence[int]):
+    """``(set name, set)`` for each requested width, the height in proportion."""
+    if not sizes:
+        yield name, material
+        return
+    h, w = material.shape
+    for width, set_name in zip(sorted(set(sizes)), sized_set_names(name, sizes), strict=True):
+        yield set_name, material.resampled((max(1, round(h * width / w)), width))

@@ -29,7 +29,14 @@ from barkgen.synth.guides.guidance import Guidance
 from barkgen.synth.guides.initialization import smart_initialization
 from barkgen.synth.seams.cuts import cut_straight_seams
 from barkgen.synth.seams.expansion import exemplar_grid, expand_pieces
-from barkgen.synth.seams.gradient import blend_seams, check_blend, resolve_continuous
+from barkgen.synth.seams.gradient import (
+    blend_seams,
+    check_blend,
+    piece_borders,
+    resolve_continuous,
+    resolve_local,
+    screened_poisson,
+)
 
 __all__ = [
     "TBN_CONFIG",
@@ -55,7 +62,10 @@ __all__ = [
     "label_pyramid",
     "level_guide",
     "matching_features",
+    "piece_borders",
     "resolve_continuous",
+    "resolve_local",
+    "screened_poisson",
     "resolve_exemplar_wrap",
     "smart_initialization",
     "solve",

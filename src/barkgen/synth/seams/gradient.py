@@ -200,3 +200,63 @@ def resolve_continuous(
             u = np.clip(u, 0.0, 1.0)
         u = u.astype(src.dtype)
     return u[:, :, 0] if flat else u
+
+
+def piece_borders(
+    references: np.ndarray, exemplar_shape: tuple[int, int], *, tile: bool, wrap: tuple[bool, bool] = (False, False)
+) -> np.ndarray:
+    """``(H, W)`` bool: the output pixels on a border between copied pieces, those with a
+    4-neighbour whose reference is not the matching neighbour of their own (modulo the exemplar
+    along an axis it wraps along; across the output's edges only when ``tile``)."""
+    refs = np.asarray(references).astype(np.int64)
+    ry, rx = refs[..., 0], refs[..., 1]
+    border = np.zeros(ry.shape, bool)
+    for axis, (along, across, period) in enumerate(
+        ((ry, rx, int(exemplar_shape[0])), (rx, ry, int(exemplar_shape[1])))
+    ):
+        step = np.roll(along, -1, axis=axis) - along - 1
+        if wrap[axis]:
+            step = np.mod(step + period // 2, period) - period // 2
+        cut = (step != 0) | (np.roll(across, -1, axis=axis) != across)
+        if not tile:
+            last: list[slice | int] = [slice(None), slice(None)]
+            last[axis] = -1
+            cut[tuple(last)] = False
+        border |= cut | np.roll(cut, 1, axis=axis)
+    return border
+
+
+def resolve_local(
+    source: np.ndarray,
+    references: np.ndarray,
+    *,
+    tile: bool,
+    wrap: tuple[bool, bool] = (False, False),
+    band: int = 8,
+    screening: float = SCREENING,
+) -> np.ndarray:
+    """A local map (a scan's normals, AO, roughness, metalness) through a reference map.
+
+    Exactly the exemplar's copy from ``band`` px inside each piece on; across the borders
+    between pieces the gradient-domain map of :func:`resolve_continuous` (no step); the two
+    blended linearly over the ``band`` px next to a border. Unlike a height, such a map has no
+    level to carry across a piece, so the copy stays exact where it can (laitoch2018 §3.3.1's
+    extra channels, with the seams of perez2003 only where pieces meet). Float ``(h, w[, C])``
+    maps in, ``(H, W[, C])`` float32 out.
+    """
+    import cv2
+
+    src = np.asarray(source, dtype=np.float32)
+    refs = np.asarray(references)
+    exact = src[refs[..., 0], refs[..., 1]]
+    smooth = resolve_continuous(src, refs, tile=tile, wrap=wrap, screening=screening)
+    inside = (~piece_borders(refs, src.shape[:2], tile=tile, wrap=wrap)).astype(np.uint8)
+    pad = band + 1 if tile else 0
+    padded = np.pad(inside, pad, mode="wrap") if pad else inside
+    distance = cv2.distanceTransform(padded, cv2.DIST_L2, 3)
+    if pad:
+        distance = distance[pad:-pad, pad:-pad]
+    alpha = np.clip(distance / float(band), 0.0, 1.0).astype(np.float32)
+    if src.ndim == 3:
+        alpha = alpha[..., None]
+    return (alpha * exact + (1.0 - alpha) * smooth).astype(np.float32)

@@ -1,0 +1,201 @@
+#!/usr/bin/env python3
+"""Scanned sets in, engine-ready sets out (issue 32): the four scanned sets of the team's data
+folder (``$BARKGEN_SHARED/data/bark`` colour + ``data/bark_maps`` normal, AO, roughness; 1024²)
+each made into a tileable set of ``--size`` (default 2048²), seed 0.
+
+    .venv/bin/python benchmarks/bench_scanned.py [--quick] [--size 2048] [--scans oak,pine]
+
+Per scan, in one process (kernels compiled first):
+
+- seconds of ``generate(scan=...)`` with the material set beside ``generate`` of the colour alone
+  (no material set), and their ratio (the acceptance: <= 1.5x);
+- normals: the largest deviation of |n| from 1; the angle to the scan's normals re-applied
+  through the reference map, inside the pieces (pixels >= 8 px from a border between pieces,
+  on the torus): its largest and median value;
+- AO and roughness inside the pieces: the largest difference to the scan's own;
+- step ratios (the team's ``eval/seams.py``: mean step across seams over inside pieces) of the
+  colour, NormalGL, displacement, AO and roughness (the acceptance: <= 1.5);
+- every preset encoded: the packed channels (ORM, Unity's MaskMap) against the separate maps
+  (exact or not), the Blender preset's MaterialX validated by MaterialX;
+- the trunk's glb of the set through the Khronos validator (errors / warnings), when node and
+  ``.cache/node/node_modules/gltf-validator`` (scripts/test.sh) are there.
+
+``--quick``: 1024² outputs, two scans (about 2 minutes).
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+SHARED = Path(os.environ.get("BARKGEN_SHARED", REPO.parent / "shared"))
+SCANS = ("birch_smooth_lenticels_01", "oak_furrowed_moss_01", "pine_plated_01", "willow_furrowed_01")
+VALIDATOR = REPO / ".cache" / "node" / "node_modules" / "gltf-validator"
+CHECK = (
+    "const v=require(process.argv[2]);v.validateBytes(new Uint8Array(require('fs').readFileSync(process.argv[1])))"
+    ".then(r=>console.log(JSON.stringify([r.issues.numErrors,r.issues.numWarnings])));"
+)
+
+
+def scan_folder(root: Path, name: str) -> Path:
+    folder = root / name
+    folder.mkdir()
+    shutil.copy(SHARED / "data" / "bark" / f"{name}.jpg", folder / f"{name}.jpg")
+    for kind in ("normal", "ao", "roughness"):
+        shutil.copy(SHARED / "data" / "bark_maps" / f"{name}_{kind}.jpg", folder / f"{name}_{kind}.jpg")
+    return folder
+
+
+def inside_pieces(references: np.ndarray, shape, wrap, band: int = 8) -> np.ndarray:
+    import cv2
+
+    from barkgen.synth import piece_borders
+
+    inside = (~piece_borders(references, shape, tile=True, wrap=wrap)).astype(np.uint8)
+    pad = band + 1
+    return cv2.distanceTransform(np.pad(inside, pad, mode="wrap"), cv2.DIST_L2, 3)[pad:-pad, pad:-pad] >= band
+
+
+def step_ratios(result, exemplar_shape, images: dict[str, np.ndarray]) -> dict[str, float | None]:
+    """seams.py's step ratio of each map, with ``--wrap-exemplar`` when the scan wraps (a piece
+    running on across the scan's edge is then one piece, as the solver used it)."""
+    sys.path.insert(0, str(SHARED / "eval"))
+    import seams
+
+    refs = result.references
+    wraps = any(result.report["exemplar_wrap"])
+    y, x = refs[..., 0].astype(np.int64), refs[..., 1].astype(np.int64)
+    hs, vs = seams.seam_masks(y, x, tuple(exemplar_shape), tile=True, wrap_exemplar=wraps)
+    out = {}
+    for name, pixels in images.items():
+        scale = 65535.0 if pixels.dtype == np.uint16 else 255.0
+        img = pixels.astype(np.float64) / scale
+        out[name] = seams.step_ratio(img if img.ndim == 3 else img[..., None], hs, vs, tile=True)
+    return out
+
+
+def packed_exact(material) -> bool:
+    from PIL import Image
+
+    from barkgen.io import encode_material
+
+    def pix(data):
+        return np.asarray(Image.open(io.BytesIO(data)))
+
+    plain = encode_material(material, "b")
+    ao, rough = pix(plain["b_AmbientOcclusion.png"]), pix(plain["b_Roughness.png"])
+    ok = True
+    for preset in ("unreal", "gltf"):
+        orm = pix(encode_material(material, "b", preset)["b_ORM.png"])
+        ok &= bool((orm[..., 0] == ao).all() and (orm[..., 1] == rough).all())
+    mask = pix(encode_material(material, "b", "unity")["b_MaskMap.png"])
+    ok &= bool((mask[..., 1] == ao).all() and (mask[..., 3] == 255 - rough).all())
+    encode_material(material, "b", "blender")  # its .mtlx is validated by MaterialX as it is made
+    return ok
+
+
+def validate_glb(material) -> str:
+    from barkgen.io import encode_glb
+    from barkgen.render import trunk_mesh
+
+    node = shutil.which("node")
+    if node is None or not VALIDATOR.is_dir():
+        return "n/a"
+    with tempfile.NamedTemporaryFile(suffix=".glb") as f:
+        f.write(encode_glb(trunk_mesh(material, segments=64), material))
+        f.flush()
+        out = subprocess.run([node, "-e", CHECK, f.name, str(VALIDATOR)], capture_output=True, text=True)
+    errors, warnings = json.loads(out.stdout)
+    return f"{errors}/{warnings}"
+
+
+def measure(name: str, size: int, root: Path) -> dict:
+    from barkgen.io import read_scanned_set
+    from barkgen.pipeline import GenerateOptions, generate
+
+    scan = read_scanned_set(scan_folder(root, name))
+    options = GenerateOptions(size=(size, size), tile=True, seed=0)
+    t0 = time.perf_counter()
+    generate(scan.color, options)
+    colour_only = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    result = generate(scan.color, GenerateOptions(size=(size, size), tile=True, seed=0, material=True), scan=scan)
+    with_set = time.perf_counter() - t0
+    m, refs = result.material, result.references
+    wrap = tuple(result.report["exemplar_wrap"])
+    deep = inside_pieces(refs, scan.shape, wrap)
+    copied = scan.normals[refs[..., 0], refs[..., 1]].astype(np.float64)
+    angle = np.degrees(np.arccos(np.clip((m.normals * copied).sum(2), -1, 1)))[deep]
+    local = max(
+        np.abs(getattr(m, k) - getattr(scan, k)[refs[..., 0], refs[..., 1]])[deep].max() for k in ("ao", "roughness")
+    )
+    images = m.images("b")
+    ratios = step_ratios(
+        result,
+        scan.shape,
+        {k: images[f"b_{k}.png"] for k in ("Color", "NormalGL", "Displacement", "AmbientOcclusion", "Roughness")},
+    )
+    return {
+        "scan": name.split("_")[0],
+        "wraps": "".join("yx"[i] for i in range(2) if wrap[i]) or "no",
+        "set s": with_set,
+        "colour s": colour_only,
+        "ratio": with_set / colour_only,
+        "|n|-1 max": float(np.abs(np.linalg.norm(m.normals, axis=2) - 1).max()),
+        "angle max/median": f"{angle.max():.3f} / {np.median(angle):.3f}",
+        "inside": float(deep.mean()),
+        "AO, rough max diff": float(local),
+        "worst step ratio": max(v for v in ratios.values() if v is not None),
+        "steps": ratios,
+        "packed exact": packed_exact(m),
+        "glb errors/warnings": validate_glb(m),
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--size", type=int, default=None)
+    parser.add_argument("--scans", default=None, help="comma-separated prefixes (birch,oak,pine,willow)")
+    parser.add_argument("--json", type=Path, default=None)
+    args = parser.parse_args()
+    size = args.size or (1024 if args.quick else 2048)
+    names = [n for n in SCANS if args.scans is None or n.split("_")[0] in args.scans.split(",")]
+    if args.quick and args.scans is None:
+        names = names[1:3]
+    if not (SHARED / "data" / "bark_maps").is_dir():
+        raise SystemExit(f"needs the team's data folder at {SHARED} (set BARKGEN_SHARED)")
+    import barkgen
+
+    barkgen.warm_up()
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in names:
+            rows.append(measure(name, size, Path(tmp)))
+            print(f"{name}: done", file=sys.stderr)
+    keys = [k for k in rows[0] if k != "steps"]
+    print(f"scanned sets -> {size}x{size} tileable, seed 0")
+    print("| " + " | ".join(keys) + " |")
+    print("|" + "---|" * len(keys))
+    for row in rows:
+        print("| " + " | ".join(f"{row[k]:.3g}" if isinstance(row[k], float) else str(row[k]) for k in keys) + " |")
+    print("\nstep ratios per map:")
+    for row in rows:
+        print(f"- {row['scan']}: " + ", ".join(f"{k} {v:.3f}" for k, v in row["steps"].items() if v is not None))
+    if args.json:
+        args.json.write_text(json.dumps(rows, indent=2, default=str))
+
+
+if __name__ == "__main__":
+    main()

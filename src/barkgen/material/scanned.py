@@ -1,0 +1,171 @@
+"""The material set of a scanned set: the scan's own maps, nothing estimated that it has.
+
+A scanned set (:func:`barkgen.io.read_scanned_set`) already holds what :func:`make_material`
+estimates from a photo. Its maps become the :class:`MaterialSet` as they are — the colour is the
+scan's albedo (no shading removal), the normals, AO, roughness, metalness and opacity are the
+scan's — and only what the set lacks is made:
+
+- a height from the scan's displacement, in pixels: the displacement's range is unknown in a
+  file, so it is scaled to fit the scan's normals by least squares (their slopes are the
+  height's, in pixels); without normals, :data:`DEFAULT_DEPTH` of the width;
+- without a displacement, the height is the scan's normals integrated (the least-squares height
+  of their slopes, :func:`integrate_normals`), so the relief is still the scan's own;
+- with neither, and for any other map the set lacks, the photo estimate of
+  :func:`make_material` on the scan's colour.
+
+:func:`transfer_material` then carries the scan's maps through a synthesis's reference map as
+they are (:func:`barkgen.synth.resolve_local`) instead of recomputing them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from barkgen.material.maps import normal_map
+from barkgen.material.materialset import MaterialOptions, MaterialSet, make_material
+
+#: the displacement depth (fraction of the width) of a scan with a height map and no normals
+DEFAULT_DEPTH = 0.02
+#: screening of the normals' integration: small enough to leave every relief of the scan in the
+#: height (a bump of 1000 px would be flattened), large enough to fix the mean
+INTEGRATION_SCREENING = 1e-6
+
+
+def integrate_normals(normals: np.ndarray, *, tile: bool) -> np.ndarray:
+    """The least-squares height (pixels) of a normal map (OpenGL): the field whose forward steps
+    best fit the normals' slopes ``-nx/nz`` (along x) and ``ny/nz`` (down the rows), averaged
+    between neighbours; on the torus when ``tile``, else with a Neumann border; mean 0.
+
+    References
+    ----------
+    .. [1] Frankot & Chellappa 1988 (integrable height of a gradient field, by transform).
+    """
+    from barkgen.synth import screened_poisson
+
+    n = np.asarray(normals, np.float64)
+    nz = np.maximum(n[..., 2], 0.05)  # a normal grazing the surface would give a vertical cliff
+    p, q = -n[..., 0] / nz, n[..., 1] / nz
+    if tile:
+        gx, gy = 0.5 * (p + np.roll(p, -1, 1)), 0.5 * (q + np.roll(q, -1, 0))
+    else:
+        gx = np.concatenate([0.5 * (p[:, :-1] + p[:, 1:]), p[:, -1:]], axis=1)
+        gy = np.concatenate([0.5 * (q[:-1] + q[1:]), q[-1:]], axis=0)
+    height = screened_poisson(
+        np.zeros(p.shape + (1,)), gy[..., None], gx[..., None], tile=tile, screening=INTEGRATION_SCREENING
+    )[..., 0]
+    return (height - height.mean()).astype(np.float32)
+
+
+def displacement_depth(displacement: np.ndarray, normals: np.ndarray | None, *, tile: bool) -> float:
+    """The depth (pixels) of a displacement map in [0, 1]: the least-squares scale at which its
+    slopes match the normals' (:data:`DEFAULT_DEPTH` of the width without normals)."""
+    if normals is None:
+        return DEFAULT_DEPTH * displacement.shape[1]
+    from barkgen.material.height import gradient
+
+    gx, gy = gradient(displacement, tile=tile)
+    n = np.asarray(normals, np.float64)
+    nz = np.maximum(n[..., 2], 0.05)
+    p, q = -n[..., 0] / nz, n[..., 1] / nz
+    num = float((gx * p).sum() + (gy * q).sum())
+    den = float((gx.astype(np.float64) ** 2).sum() + (gy.astype(np.float64) ** 2).sum())
+    if den <= 0 or num <= 0:  # a flat displacement, or one inverted against its normals
+        return DEFAULT_DEPTH * displacement.shape[1]
+    return num / den
+
+
+#: a scan's file kinds -> the MaterialSet map their precision belongs to
+_BITS_OF = {
+    "color": "color",
+    "normal_gl": "normals",
+    "normal_dx": "normals",
+    "normal": "normals",
+    "roughness": "roughness",
+    "gloss": "roughness",
+    "ao": "ao",
+    "metalness": "metalness",
+    "opacity": "opacity",
+}
+
+
+def scanned_material(
+    scan,
+    *,
+    wrap: tuple[bool, bool] = (False, False),
+    relief: float = 1.0,
+    seed: int = 0,
+    k: int = 3,
+    label_map: np.ndarray | None = None,
+) -> MaterialSet:
+    """The :class:`MaterialSet` of a scanned set (see the module).
+
+    Parameters
+    ----------
+    scan : ScannedSet
+        The decoded set (:func:`barkgen.io.read_scanned_set`).
+    wrap : (bool, bool), default (False, False)
+        ``(rows, columns)``: the scan tiles along that axis (its height is integrated on the
+        torus when it tiles along both; estimates wrap as it does).
+    relief : float, default 1.0
+        Multiplies the height (and, where the scan has no normals, its slopes).
+    seed : int, default 0
+        Seeds the estimate of maps the scan lacks.
+    k : int, default 3
+        Labels of the estimate's structure cue (maps the scan lacks).
+    label_map : ndarray, optional
+        The colour's label codes, the estimate's structure cue.
+
+    Returns
+    -------
+    MaterialSet
+        ``scanned`` names the maps that are the scan's own; ``bits`` their files' precision
+        where it is 16.
+
+    References
+    ----------
+    .. [1] laitoch2018, §3.3.1 (extra maps synthesized with the colour).
+    """
+    from barkgen._shared.checks import check_image
+
+    wraps = (bool(wrap[0]), bool(wrap[1]))
+    tile = wraps[0] and wraps[1]
+    color = check_image(scan.color)
+    made: list[MaterialSet] = []
+
+    def estimate() -> MaterialSet:
+        """The photo estimate of the maps the scan lacks (made once, when one is needed)."""
+        if not made:
+            options = MaterialOptions(k=k, seed=seed, relief=relief, exemplar_wrap=wraps)
+            made.append(make_material(color, options, label_map=label_map))
+        return made[0]
+
+    if scan.height is not None:
+        height = (scan.height - np.median(scan.height)) * displacement_depth(scan.height, scan.normals, tile=tile)
+    elif scan.normals is not None:
+        height = integrate_normals(scan.normals, tile=tile)
+    else:
+        height = estimate().height / relief
+    height = (relief * height).astype(np.float32)
+    if scan.normals is not None:
+        normals = scan.normals
+    elif scan.height is not None:
+        normals = normal_map(height, tile=tile)
+    else:
+        normals = estimate().normals
+    scanned = tuple(scan.maps)
+    if scan.height is not None and scan.normals is None:
+        scanned += ("normals",)  # the scan's relief, differentiated: carried like the height
+    bits = {_BITS_OF[kind]: b for kind, b in scan.bits.items() if kind in _BITS_OF and b == 16}
+    return MaterialSet(
+        color=color,
+        height=height,
+        normals=normals.astype(np.float32),
+        ao=scan.ao if scan.ao is not None else estimate().ao,
+        roughness=scan.roughness if scan.roughness is not None else estimate().roughness,
+        metalness=scan.metalness,
+        opacity=scan.opacity,
+        tile=tile,
+        wrap=wraps,
+        scanned=tuple(dict.fromkeys(scanned)),
+        bits=bits,
+    )
