@@ -323,7 +323,9 @@ def test_external_scheduler_two_workers_same_results(photos, local_small, tmp_pa
 
 
 BAD_SPECS = [
-    ({"sizes": "64x64"}, "unknown key 'sizes' (did you mean 'size'?)"),
+    ({"sizse": "64x64"}, "unknown key 'sizse' (did you mean 'size'?)"),
+    ({"sizes": "64x64"}, "sizes: '64x64' is no width"),
+    ({"preset": "maya"}, "preset must be one of"),
     ({"exemplars": [{"name": "fir", "path": "photos/fir.png", "seed": [1]}]}, "unknown key 'seed'"),
     ({"exemplars": [{"name": "fir", "path": "photos/nope.png", "seeds": [1]}]}, "'photos/nope.png' not found"),
     ({"size": "0x0"}, "width and height must be positive"),
