@@ -25,6 +25,7 @@ FRONT_END_MODULES = (
     "bokeh",
     "trimesh",
     "MaterialX",
+    "OpenEXR",
 )
 
 #: run first in a child Python: these top-level modules then cannot be found, as if not installed

@@ -172,3 +172,21 @@ def test_cli_sizes_writes_one_tagged_set_per_width(tmp_path):
     assert not (out / "bark_Color.png").exists()
     r = run("generate", "-o", str(out), "--sizes", "2x", "-q")
     assert r.returncode == 2 and "--sizes" in r.stderr and len(r.stderr.splitlines()) == 1
+
+
+def test_the_exr_height_is_the_displacement_in_float(tmp_path):
+    """``--exr-height``: NAME_Displacement.exr holds the displacement as 32-bit float, the
+    16-bit PNG's values without their rounding."""
+    OpenEXR = pytest.importorskip("OpenEXR")
+    material = small_set()
+    files = encode_material(material, "bark", exr_height=True)
+    (tmp_path / "d.exr").write_bytes(files["bark_Displacement.exr"])
+    with OpenEXR.File(str(tmp_path / "d.exr")) as exr:
+        values = exr.channels()["Y"].pixels
+    np.testing.assert_array_equal(values, material.displacement().astype(np.float32))
+    png = pixels(files["bark_Displacement.png"]).astype(np.float64) / 65535
+    assert np.abs(png - values).max() <= 0.5 / 65535 + 1e-7
+    assert "bark_Displacement.exr" in json.loads(files["bark.json"])["files"]
+    r = run("material", "-o", str(tmp_path / "m"), "--exr-height", "-q")
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "m" / "bark_Displacement.exr").stat().st_size > 0

@@ -19,6 +19,7 @@ EXTRAS: dict[str, tuple[str, ...]] = {
     "batch": ("distributed", "dask", "yaml"),
     "gltf": ("trimesh",),
     "materialx": ("MaterialX",),
+    "exr": ("OpenEXR",),
 }
 
 

@@ -412,6 +412,14 @@ PresetOption = Annotated[
         "unity (BaseMap, NormalGL, HDRP MaskMap) or gltf (BaseColor, NormalGL, ORM).",
     ),
 ]
+ExrHeightOption = Annotated[
+    bool,
+    typer.Option(
+        "--exr-height",
+        help="Also write the displacement as 32-bit float OpenEXR (NAME_Displacement.exr, 0 = deepest, 1 = "
+        "highest: the 16-bit PNG without its rounding; the [exr] extra).",
+    ),
+]
 NameOption = Annotated[
     str, typer.Option("--name", help="Material set name: files NAME_Color.png, NAME_NormalGL.png, ..., NAME.json.")
 ]

@@ -13,6 +13,7 @@ import typer
 
 from barkgen.cli._common import (
     BitsOption,
+    ExrHeightOption,
     ExtraOption,
     LibraryOption,
     NameOption,
@@ -57,6 +58,7 @@ def generate_command(
     bits: BitsOption = None,
     name: NameOption = "bark",
     preset: PresetOption = "ambientcg",
+    exr_height: ExrHeightOption = False,
     sizes: Annotated[
         Optional[str],
         typer.Option(
@@ -109,7 +111,9 @@ def generate_command(
         result = generate(
             image, options, extra=extras, labels_in=label_map, resume=edited, progress=progress, scan=scan
         )
-        files = encode_generate(image, result, str(src), name=name, bits=bits, preset=preset, sizes=widths)
+        files = encode_generate(
+            image, result, str(src), name=name, bits=bits, preset=preset, sizes=widths, exr_height=exr_height
+        )
     levels: dict[Path, bytes] = {}
     if save_levels is not None:
         levels = {save_levels / n: data for n, data in level_files(result.label_levels).items()}

@@ -13,6 +13,7 @@ from barkgen._shared.checks import parse_size
 from barkgen._shared.memory import parse_memory
 from barkgen.cli._common import (
     ExemplarWrapsOption,
+    ExrHeightOption,
     LightOption,
     MaxMemoryOption,
     NameOption,
@@ -41,6 +42,7 @@ def material_command(
     output_dir: Annotated[Path, typer.Option("-o", "--output", help="Output folder.")] = Path("material"),
     name: NameOption = "bark",
     preset: PresetOption = "ambientcg",
+    exr_height: ExrHeightOption = False,
     k: Annotated[int, typer.Option("--k", help="Labels of the structure cue (1-16).")] = 3,
     light: LightOption = None,
     relief: ReliefOption = 1.0,
@@ -96,6 +98,7 @@ def material_command(
         material,
         name,
         preset,
+        exr_height=exr_height,
         seed=seed,
         source_photo=str(src),
         edits=len(edit_list),

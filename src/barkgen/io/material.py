@@ -60,12 +60,15 @@ def material_file_names(name: str, preset: str = "ambientcg") -> list[str]:
     the set is made: a command refuses, before any work, to write one that is an input."""
     from barkgen.material.presets import preset_file_names
 
+    exr = [f"{name}_Displacement.exr"]  # (with --exr-height)
     if preset == "ambientcg":
-        return [f"{name}_{suffix}.png" for suffix in MAP_SUFFIXES] + [f"{name}.json"]
-    return preset_file_names(name, preset) + [f"{name}.json"]
+        return [f"{name}_{suffix}.png" for suffix in MAP_SUFFIXES] + exr + [f"{name}.json"]
+    return preset_file_names(name, preset) + exr + [f"{name}.json"]
 
 
-def encode_material(material, name: str, preset: str = "ambientcg", **metadata) -> dict[str, bytes]:
+def encode_material(
+    material, name: str, preset: str = "ambientcg", *, exr_height: bool = False, **metadata
+) -> dict[str, bytes]:
     """Every file of a :class:`~barkgen.material.MaterialSet`, encoded before any is written.
 
     Parameters
@@ -78,6 +81,9 @@ def encode_material(material, name: str, preset: str = "ambientcg", **metadata) 
         The engine whose names and packing the files follow
         (:mod:`barkgen.material.presets`); ``blender`` adds ``NAME.mtlx``, a MaterialX document
         wiring the maps, with the displacement's scale and midlevel set.
+    exr_height : bool, default False
+        Also ``NAME_Displacement.exr``: the displacement as 32-bit float (0 = deepest, 1 =
+        highest, as the 16-bit PNG, without its rounding; the ``[exr]`` extra).
     **metadata
         Added to ``NAME.json`` (seed, source photo, ...).
 
@@ -110,9 +116,30 @@ def encode_material(material, name: str, preset: str = "ambientcg", **metadata) 
             meta["packing"] = PACKING[preset]
     if preset == "blender":
         files[f"{name}.mtlx"] = _mtlx(material, name, images)
+    if exr_height:
+        files[f"{name}_Displacement.exr"] = encode_exr(material.displacement().astype(np.float32))
     meta["files"] = sorted(files)
     files[f"{name}.json"] = (json.dumps(meta, indent=2) + "\n").encode()
     return files
+
+
+def encode_exr(values: np.ndarray) -> bytes:
+    """A one-channel float32 map as an OpenEXR file (channel ``Y``, ZIP compression; the
+    ``[exr]`` extra, PyPI ``openexr``)."""
+    import tempfile
+
+    from barkgen._shared.extras import require_extra
+
+    require_extra("exr", "32-bit EXR maps")
+    import OpenEXR
+
+    with tempfile.TemporaryDirectory(prefix="barkgen-exr-") as folder:
+        path = os.path.join(folder, "map.exr")
+        header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+        with OpenEXR.File(header, {"Y": np.ascontiguousarray(values, np.float32)}) as exr:
+            exr.write(path)
+        with open(path, "rb") as f:
+            return f.read()
 
 
 def _mtlx(material, name: str, images: dict) -> bytes:

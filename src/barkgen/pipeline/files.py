@@ -52,6 +52,7 @@ def encode_generate(
     bits: int | None = None,
     preset: str = "ambientcg",
     sizes: Sequence[int] = (),
+    exr_height: bool = False,
 ) -> dict[str, bytes]:
     """Every file of a :class:`~barkgen.pipeline.GenerateResult`, encoded.
 
@@ -80,6 +81,8 @@ def encode_generate(
         Widths of the material set to write, each as ``NAME_<tag>`` (``bark_2K_Color.png``,
         :func:`size_tag`): the same bark resampled (:meth:`~barkgen.material.MaterialSet.resampled`),
         not re-synthesized. Default: one set, the output's size, untagged.
+    exr_height : bool, default False
+        Also each set's displacement as 32-bit float EXR (:func:`~barkgen.io.encode_material`).
 
     Returns
     -------
@@ -106,7 +109,14 @@ def encode_generate(
         material_files = {}
         for set_name, material in _sized_sets(result.material, name, sizes):
             material_files.update(
-                encode_material(material, set_name, preset, seed=result.report["seed"], source_photo=source)
+                encode_material(
+                    material,
+                    set_name,
+                    preset,
+                    exr_height=exr_height,
+                    seed=result.report["seed"],
+                    source_photo=source,
+                )
             )
         clash = sorted(set(material_files) & (set(files) | {"report.json"}))
         if clash:
