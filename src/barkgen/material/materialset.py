@@ -484,15 +484,24 @@ def _carry_scanned(
     normals as unit vectors (carried per component, renormalised)."""
     from barkgen.synth import resolve_local
 
+    kinds = [
+        kind
+        for kind in ("normals", "ao", "roughness", "metalness", "opacity")
+        if getattr(source, kind) is not None and (kind in source.scanned or kind in ("metalness", "opacity"))
+    ]
+    if not kinds:
+        return {}
+    # one solve for every map (their channels side by side): one set of borders and gradients
+    layers = [np.asarray(getattr(source, kind), np.float32).reshape(source.shape + (-1,)) for kind in kinds]
+    stacked = resolve_local(np.concatenate(layers, axis=2), references, tile=tile, wrap=exemplar_wrap)
     carried: dict[str, np.ndarray] = {}
-    for kind in ("normals", "ao", "roughness", "metalness", "opacity"):
-        values = getattr(source, kind)
-        if values is None or (kind not in source.scanned and kind not in ("metalness", "opacity")):
-            continue
-        out = resolve_local(values, references, tile=tile, wrap=exemplar_wrap)
+    start = 0
+    for kind, layer in zip(kinds, layers, strict=True):
+        out = stacked[..., start : start + layer.shape[2]]
+        start += layer.shape[2]
         if kind == "normals":
-            out /= np.maximum(np.linalg.norm(out, axis=2, keepdims=True), 1e-6)
+            out = out / np.maximum(np.linalg.norm(out, axis=2, keepdims=True), 1e-6)
         else:
-            out = np.clip(out, 0.0, 1.0)
-        carried[kind] = out.astype(np.float32)
+            out = np.clip(out[..., 0], 0.0, 1.0)
+        carried[kind] = np.ascontiguousarray(out, dtype=np.float32)
     return carried
