@@ -448,17 +448,20 @@ def transfer_material(
 
     # the height's slopes too, so the normals recomputed from it have no creases at the borders
     height = resolve_continuous(source.height, refs, tile=tile, wrap=exemplar_wrap, smooth_slopes=True)
-    normals, ao = derived_maps(height, tile=tile, ao_radius=ao_radius)
+    scanned = _carry_scanned(source, refs, tile=tile, exemplar_wrap=exemplar_wrap)
     cavities = None
-    if source.ao_cavities is not None:
-        cavities = carry(source.ao_cavities)
-        ao = np.clip(ao + cavities, 0.0, 1.0)
+    if "normals" in scanned and "ao" in scanned:  # a scan's own: nothing to derive from the height
+        normals, ao = scanned["normals"], scanned["ao"]
+    else:
+        normals, ao = derived_maps(height, tile=tile, ao_radius=ao_radius)
+        if source.ao_cavities is not None:
+            cavities = carry(source.ao_cavities)
+            ao = np.clip(ao + cavities, 0.0, 1.0)
     color = (
         blend_seams(source.color, refs, tile=tile, wrap=exemplar_wrap)
         if blend == "gradient"
         else apply_references(refs, source.color)
     )
-    scanned = _carry_scanned(source, refs, tile=tile, exemplar_wrap=exemplar_wrap)
     return MaterialSet(
         color=color,
         height=height,
