@@ -496,7 +496,9 @@ def _carry_scanned(
         return {}
     # one solve for every map (their channels side by side): one set of borders and gradients
     layers = [np.asarray(getattr(source, kind), np.float32).reshape(source.shape + (-1,)) for kind in kinds]
-    stacked = resolve_local(np.concatenate(layers, axis=2), references, tile=tile, wrap=exemplar_wrap)
+    stacked = resolve_local(
+        np.concatenate(layers, axis=2), references, tile=tile, wrap=exemplar_wrap, smooth_slopes=True
+    )
     carried: dict[str, np.ndarray] = {}
     start = 0
     for kind, layer in zip(kinds, layers, strict=True):

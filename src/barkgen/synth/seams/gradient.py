@@ -234,6 +234,7 @@ def resolve_local(
     wrap: tuple[bool, bool] = (False, False),
     band: int = 8,
     screening: float = SCREENING,
+    smooth_slopes: bool = False,
 ) -> np.ndarray:
     """A local map (a scan's normals, AO, roughness, metalness) through a reference map.
 
@@ -242,14 +243,16 @@ def resolve_local(
     blended linearly over the ``band`` px next to a border. Unlike a height, such a map has no
     level to carry across a piece, so the copy stays exact where it can (laitoch2018 §3.3.1's
     extra channels, with the seams of perez2003 only where pieces meet). Float ``(h, w[, C])``
-    maps in, ``(H, W[, C])`` float32 out.
+    maps in, ``(H, W[, C])`` float32 out. ``smooth_slopes``: as :func:`resolve_continuous`'s
+    (across the borders the slopes too run on; on the scans' roughness the step across borders
+    fell from 1.63x to 1.44x the step inside pieces).
     """
     import cv2
 
     src = np.asarray(source, dtype=np.float32)
     refs = np.asarray(references)
     exact = src[refs[..., 0], refs[..., 1]]
-    smooth = resolve_continuous(src, refs, tile=tile, wrap=wrap, screening=screening)
+    smooth = resolve_continuous(src, refs, tile=tile, wrap=wrap, screening=screening, smooth_slopes=smooth_slopes)
     inside = (~piece_borders(refs, src.shape[:2], tile=tile, wrap=wrap)).astype(np.uint8)
     pad = band + 1 if tile else 0
     padded = np.pad(inside, pad, mode="wrap") if pad else inside
