@@ -494,19 +494,26 @@ def _carry_scanned(
     ]
     if not kinds:
         return {}
-    # one solve for every map (their channels side by side): one set of borders and gradients
-    layers = [np.asarray(getattr(source, kind), np.float32).reshape(source.shape + (-1,)) for kind in kinds]
-    stacked = resolve_local(
-        np.concatenate(layers, axis=2), references, tile=tile, wrap=exemplar_wrap, smooth_slopes=True
-    )
     carried: dict[str, np.ndarray] = {}
-    start = 0
-    for kind, layer in zip(kinds, layers, strict=True):
-        out = stacked[..., start : start + layer.shape[2]]
-        start += layer.shape[2]
-        if kind == "normals":
-            out = out / np.maximum(np.linalg.norm(out, axis=2, keepdims=True), 1e-6)
-        else:
-            out = np.clip(out[..., 0], 0.0, 1.0)
-        carried[kind] = np.ascontiguousarray(out, dtype=np.float32)
+    # one solve per group of maps (their channels side by side: one set of borders and
+    # gradients); the levels (roughness, metalness, opacity) with their slopes run on across the
+    # borders too: they vary little inside pieces, and a step between pieces stands out (the
+    # scans' roughness: 1.63x the inside step without, 1.38x with)
+    for group, smooth_slopes in ((("normals", "ao"), False), (("roughness", "metalness", "opacity"), True)):
+        members = [kind for kind in kinds if kind in group]
+        if not members:
+            continue
+        layers = [np.asarray(getattr(source, kind), np.float32).reshape(source.shape + (-1,)) for kind in members]
+        stacked = resolve_local(
+            np.concatenate(layers, axis=2), references, tile=tile, wrap=exemplar_wrap, smooth_slopes=smooth_slopes
+        )
+        start = 0
+        for kind, layer in zip(members, layers, strict=True):
+            out = stacked[..., start : start + layer.shape[2]]
+            start += layer.shape[2]
+            if kind == "normals":
+                out = out / np.maximum(np.linalg.norm(out, axis=2, keepdims=True), 1e-6)
+            else:
+                out = np.clip(out[..., 0], 0.0, 1.0)
+            carried[kind] = np.ascontiguousarray(out, dtype=np.float32)
     return carried
