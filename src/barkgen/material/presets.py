@@ -11,7 +11,7 @@ ambientcg  ``Color`` (sRGB), ``NormalGL``, ``NormalDX``, ``Displacement`` (16-bi
 blender    ``Color``, ``NormalGL`` only (Node Wrangler's principled setup picks the one normal
            map there is), ``Displacement``, ``Roughness``, ``AmbientOcclusion`` (+ ``Metalness``,
            ``Opacity``), and ``NAME.mtlx``: a MaterialX document that wires them, with the
-           displacement's scale and midlevel set (:func:`barkgen.io.encode_mtlx`).
+           displacement's scale and midlevel set (:func:`barkgen.io.materialx.encode_mtlx`).
 unreal     ``BaseColor``, ``NormalDX`` (Unreal's green is DirectX's), ``ORM`` (R = AO,
            G = roughness, B = metalness), ``Displacement`` (+ ``Opacity``).
 unity      ``BaseMap`` (alpha = opacity where there is one), ``NormalGL`` (Unity's normal maps
