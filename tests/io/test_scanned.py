@@ -114,3 +114,48 @@ def test_maps_of_different_sizes_are_refused(tmp_path):
     write_png(tmp_path / "s_Roughness.png", np.zeros((20, 20), np.uint8))
     with pytest.raises(InvalidInputError, match="differ in size"):
         read_scanned_set(tmp_path)
+
+
+def _zip(members: dict[str, bytes], *, compress: bool = False) -> bytes:
+    import io
+    import zipfile
+
+    buffer = io.BytesIO()
+    method = zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED
+    with zipfile.ZipFile(buffer, "w", method) as archive:
+        for name, data in members.items():
+            archive.writestr(name, data)
+    return buffer.getvalue()
+
+
+def test_a_zipped_set_is_read_flat_and_checked_before_unpacking():
+    from barkgen.io import encode_png, read_set_zip, scanned_set_from_files
+
+    colour = encode_png(np.full((32, 32, 3), 90, np.uint8))
+    rough = encode_png(np.full((32, 32, 1), 40000, np.uint16))
+    data = _zip(
+        {
+            "textures/bark_02_diff_1k.png": colour,
+            "textures/bark_02_rough_1k.png": rough,
+            "bark_02.blend.txt": b"not an image",
+            "__MACOSX/textures/._bark_02_diff_1k.png": b"junk",
+            "textures/.hidden.png": b"junk",
+        }
+    )
+    files = read_set_zip(data, max_unpacked_bytes=10**6)
+    assert sorted(files) == ["bark_02_diff_1k.png", "bark_02_rough_1k.png"]
+    scan = scanned_set_from_files(files)
+    assert scan.name == "bark_02" and scan.maps == ("roughness",)
+    assert scan.roughness.dtype == np.float32 and np.allclose(scan.roughness, 40000 / 65535)
+    # a zip bomb: its declared sizes are refused before anything is unpacked
+    bomb = _zip({"a_Color.png": bytes(5 * 10**6)}, compress=True)
+    assert len(bomb) < 10**5
+    with pytest.raises(InvalidInputError, match="unpack to 5 MB, more than the 1 MB allowed"):
+        read_set_zip(bomb, max_unpacked_bytes=10**6)
+    for payload, said in (
+        (b"PK\x03\x04 broken", "not a zip"),
+        (_zip({"readme.txt": b"hi"}), "holds no image"),
+        (_zip({"a/x_Color.png": colour, "b/x_Color.png": colour}), "two files named x_Color.png"),
+    ):
+        with pytest.raises(InvalidInputError, match=said):
+            read_set_zip(payload, max_unpacked_bytes=10**6, where="set.zip")

@@ -228,3 +228,46 @@ def test_a_read_only_library_is_listed_and_refuses_changes(tmp_path, capsys, mon
     finally:
         for path in files + folders:
             path.chmod(path.stat().st_mode | stat.S_IWUSR)
+
+
+def test_a_scanned_set_is_kept_with_its_maps(tmp_path):
+    library = Library(tmp_path / "lib", add_sample=False)
+    colour = encode_png(np.random.default_rng(0).integers(0, 255, (32, 32, 3), dtype=np.uint8))
+    rough = encode_png(np.full((32, 32, 1), 200, np.uint8))
+    ao = encode_png(np.full((32, 32, 1), 100, np.uint8))
+    files = {"Bark7_Color.png": colour, "Bark7_Roughness.png": rough, "Bark7.usda": b"#usda"}
+    exemplar = library.add_scanned_set(files, licence="CC0")
+    assert exemplar.name == "Bark7" and exemplar.maps == ("roughness",) and exemplar.licence == "CC0"
+    assert library.set_files(exemplar.id) == {"Bark7_Color.png": colour, "Bark7_Roughness.png": rough}
+    assert library.photo_bytes(exemplar.id) == colour
+    # the same colour again, now with AO: the same exemplar with the new maps
+    again = library.add_scanned_set({"Bark7_Color.png": colour, "Bark7_AO.png": ao})
+    assert again.id == exemplar.id and again.maps == ("ao",)
+    assert library.find_exemplar(colour).maps == ("ao",)
+    assert not library.store.exists(content_hash(rough))  # the replaced map's file went
+    # a photo has no maps; removing the set removes its maps' files
+    assert library.set_files(library.add_exemplar(encode_png(np.zeros((32, 32, 3), np.uint8)), "p").id) == {}
+    library.remove_exemplar(exemplar.id)
+    assert not library.store.exists(content_hash(ao)) and not library.store.exists(content_hash(colour))
+    with pytest.raises(InvalidInputError, match="differ in size"):
+        library.add_scanned_set({"B_Color.png": colour, "B_AO.png": encode_png(np.zeros((16, 16, 1), np.uint8))})
+
+
+def test_library_add_takes_a_sets_folder_or_zip(tmp_path, capsys):
+    import zipfile
+
+    folder = tmp_path / "Bark3_1K"
+    folder.mkdir()
+    rng = np.random.default_rng(1)
+    (folder / "Bark3_1K_Color.png").write_bytes(encode_png(rng.integers(0, 255, (32, 32, 3), dtype=np.uint8)))
+    (folder / "Bark3_1K_AmbientOcclusion.png").write_bytes(encode_png(np.full((32, 32, 1), 9, np.uint8)))
+    (folder / "Bark3.usda").write_text("#usda 1.0")
+    lib = str(tmp_path / "lib")
+    code, out, err = run(["library", "add", str(folder), "--library", lib], capsys)
+    assert code in (0, None) and "Bark3\t(a scanned set: colour + ao)" in out, err
+    with zipfile.ZipFile(tmp_path / "other.zip", "w") as archive:
+        archive.writestr("Other_Color.png", encode_png(np.zeros((32, 32, 3), np.uint8)))
+        archive.writestr("Other_Sheen.png", encode_png(np.zeros((32, 32, 3), np.uint8)))
+    code, _, err = run(["library", "add", str(tmp_path / "other.zip"), "--library", lib], capsys)
+    assert code == 2
+    assert "other.zip/Other_Sheen.png" in err and len(err.strip().splitlines()) == 1

@@ -575,3 +575,72 @@ def test_numbers_json_cannot_hold_are_a_422_not_a_500(client):
     ):
         r = client.post("/api/jobs", content=body, headers={"content-type": "application/json"})
         assert r.status_code == status and word in r.text and len(r.text) < 400, (body[:40], r.text[:200])
+
+
+def _set_zip(size: int = 96, **extra: bytes) -> tuple[bytes, np.ndarray]:
+    """A zipped scanned set (ambientCG names, in a folder as Poly Haven zips them) and its
+    roughness, whose values are all distinct multiples of 257 (16-bit)."""
+    rng = np.random.default_rng(3)
+    roughness = (rng.permutation(size * size).reshape(size, size) % 255 + 1).astype(np.uint16) * 257
+    normals = np.dstack([rng.normal(0, 0.2, (size, size, 2)), np.ones((size, size))])
+    normals /= np.linalg.norm(normals, axis=2, keepdims=True)
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w") as archive:
+        archive.writestr("Bark099_1K-PNG/Bark099_1K-PNG_Color.png", _photo_png(size, seed=9))
+        archive.writestr(
+            "Bark099_1K-PNG/Bark099_1K-PNG_NormalGL.png", encode_png(np.round((normals + 1) * 127.5).astype(np.uint8))
+        )
+        archive.writestr("Bark099_1K-PNG/Bark099_1K-PNG_Roughness.png", encode_png(roughness))
+        archive.writestr("Bark099_1K-PNG/Bark099.usda", b"#usda 1.0")  # not a map: left out
+        archive.writestr("__MACOSX/Bark099_1K-PNG/._Bark099_1K-PNG_Color.png", b"\0\5\26\7")
+        for name, data in extra.items():
+            archive.writestr(name, data)
+    return buffer.getvalue(), roughness
+
+
+def test_a_zipped_scanned_set_is_an_exemplar_whose_maps_make_the_material(client, library, tmp_path):
+    data, roughness = _set_zip()
+    r = client.post("/api/exemplars", files={"file": ("Bark099_1K-PNG.zip", data)}, data={"licence": "CC0"})
+    assert r.status_code == 201, r.text
+    exemplar = client.get(f"/api/exemplars/{r.json()['id']}").json()
+    assert exemplar["name"] == "Bark099" and exemplar["licence"] == "CC0"
+    assert exemplar["maps"] == ["normal_gl", "roughness"] and exemplar["source"] == "uploaded set"
+    assert sorted(library.set_files(exemplar["id"])) == [
+        f"Bark099_1K-PNG_{m}.png" for m in ("Color", "NormalGL", "Roughness")
+    ]
+    again = client.post("/api/exemplars", files={"file": ("copy.zip", data)})
+    assert again.json() == {"id": exemplar["id"], "existing": True}
+    # a result with material: the set's own roughness, carried (its values, not an estimate)
+    body = {"exemplar_id": exemplar["id"], "size": "128x128", "k": 2, "tile": True, "material": True, "seed": 4}
+    job = _wait(client, client.post("/api/jobs", json=body).json()["id"])
+    assert job["state"] == "done", job
+    result = client.get(f"/api/results/{job['result_id']}").json()
+    from scipy import ndimage
+
+    from barkgen.io import decode_image, read_reference
+    from barkgen.synth import piece_borders
+
+    name = next(n for n in result["files"] if n.endswith("_Roughness.png"))
+    out = decode_image(client.get(result["files"][name]).content)[..., 0]
+    assert out.shape == (128, 128)
+    # exact where the reference map runs on (>= 8 px inside its pieces: the seams are blended)
+    reference = tmp_path / "reference.png"
+    reference.write_bytes(client.get(result["files"]["reference.png"]).content)
+    references, _ = read_reference(reference)
+    carried = roughness[references[..., 0] % 96, references[..., 1] % 96]
+    carried = carried if out.dtype == np.uint16 else carried // 257
+    inside = np.pad(~piece_borders(references, (96, 96), tile=True), 9, mode="wrap")  # tiled: across the edges
+    inside = ndimage.distance_transform_edt(inside)[9:-9, 9:-9] >= 8
+    assert inside.mean() > 0.1 and np.mean(out[inside] == carried[inside]) > 0.95
+    # bad sets: one line each, 400, nothing added
+    count = len(client.get("/api/exemplars").json())
+    for payload, said in (
+        (b"PK\x03\x04 not really a zip", "not a zip"),
+        (_set_zip(**{"Bark099_Sheen.png": _photo_png(96)})[0], "set.zip/Bark099_Sheen.png: not a map of Bark099"),
+        (_set_zip(**{"Other_Roughness.png": _photo_png(96)})[0], "two roughness maps"),
+        (_set_zip(**{"Bark099_AO.png": _photo_png(64)})[0], "differ in size"),
+    ):
+        r = client.post("/api/exemplars", files={"file": ("set.zip", payload)})
+        assert r.status_code == 400 and said in r.json()["detail"], r.text
+        assert "\n" not in r.json()["detail"]
+    assert len(client.get("/api/exemplars").json()) == count

@@ -256,3 +256,43 @@ def test_reload_finds_the_job_and_cancel(server, browser):
     job_id = re.search(r"job=([0-9a-f]+)", job_url).group(1)
     assert page.request.get(f"{server}api/jobs/{job_id}").json()["state"] == "cancelled"
     page.close()
+
+
+def test_a_scanned_sets_zip_is_uploaded_and_its_maps_make_the_material(server, browser, tmp_path):
+    """A zip of a real scan (willow: colour, normal, AO, roughness) through the upload form: the
+    photo's page says it is a set, and a result's roughness is the scan's (not an estimate)."""
+    import zipfile
+
+    _need_shared()
+    maps = BARK.parent / "bark_maps"
+    archive = tmp_path / "willow_furrowed_01_1k.zip"
+    with zipfile.ZipFile(archive, "w") as zipped:
+        zipped.write(BARK / "willow_furrowed_01.jpg", "willow_furrowed_01/willow_furrowed_01.jpg")
+        for kind in ("normal", "ao", "roughness"):
+            zipped.write(maps / f"willow_furrowed_01_{kind}.jpg", f"willow_furrowed_01/willow_furrowed_01_{kind}.jpg")
+    page = browser.new_page(viewport={"width": 1366, "height": 768})
+    page.goto(server)
+    page.get_by_test_id("upload-file").set_input_files(str(archive))
+    page.get_by_test_id("upload-submit").click()
+    page.wait_for_url(re.compile(r"/exemplars/\d+"))
+    meta = page.get_by_test_id("exemplar-meta")
+    page.wait_for_function(
+        "() => /scanned set/.test(document.querySelector('[data-testid=exemplar-meta]').textContent)"
+    )
+    assert "scanned set: colour + AO, normal, roughness" in meta.text_content()
+    assert page.get_by_test_id("exemplar-name").text_content() == "willow_furrowed_01"
+    assert "the set's own maps" in page.get_by_test_id("material-hint").text_content()
+    page.get_by_test_id("param-size").select_option("256x256")
+    page.get_by_test_id("generate").click()
+    _follow_job(page)
+    result_id = re.search(r"/results/(\d+)", page.url).group(1)
+    result = page.request.get(f"{server}api/results/{result_id}").json()
+    from barkgen.io import decode_image
+
+    name = next(n for n in result["files"] if n.endswith("_Roughness.png"))
+    out = decode_image(page.request.get(f"{server}{result['files'][name].lstrip('/')}").body())[..., 0]
+    scan = decode_image((maps / "willow_furrowed_01_roughness.jpg").read_bytes())[..., 0]
+    # the scan's own values (an estimate from the colour would not share its histogram)
+    share = np.isin(out, np.unique(scan)).mean()
+    assert share > 0.99 and abs(float(out.mean()) - float(scan.mean())) < 8, (share, out.mean(), scan.mean())
+    page.close()

@@ -25,7 +25,13 @@ def _open_library(path: Path | None):
 
 
 def add_command(
-    photo: Annotated[Path, typer.Argument(help="Bark photo (PNG, JPEG, TIFF, WebP).")],
+    photo: Annotated[
+        Path,
+        typer.Argument(
+            help="Bark photo (PNG, JPEG, TIFF, WebP), or a scanned material set: its folder or its zip "
+            "(ambientCG, Poly Haven or Megascans names; its maps make the material of every result)."
+        ),
+    ],
     name: Annotated[Optional[str], typer.Option("--name", help="Display name (default: the file name).")] = None,
     species: Annotated[Optional[str], typer.Option("--species", help="Tree species, e.g. oak.")] = None,
     bark_type: Annotated[Optional[str], typer.Option("--bark-type", help="e.g. furrowed, plated, scaly.")] = None,
@@ -33,10 +39,23 @@ def add_command(
     source: Annotated[Optional[str], typer.Option("--source", help="Where the photo comes from.")] = None,
     library: LibraryOption = None,
 ) -> None:
-    """Add a bark photo to the library and print its id (the same photo twice gives one entry)."""
+    """Add a bark photo (or a scanned set) to the library and print its id (the same photo twice
+    gives one entry)."""
     from barkgen.io import read_image_bytes
 
     lib = _open_library(library)
+    if photo.is_dir() or photo.suffix.lower() == ".zip":
+        exemplar = lib.add_scanned_set(
+            _set_files(photo),
+            name,
+            species=species,
+            bark_type=bark_type,
+            licence=licence,
+            source=source or str(photo),
+            where=str(photo),
+        )
+        typer.echo(f"{exemplar.id}\t{exemplar.name}\t(a scanned set: colour + {', '.join(exemplar.maps)})")
+        return
     data = read_image_bytes(photo)
     existing = lib.find_exemplar(data)
     exemplar = existing or lib.add_exemplar(
@@ -44,6 +63,22 @@ def add_command(
     )
     note = "" if existing is None else " (already in the library)"
     typer.echo(f"{exemplar.id}\t{exemplar.name}{note}")
+
+
+def _set_files(path: Path) -> dict[str, bytes]:
+    """A scanned set's files by name, from its folder or its zip."""
+    from barkgen.errors import ImageReadError
+    from barkgen.io import IMAGE_EXTENSIONS, read_image_bytes, read_set_zip
+
+    if path.is_dir():
+        return {
+            p.name: read_image_bytes(p) for p in path.iterdir() if p.is_file() and p.suffix.lower() in IMAGE_EXTENSIONS
+        }
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise ImageReadError(f"{path}: cannot read it ({exc.strerror or exc})") from None
+    return read_set_zip(data, max_unpacked_bytes=2**31, where=str(path))
 
 
 def list_command(library: LibraryOption = None) -> None:

@@ -32,7 +32,17 @@ from barkgen.io.material import (
     read_material,
 )
 from barkgen.io.references import encode_reference, read_reference, write_reference
-from barkgen.io.scanned import ScannedSet, is_set_folder, map_kind, read_scanned_set, recognise_set
+from barkgen.io.scanned import (
+    IMAGE_EXTENSIONS,
+    ScannedSet,
+    is_set_folder,
+    map_kind,
+    read_scanned_set,
+    read_set_zip,
+    recognise_set,
+    scanned_set_files,
+    scanned_set_from_files,
+)
 from barkgen.io.staging import (
     commit_staged,
     discard_staged,
@@ -43,10 +53,14 @@ from barkgen.io.staging import (
 )
 
 __all__ = [
+    "IMAGE_EXTENSIONS",
     "ScannedSet",
     "is_set_folder",
     "map_kind",
     "read_scanned_set",
+    "read_set_zip",
+    "scanned_set_files",
+    "scanned_set_from_files",
     "recognise_set",
     "check_replaceable",
     "file_record",

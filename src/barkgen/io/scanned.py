@@ -26,7 +26,8 @@ has no colour map (``birch.jpg`` beside ``birch_normal.jpg``), and the set's pre
 ``.usda``, ``.json``) are left out. Everything else — an image of no known map, two maps of one
 kind, maps of two sets, maps of different sizes — is refused in one line.
 
-This module only reads: :func:`barkgen.material.scanned_material` makes the set's
+A set may come as a folder (:func:`read_scanned_set`) or as file bytes, a zip's
+(:func:`read_set_zip`, :func:`scanned_set_from_files`). This module only reads: :func:`barkgen.material.scanned_material` makes the set's
 :class:`~barkgen.material.MaterialSet`.
 """
 
@@ -34,8 +35,9 @@ from __future__ import annotations
 
 import os
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 
 import numpy as np
 
@@ -220,31 +222,89 @@ def read_scanned_set(folder: str | os.PathLike, *, normal_convention: str = "gl"
     InvalidInputError
         Unknown or mismatched files, maps of different sizes, a normal map that is not RGB.
     """
-    from barkgen.io.images import read_image
+    from barkgen.io.images import read_image_bytes
+
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise ImageReadError(f"{folder}: not a folder")
+    names = [p.name for p in folder.iterdir() if p.is_file()]
+    _, files = recognise_set(names, folder=str(folder))
+    data = {name: read_image_bytes(folder / name) for name in files.values()}
+    return scanned_set_from_files(data, normal_convention=normal_convention, where=str(folder))
+
+
+def scanned_set_files(files: Mapping[str, bytes], *, where: str = "the set") -> dict[str, bytes]:
+    """The files of ``files`` that :func:`scanned_set_from_files` reads (its maps), by name.
+
+    Parameters
+    ----------
+    files : mapping of str to bytes
+        File name -> file bytes (a folder's or a zip's).
+    where : str
+        What errors call the set.
+
+    Returns
+    -------
+    dict of str to bytes
+
+    Raises
+    ------
+    InvalidInputError
+        Unknown or mismatched files (:func:`recognise_set`).
+    """
+    _, kinds = recognise_set(files, folder=where)
+    return {name: files[name] for name in kinds.values()}
+
+
+def scanned_set_from_files(
+    files: Mapping[str, bytes], *, normal_convention: str = "gl", where: str = "the set"
+) -> ScannedSet:
+    """A scanned set from its files' bytes, by file name (what :func:`read_scanned_set` reads
+    from a folder and :func:`read_set_zip` from a zip).
+
+    Parameters
+    ----------
+    files : mapping of str to bytes
+        File name -> file bytes; files that are not maps are left out as
+        :func:`recognise_set` says.
+    normal_convention : {"gl", "dx"}, default "gl"
+        How a normal map named only ``Normal`` is read.
+    where : str
+        What errors call the set.
+
+    Returns
+    -------
+    ScannedSet
+
+    Raises
+    ------
+    ImageReadError
+        An unreadable map.
+    InvalidInputError
+        Unknown or mismatched files, maps of different sizes, a normal map that is not RGB.
+    """
+    from barkgen.io.images import decode_image
     from barkgen.material.maps import decode_normals
 
     if normal_convention not in NORMAL_CONVENTIONS:
         raise InvalidInputError(f"normal convention must be gl or dx, not {normal_convention!r}")
-    folder = Path(folder)
-    if not folder.is_dir():
-        raise ImageReadError(f"{folder}: not a folder")
-    stem, files = recognise_set((p.name for p in folder.iterdir() if p.is_file()), folder=str(folder))
-    images = {kind: read_image(folder / name) for kind, name in files.items()}
+    stem, kinds = recognise_set(files, folder=where)
+    images = {kind: decode_image(files[name], f"{where}/{name}") for kind, name in kinds.items()}
     sizes = {kind: im.shape[:2] for kind, im in images.items()}
     if len(set(sizes.values())) > 1:
-        listing = ", ".join(f"{files[k]} {s[1]}x{s[0]}" for k, s in sizes.items())
-        raise InvalidInputError(f"{folder}: the maps differ in size ({listing}); give maps of one size")
+        listing = ", ".join(f"{kinds[k]} {s[1]}x{s[0]}" for k, s in sizes.items())
+        raise InvalidInputError(f"{where}: the maps differ in size ({listing}); give maps of one size")
     bits = {kind: 16 if im.dtype == np.uint16 else 8 for kind, im in images.items()}
     color = images.pop("color")
     if color.shape[2] == 1:
         color = np.repeat(color, 3, axis=2)
-    scan = ScannedSet(name=stem, files=files, color=color, bits=bits)
+    scan = ScannedSet(name=stem, files=kinds, color=color, bits=bits)
     for kind in ("normal_gl", "normal_dx", "normal"):
         if kind not in images:
             continue
         rgb = images.pop(kind)
         if rgb.shape[2] < 3:
-            raise InvalidInputError(f"{folder}/{files[kind]}: a normal map must be RGB")
+            raise InvalidInputError(f"{where}/{kinds[kind]}: a normal map must be RGB")
         normals = decode_normals(rgb)
         if kind == "normal_dx" or (kind == "normal" and normal_convention == "dx"):
             normals[..., 1] *= -1.0
@@ -264,3 +324,71 @@ def read_scanned_set(folder: str | os.PathLike, *, normal_convention: str = "gl"
         if kind in images:
             setattr(scan, kind, _grey(images.pop(kind)))
     return scan
+
+
+def read_set_zip(data: bytes, *, max_unpacked_bytes: int, where: str = "the zip") -> dict[str, bytes]:
+    """The image files of a zip holding one scanned set (as ambientCG and Poly Haven ship
+    them), by file name, checked before anything is unpacked.
+
+    Folders inside the zip are flattened (Poly Haven's ``textures/``); macOS's ``__MACOSX``
+    copies, hidden files and files that are not images are left out.
+
+    Parameters
+    ----------
+    data : bytes
+        The zip file.
+    max_unpacked_bytes : int
+        Refuse a zip whose images would unpack to more (a zip bomb, or a 16K set).
+    where : str
+        What errors call it.
+
+    Returns
+    -------
+    dict of str to bytes
+        File name -> bytes; pass it to :func:`scanned_set_from_files`.
+
+    Raises
+    ------
+    InvalidInputError
+        Not a zip, a damaged or encrypted one, one that unpacks too large, two images of one
+        name, or no image.
+    """
+    import io
+    import zipfile
+
+    try:
+        archive = zipfile.ZipFile(io.BytesIO(data))
+    except (zipfile.BadZipFile, OSError, ValueError):
+        raise InvalidInputError(f"{where}: not a zip file") from None
+    with archive:
+        members = []
+        for info in archive.infolist():
+            parts = PurePosixPath(info.filename.replace("\\", "/")).parts
+            name = parts[-1] if parts else ""
+            if info.is_dir() or "__MACOSX" in parts or name.startswith("."):
+                continue
+            if Path(name).suffix.lower() in IMAGE_EXTENSIONS:
+                members.append((name, info))
+        if not members:
+            raise InvalidInputError(f"{where}: holds no image (PNG, JPEG, TIFF or WebP)")
+        total = sum(info.file_size for _, info in members)
+        if total > max_unpacked_bytes:
+            raise InvalidInputError(
+                f"{where}: its images unpack to {total / 2**20:.0f} MB, more than the "
+                f"{max_unpacked_bytes / 2**20:.0f} MB allowed; give a smaller set (2K or 4K)"
+            )
+        files: dict[str, bytes] = {}
+        for name, info in members:
+            if name in files:
+                raise InvalidInputError(f"{where}: holds two files named {name}; give a zip of one set")
+            if info.flag_bits & 0x1:
+                raise InvalidInputError(f"{where}: {name} is encrypted")
+            try:
+                with archive.open(info) as member:
+                    content = member.read(info.file_size + 1)
+            except (zipfile.BadZipFile, OSError, RuntimeError, NotImplementedError, EOFError):
+                raise InvalidInputError(f"{where}: {name} cannot be unpacked (a damaged zip?)") from None
+            if len(content) != info.file_size:
+                raise InvalidInputError(f"{where}: {name} is not the size the zip says (a damaged zip?)")
+            files[name] = content
+    return files

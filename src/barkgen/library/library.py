@@ -1,4 +1,4 @@
-"""The library's database: exemplars, their cached analyses and results (see
+"""The library: exemplars (photos and scanned sets), their cached analyses and results (see
 :mod:`barkgen.library`)."""
 
 from __future__ import annotations
@@ -7,17 +7,17 @@ import json
 import os
 import sqlite3
 from collections.abc import Mapping
-from contextlib import closing, contextmanager
 from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
 
 from barkgen.errors import InvalidInputError
+from barkgen.library.database import Database
 from barkgen.library.errors import LibraryError, NotFoundError, _ReadOnly
 from barkgen.library.jobs import JobTable
-from barkgen.library.records import Exemplar, Result
-from barkgen.library.schema import MIGRATIONS, SCHEMA_VERSION
+from barkgen.library.records import EXEMPLAR_SELECT, Exemplar, Result
+from barkgen.library.schema import SCHEMA_VERSION
 from barkgen.library.store import ObjectStore, content_hash, default_library_path
 
 __all__ = ["Exemplar", "Library", "LibraryError", "NotFoundError", "Result", "default_library_path", "SCHEMA_VERSION"]
@@ -25,7 +25,8 @@ __all__ = ["Exemplar", "Library", "LibraryError", "NotFoundError", "Result", "de
 SAMPLE_NAME = "Sample pine bark"
 #: every stored file a row refers to
 _FILES_IN_USE = (
-    "SELECT image_hash FROM exemplars UNION SELECT file_hash FROM analyses UNION SELECT file_hash FROM result_files"
+    "SELECT image_hash FROM exemplars UNION SELECT file_hash FROM exemplar_maps UNION SELECT file_hash FROM analyses "
+    "UNION SELECT file_hash FROM result_files"
 )
 
 
@@ -33,12 +34,34 @@ def _now() -> str:
     return datetime.now(UTC).isoformat(timespec="seconds")
 
 
+def _checked_photo(data: bytes, name: str, max_pixels: int | None, **fields: str | None) -> tuple[str, tuple[int, ...]]:
+    """An exemplar's name (stripped) and its photo's shape, once the name, the other text
+    ``fields`` and the photo are checked (:meth:`Library.add_exemplar`'s errors)."""
+    from barkgen._shared.checks import MIN_SIDE
+    from barkgen.io import decode_image
+
+    name = (name or "").strip()
+    if not name or len(name) > 200:
+        raise InvalidInputError("an exemplar needs a name of 1 to 200 characters")
+    for what, value in (("name", name), *fields.items()):
+        if value is not None and len(value) > 500:
+            raise InvalidInputError(f"the {what.replace('_', ' ')} must be at most 500 characters")
+        if value is not None and not value.isprintable():  # a newline would break a listing
+            raise InvalidInputError(f"the {what.replace('_', ' ')} must be one line of printable text")
+    image = decode_image(data, name, max_pixels=max_pixels)
+    if min(image.shape[:2]) < MIN_SIDE:  # a 1x1 upload is no bark (it failed later)
+        raise InvalidInputError(
+            f"{name}: {image.shape[1]}x{image.shape[0]} px; a bark photo needs at least {MIN_SIDE} px on each side"
+        )
+    return name, image.shape
+
+
 def canonical_params(params: Mapping) -> str:
     """The one JSON text of a parameter dict (sorted keys), used as a key."""
     return json.dumps(dict(params), sort_keys=True, separators=(",", ":"))
 
 
-class Library:
+class Library(Database):
     """The exemplar library in folder ``path`` (made when missing; see the module docstring).
 
     Parameters
@@ -93,113 +116,6 @@ class Library:
             self._check_readable()
         elif add_sample:
             self._add_sample_once()
-
-    # -- database -------------------------------------------------------------------------
-    def _read_only_reason(self) -> str | None:
-        if not os.access(self.path, os.W_OK):
-            return "its folder is read-only"
-        if self.db_path.exists() and not os.access(self.db_path, os.W_OK):
-            return "library.sqlite is read-only"
-        return None
-
-    def _check_readable(self) -> None:
-        """A read-only library is listed as it is: no migration, no sample added."""
-        if not self.db_path.exists():
-            raise LibraryError(f"{self.path}: no library here, and {self.read_only}")
-        try:
-            with closing(self._connect()) as conn:
-                version = conn.execute("PRAGMA user_version").fetchone()[0]
-        except sqlite3.DatabaseError as exc:
-            raise LibraryError(f"{self.db_path}: not a barkgen library database ({exc})") from None
-        if not 1 <= version <= SCHEMA_VERSION:
-            raise LibraryError(
-                f"{self.db_path}: not a barkgen library this barkgen can read "
-                f"(schema {version}; it is read-only, so it cannot be upgraded)"
-            )
-
-    def _connect(self) -> sqlite3.Connection:
-        if self.read_only is not None:
-            # a WAL database in a folder that cannot be written: read it as it stands
-            mode = "immutable=1" if not os.access(self.path, os.W_OK) else "mode=ro"
-            uri = f"{self.db_path.resolve().as_uri()}?{mode}"
-            try:
-                conn = sqlite3.connect(uri, uri=True, timeout=30.0, isolation_level=None)
-            except sqlite3.Error as exc:
-                raise LibraryError(f"{self.db_path}: cannot open the library database ({exc})") from None
-            conn.row_factory = sqlite3.Row
-            return conn
-        try:
-            conn = sqlite3.connect(self.db_path, timeout=30.0, isolation_level=None)
-        except sqlite3.Error as exc:
-            raise LibraryError(f"{self.db_path}: cannot open the library database ({exc})") from None
-        conn.row_factory = sqlite3.Row
-        conn.execute("PRAGMA foreign_keys = ON")
-        return conn
-
-    @contextmanager
-    def _transaction(self):
-        if self.read_only is not None:
-            raise LibraryError(
-                f"{self.path}: the library is read-only ({self.read_only}); copy it somewhere writable to change it"
-            )
-        with closing(self._connect()) as conn, self._damage_said():
-            conn.execute("BEGIN IMMEDIATE")
-            try:
-                yield conn
-            except BaseException:
-                conn.execute("ROLLBACK")
-                raise
-            conn.execute("COMMIT")
-
-    @contextmanager
-    def _damage_said(self):
-        """A damaged database file (a torn page, another program's writes) as one line, not
-        an internal error."""
-        try:
-            yield
-        except sqlite3.DatabaseError as exc:
-            if not any(word in str(exc) for word in ("malformed", "not a database", "corrupt")):
-                raise  # (a busy database, a constraint: not damage)
-            raise LibraryError(
-                f"{self.db_path}: the library database is damaged ({exc}); restore "
-                "it from a backup, or move the library folder away to start a new "
-                "one"
-            ) from None
-
-    def _read(self, sql: str, args: tuple = ()) -> list[sqlite3.Row]:
-        if any(isinstance(a, int) and not -(2**63) <= a < 2**63 for a in args):
-            return []  # an id beyond SQLite's 64-bit integers is in no row (not an error)
-        with closing(self._connect()) as conn, self._damage_said():
-            return conn.execute(sql, args).fetchall()
-
-    def _migrate(self) -> None:
-        try:
-            with closing(self._connect()) as conn:
-                conn.execute("PRAGMA journal_mode = WAL")
-                # read under the write lock: two processes opening a new library migrate once
-                conn.execute("BEGIN IMMEDIATE")
-                try:
-                    version = conn.execute("PRAGMA user_version").fetchone()[0]
-                    if version > SCHEMA_VERSION:
-                        raise LibraryError(
-                            f"{self.db_path}: made by a newer barkgen (schema {version}, "
-                            f"this one knows {SCHEMA_VERSION}); upgrade barkgen"
-                        )
-                    for target in range(version + 1, SCHEMA_VERSION + 1):
-                        for statement in MIGRATIONS[target].split(";"):
-                            if statement.strip():
-                                conn.execute(statement)
-                        conn.execute(f"PRAGMA user_version = {target}")
-                except BaseException:
-                    conn.execute("ROLLBACK")
-                    raise
-                conn.execute("COMMIT")
-        except sqlite3.OperationalError as exc:
-            if "readonly" in str(exc) or "read-only" in str(exc):
-                raise _ReadOnly(f"the disk is read-only ({exc})") from None
-            raise LibraryError(f"{self.db_path}: not a barkgen library database ({exc})") from None
-        except sqlite3.DatabaseError as exc:
-            raise LibraryError(f"{self.db_path}: not a barkgen library database ({exc})") from None
 
     def _add_sample_once(self) -> None:
         """The bundled sample, the first time this library is opened (removing it later is
@@ -258,28 +174,9 @@ class Library:
         ImageReadError
             Bytes that are not a readable image.
         """
-        from barkgen._shared.checks import MIN_SIDE
-        from barkgen.io import decode_image
-
-        name = (name or "").strip()
-        if not name or len(name) > 200:
-            raise InvalidInputError("an exemplar needs a name of 1 to 200 characters")
-        for what, value in (
-            ("name", name),
-            ("species", species),
-            ("bark type", bark_type),
-            ("licence", licence),
-            ("source", source),
-        ):
-            if value is not None and len(value) > 500:
-                raise InvalidInputError(f"the {what} must be at most 500 characters")
-            if value is not None and not value.isprintable():  # a newline would break a listing
-                raise InvalidInputError(f"the {what} must be one line of printable text")
-        image = decode_image(data, name, max_pixels=max_pixels)
-        if min(image.shape[:2]) < MIN_SIDE:  # a 1x1 upload is no bark (it failed later)
-            raise InvalidInputError(
-                f"{name}: {image.shape[1]}x{image.shape[0]} px; a bark photo needs at least {MIN_SIDE} px on each side"
-            )
+        name, shape = _checked_photo(
+            data, name, max_pixels, species=species, bark_type=bark_type, licence=licence, source=source
+        )
         with self._transaction() as conn:
             exemplar_id = self._insert_exemplar(
                 conn,
@@ -289,9 +186,101 @@ class Library:
                 bark_type=bark_type,
                 licence=licence,
                 source=source,
-                shape=image.shape,
+                shape=shape,
             )
         return self.exemplar(exemplar_id)
+
+    def add_scanned_set(
+        self,
+        files: Mapping[str, bytes],
+        name: str | None = None,
+        *,
+        species: str | None = None,
+        bark_type: str | None = None,
+        licence: str | None = None,
+        source: str | None = None,
+        max_pixels: int | None = None,
+        where: str | None = None,
+    ) -> Exemplar:
+        """Add a scanned material set: its colour map is the exemplar's photo, its other maps
+        are kept beside it (:meth:`set_files`) and make the material of its results.
+
+        The same colour added before (as a photo or a set) gives the same exemplar, now with
+        these maps.
+
+        Parameters
+        ----------
+        files : mapping of str to bytes
+            The set's files by name (a folder's or a zip's, :func:`barkgen.io.read_set_zip`);
+            what is not one of its maps is left out as :func:`barkgen.io.recognise_set` says.
+        name : str, optional
+            1 to 200 characters (default: the set's name, ``Bark001``).
+        species, bark_type, licence, source, max_pixels
+            As :meth:`add_exemplar`.
+        where : str, optional
+            What errors call the set (default: its name).
+
+        Returns
+        -------
+        Exemplar
+
+        Raises
+        ------
+        InvalidInputError
+            Unknown or mismatched maps, maps of different sizes, a bad name or field.
+        ImageReadError
+            A map that is not a readable image.
+        """
+        from barkgen.io import recognise_set, scanned_set_files, scanned_set_from_files
+
+        where = where or name or "the set"
+        maps = scanned_set_files(files, where=where)
+        stem, kinds = recognise_set(maps, folder=where)
+        colour = maps[kinds["color"]]
+        name, shape = _checked_photo(
+            colour,
+            name or stem or "scanned set",
+            max_pixels,
+            species=species,
+            bark_type=bark_type,
+            licence=licence,
+            source=source,
+        )
+        scanned_set_from_files(maps, where=where)  # every map decodes, at the colour's size
+        kind_of = {file_name: kind for kind, file_name in kinds.items()}
+        with self._transaction() as conn:
+            exemplar_id = self._insert_exemplar(
+                conn, colour, name, species=species, bark_type=bark_type, licence=licence, source=source, shape=shape
+            )
+            conn.execute("DELETE FROM exemplar_maps WHERE exemplar_id = ?", (exemplar_id,))
+            for file_name, data in maps.items():
+                conn.execute(
+                    "INSERT INTO exemplar_maps (exemplar_id, name, kind, file_hash) VALUES (?, ?, ?, ?)",
+                    (exemplar_id, file_name, kind_of[file_name], self.store.put(data)),
+                )
+            self._sweep(conn)  # the maps a set added again replaced
+        return self.exemplar(exemplar_id)
+
+    def set_files(self, exemplar_id: int) -> dict[str, bytes]:
+        """The files of an exemplar that is a scanned set, by name (its colour among them),
+        ready for :func:`barkgen.io.scanned_set_from_files`; empty for a photo.
+
+        Parameters
+        ----------
+        exemplar_id : int
+
+        Returns
+        -------
+        dict of str to bytes
+
+        Raises
+        ------
+        NotFoundError
+            No such exemplar.
+        """
+        self.exemplar(exemplar_id)
+        rows = self._read("SELECT name, file_hash FROM exemplar_maps WHERE exemplar_id = ?", (int(exemplar_id),))
+        return {row["name"]: self.store.get(row["file_hash"]) for row in rows}
 
     def _insert_exemplar(
         self, conn, data: bytes, name: str, *, species=None, bark_type=None, licence=None, source=None, shape=None
@@ -312,12 +301,12 @@ class Library:
 
     def find_exemplar(self, data: bytes) -> Exemplar | None:
         """The :class:`Exemplar` of exactly these image-file bytes, or None."""
-        rows = self._read("SELECT * FROM exemplars WHERE image_hash = ?", (content_hash(data),))
-        return Exemplar(**dict(rows[0])) if rows else None
+        rows = self._read(f"{EXEMPLAR_SELECT} WHERE e.image_hash = ?", (content_hash(data),))
+        return Exemplar.from_row(rows[0]) if rows else None
 
     def exemplars(self) -> list[Exemplar]:
         """Every exemplar (a list of :class:`Exemplar`), oldest first."""
-        return [Exemplar(**dict(row)) for row in self._read("SELECT * FROM exemplars ORDER BY id")]
+        return [Exemplar.from_row(row) for row in self._read(f"{EXEMPLAR_SELECT} ORDER BY e.id")]
 
     def exemplar(self, exemplar_id: int) -> Exemplar:
         """One exemplar by its id.
@@ -335,10 +324,10 @@ class Library:
         NotFoundError
             No such exemplar.
         """
-        rows = self._read("SELECT * FROM exemplars WHERE id = ?", (int(exemplar_id),))
+        rows = self._read(f"{EXEMPLAR_SELECT} WHERE e.id = ?", (int(exemplar_id),))
         if not rows:
             raise NotFoundError(f"no exemplar {exemplar_id} in the library")
-        return Exemplar(**dict(rows[0]))
+        return Exemplar.from_row(rows[0])
 
     def photo_bytes(self, exemplar_id: int) -> bytes:
         """The exemplar's image file (bytes) as it was added."""

@@ -5,7 +5,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-__all__ = ["Exemplar", "Result"]
+__all__ = ["EXEMPLAR_SELECT", "Exemplar", "Result"]
+
+#: the exemplars' rows with the kinds of their set's maps (``maps``, comma-separated); add a
+#: ``WHERE`` on ``e``
+EXEMPLAR_SELECT = (
+    "SELECT e.*, (SELECT group_concat(m.kind, ',') FROM exemplar_maps m "
+    "WHERE m.exemplar_id = e.id AND m.kind != 'color') AS maps FROM exemplars e"
+)
 
 
 @dataclass(frozen=True)
@@ -23,6 +30,9 @@ class Exemplar:
         SHA-256 of the image file's bytes (its name in ``objects/``).
     created : str
         When it was added (ISO 8601, UTC).
+    maps : tuple of str
+        The kinds of the maps beside the photo when it is a scanned material set (``normal_gl``,
+        ``roughness``, ``ao``, ...; :func:`barkgen.io.recognise_set`), else empty.
     """
 
     id: int
@@ -35,6 +45,14 @@ class Exemplar:
     width: int
     height: int
     created: str
+    maps: tuple[str, ...] = ()
+
+    @classmethod
+    def from_row(cls, row) -> Exemplar:
+        """The record of a row of :data:`EXEMPLAR_SELECT`."""
+        fields = dict(row)
+        kinds = fields.pop("maps", None)
+        return cls(**fields, maps=tuple(sorted(kinds.split(","))) if kinds else ())
 
     def to_dict(self) -> dict:
         return {k: getattr(self, k) for k in self.__dataclass_fields__}

@@ -1,9 +1,11 @@
 """The library database's schema, as migrations by version (``PRAGMA user_version``): 1 made
 the exemplars, their analyses and results; 2 adds the web app's job queue (``jobs``), so that a
-restarted server finds its queued jobs again and says which were interrupted."""
+restarted server finds its queued jobs again and says which were interrupted; 3 adds the maps of
+an exemplar that is a scanned material set (``exemplar_maps``: file name, map kind, file hash;
+the exemplar's photo is the set's colour)."""
 
 #: what the migrations below bring a database to
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 
 MIGRATIONS = {
     1: """
@@ -62,6 +64,15 @@ MIGRATIONS = {
         created REAL NOT NULL,
         started REAL,
         finished REAL
+    );
+    """,
+    3: """
+    CREATE TABLE exemplar_maps (
+        exemplar_id INTEGER NOT NULL REFERENCES exemplars(id) ON DELETE CASCADE,
+        name TEXT NOT NULL,
+        kind TEXT NOT NULL,
+        file_hash TEXT NOT NULL,
+        PRIMARY KEY (exemplar_id, name)
     );
     """,
 }

@@ -371,7 +371,14 @@ class JobManager:
                 if job.kind == "labels":
                     spec = LabelSpec(job_id=job.id, photo=photo, k=job.params["k"])
                 else:  # (a job without its fields: the TypeError below)
-                    spec = JobSpec(job_id=job.id, photo=photo, photo_hash=exemplar.image_hash, **cast(dict, fields))
+                    set_files = self.library.set_files(exemplar.id) if exemplar.maps else None
+                    spec = JobSpec(
+                        job_id=job.id,
+                        photo=photo,
+                        photo_hash=exemplar.image_hash,
+                        set_files=set_files,
+                        **cast(dict, fields),
+                    )
             except (NotFoundError, OSError) as exc:
                 self._finish(job, state="failed", error=f"the photo is gone ({exc})")
                 continue

@@ -26,6 +26,11 @@ from barkgen.web.state import DISPLAY_SIDE, THUMBNAIL_SIDE, AppState, State, cac
 
 router = APIRouter()
 
+#: how a zip file starts
+ZIP_MAGIC = b"PK\x03\x04"
+#: a zipped set's images may unpack to this many times the upload limit
+ZIP_UNPACK_FACTOR = 4
+
 
 def exemplar_json(exemplar) -> dict:
     """An exemplar as the API shows it: its record and the URLs of its pictures."""
@@ -49,12 +54,15 @@ def store_upload(
     species: str | None = None,
     licence: str | None = None,
 ) -> dict:
-    """Add an uploaded photo to the library: ``{"id", "existing"}``, ``existing`` true when the
-    same photo is there already (its entry is answered, nothing is added). The client's file
-    name is only a default display name: it never touches the filesystem."""
+    """Add an uploaded photo, or a zip of a scanned material set, to the library: ``{"id",
+    "existing"}``, ``existing`` true when the same photo (or set) is there already (its entry
+    is answered, nothing is added). The client's file name is only a default display name: it
+    never touches the filesystem."""
     limits = state.limits
     if len(data) > limits.max_upload_bytes:
         raise ImageTooLargeError(limits.upload_too_large)
+    if data[:4] == ZIP_MAGIC:
+        return _store_set(state, data, filename, name=name, species=species, licence=licence)
     display = (name or Path(filename or "").stem or "uploaded bark").strip()[:200]
     with state.upload_lock:
         existing = state.library.find_exemplar(data)
@@ -69,6 +77,28 @@ def store_upload(
             max_pixels=limits.max_upload_pixels,
         )
     return {"id": exemplar.id, "existing": False}
+
+
+def _store_set(state: AppState, data: bytes, filename: str | None, *, name, species, licence) -> dict:
+    """Add a zip of a scanned set (:meth:`~barkgen.library.Library.add_scanned_set`): named
+    after the set (``Bark001``) unless ``name`` is given."""
+    from barkgen.io import read_set_zip
+
+    where = Path(filename or "").name or "the zip"
+    # a zip of images barely compresses: its images are allowed a few times the upload's bytes
+    files = read_set_zip(data, max_unpacked_bytes=ZIP_UNPACK_FACTOR * state.limits.max_upload_bytes, where=where)
+    with state.upload_lock:
+        before = {e.id: e.maps for e in state.library.exemplars()}
+        exemplar = state.library.add_scanned_set(
+            files,
+            (name or "").strip()[:200] or None,
+            species=species or None,
+            licence=licence or None,
+            source="uploaded set",
+            max_pixels=state.limits.max_upload_pixels,
+            where=where,
+        )
+    return {"id": exemplar.id, "existing": before.get(exemplar.id) == exemplar.maps}
 
 
 def exemplar_details(state: AppState, exemplar_id: int) -> dict:

@@ -66,6 +66,8 @@ class JobSpec:
     set_name: str
     labels_in: bytes | None = None
     resume: tuple[int, np.ndarray] | None = None
+    #: the files of a scanned set whose colour is ``photo`` (by name), read when the job starts
+    set_files: dict[str, bytes] | None = None
 
 
 @dataclass(frozen=True)
@@ -130,7 +132,7 @@ def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
     """Run one job, reporting through ``send(message)``: :class:`Progress` messages, then
     :class:`Done` or :class:`Failed`."""
     from barkgen.errors import BarkgenError
-    from barkgen.io import decode_image
+    from barkgen.io import decode_image, scanned_set_from_files
     from barkgen.pipeline import (
         GenerateOptions,
         analysis_key,
@@ -154,7 +156,11 @@ def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
         photo = decode_image(spec.photo, spec.source)
         options = GenerateOptions(**spec.options)
         labels_in = decode_image(spec.labels_in, "labels") if spec.labels_in is not None else None
-        key = (spec.photo_hash, analysis_key(options))
+        # a scanned set's own maps make the material set (without material: the colour alone)
+        scan = None
+        if spec.set_files and options.material:
+            scan = scanned_set_from_files(spec.set_files, where=spec.source)
+        key = (spec.photo_hash, scan is not None, analysis_key(options))
         analysis = analyses.get(key)
         if analysis is None:
             # generate() given an analysis reports from the end of its analysis stage on
@@ -164,13 +170,14 @@ def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
                 options,
                 labels_in=labels_in,
                 progress=lambda done, total: progress(round(1000 * share * done / max(total, 1)), 1000),
+                scan=scan,
             )
             analyses[key] = analysis
             while len(analyses) > ANALYSES_KEPT:
                 analyses.popitem(last=False)
         else:
             analyses.move_to_end(key)
-        result = generate(photo, options, analysis=analysis, resume=spec.resume, progress=progress)
+        result = generate(photo, options, analysis=analysis, resume=spec.resume, progress=progress, scan=scan)
         files = encode_result(photo, result, spec)
     except BarkgenError as exc:
         send(Failed(spec.job_id, str(exc)))

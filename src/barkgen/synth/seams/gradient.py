@@ -256,7 +256,9 @@ def resolve_local(
     inside = (~piece_borders(refs, src.shape[:2], tile=tile, wrap=wrap)).astype(np.uint8)
     pad = band + 1 if tile else 0
     padded = np.pad(inside, pad, mode="wrap") if pad else inside
-    distance = cv2.distanceTransform(padded, cv2.DIST_L2, 3)
+    # the exact Euclidean distance (the 3x3 mask's falls short of ``band`` on some pixels that are
+    # ``band`` px inside, and they were blended)
+    distance = cv2.distanceTransform(padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     if pad:
         distance = distance[pad:-pad, pad:-pad]
     alpha = np.clip(distance / float(band), 0.0, 1.0).astype(np.float32)

@@ -26,6 +26,14 @@ function currentK() {
 // ---------------------------------------------------------------------------
 // Header, photo, earlier results
 
+// a scanned set's map kinds (barkgen.io.recognise_set) as people say them
+const MAP_NAMES = {
+  normal_gl: "normal", normal_dx: "normal (DirectX)", normal: "normal", height: "height",
+  roughness: "roughness", gloss: "gloss", ao: "AO", metalness: "metalness", opacity: "opacity",
+  arm: "AO/roughness/metal", cavity: "cavity",
+};
+const mapName = (kind) => MAP_NAMES[kind] || kind;
+
 function renderExemplar(ex) {
   const name = ex.name || `Photo #${ex.id}`;
   document.title = `barkgen — ${name}`;
@@ -36,8 +44,12 @@ function renderExemplar(ex) {
     ex.width && ex.height ? `${ex.width} × ${ex.height} px` : null,
     ex.licence ? `licence: ${ex.licence}` : null,
     ex.source ? `source: ${ex.source}` : null,
+    ex.maps && ex.maps.length ? `scanned set: colour + ${ex.maps.map(mapName).join(", ")}` : null,
   ].filter(Boolean);
   $("exemplar-meta").textContent = meta.join(" · ");
+  if (ex.maps && ex.maps.length) {
+    $("material-hint").textContent = "the set's own maps, carried with the colour + 3D trunk";
+  }
   const photo = $("exemplar-photo");
   photo.src = ex.photo_url;
   photo.alt = `Bark photo: ${name}`;

@@ -73,7 +73,7 @@ function setupUpload() {
     showError(errorBox, "");
     const file = fileInput.files[0];
     if (!file) {
-      showError(errorBox, "Choose a photo first.");
+      showError(errorBox, "Choose a photo (or a set's zip) first.");
       fileInput.focus();
       return;
     }
@@ -91,7 +91,7 @@ function setupUpload() {
     try {
       const answer = await api.uploadExemplar(data, (fraction) => {
         progress.value = fraction;
-        status.textContent = fraction < 1 ? `Uploading… ${Math.round(fraction * 100)} %` : "Checking the photo…";
+        status.textContent = fraction < 1 ? `Uploading… ${Math.round(fraction * 100)} %` : `Checking the ${file.name.toLowerCase().endsWith(".zip") ? "set" : "photo"}…`;
       });
       status.textContent = answer.existing ? "Already in the library — opening it…" : "Uploaded — opening…";
       location.assign(`/exemplars/${answer.id}${answer.existing ? "?existing=1" : ""}`);
