@@ -470,3 +470,35 @@ ResumeOption = Annotated[
         "--save-levels, painted with the same grey values).",
     ),
 ]
+FlowOption = Annotated[
+    Optional[Path],
+    typer.Option(
+        "--flow",
+        metavar="FIELD",
+        help="Orientation field of the output's size: .npy of angles in degrees, counter-clockwise on screen, "
+        "by which the photo is turned at each pixel (0 = as in the photo; an upright fissure then runs at 90 + "
+        "angle), or a grey image (mid-grey 0, black -180, white about +180).",
+    ),
+]
+FlowScaleOption = Annotated[
+    Optional[Path],
+    typer.Option(
+        "--flow-scale",
+        metavar="FIELD",
+        help="Scale field of the output's size: .npy of scales (1 = the photo's; 2 = features twice as large; "
+        "0.25 to 4), or a grey image (black 0.25, mid-grey 1, white 4).",
+    ),
+]
+
+
+def read_fields(flow: Path | None, flow_scale: Path | None) -> dict:
+    """``--flow`` and ``--flow-scale`` read (:func:`barkgen.io.read_field`), as keyword arguments of
+    the engine (empty when neither is given)."""
+    from barkgen.io import read_field
+
+    fields = {}
+    if flow is not None:
+        fields["flow"] = read_field(flow, "flow")
+    if flow_scale is not None:
+        fields["flow_scale"] = read_field(flow_scale, "flow scale")
+    return fields

@@ -15,6 +15,8 @@ from barkgen.cli._common import (
     BitsOption,
     ExrHeightOption,
     ExtraOption,
+    FlowOption,
+    FlowScaleOption,
     LibraryOption,
     NameOption,
     PresetOption,
@@ -28,6 +30,7 @@ from barkgen.cli._common import (
     parse_extras,
     previous_run_files,
     progress_bar,
+    read_fields,
     read_resume,
     refuse_input_folder,
     refuse_inputs,
@@ -69,6 +72,8 @@ def generate_command(
             "aspect). Implies --material.",
         ),
     ] = None,
+    flow: FlowOption = None,
+    flow_scale: FlowScaleOption = None,
     quiet: QuietOption = False,
     *,
     options: GenerateOptions,
@@ -106,10 +111,11 @@ def generate_command(
     extras = {name: read_image(p) for name, p in extra_paths.items()}
     label_map = read_image(labels) if labels is not None else None
     edited = read_resume(resume) if resume is not None else None
+    fields = read_fields(flow, flow_scale)
     describe = functools.partial(stage_at, material=options.material)
     with progress_bar(not quiet, "generating", describe) as progress:
         result = generate(
-            image, options, extra=extras, labels_in=label_map, resume=edited, progress=progress, scan=scan
+            image, options, extra=extras, labels_in=label_map, resume=edited, progress=progress, scan=scan, **fields
         )
         files = encode_generate(
             image, result, str(src), name=name, bits=bits, preset=preset, sizes=widths, exr_height=exr_height

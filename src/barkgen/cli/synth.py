@@ -3,6 +3,7 @@ laitoch2018 §3.4) and ``apply-reference`` (a saved reference map re-applied, §
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -15,6 +16,8 @@ from barkgen.cli._common import (
     BlendOption,
     ExemplarWrapsOption,
     ExtraOption,
+    FlowOption,
+    FlowScaleOption,
     MaxMemoryOption,
     OutputOption,
     QuietOption,
@@ -28,6 +31,7 @@ from barkgen.cli._common import (
     check_target,
     parse_extras,
     progress_bar,
+    read_fields,
     refuse_input_folder,
     refuse_targets,
     write_outputs,
@@ -51,9 +55,12 @@ def synth_command(
     threads: ThreadsOption = None,
     exemplar_wraps: ExemplarWrapsOption = "auto",
     blend: BlendOption = "gradient",
+    flow: FlowOption = None,
+    flow_scale: FlowScaleOption = None,
     quiet: QuietOption = False,
 ) -> None:
-    """Synthesize a new bark texture of any size from one exemplar photo."""
+    """Synthesize a new bark texture of any size from one exemplar photo (along an orientation
+    and scale field with --flow / --flow-scale)."""
     from barkgen.data import sample_exemplar_path
     from barkgen.io import read_image
     from barkgen.synth import SynthesisConfig, synthesize
@@ -65,6 +72,7 @@ def synth_command(
     src = exemplar if exemplar is not None else sample_exemplar_path()
     image = read_image(src)
     extras = {name: read_image(p) for name, p in extra_paths.items()}
+    fields = read_fields(flow, flow_scale)
     config = SynthesisConfig(threads=threads, max_memory=budget, blend=blend)
     with progress_bar(not quiet, "synthesizing") as progress:
         result = synthesize(
@@ -76,6 +84,7 @@ def synth_command(
             config=config,
             progress=progress,
             exemplar_wrap=exemplar_wraps,
+            **fields,
         )
     _write_result(result, output, bits, save_reference, quiet)
 
@@ -119,10 +128,11 @@ def tbn_command(
     threads: ThreadsOption = None,
     exemplar_wraps: ExemplarWrapsOption = "auto",
     blend: BlendOption = "gradient",
+    flow: FlowOption = None,
+    flow_scale: FlowScaleOption = None,
     quiet: QuietOption = False,
 ) -> None:
     """Texture-by-numbers: synthesize bark that follows a target label map."""
-    import dataclasses
 
     from barkgen.io import read_image
     from barkgen.synth import TBN_CONFIG, texture_by_numbers
@@ -153,6 +163,7 @@ def tbn_command(
             progress=progress,
             debug=_debug_writer(debug_dir),
             exemplar_wrap=exemplar_wraps,
+            **read_fields(flow, flow_scale),
         )
     _write_result(result, output, bits, save_reference, quiet)
 
@@ -162,14 +173,26 @@ def apply_reference_command(
     map_path: Annotated[Path, typer.Argument(metavar="MAP", help="Map of the exemplar's size.")],
     output: OutputOption,
     bits: Annotated[Optional[int], typer.Option("--bits", help="8 or 16. Default: the map's.")] = None,
+    map_kind: Annotated[
+        str,
+        typer.Option(
+            "--map-kind",
+            help="What MAP holds, for a reference map made along a flow field (its copies of the "
+            "exemplar are turned): image (resampled), labels (nearest pixel) or normals (turned with "
+            "the bark). A plain reference map copies any map exactly.",
+        ),
+    ] = "image",
 ) -> None:
     """Re-apply a saved reference map to another map of the exemplar (height, normal, ...)."""
-    from barkgen.io import read_image, read_reference, write_png
-    from barkgen.synth import apply_references
+    from barkgen.io import read_image, read_reference, read_reference_orientation, write_png
+    from barkgen.synth import OrientedExemplar, apply_references
 
     check_bits(bits)
     check_target(output, "output")
+    if map_kind not in ("image", "labels", "normals"):
+        raise InvalidInputError(f"--map-kind must be image, labels or normals, not {map_kind!r}")
     refs, ex_shape = read_reference(reference)
+    orientation = read_reference_orientation(reference)
     image = read_image(map_path)
     # apply_references only sees that the references fit inside the map; the file also
     # records the exemplar's size, which a map of another (larger) size must not pass
@@ -178,6 +201,8 @@ def apply_reference_command(
             f"{map_path} is {image.shape[1]}x{image.shape[0]} px but the reference map was made for "
             f"a {ex_shape[1]}x{ex_shape[0]} exemplar"
         )
+    if orientation is not None:  # made along a flow field: the map's turned copies
+        image = OrientedExemplar.from_dict(orientation).atlas(image, kind=map_kind)
     write_png(output, apply_references(refs, image), bits=bits)
 
 
@@ -220,7 +245,12 @@ def _write_result(result, output: Path, bits: int | None, save_reference: Path |
     files = {output: encode_png(result.image, bits=bits)}
     files.update({_extra_output(output, name): encode_png(arr) for name, arr in result.extras.items()})
     if save_reference is not None:
-        files[save_reference] = encode_reference(result.references, result.exemplar_shape)
+        oriented = result.orientation
+        files[save_reference] = (
+            encode_reference(result.references, result.exemplar_shape)
+            if oriented is None
+            else encode_reference(result.references, oriented.exemplar_shape, orientation=oriented.to_dict())
+        )
     write_outputs(files)
     if not quiet:
         t = result.timings

@@ -2,6 +2,7 @@
 written as one step (the only place where barkgen touches files)."""
 
 from barkgen.io.bilayer import encode_bilayer_model, read_bilayer_model, write_bilayer_model
+from barkgen.io.fields import read_field
 from barkgen.io.folders import (
     check_replaceable,
     file_record,
@@ -31,7 +32,7 @@ from barkgen.io.material import (
     find_material,
     read_material,
 )
-from barkgen.io.references import encode_reference, read_reference, write_reference
+from barkgen.io.references import encode_reference, read_reference, read_reference_orientation, write_reference
 from barkgen.io.scanned import (
     IMAGE_EXTENSIONS,
     ScannedSet,
@@ -90,7 +91,9 @@ __all__ = [
     "read_image",
     "read_image_bytes",
     "read_png_text",
+    "read_field",
     "read_reference",
+    "read_reference_orientation",
     "to_bits",
     "write_bytes_atomic",
     "commit_staged",

@@ -7,6 +7,7 @@ size it was made for (laitoch2018 §3.3.1, "image of references").
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 
@@ -17,9 +18,12 @@ from barkgen.io.images import encode_png, read_image, read_png_text
 from barkgen.io.staging import write_bytes_atomic
 
 _KEY = "barkgen-reference"
+_ORIENTATION_KEY = "barkgen-orientation"
 
 
-def encode_reference(references: np.ndarray, exemplar_shape: tuple[int, int]) -> bytes:
+def encode_reference(
+    references: np.ndarray, exemplar_shape: tuple[int, int], *, orientation: dict | None = None
+) -> bytes:
     """A reference map as the bytes of a 16-bit PNG.
 
     Red is the column, green the row, blue 0; the exemplar's size goes into a tEXt chunk
@@ -31,6 +35,10 @@ def encode_reference(references: np.ndarray, exemplar_shape: tuple[int, int]) ->
         The exemplar ``(row, col)`` each output pixel copies.
     exemplar_shape : (int, int)
         ``(h, w)`` of the exemplar, at most 65535 a side.
+    orientation : dict, optional
+        Along a flow field, the atlas of the exemplar's turned copies the references point
+        into (:meth:`barkgen.synth.OrientedExemplar.to_dict`), recorded in a
+        ``barkgen-orientation`` tEXt chunk (:func:`read_reference_orientation`).
 
     Returns
     -------
@@ -49,12 +57,15 @@ def encode_reference(references: np.ndarray, exemplar_shape: tuple[int, int]) ->
     h, w = int(exemplar_shape[0]), int(exemplar_shape[1])
     if refs.ndim != 3 or refs.shape[2] != 2:
         raise InvalidInputError(f"reference map must have shape (H, W, 2), not {refs.shape}")
-    if max(h, w) > 65535:
+    if max(h, w) > 65535 or (refs.size and refs.max() > 65535):
         raise InvalidInputError("exemplars wider or taller than 65535 px cannot be saved as references")
     rgb = np.zeros(refs.shape[:2] + (3,), np.uint16)
     rgb[:, :, 0] = refs[:, :, 1]
     rgb[:, :, 1] = refs[:, :, 0]
-    return encode_png(rgb, text={_KEY: f"exemplar={w}x{h}"})
+    text = {_KEY: f"exemplar={w}x{h}"}
+    if orientation is not None:
+        text[_ORIENTATION_KEY] = json.dumps(orientation, separators=(",", ":"))
+    return encode_png(rgb, text=text)
 
 
 def write_reference(path: str | os.PathLike, references: np.ndarray, exemplar_shape: tuple[int, int]) -> Path:
@@ -119,3 +130,22 @@ def read_reference(path: str | os.PathLike) -> tuple[np.ndarray, tuple[int, int]
         except ValueError:
             shape = None
     return refs, shape
+
+
+def read_reference_orientation(path: str | os.PathLike) -> dict | None:
+    """The atlas of turned copies a reference map made along a flow field points into (what
+    :func:`encode_reference` recorded; :meth:`barkgen.synth.OrientedExemplar.from_dict` reads
+    it), or None for a plain reference map.
+
+    Raises
+    ------
+    ImageReadError
+        A record that is not JSON.
+    """
+    text = read_png_text(Path(path)).get(_ORIENTATION_KEY)
+    if text is None:
+        return None
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError:
+        raise ImageReadError(f"{path}: its orientation record is damaged") from None

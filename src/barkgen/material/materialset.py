@@ -251,6 +251,29 @@ class MaterialSet:
             opacity=None if self.opacity is None else resize(self.opacity),
         )
 
+    def oriented(self, oriented) -> MaterialSet:
+        """The set as the atlas of an exemplar's turned and scaled copies
+        (:class:`barkgen.synth.OrientedExemplar`, a synthesis along a flow field): every map cut
+        as the colour is, the normals turned with their copy, the height times its copy's scale
+        (so the slopes, and the normals, stay); the atlas does not wrap."""
+        scale = np.repeat(np.asarray(oriented.scales, np.float32), oriented.pitch)[:, None]
+
+        def atlas(values):
+            return None if values is None else oriented.atlas(np.asarray(values, np.float32))
+
+        return dataclasses.replace(
+            self,
+            color=atlas(self.color),
+            height=atlas(self.height) * scale,
+            normals=oriented.atlas(np.asarray(self.normals, np.float32), kind="normals"),
+            ao=atlas(self.ao),
+            roughness=atlas(self.roughness),
+            ao_cavities=atlas(self.ao_cavities),
+            metalness=atlas(self.metalness),
+            opacity=atlas(self.opacity),
+            wrap=(False, False),
+        )
+
     @property
     def wraps(self) -> tuple[bool, bool]:
         """``(rows, columns)``: the axes along which the maps wrap."""

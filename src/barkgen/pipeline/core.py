@@ -19,7 +19,7 @@ import time
 from collections.abc import Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -36,7 +36,7 @@ from barkgen.synth import resolve_exemplar_wrap
 if TYPE_CHECKING:
     from barkgen.io import ScannedSet
     from barkgen.material import MaterialSet
-    from barkgen.synth import AnalysisCache
+    from barkgen.synth import AnalysisCache, OutputLinks
 
 #: the pyramid level texture-by-numbers takes up each strategy's label-map references at
 #: (measured on the ten bark photos: joint at level 0/1/2 gave oak coherence 1.21/1.28/1.35x
@@ -64,6 +64,9 @@ class GenerateResult:
         JSON-ready parameters, label areas and timings.
     material : MaterialSet or None
         With ``options.material``, the output's :class:`~barkgen.material.MaterialSet`.
+    orientation : OrientedExemplar or None
+        Along a flow field, the atlas of the photo's turned copies that ``references`` point
+        into (:class:`barkgen.synth.OrientedExemplar`).
     """
 
     texture: np.ndarray
@@ -74,6 +77,7 @@ class GenerateResult:
     label_levels: list
     report: dict = field(default_factory=dict)
     material: MaterialSet | None = None
+    orientation: Any = None
 
 
 #: bytes per output pixel of the material stage (height, normals, AO, roughness, albedo and the
@@ -318,6 +322,9 @@ def generate(
     progress: ProgressCallback | None = None,
     analysis: PhotoAnalysis | None = None,
     scan: ScannedSet | None = None,
+    flow: np.ndarray | None = None,
+    flow_scale: np.ndarray | None = None,
+    links: OutputLinks | None = None,
 ) -> GenerateResult:
     """Turn a bark photo into new bark of ``options.size`` (laitoch2018 Figure 1.2).
 
@@ -343,6 +350,15 @@ def generate(
         A scanned set whose colour is ``photo``: the output's material set carries the scan's
         own maps (normals as unit vectors, AO, roughness, metalness, opacity, its relief)
         through the reference map instead of estimating them (needs ``options.material``).
+    flow, flow_scale : ndarray, optional
+        ``(H, W)`` orientation field (degrees, counter-clockwise on screen: the photo's turn at
+        each output pixel; an upright fissure runs at 90° + angle) and scale field (1 = the
+        photo's): the label map (engine and joint strategies) and the texture follow them
+        (mazzolini2012 §3.1.3; :func:`barkgen.synthesize`), the material's normals turned with
+        the bark.
+    links : OutputLinks, optional
+        Output pixels that take the references of others while the solvers run (a texture
+        atlas's gutters; :class:`barkgen.synth.OutputLinks`, with a flow field).
 
     Returns
     -------
@@ -369,6 +385,7 @@ def generate(
     t1 = time.perf_counter()
     timings["analysis"] = analysis.seconds
     wrap = resolve_exemplar_wrap(options.exemplar_wrap, photo)
+    along = flow is not None or flow_scale is not None
 
     with thread_budget(options.threads):  # every pool sized, BLAS at one thread
         label_result = synthesize_label_map(
@@ -383,6 +400,9 @@ def generate(
             cache=analysis.cache,
             photo=photo,
             exemplar_wrap=wrap,
+            flow=flow,
+            flow_scale=flow_scale,
+            links=links,
         )
         t2 = time.perf_counter()
         timings["labels_out"] = t2 - t1
@@ -400,7 +420,7 @@ def generate(
             label_weight=options.label_weight,
             feature_weight=options.feature_weight,
             init=init,
-            init_level=_INIT_LEVELS.get(options.strategy, 0),
+            init_level=0 if along else _INIT_LEVELS.get(options.strategy, 0),
             tile=options.tile,
             seed=options.seed,
             extra=extra,
@@ -408,6 +428,9 @@ def generate(
             progress=stage_progress(progress, "texture", options.material),
             cache=analysis.cache,
             exemplar_wrap=wrap,
+            flow=flow,
+            flow_scale=flow_scale,
+            links=links,
         )
         t3 = time.perf_counter()
         timings["texture"] = t3 - t2
@@ -418,8 +441,11 @@ def generate(
             source = analysis.material
             if source is None:
                 source = _photo_material(photo, labels_in, options, wrap, scan)
+            source_wrap = wrap
+            if result.orientation is not None:  # the photo's maps cut as its turned copies
+                source, source_wrap = source.oriented(result.orientation), (False, False)
             material = transfer_material(
-                source, result.references, tile=options.tile, exemplar_wrap=wrap, blend=options.blend
+                source, result.references, tile=options.tile, exemplar_wrap=source_wrap, blend=options.blend
             )
             timings["material"] = time.perf_counter() - t3
             if progress:
@@ -437,6 +463,7 @@ def generate(
         label_levels=label_result.levels,
         report=report,
         material=material,
+        orientation=result.orientation,
     )
 
 
@@ -469,6 +496,13 @@ def _run_report(photo, options: GenerateOptions, wrap, labels_in, label_result, 
         "light": None
         if material is None or material.light is None
         else [material.light.azimuth, material.light.elevation],
+        "flow": None
+        if result.orientation is None
+        else {
+            "copies": result.orientation.n_copies,
+            "angles": sorted(set(result.orientation.angles)),
+            "scales": sorted(set(result.orientation.scales)),
+        },
         "timings_s": {name: round(value, 3) for name, value in timings.items()},
     }
 

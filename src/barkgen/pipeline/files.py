@@ -100,7 +100,12 @@ def encode_generate(
         "texture.png": partial(encode_png, result.texture, bits=bits),
         "labels_in.png": partial(encode_png, result.labels_in),
         "labels_out.png": partial(encode_png, result.labels_out),
-        "reference.png": partial(encode_reference, result.references, photo.shape[:2]),
+        "reference.png": partial(
+            encode_reference,
+            result.references,
+            photo.shape[:2],
+            orientation=None if result.orientation is None else result.orientation.to_dict(),
+        ),
         "preview.png": lambda: encode_png(preview_sheet(photo, result)),
     }
     jobs.update({f"{extra}.png": partial(encode_png, arr) for extra, arr in result.extras.items()})

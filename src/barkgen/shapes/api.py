@@ -17,7 +17,7 @@ from barkgen.pyramid import count_levels, level_shape
 from barkgen.shapes.binary import ShapeConfig
 from barkgen.shapes.layered import automatic_layer_order
 from barkgen.shapes.patches import check_rotations
-from barkgen.synth import AnalysisCache, label_pyramid
+from barkgen.synth import AnalysisCache, OutputLinks, label_pyramid
 
 #: the label-map strategies (see :mod:`barkgen.shapes`)
 STRATEGIES = ("engine", "joint", "layered")
@@ -159,6 +159,9 @@ def synthesize_label_map(
     photo: np.ndarray | None = None,
     exemplar_wrap: str | bool | tuple[bool, bool] = "auto",
     max_memory: int | None = None,
+    flow: np.ndarray | None = None,
+    flow_scale: np.ndarray | None = None,
+    links: OutputLinks | None = None,
 ) -> LabelMapResult:
     """Synthesize a new label map of ``size`` from the exemplar's ``label_map`` (laitoch2018 §3.6).
 
@@ -197,6 +200,14 @@ def synthesize_label_map(
         Refuse the job, before any work, when its estimated peak memory
         (:func:`estimate_label_map_memory`) exceeds this many bytes (None: what the machine
         has free).
+    flow, flow_scale : ndarray, optional
+        ``(H, W)`` orientation (degrees, counter-clockwise on screen) and scale fields the
+        label map follows (engine and joint strategies; :func:`barkgen.synthesize`'s): its
+        references then point into the atlas of the exemplar's turned copies, and it has no
+        coarser levels.
+    links : OutputLinks, optional
+        Along a flow field: output pixels that take the references of others (a texture
+        atlas's gutters, :class:`barkgen.synth.OutputLinks`).
 
     Returns
     -------
@@ -239,7 +250,28 @@ def synthesize_label_map(
         on_level(*start)
     t0 = time.perf_counter()
     order_values = references = None
-    if strategy in ("engine", "joint"):
+    if (flow is not None or flow_scale is not None) and strategy == "layered":
+        raise InvalidInputError("the layered strategy does not follow a flow field; use the engine or joint strategy")
+    if flow is not None or flow_scale is not None:
+        from barkgen.shapes.flow import codes_along_flow
+
+        if start is not None:
+            raise InvalidInputError("a label map along a flow field cannot be resumed from an edited level yet")
+        out, references = codes_along_flow(
+            codes,
+            palette.size,
+            out_shape,
+            flow,
+            flow_scale,
+            tile=tile,
+            seed=int(seed),
+            photo=photo,
+            exemplar_wrap=_wrap(exemplar_wrap, codes, photo),
+            progress=progress,
+            cache=cache,
+            links=links,
+        )
+    elif strategy in ("engine", "joint"):
         from barkgen.shapes.engine import synthesize_codes
 
         out, references = synthesize_codes(

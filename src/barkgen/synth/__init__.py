@@ -19,6 +19,8 @@ guide channels, guidance, initialisation).
 from barkgen.synth._analysis import AnalysisCache, LevelAnalysis, analyse_exemplar, matching_features
 from barkgen.synth._config import SynthesisConfig
 from barkgen.synth._edges import check_wrap_mode, exemplar_wraps, resolve_exemplar_wrap
+from barkgen.synth._flow import FLOW_SCALE_RANGE, OrientedExemplar, check_flow, orient_exemplar
+from barkgen.synth._links import OutputLinks
 from barkgen.synth._occurrence import LabelBalance
 from barkgen.synth._setup import estimate_memory
 from barkgen.synth._solver import DebugCallback, SynthesisResult, solve, upsample_references
@@ -39,12 +41,15 @@ from barkgen.synth.seams.gradient import (
 )
 
 __all__ = [
+    "FLOW_SCALE_RANGE",
     "TBN_CONFIG",
     "AnalysisCache",
     "DebugCallback",
     "Guidance",
     "LabelBalance",
     "LevelAnalysis",
+    "OrientedExemplar",
+    "OutputLinks",
     "SynthesisConfig",
     "SynthesisResult",
     "analyse_exemplar",
@@ -52,6 +57,7 @@ __all__ = [
     "apply_references",
     "blend_seams",
     "check_blend",
+    "check_flow",
     "check_wrap_mode",
     "cut_straight_seams",
     "estimate_memory",
@@ -62,6 +68,7 @@ __all__ = [
     "label_pyramid",
     "level_guide",
     "matching_features",
+    "orient_exemplar",
     "piece_borders",
     "resolve_continuous",
     "resolve_local",

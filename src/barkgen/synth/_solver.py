@@ -25,6 +25,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -35,6 +36,7 @@ from barkgen.pyramid import level_shape
 from barkgen.synth._analysis import AnalysisCache, LevelAnalysis
 from barkgen.synth._config import SynthesisConfig
 from barkgen.synth._edges import map_wraps
+from barkgen.synth._links import OutputLinks
 from barkgen.synth._occurrence import LabelBalance, jitter_references, occurrence_penalty
 from barkgen.synth.guides.guidance import (
     NO_GUIDE_EX,
@@ -80,6 +82,10 @@ class SynthesisResult:
         as requested.
     timings
         seconds spent in ``analysis`` and ``synthesis``.
+    orientation
+        along a flow field, the atlas of the exemplar's turned and scaled copies the references
+        point into (:class:`barkgen.synth.OrientedExemplar`; ``exemplar_shape`` is its shape);
+        else None.
     """
 
     image: np.ndarray
@@ -92,6 +98,7 @@ class SynthesisResult:
     timings: dict[str, float] = field(default_factory=dict)
     extra_wraps: dict[str, tuple[bool, bool]] = field(default_factory=dict)
     blend: str = "none"
+    orientation: Any = None
 
 
 #: debug(name, image): receives intermediate images (uint8 RGB) when given
@@ -142,6 +149,9 @@ class LevelContext:
     seam_image
         ``(h_l, w_l, S)``: what the seam costs compare, as an image (the first ``seam_channels``
         feature channels).
+    links
+        output pixels that take the references of others (a texture atlas's gutters,
+        :class:`~barkgen.synth._links.OutputLinks`), or None.
     """
 
     analysis: LevelAnalysis
@@ -153,6 +163,13 @@ class LevelContext:
     tile: bool
     guide: LevelGuidance
     seam_image: np.ndarray
+    links: OutputLinks | None = None
+
+    def relink(self, refs: np.ndarray) -> np.ndarray:
+        """``refs`` with every linked pixel given its source's reference (in place)."""
+        if self.links is not None:
+            self.links.apply(refs, self.level, self.analysis.grid)
+        return refs
 
 
 def _level_context(
@@ -165,6 +182,7 @@ def _level_context(
     tile: bool,
     guidance: Guidance | None,
     seam_channels: int | None,
+    links: OutputLinks | None = None,
 ) -> LevelContext:
     """The :class:`LevelContext` of level ``lvl``: its guide (:func:`level_guidance`) and its
     seam image made."""
@@ -172,7 +190,7 @@ def _level_context(
     seam_image = np.ascontiguousarray(la.features[:, :seam_channels]).reshape(
         la.height, la.width, -1
     )  # what the seam costs compare, as an image
-    return LevelContext(la, lvl, n_levels, shape, config, rng, tile, guide, seam_image)
+    return LevelContext(la, lvl, n_levels, shape, config, rng, tile, guide, seam_image, links)
 
 
 def _initial_state(ctx: LevelContext, guidance: Guidance | None) -> np.ndarray:
@@ -306,6 +324,7 @@ def _iterate(
             new,
         )
         refs, new = new, refs
+        ctx.relink(refs)
         if config.max_copy < 1.0 and (lvl > 0 or step < len(schedule) - 1):
             # (cuts act through the following iterations, none after the very last one)
             limit_copies(refs, la, config.max_copy * la.height * la.width, forbid, tile, rng)
@@ -408,7 +427,7 @@ def _solve_level(
             refs = _move_seams(ctx, refs, forbid)
     if ctx.guide.guided and lvl == 0:
         refs = enforce_labels(refs, la.grid, ctx.guide, cleanup_passes, tile)
-    return refs
+    return ctx.relink(refs)
 
 
 def solve(
@@ -430,6 +449,7 @@ def solve(
     stop_level: int = 0,
     exemplar_wrap: tuple[bool, bool] = (False, False),
     seam_channels: int | None = None,
+    links: OutputLinks | None = None,
 ) -> SynthesisResult:
     """The coarse-to-fine discrete solver shared by :func:`synthesize` and texture-by-numbers
     (mazzolini2012 §4.1, laitoch2018 §3.3); every argument is a keyword.
@@ -450,6 +470,8 @@ def solve(
     (``seams._kernels.refine_seams``) and, at the finest levels, graph cuts of the straight seams
     (:mod:`barkgen.synth.seams.cuts`) move the borders between pieces onto low-error paths; their
     seam cost compares the first ``seam_channels`` feature channels (the colour; None: all).
+    ``links``: output pixels that take the references of others, after every iteration of every
+    level (a texture atlas's gutters, :class:`~barkgen.synth._links.OutputLinks`).
     """
     ex = exemplar
     if not 0 <= stop_level < n_levels:
@@ -489,7 +511,7 @@ def solve(
                     f"level{lvl}_exemplar",
                     level_image(ex, np.arange(la.height * la.width).reshape(la.height, la.width), lvl),
                 )
-            ctx = _level_context(la, lvl, n_levels, shape, config, rng, tile, guidance, seam_channels)
+            ctx = _level_context(la, lvl, n_levels, shape, config, rng, tile, guidance, seam_channels, links)
             if start is not None and lvl == start[0]:
                 refs = np.ascontiguousarray(start[1], dtype=np.int32)
                 forbid = np.full(shape, -1, np.int64)
@@ -503,7 +525,7 @@ def solve(
                 assert forbid is not None and coarser is not None  # set with refs, on the level above
                 refs, forbid = _upsampled_state(ctx, refs, forbid, coarser)
             refs = _solve_level(
-                ctx, refs, forbid, balance, guidance.cleanup_passes if guidance is not None else 0, tick
+                ctx, ctx.relink(refs), forbid, balance, guidance.cleanup_passes if guidance is not None else 0, tick
             )
             if debug is not None:
                 debug(f"level{lvl}_result", level_image(ex, refs, lvl))

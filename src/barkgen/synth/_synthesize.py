@@ -11,8 +11,10 @@ from collections.abc import Mapping
 import numpy as np
 
 from barkgen._shared.arrays import ProgressCallback
+from barkgen._shared.checks import parse_output_shape
 from barkgen.errors import InvalidInputError
 from barkgen.synth._config import SynthesisConfig
+from barkgen.synth._links import OutputLinks
 from barkgen.synth._setup import set_up
 from barkgen.synth._solver import SynthesisResult
 
@@ -27,6 +29,9 @@ def synthesize(
     config: SynthesisConfig | None = None,
     progress: ProgressCallback | None = None,
     exemplar_wrap: str | bool | tuple[bool, bool] = "auto",
+    flow: np.ndarray | None = None,
+    flow_scale: np.ndarray | None = None,
+    links: OutputLinks | None = None,
 ) -> SynthesisResult:
     """Synthesize a new texture of ``size`` = ``(height, width)`` from ``exemplar``.
 
@@ -56,12 +61,29 @@ def synthesize(
         ``"auto"``: the exemplar is used as a torus along each axis along which it tiles itself
         (:func:`barkgen.synth.exemplar_wraps`); ``"yes"``, ``"no"``, or a
         ``(rows, columns)`` pair of bools.
+    flow : ndarray, optional
+        ``(H, W)`` orientation field: at each output pixel, the angle in degrees,
+        counter-clockwise as seen on screen, by which the exemplar is turned (0 = as it is; an
+        upright fissure then runs at 90° + angle). The matching, the k-coherence shifts and
+        the up-sampling happen in that local frame (:mod:`barkgen.synth._flow`: the solver runs
+        on an atlas of turned copies, as texture-by-numbers with one label per copy, with this
+        function's config); a normal map among ``extra`` (a name holding ``normal``) has its
+        tangent components turned.
+    flow_scale : ndarray, optional
+        ``(H, W)`` scale field (1 = the exemplar's scale; 2 = features twice as large),
+        between 0.25 and 4.
+    links : OutputLinks, optional
+        Output pixels that take the references of others while the solver runs: a texture
+        atlas's gutters, so that texels on either side of a chart border are matched across it
+        on the surface (:class:`barkgen.synth.OutputLinks`).
 
     Returns
     -------
     SynthesisResult
         The image (same dtype and channels as the exemplar), the ``(H, W, 2)`` references and
-        the extra maps, resolved in the gradient domain.
+        the extra maps, resolved in the gradient domain. Along a flow field the references
+        point into the atlas of turned copies, ``result.orientation``
+        (:meth:`~barkgen.synth.OrientedExemplar.atlas` turns any map of the exemplar into it).
 
     Raises
     ------
@@ -85,9 +107,26 @@ def synthesize(
     >>> result.image.shape, result.references.shape
     ((96, 128, 3), (96, 128, 2))
     """
+    if flow is not None or flow_scale is not None:
+        from barkgen.synth._tbn import along_flow
+
+        return along_flow(
+            exemplar,
+            None,
+            parse_output_shape(size),
+            flow,
+            flow_scale,
+            seed=seed,
+            extra=extra,
+            exemplar_wrap=exemplar_wrap,
+            tile=tile,
+            config=config or SynthesisConfig(),
+            progress=progress,
+            links=links,
+        )
     config = config or SynthesisConfig()
     setup = set_up(exemplar, size, seed=seed, extra=extra, config=config, tile=tile, exemplar_wrap=exemplar_wrap)
-    return setup.solve(progress=progress)
+    return setup.solve(progress=progress, links=links)
 
 
 def apply_references(references: np.ndarray, image: np.ndarray) -> np.ndarray:

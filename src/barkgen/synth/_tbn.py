@@ -31,6 +31,7 @@ from barkgen.pyramid import count_levels, gaussian_pyramid, level_shape
 from barkgen.synth._analysis import AnalysisCache, matching_features
 from barkgen.synth._config import SynthesisConfig
 from barkgen.synth._edges import resolve_exemplar_wrap
+from barkgen.synth._links import OutputLinks
 from barkgen.synth._setup import Front, set_up, validate_inputs
 from barkgen.synth._solver import DebugCallback, SynthesisResult
 from barkgen.synth.guides.channels import (
@@ -129,6 +130,9 @@ def texture_by_numbers(
     debug: DebugCallback | None = None,
     cache: AnalysisCache | None = None,
     exemplar_wrap: str | bool | tuple[bool, bool] = "auto",
+    flow: np.ndarray | None = None,
+    flow_scale: np.ndarray | None = None,
+    links: OutputLinks | None = None,
 ) -> SynthesisResult:
     """Synthesize a texture that follows ``target_labels`` from ``exemplar`` and its labels.
 
@@ -172,11 +176,20 @@ def texture_by_numbers(
     exemplar_wrap : {"auto", "yes", "no"} or tuple of bool, optional
         The exemplar is used as a torus along the axes it tiles along
         (:func:`barkgen.synth.exemplar_wraps`).
+    flow, flow_scale : ndarray, optional
+        ``(H, W)`` orientation field (degrees, counter-clockwise on screen: the exemplar's turn
+        at each output pixel) and scale field (1 = the exemplar's): the texture is synthesized
+        in that local frame (:mod:`barkgen.synth._flow`); the labels then are the pairs (label,
+        turned copy), so the fields' turns and scales times the labels must stay under 64.
+    links : OutputLinks, optional
+        Output pixels that take the references of others while the solver runs (a texture
+        atlas's gutters: :class:`barkgen.synth.OutputLinks`).
 
     Returns
     -------
     SynthesisResult
-        Image, references and extras.
+        Image, references and extras; along a flow field, the references point into the atlas
+        of turned copies (``result.orientation``).
 
     Raises
     ------
@@ -193,6 +206,27 @@ def texture_by_numbers(
     See ``examples/03_texture_by_numbers.py``.
 
     """
+    if flow is not None or flow_scale is not None:
+        return along_flow(
+            exemplar,
+            (exemplar_labels, target_labels),
+            np.shape(target_labels)[:2],
+            flow,
+            flow_scale,
+            seed=seed,
+            extra=extra,
+            exemplar_wrap=exemplar_wrap,
+            label_weight=label_weight,
+            feature_weight=feature_weight,
+            init=init,
+            init_level=init_level,
+            tile=tile,
+            config=config,
+            progress=progress,
+            debug=debug,
+            cache=cache,
+            links=links,
+        )
     config = config or TBN_CONFIG
     target = _check_arguments(target_labels, init, init_level, label_weight, feature_weight)
     front = _LabelFront(exemplar_labels, target, feature_weight)
@@ -233,7 +267,44 @@ def texture_by_numbers(
         target_guides=gaussian_pyramid(guide_b, n_levels, (tile, tile)),
         initial_references=initial,
     )
-    return setup.solve(guidance=guidance, progress=progress, debug=debug, start=start, cache=cache)
+    return setup.solve(guidance=guidance, progress=progress, debug=debug, start=start, cache=cache, links=links)
+
+
+def along_flow(
+    exemplar: np.ndarray,
+    labels: tuple[np.ndarray, np.ndarray] | None,
+    out_shape: tuple[int, int],
+    flow: np.ndarray | None,
+    flow_scale: np.ndarray | None,
+    *,
+    seed: int,
+    extra: Mapping[str, np.ndarray] | None,
+    exemplar_wrap: str | bool | tuple[bool, bool],
+    links: OutputLinks | None = None,
+    **options,
+) -> SynthesisResult:
+    """:func:`texture_by_numbers` (or, without ``labels``, plain synthesis) along the fields
+    ``flow`` and ``flow_scale`` of an output of ``out_shape``: on the atlas of the exemplar's
+    turned and scaled copies, each output pixel wanting the copy of its turn and scale
+    (:func:`barkgen.synth._flow.oriented_inputs`); ``options``: texture-by-numbers' own."""
+    from barkgen.synth._flow import check_flow, oriented_inputs
+
+    ex, out_shape, extras = validate_inputs(exemplar, out_shape, seed=seed, extra=extra)
+    fields = check_flow(flow, flow_scale, out_shape)
+    wrap = resolve_exemplar_wrap(exemplar_wrap, ex)
+    inputs = oriented_inputs(ex, *fields, wrap=wrap, extra=extras, labels=labels)
+    result = texture_by_numbers(
+        inputs.exemplar,
+        inputs.exemplar_labels,
+        inputs.target_labels,
+        seed=seed,
+        extra=inputs.extras,
+        exemplar_wrap=(False, False),
+        links=None if links is None else links.oriented_by(inputs.oriented, inputs.copies),
+        **options,
+    )
+    result.orientation = inputs.oriented
+    return result
 
 
 class _LabelFront(Front):

@@ -1,0 +1,57 @@
+"""Label maps along a flow field: the engine and joint strategies of
+:func:`barkgen.shapes.synthesize_label_map` when the output carries an orientation (and scale)
+field (mazzolini2012 §3.1.3).
+
+The solver runs on the atlas of the exemplar's turned copies (:mod:`barkgen.synth._flow`),
+matching the photo's colour with the labels (joint) or the labels alone (engine, as label
+colours), the labels as one channel each; the output label map is the exemplar's labels through
+the references, exactly (nearest pixel of each copy), so texture-by-numbers can start from the
+same references.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from barkgen._shared.arrays import ProgressCallback
+from barkgen.synth import AnalysisCache, OutputLinks
+
+
+def codes_along_flow(
+    codes: np.ndarray,
+    n_labels: int,
+    out_shape: tuple[int, int],
+    flow: np.ndarray | None,
+    flow_scale: np.ndarray | None,
+    *,
+    tile: bool,
+    seed: int,
+    photo: np.ndarray | None,
+    exemplar_wrap: tuple[bool, bool],
+    progress: ProgressCallback | None = None,
+    cache: AnalysisCache | None = None,
+    links: OutputLinks | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Label codes ``(H, W)`` along the fields and their reference map into the atlas of
+    turned copies (``(H, W, 2)``; the atlas is :func:`barkgen.synth.orient_exemplar`'s of the
+    same fields, whatever the seed)."""
+    from barkgen.labels import label_colour_map
+    from barkgen.synth import synthesize
+
+    one_hot = (codes[..., None] == np.arange(n_labels)[None, None, :]).astype(np.float32)
+    exemplar = photo if photo is not None else label_colour_map(codes.astype(np.uint8))
+    result = synthesize(
+        exemplar,
+        out_shape,
+        tile=tile,
+        seed=seed,
+        extra={"labels": one_hot},
+        progress=progress,
+        exemplar_wrap=exemplar_wrap,
+        flow=flow,
+        flow_scale=flow_scale,
+        links=links,
+    )
+    atlas_codes = result.orientation.atlas(codes.astype(np.int32), kind="labels")
+    refs = result.references
+    return atlas_codes[refs[..., 0], refs[..., 1]], refs
