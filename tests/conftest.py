@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -190,3 +192,25 @@ def label_case(synthetic_exemplar):
     a = luminance_labels(ex)
     b = shuffled_blocks(a, 64, block=8, seed=2)
     return ex, a, b
+
+
+#: where scripts/test.sh installs the npm package gltf-validator
+VALIDATOR = REPO / ".cache" / "node" / "node_modules" / "gltf-validator"
+CHECK = """
+const fs = require("fs");
+const validator = require(process.argv[2]);
+validator.validateBytes(new Uint8Array(fs.readFileSync(process.argv[1])), {maxIssues: 100}).then((r) => {
+  console.log(JSON.stringify({errors: r.issues.numErrors, warnings: r.issues.numWarnings,
+                              messages: r.issues.messages.filter((m) => m.severity <= 1)}));
+});
+"""
+
+
+def validate_glb(path: Path) -> dict:
+    """The Khronos validator's report of a .glb (its error and warning counts and messages)."""
+    node = shutil.which("node")
+    if node is None or not VALIDATOR.is_dir():
+        pytest.skip(f"needs node and the npm package gltf-validator in {VALIDATOR} (scripts/test.sh installs it)")
+    out = subprocess.run([node, "-e", CHECK, str(path), str(VALIDATOR)], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    return json.loads(out.stdout)

@@ -4,39 +4,13 @@ normal map needs."""
 
 from __future__ import annotations
 
-import json
-import shutil
-import subprocess
-from pathlib import Path
-
 import numpy as np
 import pytest
+from conftest import validate_glb as validate
 
 from barkgen.io import encode_glb, vertex_tangents
 from barkgen.material import MaterialSet
 from barkgen.render import trunk_mesh
-
-REPO = Path(__file__).resolve().parents[2]
-#: where scripts/test.sh installs the npm package gltf-validator
-VALIDATOR = REPO / ".cache" / "node" / "node_modules" / "gltf-validator"
-CHECK = """
-const fs = require("fs");
-const validator = require(process.argv[2]);
-validator.validateBytes(new Uint8Array(fs.readFileSync(process.argv[1])), {maxIssues: 100}).then((r) => {
-  console.log(JSON.stringify({errors: r.issues.numErrors, warnings: r.issues.numWarnings,
-                              messages: r.issues.messages.filter((m) => m.severity <= 1)}));
-});
-"""
-
-
-def validate(path: Path) -> dict:
-    """The Khronos validator's report of a .glb (its error and warning counts and messages)."""
-    node = shutil.which("node")
-    if node is None or not VALIDATOR.is_dir():
-        pytest.skip(f"needs node and the npm package gltf-validator in {VALIDATOR} (scripts/test.sh installs it)")
-    out = subprocess.run([node, "-e", CHECK, str(path), str(VALIDATOR)], capture_output=True, text=True, timeout=120)
-    assert out.returncode == 0, out.stderr
-    return json.loads(out.stdout)
 
 
 def small_set(metalness: bool) -> MaterialSet:

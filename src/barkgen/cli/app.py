@@ -28,6 +28,7 @@ import barkgen.cli.material as material
 import barkgen.cli.serve as serve
 import barkgen.cli.shapes as shapes
 import barkgen.cli.synth as synth
+import barkgen.cli.tree as tree
 import barkgen.cli.warmup as warmup
 from barkgen._shared.checks import OUTPUT_PIXEL_LIMIT
 from barkgen.cli._common import MAX_INPUT_PIXELS, fail, guard_paths
@@ -49,11 +50,12 @@ TOP_LEVEL = (
     "export-glb",
     "apply-reference",
     "batch",
+    "tree",
     "serve",
     "warm-up",
 )
 #: the modules that give those commands
-COMMAND_MODULES = (synth, labels, shapes, generate, material, serve, warmup)
+COMMAND_MODULES = (synth, labels, shapes, generate, tree, material, serve, warmup)
 #: the groups of sub-commands (``barkgen bilayer analyze`` ...), in the order of ``--help``
 GROUPS = (("bilayer", bilayer), ("library", library), ("branches", branches))
 

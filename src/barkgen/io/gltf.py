@@ -24,8 +24,9 @@ def encode_glb(mesh, material) -> bytes:
 
     Parameters
     ----------
-    mesh : TrunkMesh
-        The trunk (:func:`barkgen.render.trunk_mesh`).
+    mesh : TrunkMesh or TreeMesh
+        The trunk (:func:`barkgen.render.trunk_mesh`) or a tree (:mod:`barkgen.tree`): its
+        ``vertices``, ``faces``, glTF ``uv`` and, when it has them, ``normals``.
     material : MaterialSet
         The set whose maps become its textures.
 
@@ -68,9 +69,12 @@ def encode_glb(mesh, material) -> bytes:
     )
     # trimesh keeps UVs with v up and flips them for glTF: hand it 1 - v
     uv = np.column_stack([mesh.uv[:, 0], 1.0 - mesh.uv[:, 1]])
+    # a mesh that knows its normals (a tree's, continuous across its atlas's borders) gives them
+    normals = getattr(mesh, "normals", None)
     tm = trimesh.Trimesh(
         vertices=mesh.vertices,
         faces=mesh.faces,
+        vertex_normals=None if normals is None else np.asarray(normals, np.float64),
         visual=trimesh.visual.TextureVisuals(uv=uv, material=pbr),
         process=False,
     )

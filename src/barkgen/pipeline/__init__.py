@@ -2,7 +2,8 @@
 arrays out; :mod:`barkgen.pipeline.core`) and the files of one run, encoded
 (:func:`encode_generate`; :mod:`barkgen.pipeline.files`), which ``barkgen generate``,
 ``barkgen batch`` and the web app write, and :func:`warm_up`, which compiles the numba kernels
-of a run ahead (:mod:`barkgen.pipeline.warmup`)."""
+of a run ahead (:mod:`barkgen.pipeline.warmup`); :func:`make_tree`, bark for a whole tree mesh
+(:mod:`barkgen.pipeline.tree`)."""
 
 from barkgen.pipeline.core import (
     ANALYSIS_SEED,
@@ -23,6 +24,7 @@ from barkgen.pipeline.files import (
 )
 from barkgen.pipeline.options import LABEL_METHODS, GenerateOptions, analysis_key
 from barkgen.pipeline.progress import stage_at, stage_span
+from barkgen.pipeline.tree import TreeResult, encode_tree, make_tree
 from barkgen.pipeline.warmup import warm_up
 
 __all__ = [
@@ -33,10 +35,13 @@ __all__ = [
     "GenerateOptions",
     "GenerateResult",
     "PhotoAnalysis",
+    "TreeResult",
     "analysis_key",
     "analyze_photo",
     "encode_generate",
+    "encode_tree",
     "generate",
+    "make_tree",
     "parse_sizes",
     "preview_sheet",
     "size_tag",

@@ -202,6 +202,7 @@ def analyze_photo(
     labels_in: np.ndarray | None = None,
     progress: ProgressCallback | None = None,
     scan: ScannedSet | None = None,
+    solvers: bool = True,
 ) -> PhotoAnalysis:
     """The per-photo part of :func:`generate`; the seed plays no part.
 
@@ -227,6 +228,9 @@ def analyze_photo(
         A scanned set whose colour is ``photo`` (:func:`barkgen.io.read_scanned_set`): its own
         maps make the material set (:func:`barkgen.material.scanned_material`), nothing is
         estimated that it has.
+    solvers : bool, default True
+        Analyse the photo for the solvers too (not for a run along a flow field, whose solvers
+        analyse the photo's turned copies).
 
     Returns
     -------
@@ -289,21 +293,22 @@ def analyze_photo(
             else None
         )
         cache = AnalysisCache()
-        if options.strategy in _INIT_LEVELS:
+        if solvers and options.strategy in _INIT_LEVELS:
             analyse_label_map(
                 labels_in, options.size, cache, photo=photo if options.strategy == "joint" else None, exemplar_wrap=wrap
             )
         report("label_map")
-        analyse_texture_by_numbers(
-            photo,
-            labels_in,
-            options.size,
-            cache,
-            feature_weight=options.feature_weight,
-            extra=extra,
-            config=dataclasses.replace(TBN_CONFIG, threads=options.threads),
-            exemplar_wrap=wrap,
-        )
+        if solvers:
+            analyse_texture_by_numbers(
+                photo,
+                labels_in,
+                options.size,
+                cache,
+                feature_weight=options.feature_weight,
+                extra=extra,
+                config=dataclasses.replace(TBN_CONFIG, threads=options.threads),
+                exemplar_wrap=wrap,
+            )
         report("texture")
         material = material.result() if material is not None else None
         report("material")
@@ -378,6 +383,8 @@ def generate(
             labels_in=labels_in,
             progress=stage_progress(progress, "analysis", options.material),
             scan=scan,
+            # along a field the solvers analyse the photo's turned copies, not the photo
+            solvers=flow is None and flow_scale is None,
         )
     else:
         _check_analysis(analysis, photo, options, labels_in)

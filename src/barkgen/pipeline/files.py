@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from functools import partial
 
 import numpy as np
@@ -53,6 +53,7 @@ def encode_generate(
     preset: str = "ambientcg",
     sizes: Sequence[int] = (),
     exr_height: bool = False,
+    also: Mapping[str, bytes] | None = None,
 ) -> dict[str, bytes]:
     """Every file of a :class:`~barkgen.pipeline.GenerateResult`, encoded.
 
@@ -83,6 +84,8 @@ def encode_generate(
         not re-synthesized. Default: one set, the output's size, untagged.
     exr_height : bool, default False
         Also each set's displacement as 32-bit float EXR (:func:`~barkgen.io.encode_material`).
+    also : mapping of str to bytes, optional
+        More files of the run (a tree's ``tree.glb``), recorded with generate's own.
 
     Returns
     -------
@@ -127,6 +130,7 @@ def encode_generate(
         if clash:
             raise InvalidInputError(f"--name {name!r} makes {clash[0]}, which is taken; pick another")
         files.update(material_files)
+    files.update(also or {})
     report["files"] = sorted(files) + ["report.json"]
     # what barkgen may later replace or remove of this folder: only these files, unchanged
     report[RECORD_HASHES] = file_record(files)

@@ -101,3 +101,40 @@ def render_rows(
                 albedo = _bilinear(maps, u, v, c)
                 out[y, x, c] = albedo * (ambient * ao + (1.0 - ambient) * lam * 1.6) + spec
     return out
+
+
+@njit(cache=True)
+def rasterize_mesh(screen, faces, out_h, out_w, triangle, barycentric, depth):
+    """A z-buffer pass: every pixel centre of ``(out_h, out_w)`` covered by a triangle of
+    ``faces`` whose vertices are at ``screen`` ``(n, 3)`` (column, row, depth: nearer is
+    smaller) gets the nearest one's index in ``triangle`` and its barycentric coordinates
+    (perspective-free: an orthographic view). Triangles facing away are skipped; they are drawn
+    in order, so the result does not depend on threads."""
+    for f in range(faces.shape[0]):
+        a, b, c = faces[f, 0], faces[f, 1], faces[f, 2]
+        x0, y0, z0 = screen[a, 0], screen[a, 1], screen[a, 2]
+        x1, y1, z1 = screen[b, 0], screen[b, 1], screen[b, 2]
+        x2, y2, z2 = screen[c, 0], screen[c, 1], screen[c, 2]
+        det = (y1 - y2) * (x0 - x2) + (x2 - x1) * (y0 - y2)
+        if det >= -1e-12:  # clockwise on screen (rows down): facing away, or degenerate
+            continue
+        lo_x = max(int(np.floor(min(x0, min(x1, x2)))), 0)
+        hi_x = min(int(np.ceil(max(x0, max(x1, x2)))), out_w - 1)
+        lo_y = max(int(np.floor(min(y0, min(y1, y2)))), 0)
+        hi_y = min(int(np.ceil(max(y0, max(y1, y2)))), out_h - 1)
+        for y in range(lo_y, hi_y + 1):
+            py = y + 0.5
+            for x in range(lo_x, hi_x + 1):
+                px = x + 0.5
+                w0 = ((y1 - y2) * (px - x2) + (x2 - x1) * (py - y2)) / det
+                w1 = ((y2 - y0) * (px - x2) + (x0 - x2) * (py - y2)) / det
+                w2 = 1.0 - w0 - w1
+                if w0 < 0 or w1 < 0 or w2 < 0:
+                    continue
+                z = w0 * z0 + w1 * z1 + w2 * z2
+                if z < depth[y, x]:
+                    depth[y, x] = z
+                    triangle[y, x] = f
+                    barycentric[y, x, 0] = w0
+                    barycentric[y, x, 1] = w1
+                    barycentric[y, x, 2] = w2

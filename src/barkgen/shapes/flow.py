@@ -34,10 +34,14 @@ def codes_along_flow(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Label codes ``(H, W)`` along the fields and their reference map into the atlas of
     turned copies (``(H, W, 2)``; the atlas is :func:`barkgen.synth.orient_exemplar`'s of the
-    same fields, whatever the seed)."""
+    same fields, whatever the seed, with room for the labels: the one texture-by-numbers
+    makes after it)."""
     from barkgen.labels import label_colour_map
-    from barkgen.synth import synthesize
+    from barkgen.synth import MAX_LABELS, check_flow, orient_exemplar, synthesize
 
+    # the atlas texture-by-numbers will use after it (its labels paired with these copies)
+    fields = check_flow(flow, flow_scale, (int(out_shape[0]), int(out_shape[1])))
+    oriented = orient_exemplar(codes.shape, *fields, wrap=exemplar_wrap, max_copies=(MAX_LABELS - 1) // n_labels)
     one_hot = (codes[..., None] == np.arange(n_labels)[None, None, :]).astype(np.float32)
     exemplar = photo if photo is not None else label_colour_map(codes.astype(np.uint8))
     result = synthesize(
@@ -51,6 +55,7 @@ def codes_along_flow(
         flow=flow,
         flow_scale=flow_scale,
         links=links,
+        orientation=oriented,
     )
     atlas_codes = result.orientation.atlas(codes.astype(np.int32), kind="labels")
     refs = result.references

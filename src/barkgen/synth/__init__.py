@@ -26,7 +26,7 @@ from barkgen.synth._setup import estimate_memory
 from barkgen.synth._solver import DebugCallback, SynthesisResult, solve, upsample_references
 from barkgen.synth._synthesize import apply_references, synthesize
 from barkgen.synth._tbn import TBN_CONFIG, analyse_texture_by_numbers, texture_by_numbers
-from barkgen.synth.guides.channels import guide_channels, label_pyramid, level_guide
+from barkgen.synth.guides.channels import MAX_LABELS, guide_channels, label_pyramid, level_guide
 from barkgen.synth.guides.guidance import Guidance
 from barkgen.synth.guides.initialization import smart_initialization
 from barkgen.synth.seams.cuts import cut_straight_seams
@@ -42,6 +42,7 @@ from barkgen.synth.seams.gradient import (
 
 __all__ = [
     "FLOW_SCALE_RANGE",
+    "MAX_LABELS",
     "TBN_CONFIG",
     "AnalysisCache",
     "DebugCallback",

@@ -466,12 +466,14 @@ def oriented_inputs(
     wrap: tuple[bool, bool],
     extra: Mapping[str, np.ndarray] | None = None,
     labels: tuple[np.ndarray, np.ndarray] | None = None,
+    oriented: OrientedExemplar | None = None,
 ) -> OrientedInputs:
     """The inputs of a synthesis along the checked fields ``flow`` and ``flow_scale``
     (:func:`check_flow`) from ``exemplar`` (of tiling ``wrap``): its copies (:func:`orient_exemplar`),
     its extra maps' (a map whose name holds ``normal`` turned as normals) and, with ``labels``
     (the exemplar's and the target's label maps, as texture-by-numbers takes them), the pair
-    labels.
+    labels. ``oriented``: the atlas to use (one shared with another synthesis), else the one
+    the fields need.
 
     Raises
     ------
@@ -488,7 +490,10 @@ def oriented_inputs(
     else:
         codes, target_codes, n_labels = np.zeros(shape, np.int32), np.zeros(flow.shape, np.int32), 1
     # a pair (label, copy) per label of the solver, the void (outside the exemplar) included
-    oriented = orient_exemplar(shape, flow, flow_scale, wrap=wrap, max_copies=(MAX_LABELS - 1) // n_labels)
+    if oriented is None:
+        oriented = orient_exemplar(shape, flow, flow_scale, wrap=wrap, max_copies=(MAX_LABELS - 1) // n_labels)
+    elif oriented.n_copies * n_labels > MAX_LABELS - 1:
+        raise InvalidInputError(f"an atlas of {oriented.n_copies} copies leaves no room for {n_labels} labels")
     copies = oriented.copy_labels()
     pairs = oriented.n_copies + 1
     ex_labels = oriented.atlas(codes, kind="labels") * pairs + copies

@@ -32,6 +32,7 @@ def synthesize(
     flow: np.ndarray | None = None,
     flow_scale: np.ndarray | None = None,
     links: OutputLinks | None = None,
+    orientation=None,
 ) -> SynthesisResult:
     """Synthesize a new texture of ``size`` = ``(height, width)`` from ``exemplar``.
 
@@ -76,6 +77,9 @@ def synthesize(
         Output pixels that take the references of others while the solver runs: a texture
         atlas's gutters, so that texels on either side of a chart border are matched across it
         on the surface (:class:`barkgen.synth.OutputLinks`).
+    orientation : OrientedExemplar, optional
+        Along a flow field, the atlas of turned copies to use (one another synthesis shares:
+        :func:`barkgen.synth.orient_exemplar`), else the one the fields need.
 
     Returns
     -------
@@ -123,6 +127,7 @@ def synthesize(
             config=config or SynthesisConfig(),
             progress=progress,
             links=links,
+            oriented=orientation,
         )
     config = config or SynthesisConfig()
     setup = set_up(exemplar, size, seed=seed, extra=extra, config=config, tile=tile, exemplar_wrap=exemplar_wrap)

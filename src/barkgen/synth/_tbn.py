@@ -281,18 +281,20 @@ def along_flow(
     extra: Mapping[str, np.ndarray] | None,
     exemplar_wrap: str | bool | tuple[bool, bool],
     links: OutputLinks | None = None,
+    oriented=None,
     **options,
 ) -> SynthesisResult:
     """:func:`texture_by_numbers` (or, without ``labels``, plain synthesis) along the fields
     ``flow`` and ``flow_scale`` of an output of ``out_shape``: on the atlas of the exemplar's
     turned and scaled copies, each output pixel wanting the copy of its turn and scale
-    (:func:`barkgen.synth._flow.oriented_inputs`); ``options``: texture-by-numbers' own."""
+    (:func:`barkgen.synth._flow.oriented_inputs`; ``oriented``: a given atlas of copies);
+    ``options``: texture-by-numbers' own."""
     from barkgen.synth._flow import check_flow, oriented_inputs
 
     ex, out_shape, extras = validate_inputs(exemplar, out_shape, seed=seed, extra=extra)
     fields = check_flow(flow, flow_scale, out_shape)
     wrap = resolve_exemplar_wrap(exemplar_wrap, ex)
-    inputs = oriented_inputs(ex, *fields, wrap=wrap, extra=extras, labels=labels)
+    inputs = oriented_inputs(ex, *fields, wrap=wrap, extra=extras, labels=labels, oriented=oriented)
     result = texture_by_numbers(
         inputs.exemplar,
         inputs.exemplar_labels,
