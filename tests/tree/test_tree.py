@@ -98,3 +98,35 @@ def test_tree_command_end_to_end(tmp_path):
     bad = tmp_path / "bad"
     done = run("tree", str(tmp_path / "missing.glb"), "-o", str(bad), "-q")
     assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1 and not bad.exists()
+
+
+def test_chart_heights_are_levelled_across_their_borders():
+    from barkgen.synth import OutputLinks
+    from barkgen.tree import TexelMap, level_charts
+
+    h, w = 64, 64
+    covered = np.zeros((h, w), bool)
+    covered[:, 4:28] = True  # chart A
+    covered[:, 36:60] = True  # chart B, apart in the flat atlas, its left edge A's right on the surface
+    rows = np.arange(h)
+    target = np.concatenate([rows * w + 28, rows * w + 29])  # A's gutter ...
+    source = np.concatenate([rows * w + 36, rows * w + 37])  # ... shows B's first columns
+    links = OutputLinks((h, w), target, source)
+    texels = TexelMap(
+        (h, w),
+        covered,
+        np.where(covered, 0, -1),
+        np.zeros((h, w, 3), np.float32),
+        np.zeros((h, w), np.float32),
+        np.ones((h, w), np.float32),
+        links,
+        100.0,
+    )
+    height = np.zeros((h, w), np.float32)
+    height[:, 36:60] = 5.0 + 0.05 * rows[:, None]  # B drifts away from A along the border
+    levelled = level_charts(height, texels)
+    across_before = np.abs(height[:, 27] - height[:, 36]).mean()
+    across_after = np.abs(levelled[:, 27] - levelled[:, 36]).mean()
+    assert across_before > 5 and across_after < 0.5, (across_before, across_after)
+    # inside a chart the slopes stay (a smooth correction)
+    assert np.abs(np.diff(levelled[:, 40]) - np.diff(height[:, 40])).max() < 0.1

@@ -3,7 +3,7 @@
 The core (``pip install barkgen``) holds the algorithms and the Python API; the front ends and
 the formats that need more bring their own dependencies: ``[cli]`` (the ``barkgen`` command),
 ``[web]`` (``barkgen serve``), ``[batch]`` (Dask batches and their YAML specs), ``[gltf]``
-(glTF export) and ``[all]``. A front end whose extra is missing says so in one line.
+(glTF export), ``[tree]`` (``barkgen tree``: meshes and their UV atlases) and ``[all]``. A front end whose extra is missing says so in one line.
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ EXTRAS: dict[str, tuple[str, ...]] = {
     "web": ("fastapi", "uvicorn", "multipart"),
     "batch": ("distributed", "dask", "yaml"),
     "gltf": ("trimesh",),
+    "tree": ("trimesh", "xatlas"),
     "materialx": ("MaterialX",),
     "exr": ("OpenEXR",),
 }

@@ -72,7 +72,10 @@ def unwrap(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A UV atlas by xatlas: ``(vertex_map, faces, uv)``, the vertices split along the charts'
     borders (``vertices[vertex_map]`` are the new ones), uv in [0, 1] (glTF), charts packed with
-    a gutter of a few texels at ``resolution``."""
+    a gutter of a few texels at ``resolution`` (needs the ``[tree]`` extra)."""
+    from barkgen._shared.extras import require_extra
+
+    require_extra("tree", "unwrapping a mesh")
     import xatlas
 
     atlas = xatlas.Atlas()
@@ -110,7 +113,7 @@ def default_tree_mesh(seed: int = 0, *, cell: float | None = None, resolution: i
     from barkgen._shared.extras import require_extra
     from barkgen.tree.skeleton import CELL, axis_and_radius, default_skeleton, skeleton_surface
 
-    require_extra("gltf", "the built-in tree")
+    require_extra("tree", "the built-in tree")
     import trimesh
 
     skeleton = default_skeleton(seed)
@@ -159,7 +162,7 @@ def read_tree_mesh(path: str | os.PathLike, *, resolution: int = 2048) -> TreeMe
     """
     from barkgen._shared.extras import require_extra
 
-    require_extra("gltf", "reading tree meshes")
+    require_extra("tree", "reading tree meshes")
     import trimesh
 
     path = Path(path)

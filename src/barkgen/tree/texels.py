@@ -203,36 +203,88 @@ def _gutter_links(positions: np.ndarray, covered: np.ndarray, gutter: np.ndarray
     return OutputLinks((h, w), outside[keep].astype(np.int64), inside[nearest[keep]].astype(np.int64))
 
 
+#: the grid (texels) on which the charts' height correction is solved (it is smooth)
+LEVEL_CELL = 8
+
+
 def level_charts(height: np.ndarray, texels: TexelMap) -> np.ndarray:
-    """A height map of the atlas with each chart raised or lowered as a whole so that the heights
-    on either side of its borders agree on the surface (least squares over the linked texel
-    pairs; the height inside a chart is the solver's, carried in the gradient domain, but
-    charts apart in the flat atlas get unrelated levels). Gutter texels then take their
-    source's height."""
+    """A height map of the atlas corrected so that the heights on either side of every chart
+    border agree on the surface. The solver's height is integrated in the gradient domain over
+    the flat atlas, where charts lie apart, so each chart drifts from its neighbours on the
+    surface; a smooth correction per chart (a membrane, solved on a grid of
+    :data:`LEVEL_CELL` texels and interpolated within each chart) pulls the linked texel pairs
+    together. Gutter texels then take their source's height."""
     from scipy import ndimage, sparse
-    from scipy.sparse.linalg import lsqr
+    from scipy.sparse.linalg import spsolve
 
     h, w = texels.shape
     charts, count = ndimage.label(texels.covered)
-    if count <= 1 or texels.links.target.size == 0:
+    if count == 0 or texels.links.target.size == 0:
         return height
+    cell = LEVEL_CELL
+    ch, cw = -(-h // cell), -(-w // cell)
+    # each grid cell belongs to the chart most of its texels are in
+    padded = np.zeros((ch * cell, cw * cell), np.int64)
+    padded[:h, :w] = charts
+    blocks = padded.reshape(ch, cell, cw, cell).transpose(0, 2, 1, 3).reshape(ch, cw, -1)
+    votes = np.zeros((ch, cw, count + 1), np.int32)
+    for label in range(1, count + 1):
+        votes[..., label] = (blocks == label).sum(axis=2)
+    cell_chart = np.where(votes[..., 1:].max(axis=2) > 0, votes[..., 1:].argmax(axis=2) + 1, 0)
+    index = np.full((ch, cw), -1, np.int64)
+    used = cell_chart > 0
+    index[used] = np.arange(int(used.sum()))
+    n = int(used.sum())
+    rows, cols, values = [], [], []
+    # the membrane: neighbouring cells of one chart move together
+    for dy, dx in ((0, 1), (1, 0)):
+        a = index[: ch - dy, : cw - dx]
+        b = index[dy:, dx:]
+        same = (a >= 0) & (b >= 0) & (cell_chart[: ch - dy, : cw - dx] == cell_chart[dy:, dx:])
+        a, b = a[same], b[same]
+        rows += [a, b, a, b]
+        cols += [a, b, b, a]
+        values += [np.ones(a.size), np.ones(a.size), -np.ones(a.size), -np.ones(a.size)]
+    # the links: the two texels of a pair at one height
     _, (near_rows, near_cols) = ndimage.distance_transform_edt(~texels.covered, return_indices=True)
     gy, gx = np.divmod(texels.links.target, w)
-    own = charts[near_rows[gy, gx], near_cols[gy, gx]]
-    other = charts.reshape(-1)[texels.links.source]
-    difference = height.reshape(-1)[texels.links.source] - height[near_rows[gy, gx], near_cols[gy, gx]]
-    keep = (own != other) & (own > 0) & (other > 0)
-    if not keep.any():
-        return height
-    # one equation per linked pair: offset[own] - offset[other] = difference; chart 1 stays put
-    n = int(keep.sum())
-    rows = np.repeat(np.arange(n), 2)
-    cols = np.stack([own[keep] - 1, other[keep] - 1], axis=1).ravel()
-    values = np.tile([1.0, -1.0], n)
-    system = sparse.csr_matrix((values, (rows, cols)), shape=(n + 1, count))
-    system = sparse.vstack([system[:n], sparse.csr_matrix(([1.0], ([0], [0])), shape=(1, count))])
-    offsets = lsqr(system, np.append(difference[keep], 0.0), atol=1e-10, btol=1e-10)[0]
-    out = height.astype(np.float64) + np.concatenate([[0.0], offsets])[charts]
+    ay, ax = near_rows[gy, gx], near_cols[gy, gx]
+    sy, sx = np.divmod(texels.links.source, w)
+    ca, cs = index[ay // cell, ax // cell], index[sy // cell, sx // cell]
+    keep = (ca >= 0) & (cs >= 0) & (charts[ay, ax] != charts[sy, sx])
+    ca, cs = ca[keep], cs[keep]
+    difference = height[sy[keep], sx[keep]].astype(np.float64) - height[ay[keep], ax[keep]]
+    rows += [ca, cs, ca, cs]
+    cols += [ca, cs, cs, ca]
+    values += [np.ones(ca.size), np.ones(ca.size), -np.ones(ca.size), -np.ones(ca.size)]
+    right = np.zeros(n)
+    np.add.at(right, ca, difference)
+    np.add.at(right, cs, -difference)
+    system = (
+        sparse.csr_matrix((np.concatenate(values), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
+        + sparse.identity(n) * 1e-4
+    )  # (a chart with no link keeps its height)
+    correction = np.zeros((ch, cw))
+    correction[used] = spsolve(system.tocsc(), right)
+    # back to texels: interpolated within each chart only (a neighbouring chart in the flat
+    # atlas is no neighbour on the surface)
+    fine = np.zeros((h, w))
+    for label, box in enumerate(ndimage.find_objects(cell_chart), start=1):
+        if box is None:
+            continue
+        y0, y1 = max(box[0].start - 1, 0), min(box[0].stop + 1, ch)
+        x0, x1 = max(box[1].start - 1, 0), min(box[1].stop + 1, cw)
+        mine = (cell_chart[y0:y1, x0:x1] == label).astype(np.float64)
+        # the texels of these cells: cell centres at (i + 0.5) * cell, linear between them
+        ty = (np.arange(y0 * cell, min(y1 * cell, h)) + 0.5) / cell - 0.5 - y0
+        tx = (np.arange(x0 * cell, min(x1 * cell, w)) + 0.5) / cell - 0.5 - x0
+        grid = np.meshgrid(np.clip(ty, 0, y1 - y0 - 1), np.clip(tx, 0, x1 - x0 - 1), indexing="ij")
+        weight = ndimage.map_coordinates(mine, grid, order=1)
+        value = ndimage.map_coordinates(correction[y0:y1, x0:x1] * mine, grid, order=1)
+        region = (slice(y0 * cell, min(y1 * cell, h)), slice(x0 * cell, min(x1 * cell, w)))
+        inside = charts[region] == label
+        fine[region][inside] = value[inside] / np.maximum(weight[inside], 1e-6)
+    out = height.astype(np.float64) + fine
     flat = out.reshape(-1)
     flat[texels.links.target] = flat[texels.links.source]
     return out.astype(height.dtype)
