@@ -306,6 +306,8 @@ def along_flow(
         **options,
     )
     result.orientation = inputs.oriented
+    if np.ndim(exemplar) == 2:  # as flat as the exemplar was given
+        result.image = result.image[..., 0]
     return result
 
 
