@@ -70,6 +70,13 @@ def test_meshes_are_read_with_their_uvs_or_unwrapped_and_bad_ones_refused(tmp_pa
     assert "unwrapped by xatlas" in mesh.source
     side = np.abs(mesh.normals[:, 1]) < 0.2
     assert np.median(np.abs(mesh.axis[side, 1])) > 0.95  # along the cylinder
+    # UVs that repeat one texture over every face (a tiling bark's, as tree generators give): no atlas
+    tiled = trimesh.Trimesh(cylinder.vertices, cylinder.faces, process=False)
+    tiled.visual = trimesh.visual.TextureVisuals(
+        uv=np.tile([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], (len(tiled.vertices), 1))[: len(tiled.vertices)]
+    )
+    tiled.export(tmp_path / "tiled.obj")
+    assert "UVs that overlap: unwrapped by xatlas" in read_tree_mesh(tmp_path / "tiled.obj", resolution=256).source
     empty = tmp_path / "empty.obj"
     empty.write_text("# nothing\n")
     with pytest.raises(Exception, match="no triangles|not a mesh"):

@@ -148,9 +148,30 @@ def surface_axis(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray, n
     return _tangent(axis, n)
 
 
+def _atlas_problem(uv: np.ndarray, faces: np.ndarray) -> str | None:
+    """Why a mesh's UVs are no atlas a texture can be synthesized into, or None: UVs outside the
+    unit square (a texture that repeats), or triangles that share texels (their summed UV area
+    over a tenth above the area they cover)."""
+    from barkgen.tree._kernels import rasterize
+
+    if uv.size and (uv.min() < -1e-3 or uv.max() > 1.0 + 1e-3):
+        return "UVs outside [0, 1]"
+    corners = uv.astype(np.float64)[faces]
+    e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    summed = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum()
+    side = 512
+    triangle = np.full((side, side), -1, np.int32)
+    rasterize(corners * side, side, side, triangle, np.zeros((side, side, 3)))
+    covered = float((triangle >= 0).mean())
+    if summed > 1.1 * covered + 4.0 / side:
+        return "UVs that overlap"
+    return None
+
+
 def read_tree_mesh(path: str | os.PathLike, *, resolution: int = 2048) -> TreeMesh:
-    """A tree mesh from a glTF/GLB or OBJ file (trimesh; needs the ``[gltf]`` extra): its own UVs,
-    or, where it has none, an atlas made by xatlas; its branch axes from its normals
+    """A tree mesh from a glTF/GLB or OBJ file (trimesh; needs the ``[tree]`` extra): its own UVs,
+    or, where it has none or they are no atlas (they repeat a tiling texture, or triangles
+    share texels), an atlas made by xatlas; its branch axes from its normals
     (:func:`surface_axis`).
 
     Raises
@@ -184,12 +205,16 @@ def read_tree_mesh(path: str | os.PathLike, *, resolution: int = 2048) -> TreeMe
         )
     uv = getattr(loaded.visual, "uv", None)
     if uv is None or len(uv) != len(vertices):
-        vertex_map, faces, uv = unwrap(vertices, faces, resolution)
-        vertices = vertices[vertex_map]
-        source = f"{path} (no UVs: unwrapped by xatlas)"
+        reason = "no UVs"
     else:
         # trimesh gives OBJ's and glTF's UVs with v up: back to glTF's v down
         uv = np.column_stack([uv[:, 0], 1.0 - uv[:, 1]]).astype(np.float32)
+        reason = _atlas_problem(uv, faces)
+    if reason is not None:
+        vertex_map, faces, uv = unwrap(vertices, faces, resolution)
+        vertices = vertices[vertex_map]
+        source = f"{path} ({reason}: unwrapped by xatlas)"
+    else:
         source = str(path)
     mesh = TreeMesh(
         vertices,
