@@ -204,9 +204,8 @@ def read_tree_mesh(path: str | os.PathLike, *, resolution: int = 2048) -> TreeMe
             f"{path}: {int((counts > 2).sum())} edges are shared by more than two triangles (not a manifold surface)"
         )
     uv = getattr(loaded.visual, "uv", None)
-    if uv is None or len(uv) != len(vertices):
-        reason = "no UVs"
-    else:
+    reason: str | None = "no UVs"
+    if uv is not None and len(uv) == len(vertices):
         # trimesh gives OBJ's and glTF's UVs with v up: back to glTF's v down
         uv = np.column_stack([uv[:, 0], 1.0 - uv[:, 1]]).astype(np.float32)
         reason = _atlas_problem(uv, faces)
