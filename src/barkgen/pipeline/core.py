@@ -420,25 +420,31 @@ def generate(
         # the engines' label maps copy exemplar label pieces: the same pieces of the photo are a
         # label-exact, coherent start for texture-by-numbers (else its smart initialisation)
         init = label_result.references if label_result.references is not None else "smart"
-        result = texture_by_numbers(
-            photo,
-            labels_in,
-            label_result.label_map,
-            label_weight=options.label_weight,
-            feature_weight=options.feature_weight,
-            init=init,
-            init_level=0 if along else _INIT_LEVELS.get(options.strategy, 0),
-            tile=options.tile,
-            seed=options.seed,
-            extra=extra,
-            config=config,
-            progress=stage_progress(progress, "texture", options.material),
-            cache=analysis.cache,
-            exemplar_wrap=wrap,
-            flow=flow,
-            flow_scale=flow_scale,
-            links=links,
-        )
+        if along and label_result.synthesis is not None and not extra:
+            # along a field the joint label map's own run is the texture: the photo and its labels
+            # matched together on the turned copies (a second, texture-by-numbers solve on them
+            # cost as much again and only re-made what the map already follows)
+            result = label_result.synthesis
+        else:
+            result = texture_by_numbers(
+                photo,
+                labels_in,
+                label_result.label_map,
+                label_weight=options.label_weight,
+                feature_weight=options.feature_weight,
+                init=init,
+                init_level=0 if along else _INIT_LEVELS.get(options.strategy, 0),
+                tile=options.tile,
+                seed=options.seed,
+                extra=extra,
+                config=config,
+                progress=stage_progress(progress, "texture", options.material),
+                cache=analysis.cache,
+                exemplar_wrap=wrap,
+                flow=flow,
+                flow_scale=flow_scale,
+                links=links,
+            )
         t3 = time.perf_counter()
         timings["texture"] = t3 - t2
         material = None

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -58,6 +59,9 @@ class LabelMapResult:
         Engine and joint strategies: the exemplar label pixels the map copies.
     resumed_level : int or None
         The level resumed from.
+    synthesis : SynthesisResult or None
+        Along a flow field with the joint strategy: the photo synthesized with its labels, the
+        run whose references the label map follows (its image is a texture that fits the map).
     timings : dict
         Seconds.
     """
@@ -69,6 +73,7 @@ class LabelMapResult:
     references: np.ndarray | None = None
     resumed_level: int | None = None
     timings: dict = field(default_factory=dict)
+    synthesis: Any = None
 
 
 def label_map_levels(
@@ -249,7 +254,7 @@ def synthesize_label_map(
     if start is not None:
         on_level(*start)
     t0 = time.perf_counter()
-    order_values = references = None
+    order_values = references = synthesis = None
     if (flow is not None or flow_scale is not None) and strategy == "layered":
         raise InvalidInputError("the layered strategy does not follow a flow field; use the engine or joint strategy")
     if flow is not None or flow_scale is not None:
@@ -257,7 +262,7 @@ def synthesize_label_map(
 
         if start is not None:
             raise InvalidInputError("a label map along a flow field cannot be resumed from an edited level yet")
-        out, references = codes_along_flow(
+        out, references, synthesis = codes_along_flow(
             codes,
             palette.size,
             out_shape,
@@ -312,6 +317,7 @@ def synthesize_label_map(
         references=references,
         resumed_level=None if start is None else start[0],
         timings={"label_map": time.perf_counter() - t0},
+        synthesis=synthesis if photo is not None else None,
     )
 
 

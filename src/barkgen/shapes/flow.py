@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from barkgen._shared.arrays import ProgressCallback
-from barkgen.synth import AnalysisCache, OutputLinks
+from barkgen.synth import AnalysisCache, OutputLinks, SynthesisResult
 
 
 def codes_along_flow(
@@ -31,11 +31,11 @@ def codes_along_flow(
     progress: ProgressCallback | None = None,
     cache: AnalysisCache | None = None,
     links: OutputLinks | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Label codes ``(H, W)`` along the fields and their reference map into the atlas of
+) -> tuple[np.ndarray, np.ndarray, SynthesisResult]:
+    """Label codes ``(H, W)`` along the fields, their reference map into the atlas of
     turned copies (``(H, W, 2)``; the atlas is :func:`barkgen.synth.orient_exemplar`'s of the
     same fields, whatever the seed, with room for the labels: the one texture-by-numbers
-    makes after it)."""
+    makes after it), and the synthesis they come from (its ``extras`` without the labels)."""
     from barkgen.labels import label_colour_map
     from barkgen.synth import MAX_LABELS, check_flow, orient_exemplar, synthesize
 
@@ -59,4 +59,6 @@ def codes_along_flow(
     )
     atlas_codes = result.orientation.atlas(codes.astype(np.int32), kind="labels")
     refs = result.references
-    return atlas_codes[refs[..., 0], refs[..., 1]], refs
+    result.extras.pop("labels", None)
+    result.extra_wraps.pop("labels", None)
+    return atlas_codes[refs[..., 0], refs[..., 1]], refs, result
