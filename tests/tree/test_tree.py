@@ -102,6 +102,10 @@ def test_tree_command_end_to_end(tmp_path):
     assert "tree.glb" in report["files"] and report["flow"]["copies"] >= 7
     checked = validate_glb(out / "tree.glb")
     assert checked["errors"] == 0, checked
+    # the glb is a tree mesh barkgen reads back as it is: its own UVs are an atlas
+    back = read_tree_mesh(out / "tree.glb", resolution=256)
+    assert back.source == str(out / "tree.glb") and len(back.faces) > 1000
+    assert back.uv.min() >= 0 and back.uv.max() <= 1
     bad = tmp_path / "bad"
     done = run("tree", str(tmp_path / "missing.glb"), "-o", str(bad), "-q")
     assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1 and not bad.exists()
