@@ -449,17 +449,7 @@ def generate(
         timings["texture"] = t3 - t2
         material = None
         if options.material:
-            from barkgen.material import transfer_material
-
-            source = analysis.material
-            if source is None:
-                source = _photo_material(photo, labels_in, options, wrap, scan)
-            source_wrap = wrap
-            if result.orientation is not None:  # the photo's maps cut as its turned copies
-                source, source_wrap = source.oriented(result.orientation), (False, False)
-            material = transfer_material(
-                source, result.references, tile=options.tile, exemplar_wrap=source_wrap, blend=options.blend
-            )
+            material = _output_material(photo, labels_in, options, wrap, scan, analysis, result)
             timings["material"] = time.perf_counter() - t3
             if progress:
                 progress(1000, 1000)
@@ -518,6 +508,20 @@ def _run_report(photo, options: GenerateOptions, wrap, labels_in, label_result, 
         },
         "timings_s": {name: round(value, 3) for name, value in timings.items()},
     }
+
+
+def _output_material(photo, labels_in, options: GenerateOptions, wrap, scan, analysis, result):
+    """The output's material set: the photo's (from its analysis, or made now) carried through
+    the texture's reference map; along a flow field, the photo's maps cut as its turned copies
+    first."""
+    from barkgen.material import transfer_material
+
+    source = analysis.material
+    if source is None:
+        source = _photo_material(photo, labels_in, options, wrap, scan)
+    if result.orientation is not None:
+        source, wrap = source.oriented(result.orientation), (False, False)
+    return transfer_material(source, result.references, tile=options.tile, exemplar_wrap=wrap, blend=options.blend)
 
 
 def _photo_material(
