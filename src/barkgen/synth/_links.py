@@ -53,6 +53,7 @@ class OutputLinks:
                 raise InvalidInputError(f"the links' {name}s must be flat indices of the output's pixels")
         if np.shape(self.target) != np.shape(self.source):
             raise InvalidInputError("the links need one source per target")
+        object.__setattr__(self, "_levels", {})  # at_level's answers: asked after every iteration
 
     def oriented_by(self, oriented, copies: np.ndarray) -> OutputLinks:
         """These links along a flow field: ``copies`` the ``(H, W)`` copy each output pixel wants."""
@@ -63,6 +64,13 @@ class OutputLinks:
     def at_level(self, level: int, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """The links of pyramid level ``level`` (output ``shape``): each pixel's block of the
         finest level, one link per target, none that links a pixel to itself."""
+        key = (int(level), int(shape[0]), int(shape[1]))
+        known = self._levels.get(key)  # type: ignore[attr-defined]
+        if known is None:
+            known = self._levels[key] = self._make_level(level, shape)  # type: ignore[attr-defined]
+        return known
+
+    def _make_level(self, level: int, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         width = int(self.shape[1])
         ty, tx = np.divmod(np.asarray(self.target, np.int64), width)
         sy, sx = np.divmod(np.asarray(self.source, np.int64), width)
