@@ -300,3 +300,36 @@ def test_branches_cli_extract_grow_stats(tmp_path):
     assert r.returncode == 0, r.stderr
     assert "L1 angle" in r.stdout and "thickness" in r.stdout
     assert read_image(tmp_path / "dst_stats.png").shape == (360, 960, 3)
+
+
+def test_growth_on_the_torus_tiles_and_keeps_the_statistics(mud_source):
+    """``tile``: branches run on across the edges and meet branches on the other side. The
+    raster of the periodic structure steps across its wrap no more than inside, the statistics
+    hold as in the plane, no branch crosses another on the torus, and the JSON keeps it."""
+    from barkgen.branching import rasterize
+
+    grown = grow_structure(fit_model(mud_source), (384, 256), seed=2, tile=True)
+    assert grown.periodic
+    xy = np.concatenate([b.xy for b in grown.branches])
+    assert (xy < 0).any() or (xy[:, 0] >= 384).any() or (xy[:, 1] >= 256).any()  # some run across
+    mask = rasterize(grown).astype(np.int8)
+    inside_x = np.abs(np.diff(mask, axis=1)).mean()
+    inside_y = np.abs(np.diff(mask, axis=0)).mean()
+    assert np.abs(mask[:, 0] - mask[:, -1]).mean() <= 1.5 * inside_x
+    assert np.abs(mask[0] - mask[-1]).mean() <= 1.5 * inside_y
+    cmp = compare_structures(mud_source, grown)
+    assert cmp.angle_l1 <= 0.3 and cmp.thickness_l1 <= 0.3, cmp.as_dict()
+    assert self_intersections(grown) == 0
+    assert read_back(grown).periodic
+
+
+def read_back(structure: Structure) -> Structure:
+    return Structure.from_dict(json.loads(encode_structure(structure)))
+
+
+def test_a_crossing_across_the_torus_edge_is_counted():
+    """Two branches that cross only where one runs on across the right edge."""
+    across = Branch(np.array([[90.0, 50.0, 1.0], [110.0, 50.0, 1.0]]))  # x 90..110 on a 100-px torus
+    upright = Branch(np.array([[5.0, 40.0, 1.0], [5.0, 60.0, 1.0]]))
+    assert self_intersections(Structure(2.0, (100, 100), [across, upright], periodic=True)) == 1
+    assert self_intersections(Structure(2.0, (100, 100), [across, upright])) == 0

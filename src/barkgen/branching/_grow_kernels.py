@@ -9,12 +9,14 @@ from numba import njit
 
 @njit(cache=True)
 def commit_points(
-    dist, near_branch, near_vertex, near_tangent, points, first, last, branch, radius, track=True
+    dist, near_branch, near_vertex, near_tangent, points, first, last, branch, radius, track=True, wrap=False
 ):  # pragma: no cover - compiled
     """Lower ``dist`` (distance to the nearest committed branch surface, i.e. distance to a
     vertex minus its thickness) within ``radius`` of each vertex ``points[first:last]`` (rows
     x, y, thickness) of ``branch``, and (with ``track``) remember which branch and vertex is
-    nearest and the branch's direction there. Only the ``3 rho`` vicinity is touched (§4.4)."""
+    nearest and the branch's direction there. Only the ``3 rho`` vicinity is touched (§4.4).
+    With ``wrap`` the maps are a torus: vertices anywhere on the plane land at their place
+    modulo the map's size, and their vicinity runs on across its edges."""
     h, w = dist.shape
     n = points.shape[0]
     r2 = radius * radius
@@ -23,68 +25,68 @@ def commit_points(
         a = max(i - 1, 0)
         c = min(i + 1, n - 1)
         tangent = np.arctan2(points[c, 1] - points[a, 1], points[c, 0] - points[a, 0])
-        x0 = max(int(np.floor(x - radius)), 0)
-        x1 = min(int(np.ceil(x + radius)), w - 1)
-        y0 = max(int(np.floor(y - radius)), 0)
-        y1 = min(int(np.ceil(y + radius)), h - 1)
+        x0 = int(np.floor(x - radius))
+        x1 = int(np.ceil(x + radius))
+        y0 = int(np.floor(y - radius))
+        y1 = int(np.ceil(y + radius))
+        if not wrap:
+            x0, x1, y0, y1 = max(x0, 0), min(x1, w - 1), max(y0, 0), min(y1, h - 1)
         for yy in range(y0, y1 + 1):
             dy2 = (yy - y) ** 2
+            my = yy % h
             for xx in range(x0, x1 + 1):
                 e2 = (xx - x) ** 2 + dy2
                 if e2 > r2:
                     continue
-                bound = dist[yy, xx] + r
+                mx = xx % w
+                bound = dist[my, mx] + r
                 if bound > 0 and e2 >= bound * bound:
                     continue
                 d = np.sqrt(e2) - r
-                if d < dist[yy, xx]:
-                    dist[yy, xx] = d
+                if d < dist[my, mx]:
+                    dist[my, mx] = d
                     if track:
-                        near_branch[yy, xx] = branch
-                        near_vertex[yy, xx] = i
-                        near_tangent[yy, xx] = tangent
+                        near_branch[my, mx] = branch
+                        near_vertex[my, mx] = i
+                        near_tangent[my, mx] = tangent
 
 
 @njit(cache=True)
-def sample_nearest(arr, xs, ys, outside, out, inside):  # pragma: no cover - compiled
+def sample_nearest(arr, xs, ys, outside, out, inside, wrap):  # pragma: no cover - compiled
     """Nearest-pixel lookup of ``arr`` at float positions (any shape, flattened); positions
-    outside the image get ``outside``."""
-    h, w = arr.shape
+    outside the image get ``outside`` (with ``wrap``, none is: the image is a torus)."""
     fx = xs.ravel()
     fy = ys.ravel()
     o = out.ravel()
     ins = inside.ravel()
     for i in range(fx.shape[0]):
-        xi = int(np.floor(fx[i] + 0.5))
-        yi = int(np.floor(fy[i] + 0.5))
-        if 0 <= xi < w and 0 <= yi < h:
-            o[i] = arr[yi, xi]
-            ins[i] = True
-        else:
-            o[i] = outside
-            ins[i] = False
+        o[i], ins[i] = _lookup(arr, fx[i], fy[i], outside, wrap)
 
 
 @njit(cache=True)
-def _lookup(arr, x, y, outside):  # pragma: no cover - compiled
+def _lookup(arr, x, y, outside, wrap):  # pragma: no cover - compiled
+    """``(arr at the pixel nearest to (x, y), inside)``; outside the image ``(outside, False)``,
+    unless ``wrap``: then the image is a torus and every position is inside."""
     h, w = arr.shape
     xi = int(np.floor(x + 0.5))
     yi = int(np.floor(y + 0.5))
+    if wrap:
+        return arr[yi % h, xi % w], True
     if 0 <= xi < w and 0 <= yi < h:
         return arr[yi, xi], True
     return outside, False
 
 
 @njit(cache=True)
-def _contact(dist, near_branch, x, y, r, step, branch, parent, sx, sy, exempt):  # pragma: no cover - compiled
+def _contact(dist, near_branch, x, y, r, step, branch, parent, sx, sy, exempt, wrap):  # pragma: no cover - compiled
     """(inside the image, touches a committed branch) for a new vertex of thickness ``r``: the
     vertices of one branch are ``step`` apart, so bodies closer than ``r + 0.75 step`` touch;
     a branch never touches itself and a child may touch its parent within ``exempt`` of the
-    furcation it starts from (sx, sy)."""
-    d, inside = _lookup(dist, x, y, np.float32(1e6))
+    furcation it starts from (sx, sy). ``wrap``: the maps are a torus."""
+    d, inside = _lookup(dist, x, y, np.float32(1e6), wrap)
     if not inside:
         return False, False
-    nb, _ = _lookup(near_branch, x, y, np.int32(-1))
+    nb, _ = _lookup(near_branch, x, y, np.int32(-1), wrap)
     if nb == branch:
         return True, False
     if nb == parent and np.sqrt((x - sx) ** 2 + (y - sy) ** 2) <= exempt:
@@ -93,12 +95,14 @@ def _contact(dist, near_branch, x, y, r, step, branch, parent, sx, sy, exempt): 
 
 
 @njit(cache=True)
-def first_contacts(dist, near_branch, xs, ys, rs, step, branch, parent, sx, sy, exempt):  # pragma: no cover - compiled
+def first_contacts(
+    dist, near_branch, xs, ys, rs, step, branch, parent, sx, sy, exempt, wrap
+):  # pragma: no cover - compiled
     """(first vertex touching a committed branch, first vertex outside the image) along one
     path of vertices; -1 where there is none. See :func:`_contact`."""
     first_hit = -1
     for j in range(xs.shape[0]):
-        inside, touch = _contact(dist, near_branch, xs[j], ys[j], rs[j], step, branch, parent, sx, sy, exempt)
+        inside, touch = _contact(dist, near_branch, xs[j], ys[j], rs[j], step, branch, parent, sx, sy, exempt, wrap)
         if not inside:
             return first_hit, j
         if touch and first_hit < 0:
@@ -108,7 +112,7 @@ def first_contacts(dist, near_branch, xs, ys, rs, step, branch, parent, sx, sy, 
 
 @njit(cache=True)
 def path_contacts(
-    x0, y0, theta, step, elements, dist, near_branch, branch, parent, sx, sy, exempt
+    x0, y0, theta, step, elements, dist, near_branch, branch, parent, sx, sy, exempt, wrap
 ):  # pragma: no cover - compiled
     """The vertices of element rows (angle, thickness) appended from ``(x0, y0)`` at heading
     ``theta`` (``step`` apart), their headings, and the first vertex touching a committed
@@ -128,7 +132,7 @@ def path_contacts(
         ys[j] = hy
         heads[j] = hd
     first_hit, first_out = first_contacts(
-        dist, near_branch, xs, ys, elements[:, 1].copy(), step, branch, parent, sx, sy, exempt
+        dist, near_branch, xs, ys, elements[:, 1].copy(), step, branch, parent, sx, sy, exempt, wrap
     )
     return xs, ys, heads, first_hit, first_out
 
@@ -167,10 +171,11 @@ def extension_candidates(
       h_target, n_t, omega_g)``: the three histograms of §4.2 (edges, counts so far over
       ``n_t`` elements, the source's), and the weight of matching them;
     - ``tip = (x0, y0, theta, step)``: where the branch is, its heading and the step h;
-    - ``contact = (dist, near_branch, branch, parent, sx, sy, exempt)``: see :func:`_contact`;
-    - ``density = (density, guide, use_guide, rho, eps)``: the density map, the optional guide,
-      the space-colonisation ``rho`` and the regulariser of ``Q**``;
-    - ``choice = (c_best, uniforms, join_rate, join_pdf, near_tangent)``;
+    - ``contact = (dist, near_branch, branch, parent, sx, sy, exempt, wrap)``: see
+      :func:`_contact` (``wrap``: every map is a torus);
+    - ``density = (density, guide, use_guide, rho, eps, wrap)``: the density map, the optional
+      guide, the space-colonisation ``rho`` and the regulariser of ``Q**``;
+    - ``choice = (c_best, uniforms, join_rate, join_pdf, near_tangent, wrap)``;
     - ``qual``: scratch for every history's quality; ``out = (cand, qstar, lens, ang, thk, xs,
       ys, heads, first_hit, first_out, q2)``: per candidate (rows ``T``).
     """
@@ -300,7 +305,7 @@ def _trace_candidates(
     """The vertices every candidate would add from the tip, its first vertex touching a
     committed branch (before leaving the image) and its first vertex outside the image."""
     x0, y0, theta, step = tip
-    dist, near_branch, branch, parent, sx, sy, exempt = contact
+    dist, near_branch, branch, parent, sx, sy, exempt, wrap = contact
     for t in range(cand.shape[0]):
         if cand[t] < 0:
             continue
@@ -316,7 +321,9 @@ def _trace_candidates(
             xs[t, j] = hx
             ys[t, j] = hy
             heads[t, j] = hd
-            inside, touch = _contact(dist, near_branch, hx, hy, thk[t, j], step, branch, parent, sx, sy, exempt)
+            inside, touch = _contact(
+                dist, near_branch, hx, hy, thk[t, j], step, branch, parent, sx, sy, exempt, wrap
+            )
             if not inside:
                 if first_out[t] < 0:
                     first_out[t] = j
@@ -331,7 +338,7 @@ def _chord_scores(cand, lens, qstar, xs, ys, q2, tip, density):  # pragma: no co
     candidate: ``D`` (``G``) the largest density (guide value) at 8 points along its chord (the
     current heading for an ending candidate) up to three times its length."""
     x0, y0, theta, step = tip
-    dmap, guide, use_guide, rho, eps = density
+    dmap, guide, use_guide, rho, eps, wrap = density
     for t in range(cand.shape[0]):
         if cand[t] < 0:
             continue
@@ -347,12 +354,12 @@ def _chord_scores(cand, lens, qstar, xs, ys, q2, tip, density):  # pragma: no co
             tt = reach * (0.25 + 0.75 * s / 7.0)
             px = x0 + np.cos(chord) * tt
             py = y0 + np.sin(chord) * tt
-            d, inside = _lookup(dmap, px, py, np.float32(1e6))
+            d, inside = _lookup(dmap, px, py, np.float32(1e6), wrap)
             if inside:
                 dd = max(d, 0.0)
                 dens = max(dens, np.exp(-dd * dd / (rho * rho)))
             if use_guide:
-                gv, _ = _lookup(guide, px, py, np.float32(1.0))
+                gv, _ = _lookup(guide, px, py, np.float32(1.0), wrap)
                 g = max(g, gv)
         if use_guide:
             q2[t] = qstar[t] / ((dens + eps) * (g + eps))
@@ -365,15 +372,15 @@ def _decide(
     choice, cand, qstar, lens, xs, ys, heads, first_hit, first_out, q2, decision
 ):  # pragma: no cover - compiled
     """The choice of :func:`extension_candidates` into ``decision``, ``choice = (c_best,
-    uniforms, join_rate, join_pdf, near_tangent)``."""
-    c_best, uniforms, join_rate, join_pdf, near_tangent = choice
+    uniforms, join_rate, join_pdf, near_tangent, wrap)``."""
+    c_best, uniforms, join_rate, join_pdf, near_tangent, wrap = choice
     decision[0] = 0
     pick = _draw_best(qstar, cand, first_hit, False, c_best, uniforms[0])
     if pick < 0:
         return
     if first_hit[pick] >= 0:
         j = first_hit[pick]
-        tan, ok = _lookup(near_tangent, xs[pick, j], ys[pick, j], np.float32(0.0))
+        tan, ok = _lookup(near_tangent, xs[pick, j], ys[pick, j], np.float32(0.0), wrap)
         inc = abs(np.angle(np.exp(1j * (heads[pick, j] - tan))))
         inc = min(inc, np.pi - inc)
         like = 1.0

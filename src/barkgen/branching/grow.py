@@ -52,8 +52,10 @@ class _Grower:
         guide: np.ndarray | None,
         options: GrowOptions,
         rng: np.random.Generator,
+        wrap: bool = False,
     ):
         self.model, self.rng, self.options = model, rng, options
+        self.wrap = bool(wrap)  # the output is a torus: branches run on across its edges
         self.o = model.options
         self.w, self.h = size
         self.step = model.step
@@ -130,6 +132,8 @@ class _Grower:
                 last,
                 b,
                 self.radius,
+                True,
+                self.wrap,
             )
 
     def commit_density(self, points: np.ndarray, first: int) -> None:
@@ -146,6 +150,7 @@ class _Grower:
                 -1,
                 self.radius,
                 False,
+                self.wrap,
             )
 
     def sample(self, arr: np.ndarray, x: np.ndarray, y: np.ndarray, outside):
@@ -153,7 +158,7 @@ class _Grower:
         y = np.ascontiguousarray(y, np.float64)
         out = np.empty(x.shape, arr.dtype)
         inside = np.empty(x.shape, np.bool_)
-        K.sample_nearest(arr, x, y, outside, out, inside)
+        K.sample_nearest(arr, x, y, outside, out, inside, self.wrap)
         return out, inside
 
     # -- one branch -----------------------------------------------------------------------
@@ -288,6 +293,7 @@ class _Grower:
             float(start[0]),
             float(start[1]),
             float(exempt),
+            self.wrap,
         )
 
     def _append(self, tip: _Tip, elements, start, exempt, b):
@@ -346,9 +352,10 @@ class _Grower:
                 float(start[0]),
                 float(start[1]),
                 float(exempt),
+                self.wrap,
             ),
-            (self.density, self._guide, self.guide is not None, self.rho, EPSILON),
-            (o.c, self.rng.random(3), self.merge_rate(), self._join_pdf, self.near_tangent),
+            (self.density, self._guide, self.guide is not None, self.rho, EPSILON, self.wrap),
+            (o.c, self.rng.random(3), self.merge_rate(), self._join_pdf, self.near_tangent, self.wrap),
             self._quality,
             bufs,
             self._decision,
@@ -418,6 +425,9 @@ class _Grower:
         if nb[0] < 0:
             return
         x, y, _ = self.branches[int(nb[0])].points[int(nv[0])]
+        if self.wrap:  # the met vertex's copy nearest to the tip (branches run on across edges)
+            x += self.w * np.round((hx - x) / self.w)
+            y += self.h * np.round((hy - y) / self.h)
         tip.xyr[tip.n] = (x, y, tip.xyr[tip.n - 1, 2])
         tip.n += 1
         branch.joins, branch.join_vertex = int(nb[0]), int(nv[0])
@@ -563,6 +573,7 @@ def grow_structure(
     guide: np.ndarray | None = None,
     options: GrowOptions | None = None,
     progress=None,
+    tile: bool = False,
 ) -> Structure:
     """Grow a new structure of ``size = (width, height)`` pixels from ``model``.
 
@@ -574,6 +585,9 @@ def grow_structure(
             to low values (a dark valley along a path), roots start where it is low.
         options: stopping rules and the density spread.
         progress: optional ``progress(done, total)`` callback (length grown so far).
+        tile: grow on the torus: the contact and density maps (and the guide) run on across
+            the output's edges, so branches cross them and meet branches on the other side,
+            and the structure is :attr:`~Structure.periodic` (its rasterization tiles).
     """
     options = (options or GrowOptions()).validate()
     w, h = int(size[0]), int(size[1])
@@ -584,8 +598,8 @@ def grow_structure(
             raise InvalidInputError(
                 f"guide map is {guide.shape[1]}x{guide.shape[0]} but the output is {w}x{h}; they must be the same size"
             )
-    grower = _Grower(model, (w, h), guide, options, np.random.default_rng(seed))
+    grower = _Grower(model, (w, h), guide, options, np.random.default_rng(seed), wrap=tile)
     grower.run(progress)
     if not grower.branches:
         raise InvalidInputError("growth produced no branch (the output is too small for the model)")
-    return Structure(model.step, (w, h), grower.branches)
+    return Structure(model.step, (w, h), grower.branches, periodic=bool(tile))

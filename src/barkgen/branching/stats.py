@@ -45,29 +45,42 @@ def self_intersections(structure: Structure) -> int:
 
 
 def intersection_mask(structure: Structure) -> np.ndarray:
-    """uint8 mask of the pixels counted by :func:`self_intersections`."""
+    """uint8 mask of the pixels counted by :func:`self_intersections` (on the torus for a
+    :attr:`~Structure.periodic` structure)."""
     h, w = structure.height, structure.width
+    periodic = structure.periodic
     owner = np.full((h, w), -1, np.int32)
     crossing = np.zeros((h, w), np.uint8)
     junctions = np.zeros((h, w), np.uint8)
+    copies = [(dx, dy) for dy in (-h, 0, h) for dx in (-w, 0, w)] if periodic else [(0, 0)]
     for b in structure.branches:
         for ref, v, own in ((b.parent, b.parent_vertex, b.points[0, 2]), (b.joins, b.join_vertex, b.points[-1, 2])):
             if ref is not None:
                 x, y, r = structure.branches[ref].points[v]
-                radius = junction_radius(r, own, structure.step)
-                cv2.circle(junctions, (int(round(x)), int(round(y))), int(np.ceil(radius)), 1, -1)
+                if periodic:
+                    x, y = x % w, y % h
+                radius = int(np.ceil(junction_radius(r, own, structure.step)))
+                for dx, dy in copies:
+                    cv2.circle(junctions, (int(round(x + dx)), int(round(y + dy))), radius, 1, -1)
     for i, b in enumerate(structure.branches):
-        pts = np.round(b.xy).astype(np.int32)
-        x0, y0 = np.maximum(pts.min(axis=0) - 1, 0)
-        x1, y1 = np.minimum(pts.max(axis=0) + 2, [w, h])
-        if x1 <= x0 or y1 <= y0:
-            continue
+        pts = np.round(b.xy).astype(np.int64)
+        if periodic:  # moved by whole periods to start in the image
+            pts -= (pts[0] // (w, h)) * (w, h)
+        x0, y0 = pts.min(axis=0) - 1
+        x1, y1 = pts.max(axis=0) + 2
         mask = np.zeros((y1 - y0, x1 - x0), np.uint8)
-        cv2.polylines(mask, [pts - [x0, y0]], False, 1, 1)
-        sub = owner[y0:y1, x0:x1]
-        hit = (mask > 0) & (sub >= 0) & (sub != i)
-        crossing[y0:y1, x0:x1][hit] = 1
-        sub[mask > 0] = i
+        cv2.polylines(mask, [(pts - [x0, y0]).astype(np.int32)], False, 1, 1)
+        yy, xx = np.nonzero(mask)
+        yy, xx = yy + y0, xx + x0
+        if periodic:
+            yy, xx = yy % h, xx % w
+        else:
+            keep = (yy >= 0) & (yy < h) & (xx >= 0) & (xx < w)
+            yy, xx = yy[keep], xx[keep]
+        sub = owner[yy, xx]
+        hit = (sub >= 0) & (sub != i)
+        crossing[yy[hit], xx[hit]] = 1
+        owner[yy, xx] = i
     crossing[junctions > 0] = 0
     return crossing
 

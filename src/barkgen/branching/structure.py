@@ -47,11 +47,17 @@ class Branch:
 
 @dataclass
 class Structure:
-    """A branching structure in an image of ``size = (width, height)`` pixels."""
+    """A branching structure in an image of ``size = (width, height)`` pixels.
+
+    ``periodic``: the image is a torus (a tileable output, :func:`~barkgen.branching.grow_structure`
+    with ``tile``): branches run on across its edges, their points outside ``[0, width) x
+    [0, height)`` stand for the same places modulo the size, and :func:`rasterize` folds them.
+    """
 
     step: float
     size: tuple[int, int]
     branches: list[Branch] = field(default_factory=list)
+    periodic: bool = False
 
     @property
     def width(self) -> int:
@@ -73,12 +79,12 @@ class Structure:
 
     def free_ends(self, margin: float = 3.0) -> int:
         """Branch ends connected to nothing: starts without a parent and ends without a merge,
-        farther than ``margin`` px from the image border (where a crack just leaves the image).
-        Closed cells, as in dried mud, have few."""
+        farther than ``margin`` px from the image border (where a crack just leaves the image;
+        a periodic structure has no border). Closed cells, as in dried mud, have few."""
         w, h = self.width, self.height
 
         def inside(p: np.ndarray) -> bool:
-            return margin < p[0] < w - 1 - margin and margin < p[1] < h - 1 - margin
+            return self.periodic or (margin < p[0] < w - 1 - margin and margin < p[1] < h - 1 - margin)
 
         return int(
             sum(
@@ -101,19 +107,17 @@ class Structure:
                 item["joins"] = b.joins
                 item["join_vertex"] = b.join_vertex
             out.append(item)
-        return {
-            "version": STRUCTURE_VERSION,
-            "step": float(self.step),
-            "size": [self.width, self.height],
-            "branches": out,
-        }
+        head = {"version": STRUCTURE_VERSION, "step": float(self.step), "size": [self.width, self.height]}
+        if self.periodic:
+            head["periodic"] = True
+        return {**head, "branches": out}
 
     @classmethod
     def from_dict(cls, data: object, where: str = "structure") -> Structure:
         """Validate and build a structure from its JSON form; errors are one clear line."""
         if not isinstance(data, dict):
             raise InvalidInputError(f"{where}: expected a JSON object with version, step, size, branches")
-        unknown = set(data) - {"version", "step", "size", "branches"}
+        unknown = set(data) - {"version", "step", "size", "branches", "periodic"}
         if unknown:
             raise InvalidInputError(f"{where}: unknown key(s) {', '.join(sorted(map(str, unknown)))}")
         if data.get("version") != STRUCTURE_VERSION:
@@ -136,7 +140,10 @@ class Structure:
         built = []
         for i, item in enumerate(branches):
             built.append(_branch_from_dict(item, i, len(branches), f"{where}: branch {i}"))
-        structure = cls(float(step), (size[0], size[1]), built)
+        periodic = data.get("periodic", False)
+        if not isinstance(periodic, bool):
+            raise InvalidInputError(f"{where}: periodic must be true or false, got {periodic!r}")
+        structure = cls(float(step), (size[0], size[1]), built, periodic=periodic)
         structure.validate(where)
         return structure
 
@@ -223,24 +230,49 @@ def rasterize(
 ) -> np.ndarray:
     """Boolean ``(H, W)`` mask of every pixel within its branch's thickness of the skeleton.
 
-    ``thickness`` is the half-width (radius) of the branch at a vertex.
+    ``thickness`` is the half-width (radius) of the branch at a vertex. A
+    :attr:`~Structure.periodic` structure is drawn on the torus: each segment is moved by whole
+    periods next to the image, drawn on a canvas with a margin, and the margin folded back onto
+    the opposite edges, so the mask tiles.
     """
     import cv2
 
     h, w = shape if shape is not None else (structure.height, structure.width)
-    canvas = np.zeros((h, w), np.uint8)
     ends, widths = [], []
     for b in structure.branches:
         p = b.points
         if len(p) < 2:
             continue
-        fixed = np.round(p[:, :2] * 16).astype(np.int32)  # 4 fractional bits (cv2 shift=4)
-        ends.append(np.stack([fixed[:-1], fixed[1:]], axis=1))
         r = np.maximum((p[:-1, 2] + p[1:, 2]) / 2 * scale, min_radius)
+        segments = np.stack([p[:-1, :2], p[1:, :2]], axis=1)
+        ends.append(segments)
         widths.append(np.maximum(1, np.round(2 * r)).astype(np.int64))
-    if ends:
-        segments = np.concatenate(ends)
-        width = np.concatenate(widths)
-        for t in np.unique(width):  # one call per line width
-            cv2.polylines(canvas, list(segments[width == t]), False, 1, thickness=int(t), lineType=cv2.LINE_8, shift=4)
+    if not ends:
+        return np.zeros((h, w), bool)
+    segments = np.concatenate(ends)
+    width = np.concatenate(widths)
+    margin = 0
+    if structure.periodic:  # each segment's start moved into the image by whole periods
+        segments = segments - np.floor(segments[:, :1] / (w, h)) * (w, h)
+        reach = np.abs(segments[:, 1] - segments[:, 0]).max() if len(segments) else 0.0
+        margin = int(np.ceil(reach + width.max())) + 2
+    canvas = np.zeros((h + 2 * margin, w + 2 * margin), np.uint8)
+    fixed = np.round((segments + margin) * 16).astype(np.int32)  # 4 fractional bits (cv2 shift=4)
+    for t in np.unique(width):  # one call per line width
+        cv2.polylines(canvas, list(fixed[width == t]), False, 1, thickness=int(t), lineType=cv2.LINE_8, shift=4)
+    if margin:
+        canvas = _fold(canvas, margin, (h, w))
     return canvas.astype(bool)
+
+
+def _fold(canvas: np.ndarray, margin: int, shape: tuple[int, int]) -> np.ndarray:
+    """A canvas drawn with ``margin`` px around an ``(h, w)`` torus, its margins OR-ed onto the
+    opposite edges (the margin may exceed the image: it wraps as often as needed)."""
+    h, w = shape
+    rows = (np.arange(canvas.shape[0]) - margin) % h
+    cols = (np.arange(canvas.shape[1]) - margin) % w
+    out = np.zeros((h, canvas.shape[1]), np.uint8)
+    np.maximum.at(out, rows, canvas)
+    folded = np.zeros((w, h), np.uint8)
+    np.maximum.at(folded, cols, out.T)
+    return folded.T.copy()
