@@ -321,9 +321,7 @@ def _trace_candidates(
             xs[t, j] = hx
             ys[t, j] = hy
             heads[t, j] = hd
-            inside, touch = _contact(
-                dist, near_branch, hx, hy, thk[t, j], step, branch, parent, sx, sy, exempt, wrap
-            )
+            inside, touch = _contact(dist, near_branch, hx, hy, thk[t, j], step, branch, parent, sx, sy, exempt, wrap)
             if not inside:
                 if first_out[t] < 0:
                     first_out[t] = j
