@@ -271,6 +271,47 @@ class BilayerModel:
             return out
         return {"texture": out, "structure": structure[:, :, :3], "masks": structure[:, :, 3:], "noise": noise}
 
+    def noise_on_torus(self, masks: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """The noise layer ``sum_k M'_k N_k`` (guingo2017 eq. 6) under synthesized masks, on a
+        torus of their size: each cluster's colour noise of its own spectra (random phase from
+        one white noise per channel, shared by the clusters, §3.2), histogram-equalised where
+        the model has quantile tables (§6), so it tiles with a tileable structure layer.
+
+        Parameters
+        ----------
+        masks : ndarray, shape (H, W, K)
+            ``M'_k``, e.g. the model's masks carried through a synthesis' reference map.
+        rng : numpy.random.Generator
+            The white noise's source.
+
+        Returns
+        -------
+        ndarray of float32, shape (H, W, 3)
+        """
+        from scipy.special import ndtr
+
+        h, w, k = masks.shape
+        if k != self.k:
+            raise InvalidInputError(f"the model has {self.k} masks, not {k}")
+        stats = self.noise
+        white = rng.standard_normal((3, h, w))
+        n_q = stats.quantiles.shape[2]
+        out = np.zeros((h, w, 3), np.float32)
+        for c in range(k):
+            mask = masks[:, :, c]
+            if not mask.any():
+                continue
+            channels = np.empty((3, h, w), np.float32)
+            for ch in range(3):
+                v = noise_from_white(white[ch], stats.spectra[c, ch])
+                if n_q > 1:  # Gaussian quantile -> the photo's quantile
+                    u = ndtr(v / float(stats.sigmas[c, ch]))
+                    v = np.interp(u * (n_q - 1), np.arange(n_q), stats.quantiles[c, ch]).astype(np.float32)
+                channels[ch] = v
+            colour = stats.means[c][None, None, :] + np.einsum("ij,jyx->yxi", stats.bases[c], channels)
+            out += mask[:, :, None] * colour
+        return out
+
     def synthesize(
         self,
         shape: tuple[int, int],

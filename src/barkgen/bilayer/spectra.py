@@ -204,12 +204,12 @@ def noise_kernel(spectrum: np.ndarray) -> np.ndarray:
 def noise_from_white(white: np.ndarray, spectrum: np.ndarray) -> np.ndarray:
     """Periodic Gaussian noise of spectrum ``spectrum`` from white noise of the output's size
     (random phase, guingo2017 eq. 1; sharing ``white`` between spectra shares the phases,
-    §3.2)."""
+    §3.2). A kernel larger than the output wraps round it: the noise of a torus smaller than
+    the spectrum."""
     n_y, n_x = white.shape
     t = spectrum.shape[0]
-    if n_y < t or n_x < t:
-        raise InvalidInputError(f"noise tiles must be at least {t} px")
     kernel = np.zeros((n_y, n_x))
-    kernel[:t, :t] = noise_kernel(spectrum)
-    kernel = np.roll(kernel, (-(t // 2), -(t // 2)), axis=(0, 1))  # centre at the origin
+    rows = (np.arange(t) - t // 2) % n_y  # centred at the origin
+    cols = (np.arange(t) - t // 2) % n_x
+    np.add.at(kernel, (rows[:, None], cols[None, :]), noise_kernel(spectrum))
     return np.fft.irfft2(np.fft.rfft2(white) * np.fft.rfft2(kernel), s=white.shape).astype(np.float32)

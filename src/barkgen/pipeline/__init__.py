@@ -11,7 +11,6 @@ from barkgen.pipeline.core import (
     PhotoAnalysis,
     analyze_photo,
     generate,
-    preview_sheet,
 )
 from barkgen.pipeline.files import (
     GENERATE_FILES,
@@ -24,6 +23,7 @@ from barkgen.pipeline.files import (
 )
 from barkgen.pipeline.options import LABEL_METHODS, GenerateOptions, analysis_key
 from barkgen.pipeline.progress import stage_at, stage_span
+from barkgen.pipeline.report import preview_sheet
 from barkgen.pipeline.tree import TreeResult, encode_tree, make_tree
 from barkgen.pipeline.warmup import warm_up
 

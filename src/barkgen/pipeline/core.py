@@ -31,6 +31,8 @@ from barkgen._shared.threads import in_budget, thread_budget
 from barkgen.errors import InvalidInputError
 from barkgen.pipeline.options import GenerateOptions, analysis_key
 from barkgen.pipeline.progress import ANALYSIS_SHARES, share_spans, stage_progress
+from barkgen.pipeline.report import run_report
+from barkgen.pipeline.variants import Exemplar, add_noise, bilayer_layers, crack_label_map, prepare_exemplar
 from barkgen.synth import resolve_exemplar_wrap
 
 if TYPE_CHECKING:
@@ -67,6 +69,11 @@ class GenerateResult:
     orientation : OrientedExemplar or None
         Along a flow field, the atlas of the photo's turned copies that ``references`` point
         into (:class:`barkgen.synth.OrientedExemplar`).
+    cracks : Structure or None
+        With ``structure="cracks"``, the grown crack network (:class:`barkgen.branching.Structure`).
+    layers : dict of str to ndarray
+        A bi-layer texture's synthesized ``structure`` (``P'``; ``references`` point into the
+        photo's structure layer), ``noise`` and ``masks``; empty otherwise.
     """
 
     texture: np.ndarray
@@ -78,6 +85,8 @@ class GenerateResult:
     report: dict = field(default_factory=dict)
     material: MaterialSet | None = None
     orientation: Any = None
+    cracks: Any = None
+    layers: dict = field(default_factory=dict)
 
 
 #: bytes per output pixel of the material stage (height, normals, AO, roughness, albedo and the
@@ -142,6 +151,17 @@ def _check_analysis(
         raise InvalidInputError("the photo analysis belongs to a photo of another size")
 
 
+def _check_variant(options: GenerateOptions, along: bool, resume: bool) -> None:
+    """Cracks and bi-layer textures go their own ways (:mod:`barkgen.pipeline.variants`)."""
+    variant = (
+        "cracks" if options.structure == "cracks" else "a bi-layer texture" if options.model == "bilayer" else None
+    )
+    if variant and along:
+        raise InvalidInputError(f"{variant} does not follow a flow field yet: leave out the flow field")
+    if resume and options.structure == "cracks":
+        raise InvalidInputError("a crack network is grown, not resumed: leave out the label map to resume from")
+
+
 def _check_scan(scan: ScannedSet | None, photo: np.ndarray, options: GenerateOptions) -> None:
     """A scanned set belongs to the photo (its colour) and goes into a material set."""
     if scan is None:
@@ -150,10 +170,6 @@ def _check_scan(scan: ScannedSet | None, photo: np.ndarray, options: GenerateOpt
         raise InvalidInputError("a scanned set's maps go into the material set: turn material on")
     if tuple(scan.shape) != tuple(np.shape(photo)[:2]):
         raise InvalidInputError("the scanned set is not the photo's: their sizes differ")
-
-
-def _fractions(label_map: np.ndarray, values: np.ndarray) -> dict[str, float]:
-    return {str(int(v)): round(float(np.mean(label_map == v)), 4) for v in values}
 
 
 #: seed of the photo's own analysis (the k-means of its label map): the photo's labels belong to
@@ -180,6 +196,10 @@ class PhotoAnalysis:
         The options it was made with.
     seconds : float
         What it cost.
+    exemplar : Exemplar or None
+        What the solvers copy from (the photo, or a bi-layer texture's structure layer) and the
+        crack network's statistics or the bi-layer model (:mod:`barkgen.pipeline.variants`);
+        ``exemplar.bilayer.window`` streams a bi-layer texture without bounds.
 
     References
     ----------
@@ -192,6 +212,7 @@ class PhotoAnalysis:
     material: MaterialSet | None = None
     options: GenerateOptions | None = None
     seconds: float = 0.0
+    exemplar: Exemplar | None = None
 
 
 def analyze_photo(
@@ -274,6 +295,10 @@ def analyze_photo(
         t0 = time.perf_counter()
         # every analysis of the photo runs across its edges where it tiles
         wrap = resolve_exemplar_wrap(options.exemplar_wrap, photo)
+        if scan is not None and options.model == "bilayer":
+            raise InvalidInputError("a bi-layer texture's material set is its structure layer's: give no scanned set")
+        exemplar = prepare_exemplar(photo, options, labels_in)
+        photo, labels_in = exemplar.image, exemplar.labels_in
         if labels_in is None:
             regions = color_regions if options.method == "color" else texton_regions
             labels_in = regions(photo, options.k, seed=ANALYSIS_SEED, wrap=wrap)
@@ -293,7 +318,7 @@ def analyze_photo(
             else None
         )
         cache = AnalysisCache()
-        if solvers and options.strategy in _INIT_LEVELS:
+        if solvers and options.strategy in _INIT_LEVELS and options.structure != "cracks":
             analyse_label_map(
                 labels_in, options.size, cache, photo=photo if options.strategy == "joint" else None, exemplar_wrap=wrap
             )
@@ -313,7 +338,12 @@ def analyze_photo(
         material = material.result() if material is not None else None
         report("material")
         return PhotoAnalysis(
-            labels_in=labels_in, cache=cache, material=material, options=options, seconds=time.perf_counter() - t0
+            labels_in=labels_in,
+            cache=cache,
+            material=material,
+            options=options,
+            seconds=time.perf_counter() - t0,
+            exemplar=exemplar,
         )
 
 
@@ -375,6 +405,7 @@ def generate(
     options = options or GenerateOptions()
     timings: dict[str, float] = {}
     check_generate_memory(photo, options, extra)
+    _check_variant(options, flow is not None or flow_scale is not None, resume is not None)
     if analysis is None:
         analysis = analyze_photo(
             photo,
@@ -392,25 +423,34 @@ def generate(
     t1 = time.perf_counter()
     timings["analysis"] = analysis.seconds
     wrap = resolve_exemplar_wrap(options.exemplar_wrap, photo)
+    exemplar = analysis.exemplar
+    if exemplar is not None:  # what the solvers copy: a bi-layer texture's structure layer
+        photo = exemplar.image
     along = flow is not None or flow_scale is not None
 
     with thread_budget(options.threads):  # every pool sized, BLAS at one thread
-        label_result = synthesize_label_map(
-            labels_in,
-            options.size,
-            strategy=options.strategy,
-            tile=options.tile,
-            seed=options.seed,
-            rotations=options.rotations,
-            resume=resume,
-            progress=stage_progress(progress, "label_map", options.material),
-            cache=analysis.cache,
-            photo=photo,
-            exemplar_wrap=wrap,
-            flow=flow,
-            flow_scale=flow_scale,
-            links=links,
-        )
+        if options.structure == "cracks":
+            label_result, grown = crack_label_map(
+                exemplar.cracks, options, stage_progress(progress, "label_map", options.material)
+            )
+        else:
+            grown = None
+            label_result = synthesize_label_map(
+                labels_in,
+                options.size,
+                strategy=options.strategy,
+                tile=options.tile,
+                seed=options.seed,
+                rotations=options.rotations,
+                resume=resume,
+                progress=stage_progress(progress, "label_map", options.material),
+                cache=analysis.cache,
+                photo=photo,
+                exemplar_wrap=wrap,
+                flow=flow,
+                flow_scale=flow_scale,
+                links=links,
+            )
         t2 = time.perf_counter()
         timings["labels_out"] = t2 - t1
 
@@ -456,9 +496,15 @@ def generate(
     # the analysis' own cost counts whether it ran here or was shared
     timings["total"] = analysis.seconds + time.perf_counter() - t1
 
-    report = _run_report(photo, options, wrap, labels_in, label_result, result, material, timings)
+    texture, layers = result.image, {}
+    if exemplar is not None and exemplar.bilayer is not None:  # guingo2017 eq. 6: P' + sum M'_k N_k
+        noise, masks = bilayer_layers(exemplar.bilayer, result.references, options.seed)
+        texture, layers = add_noise(result.image, noise), {"structure": result.image, "noise": noise, "masks": masks}
+        if material is not None:  # the structure layer's maps; its albedo with the new noise
+            material = dataclasses.replace(material, color=np.clip(material.color + noise, 0.0, 1.0))
+    report = run_report(photo, options, wrap, labels_in, label_result, result, material, timings)
     return GenerateResult(
-        texture=result.image,
+        texture=texture,
         labels_in=labels_in,
         labels_out=label_result.label_map,
         references=result.references,
@@ -467,47 +513,9 @@ def generate(
         report=report,
         material=material,
         orientation=result.orientation,
+        cracks=grown,
+        layers=layers,
     )
-
-
-def _run_report(photo, options: GenerateOptions, wrap, labels_in, label_result, result, material, timings) -> dict:
-    """The JSON-ready report of a :func:`generate` run: its parameters, label areas and timings."""
-    values = np.unique(labels_in)
-    return {
-        "size": [options.size[1], options.size[0]],
-        "photo_size": [int(np.asarray(photo).shape[1]), int(np.asarray(photo).shape[0])],
-        "k": int(values.size),
-        "method": options.method,
-        "strategy": options.strategy,
-        "rotations": options.rotations,
-        "layer_order": label_result.layer_order,
-        "tile": bool(options.tile),
-        "exemplar_wrap_mode": options.exemplar_wrap,
-        "exemplar_wrap": [bool(wrap[0]), bool(wrap[1])],
-        "seed": int(options.seed),
-        "label_weight": options.label_weight,
-        "feature_weight": options.feature_weight,
-        "texture_init": "label map references" if label_result.references is not None else "smart",
-        "blend": options.blend,
-        "extras": sorted(result.extras),
-        "extra_wraps": {name: list(axes) for name, axes in sorted(result.extra_wraps.items())},
-        "resumed_from_level": label_result.resumed_level,
-        "label_fractions_in": _fractions(labels_in, values),
-        "label_fractions_out": _fractions(label_result.label_map, values),
-        "material": bool(options.material),
-        "relief": options.relief if options.material else None,
-        "light": None
-        if material is None or material.light is None
-        else [material.light.azimuth, material.light.elevation],
-        "flow": None
-        if result.orientation is None
-        else {
-            "copies": result.orientation.n_copies,
-            "angles": sorted(set(result.orientation.angles)),
-            "scales": sorted(set(result.orientation.scales)),
-        },
-        "timings_s": {name: round(value, 3) for name, value in timings.items()},
-    }
 
 
 def _output_material(photo, labels_in, options: GenerateOptions, wrap, scan, analysis, result):
@@ -550,33 +558,3 @@ def _photo_material(
         ),
         label_map=to_codes(labels_in)[0],
     )
-
-
-def preview_sheet(photo: np.ndarray, result: GenerateResult, tile_size: int = 320) -> np.ndarray:
-    """The contact sheet of a run: photo, input labels, output labels, result.
-
-    Parameters
-    ----------
-    photo : ndarray
-        The photo of the run.
-    result : GenerateResult
-        What :func:`generate` made of it.
-    tile_size : int, default 320
-        Width of each picture in the sheet, in pixels.
-
-    Returns
-    -------
-    ndarray of uint8, shape (H, 4 * (tile_size + 6), 3)
-        The sheet (:func:`barkgen.labels.contact_sheet`), captioned.
-    """
-    from barkgen._shared.arrays import as_uint8
-    from barkgen.labels import contact_sheet, label_colour_map
-
-    values = np.unique(result.labels_in)
-    tiles = [
-        as_uint8(photo),
-        label_colour_map(result.labels_in, values),
-        label_colour_map(result.labels_out, values),
-        as_uint8(result.texture),
-    ]
-    return contact_sheet(tiles, ["photo", "labels in", "labels out", "result"], columns=4, tile_size=tile_size)

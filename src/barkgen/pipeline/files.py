@@ -15,7 +15,7 @@ from barkgen.io.folders import RECORD_HASHES, file_record
 from barkgen.io.images import encode_concurrently, encode_png
 from barkgen.io.material import check_material_name, encode_material, utf8_text
 from barkgen.io.references import encode_reference
-from barkgen.pipeline.core import preview_sheet
+from barkgen.pipeline.report import preview_sheet
 
 #: the files every run writes (their stems are not free for --extra or the material name)
 GENERATE_FILES = ("texture", "labels_in", "labels_out", "reference", "preview", "report")

@@ -18,6 +18,12 @@ if TYPE_CHECKING:
     from barkgen.material import Light
 
 LABEL_METHODS = ("color", "texton")
+#: what the output's label map is: the photo's labels in new shapes, or a crack network grown
+#: from the photo's (sibbing2010)
+STRUCTURES = ("labels", "cracks")
+#: what the output's pixels are: pieces of the photo, or a bi-layer texture (guingo2017): pieces
+#: of the photo's structure layer plus new spatially varying noise
+MODELS = ("patches", "bilayer")
 #: the options the web app does not offer: its label maps are cached per k, made with colour
 #: labels across the photo's wrap as generate's defaults make them
 _NOT_WEB = ("cli", "batch")
@@ -78,6 +84,14 @@ class GenerateOptions:
         ``gradient``: the colour's seams between copied pieces (and the albedo's) blended in
         the gradient domain (:func:`barkgen.synth.blend_seams`); ``none``: every
         pixel an exact copy of its reference.
+    structure : {"labels", "cracks"}, default "labels"
+        ``cracks``: the photo's crack network is extracted and a new one grown at the output
+        size (on the torus with ``tile``; sibbing2010 §3-4), and texture-by-numbers fills it
+        (:mod:`barkgen.pipeline.variants`).
+    model : {"patches", "bilayer"}, default "patches"
+        ``bilayer``: the output is a bi-layer texture (guingo2017): the photo's structure layer
+        synthesized by the engine, plus new noise of the photo's spectra under the synthesized
+        masks; ``k`` is its number of noises (1-8).
 
     Raises
     ------
@@ -172,6 +186,21 @@ class GenerateOptions:
         choices=("gradient", "none"),
     )
 
+    structure: str = option(
+        "labels",
+        "Output label map: labels (the photo's labels in new shapes) or cracks (the photo's "
+        "crack network, extracted, grown anew at the output size and filled with bark; sibbing2010).",
+        choices=STRUCTURES,
+        analysis=True,
+    )
+    model: str = option(
+        "patches",
+        "Output pixels: patches (pieces of the photo) or bilayer (guingo2017: the photo's "
+        "structure layer in pieces plus new noise of its spectra; k noises, 1-8).",
+        choices=MODELS,
+        analysis=True,
+    )
+
     def __post_init__(self) -> None:
         from barkgen._shared.checks import check_k, check_seed
         from barkgen.shapes import STRATEGIES, check_rotations
@@ -188,6 +217,14 @@ class GenerateOptions:
             raise InvalidInputError(f"method must be one of {', '.join(LABEL_METHODS)}, not {self.method!r}")
         if self.strategy not in STRATEGIES:
             raise InvalidInputError(f"strategy must be one of {', '.join(STRATEGIES)}, not {self.strategy!r}")
+        if self.structure not in STRUCTURES:
+            raise InvalidInputError(f"structure must be one of {', '.join(STRUCTURES)}, not {self.structure!r}")
+        if self.model not in MODELS:
+            raise InvalidInputError(f"model must be one of {', '.join(MODELS)}, not {self.model!r}")
+        if self.model == "bilayer" and self.structure == "cracks":
+            raise InvalidInputError("a bi-layer texture has its own structure layer: use one of cracks and bilayer")
+        if self.model == "bilayer" and self.k > 8:
+            raise InvalidInputError(f"a bi-layer texture has 1 to 8 noises (k), not {self.k}")
         if self.label_weight < 0 or self.feature_weight < 0:
             raise InvalidInputError("label and feature weights must be >= 0")
         if not (np.isfinite(self.relief) and 0 < self.relief <= 100):

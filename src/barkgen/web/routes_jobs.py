@@ -174,8 +174,10 @@ def start_job(state: AppState, request: JobRequest) -> dict:
     if request.resume is not None:
         resume = painted_level(state, request.resume, exemplar.id, params)
         params["resumed_from"] = {"result_id": request.resume.result_id, "level": resume[0]}
-    # the photo's label map when a page has made it already (else the worker makes it)
-    grey = library.analysis(exemplar.id, "labels_in", labels_key(options.k))
+    # the photo's label map when a page has made it already (else the worker makes it); cracks
+    # and bi-layer textures have label maps of their own (barkgen.pipeline.variants)
+    plain = options.structure == "labels" and options.model == "patches"
+    grey = library.analysis(exemplar.id, "labels_in", labels_key(options.k)) if plain else None
     spec = {
         "source": exemplar.name,
         "set_name": f"bark{exemplar.id}_seed{seed}",
@@ -188,7 +190,7 @@ def start_job(state: AppState, request: JobRequest) -> dict:
         params,
         spec,
         parent_id=request.resume.result_id if request.resume else None,
-        labels_key=labels_key(options.k) if grey is None else None,
+        labels_key=labels_key(options.k) if plain and grey is None else None,
     )
     return {"id": job.id}
 

@@ -1,0 +1,88 @@
+"""What a :func:`~barkgen.pipeline.generate` run reports: its JSON-ready parameters, label
+areas and timings (:func:`run_report`), and its contact sheet (:func:`preview_sheet`)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from barkgen.pipeline.core import GenerateResult
+    from barkgen.pipeline.options import GenerateOptions
+
+
+def _fractions(label_map: np.ndarray, values: np.ndarray) -> dict[str, float]:
+    return {str(int(v)): round(float(np.mean(label_map == v)), 4) for v in values}
+
+
+def run_report(photo, options: GenerateOptions, wrap, labels_in, label_result, result, material, timings) -> dict:
+    """The JSON-ready report of a :func:`generate` run: its parameters, label areas and timings."""
+    values = np.unique(labels_in)
+    return {
+        "size": [options.size[1], options.size[0]],
+        "photo_size": [int(np.asarray(photo).shape[1]), int(np.asarray(photo).shape[0])],
+        "k": int(values.size),
+        "method": options.method,
+        "strategy": options.strategy,
+        "structure": options.structure,
+        "model": options.model,
+        "rotations": options.rotations,
+        "layer_order": label_result.layer_order,
+        "tile": bool(options.tile),
+        "exemplar_wrap_mode": options.exemplar_wrap,
+        "exemplar_wrap": [bool(wrap[0]), bool(wrap[1])],
+        "seed": int(options.seed),
+        "label_weight": options.label_weight,
+        "feature_weight": options.feature_weight,
+        "texture_init": "label map references" if label_result.references is not None else "smart",
+        "blend": options.blend,
+        "extras": sorted(result.extras),
+        "extra_wraps": {name: list(axes) for name, axes in sorted(result.extra_wraps.items())},
+        "resumed_from_level": label_result.resumed_level,
+        "label_fractions_in": _fractions(labels_in, values),
+        "label_fractions_out": _fractions(label_result.label_map, values),
+        "material": bool(options.material),
+        "relief": options.relief if options.material else None,
+        "light": None
+        if material is None or material.light is None
+        else [material.light.azimuth, material.light.elevation],
+        "flow": None
+        if result.orientation is None
+        else {
+            "copies": result.orientation.n_copies,
+            "angles": sorted(set(result.orientation.angles)),
+            "scales": sorted(set(result.orientation.scales)),
+        },
+        "timings_s": {name: round(value, 3) for name, value in timings.items()},
+    }
+
+
+def preview_sheet(photo: np.ndarray, result: GenerateResult, tile_size: int = 320) -> np.ndarray:
+    """The contact sheet of a run: photo, input labels, output labels, result.
+
+    Parameters
+    ----------
+    photo : ndarray
+        The photo of the run.
+    result : GenerateResult
+        What :func:`generate` made of it.
+    tile_size : int, default 320
+        Width of each picture in the sheet, in pixels.
+
+    Returns
+    -------
+    ndarray of uint8, shape (H, 4 * (tile_size + 6), 3)
+        The sheet (:func:`barkgen.labels.contact_sheet`), captioned.
+    """
+    from barkgen._shared.arrays import as_uint8
+    from barkgen.labels import contact_sheet, label_colour_map
+
+    values = np.unique(result.labels_in)
+    tiles = [
+        as_uint8(photo),
+        label_colour_map(result.labels_in, values),
+        label_colour_map(result.labels_out, values),
+        as_uint8(result.texture),
+    ]
+    return contact_sheet(tiles, ["photo", "labels in", "labels out", "result"], columns=4, tile_size=tile_size)
