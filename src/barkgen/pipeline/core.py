@@ -430,6 +430,8 @@ def generate(
 
     with thread_budget(options.threads):  # every pool sized, BLAS at one thread
         if options.structure == "cracks":
+            if exemplar is None or exemplar.cracks is None:
+                raise InvalidInputError("the photo analysis has no crack network: analyse it with structure='cracks'")
             label_result, grown = crack_label_map(
                 exemplar.cracks, options, stage_progress(progress, "label_map", options.material)
             )
