@@ -111,12 +111,13 @@ def first_contacts(
 
 
 @njit(cache=True)
-def path_contacts(
-    x0, y0, theta, step, elements, dist, near_branch, branch, parent, sx, sy, exempt, wrap
-):  # pragma: no cover - compiled
+def path_contacts(x0, y0, theta, step, elements, contact):  # pragma: no cover - compiled
     """The vertices of element rows (angle, thickness) appended from ``(x0, y0)`` at heading
     ``theta`` (``step`` apart), their headings, and the first vertex touching a committed
-    branch and the first leaving the image (-1: none; :func:`first_contacts`)."""
+    branch and the first leaving the image (-1: none; :func:`first_contacts`); ``contact =
+    (dist, near_branch, branch, parent, sx, sy, exempt, wrap)`` as :func:`extension_candidates`
+    takes it."""
+    dist, near_branch, branch, parent, sx, sy, exempt, wrap = contact
     n = elements.shape[0]
     xs = np.empty(n)
     ys = np.empty(n)

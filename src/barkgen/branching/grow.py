@@ -20,12 +20,12 @@ from collections import deque
 import numpy as np
 
 import barkgen.branching._grow_kernels as K
-from barkgen.branching.growth_options import GrowOptions, check_grow_size
+import barkgen.branching.starts as starts
+from barkgen.branching.growth_options import EPSILON, GrowOptions, check_grow_size
 from barkgen.branching.model import BranchModel, _wrap
 from barkgen.branching.structure import Branch, Structure, junction_radius
 from barkgen.errors import InvalidInputError
 
-EPSILON = 1e-3  # 1 / eps = 10^3 bounds the density scaling (§4.4)
 TOP = 16  # candidates kept after the bending quality, before histogram and density terms
 
 
@@ -77,11 +77,17 @@ class _Grower:
         self.length = 0.0
         self.n_merges = 0
         self.n_roots = 0
+        self.n_free_starts = 0
+        self._forced = False  # growing on to meet a branch: every collision is a merge
+        self.n_free_ends = 0
         self._tip_n = 0
         self.target = (
             options.total_length if options.total_length is not None else model.length_density * self.w * self.h
         )
         self.r_max = float(model.thickness.max()) if len(model.thickness) else 1.0
+        # the last ``lag`` vertices of a growing branch stay out of its contact maps
+        self.lag = int(np.ceil((2 * self.r_max + 2.0) / self.step)) + 1
+        self.extra = int(np.ceil(2 * self.reach / self.step)) + 1  # vertices a branch grows on
         k = self.o.k
         self.hist_a = model.angles[model.history_start[:, None] + np.arange(k + 1)[None, :]]
         self.hist_r = model.thickness[model.history_start[:, None] + np.arange(k + 1)[None, :]]
@@ -122,36 +128,16 @@ class _Grower:
         p = self.branches[b].points
         last = len(p) if last is None else min(last, len(p))
         if first < last:
-            K.commit_points(
-                self.dist,
-                self.near_branch,
-                self.near_vertex,
-                self.near_tangent,
-                np.ascontiguousarray(p),
-                first,
-                last,
-                b,
-                self.radius,
-                True,
-                self.wrap,
-            )
+            self._stamp(self.dist, p, first, last, b, True)
 
     def commit_density(self, points: np.ndarray, first: int) -> None:
         """Enter vertices ``first:`` into the density map."""
         if first < len(points):
-            K.commit_points(
-                self.density,
-                self.near_branch,
-                self.near_vertex,
-                self.near_tangent,
-                np.ascontiguousarray(points),
-                first,
-                len(points),
-                -1,
-                self.radius,
-                False,
-                self.wrap,
-            )
+            self._stamp(self.density, points, first, len(points), -1, False)
+
+    def _stamp(self, arr: np.ndarray, points: np.ndarray, first: int, last: int, b: int, track: bool) -> None:
+        nearest = (self.near_branch, self.near_vertex, self.near_tangent)
+        K.commit_points(arr, *nearest, np.ascontiguousarray(points), first, last, b, self.radius, track, self.wrap)
 
     def sample(self, arr: np.ndarray, x: np.ndarray, y: np.ndarray, outside):
         x = np.ascontiguousarray(x, np.float64)
@@ -180,17 +166,15 @@ class _Grower:
         same_kind = self._roots if parent is None else self._children
         pick = int(same_kind[self.rng.integers(len(same_kind))])
         wanted = float(self.model.branch_length[pick])
-        wants_join = bool(self.model.branch_joined[pick])
+        wants_join = self._joins(self.model.branch_joined, self.model.branch_cut, pick)
         limit = min(int(4 * (self.w + self.h) / self.step), int(np.ceil(wanted / self.step)) + 1)
-        tip = _Tip(limit + self.o.m + 8 + int(np.ceil(self.reach / self.step)), np.asarray(start, np.float64), heading)
+        tip = _Tip(limit + 2 * (self.o.m + self.extra) + 8, np.asarray(start, np.float64), heading)
         exempt = junction_radius(
             float(self.branches[parent].points[parent_vertex, 2]) if parent is not None else 0.0,
             float(start[2]),
             self.step,
         )
-        lag = int(np.ceil((2 * self.r_max + 2.0) / self.step)) + 1
-        committed = 0
-        density_done = 0
+        done = [0, 0]  # vertices entered into the contact maps and into the density map
         # how the branch ends: "free" (its source branch ended, no candidate, its length),
         # "joins" (on another branch), "merge" (it ended on one), "border" (left the image)
         end = None
@@ -204,6 +188,46 @@ class _Grower:
                     end = "merge"
             elif not ok:
                 end = "border"
+        if end is None:
+            end = self._extend(tip, branch, b, start, exempt, limit, done)
+        if end is None:  # reached the length of its source branch
+            end = "joins" if wants_join else "free"
+        if end in ("joins", "free") and tip.n >= 2 and self._crowded():
+            # beyond the paper: with more free ends per length than the source, the branch grows
+            # on (up to twice the reach) and ends on the first branch it meets
+            self._forced = True
+            end = self._extend(tip, branch, b, start, exempt, tip.n + self.extra, done) or end
+            self._forced = False
+        # a branch that stops in the open reaches forward to end on a branch: always when its
+        # source branch did, else while the structure has fewer merges than the source's rate
+        if end in ("joins", "free") and tip.n >= 2:
+            rate = self.merge_rate()
+            # beyond the paper: also while the structure has more free ends per length than the
+            # source (a grown branch ends in the open more often than the source's did)
+            if self.rng.random() < (rate if end == "joins" else rate * (rate >= 1.0)) or self._crowded():
+                self._reach(tip, start, exempt, b, branch)
+        self._tip_n = 0
+        branch.points = tip.points()
+        length = K.polyline_length(branch.points)
+        # a child that never left its parent's side (not a step longer than the junction radius
+        # of its furcation, within which it may touch the parent) is not a branch: one that
+        # turned back along its parent there drew over it just outside the radius
+        hugs_parent = parent is not None and branch.joins is None and done[0] == 0 and length < exempt + self.step
+        if tip.n < 2 or hugs_parent:
+            self.n_merges -= branch.joins is not None
+            self.branches.pop()
+            return None
+        self.commit(b, max(done[0], 0))
+        self.commit_density(branch.points, done[1])
+        self.n_free_ends += end != "border" and branch.joins is None
+        self.length += length
+        return b
+
+    def _extend(self, tip: _Tip, branch: Branch, b: int, start, exempt: float, limit: int, done: list[int]):
+        """Extend branch ``b`` by §4.2-4.4's steps until it ends or has ``limit`` vertices;
+        ``done`` = [vertices in the contact maps, in the density map]. Returns how it ended
+        (None: it reached the limit)."""
+        end = None
         while end is None and tip.n < limit:
             self._tip_n = tip.n
             choice = self._choose(tip, start, exempt, b)
@@ -223,37 +247,16 @@ class _Grower:
                     end = "border"
                 elif ends:
                     end = "joins" if source_joined else "free"
-                elif tip.n - lag > committed:
+                elif tip.n - self.lag > done[0]:
                     # the last ``lag`` vertices stay out of the contact maps (a thick branch's
                     # own body would hide the branches it is about to cross); the density map
                     # has them all
                     branch.points = tip.points()
-                    self.commit(b, committed, tip.n - lag)
-                    self.commit_density(branch.points, density_done)
-                    committed = tip.n - lag
-                    density_done = tip.n
-        if end is None:  # reached the length of its source branch
-            end = "joins" if wants_join else "free"
-        # a branch that stops in the open reaches forward to end on a branch: always when its
-        # source branch did, else while the structure has fewer merges than the source's rate
-        if end in ("joins", "free") and tip.n >= 2:
-            rate = self.merge_rate()
-            if self.rng.random() < (rate if end == "joins" else rate * (rate >= 1.0)):
-                self._reach(tip, start, exempt, b, branch)
-        self._tip_n = 0
-        branch.points = tip.points()
-        length = K.polyline_length(branch.points)
-        # a child that never left its parent's side (shorter than the junction radius of its
-        # furcation, within which it may touch the parent) is not a branch
-        hugs_parent = parent is not None and branch.joins is None and committed == 0 and length < exempt
-        if tip.n < 2 or hugs_parent:
-            self.n_merges -= branch.joins is not None
-            self.branches.pop()
-            return None
-        self.commit(b, max(committed, 0))
-        self.commit_density(branch.points, density_done)
-        self.length += length
-        return b
+                    self.commit(b, done[0], tip.n - self.lag)
+                    self.commit_density(branch.points, done[1])
+                    done[0] = tip.n - self.lag
+                    done[1] = tip.n
+        return end
 
     def _push(self, tip: _Tip, elements, xs, ys, heads, n: int) -> None:
         """Append the first ``n`` of the element rows with their vertices."""
@@ -286,14 +289,16 @@ class _Grower:
             float(theta),
             self.step,
             np.ascontiguousarray(elements, np.float64),
-            self.dist,
-            self.near_branch,
-            b,
-            -2 if parent is None else parent,
-            float(start[0]),
-            float(start[1]),
-            float(exempt),
-            self.wrap,
+            (
+                self.dist,
+                self.near_branch,
+                b,
+                -2 if parent is None else parent,
+                float(start[0]),
+                float(start[1]),
+                float(exempt),
+                self.wrap,
+            ),
         )
 
     def _append(self, tip: _Tip, elements, start, exempt, b):
@@ -355,7 +360,14 @@ class _Grower:
                 self.wrap,
             ),
             (self.density, self._guide, self.guide is not None, self.rho, EPSILON, self.wrap),
-            (o.c, self.rng.random(3), self.merge_rate(), self._join_pdf, self.near_tangent, self.wrap),
+            (
+                o.c,
+                self.rng.random(3),
+                self.merge_rate(),
+                np.zeros(0) if self._forced else self._join_pdf,
+                self.near_tangent,
+                self.wrap,
+            ),
             self._quality,
             bufs,
             self._decision,
@@ -368,7 +380,7 @@ class _Grower:
         if code == 3:
             return "join", (self._elements[t, :j], xs[t], ys[t], heads[t], int(j))
         if code == 2:
-            return "end", bool(model.end_joins[cand[t]])
+            return "end", self._joins(model.end_joins, model.end_cut, int(cand[t]))
         # a continuation cut short by the end of its source branch ends the branch too
         ends = bool(lens[t] < o.m)
         return "grow", (
@@ -378,8 +390,16 @@ class _Grower:
             heads[t],
             int(j),
             ends,
-            ends and bool(model.end_joins[cand[t]]),
+            ends and self._joins(model.end_joins, model.end_cut, int(cand[t])),
         )
+
+    def _joins(self, joined: np.ndarray, cut: np.ndarray | None, i: int) -> bool:
+        """Whether a branch that takes source branch (or history) ``i``'s ending ends on another
+        branch: as it did, or, where it left the image and its end is unseen, as the source's
+        seen ends do (the share ``join_rate`` of them end on a branch)."""
+        if joined[i]:
+            return True
+        return cut is not None and bool(cut[i]) and self.rng.random() < self.model.join_rate
 
     def _draw(self, scores: np.ndarray) -> int:
         c = np.cumsum(np.maximum(scores, 0.0))
@@ -387,12 +407,19 @@ class _Grower:
             return 0
         return int(min(np.searchsorted(c, self.rng.random() * c[-1], side="right"), len(c) - 1))
 
+    def _crowded(self) -> bool:
+        """The structure has as many free ends per grown length as the source, or more."""
+        rate = self.model.free_ends_per_length
+        return rate is not None and self.n_free_ends >= rate * self.length_so_far()
+
     def merge_rate(self) -> float:
         """Probability that a branch running into another ends on it: 1 while the structure has
         fewer merges per grown length than the source, else the source's share of branch ends
         that are merges (so the merge density tracks the source's, as §4.2's histogram
         matching makes the angles track it)."""
         model = self.model
+        if self._forced:
+            return 1.0
         if model.merges_per_length <= 0:
             return 0.0
         if self.n_merges < model.merges_per_length * self.length_so_far():
@@ -449,82 +476,6 @@ class _Grower:
         tip.n += j
         self._snap(tip, xs[j], ys[j], branch)
 
-    # -- furcations and roots ---------------------------------------------------------------
-    def furcate(self, b: int) -> list[tuple[int, int]]:
-        """Pick furcation points on a finished branch (§4.3): ``d`` is drawn around the sum of
-        the classifier's (Platt-scaled) furcation probabilities along the branch, and the ``d``
-        vertices with the highest margin are taken, each blocking its neighbourhood."""
-        model, k = self.model, self.o.k
-        branch = self.branches[b]
-        p = branch.points
-        n = len(p)
-        if model.svm_w is None or n < 3 or len(model.furcations.branch_angle) == 0:
-            return []
-        block = max(k, int(np.ceil(2 * self.r_max / self.step)) + 1)
-        allowed = np.ones(n, bool)
-        allowed[:1] = False  # the branch's own ends: its furcation and its end point
-        allowed[n - 1 :] = False
-        if branch.joins is not None:
-            allowed[n - block :] = False
-        a, c = model.platt
-        base, expected = K.furcation_margins(
-            p, k, model.feat_mean, model.feat_scale, model.svm_w, model.svm_b, a, c, allowed
-        )
-        d = int(self.rng.poisson(expected))
-        if d == 0:
-            return []
-        chosen = K.pick_furcations(
-            base, allowed, d, block, model.feat_mean[-2:], model.feat_scale[-2:], model.svm_w[-2:]
-        )
-        return [(b, int(v)) for v in chosen]
-
-    def child(self, b: int, v: int) -> int | None:
-        """Start a child branch at vertex ``v`` of branch ``b`` with the non-causal model."""
-        model, k = self.model, self.o.k
-        fur = model.furcations
-        p = self.branches[b].points
-        qual = K.child_qualities(p, v, k, fur.nb_angles, fur.nb_thickness)
-        order = np.argsort(-qual, kind="stable")[: self.o.c]
-        f = int(order[self._draw(qual[order])])
-        a = p[max(v - 1, 0), :2]
-        c = p[min(v + 1, len(p) - 1), :2]
-        tangent = np.arctan2(c[1] - a[1], c[0] - a[0])
-        heading = float(tangent + fur.branch_angle[f])
-        first = fur.child_first[f]
-        n = min(int(fur.child_len[f]), self.o.m)
-        elements = (
-            np.stack([model.angles[first : first + n], model.thickness[first : first + n]], axis=1)
-            if first >= 0 and n
-            else np.zeros((0, 2))
-        )
-        # first edge: the branching angle itself, then the child's own elements
-        lead = np.array([[0.0, float(fur.child_thickness[f])]])
-        start = np.array([p[v, 0], p[v, 1], float(fur.child_thickness[f])])
-        return self.grow_branch(start, heading, np.concatenate([lead, elements]), b, v)
-
-    def root(self) -> int | None:
-        """A new root at the emptiest of some random points, weighted by the guide (§4.5)."""
-        model = self.model
-        n = 256
-        xs = self.rng.uniform(0, self.w - 1, n)
-        ys = self.rng.uniform(0, self.h - 1, n)
-        d, _ = self.sample(self.density, xs, ys, np.float32(0))
-        score = np.minimum(d.astype(np.float64), 1e4)
-        if self.guide is not None:
-            g, _ = self.sample(self.guide, xs, ys, np.float32(1))
-            score = (score + 1.0) * (1.0 - g.astype(np.float64) + EPSILON)
-        i = int(np.argmax(score))
-        if d[i] < self.options.fill * self.rho:
-            return None
-        r = int(self.rng.integers(len(model.root_first)))
-        first = model.root_first[r]
-        end = model.element_end[first]
-        n_el = min(end - first, self.o.k + 1)
-        elements = np.stack([model.angles[first : first + n_el], model.thickness[first : first + n_el]], axis=1)
-        lead = np.array([[0.0, float(model.root_thickness[r])]])
-        start = np.array([xs[i], ys[i], float(model.root_thickness[r])])
-        return self.grow_branch(start, float(model.root_heading[r]), np.concatenate([lead, elements]), None, None)
-
     def run(self, progress=None) -> None:
         """Grow until the stopping rules hold. Children are grown breadth first; a new root
         starts at the emptiest point whenever the structure has fewer separate networks per
@@ -543,7 +494,7 @@ class _Grower:
             )  # roots and children take turns
             last_was_root = want_root or not queue
             if want_root or not queue:
-                b = self.root()
+                b = starts.root(self)
                 if b is None:
                     failures += 1
                     if failures > 20:
@@ -553,14 +504,14 @@ class _Grower:
                     continue
                 failures = 0
                 self.n_roots += 1
-                queue.extend((b, v, 1) for _, v in self.furcate(b))
+                queue.extend((b, v, 1) for _, v in starts.furcate(self, b))
             else:
                 parent, v, level = queue.popleft()
                 if level > self.options.max_levels:
                     continue
-                c = self.child(parent, v)
+                c = starts.child(self, parent, v)
                 if c is not None:
-                    queue.extend((c, w, level + 1) for _, w in self.furcate(c))
+                    queue.extend((c, w, level + 1) for _, w in starts.furcate(self, c))
             if progress:
                 progress(min(self.length, self.target), self.target)
 

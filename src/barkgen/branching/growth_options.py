@@ -8,6 +8,9 @@ from dataclasses import dataclass
 from barkgen._shared.memory import check_budget_value, check_memory_budget
 from barkgen.errors import InvalidInputError
 
+#: the regulariser of growth's density scaling ``Q** = Q* / (D + eps)``: ``1 / eps`` bounds it (§4.4)
+EPSILON = 1e-3
+
 
 @dataclass(frozen=True)
 class GrowOptions:

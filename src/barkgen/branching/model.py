@@ -100,6 +100,15 @@ class BranchModel:
     junction_density: float  # furcations + merges per pixel
     rho: float  # space-colonisation spread (pixels)
     meta: dict = field(default_factory=dict)
+    # (N,) and (B,): the branch leaves the image, so where and how it ends is unseen (censored);
+    # growth ends such a branch as the source's seen ends end (joined at ``join_rate``)
+    end_cut: np.ndarray | None = None
+    branch_cut: np.ndarray | None = None
+    # roots that start in the open (not on the image border) per pixel of skeleton length: the
+    # rest of growth's new networks start on a branch (None: every root starts in the open)
+    free_starts_per_length: float | None = None
+    # branch ends in the open (on no branch, not on the border) per pixel of skeleton length
+    free_ends_per_length: float | None = None
 
 
 def _elements(branch: Branch) -> tuple[np.ndarray, np.ndarray]:
@@ -173,6 +182,8 @@ def fit_model(source: Structure, options: ModelOptions | None = None) -> BranchM
     h = float(source.step)
     branches = _resampled(source, h)
     flat_a, flat_r, element_end, starts, ends, joined, first_index = _histories(branches, k, h)
+    cut = [_leaves(b, source.width, source.height) for b in branches]
+    history_cut = np.repeat(cut, [max(len(_elements(b)[0]) - k, 0) for b in branches])
     a_edges, r_edges, a_hist, r_hist, h_hist = _bending_histograms(branches, flat_a, flat_r, options.bins)
     children, fur_rows, feat_mean, feat_scale, svm_w, svm_b, platt = _furcation_classifier(branches, k)
     furcations = _furcations(branches, fur_rows, first_index, k)
@@ -227,6 +238,10 @@ def fit_model(source: Structure, options: ModelOptions | None = None) -> BranchM
             "furcations": len(fur_rows),
             "merges": n_joins,
         },
+        end_cut=history_cut.astype(bool),
+        free_starts_per_length=_free_starts(branches, source.width, source.height) / max(length, 1e-9),
+        free_ends_per_length=free_ends / max(length, 1e-9),
+        branch_cut=np.asarray(cut, bool),
     )
 
 
@@ -415,6 +430,23 @@ def _remap_vertex(branch: Branch, vertex: int, step: float) -> int:
     s = float(np.concatenate([[0.0], np.cumsum(seg)])[vertex])
     n = len(resample_polyline(branch.points, step))
     return int(min(round(s / step), n - 1))
+
+
+def _leaves(branch: Branch, width: int, height: int, margin: float = 3.0) -> bool:
+    """The branch's end lies within ``margin`` of the image border and on no branch: it runs on
+    out of the image, and its real end is unseen."""
+    x, y = branch.points[-1, :2]
+    inside = margin <= x <= width - 1 - margin and margin <= y <= height - 1 - margin
+    return branch.joins is None and not inside
+
+
+def _free_starts(branches: list[Branch], width: int, height: int, margin: float = 3.0) -> int:
+    """Roots (branches without a parent) that start away from the image border: in the open."""
+    count = 0
+    for b in branches:
+        x, y = b.points[0, :2]
+        count += b.parent is None and margin <= x <= width - 1 - margin and margin <= y <= height - 1 - margin
+    return count
 
 
 def _free_ends(branches: list[Branch], width: int, height: int, margin: float = 3.0) -> int:

@@ -151,6 +151,40 @@ def _check_analysis(
         raise InvalidInputError("the photo analysis belongs to a photo of another size")
 
 
+def _output_label_map(labels_in, photo, options: GenerateOptions, analysis, wrap, resume, progress, fields):
+    """The output label map (:func:`barkgen.shapes.synthesize_label_map` by ``options.strategy``,
+    or a grown crack network's raster) and the grown network (None but for cracks)."""
+    from barkgen.shapes import synthesize_label_map
+
+    flow, flow_scale, links = fields
+    exemplar = analysis.exemplar
+    if options.structure == "cracks":
+        if exemplar is None or exemplar.cracks is None:
+            raise InvalidInputError("the photo analysis has no crack network: analyse it with structure='cracks'")
+        label_result, grown = crack_label_map(
+            exemplar.cracks, options, stage_progress(progress, "label_map", options.material)
+        )
+    else:
+        grown = None
+        label_result = synthesize_label_map(
+            labels_in,
+            options.size,
+            strategy=options.strategy,
+            tile=options.tile,
+            seed=options.seed,
+            rotations=options.rotations,
+            resume=resume,
+            progress=stage_progress(progress, "label_map", options.material),
+            cache=analysis.cache,
+            photo=photo,
+            exemplar_wrap=wrap,
+            flow=flow,
+            flow_scale=flow_scale,
+            links=links,
+        )
+    return label_result, grown
+
+
 def _check_variant(options: GenerateOptions, along: bool, resume: bool) -> None:
     """Cracks and bi-layer textures go their own ways (:mod:`barkgen.pipeline.variants`)."""
     variant = (
@@ -297,7 +331,7 @@ def analyze_photo(
         wrap = resolve_exemplar_wrap(options.exemplar_wrap, photo)
         if scan is not None and options.model == "bilayer":
             raise InvalidInputError("a bi-layer texture's material set is its structure layer's: give no scanned set")
-        exemplar = prepare_exemplar(photo, options, labels_in)
+        exemplar = prepare_exemplar(photo, options, labels_in, ANALYSIS_SEED)
         photo, labels_in = exemplar.image, exemplar.labels_in
         if labels_in is None:
             regions = color_regions if options.method == "color" else texton_regions
@@ -399,7 +433,6 @@ def generate(
     -------
     GenerateResult
     """
-    from barkgen.shapes import synthesize_label_map
     from barkgen.synth import TBN_CONFIG, texture_by_numbers
 
     options = options or GenerateOptions()
@@ -429,30 +462,9 @@ def generate(
     along = flow is not None or flow_scale is not None
 
     with thread_budget(options.threads):  # every pool sized, BLAS at one thread
-        if options.structure == "cracks":
-            if exemplar is None or exemplar.cracks is None:
-                raise InvalidInputError("the photo analysis has no crack network: analyse it with structure='cracks'")
-            label_result, grown = crack_label_map(
-                exemplar.cracks, options, stage_progress(progress, "label_map", options.material)
-            )
-        else:
-            grown = None
-            label_result = synthesize_label_map(
-                labels_in,
-                options.size,
-                strategy=options.strategy,
-                tile=options.tile,
-                seed=options.seed,
-                rotations=options.rotations,
-                resume=resume,
-                progress=stage_progress(progress, "label_map", options.material),
-                cache=analysis.cache,
-                photo=photo,
-                exemplar_wrap=wrap,
-                flow=flow,
-                flow_scale=flow_scale,
-                links=links,
-            )
+        label_result, grown = _output_label_map(
+            labels_in, photo, options, analysis, wrap, resume, progress, (flow, flow_scale, links)
+        )
         t2 = time.perf_counter()
         timings["labels_out"] = t2 - t1
 

@@ -8,7 +8,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from barkgen.pipeline.core import GenerateResult
     from barkgen.pipeline.options import GenerateOptions
 
 
@@ -58,7 +57,7 @@ def run_report(photo, options: GenerateOptions, wrap, labels_in, label_result, r
     }
 
 
-def preview_sheet(photo: np.ndarray, result: GenerateResult, tile_size: int = 320) -> np.ndarray:
+def preview_sheet(photo: np.ndarray, result, tile_size: int = 320) -> np.ndarray:
     """The contact sheet of a run: photo, input labels, output labels, result.
 
     Parameters

@@ -55,8 +55,11 @@ class Exemplar:
     cracks: Any = None
 
 
-def prepare_exemplar(photo: np.ndarray, options: GenerateOptions, labels_in: np.ndarray | None) -> Exemplar:
-    """The variant's exemplar of the photo (:class:`Exemplar`), made once per photo.
+def prepare_exemplar(
+    photo: np.ndarray, options: GenerateOptions, labels_in: np.ndarray | None, seed: int = 0
+) -> Exemplar:
+    """The variant's exemplar of the photo (:class:`Exemplar`), made once per photo; ``seed``:
+    the photo's analysis' own (the bi-layer clusters'), not a variant's.
 
     Raises
     ------
@@ -67,7 +70,7 @@ def prepare_exemplar(photo: np.ndarray, options: GenerateOptions, labels_in: np.
     if options.model == "bilayer":
         if labels_in is not None:
             raise InvalidInputError("a bi-layer texture's labels are its noise clusters: give no label map")
-        return _bilayer_exemplar(photo, options)
+        return _bilayer_exemplar(photo, options, seed)
     if options.structure == "cracks":
         from barkgen.branching import extract_structure, fit_model, rasterize
 
@@ -77,14 +80,13 @@ def prepare_exemplar(photo: np.ndarray, options: GenerateOptions, labels_in: np.
     return Exemplar(photo, labels_in)
 
 
-def _bilayer_exemplar(photo: np.ndarray, options: GenerateOptions) -> Exemplar:
+def _bilayer_exemplar(photo: np.ndarray, options: GenerateOptions, seed: int) -> Exemplar:
     """The photo's bi-layer model; its structure layer in the photo's dtype, and its clusters
     as a label map, darkest cluster first (the height's label cue)."""
     from barkgen.bilayer import AnalysisOptions, analyze
     from barkgen.labels.regions import order_by_luminance, to_label_image
-    from barkgen.pipeline.core import ANALYSIS_SEED
 
-    model = analyze(photo, AnalysisOptions(k=options.k, seed=ANALYSIS_SEED, max_memory=options.max_memory))
+    model = analyze(photo, AnalysisOptions(k=options.k, seed=seed, max_memory=options.max_memory))
     structure = from_unit(model.structure, np.asarray(photo).dtype)
     if np.ndim(photo) == 2:
         structure = structure[:, :, 0]
