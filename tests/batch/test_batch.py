@@ -540,3 +540,57 @@ def test_a_scanned_set_folder_with_a_preset_and_sizes_makes_generates_files(tmp_
     for name in names:
         if name.endswith(".png"):
             assert (gen / name).read_bytes() == (batch / name).read_bytes(), name
+
+
+def test_a_spec_mixing_plain_cracks_and_bilayer_resumes_after_ctrl_c(tmp_path):
+    """One spec, three kinds of bark: the photo's labels in new shapes, a grown crack network
+    (``structure: cracks``) and a bi-layer texture (``model: bilayer``), on the LocalCluster;
+    Ctrl-C after the first variants, then the rerun makes only the rest, and each variant's
+    report says what it is."""
+    from conftest import SHARED, _need_shared, bark_exemplar
+
+    _need_shared()
+    (tmp_path / "photos").mkdir()
+    write_png(tmp_path / "photos" / "fir.png", bark_exemplar("fir_scaly_01", 160))
+    write_png(
+        tmp_path / "photos" / "lichen.png", read_image(SHARED / "data" / "bark" / "lichen_covered_01.jpg")[:160, :160]
+    )
+    mud = read_image(SHARED / "data" / "branching" / "dried_mud_01.jpg")
+    write_png(tmp_path / "photos" / "mud.png", mud)
+    doc = {
+        "size": "128x96",
+        "tile": True,
+        "k": 2,
+        "exemplars": [
+            {"name": "fir", "path": "photos/fir.png", "count": 4},
+            {"name": "mud", "path": "photos/mud.png", "count": 4, "structure": "cracks"},
+            {"name": "lichen", "path": "photos/lichen.png", "count": 4, "model": "bilayer"},
+        ],
+    }
+    spec = tmp_path / "mixed.yaml"
+    spec.write_text(json.dumps(doc))
+    out = tmp_path / "out"
+    proc = start_batch(spec, out, "--workers", "2", own_group=True)
+    try:
+        wait_done(out, 2, proc)
+        os.killpg(proc.pid, signal.SIGINT)
+        _, stderr = proc.communicate(timeout=120)
+    finally:
+        proc.kill()
+    assert proc.returncode == 130, stderr
+    finished = len(variant_folders(out))
+    assert 2 <= finished < 12
+    again = run("batch", str(spec), "-o", str(out), "--workers", "2")
+    assert again.returncode == 0, again.stderr
+    assert f"{finished} of 12 variants already done" in again.stderr
+    kinds = {}
+    for folder in variant_folders(out):
+        report = json.loads((folder / "report.json").read_text())
+        kinds.setdefault(folder.parent.name, set()).add((report["structure"], report["model"]))
+        assert read_image(folder / "texture.png").shape == (96, 128, 3)
+    assert kinds == {
+        "fir": {("labels", "patches")},
+        "mud": {("cracks", "patches")},
+        "lichen": {("labels", "bilayer")},
+    }
+    assert set(np.unique(read_image(out / "mud" / "0" / "labels_out.png"))) == {0, 255}
