@@ -325,7 +325,7 @@ def test_label_maps_are_made_by_jobs_in_the_worker_never_in_a_request(library):
         assert r.status_code == 404 and "not made yet" in r.json()["detail"]
         generate = client.post("/api/jobs", json={"exemplar_id": 1, **SMALL}).json()
         first = client.post("/api/exemplars/1/labels?k=3").json()
-        assert first["url"] == "/api/exemplars/1/labels.png?k=3"
+        assert first["url"] == "/api/exemplars/1/labels.png?k=3&method=color"
         assert first["job"]["kind"] == "labels" and first["job"]["state"] == "queued"
         # asked again (another tab, a reload): the same job, not a second one
         assert client.post("/api/exemplars/1/labels?k=3").json()["job"]["id"] == first["job"]["id"]
@@ -644,3 +644,78 @@ def test_a_zipped_scanned_set_is_an_exemplar_whose_maps_make_the_material(client
         assert r.status_code == 400 and said in r.json()["detail"], r.text
         assert "\n" not in r.json()["detail"]
     assert len(client.get("/api/exemplars").json()) == count
+
+
+def test_the_form_has_the_clis_defaults_and_every_web_option(client):
+    """``/api/options``: one set of defaults (GenerateOptions', the CLI's) with the help, choices
+    and ranges the form shows, the server's largest side, the k range and the set layouts."""
+    from barkgen._shared.options import option_fields
+    from barkgen.pipeline import GenerateOptions
+
+    answer = client.get("/api/options").json()
+    fields = {f["name"]: f for f in answer["fields"]}
+    for f in option_fields(GenerateOptions, "cli"):
+        if f.name in fields and f.name != "seed":
+            assert fields[f.name]["default"] == f.default_text, f.name
+    for name in ("size", "k", "method", "strategy", "relief", "tile", "material", "structure", "model", "seed"):
+        assert name in fields, name
+    assert fields["seed"]["default"] is None  # the page rolls one
+    assert fields["structure"]["choices"] == ["labels", "cracks"] and fields["model"]["choices"] == [
+        "patches",
+        "bilayer",
+    ]
+    assert answer["k_range"] == [2, 8] and "gltf" in answer["presets"] and answer["max_output_side"] >= 2048
+
+
+def test_cracks_and_bilayer_jobs_texton_labels_glb_and_a_zip_named_after_the_photo(client, library):
+    """A photo of cracks gets a crack job and a bi-layer job from the API; each result says what
+    it is. Texton label maps are their own analysis. A result with material maps has its trunk
+    as a glb, and the zip is named after the photo, its set too, with the licence given at
+    upload in README.txt."""
+    from conftest import SHARED, _need_shared
+
+    _need_shared()
+    mud = (SHARED / "data" / "branching" / "dried_mud_01.jpg").read_bytes()
+    r = client.post(
+        "/api/exemplars",
+        files={"file": ("dried mud.jpg", mud)},
+        data={"name": "Dried mud", "licence": "GPL-2 (UFO:AI)"},
+    )
+    assert r.status_code == 201, r.text
+    ex = r.json()["id"]
+    kinds = client.get(f"/api/exemplars/{ex}/kinds").json()
+    assert kinds["cracks"]["suits"] and "crack branches found" in kinds["cracks"]["why"] and kinds["bilayer"]["suits"]
+    blank = client.post("/api/exemplars", files={"file": ("flat.png", encode_png(np.full((96, 96, 3), 120, np.uint8)))})
+    flat = client.get(f"/api/exemplars/{blank.json()['id']}/kinds").json()
+    assert not flat["cracks"]["suits"] and "no crack" in flat["cracks"]["why"]
+
+    texton = client.post(f"/api/exemplars/{ex}/labels?k=3&method=texton").json()
+    assert texton["method"] == "texton" and "method=texton" in texton["url"]
+    assert _wait(client, texton["job"]["id"])["state"] == "done"
+    assert client.get(texton["url"]).status_code == 200
+    assert client.post(f"/api/exemplars/{ex}/labels?k=3&method=sobel").status_code == 400
+
+    jobs = {}
+    for kind in ({"structure": "cracks", "material": True, "preset": "gltf"}, {"model": "bilayer"}):
+        body = {"exemplar_id": ex, **SMALL, "size": "96x80", "tile": True, "seed": 5, **kind}
+        r = client.post("/api/jobs", json=body)
+        assert r.status_code == 201, r.text
+        job = _wait(client, r.json()["id"])
+        assert job["state"] == "done", job
+        jobs[next(iter(kind.values()))] = job["result_id"]
+    cracks = client.get(f"/api/results/{jobs['cracks']}").json()
+    assert cracks["params"]["structure"] == "cracks" and cracks["params"]["preset"] == "gltf"
+    assert client.get(f"/api/results/{jobs['bilayer']}").json()["params"]["model"] == "bilayer"
+    glb = client.get(f"/api/results/{jobs['cracks']}/files/trunk.glb")
+    assert glb.status_code == 200 and glb.content[:4] == b"glTF"
+    r = client.get(f"/api/results/{jobs['cracks']}/download")
+    assert 'filename="barkgen_dried-mud_seed5_96x80.zip"' in r.headers["content-disposition"]
+    archive = zipfile.ZipFile(io.BytesIO(r.content))
+    readme = archive.read("README.txt").decode()
+    assert "Photo licence: GPL-2 (UFO:AI)" in readme and "trunk.glb" in readme
+    assert any(n.startswith("dried-mud_seed5") for n in archive.namelist()), archive.namelist()
+    # k beyond the pages' range, an unknown kind: one line, 4xx
+    r = client.post("/api/jobs", json={"exemplar_id": ex, **SMALL, "k": 9})
+    assert r.status_code in (400, 422) and "k" in r.text
+    r = client.post("/api/jobs", json={"exemplar_id": ex, **SMALL, "structure": "veins"})
+    assert r.status_code == 422

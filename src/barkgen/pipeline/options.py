@@ -24,8 +24,8 @@ STRUCTURES = ("labels", "cracks")
 #: what the output's pixels are: pieces of the photo, or a bi-layer texture (guingo2017): pieces
 #: of the photo's structure layer plus new spatially varying noise
 MODELS = ("patches", "bilayer")
-#: the options the web app does not offer: its label maps are cached per k, made with colour
-#: labels across the photo's wrap as generate's defaults make them
+#: the options the web app does not offer: its label maps are made across the photo's wrap as
+#: generate's default makes them
 _NOT_WEB = ("cli", "batch")
 
 
@@ -115,7 +115,6 @@ class GenerateOptions:
         "Input label map: color (laitoch2018 §3.5) or texton (wang2003 §3.2).",
         choices=LABEL_METHODS,
         analysis=True,
-        fronts=_NOT_WEB,
     )
     strategy: str = option(
         "joint",

@@ -171,7 +171,7 @@ class JobManager:
             self._lock.notify_all()
         return job
 
-    def submit_labels(self, exemplar_id: int, k: int, labels_key: dict) -> Job:
+    def submit_labels(self, exemplar_id: int, k: int, labels_key: dict, method: str = "color") -> Job:
         """Queue the making of a photo's label map of ``k`` labels, ahead of the waiting
         generate jobs (it takes seconds); the PNG is stored as the library analysis
         ``labels_in`` under ``labels_key``. A label job of the same photo and ``k`` that is
@@ -182,6 +182,7 @@ class JobManager:
                     job.kind == "labels"
                     and job.exemplar_id == exemplar_id
                     and job.params["k"] == k
+                    and job.params.get("method", "color") == method
                     and job.state not in FINISHED
                 ):
                     return job
@@ -189,7 +190,7 @@ class JobManager:
             job = Job(
                 id=secrets.token_hex(8),
                 exemplar_id=exemplar_id,
-                params={"k": k},
+                params={"k": k, "method": method},
                 spec={},
                 labels_key=labels_key,
                 kind="labels",
@@ -369,7 +370,9 @@ class JobManager:
                 photo = self.library.photo_bytes(exemplar.id)
                 spec: JobSpec | LabelSpec
                 if job.kind == "labels":
-                    spec = LabelSpec(job_id=job.id, photo=photo, k=job.params["k"])
+                    spec = LabelSpec(
+                        job_id=job.id, photo=photo, k=job.params["k"], method=job.params.get("method", "color")
+                    )
                 else:  # (a job without its fields: the TypeError below)
                     set_files = self.library.set_files(exemplar.id) if exemplar.maps else None
                     spec = JobSpec(

@@ -22,7 +22,7 @@ from barkgen.io import decode_image, encode_png
 from barkgen.labels import label_colour_map
 from barkgen.library import NotFoundError
 from barkgen.web.routes_results import result_summary
-from barkgen.web.state import DISPLAY_SIDE, THUMBNAIL_SIDE, AppState, State, cached_response, labels_key
+from barkgen.web.state import DISPLAY_SIDE, THUMBNAIL_SIDE, WEB_K, AppState, State, cached_response, labels_key
 
 router = APIRouter()
 
@@ -134,36 +134,80 @@ def preview_jpeg(state: AppState, exemplar_id: int, side: int) -> bytes:
     return buffer.getvalue()
 
 
-def _check_k(k: int) -> None:
-    if not 2 <= k <= 8:
-        raise InvalidInputError("k must be between 2 and 8")
+def _check_labels(k: int, method: str) -> None:
+    from barkgen.pipeline import LABEL_METHODS
+
+    if not WEB_K[0] <= k <= WEB_K[1]:
+        raise InvalidInputError(f"k must be between {WEB_K[0]} and {WEB_K[1]}")
+    if method not in LABEL_METHODS:
+        raise InvalidInputError(f"method must be one of {', '.join(LABEL_METHODS)}, not {method!r}")
 
 
-def request_labels(state: AppState, exemplar_id: int, k: int) -> dict:
-    """Ask for the photo's input label map of ``k`` labels (2 to 8, the page's choice): its
-    ``url`` and, while it is being made, its label ``job`` (queued in the worker, cancellable;
-    None once the map is in the library's analyses). Asking again while it is made returns
-    the same job."""
-    _check_k(k)
+def request_labels(state: AppState, exemplar_id: int, k: int, method: str = "color") -> dict:
+    """Ask for the photo's input label map of ``k`` labels (2 to 8, the page's choice) by
+    ``method``: its ``url`` and, while it is being made, its label ``job`` (queued in the
+    worker, cancellable; None once the map is in the library's analyses). Asking again while
+    it is made returns the same job."""
+    _check_labels(k, method)
     state.library.exemplar(exemplar_id)
-    url = f"/api/exemplars/{exemplar_id}/labels.png?k={k}"
-    if state.library.analysis(exemplar_id, "labels_in", labels_key(k)) is not None:
-        return {"k": k, "url": url, "job": None}
-    job = state.jobs.submit_labels(exemplar_id, k, labels_key(k))
-    return {"k": k, "url": url, "job": state.jobs.snapshot(job.id)}
+    url = f"/api/exemplars/{exemplar_id}/labels.png?k={k}&method={method}"
+    if state.library.analysis(exemplar_id, "labels_in", labels_key(k, method)) is not None:
+        return {"k": k, "method": method, "url": url, "job": None}
+    job = state.jobs.submit_labels(exemplar_id, k, labels_key(k, method), method)
+    return {"k": k, "method": method, "url": url, "job": state.jobs.snapshot(job.id)}
 
 
-def coloured_labels(state: AppState, exemplar_id: int, k: int) -> bytes:
-    """The photo's input label map of ``k`` labels in the label colours, as a PNG, once it is
-    made (:func:`request_labels`; :class:`~barkgen.library.NotFoundError` before)."""
-    _check_k(k)
+def coloured_labels(state: AppState, exemplar_id: int, k: int, method: str = "color") -> bytes:
+    """The photo's input label map of ``k`` labels by ``method`` in the label colours, as a
+    PNG, once it is made (:func:`request_labels`; :class:`~barkgen.library.NotFoundError`
+    before)."""
+    _check_labels(k, method)
     state.library.exemplar(exemplar_id)
-    grey = state.library.analysis(exemplar_id, "labels_in", labels_key(k))
+    grey = state.library.analysis(exemplar_id, "labels_in", labels_key(k, method))
     if grey is None:
         raise NotFoundError(
             f"the label map of {k} labels is not made yet: POST /api/exemplars/{exemplar_id}/labels?k={k} first"
         )
     return encode_png(label_colour_map(decode_image(grey, "labels")[..., 0]))
+
+
+def bark_kinds(state: AppState, exemplar_id: int) -> dict:
+    """Which kinds of bark the photo suits, each ``{"suits": bool, "why": sentence}``: its
+    regions in new shapes (any photo), a crack network grown anew (where the photo has one:
+    its network is extracted, sibbing2010 §3) and a bi-layer texture (any photo; guingo2017).
+    Cached in the library's analyses."""
+    import json
+
+    library = state.library
+    key = {"version": 1}
+    cached = library.analysis(exemplar_id, "kinds", key)
+    if cached is not None:
+        return json.loads(cached)
+    from barkgen.branching import extract_structure
+    from barkgen.errors import BarkgenError
+
+    photo = library.photo(exemplar_id)
+    try:
+        cracks = extract_structure(photo)
+        share = cracks.total_length() / (photo.shape[0] * photo.shape[1]) * 1000
+        crack = {
+            "suits": True,
+            "why": f"{len(cracks.branches)} crack branches found ({share:.0f} px of crack per 1000 px²); "
+            "a new network with their bends, forks and merges is grown",
+        }
+    except BarkgenError as exc:
+        crack = {"suits": False, "why": f"no crack network to grow from: {exc}"}
+    kinds = {
+        "labels": {"suits": True, "why": "the photo's regions (its label map) in new shapes"},
+        "cracks": crack,
+        "bilayer": {
+            "suits": True,
+            "why": "the photo's structure in new pieces plus fresh fine grain (best for speckled, "
+            "lichen-covered or grainy bark)",
+        },
+    }
+    library.put_analysis(exemplar_id, "kinds", key, json.dumps(kinds).encode())
+    return kinds
 
 
 # -- endpoints ------------------------------------------------------------------------------
@@ -210,10 +254,16 @@ def exemplar_thumbnail(exemplar_id: int, state: State):
 
 
 @router.post("/api/exemplars/{exemplar_id}/labels")
-def exemplar_labels_request(exemplar_id: int, state: State, k: int = 3):
-    return request_labels(state, exemplar_id, k)
+def exemplar_labels_request(exemplar_id: int, state: State, k: int = 3, method: str = "color"):
+    return request_labels(state, exemplar_id, k, method)
 
 
 @router.get("/api/exemplars/{exemplar_id}/labels.png")
-def exemplar_labels(exemplar_id: int, state: State, k: int = 3):
-    return cached_response(coloured_labels(state, exemplar_id, k), "image/png")
+def exemplar_labels(exemplar_id: int, state: State, k: int = 3, method: str = "color"):
+    return cached_response(coloured_labels(state, exemplar_id, k, method), "image/png")
+
+
+@router.get("/api/exemplars/{exemplar_id}/kinds")
+def exemplar_kinds(exemplar_id: int, state: State):
+    """Which kinds of bark (``structure`` / ``model``) the photo suits, and why."""
+    return bark_kinds(state, exemplar_id)

@@ -31,9 +31,10 @@ from barkgen.errors import InvalidInputError
 from barkgen.io import AlphaDroppedWarning, decode_image
 from barkgen.labels.preview import label_colours
 from barkgen.library import NotFoundError
+from barkgen.material.presets import PRESETS
 from barkgen.pipeline import GenerateOptions
 from barkgen.web.jobs import FINISHED
-from barkgen.web.state import LABEL_METHOD, AppState, State, WebLimits, labels_key
+from barkgen.web.state import WEB_K, AppState, State, WebLimits, labels_key, name_slug
 
 router = APIRouter()
 
@@ -44,15 +45,20 @@ class ResumeRequest(BaseModel):
     labels: str  # data:image/png;base64,...
 
 
-#: the web app's defaults where they are not GenerateOptions' own (a seed of None: a random one)
-WEB_DEFAULTS = {"size": "512x512", "tile": True, "material": True, "seed": None}
+#: the web app's defaults where they are not GenerateOptions' own: the CLI's, but a seed of None
+#: (a random one)
+WEB_DEFAULTS = {"seed": None}
 
 
 def job_request_model(options_class: type = GenerateOptions) -> type[BaseModel]:
     """The generate request's schema: the exemplar, a painted level to continue from, and every
     field of ``options_class`` the web offers (:mod:`barkgen._shared.options`) with its help,
     range and the web's default."""
-    fields: dict = {"exemplar_id": (int, ...), "resume": (ResumeRequest | None, None)}
+    fields: dict = {
+        "exemplar_id": (int, ...),
+        "resume": (ResumeRequest | None, None),
+        "preset": (Literal[PRESETS], Field(default="ambientcg", description="The material set's file layout.")),
+    }
     for f in option_fields(options_class, "web"):
         default = WEB_DEFAULTS.get(f.name, f.default_text)
         kind: Any = Literal[f.info.choices] if f.info.choices else f.info.kind
@@ -152,8 +158,10 @@ def start_job(state: AppState, request: JobRequest) -> dict:
     exemplar = library.exemplar(request.exemplar_id)
     height, width = check_size(state.limits, request.size)
     seed = request.seed if request.seed is not None else secrets.randbelow(100_000)
-    values = {**request_options(request, size=(height, width), seed=seed), "method": LABEL_METHOD}
+    values = request_options(request, size=(height, width), seed=seed)
     options = GenerateOptions(**values)
+    if not WEB_K[0] <= options.k <= WEB_K[1]:
+        raise InvalidInputError(f"k must be between {WEB_K[0]} and {WEB_K[1]}")
     params = {
         "size": [width, height],
         "k": options.k,
@@ -177,20 +185,24 @@ def start_job(state: AppState, request: JobRequest) -> dict:
     # the photo's label map when a page has made it already (else the worker makes it); cracks
     # and bi-layer textures have label maps of their own (barkgen.pipeline.variants)
     plain = options.structure == "labels" and options.model == "patches"
-    grey = library.analysis(exemplar.id, "labels_in", labels_key(options.k)) if plain else None
+    key = labels_key(options.k, options.method)
+    grey = library.analysis(exemplar.id, "labels_in", key) if plain else None
+    if request.preset != "ambientcg":
+        params["preset"] = request.preset
     spec = {
         "source": exemplar.name,
-        "set_name": f"bark{exemplar.id}_seed{seed}",
+        "set_name": f"{name_slug(exemplar.name)}_seed{seed}",
         "options": values,
         "labels_in": grey,
         "resume": resume,
+        "preset": request.preset,
     }
     job = state.jobs.submit(
         exemplar.id,
         params,
         spec,
         parent_id=request.resume.result_id if request.resume else None,
-        labels_key=labels_key(options.k) if plain and grey is None else None,
+        labels_key=key if plain and grey is None else None,
     )
     return {"id": job.id}
 
@@ -233,6 +245,35 @@ async def job_event_stream(
 
 
 # -- endpoints ------------------------------------------------------------------------------
+def web_options(state: AppState) -> dict:
+    """What the generate form offers: every option of :class:`~barkgen.pipeline.GenerateOptions`
+    the web has, with its default (the CLI's own), help, choices and range; the server's largest
+    output side, the k the pages offer and the material set's layouts."""
+    fields = [
+        {
+            "name": f.name,
+            "default": WEB_DEFAULTS.get(f.name, f.default_text),
+            "help": f.info.help,
+            "kind": f.info.kind.__name__,
+            "choices": list(f.info.choices) if f.info.choices else None,
+            "minimum": f.info.minimum,
+            "maximum": f.info.maximum,
+        }
+        for f in option_fields(GenerateOptions, "web")
+    ]
+    return {
+        "fields": fields,
+        "max_output_side": state.limits.max_output_side,
+        "k_range": list(WEB_K),
+        "presets": list(PRESETS),
+    }
+
+
+@router.get("/api/options")
+def get_options(state: State):
+    return web_options(state)
+
+
 @router.post("/api/jobs", status_code=201)
 def submit_job(request: JobRequest, state: State):
     return start_job(state, request)

@@ -23,11 +23,11 @@ from barkgen.io import decode_image, encode_png
 from barkgen.labels import label_colour_map
 from barkgen.labels.preview import label_colours
 from barkgen.library import NotFoundError
-from barkgen.web.state import LABEL_METHOD, AppState, State, cached_response
+from barkgen.web.state import LABEL_METHOD, AppState, State, cached_response, name_slug
 
 router = APIRouter()
 
-_MEDIA = {".png": "image/png", ".jpg": "image/jpeg", ".json": "application/json"}
+_MEDIA = {".png": "image/png", ".jpg": "image/jpeg", ".json": "application/json", ".glb": "model/gltf-binary"}
 
 _FILE_NOTES = {
     "_Color.png": "base colour (sRGB), shading removed",
@@ -44,6 +44,7 @@ _FILE_NOTES = {
     "(barkgen apply-reference re-applies it to any map of the photo)",
     "preview.png": "contact sheet: photo, labels in, labels out, result",
     "report.json": "parameters, seed, label areas and timings of the run",
+    "trunk.glb": "the bark on a trunk, glTF 2.0 binary with its material (Blender, three.js, game engines)",
 }
 
 
@@ -156,14 +157,18 @@ def coloured_result_labels(state: AppState, result_id: int, name: str) -> bytes:
     return encode_png(label_colour_map(grey, values))
 
 
-def zip_readme(photo: str, result, names: list[str]) -> str:
-    """What each file of a downloaded result is."""
+def zip_readme(exemplar, result, names: list[str]) -> str:
+    """What each file of a downloaded result is, and the photo's licence and source as given at
+    its upload (the new bark is made of the photo's pixels: its licence goes with it)."""
     width, height = result.params["size"]
     lines = [
-        f'barkgen result {result.id}: {width}x{height} px from "{photo}", seed {result.params["seed"]}'
+        f'barkgen result {result.id}: {width}x{height} px from "{exemplar.name}", seed {result.params["seed"]}'
         f"{', tileable' if result.params.get('tile') else ''}.",
-        "",
+        f"Photo licence: {exemplar.licence or 'not given at upload'}",
     ]
+    if exemplar.source:
+        lines.append(f"Photo source: {exemplar.source}")
+    lines.append("")
     for name in names:
         note = next(
             (
@@ -188,10 +193,9 @@ def result_zip(state: AppState, result_id: int) -> tuple[str, bytes]:
     with zipfile.ZipFile(buffer, "w", zipfile.ZIP_STORED) as archive:
         for name in names:
             archive.writestr(name, library.result_file(result_id, name))
-        archive.writestr("README.txt", zip_readme(exemplar.name, result, names))
-    slug = re.sub(r"[^A-Za-z0-9]+", "-", exemplar.name).strip("-").lower()[:40] or "bark"
+        archive.writestr("README.txt", zip_readme(exemplar, result, names))
     width, height = result.params["size"]
-    return f"barkgen_{slug}_seed{result.params['seed']}_{width}x{height}.zip", buffer.getvalue()
+    return f"barkgen_{name_slug(exemplar.name)}_seed{result.params['seed']}_{width}x{height}.zip", buffer.getvalue()
 
 
 # -- endpoints ------------------------------------------------------------------------------

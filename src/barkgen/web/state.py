@@ -23,8 +23,10 @@ from barkgen.pipeline import ANALYSIS_SEED
 from barkgen.web.jobs import JobManager
 
 STATIC = Path(__file__).parent / "static"
-#: label maps of the photos are made the way `barkgen generate` makes them
+#: label maps of the photos are made the way `barkgen generate` makes them by default
 LABEL_METHOD = "color"
+#: the number of labels (k) the pages offer
+WEB_K = (2, 8)
 #: the photo as pages show it, and its thumbnail: at most this many px a side
 DISPLAY_SIDE = 2048
 THUMBNAIL_SIDE = 320
@@ -69,9 +71,16 @@ def get_state(request: Request) -> AppState:
 State = Annotated[AppState, Depends(get_state)]
 
 
-def labels_key(k: int) -> dict:
-    """The analysis key of a photo's input label map of ``k`` labels in the library."""
-    return {"k": k, "method": LABEL_METHOD, "seed": ANALYSIS_SEED}
+def name_slug(name: str, fallback: str = "bark") -> str:
+    """A photo's name as a file-name part: letters, digits and dashes, at most 40."""
+    import re
+
+    return re.sub(r"[^A-Za-z0-9]+", "-", name).strip("-").lower()[:40] or fallback
+
+
+def labels_key(k: int, method: str = LABEL_METHOD) -> dict:
+    """The analysis key of a photo's input label map of ``k`` labels by ``method`` in the library."""
+    return {"k": k, "method": method, "seed": ANALYSIS_SEED}
 
 
 def cached_response(data: bytes, media_type: str) -> Response:

@@ -68,6 +68,8 @@ class JobSpec:
     resume: tuple[int, np.ndarray] | None = None
     #: the files of a scanned set whose colour is ``photo`` (by name), read when the job starts
     set_files: dict[str, bytes] | None = None
+    #: the material set's file layout (:data:`barkgen.material.presets.PRESETS`)
+    preset: str = "ambientcg"
 
 
 @dataclass(frozen=True)
@@ -78,6 +80,7 @@ class LabelSpec:
     job_id: str
     photo: bytes
     k: int
+    method: str = "color"
 
 
 def run_labels(spec: LabelSpec, send) -> None:
@@ -85,7 +88,7 @@ def run_labels(spec: LabelSpec, send) -> None:
     :class:`Failed` through ``send``."""
     from barkgen.errors import BarkgenError
     from barkgen.io import decode_image, encode_png
-    from barkgen.labels import color_regions
+    from barkgen.labels import color_regions, texton_regions
     from barkgen.pipeline import ANALYSIS_SEED, GenerateOptions
     from barkgen.synth import resolve_exemplar_wrap
 
@@ -94,7 +97,8 @@ def run_labels(spec: LabelSpec, send) -> None:
         photo = decode_image(spec.photo, "photo")
         # the label map generate makes of this photo: across its edges where it tiles
         wrap = resolve_exemplar_wrap(GenerateOptions().exemplar_wrap, photo)
-        data = encode_png(color_regions(photo, spec.k, seed=ANALYSIS_SEED, wrap=wrap))
+        regions = texton_regions if spec.method == "texton" else color_regions
+        data = encode_png(regions(photo, spec.k, seed=ANALYSIS_SEED, wrap=wrap))
     except BarkgenError as exc:
         send(Failed(spec.job_id, str(exc)))
         return
@@ -116,7 +120,13 @@ def encode_result(photo: np.ndarray, result, spec: JobSpec) -> dict[str, bytes]:
     from barkgen.io import encode_png
     from barkgen.pipeline import encode_generate
 
-    files = encode_generate(photo, result, spec.source, name=spec.set_name)
+    also = {}
+    if result.material is not None:  # the bark on a trunk, for any glTF viewer or engine
+        from barkgen.io import encode_glb
+        from barkgen.render import trunk_mesh
+
+        also["trunk.glb"] = encode_glb(trunk_mesh(result.material), result.material)
+    files = encode_generate(photo, result, spec.source, name=spec.set_name, preset=spec.preset, also=also)
     files.update(
         {f"level_{i}.png": encode_png(level) for i, level in enumerate(result.label_levels) if level is not None}
     )
