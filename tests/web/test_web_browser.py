@@ -156,7 +156,8 @@ def test_upload_generate_view_paint_continue_download(server, browser, tmp_path)
     )
     page.get_by_test_id("param-size").select_option("512x512")
     page.get_by_test_id("param-seed").fill("3")
-    assert page.get_by_test_id("param-material").is_checked()
+    assert not page.get_by_test_id("param-material").is_checked()  # the CLI's default
+    page.get_by_test_id("param-material").check()
     _shot(page, "2_exemplar")
 
     # generate: the progress moves, then the result page shows the texture

@@ -110,8 +110,15 @@ export const api = {
   getExemplar: (id) => getJSON(`/api/exemplars/${encodeURIComponent(id)}`),
   uploadExemplar: (formData, onProgress) => postForm("/api/exemplars", formData, onProgress),
   // the photo's label map: {url, job} (job: the label job making it, null once it is made)
-  requestLabels: (id, k) =>
-    postJSON(`/api/exemplars/${encodeURIComponent(id)}/labels?k=${encodeURIComponent(k)}`, {}),
+  requestLabels: (id, k, method = "color") =>
+    postJSON(
+      `/api/exemplars/${encodeURIComponent(id)}/labels?k=${encodeURIComponent(k)}&method=${encodeURIComponent(method)}`,
+      {}
+    ),
+  // which kinds of bark the photo suits: {labels, cracks, bilayer: {suits, why}}
+  getKinds: (id) => getJSON(`/api/exemplars/${encodeURIComponent(id)}/kinds`),
+  // the generate form's fields (defaults shared with the CLI), limits and layouts
+  getOptions: () => getJSON("/api/options"),
   listJobs: () => getJSON("/api/jobs"),
   getJob: (id) => getJSON(`/api/jobs/${encodeURIComponent(id)}`),
   createJob: (body) => postJSON("/api/jobs", body),
@@ -171,6 +178,8 @@ export function describeParams(params) {
   if (size) parts.push(size);
   if (params.k !== undefined && params.k !== null) parts.push(`k=${params.k}`);
   if (params.seed !== undefined && params.seed !== null) parts.push(`seed ${params.seed}`);
+  if (params.structure === "cracks") parts.push("cracks");
+  if (params.model === "bilayer") parts.push("bi-layer");
   if (params.tile) parts.push("tileable");
   if (params.material) parts.push("material");
   if (params.resumed_from || params.resume) parts.push("painted");

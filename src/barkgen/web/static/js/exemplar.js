@@ -6,9 +6,18 @@ import { jobPanelIn, jobIdFromUrl } from "./jobs.js";
 
 const $ = (testid) => document.querySelector(`[data-testid="${testid}"]`);
 
-const SIZES = ["256x256", "512x512", "1024x1024", "2048x2048"];
-const K_MIN = 2;
-const K_MAX = 5;
+let K_MIN = 2;
+let K_MAX = 8;
+/** The server's largest output side (from /api/options). */
+let MAX_SIDE = 4096;
+/** The kinds of bark and the option values each is (structure, model). */
+const KINDS = {
+  labels: { structure: "labels", model: "patches" },
+  cracks: { structure: "cracks", model: "patches" },
+  bilayer: { structure: "labels", model: "bilayer" },
+};
+/** What the photo suits (GET .../kinds), once known. */
+let kinds = null;
 /** How often a label job is checked while the label map is made (ms). */
 const LABEL_POLL_MS = 300;
 
@@ -49,6 +58,9 @@ function renderExemplar(ex) {
   $("exemplar-meta").textContent = meta.join(" · ");
   if (ex.maps && ex.maps.length) {
     $("material-hint").textContent = "the set's own maps, carried with the colour + 3D trunk";
+    // a scanned set is there for its maps: the material set is on (as `barkgen generate SET/`)
+    if (!new URLSearchParams(location.search).has("material")) $("param-material").checked = true;
+    updateRelief();
   }
   const photo = $("exemplar-photo");
   photo.src = ex.photo_url;
@@ -97,26 +109,28 @@ function setupLabels() {
   // photo): ask for it, follow the job, then show the picture.
   const load = async () => {
     const k = currentK();
-    if (k === null || k === shownK) return;
-    shownK = k;
+    const method = $("param-method").value || "color";
+    const wanted = k === null ? null : `${k}/${method}`;
+    if (wanted === null || wanted === shownK) return;
+    shownK = wanted;
     $("labels-k").textContent = String(k);
     showError(errorBox, "");
     loading.hidden = false;
     img.classList.add("is-loading");
     try {
-      const answer = await api.requestLabels(exemplarId, k);
+      const answer = await api.requestLabels(exemplarId, k, method);
       let job = answer.job;
       while (job && job.state !== "done") {
         if (job.state === "failed" || job.state === "cancelled") {
           throw new Error(job.error || `the label job was ${job.state}`);
         }
         await new Promise((resolve) => setTimeout(resolve, LABEL_POLL_MS));
-        if (shownK !== k) return; // k changed meanwhile: that load takes over
+        if (shownK !== wanted) return; // k or the method changed meanwhile: that load takes over
         job = await api.getJob(job.id);
       }
-      if (shownK === k) img.src = answer.url;
+      if (shownK === wanted) img.src = answer.url;
     } catch (err) {
-      if (shownK === k) fail(`Could not compute the label map for k = ${k}: ${err.message}`);
+      if (shownK === wanted) fail(`Could not compute the label map for k = ${k}: ${err.message}`);
     }
   };
   img.addEventListener("load", () => {
@@ -125,7 +139,7 @@ function setupLabels() {
   });
   img.addEventListener("error", () => {
     if (!img.getAttribute("src")) return;
-    fail(`Could not load the label map for k = ${shownK}.`);
+    fail(`Could not load the label map (${shownK}).`);
   });
 
   // Typing in a number field fires many input events: wait for a pause.
@@ -139,41 +153,121 @@ function setupLabels() {
     clearTimeout(timer);
     load();
   });
+  $("param-method").addEventListener("change", load);
   load();
 }
 
 // ---------------------------------------------------------------------------
 // Parameter form and job
 
-/** Defaults from the URL (the result page's "Generate another seed" link). */
-function applyQueryDefaults() {
+/** Set a size into the preset select and the width and height fields. */
+function setSize(text) {
+  const m = /^(\d+)x(\d+)$/.exec(String(text || ""));
+  if (!m) return;
+  $("param-width").value = m[1];
+  $("param-height").value = m[2];
+  const preset = $("param-size");
+  preset.value = [...preset.options].some((o) => o.value === text) ? text : "custom";
+}
+
+/** The form's defaults: the options' own (shared with `barkgen generate`), then the URL's. */
+function applyDefaults(fields) {
+  const byName = Object.fromEntries(fields.map((f) => [f.name, f]));
+  const initial = (name) => (byName[name] ? byName[name].default : undefined);
+  setSize(initial("size"));
+  if (Number.isInteger(initial("k"))) $("param-k").value = String(initial("k"));
+  $("param-tile").checked = Boolean(initial("tile"));
+  $("param-material").checked = Boolean(initial("material"));
+  if (initial("method")) $("param-method").value = initial("method");
+  if (initial("strategy")) $("param-strategy").value = initial("strategy");
+  if (initial("relief") !== undefined) $("param-relief").value = String(initial("relief"));
+  // each control's help is the option's own (the CLI's --help says the same)
+  const help = { k: "param-k", method: "param-method", strategy: "param-strategy", relief: "param-relief", tile: "param-tile", material: "param-material" };
+  for (const [name, testid] of Object.entries(help)) if (byName[name]) $(testid).title = byName[name].help;
   const q = new URLSearchParams(location.search);
-  if (SIZES.includes(q.get("size"))) $("param-size").value = q.get("size");
+  if (q.has("size")) setSize(q.get("size"));
   const k = Number(q.get("k"));
-  if (Number.isInteger(k) && k >= K_MIN && k <= K_MAX) $("param-k").value = String(k);
+  if (q.has("k") && Number.isInteger(k) && k >= K_MIN && k <= K_MAX) $("param-k").value = String(k);
   if (q.has("tile")) $("param-tile").checked = q.get("tile") !== "0" && q.get("tile") !== "false";
   if (q.has("material")) $("param-material").checked = q.get("material") !== "0" && q.get("material") !== "false";
+  for (const name of ["method", "strategy", "preset"]) if (q.has(name)) $(`param-${name}`).value = q.get(name);
+  if (q.has("kind") && KINDS[q.get("kind")]) $("param-kind").value = q.get("kind");
   const seed = Number(q.get("seed"));
   $("param-seed").value = String(q.has("seed") && Number.isInteger(seed) && seed >= 0 ? seed : randomSeed());
+  updateRelief();
+}
+
+function updateRelief() {
+  $("relief-value").textContent = `${Number($("param-relief").value).toFixed(2)}×`;
+  $("param-relief").disabled = !$("param-material").checked;
+}
+
+/** The chosen kind's hint, and the fields it uses. */
+function updateKind() {
+  const kind = $("param-kind").value;
+  const known = kinds && kinds[kind];
+  $("param-kind-hint").textContent = known ? known.why : "";
+  const labels = kind === "labels";
+  $("param-k").disabled = kind === "cracks";
+  $("param-method").disabled = !labels;
+  $("param-strategy").disabled = !labels;
+  $("k-hint").textContent =
+    kind === "bilayer"
+      ? "How many kinds of fine grain (noises), 2–8."
+      : kind === "cracks"
+        ? "Not used: the cracks and the bark between them are the two regions."
+        : `How many kinds of region (e.g. ridges, furrows, moss), ${K_MIN}–${K_MAX}.`;
+}
+
+/** Offer the kinds the photo suits; say why where it does not. */
+async function loadKinds() {
+  try {
+    kinds = await api.getKinds(exemplarId);
+  } catch (err) {
+    $("param-kind-hint").textContent = `Could not check the photo: ${err.message}`;
+    return;
+  }
+  for (const option of $("param-kind").options) {
+    const known = kinds[option.value];
+    option.disabled = Boolean(known && !known.suits);
+    if (known && !known.suits) option.textContent = `${option.textContent.split(" — ")[0]} — not for this photo`;
+  }
+  if ($("param-kind").selectedOptions[0].disabled) $("param-kind").value = "labels";
+  updateKind();
 }
 
 /** Read and check the form; returns the job body or throws Error(message). */
 function readParams() {
+  const kind = $("param-kind").value;
   const k = currentK();
-  if (k === null) throw new Error(`Labels (k) must be a whole number from ${K_MIN} to ${K_MAX}.`);
+  if (k === null && kind !== "cracks") throw new Error(`Labels (k) must be a whole number from ${K_MIN} to ${K_MAX}.`);
+  const width = Number($("param-width").value);
+  const height = Number($("param-height").value);
+  for (const [name, side] of [["width", width], ["height", height]]) {
+    if (!Number.isInteger(side) || side < 16 || side > MAX_SIDE) {
+      throw new Error(`The ${name} must be a whole number of pixels from 16 to ${MAX_SIDE} (this server's limit).`);
+    }
+  }
   const seedText = $("param-seed").value.trim();
   const seed = Number(seedText);
   if (!seedText || !Number.isInteger(seed) || seed < 0) {
     throw new Error("The seed must be a whole number, 0 or more (press 🎲 for a random one).");
   }
-  return {
+  const material = $("param-material").checked;
+  const body = {
     exemplar_id: exemplarId,
-    size: $("param-size").value,
+    size: `${width}x${height}`,
     seed,
-    k,
+    k: k === null ? 3 : k,
     tile: $("param-tile").checked,
-    material: $("param-material").checked,
+    material,
+    method: $("param-method").value,
+    strategy: $("param-strategy").value,
+    preset: $("param-preset").value,
+    ...KINDS[kind],
   };
+  if (material) body.relief = Number($("param-relief").value);
+  return body;
 }
 
 function setupForm() {
@@ -189,6 +283,19 @@ function setupForm() {
   $("param-seed-roll").addEventListener("click", () => {
     $("param-seed").value = String(randomSeed());
   });
+  $("param-size").addEventListener("change", () => {
+    if ($("param-size").value !== "custom") setSize($("param-size").value);
+  });
+  for (const side of ["param-width", "param-height"]) {
+    $(side).addEventListener("input", () => {
+      const text = `${$("param-width").value}x${$("param-height").value}`;
+      const preset = $("param-size");
+      preset.value = [...preset.options].some((o) => o.value === text) ? text : "custom";
+    });
+  }
+  $("param-kind").addEventListener("change", updateKind);
+  $("param-material").addEventListener("change", updateRelief);
+  $("param-relief").addEventListener("input", updateRelief);
 
   form.addEventListener("submit", async (event) => {
     event.preventDefault();
@@ -215,8 +322,7 @@ function setupForm() {
 /** After a reload, show the followed job's settings in the form. */
 function showJobParams(params) {
   if (!params) return;
-  const size = Array.isArray(params.size) ? `${params.size[0]}x${params.size[1]}` : params.size;
-  if (SIZES.includes(size)) $("param-size").value = size;
+  setSize(Array.isArray(params.size) ? `${params.size[0]}x${params.size[1]}` : params.size);
   if (Number.isInteger(params.k)) {
     $("param-k").value = String(params.k);
     $("param-k").dispatchEvent(new Event("change")); // reload the label map
@@ -224,6 +330,10 @@ function showJobParams(params) {
   if (typeof params.tile === "boolean") $("param-tile").checked = params.tile;
   if (typeof params.material === "boolean") $("param-material").checked = params.material;
   if (Number.isInteger(params.seed)) $("param-seed").value = String(params.seed);
+  const kind = params.structure === "cracks" ? "cracks" : params.model === "bilayer" ? "bilayer" : "labels";
+  $("param-kind").value = kind;
+  updateKind();
+  updateRelief();
 }
 
 // ---------------------------------------------------------------------------
@@ -233,9 +343,23 @@ async function main() {
     showError($("page-error"), "This address does not name a bark photo. Go back to the library.");
     return;
   }
-  applyQueryDefaults();
+  try {
+    const options = await api.getOptions();
+    K_MIN = options.k_range[0];
+    K_MAX = options.k_range[1];
+    MAX_SIDE = options.max_output_side;
+    $("param-k").min = String(K_MIN);
+    $("param-k").max = String(K_MAX);
+    for (const side of ["param-width", "param-height"]) $(side).max = String(MAX_SIDE);
+    $("size-hint").textContent = `Any width × height up to ${MAX_SIDE} px a side (this server's limit); bigger takes longer.`;
+    applyDefaults(options.fields);
+  } catch (err) {
+    showError($("page-error"), `Could not load the settings: ${err.message}`);
+    applyDefaults([]);
+  }
   setupForm();
   setupLabels();
+  loadKinds();
   try {
     const exemplar = await api.getExemplar(exemplarId);
     renderExemplar(exemplar);

@@ -4,7 +4,12 @@
 // The server only accepts pixels whose colour is exactly a palette colour, so
 // painting edits the canvas' ImageData pixel by pixel (no canvas paths: their
 // anti-aliasing would blend colours). The level is shown at its natural size
-// in the canvas and scaled up with CSS (image-rendering: pixelated).
+// in the canvas and scaled up with CSS (image-rendering: pixelated), over a
+// faded view of the bark (the result's texture, stretched to the same box), so
+// the labels can be painted where the bark should change. Strokes and fills
+// are undone and redone (Ctrl+Z, Ctrl+Shift+Z) from a history of snapshots.
+
+const HISTORY = 50; // undo steps kept
 
 const DISPLAY_WIDTH = 512; // about how wide the level is shown, in CSS px
 const MIN_DEFAULT_WIDTH = 64; // default level: the coarsest one at least this wide
@@ -38,10 +43,15 @@ async function loadBitmap(url) {
 export class LabelPainter {
   /**
    * @param {object} els  canvas, levelSelect, swatches (container), radiusInput,
-   *                      resetBtn, statusEl, errorBox
+   *                      resetBtn, statusEl, errorBox; optional bark (img under the
+   *                      canvas), opacity (+ opacityValue), undoBtn, redoBtn,
+   *                      brushBtn, fillBtn
    */
   constructor(els) {
     Object.assign(this, els);
+    this.tool = "brush";
+    this.undoStack = [];
+    this.redoStack = [];
     this.ctx = this.canvas.getContext("2d", { willReadFrequently: true });
     this.palette = [];
     this.levels = [];
@@ -56,8 +66,82 @@ export class LabelPainter {
 
     this.levelSelect.addEventListener("change", () => this.loadLevel(Number(this.levelSelect.value)));
     this.resetBtn.addEventListener("click", () => this.reset());
+    if (this.undoBtn) this.undoBtn.addEventListener("click", () => this.undo());
+    if (this.redoBtn) this.redoBtn.addEventListener("click", () => this.redo());
+    if (this.brushBtn) this.brushBtn.addEventListener("click", () => this.selectTool("brush"));
+    if (this.fillBtn) this.fillBtn.addEventListener("click", () => this.selectTool("fill"));
+    if (this.opacity) {
+      const apply = () => {
+        this.canvas.style.opacity = this.opacity.value;
+        if (this.opacityValue) this.opacityValue.textContent = `${Math.round(Number(this.opacity.value) * 100)} %`;
+      };
+      this.opacity.addEventListener("input", apply);
+      apply();
+    }
     this.setupPointer();
     this.setupKeys();
+  }
+
+  selectTool(tool) {
+    this.tool = tool;
+    for (const [name, button] of [["brush", this.brushBtn], ["fill", this.fillBtn]]) {
+      if (!button) continue;
+      button.classList.toggle("selected", name === tool);
+      button.setAttribute("aria-pressed", String(name === tool));
+    }
+    this.canvas.style.cursor = tool === "fill" ? "cell" : "crosshair";
+  }
+
+  // -------------------------------------------------------------------------
+  // Undo and redo: a snapshot of the level before each stroke or fill
+
+  snapshot() {
+    return new ImageData(new Uint8ClampedArray(this.image.data), this.image.width, this.image.height);
+  }
+
+  remember() {
+    this.undoStack.push(this.snapshot());
+    if (this.undoStack.length > HISTORY) this.undoStack.shift();
+    this.redoStack = [];
+    this.updateHistory();
+  }
+
+  restore(from, to) {
+    if (!from.length || !this.image) return;
+    to.push(this.snapshot());
+    this.image = from.pop();
+    this.ctx.putImageData(this.image, 0, 0);
+    this.setDirty(!this.sameAs(this.original));
+    this.updateHistory();
+  }
+
+  undo() {
+    this.restore(this.undoStack, this.redoStack);
+  }
+
+  redo() {
+    this.restore(this.redoStack, this.undoStack);
+  }
+
+  sameAs(other) {
+    if (!other) return false;
+    const a = this.image.data;
+    const b = other.data;
+    for (let i = 0; i < a.length; i++) if (a[i] !== b[i]) return false;
+    return true;
+  }
+
+  /** Drop the snapshot taken for a stroke or fill that changed nothing. */
+  forgetIfUnchanged() {
+    if (!this.strokeChanged && this.undoStack.length) {
+      this.undoStack.pop();
+      this.updateHistory();
+    }
+  }
+
+  updateHistory() {
+    if (this.undoBtn) this.undoBtn.disabled = this.undoStack.length === 0;
+    if (this.redoBtn) this.redoBtn.disabled = this.redoStack.length === 0;
   }
 
   /** Fill the controls from a result object and load the default level. */
@@ -66,6 +150,8 @@ export class LabelPainter {
     this.looks = result.label_looks || null;
     this.levels = [...(result.levels || [])].sort((a, b) => a.level - b.level);
     this.wrap = Boolean(result.params && result.params.tile);
+    const texture = result.files && result.files["texture.png"];
+    if (this.bark && texture) this.bark.src = texture;
     this.paletteIndex = new Map(this.palette.map((c, i) => [rgbKey(...c), i]));
     this.buildSwatches();
 
@@ -139,8 +225,23 @@ export class LabelPainter {
   }
 
   setupKeys() {
-    // Keys 1..k pick a colour while the pointer is over the painter.
+    // Ctrl+Z / Ctrl+Shift+Z (or Ctrl+Y) undo and redo; keys 1..k pick a colour while the
+    // pointer is over the painter.
     document.addEventListener("keydown", (event) => {
+      const typing = event.target && /^(INPUT|SELECT|TEXTAREA)$/.test(event.target.tagName);
+      if ((event.ctrlKey || event.metaKey) && !typing && this.image) {
+        const key = event.key.toLowerCase();
+        if (key === "z" && !event.shiftKey) {
+          event.preventDefault();
+          this.undo();
+          return;
+        }
+        if ((key === "z" && event.shiftKey) || key === "y") {
+          event.preventDefault();
+          this.redo();
+          return;
+        }
+      }
       if (!this.canvas.matches(":hover") || event.ctrlKey || event.metaKey || event.altKey) return;
       const index = Number(event.key) - 1;
       if (Number.isInteger(index) && index >= 0 && index < this.palette.length) this.selectColour(index);
@@ -181,6 +282,9 @@ export class LabelPainter {
     const fixed = this.snapToPalette(this.image);
     this.ctx.putImageData(this.image, 0, 0);
     this.original = new ImageData(new Uint8ClampedArray(this.image.data), width, height);
+    this.undoStack = [];
+    this.redoStack = [];
+    this.updateHistory();
     this.setDirty(false);
 
     // Show it about DISPLAY_WIDTH px wide: an integer zoom when enlarging.
@@ -228,6 +332,7 @@ export class LabelPainter {
 
   reset() {
     if (!this.original) return;
+    if (this.dirty) this.remember();
     this.image = new ImageData(new Uint8ClampedArray(this.original.data), this.original.width, this.original.height);
     this.ctx.putImageData(this.image, 0, 0);
     this.setDirty(false);
@@ -279,6 +384,13 @@ export class LabelPainter {
         this.pickColour(point); // Alt-click: take the colour under the pointer
         return;
       }
+      this.remember();
+      this.strokeChanged = false;
+      if (this.tool === "fill") {
+        this.strokeChanged = this.fill(point);
+        this.forgetIfUnchanged();
+        return;
+      }
       this.last = point;
       this.stroke(point, point);
     });
@@ -289,6 +401,7 @@ export class LabelPainter {
       this.last = point;
     });
     const end = () => {
+      if (this.last) this.forgetIfUnchanged();
       this.last = null;
     };
     canvas.addEventListener("pointerup", end);
@@ -319,6 +432,7 @@ export class LabelPainter {
       changed = this.stamp(a.x + (b.x - a.x) * t, a.y + (b.y - a.y) * t, r, colour) || changed;
     }
     if (!changed) return;
+    this.strokeChanged = true;
     // The stroke's bounding box (whole canvas when wrapping across an edge).
     const { width, height } = this.image;
     let x0 = Math.floor(Math.min(a.x, b.x)) - r;
@@ -334,6 +448,51 @@ export class LabelPainter {
     y1 = Math.min(height, y1);
     if (x1 > x0 && y1 > y0) this.ctx.putImageData(this.image, 0, 0, x0, y0, x1 - x0, y1 - y0);
     if (!this.dirty) this.setDirty(true);
+  }
+
+  /** Flood-fill the region of one label under the point (4-connected; across the edges of a
+   * tileable result) with the chosen colour. Returns whether anything changed. */
+  fill({ x, y }) {
+    const colour = this.palette[this.colour];
+    const { width, height, data } = this.image;
+    const px = Math.floor(x);
+    const py = Math.floor(y);
+    if (!colour || px < 0 || py < 0 || px >= width || py >= height) return false;
+    const start = py * width + px;
+    const target = rgbKey(data[start * 4], data[start * 4 + 1], data[start * 4 + 2]);
+    if (target === rgbKey(...colour)) return false;
+    const seen = new Uint8Array(width * height);
+    const stack = [start];
+    seen[start] = 1;
+    while (stack.length) {
+      const i = stack.pop();
+      const p = i * 4;
+      data[p] = colour[0];
+      data[p + 1] = colour[1];
+      data[p + 2] = colour[2];
+      data[p + 3] = 255;
+      const cx = i % width;
+      const cy = (i - cx) / width;
+      for (const [dx, dy] of [[1, 0], [-1, 0], [0, 1], [0, -1]]) {
+        let nx = cx + dx;
+        let ny = cy + dy;
+        if (this.wrap) {
+          nx = (nx + width) % width;
+          ny = (ny + height) % height;
+        } else if (nx < 0 || ny < 0 || nx >= width || ny >= height) {
+          continue;
+        }
+        const j = ny * width + nx;
+        if (seen[j]) continue;
+        const q = j * 4;
+        if (rgbKey(data[q], data[q + 1], data[q + 2]) !== target) continue;
+        seen[j] = 1;
+        stack.push(j);
+      }
+    }
+    this.ctx.putImageData(this.image, 0, 0);
+    this.setDirty(true);
+    return true;
   }
 
   /** Set every pixel within r of the pixel under (x, y) to colour. */

@@ -20,6 +20,17 @@ const MAP_NAMES = {
   Roughness: "Roughness",
 };
 
+/** The options a result's params may carry that a new job takes as they are. */
+const JOB_OPTIONS = ["k", "tile", "material", "method", "strategy", "rotations", "relief", "light", "structure", "model",
+  "label_weight", "feature_weight", "blend", "preset"];
+
+/** The job body of a result's settings (its size as "WxH"). */
+function jobOptions(p) {
+  const body = { size: sizeString(p.size), seed: p.seed };
+  for (const name of JOB_OPTIONS) if (p[name] !== undefined && p[name] !== null) body[name] = p[name];
+  return body;
+}
+
 /** params.size as "WxH" (the job API's format). */
 function sizeString(size) {
   if (Array.isArray(size)) return `${size[0]}x${size[1]}`;
@@ -43,7 +54,13 @@ function renderHeader(result) {
 
   const download = $("download");
   download.href = result.download_url;
-  download.setAttribute("download", `barkgen-result-${result.id}.zip`);
+  download.removeAttribute("download"); // the server names the zip after the photo
+  const glb = result.files && result.files["trunk.glb"];
+  $("download-glb").hidden = !glb;
+  if (glb) {
+    $("download-glb").href = glb;
+    $("download-glb").setAttribute("download", `barkgen-result-${result.id}-trunk.glb`);
+  }
 
   // "Generate another seed": the exemplar page with these settings pre-filled.
   const query = new URLSearchParams({
@@ -51,7 +68,9 @@ function renderHeader(result) {
     k: String(p.k ?? 3),
     tile: p.tile ? "1" : "0",
     material: p.material ? "1" : "0",
+    kind: p.structure === "cracks" ? "cracks" : p.model === "bilayer" ? "bilayer" : "labels",
   });
+  for (const name of ["method", "strategy", "preset"]) if (p[name]) query.set(name, p[name]);
   $("another-seed").href = `${exemplarUrl}?${query}`;
 }
 
@@ -197,6 +216,12 @@ async function setupTrunk(result) {
 // Label painter and "continue synthesis"
 
 async function setupPainter(result) {
+  if (result.params && result.params.structure === "cracks") {
+    $("painter").querySelector(".hint").textContent =
+      "A crack network is grown from the photo's statistics, not painted: generate another seed for another network.";
+    $("painter").querySelector(".painter-layout").hidden = true;
+    return;
+  }
   const painter = new LabelPainter({
     canvas: $("paint-canvas"),
     levelSelect: $("paint-level"),
@@ -205,6 +230,13 @@ async function setupPainter(result) {
     resetBtn: $("paint-reset"),
     statusEl: $("paint-status"),
     errorBox: $("paint-error"),
+    bark: $("paint-bark"),
+    opacity: $("paint-opacity"),
+    opacityValue: $("paint-opacity-value"),
+    undoBtn: $("paint-undo"),
+    redoBtn: $("paint-redo"),
+    brushBtn: $("paint-tool-brush"),
+    fillBtn: $("paint-tool-fill"),
   });
   const continueBtn = $("paint-continue");
   const errorBox = $("paint-error");
@@ -220,14 +252,9 @@ async function setupPainter(result) {
       showError(errorBox, "The label map level is not loaded yet.");
       return;
     }
-    const p = result.params || {};
     const body = {
       exemplar_id: result.exemplar_id,
-      size: sizeString(p.size),
-      seed: p.seed,
-      k: p.k,
-      tile: Boolean(p.tile),
-      material: Boolean(p.material),
+      ...jobOptions(result.params || {}),
       resume: { result_id: result.id, level: painter.level, labels: painter.toDataURL() },
     };
     try {
@@ -256,10 +283,13 @@ async function main() {
   try {
     result = await api.getResult(resultId);
   } catch (err) {
-    showError($("page-error"), err.status === 404 ? "This result does not exist (any more)." : err.message);
-    $("trunk-message").hidden = true;
+    showError(
+      $("page-error"),
+      err.status === 404 ? "This result does not exist (any more): it was deleted, or the address is wrong." : err.message
+    );
     return;
   }
+  $("result-body").hidden = false;
   renderHeader(result);
   renderTexture(result);
   renderLabels(result);
