@@ -297,3 +297,194 @@ def test_a_scanned_sets_zip_is_uploaded_and_its_maps_make_the_material(server, b
     share = np.isin(out, np.unique(scan)).mean()
     assert share > 0.99 and abs(float(out.mean()) - float(scan.mean())) < 8, (share, out.mean(), scan.mean())
     page.close()
+
+
+def _upload(page, server: str, path: Path, name: str, licence: str = "") -> None:
+    page.goto(server)
+    page.get_by_test_id("upload-file").set_input_files(str(path))
+    page.get_by_test_id("upload-name").fill(name)
+    if licence:
+        page.get_by_test_id("upload-licence").fill(licence)
+    page.get_by_test_id("upload-submit").click()
+    page.wait_for_url(re.compile(r"/exemplars/\d+"))
+    page.get_by_test_id("exemplar-photo").wait_for()
+
+
+def test_cracks_and_bilayer_from_the_form_with_every_control(server, browser, tmp_path):
+    """A photo of dried mud: the page says it has cracks to grow from; the form's every control
+    (kind, any W x H, k up to 8, method, strategy, relief, layout) goes into the job; the crack
+    result's page says so, offers its trunk as a glb and a zip named after the photo with its
+    licence; then a bi-layer texture of the same photo. A flat photo is told why it has no
+    cracks to grow."""
+    _need_shared()
+    from conftest import SHARED
+
+    page = browser.new_page(viewport={"width": 1366, "height": 768})
+    errors = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    _upload(page, server, SHARED / "data" / "branching" / "dried_mud_01.jpg", "Dried mud", "GPL-2")
+    hint = page.get_by_test_id("param-kind-hint")
+    page.wait_for_selector("[data-testid=param-kind][data-kinds='1']", timeout=60_000)
+    page.get_by_test_id("param-kind").select_option("cracks")
+    assert "crack branches found" in hint.text_content()
+    assert page.get_by_test_id("param-k").is_disabled()
+    # the CLI's defaults, then a custom size and the rest
+    assert (
+        page.get_by_test_id("param-width").input_value() == "1024"
+        and not page.get_by_test_id("param-tile").is_checked()
+    )
+    page.get_by_test_id("param-size").select_option("custom")
+    page.get_by_test_id("param-width").fill("192")
+    page.get_by_test_id("param-height").fill("128")
+    page.get_by_test_id("param-tile").check()
+    page.get_by_test_id("param-material").check()
+    page.get_by_test_id("more-settings").locator("summary").click()
+    page.get_by_test_id("param-relief").evaluate(
+        "el => { el.value = 1.5; el.dispatchEvent(new Event('input', {bubbles: true})); }"
+    )
+    page.get_by_test_id("param-preset").select_option("gltf")
+    page.get_by_test_id("param-seed").fill("11")
+    _shot(page, "web_cracks_form_1366x768")
+    page.get_by_test_id("generate").click()
+    stages = set()
+    start = time.monotonic()
+    while "/results/" not in page.url and time.monotonic() - start < 240:
+        try:
+            text = page.get_by_test_id("job-state").first.text_content(timeout=1000) or ""
+        except Exception:
+            text = ""
+        assert not text.startswith("failed"), text
+        if "—" in text:
+            stages.add(text.split("—", 1)[1].strip())
+        page.wait_for_timeout(100)
+    page.wait_for_url(re.compile(r"/results/\d+"))
+    assert stages, "the job never named its stage"
+    result_id = int(re.search(r"/results/(\d+)", page.url).group(1))
+    result = page.request.get(f"{server}api/results/{result_id}").json()
+    params = result["params"]
+    assert params["size"] == [192, 128] and params["structure"] == "cracks" and params["relief"] == 1.5
+    assert params["preset"] == "gltf" and params["seed"] == 11
+    page.get_by_test_id("result-params").wait_for()
+    assert "cracks" in page.get_by_test_id("result-params").text_content()
+    assert "not painted" in page.get_by_test_id("painter").text_content()
+    glb_link = page.get_by_test_id("download-glb")
+    assert glb_link.is_visible()
+    with page.expect_download() as info:
+        glb_link.click()
+    glb = tmp_path / "trunk.glb"
+    info.value.save_as(glb)
+    assert glb.read_bytes()[:4] == b"glTF"
+    with page.expect_download() as info:
+        page.get_by_test_id("download").click()
+    assert info.value.suggested_filename == "barkgen_dried-mud_seed11_192x128.zip"
+    archive = tmp_path / "set.zip"
+    info.value.save_as(archive)
+    assert "Photo licence: GPL-2" in zipfile.ZipFile(archive).read("README.txt").decode()
+    _shot(page, "web_cracks_result_1366x768", full_page=True)
+
+    # a bi-layer texture of the same photo, k = 8 noises at most
+    page.goto(f"{server}exemplars/{result['exemplar_id']}")
+    page.get_by_test_id("param-kind").select_option("bilayer")
+    assert not page.get_by_test_id("param-k").is_disabled()
+    page.get_by_test_id("param-k").fill("9")
+    page.get_by_test_id("param-size").select_option("256x256")
+    page.get_by_test_id("generate").click()
+    assert "2 to 8" in page.get_by_test_id("generate-error").text_content()
+    page.get_by_test_id("param-k").fill("2")
+    page.get_by_test_id("generate").click()
+    _follow_job(page)
+    bilayer_id = re.search(r"/results/(\d+)", page.url).group(1)
+    bilayer = page.request.get(f"{server}api/results/{bilayer_id}").json()
+    assert bilayer["params"]["model"] == "bilayer" and bilayer["params"]["size"] == [256, 256]
+
+    # a flat photo: no cracks to grow, and the page says why
+    flat = tmp_path / "flat.png"
+    from barkgen.io import write_png
+
+    write_png(flat, np.full((128, 128, 3), 120, np.uint8))
+    _upload(page, server, flat, "flat grey")
+    page.wait_for_selector("[data-testid=param-kind][data-kinds='1']", timeout=60_000)
+    assert page.locator("[data-testid=param-kind] option[value=cracks]").is_disabled()
+    assert "no crack network" in page.get_by_test_id("param-kind").get_attribute("title")
+    assert not errors, errors
+    page.close()
+
+
+def test_painter_over_the_bark_with_undo_redo_and_fill(server, browser):
+    """The label painter shows the result's bark under the labels; a stroke, undone and redone
+    (buttons and Ctrl+Z), and a fill of one region with another label."""
+    page = browser.new_page(viewport={"width": 1366, "height": 768})
+    page.goto(server)
+    page.get_by_test_id("exemplar-card").first.click()
+    page.wait_for_url(re.compile(r"/exemplars/\d+"))
+    page.get_by_test_id("param-size").select_option("256x256")
+    page.get_by_test_id("param-tile").check()
+    page.get_by_test_id("generate").click()
+    _follow_job(page)
+    canvas = page.get_by_test_id("paint-canvas")
+    page.wait_for_function(
+        "() => { const i = document.querySelector('[data-testid=paint-bark]');"
+        " return i && i.complete && i.naturalWidth === 256; }",
+        timeout=30_000,
+    )
+    page.wait_for_function("() => document.querySelector('[data-testid=paint-canvas]').width > 0")
+    assert float(canvas.evaluate("c => getComputedStyle(c).opacity")) < 1  # the bark shows through
+    canvas.scroll_into_view_if_needed()
+    pristine = canvas.evaluate("c => c.toDataURL()")
+    assert page.get_by_test_id("paint-undo").is_disabled()
+    page.get_by_test_id("paint-swatch").first.click()
+    box = canvas.bounding_box()
+    page.mouse.move(box["x"] + box["width"] * 0.2, box["y"] + box["height"] * 0.5)
+    page.mouse.down()
+    for step in range(1, 11):
+        page.mouse.move(box["x"] + box["width"] * (0.2 + 0.05 * step), box["y"] + box["height"] * 0.5)
+    page.mouse.up()
+    painted = canvas.evaluate("c => c.toDataURL()")
+    assert painted != pristine
+    page.get_by_test_id("paint-undo").click()
+    assert canvas.evaluate("c => c.toDataURL()") == pristine
+    page.get_by_test_id("paint-redo").click()
+    assert canvas.evaluate("c => c.toDataURL()") == painted
+    page.mouse.move(box["x"] + 5, box["y"] + 5)
+    page.keyboard.press("Control+z")
+    assert canvas.evaluate("c => c.toDataURL()") == pristine
+    # fill: the region under a point takes the chosen label, wholly
+    count = """c => { const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+        let n = 0; for (let i = 0; i < d.length; i += 4) if (d[i] === d[0] && d[i+1] === d[1] && d[i+2] === d[2]) n++;
+        return n; }"""
+    before = canvas.evaluate(count)
+    last = page.get_by_test_id("paint-swatch").last
+    last.click()
+    page.get_by_test_id("paint-tool-fill").click()
+    page.mouse.click(box["x"] + 1, box["y"] + 1)
+    filled = canvas.evaluate("c => c.toDataURL()")
+    assert filled != pristine
+    top_left = canvas.evaluate("c => Array.from(c.getContext('2d').getImageData(0, 0, 1, 1).data.slice(0, 3))")
+    swatch = last.evaluate("b => getComputedStyle(b).backgroundColor")
+    assert swatch == f"rgb({top_left[0]}, {top_left[1]}, {top_left[2]})"
+    assert canvas.evaluate(count) != before or before > 1
+    _shot(page, "web_painter_1366x768", full_page=True)
+    page.close()
+
+
+@pytest.mark.parametrize("width, height", [(1366, 768), (390, 844)])
+def test_pages_fit_a_laptop_and_a_phone_and_a_missing_result_says_so(server, browser, width, height):
+    """At 1366 x 768 and on a phone the pages need no sideways scrolling and the Generate button
+    can be reached; a result that does not exist says so and offers no download."""
+    page = browser.new_page(viewport={"width": width, "height": height})
+    page.goto(server)
+    page.get_by_test_id("exemplar-card").first.click()
+    page.wait_for_url(re.compile(r"/exemplars/\d+"))
+    page.wait_for_selector("[data-testid=param-kind][data-kinds='1']", timeout=60_000)
+    assert page.evaluate("() => document.documentElement.scrollWidth <= window.innerWidth")
+    button = page.get_by_test_id("generate")
+    button.scroll_into_view_if_needed()
+    assert button.is_visible()
+    top, bottom = button.evaluate("b => { const r = b.getBoundingClientRect(); return [r.top, r.bottom]; }")
+    assert 0 <= top and bottom <= height, (top, bottom)
+    _shot(page, f"web_exemplar_{width}x{height}")
+    page.goto(f"{server}results/999999")
+    page.get_by_test_id("page-error").wait_for()
+    assert "does not exist" in page.get_by_test_id("page-error").text_content()
+    assert not page.get_by_test_id("download").is_visible()
+    page.close()

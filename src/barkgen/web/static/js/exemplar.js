@@ -227,12 +227,21 @@ async function loadKinds() {
     $("param-kind-hint").textContent = `Could not check the photo: ${err.message}`;
     return;
   }
+  const whyNot = [];
   for (const option of $("param-kind").options) {
     const known = kinds[option.value];
     option.disabled = Boolean(known && !known.suits);
-    if (known && !known.suits) option.textContent = `${option.textContent.split(" — ")[0]} — not for this photo`;
+    option.title = known ? known.why : "";
+    if (known && !known.suits) {
+      option.textContent = `${option.textContent.split(":")[0]} — not for this photo`;
+      whyNot.push(`${option.textContent.split(" — ")[0]}: ${known.why}`);
+    }
   }
+  $("param-kind").title = whyNot.join("\n");
+  $("param-kind-why-not").textContent = whyNot.join(" ");
+  $("param-kind-why-not").hidden = whyNot.length === 0;
   if ($("param-kind").selectedOptions[0].disabled) $("param-kind").value = "labels";
+  $("param-kind").dataset.kinds = "1"; // what the photo suits is known
   updateKind();
 }
 
