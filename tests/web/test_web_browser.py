@@ -419,8 +419,20 @@ def test_painter_over_the_bark_with_undo_redo_and_fill(server, browser):
     page.wait_for_url(re.compile(r"/exemplars/\d+"))
     page.get_by_test_id("param-size").select_option("256x256")
     page.get_by_test_id("param-tile").check()
+    # texton labels (the label map on the page follows) and the label-only engine's shapes
+    page.get_by_test_id("more-settings").locator("summary").click()
+    page.get_by_test_id("param-method").select_option("texton")
+    page.wait_for_function(
+        "() => { const i = document.querySelector('[data-testid=labels-in]');"
+        " return i && /method=texton/.test(i.src) && i.complete && i.naturalWidth > 0; }",
+        timeout=60_000,
+    )
+    page.get_by_test_id("param-strategy").select_option("engine")
     page.get_by_test_id("generate").click()
     _follow_job(page)
+    result_id = re.search(r"/results/(\d+)", page.url).group(1)
+    params = page.request.get(f"{server}api/results/{result_id}").json()["params"]
+    assert params["method"] == "texton" and params["strategy"] == "engine"
     canvas = page.get_by_test_id("paint-canvas")
     page.wait_for_function(
         "() => { const i = document.querySelector('[data-testid=paint-bark]');"
@@ -477,12 +489,12 @@ def test_pages_fit_a_laptop_and_a_phone_and_a_missing_result_says_so(server, bro
     page.wait_for_url(re.compile(r"/exemplars/\d+"))
     page.wait_for_selector("[data-testid=param-kind][data-kinds='1']", timeout=60_000)
     assert page.evaluate("() => document.documentElement.scrollWidth <= window.innerWidth")
+    _shot(page, f"web_exemplar_{width}x{height}")
     button = page.get_by_test_id("generate")
     button.scroll_into_view_if_needed()
     assert button.is_visible()
     top, bottom = button.evaluate("b => { const r = b.getBoundingClientRect(); return [r.top, r.bottom]; }")
     assert 0 <= top and bottom <= height, (top, bottom)
-    _shot(page, f"web_exemplar_{width}x{height}")
     page.goto(f"{server}results/999999")
     page.get_by_test_id("page-error").wait_for()
     assert "does not exist" in page.get_by_test_id("page-error").text_content()

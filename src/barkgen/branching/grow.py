@@ -282,23 +282,28 @@ class _Grower:
         """The vertices and headings of element rows (angle, thickness) appended to branch
         ``b`` from ``(x0, y0)`` at heading ``theta``, and its first contact with a committed
         branch and first vertex outside the image (-1: none; ``K.path_contacts``)."""
-        parent = self.branches[b].parent
         return K.path_contacts(
             float(x0),
             float(y0),
             float(theta),
             self.step,
             np.ascontiguousarray(elements, np.float64),
-            (
-                self.dist,
-                self.near_branch,
-                b,
-                -2 if parent is None else parent,
-                float(start[0]),
-                float(start[1]),
-                float(exempt),
-                self.wrap,
-            ),
+            self._contact(b, start, exempt),
+        )
+
+    def _contact(self, b: int, start, exempt: float) -> tuple:
+        """The contact maps and branch ``b``'s exemptions as the kernels take them (``contact``
+        of :func:`~barkgen.branching._grow_kernels.extension_candidates`)."""
+        parent = self.branches[b].parent
+        return (
+            self.dist,
+            self.near_branch,
+            b,
+            -2 if parent is None else parent,
+            float(start[0]),
+            float(start[1]),
+            float(exempt),
+            self.wrap,
         )
 
     def _append(self, tip: _Tip, elements, start, exempt, b):
@@ -327,7 +332,6 @@ class _Grower:
         left the image); ``ends`` when the source branch ended within the continuation."""
         model, o = self.model, self.o
         bufs = self._bufs
-        parent = self.branches[b].parent
         q = min(tip.n_hist, o.k + 1)
         hist = tip.hist[tip.n_hist - q : tip.n_hist]
         x0, y0 = float(tip.xyr[tip.n - 1, 0]), float(tip.xyr[tip.n - 1, 1])
@@ -349,16 +353,7 @@ class _Grower:
                 float(o.omega_g),
             ),
             (x0, y0, tip.theta, self.step),
-            (
-                self.dist,
-                self.near_branch,
-                b,
-                -2 if parent is None else parent,
-                float(start[0]),
-                float(start[1]),
-                float(exempt),
-                self.wrap,
-            ),
+            self._contact(b, start, exempt),
             (self.density, self._guide, self.guide is not None, self.rho, EPSILON, self.wrap),
             (
                 o.c,

@@ -185,6 +185,11 @@ def _output_label_map(labels_in, photo, options: GenerateOptions, analysis, wrap
     return label_result, grown
 
 
+def _within(progress: ProgressCallback, end: float) -> ProgressCallback:
+    """``progress`` of a step that fills ``0 .. end`` of the run, in 1000ths."""
+    return lambda done, total: progress(round(1000 * end * done / max(total, 1)), 1000)
+
+
 def _check_variant(options: GenerateOptions, along: bool, resume: bool) -> None:
     """Cracks and bi-layer textures go their own ways (:mod:`barkgen.pipeline.variants`)."""
     variant = (
@@ -331,7 +336,9 @@ def analyze_photo(
         wrap = resolve_exemplar_wrap(options.exemplar_wrap, photo)
         if scan is not None and options.model == "bilayer":
             raise InvalidInputError("a bi-layer texture's material set is its structure layer's: give no scanned set")
-        exemplar = prepare_exemplar(photo, options, labels_in, ANALYSIS_SEED)
+        # (a bi-layer analysis, the longest step of its run, reports within the label map's share)
+        within = None if progress is None else _within(progress, steps["labels"][1])
+        exemplar = prepare_exemplar(photo, options, labels_in, ANALYSIS_SEED, within)
         photo, labels_in = exemplar.image, exemplar.labels_in
         if labels_in is None:
             regions = color_regions if options.method == "color" else texton_regions

@@ -11,7 +11,8 @@
   reference map, so the material set is the structure's, carried through it), the masks come
   through the same reference map, and new noise of the photo's spectra is laid under them on
   the output's torus (eq. 6). The analysis keeps the :class:`~barkgen.bilayer.BilayerModel`,
-  whose :meth:`~barkgen.bilayer.BilayerModel.window` streams the unbounded texture.
+  whose :meth:`~barkgen.bilayer.BilayerModel.window` streams the model's unbounded texture (by
+  its own tile-based synthesis, §4: the same model, not the engine's pixels).
 """
 
 from __future__ import annotations
@@ -56,10 +57,15 @@ class Exemplar:
 
 
 def prepare_exemplar(
-    photo: np.ndarray, options: GenerateOptions, labels_in: np.ndarray | None, seed: int = 0
+    photo: np.ndarray,
+    options: GenerateOptions,
+    labels_in: np.ndarray | None,
+    seed: int = 0,
+    progress: ProgressCallback | None = None,
 ) -> Exemplar:
     """The variant's exemplar of the photo (:class:`Exemplar`), made once per photo; ``seed``:
-    the photo's analysis' own (the bi-layer clusters'), not a variant's.
+    the photo's analysis' own (the bi-layer clusters'), not a variant's; ``progress``: the
+    bi-layer analysis' ``(done, total)``.
 
     Raises
     ------
@@ -70,7 +76,7 @@ def prepare_exemplar(
     if options.model == "bilayer":
         if labels_in is not None:
             raise InvalidInputError("a bi-layer texture's labels are its noise clusters: give no label map")
-        return _bilayer_exemplar(photo, options, seed)
+        return _bilayer_exemplar(photo, options, seed, progress)
     if options.structure == "cracks":
         from barkgen.branching import extract_structure, fit_model, rasterize
 
@@ -80,13 +86,13 @@ def prepare_exemplar(
     return Exemplar(photo, labels_in)
 
 
-def _bilayer_exemplar(photo: np.ndarray, options: GenerateOptions, seed: int) -> Exemplar:
+def _bilayer_exemplar(photo: np.ndarray, options: GenerateOptions, seed: int, progress=None) -> Exemplar:
     """The photo's bi-layer model; its structure layer in the photo's dtype, and its clusters
     as a label map, darkest cluster first (the height's label cue)."""
     from barkgen.bilayer import AnalysisOptions, analyze
     from barkgen.labels.regions import order_by_luminance, to_label_image
 
-    model = analyze(photo, AnalysisOptions(k=options.k, seed=seed, max_memory=options.max_memory))
+    model = analyze(photo, AnalysisOptions(k=options.k, seed=seed, max_memory=options.max_memory), progress=progress)
     structure = from_unit(model.structure, np.asarray(photo).dtype)
     if np.ndim(photo) == 2:
         structure = structure[:, :, 0]
