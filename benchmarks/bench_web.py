@@ -123,7 +123,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--size", type=int, default=512)
     parser.add_argument("--seeds", type=int, default=4)
-    parser.add_argument("--material", action="store_true", help="material sets too (the web default)")
+    parser.add_argument("--material", action="store_true", help="material sets too")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
     if not PHOTO.is_file():
