@@ -29,7 +29,11 @@ albedo, light, height and normals, and the table says how close each came:
   within 20 degrees where the light is 15 degrees or more off the normal);
 - ``height r``: correlation of the estimated height with the true one, both band-passed (a
   Gaussian of 32 px taken off: the integrated height's slow drift is no relief);
-- ``normal err``: mean angle to the true normals, and over a flat normal map's.
+- ``normal err``: mean angle to the true normals, and over a flat normal map's;
+- ``oracle r``: what shape from shading reaches when told the true light (not what barkgen
+  does): the log-luminance's high-pass integrated along the light's azimuth by Fourier division
+  by the directional derivative (:func:`integrated_along`), its height correlation as above. A
+  reference for estimating the light and the height from the shading.
 
 The real photos' own figures are printed beside (their true albedo and light are unknown):
 height correlation and normal error against their scans.
@@ -118,7 +122,27 @@ def measure(photo, truth_normals, truth_height, config, light_true=None, albedo=
         row["albedo_err_ratio"] = gain_matched_error(material.color, albedo) / gain_matched_error(photo, albedo)
         row["az_err"], row["el_err"] = angle_error(material.light, light_true.azimuth, light_true.elevation)
         row["light"] = [round(material.light.azimuth, 1), round(material.light.elevation, 1)]
+        row["oracle_r"] = correlation(band(integrated_along(photo, light_true.azimuth)), band(truth_height))
     return row
+
+
+def integrated_along(photo: np.ndarray, azimuth: float, regulariser: float = 0.02) -> np.ndarray:
+    """The height whose fall towards the light at ``azimuth`` (degrees counter-clockwise from the
+    right, +y up) best explains the log-luminance's high-pass (16 px): a surface is brighter
+    where it faces the light, i.e. where it falls towards it (``N·L`` grows as ``-dh/ds`` along
+    the light's direction ``s``). Its Fourier transform divided by minus the directional
+    derivative's, regularised where that is small."""
+    lum = np.log(np.maximum(luminance(photo), 1e-3))
+    high = lum - ndi.gaussian_filter(lum, FLATTEN, mode="wrap")
+    h, w = high.shape
+    wx = np.fft.fftfreq(w)[None, :] * 2 * np.pi
+    wy = np.fft.fftfreq(h)[:, None] * 2 * np.pi
+    turn = np.radians(azimuth)
+    # the rise towards the light: d/dx cos + d/dy sin, with y up the screen (rows down)
+    derivative = 1j * (wx * np.cos(turn) - wy * np.sin(turn))
+    spectrum = -np.fft.fft2(high) * np.conj(derivative) / (np.abs(derivative) ** 2 + regulariser)
+    spectrum[0, 0] = 0.0
+    return np.real(np.fft.ifft2(spectrum))
 
 
 def resized(image: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
@@ -139,7 +163,7 @@ def main() -> int:
     rows = []
     print(
         f"{'case':44} {'photo r':>7} {'albedo r':>8} {'albedo err':>10} {'az err':>6} {'el err':>6} "
-        f"{'height r':>8} {'normal err':>10}"
+        f"{'height r':>8} {'normal err':>10} {'oracle r':>8}"
     )
     for name in names:
         case = cases[name]
@@ -170,7 +194,8 @@ def main() -> int:
                 rows.append(row)
                 print(
                     f"{label:44} {row['photo_r']:7.2f} {row['albedo_r']:8.2f} {row['albedo_err_ratio']:10.2f} "
-                    f"{row['az_err']:6.1f} {row['el_err']:6.1f} {row['height_r']:8.2f} {row['normal_ratio']:9.2f}x",
+                    f"{row['az_err']:6.1f} {row['el_err']:6.1f} {row['height_r']:8.2f} {row['normal_ratio']:9.2f}x "
+                    f"{row['oracle_r']:8.2f}",
                     flush=True,
                 )
     if args.json:
