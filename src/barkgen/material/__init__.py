@@ -27,7 +27,7 @@ from barkgen.material.materialset import (
     transfer_material,
 )
 from barkgen.material.scanned import integrate_normals, scanned_material
-from barkgen.material.shading import Light, estimate_light, parse_light, remove_shading, shading
+from barkgen.material.shading import Light, estimate_light, parse_light, remove_shading, shading, shape_from_shading
 
 __all__ = [
     "HeightConfig",
@@ -54,6 +54,7 @@ __all__ = [
     "roughness_map",
     "scanned_material",
     "shading",
+    "shape_from_shading",
     "to_directx",
     "transfer_material",
 ]

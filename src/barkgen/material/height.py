@@ -44,6 +44,9 @@ LABEL_WEIGHT = 0.01
 STRENGTH = 0.89
 #: blur of the label cue, in px
 LABEL_BLUR = 1.5
+#: slope of the shape from shading joined to the height, relative to the cues' height, when
+#: the light is trusted (:func:`barkgen.material.shading.with_shading_height`)
+SHADING_WEIGHT = 0.5
 
 
 @dataclass(frozen=True)
@@ -61,6 +64,9 @@ class HeightConfig:
     strength : float, default STRENGTH
         Overall scale of the relief (the default is as fitted on scanned bark; 2 doubles the
         depth).
+    shading_weight : float, default SHADING_WEIGHT
+        Slope of the photo's shape from shading (integrated along the light) joined to the
+        cues' height, relative to its slope, at full confidence in the light; 0 leaves it out.
 
     Raises
     ------
@@ -72,12 +78,15 @@ class HeightConfig:
     energy_bands: tuple[tuple[float, float], ...] = ENERGY_WEIGHTS
     label_weight: float = LABEL_WEIGHT
     strength: float = STRENGTH
+    shading_weight: float = SHADING_WEIGHT
 
     def __post_init__(self) -> None:
         if not self.bands or any(s <= 0 for s, _ in self.bands + self.energy_bands):
             raise InvalidInputError("height bands need positive scales")
         if not np.isfinite(self.strength) or self.strength <= 0:
             raise InvalidInputError(f"height strength must be > 0, not {self.strength}")
+        if not (np.isfinite(self.shading_weight) and 0 <= self.shading_weight <= 10):
+            raise InvalidInputError(f"the shading's weight in the height must be in [0, 10], not {self.shading_weight}")
 
 
 def luminance(rgb: np.ndarray) -> np.ndarray:

@@ -1,9 +1,10 @@
 """A whole material set from a photo, or from a synthesized texture and its reference map.
 
-Photo (:func:`make_material`): label map -> estimated height (:mod:`.height`), replayed edits
-(:mod:`.editor`) -> normals, AO (the height's, plus the photo's cavities), roughness
-(:mod:`.maps`) -> light matched to the photo and albedo ``I / max(N·L, floor) ** g`` relative
-to its geometric mean, ``g`` fitted (:mod:`.shading`).
+Photo (:func:`make_material`): label map -> estimated height (:mod:`.height`) -> light fitted
+jointly with it and the photo's shape from shading joined to the height, as far as the two
+agree (:mod:`.shading`) -> replayed edits (:mod:`.editor`) -> normals, AO (the height's, plus
+the photo's cavities), roughness (:mod:`.maps`) -> albedo ``I / max(N·L, floor) ** g``
+relative to its geometric mean, ``g`` fitted (:mod:`.shading`).
 
 Synthesized texture (:func:`transfer_material`): the photo's albedo, height and roughness are
 carried to the output through the synthesis's reference map — the same exemplar pixel for
@@ -35,7 +36,7 @@ from barkgen.material.maps import (
     photo_cavities,
     roughness_map,
 )
-from barkgen.material.shading import Light, estimate_light, remove_shading
+from barkgen.material.shading import Light, estimate_light, remove_shading, shading_confidence, with_shading_height
 
 
 @dataclass(frozen=True)
@@ -393,6 +394,9 @@ def make_material(
         label_map, _ = to_codes(color_regions(rgb, options.k, seed=options.seed, wrap=wrap))
     config = dataclasses.replace(options.height, strength=options.height.strength * options.relief)
     height = estimate_height(rgb, label_map, config=config, tile=wrap)
+    light = options.light or estimate_light(rgb, normal_map(height, tile=wrap), height=height, tile=wrap)
+    confidence = shading_confidence(light, given=options.light is not None)
+    height = with_shading_height(rgb, height, light, weight=config.shading_weight * confidence, tile=wrap)
     edits = list(edits)
     if edits:
         editor = HeightEditor(rgb, height, label_map, tile=wrap)
@@ -400,7 +404,6 @@ def make_material(
     normals, ao = derived_maps(height, tile=wrap, ao_radius=options.ao_radius)
     cavities = photo_cavities(ao, luminance(rgb), weight=options.cavities, tile=wrap)
     ao = np.clip(ao + cavities, 0.0, 1.0)
-    light = options.light or estimate_light(rgb, normals)
     albedo, strength = remove_shading(rgb, normals, light)
     return MaterialSet(
         color=albedo,
