@@ -99,6 +99,29 @@ def read_resume(path: Path):
     return (int(m.group(1)), image) if m else image
 
 
+#: the largest --edits file read (10,000 edits of JSON are under 1 MiB)
+MAX_EDITS_BYTES = 4 * 2**20
+
+
+def read_edits(path: Path) -> list:
+    """The height edits of an ``--edits`` JSON file (:func:`barkgen.material.parse_edits`)."""
+    import json
+
+    from barkgen.material import parse_edits
+
+    try:
+        if path.stat().st_size > MAX_EDITS_BYTES:
+            raise InvalidInputError(f"{path}: over {MAX_EDITS_BYTES // 2**20} MiB; an edit list is never that long")
+        document = json.loads(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise InvalidInputError(f"{path}: cannot read the edit list ({exc.strerror})") from None
+    except RecursionError:
+        raise InvalidInputError(f"{path}: nested too deeply to be an edit list") from None
+    except ValueError as exc:  # (a UnicodeDecodeError too)
+        raise InvalidInputError(f"{path}: not JSON ({str(exc)[:80]})") from None
+    return parse_edits(document)
+
+
 # ------------------------------------------------------------------------ output paths
 
 
@@ -468,6 +491,15 @@ ResumeOption = Annotated[
         "--resume",
         help="Continue the output label map from an edited level (DIR/level_N.png of "
         "--save-levels, painted with the same grey values).",
+    ),
+]
+EditsOption = Annotated[
+    Optional[Path],
+    typer.Option(
+        "--edits",
+        help="JSON list of height edits to replay on the relief (HeightEditor, wang2003 §3.3; the web app's "
+        'relief editor saves one): {"version": 1, "edits": [{"x": 10, "y": 20, "delta": 1.5, "radius": 4}]}, '
+        "in pixels of the image edited.",
     ),
 ]
 FlowOption = Annotated[

@@ -13,6 +13,7 @@ import typer
 
 from barkgen.cli._common import (
     BitsOption,
+    EditsOption,
     ExrHeightOption,
     ExtraOption,
     FlowOption,
@@ -30,6 +31,7 @@ from barkgen.cli._common import (
     parse_extras,
     previous_run_files,
     progress_bar,
+    read_edits,
     read_fields,
     read_resume,
     refuse_input_folder,
@@ -74,6 +76,7 @@ def generate_command(
     ] = None,
     flow: FlowOption = None,
     flow_scale: FlowScaleOption = None,
+    edits: EditsOption = None,
     quiet: QuietOption = False,
     *,
     options: GenerateOptions,
@@ -112,10 +115,19 @@ def generate_command(
     label_map = read_image(labels) if labels is not None else None
     edited = read_resume(resume) if resume is not None else None
     fields = read_fields(flow, flow_scale)
+    edit_list = read_edits(edits) if edits is not None else []
     describe = functools.partial(stage_at, material=options.material)
     with progress_bar(not quiet, "generating", describe) as progress:
         result = generate(
-            image, options, extra=extras, labels_in=label_map, resume=edited, progress=progress, scan=scan, **fields
+            image,
+            options,
+            extra=extras,
+            labels_in=label_map,
+            resume=edited,
+            progress=progress,
+            scan=scan,
+            edits=edit_list,
+            **fields,
         )
         files = encode_generate(
             image, result, str(src), name=name, bits=bits, preset=preset, sizes=widths, exr_height=exr_height

@@ -12,6 +12,7 @@ import typer
 from barkgen._shared.checks import parse_size
 from barkgen._shared.memory import parse_memory
 from barkgen.cli._common import (
+    EditsOption,
     ExemplarWrapsOption,
     ExrHeightOption,
     LightOption,
@@ -27,11 +28,11 @@ from barkgen.cli._common import (
     check_target,
     parse_light,
     progress_bar,
+    read_edits,
     refuse_targets,
     write_files,
     write_outputs,
 )
-from barkgen.errors import InvalidInputError
 
 ViewRepeat = Annotated[float, typer.Option("--repeat", help="Times the texture goes round the trunk.")]
 ViewDisplacement = Annotated[float, typer.Option("--displacement", help="Relief scale (1 = the set's own depth).")]
@@ -46,14 +47,7 @@ def material_command(
     k: Annotated[int, typer.Option("--k", help="Labels of the structure cue (1-16).")] = 3,
     light: LightOption = None,
     relief: ReliefOption = 1.0,
-    edits: Annotated[
-        Optional[Path],
-        typer.Option(
-            "--edits",
-            help="JSON list of height edits to replay (HeightEditor, wang2003 §3.3): "
-            '{"version": 1, "edits": [{"x": 10, "y": 20, "delta": 1.5, "radius": 4}]}.',
-        ),
-    ] = None,
+    edits: EditsOption = None,
     exemplar_wraps: ExemplarWrapsOption = "auto",
     tile: Annotated[
         bool, typer.Option("--tile", help="The photo is a tileable texture: maps wrap (as --exemplar-wraps yes).")
@@ -85,7 +79,7 @@ def material_command(
         exemplar_wrap="yes" if tile else exemplar_wraps,
         max_memory=parse_memory(max_memory),
     )
-    edit_list = _read_edits(edits) if edits is not None else []
+    edit_list = read_edits(edits) if edits is not None else []
     src = photo if photo is not None else sample_exemplar_path()
     image = read_image(src)
     h, w = image.shape[:2]
@@ -119,29 +113,6 @@ def _wrap_note(wraps: tuple[bool, bool]) -> str:
     """``; wraps left-right`` and the like: the axes along which the maps tile."""
     names = [name for name, on in zip(("top-bottom", "left-right"), wraps) if on]
     return f"; wraps {' and '.join(names)}" if names else ""
-
-
-#: the largest --edits file read (10,000 edits of JSON are under 1 MiB)
-MAX_EDITS_BYTES = 4 * 2**20
-
-
-def _read_edits(path: Path) -> list:
-    """The height edits of an ``--edits`` JSON file (:func:`barkgen.material.parse_edits`)."""
-    import json
-
-    from barkgen.material import parse_edits
-
-    try:
-        if path.stat().st_size > MAX_EDITS_BYTES:
-            raise InvalidInputError(f"{path}: over {MAX_EDITS_BYTES // 2**20} MiB; an edit list is never that long")
-        document = json.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise InvalidInputError(f"{path}: cannot read the edit list ({exc.strerror})") from None
-    except RecursionError:
-        raise InvalidInputError(f"{path}: nested too deeply to be an edit list") from None
-    except ValueError as exc:  # (a UnicodeDecodeError too)
-        raise InvalidInputError(f"{path}: not JSON ({str(exc)[:80]})") from None
-    return parse_edits(document)
 
 
 def preview_command(

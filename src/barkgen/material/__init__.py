@@ -7,6 +7,7 @@ texture synthesized from it, :class:`HeightEditor` for self-similarity height ed
 files (ambientCG names) are written by :func:`barkgen.io.write_material` and the CLI.
 """
 
+from barkgen.material.edited import edit_material
 from barkgen.material.editor import HeightEdit, HeightEditor, edits_document, parse_edits
 from barkgen.material.height import HeightConfig, estimate_height
 from barkgen.material.maps import (
@@ -39,6 +40,7 @@ __all__ = [
     "ambient_occlusion",
     "decode_normals",
     "derived_maps",
+    "edit_material",
     "edits_document",
     "encode_normals",
     "estimate_height",

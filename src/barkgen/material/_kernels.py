@@ -65,3 +65,25 @@ def horizon_occlusion(
                 total += best / np.sqrt(1.0 + best * best)
             out[y, x] = 1.0 - total / n_dir
     return out
+
+
+@njit(parallel=True, cache=True)
+def neighbourhood_distance(padded: np.ndarray, reference: np.ndarray, offsets: np.ndarray, pad: int) -> np.ndarray:
+    """RMS difference of every pixel's neighbourhood from ``reference`` (wang2003 §3.3's L2
+    neighbourhood distance, per neighbour).
+
+    ``padded``: the image with ``pad`` px of border (wrapped or mirrored by the caller);
+    ``offsets``: the neighbourhood's ``(dy, dx)``; ``reference``: the edited pixel's values at
+    those offsets. Returns ``(h, w)`` float32 for the unpadded image."""
+    rows = padded.shape[0] - 2 * pad
+    cols = padded.shape[1] - 2 * pad
+    n = offsets.shape[0]
+    out = np.empty((rows, cols), np.float32)
+    for y in prange(rows):
+        for x in range(cols):
+            total = np.float32(0.0)
+            for k in range(n):
+                diff = padded[pad + y + offsets[k, 0], pad + x + offsets[k, 1]] - reference[k]
+                total += diff * diff
+            out[y, x] = np.sqrt(total / np.float32(n))
+    return out

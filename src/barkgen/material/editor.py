@@ -22,6 +22,7 @@ import numpy as np
 
 from barkgen._shared.arrays import Wrap, pad_wrapped, wrap_axes
 from barkgen.errors import InvalidInputError
+from barkgen.material._kernels import neighbourhood_distance
 from barkgen.material.height import luminance
 
 #: the largest neighbourhood radius compared at full resolution; larger ones use a coarser level
@@ -247,12 +248,8 @@ class HeightEditor:
         ly, lx = min(y // factor, lum.shape[0] - 1), min(x // factor, lum.shape[1] - 1)
         pad = int(np.abs(offsets).max())
         padded = pad_wrapped(lum, pad, self.tile)
-        ref = padded[ly + pad + offsets[:, 0], lx + pad + offsets[:, 1]]
-        dist = np.zeros(lum.shape, np.float32)
-        for (dy, dx), v in zip(offsets, ref):
-            diff = padded[pad + dy : pad + dy + lum.shape[0], pad + dx : pad + dx + lum.shape[1]] - v
-            dist += diff * diff
-        dist = np.sqrt(dist / len(offsets))
+        ref = np.ascontiguousarray(padded[ly + pad + offsets[:, 0], lx + pad + offsets[:, 1]], np.float32)
+        dist = neighbourhood_distance(np.ascontiguousarray(padded, np.float32), ref, offsets.astype(np.int64), pad)
         weight: np.ndarray = np.clip(1.0 - dist / threshold, 0.0, 1.0)
         if factor > 1:
             weight = cv2.resize(weight, (w, h), interpolation=cv2.INTER_LINEAR)

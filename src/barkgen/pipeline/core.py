@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -37,7 +37,7 @@ from barkgen.synth import resolve_exemplar_wrap
 
 if TYPE_CHECKING:
     from barkgen.io import ScannedSet
-    from barkgen.material import MaterialSet
+    from barkgen.material import HeightEdit, MaterialSet
     from barkgen.synth import AnalysisCache, OutputLinks
 
 #: the pyramid level texture-by-numbers takes up each strategy's label-map references at
@@ -401,6 +401,7 @@ def generate(
     flow: np.ndarray | None = None,
     flow_scale: np.ndarray | None = None,
     links: OutputLinks | None = None,
+    edits: Iterable[HeightEdit] = (),
 ) -> GenerateResult:
     """Turn a bark photo into new bark of ``options.size`` (laitoch2018 Figure 1.2).
 
@@ -435,6 +436,9 @@ def generate(
     links : OutputLinks, optional
         Output pixels that take the references of others while the solvers run (a texture
         atlas's gutters; :class:`barkgen.synth.OutputLinks`, with a flow field).
+    edits : iterable of HeightEdit, default ()
+        Height edits on the output's relief, in its pixels, replayed on its material set
+        (wang2003 §3.3; :func:`barkgen.material.edit_material`; needs ``options.material``).
 
     Returns
     -------
@@ -446,6 +450,9 @@ def generate(
     timings: dict[str, float] = {}
     check_generate_memory(photo, options, extra)
     _check_variant(options, flow is not None or flow_scale is not None, resume is not None)
+    edits = list(edits)
+    if edits and (not options.material or scan is not None):
+        raise InvalidInputError("height edits apply to an estimated material set: turn material on, give no scan")
     if analysis is None:
         analysis = analyze_photo(
             photo,
@@ -523,7 +530,12 @@ def generate(
         texture, layers = add_noise(result.image, noise), {"structure": result.image, "noise": noise, "masks": masks}
         if material is not None:  # the structure layer's maps; its albedo with the new noise
             material = dataclasses.replace(material, color=np.clip(material.color + noise, 0.0, 1.0))
+    if edits and material is not None:
+        from barkgen.material import edit_material
+
+        material = edit_material(material, edits, texture=texture, label_map=label_result.label_map)
     report = run_report(photo, options, wrap, labels_in, label_result, result, material, timings)
+    report["height_edits"] = len(edits)
     return GenerateResult(
         texture=texture,
         labels_in=labels_in,

@@ -45,6 +45,13 @@ class ResumeRequest(BaseModel):
     labels: str  # data:image/png;base64,...
 
 
+class ReliefSaveRequest(BaseModel):
+    """A result's relief edits to replay on it (the relief editor's Save)."""
+
+    result_id: int
+    edits: list[dict]
+
+
 #: the web app's defaults where they are not GenerateOptions' own: the CLI's, but a seed of None
 #: (a random one)
 WEB_DEFAULTS = {"seed": None}
@@ -57,6 +64,7 @@ def job_request_model(options_class: type = GenerateOptions) -> type[BaseModel]:
     fields: dict = {
         "exemplar_id": (int, ...),
         "resume": (ResumeRequest | None, None),
+        "relief_edits": (ReliefSaveRequest | None, None),
         "preset": (Literal[PRESETS], Field(default="ambientcg", description="The material set's file layout.")),
     }
     for f in option_fields(options_class, "web"):
@@ -151,6 +159,27 @@ def painted_level(state: AppState, request: ResumeRequest, exemplar_id: int, par
     return request.level, values[codes].astype(level.dtype)
 
 
+def relief_edits(state: AppState, request: ReliefSaveRequest, exemplar_id: int, params: dict) -> list[dict]:
+    """The relief editor's edits of a result, checked against it (same photo, size, material
+    maps), as the items of their JSON list."""
+    from barkgen.material import edits_document
+    from barkgen.web.relief import checked_edits
+
+    parent = state.library.result(request.result_id)
+    if parent.exemplar_id != exemplar_id:
+        raise InvalidInputError(f"result {parent.id} belongs to exemplar {parent.exemplar_id}, not {exemplar_id}")
+    if params["size"] != list(parent.params["size"]) or not params["material"]:
+        raise InvalidInputError("saving a relief keeps the result's size and its material maps")
+    edits = checked_edits(request.edits)
+    if not edits:
+        raise InvalidInputError("there is no relief edit to save")
+    width, height = params["size"]
+    for i, edit in enumerate(edits):
+        if not (0 <= edit.x < width and 0 <= edit.y < height):
+            raise InvalidInputError(f"edit {i} at ({edit.x}, {edit.y}) is outside the {width}x{height} result")
+    return edits_document(edits)["edits"]
+
+
 def start_job(state: AppState, request: JobRequest) -> dict:
     """Check a generate request and queue it: ``{"id": job id}``. A request without a seed gets
     a random one (the job's params say which)."""
@@ -182,6 +211,12 @@ def start_job(state: AppState, request: JobRequest) -> dict:
     if request.resume is not None:
         resume = painted_level(state, request.resume, exemplar.id, params)
         params["resumed_from"] = {"result_id": request.resume.result_id, "level": resume[0]}
+    parent_id = request.resume.result_id if request.resume is not None else None
+    edits = None
+    if request.relief_edits is not None:
+        parent_id = request.relief_edits.result_id
+        edits = relief_edits(state, request.relief_edits, exemplar.id, params)
+        params["relief_from"] = {"result_id": request.relief_edits.result_id, "edits": len(edits)}
     # the photo's label map when a page has made it already (else the worker makes it); cracks
     # and bi-layer textures have label maps of their own (barkgen.pipeline.variants)
     plain = options.structure == "labels" and options.model == "patches"
@@ -196,12 +231,13 @@ def start_job(state: AppState, request: JobRequest) -> dict:
         "labels_in": grey,
         "resume": resume,
         "preset": request.preset,
+        "edits": edits,
     }
     job = state.jobs.submit(
         exemplar.id,
         params,
         spec,
-        parent_id=request.resume.result_id if request.resume else None,
+        parent_id=parent_id,
         labels_key=key if plain and grey is None else None,
     )
     return {"id": job.id}

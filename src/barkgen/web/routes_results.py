@@ -44,6 +44,7 @@ _FILE_NOTES = {
     "(barkgen apply-reference re-applies it to any map of the photo)",
     "preview.png": "contact sheet: photo, labels in, labels out, result",
     "report.json": "parameters, seed, label areas and timings of the run",
+    "edits.json": "the relief editor's height edits (barkgen generate --material --edits edits.json replays them)",
     "trunk.glb": "the bark on a trunk, glTF 2.0 binary with its material (Blender, three.js, game engines)",
 }
 

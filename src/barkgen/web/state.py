@@ -9,6 +9,7 @@ them without a server: ``AppState(library, JobManager(library))``.
 from __future__ import annotations
 
 import threading
+from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -60,6 +61,10 @@ class AppState:
     #: uploads look up and add their photo under it, so one photo uploaded ten times at once
     #: is added once and nine answers say it was there
     upload_lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
+    #: the relief editor's open results (:mod:`barkgen.web.relief`), the oldest first, and
+    #: their lock
+    relief_sessions: OrderedDict = field(default_factory=OrderedDict, repr=False)
+    relief_lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
 
 def get_state(request: Request) -> AppState:

@@ -70,6 +70,8 @@ class JobSpec:
     set_files: dict[str, bytes] | None = None
     #: the material set's file layout (:data:`barkgen.material.presets.PRESETS`)
     preset: str = "ambientcg"
+    #: height edits replayed on the result's relief (the items of their JSON list)
+    edits: list[dict] | None = None
 
 
 @dataclass(frozen=True)
@@ -130,6 +132,10 @@ def encode_result(photo: np.ndarray, result, spec: JobSpec) -> dict[str, bytes]:
     files.update(
         {f"level_{i}.png": encode_png(level) for i, level in enumerate(result.label_levels) if level is not None}
     )
+    if spec.edits:  # the relief editor's list, for `barkgen generate --material --edits`
+        import json
+
+        files["edits.json"] = (json.dumps({"version": 1, "edits": spec.edits}, indent=1) + "\n").encode()
     thumb = Image.fromarray(as_uint8(result.texture).squeeze())
     thumb.thumbnail((320, 320))
     buffer = io.BytesIO()
@@ -143,6 +149,7 @@ def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
     :class:`Done` or :class:`Failed`."""
     from barkgen.errors import BarkgenError
     from barkgen.io import decode_image, scanned_set_from_files
+    from barkgen.material import parse_edits
     from barkgen.pipeline import (
         GenerateOptions,
         analysis_key,
@@ -187,7 +194,10 @@ def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
                 analyses.popitem(last=False)
         else:
             analyses.move_to_end(key)
-        result = generate(photo, options, analysis=analysis, resume=spec.resume, progress=progress, scan=scan)
+        edits = parse_edits({"version": 1, "edits": spec.edits}) if spec.edits else []
+        result = generate(
+            photo, options, analysis=analysis, resume=spec.resume, progress=progress, scan=scan, edits=edits
+        )
         files = encode_result(photo, result, spec)
     except BarkgenError as exc:
         send(Failed(spec.job_id, str(exc)))
