@@ -509,3 +509,109 @@ def test_pages_fit_a_laptop_and_a_phone_and_a_missing_result_says_so(server, bro
     assert "does not exist" in page.get_by_test_id("page-error").text_content()
     assert not page.get_by_test_id("download").is_visible()
     page.close()
+
+
+def _relief_heights(page, server: str, result_id: str, edits: list) -> np.ndarray:
+    answer = page.request.post(f"{server}api/results/{result_id}/relief", data={"edits": edits})
+    assert answer.ok, answer.text()
+    width, rows = (int(v) for v in answer.headers["x-height-size"].split("x"))
+    return np.frombuffer(answer.body(), "<f4").reshape(rows, width)
+
+
+def _set_heights(page, server: str, result: dict) -> np.ndarray:
+    """A result's height in px from its 16-bit displacement and its record's depth and midlevel."""
+    import json
+
+    from barkgen.io import decode_image
+
+    name = next(n for n in result["files"] if n.endswith("_Displacement.png"))[: -len("_Displacement.png")]
+    meta = json.loads(page.request.get(f"{server}{result['files'][name + '.json'][1:]}").body())
+    levels = decode_image(page.request.get(f"{server}{result['files'][name + '_Displacement.png'][1:]}").body())
+    levels = (levels[..., 0] if levels.ndim == 3 else levels).astype(np.float64) / 65535.0
+    return (levels - meta["displacement_midlevel"]) * meta["displacement_depth_px"]
+
+
+def test_relief_editor_stroke_spreads_relights_the_trunk_and_saves(server, browser):
+    """wang2003 Fig. 6 in the page: on a 1024² result, a stroke of five edits raises the bark
+    under it and at the self-similar places (the server's answer, checked against the edits the
+    page made), the trunk relights, undo and redo; Save makes a result whose displacement rose
+    where the page showed it and stayed where it did not. Each edit's time (pointer to the
+    relit trunk) is kept on the canvas; benchmarks/bench_relief_editor.py reports it."""
+    page = browser.new_page(viewport={"width": 1366, "height": 768})
+    errors = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    page.goto(server)
+    page.get_by_test_id("exemplar-card").first.click()
+    page.wait_for_url(re.compile(r"/exemplars/\d+"))
+    page.get_by_test_id("param-size").select_option("1024x1024")
+    page.get_by_test_id("param-tile").check()
+    page.get_by_test_id("param-material").check()
+    page.get_by_test_id("param-seed").fill("5")
+    page.get_by_test_id("generate").click()
+    _follow_job(page)
+    result_id = re.search(r"/results/(\d+)", page.url).group(1)
+    page.wait_for_selector("[data-testid=trunk-canvas][data-ready='1']", timeout=60_000)
+    page.wait_for_selector("[data-testid=relief-canvas][data-ready='1']", state="attached", timeout=60_000)
+    trunk_before = _canvas_pixels(page, "trunk-canvas")  # (scrolls to the trunk)
+    canvas = page.get_by_test_id("relief-canvas")
+    assert canvas.is_hidden() and page.get_by_test_id("result-texture").is_visible()
+    page.get_by_test_id("relief-toggle").check()  # the editor takes the texture's place
+    assert canvas.is_visible() and page.get_by_test_id("result-texture").is_hidden()
+    page.get_by_test_id("relief-strength").fill("3")
+    canvas.evaluate("c => c.scrollIntoView({block: 'center'})")
+    box = canvas.bounding_box()
+    scale = box["width"] / 1024.0
+    # a stroke of five edits: 40 result px apart, left to right at one height
+    points = [(200 + 40 * i, 300) for i in range(5)]
+    page.mouse.move(box["x"] + points[0][0] * scale + 0.5 * scale, box["y"] + 300.5 * scale)
+    page.mouse.down()
+    for x, y in points[1:]:
+        page.mouse.move(box["x"] + (x + 0.5) * scale, box["y"] + (y + 0.5) * scale)
+    page.mouse.up()
+    page.wait_for_function(
+        "() => { const c = document.querySelector('[data-testid=relief-canvas]');"
+        " return c.dataset.edits === '5' && JSON.parse(c.dataset.latencies || '[]').length === 5; }",
+        timeout=30_000,
+    )
+    edits = page.evaluate(
+        "() => fetch(document.querySelector('[data-testid=relief-download]').href).then(r => r.json())"
+    )["edits"]
+    assert [(e["x"], e["y"]) for e in edits] == [(x, y) for x, y in points]
+    assert all(e["delta"] == 3 and e["radius"] == 4 for e in edits)
+    base = _relief_heights(page, server, result_id, [])
+    change = _relief_heights(page, server, result_id, edits) - base
+    for x, y in points:
+        assert change[y, x] >= 3.0 - 1e-3
+    far = np.ones(change.shape, bool)
+    far[300 - 40 : 300 + 41, 200 - 40 : 360 + 41] = False
+    assert 0.005 < ((change > 0.1) & far).mean() < 0.9  # spread to self-similar places
+    # the trunk was relit from the new relief
+    relit = np.abs(_canvas_pixels(page, "trunk-canvas") - trunk_before).sum(axis=2)
+    assert (relit > 12).mean() > 0.005, (relit > 12).mean()
+    if SHOTS:  # the editor beside the trunk it relit
+        Path(SHOTS).mkdir(parents=True, exist_ok=True)
+        page.locator(".result-layout").screenshot(path=str(Path(SHOTS) / "web_relief_1366x768.png"))
+    # undo takes the stroke back, redo brings it again
+    page.get_by_test_id("relief-undo").click()
+    page.wait_for_function("() => document.querySelector('[data-testid=relief-canvas]').dataset.edits === '0'")
+    assert page.get_by_test_id("relief-undo").is_disabled()
+    page.get_by_test_id("relief-redo").click()
+    page.wait_for_function("() => document.querySelector('[data-testid=relief-canvas]').dataset.edits === '5'")
+    # Save: a new result, its displacement risen where the page showed it
+    page.get_by_test_id("relief-save").click()
+    _follow_job(page)
+    saved_id = re.search(r"/results/(\d+)", page.url).group(1)
+    assert saved_id != result_id
+    saved = page.request.get(f"{server}api/results/{saved_id}").json()
+    parent = page.request.get(f"{server}api/results/{result_id}").json()
+    assert saved["params"]["relief_from"] == {"result_id": int(result_id), "edits": 5}
+    rise = _set_heights(page, server, saved) - _set_heights(page, server, parent)
+    quantum = (
+        2
+        * max(
+            page.request.get(f"{server}api/results/{r}").json()["displacement_depth_px"] for r in (saved_id, result_id)
+        )
+        / 65535
+    )
+    assert np.abs(rise - change).max() < 0.02 + quantum
+    assert not errors, errors

@@ -108,6 +108,15 @@ def test_saved_edits_make_a_result_the_cli_replays_byte_for_byte(served, tmp_pat
     assert name.read_bytes() == web
     normals = next(n for n in edited["files"] if n.endswith("_NormalGL.png"))
     assert next(out.glob("*_NormalGL.png")).read_bytes() == client.get(edited["files"][normals]).content
+    # sculpting the saved result again and saving: its edits first, then the new ones
+    more = [{"x": 100, "y": 90, "delta": -1.5, "radius": 2}]
+    again = {**body, "relief_edits": {"result_id": edited["id"], "edits": more}}
+    twice = _wait(client, client.post("/api/jobs", json=again).json()["id"])
+    document = json.loads(
+        client.get(client.get(f"/api/results/{twice['result_id']}").json()["files"]["edits.json"]).content
+    )
+    replayed = parse_edits(document)
+    assert replayed[:5] == parse_edits({"version": 1, "edits": STROKE}) and replayed[5].delta == -1.5
     # a save without material maps, or with no edits, is refused in one line
     refused = client.post("/api/jobs", json={**body, "material": False})
     assert refused.status_code == 400 and "material" in refused.json()["detail"]

@@ -161,8 +161,9 @@ def painted_level(state: AppState, request: ResumeRequest, exemplar_id: int, par
 
 def relief_edits(state: AppState, request: ReliefSaveRequest, exemplar_id: int, params: dict) -> list[dict]:
     """The relief editor's edits of a result, checked against it (same photo, size, material
-    maps), as the items of their JSON list."""
-    from barkgen.material import edits_document
+    maps), after the result's own edits when it was sculpted before, as the items of their JSON
+    list."""
+    from barkgen.material import edits_document, parse_edits
     from barkgen.web.relief import checked_edits
 
     parent = state.library.result(request.result_id)
@@ -177,6 +178,8 @@ def relief_edits(state: AppState, request: ReliefSaveRequest, exemplar_id: int, 
     for i, edit in enumerate(edits):
         if not (0 <= edit.x < width and 0 <= edit.y < height):
             raise InvalidInputError(f"edit {i} at ({edit.x}, {edit.y}) is outside the {width}x{height} result")
+    if "edits.json" in parent.files:  # a result sculpted before: its edits first, then these
+        edits = parse_edits(json.loads(state.library.result_file(parent.id, "edits.json"))) + edits
     return edits_document(edits)["edits"]
 
 

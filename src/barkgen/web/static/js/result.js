@@ -1,10 +1,12 @@
 // Result page: the texture (with a 2×2 tiling check), the 3D trunk, label
-// maps, material maps, download, and the label painter that continues the
-// synthesis from an edited level.
+// maps, material maps, download, the relief editor (height edits spread to
+// self-similar places, the trunk relit at once) and the label painter that
+// continues the synthesis from an edited level.
 
 import { api, el, idFromPath, showError, formatDate, describeParams } from "./api.js";
-import { jobPanelIn, jobIdFromUrl } from "./jobs.js";
+import { JobPanel, jobPanelIn, jobIdFromUrl } from "./jobs.js";
 import { LabelPainter } from "./painter.js";
+import { ReliefEditor } from "./relief.js";
 
 const $ = (testid) => document.querySelector(`[data-testid="${testid}"]`);
 
@@ -204,12 +206,95 @@ async function setupTrunk(result) {
     return;
   }
   try {
-    await trunk.initTrunk({ canvas, result, controls: trunkControls(), onStatus: say });
+    return await trunk.initTrunk({ canvas, result, controls: trunkControls(), onStatus: say });
   } catch (err) {
     console.warn("3D trunk failed:", err);
     const noWebGL = /webgl/i.test(String(err && err.message));
     disable(noWebGL ? "The 3D view is unavailable: this browser has no WebGL." : `The 3D view failed: ${err.message || err}`);
+    return null;
   }
+}
+
+// ---------------------------------------------------------------------------
+// Relief editor (results with material maps)
+
+async function setupRelief(result, trunkReady) {
+  if (!result.maps || !result.maps.Displacement) return;
+  $("relief-toggle-label").hidden = false;
+  const toggle = $("relief-toggle");
+  const tiling = $("tile-toggle");
+  const show = () => {
+    // sculpting takes the texture's place, beside the trunk it relights
+    const on = toggle.checked;
+    $("relief").hidden = !on;
+    $("relief-canvas").hidden = !on;
+    $("texture-hint").hidden = on;
+    tiling.disabled = on;
+    if (on) {
+      $("result-texture").hidden = true;
+      $("texture-tiled").hidden = true;
+    } else {
+      tiling.dispatchEvent(new Event("change")); // the image or its 2x2 view, as ticked
+    }
+  };
+  toggle.addEventListener("change", show);
+  const errorBox = $("relief-error");
+  const tile = Boolean(result.params && result.params.tile);
+  const texture = new Image();
+  texture.src = (result.files && result.files["texture.png"]) || result.maps.Color;
+  let trunk = null;
+  const editor = new ReliefEditor({
+    canvas: $("relief-canvas"),
+    texture,
+    resultId: result.id,
+    inputs: { radius: $("relief-radius"), strength: $("relief-strength") },
+    buttons: {
+      raise: $("relief-raise"),
+      lower: $("relief-lower"),
+      undo: $("relief-undo"),
+      redo: $("relief-redo"),
+      reset: $("relief-reset"),
+    },
+    download: $("relief-download"),
+    status: $("relief-status"),
+    errorBox,
+    onHeight: (height, width, rows) => {
+      if (trunk) trunk.setRelief(height, width, rows, tile);
+    },
+  });
+  const save = $("relief-save");
+  const root = $("relief-job-panel");
+  const panel = new JobPanel({
+    root,
+    stateEl: $("relief-job-state"),
+    progressEl: $("relief-job-progress"),
+    cancelBtn: $("relief-job-cancel"),
+    onBusy: (busy) => {
+      save.disabled = busy;
+      save.textContent = busy ? "Saving…" : "Save relief as a new result";
+    },
+  });
+  save.addEventListener("click", async () => {
+    showError(errorBox, "");
+    const edits = editor.edits;
+    if (!edits.length) {
+      showError(errorBox, "There is nothing to save yet: drag on the texture first.");
+      return;
+    }
+    const body = {
+      exemplar_id: result.exemplar_id,
+      ...jobOptions(result.params || {}),
+      relief_edits: { result_id: result.id, edits },
+    };
+    try {
+      await panel.start(body);
+    } catch (err) {
+      showError(errorBox, err.message);
+    }
+  });
+  trunk = await trunkReady;
+  await editor.start();
+  $("relief-canvas").dataset.ready = "1";
 }
 
 // ---------------------------------------------------------------------------
@@ -296,8 +381,10 @@ async function main() {
   renderMaps(result);
   renderTimings(result);
   renderExemplarName(result.exemplar_id);
-  // The trunk and the painter are independent: one failing leaves the other.
-  setupTrunk(result);
+  // The trunk, the relief editor and the painter are independent: one failing
+  // leaves the others (the editor relights the trunk when there is one).
+  const trunkReady = setupTrunk(result);
+  setupRelief(result, trunkReady).catch((err) => showError($("relief-error"), `The relief editor failed: ${err.message}`));
   setupPainter(result).catch((err) => showError($("paint-error"), `The label painter failed: ${err.message}`));
 }
 

@@ -36,6 +36,58 @@ function loadTexture(loader, url, colour) {
 }
 
 /**
+ * Normal (OpenGL, 8-bit RGBA) and displacement (8-bit, `low`..`high` to 0..255)
+ * texel data of a height field in pixels, rows flipped to the bottom-up order a
+ * DataTexture reads (an image texture is flipped on upload, a DataTexture not).
+ */
+function reliefTexels(height, width, rows, tile, low, high) {
+  const normal = new Uint8Array(width * rows * 4);
+  const disp = new Uint8Array(width * rows * 4);
+  const span = high > low ? 255 / (high - low) : 0;
+  const at = (x, y) => height[y * width + x];
+  for (let y = 0; y < rows; y++) {
+    const up = y > 0 ? y - 1 : tile ? rows - 1 : 0;
+    const down = y < rows - 1 ? y + 1 : tile ? 0 : rows - 1;
+    const out = (rows - 1 - y) * width * 4;
+    for (let x = 0; x < width; x++) {
+      const left = x > 0 ? x - 1 : tile ? width - 1 : 0;
+      const right = x < width - 1 ? x + 1 : tile ? 0 : width - 1;
+      // central differences (wrapping when the set tiles), one-sided at other borders
+      const gx = (at(right, y) - at(left, y)) * (tile || (x > 0 && x < width - 1) ? 0.5 : 1);
+      const gy = (at(x, down) - at(x, up)) * (tile || (y > 0 && y < rows - 1) ? 0.5 : 1);
+      // OpenGL: x right, y up (rows run down), z out
+      const nx = -gx;
+      const ny = gy;
+      const inv = 1 / Math.sqrt(nx * nx + ny * ny + 1);
+      const i = out + x * 4;
+      normal[i] = Math.round((nx * inv * 0.5 + 0.5) * 255);
+      normal[i + 1] = Math.round((ny * inv * 0.5 + 0.5) * 255);
+      normal[i + 2] = Math.round((inv * 0.5 + 0.5) * 255);
+      normal[i + 3] = 255;
+      const d = Math.max(0, Math.min(255, Math.round((at(x, y) - low) * span)));
+      disp[i] = d;
+      disp[i + 1] = d;
+      disp[i + 2] = d;
+      disp[i + 3] = 255;
+    }
+  }
+  return { normal, disp };
+}
+
+function dataTexture(data, width, rows) {
+  const texture = new THREE.DataTexture(data, width, rows, THREE.RGBAFormat);
+  texture.wrapS = THREE.RepeatWrapping;
+  texture.wrapT = THREE.RepeatWrapping;
+  texture.colorSpace = THREE.NoColorSpace;
+  texture.magFilter = THREE.LinearFilter;
+  texture.minFilter = THREE.LinearMipmapLinearFilter;
+  texture.generateMipmaps = true;
+  texture.anisotropy = 8;
+  texture.needsUpdate = true;
+  return texture;
+}
+
+/**
  * Set up the trunk viewer.
  * @param {object} opts
  * @param {HTMLCanvasElement} opts.canvas
@@ -181,8 +233,46 @@ export async function initTrunk({ canvas, result, controls, onStatus }) {
   canvas.dataset.ready = "1";
   onStatus("");
 
+  // The relief editor's heights: normals and displacement made here, the first
+  // height's range mapped to the displacement's 0..1 (as the set's own map).
+  let range = null;
+  let edited = null; // {normal, disp}: the editor's textures, made once and refilled
+  const setRelief = (height, width, rows, tile) => {
+    if (!range) {
+      let low = Infinity;
+      let high = -Infinity;
+      for (const v of height) {
+        if (v < low) low = v;
+        if (v > high) high = v;
+      }
+      range = [low, high];
+    }
+    const { normal: normalData, disp } = reliefTexels(height, width, rows, tile, range[0], range[1]);
+    if (!edited || edited.normal.image.width !== width || edited.normal.image.height !== rows) {
+      for (const old of [material.normalMap, material.displacementMap]) {
+        if (!old) continue;
+        old.dispose();
+        textures.splice(textures.indexOf(old), 1);
+      }
+      edited = { normal: dataTexture(normalData, width, rows), disp: dataTexture(disp, width, rows) };
+      material.normalMap = edited.normal;
+      material.displacementMap = edited.disp;
+      textures.push(edited.normal, edited.disp);
+      material.needsUpdate = true;
+      controls.displacement.disabled = false;
+    } else {
+      edited.normal.image.data = normalData;
+      edited.disp.image.data = disp;
+      edited.normal.needsUpdate = true;
+      edited.disp.needsUpdate = true;
+    }
+    apply();
+    renderer.render(scene, camera); // now: the caller times the edit up to this frame
+  };
+
   return {
     render: requestRender,
+    setRelief,
     dispose() {
       observer.disconnect();
       orbit.dispose();
