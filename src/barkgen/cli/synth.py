@@ -130,6 +130,17 @@ def tbn_command(
     blend: BlendOption = "gradient",
     flow: FlowOption = None,
     flow_scale: FlowScaleOption = None,
+    edges: Annotated[
+        int,
+        typer.Option(
+            "--edges",
+            metavar="WIDTH",
+            help="Add one more label for the region edges, WIDTH px wide, to both label maps before "
+            "matching them (laitoch2018 §3.5.5); 0: none.",
+            min=0,
+            max=32,
+        ),
+    ] = 0,
     quiet: QuietOption = False,
 ) -> None:
     """Texture-by-numbers: synthesize bark that follows a target label map."""
@@ -146,6 +157,8 @@ def tbn_command(
     image = read_image(exemplar)
     label_map = read_image(labels)
     target_map = read_image(target)
+    if edges:
+        label_map, target_map = _with_edges(image, label_map, target_map, edges, tile, exemplar_wraps)
     extras = {name: read_image(p) for name, p in extra_paths.items()}
     config = dataclasses.replace(TBN_CONFIG, threads=threads, max_memory=budget, blend=blend)
     with progress_bar(not quiet, "texture-by-numbers") as progress:
@@ -166,6 +179,29 @@ def tbn_command(
             **read_fields(flow, flow_scale),
         )
     _write_result(result, output, bits, save_reference, quiet)
+
+
+def _with_edges(image, label_map, target_map, width: int, tile: bool, exemplar_wraps: str):
+    """Both label maps with the edge label (laitoch2018 §3.5.5), numbered against the
+    exemplar's labels (grey values or colours) so they share its grey values; the exemplar's
+    map wraps where the exemplar does, the target's where the output tiles."""
+    import numpy as np
+
+    from barkgen.labels import add_edge_label
+    from barkgen.synth import resolve_exemplar_wrap
+
+    def keys(labels: np.ndarray) -> np.ndarray:  # one integer per grey value or colour
+        arr = np.asarray(labels).astype(np.int64)
+        if arr.ndim == 2:
+            return arr
+        if arr.shape[2] == 1:
+            return arr[..., 0]
+        return (arr[..., 0] << 32) | (arr[..., 1] << 16) | arr[..., 2]
+
+    exemplar_keys = keys(label_map)
+    wrap = resolve_exemplar_wrap(exemplar_wraps, image)
+    edged = add_edge_label(exemplar_keys, width, wrap=wrap)
+    return edged, add_edge_label(keys(target_map), width, wrap=tile, values=np.unique(exemplar_keys))
 
 
 def apply_reference_command(

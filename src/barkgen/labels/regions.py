@@ -5,7 +5,7 @@ The photo is converted to CIELAB (§3.5.1), denoised by non-local means (§3.5.2
 a tiny region taking the most common label of its neighbours (§3.5.4). Labels are numbered from
 the darkest to the lightest region (mean luminance), so maps are stable across runs, and written
 as evenly spaced grey values (§3.5.5). :func:`add_edge_label` adds the optional label of region
-edges (§3.5.6) to input and output maps alike.
+edges (§3.5.5) to input and output maps alike, once both are made.
 """
 
 from __future__ import annotations
@@ -297,7 +297,7 @@ def color_regions(
     min_region : int, optional
         Smallest region kept, in pixels (default: 0.05 % of the photo, >= 16 px).
     edges : bool or int, default False
-        Add the label of region edges (§3.5.6): ``True`` for a 3 px band, or its width.
+        Add the label of region edges (§3.5.5): ``True`` for a 3 px band, or its width.
     seed : int, default 0
         Seeds the k-means sampling and initialisation.
     wrap : bool or (bool, bool), default False
@@ -319,8 +319,8 @@ def color_regions(
 
     References
     ----------
-    .. [1] laitoch2018, §3.5 (input label maps: §3.5.2 denoising, §3.5.4 small regions, §3.5.6
-       the edge label).
+    .. [1] laitoch2018, §3.5 (input label maps: §3.5.2 denoising, §3.5.4 small regions, §3.5.5
+       grey values and the edge label).
     .. [2] buades2011 (non-local means denoising).
 
     Examples
@@ -370,12 +370,16 @@ def color_regions(
     return label_map
 
 
-def add_edge_label(label_map: np.ndarray, width: int = 3) -> np.ndarray:
-    """Add one more label for the band along the region edges (laitoch2018 §3.5.6).
+def add_edge_label(
+    label_map: np.ndarray, width: int = 3, *, wrap: Wrap = False, values: np.ndarray | None = None
+) -> np.ndarray:
+    """Add one more label for the band along the region edges (laitoch2018 §3.5.5).
 
-    Works for input and output maps alike (the same label values give the same result): every
-    pixel within ``max(1, width // 2)`` px (chessboard distance) of a pixel of another label, a
-    band about ``width`` px wide, takes the new label.
+    The paper adds it "on both input and output label maps after they are both generated": the
+    same label values give the same result, so the photo's map and a map synthesized from it
+    get the same edge label (give the output the photo's ``values``). Every pixel within
+    ``max(1, width // 2)`` px (chessboard distance) of a pixel of another label, a band about
+    ``width`` px wide, takes the new label.
 
     Parameters
     ----------
@@ -383,21 +387,27 @@ def add_edge_label(label_map: np.ndarray, width: int = 3) -> np.ndarray:
         A grey label map (every distinct value a label, darkest first).
     width : int, default 3
         Width of the edge band in pixels.
+    wrap : bool or (bool, bool), default False
+        The map wraps (a tileable output, a photo that tiles: both axes, or ``(rows,
+        columns)``): edges across its border count.
+    values : ndarray, optional
+        The label values to number against (the photo's, for a map synthesized from it, whose
+        labels are some of them); default: the map's own.
 
     Returns
     -------
     ndarray of uint8, shape (h, w)
-        The ``n`` labels of ``label_map`` become the first ``n`` of ``n + 1`` evenly spaced grey
+        The ``n`` labels (of ``values``) become the first ``n`` of ``n + 1`` evenly spaced grey
         values; the edge label is the last (255).
 
     Raises
     ------
     InvalidInputError
-        A width that is not a positive integer, or too many labels.
+        A width that is not a positive integer, too many labels, or a label not in ``values``.
 
     References
     ----------
-    .. [1] laitoch2018, §3.5.6 (the edge label).
+    .. [1] laitoch2018, §3.5.5 (grayscale and edge detection: the edge label).
 
     Examples
     --------
@@ -411,18 +421,29 @@ def add_edge_label(label_map: np.ndarray, width: int = 3) -> np.ndarray:
 
     if isinstance(width, bool) or not isinstance(width, (int, np.integer)) or width < 1:
         raise InvalidInputError(f"edge width must be a positive number of pixels, not {width!r}")
-    codes, values = to_codes(label_map)
-    n = len(values)
+    codes, own = to_codes(label_map)
+    if values is not None:
+        values = np.unique(np.asarray(values))
+        if not np.isin(own, values).all():
+            raise InvalidInputError(
+                "the label map has labels that are not the photo's; they cannot share an edge label"
+            )
+        codes = np.searchsorted(values, own)[codes].astype(np.int32)
+        own = values
+    n = len(own)
     if n + 1 > MAX_K + 1:
         raise InvalidInputError(f"label map has {n} labels; at most {MAX_K} before the edge label")
     # a band wider than the map is the same band as one as wide as it (and cheap to find)
     r = max(1, min(int(width) // 2, max(codes.shape)))
     kernel = np.ones((2 * r + 1, 2 * r + 1), np.uint8)
-    c16 = codes.astype(np.uint16)
-    # a pixel is near another label when the largest and smallest codes around it differ
-    near = cv2.dilate(c16, kernel, borderType=cv2.BORDER_REPLICATE) != cv2.erode(
-        c16, kernel, borderType=cv2.BORDER_REPLICATE
-    )
+
+    def near_another(c16: np.ndarray) -> np.ndarray:
+        # a pixel is near another label when the largest and smallest codes around it differ
+        return cv2.dilate(c16, kernel, borderType=cv2.BORDER_REPLICATE) != cv2.erode(
+            c16, kernel, borderType=cv2.BORDER_REPLICATE
+        )
+
+    near = on_torus(near_another, codes.astype(np.uint16), r, wrap)
     if n > 1 and near.all():
         raise InvalidInputError(
             f"an edge band {width} px wide covers the whole "

@@ -29,10 +29,11 @@ from barkgen._shared.memory import check_memory_budget
 from barkgen._shared.options import option_fields
 from barkgen._shared.threads import in_budget, thread_budget
 from barkgen.errors import InvalidInputError
+from barkgen.pipeline.labelmaps import check_variant, output_label_map, with_edge_labels
 from barkgen.pipeline.options import GenerateOptions, analysis_key
 from barkgen.pipeline.progress import ANALYSIS_SHARES, share_spans, stage_progress
 from barkgen.pipeline.report import run_report
-from barkgen.pipeline.variants import Exemplar, add_noise, bilayer_layers, crack_label_map, prepare_exemplar
+from barkgen.pipeline.variants import Exemplar, add_noise, bilayer_layers, prepare_exemplar
 from barkgen.synth import resolve_exemplar_wrap
 
 if TYPE_CHECKING:
@@ -55,7 +56,8 @@ class GenerateResult:
     texture : ndarray, shape (H, W, C)
         The new bark, the photo's dtype.
     labels_in, labels_out : ndarray of uint8
-        The photo's label map and the output's.
+        The photo's label map and the output's, as texture-by-numbers followed them (with
+        ``options.edges``, both with the edge label, laitoch2018 §3.5.5).
     references : ndarray of int32, shape (H, W, 2)
         The reference map: output -> photo ``(y, x)``.
     extras : dict of str to ndarray
@@ -151,54 +153,9 @@ def _check_analysis(
         raise InvalidInputError("the photo analysis belongs to a photo of another size")
 
 
-def _output_label_map(labels_in, photo, options: GenerateOptions, analysis, wrap, resume, progress, fields):
-    """The output label map (:func:`barkgen.shapes.synthesize_label_map` by ``options.strategy``,
-    or a grown crack network's raster) and the grown network (None but for cracks)."""
-    from barkgen.shapes import synthesize_label_map
-
-    flow, flow_scale, links = fields
-    exemplar = analysis.exemplar
-    if options.structure == "cracks":
-        if exemplar is None or exemplar.cracks is None:
-            raise InvalidInputError("the photo analysis has no crack network: analyse it with structure='cracks'")
-        label_result, grown = crack_label_map(
-            exemplar.cracks, options, stage_progress(progress, "label_map", options.material)
-        )
-    else:
-        grown = None
-        label_result = synthesize_label_map(
-            labels_in,
-            options.size,
-            strategy=options.strategy,
-            tile=options.tile,
-            seed=options.seed,
-            rotations=options.rotations,
-            resume=resume,
-            progress=stage_progress(progress, "label_map", options.material),
-            cache=analysis.cache,
-            photo=photo,
-            exemplar_wrap=wrap,
-            flow=flow,
-            flow_scale=flow_scale,
-            links=links,
-        )
-    return label_result, grown
-
-
 def _within(progress: ProgressCallback, end: float) -> ProgressCallback:
     """``progress`` of a step that fills ``0 .. end`` of the run, in 1000ths."""
     return lambda done, total: progress(round(1000 * end * done / max(total, 1)), 1000)
-
-
-def _check_variant(options: GenerateOptions, along: bool, resume: bool) -> None:
-    """Cracks and bi-layer textures go their own ways (:mod:`barkgen.pipeline.variants`)."""
-    variant = (
-        "cracks" if options.structure == "cracks" else "a bi-layer texture" if options.model == "bilayer" else None
-    )
-    if variant and along:
-        raise InvalidInputError(f"{variant} does not follow a flow field yet: leave out the flow field")
-    if resume and options.structure == "cracks":
-        raise InvalidInputError("a crack network is grown, not resumed: leave out the label map to resume from")
 
 
 def _check_scan(scan: ScannedSet | None, photo: np.ndarray, options: GenerateOptions) -> None:
@@ -239,6 +196,9 @@ class PhotoAnalysis:
         What the solvers copy from (the photo, or a bi-layer texture's structure layer) and the
         crack network's statistics or the bi-layer model (:mod:`barkgen.pipeline.variants`);
         ``exemplar.bilayer.window`` streams a bi-layer texture without bounds.
+    tbn_labels_in : ndarray of uint8 or None
+        With ``options.edges``, the input label map with the edge label (laitoch2018 §3.5.5):
+        what texture-by-numbers matches; ``None``: ``labels_in`` itself.
 
     References
     ----------
@@ -252,6 +212,7 @@ class PhotoAnalysis:
     options: GenerateOptions | None = None
     seconds: float = 0.0
     exemplar: Exemplar | None = None
+    tbn_labels_in: np.ndarray | None = None
 
 
 def analyze_photo(
@@ -364,10 +325,11 @@ def analyze_photo(
                 labels_in, options.size, cache, photo=photo if options.strategy == "joint" else None, exemplar_wrap=wrap
             )
         report("label_map")
+        tbn_labels_in, _ = with_edge_labels(labels_in, labels_in, options, wrap=wrap)
         if solvers:
             analyse_texture_by_numbers(
                 photo,
-                labels_in,
+                tbn_labels_in,
                 options.size,
                 cache,
                 feature_weight=options.feature_weight,
@@ -385,6 +347,7 @@ def analyze_photo(
             options=options,
             seconds=time.perf_counter() - t0,
             exemplar=exemplar,
+            tbn_labels_in=tbn_labels_in if options.edges else None,
         )
 
 
@@ -449,7 +412,7 @@ def generate(
     options = options or GenerateOptions()
     timings: dict[str, float] = {}
     check_generate_memory(photo, options, extra)
-    _check_variant(options, flow is not None or flow_scale is not None, resume is not None)
+    check_variant(options, flow is not None or flow_scale is not None, resume is not None)
     edits = list(edits)
     if edits and (not options.material or scan is not None):
         raise InvalidInputError("height edits apply to an estimated material set: turn material on, give no scan")
@@ -476,8 +439,11 @@ def generate(
     along = flow is not None or flow_scale is not None
 
     with thread_budget(options.threads):  # every pool sized, BLAS at one thread
-        label_result, grown = _output_label_map(
+        label_result, grown = output_label_map(
             labels_in, photo, options, analysis, wrap, resume, progress, (flow, flow_scale, links)
+        )
+        tbn_in, tbn_out = with_edge_labels(
+            labels_in, label_result.label_map, options, wrap=wrap, tbn_labels_in=analysis.tbn_labels_in
         )
         t2 = time.perf_counter()
         timings["labels_out"] = t2 - t1
@@ -496,8 +462,8 @@ def generate(
         else:
             result = texture_by_numbers(
                 photo,
-                labels_in,
-                label_result.label_map,
+                tbn_in,
+                tbn_out,
                 label_weight=options.label_weight,
                 feature_weight=options.feature_weight,
                 init=init,
@@ -538,8 +504,8 @@ def generate(
     report["height_edits"] = len(edits)
     return GenerateResult(
         texture=texture,
-        labels_in=labels_in,
-        labels_out=label_result.label_map,
+        labels_in=tbn_in,
+        labels_out=tbn_out,
         references=result.references,
         extras=result.extras,
         label_levels=label_result.levels,

@@ -116,6 +116,17 @@ class GenerateOptions:
         choices=LABEL_METHODS,
         analysis=True,
     )
+    edges: int = option(
+        0,
+        "Width in px of one more label for the region edges (laitoch2018 §3.5.5), added to the "
+        "photo's and the new bark's label maps once both are made, before texture-by-numbers; "
+        "0: none.",
+        kind=int,
+        minimum=0,
+        maximum=32,
+        analysis=True,
+        fronts=_NOT_WEB,
+    )
     strategy: str = option(
         "joint",
         "Output label maps: joint (the core engine on one-hot label channels and the "
@@ -224,6 +235,8 @@ class GenerateOptions:
             raise InvalidInputError("a bi-layer texture has its own structure layer: use one of cracks and bilayer")
         if self.model == "bilayer" and self.k > 8:
             raise InvalidInputError(f"a bi-layer texture has 1 to 8 noises (k), not {self.k}")
+        if isinstance(self.edges, bool) or not isinstance(self.edges, (int, np.integer)) or not 0 <= self.edges <= 32:
+            raise InvalidInputError(f"edges must be a width of 0 to 32 px, not {self.edges!r}")
         if self.label_weight < 0 or self.feature_weight < 0:
             raise InvalidInputError("label and feature weights must be >= 0")
         if not (np.isfinite(self.relief) and 0 < self.relief <= 100):

@@ -1,0 +1,80 @@
+"""The label maps of a run (laitoch2018 Figure 1.2): the output label map by strategy or a grown
+crack network's raster, the checks of what goes together, and the edge label (§3.5.5) added to
+the photo's and the output's maps once both are made."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from barkgen.errors import InvalidInputError
+from barkgen.pipeline.options import GenerateOptions
+from barkgen.pipeline.progress import stage_progress
+from barkgen.pipeline.variants import crack_label_map
+
+
+def output_label_map(labels_in, photo, options: GenerateOptions, analysis, wrap, resume, progress, fields):
+    """The output label map (:func:`barkgen.shapes.synthesize_label_map` by ``options.strategy``,
+    or a grown crack network's raster) and the grown network (None but for cracks)."""
+    from barkgen.shapes import synthesize_label_map
+
+    flow, flow_scale, links = fields
+    exemplar = analysis.exemplar
+    if options.structure == "cracks":
+        if exemplar is None or exemplar.cracks is None:
+            raise InvalidInputError("the photo analysis has no crack network: analyse it with structure='cracks'")
+        label_result, grown = crack_label_map(
+            exemplar.cracks, options, stage_progress(progress, "label_map", options.material)
+        )
+    else:
+        grown = None
+        label_result = synthesize_label_map(
+            labels_in,
+            options.size,
+            strategy=options.strategy,
+            tile=options.tile,
+            seed=options.seed,
+            rotations=options.rotations,
+            resume=resume,
+            progress=stage_progress(progress, "label_map", options.material),
+            cache=analysis.cache,
+            photo=photo,
+            exemplar_wrap=wrap,
+            flow=flow,
+            flow_scale=flow_scale,
+            links=links,
+        )
+    return label_result, grown
+
+
+def check_variant(options: GenerateOptions, along: bool, resume: bool) -> None:
+    """What goes together: cracks and bi-layer textures go their own ways
+    (:mod:`barkgen.pipeline.variants`), and neither they nor the edge label follow a flow field;
+    a crack network is not resumed."""
+    variant = (
+        "cracks" if options.structure == "cracks" else "a bi-layer texture" if options.model == "bilayer" else None
+    )
+    if variant and along:
+        raise InvalidInputError(f"{variant} does not follow a flow field yet: leave out the flow field")
+    if along and options.edges:
+        raise InvalidInputError("the edge label does not follow a flow field yet: leave out edges or the flow field")
+    if resume and options.structure == "cracks":
+        raise InvalidInputError("a crack network is grown, not resumed: leave out the label map to resume from")
+
+
+def with_edge_labels(
+    labels_in: np.ndarray, labels_out: np.ndarray, options: GenerateOptions, *, wrap, tbn_labels_in=None
+) -> tuple[np.ndarray, np.ndarray]:
+    """The photo's and the output's label maps as texture-by-numbers matches them: with
+    ``options.edges``, both with the edge label (laitoch2018 §3.5.5: "performed on both input
+    and output label maps after they are both generated"), numbered against the photo's labels
+    so they share their grey values; else as they are. ``wrap``: the photo's axes that wrap;
+    the output wraps where it tiles. ``tbn_labels_in``: the photo's, already edged (its
+    analysis')."""
+    from barkgen.labels import add_edge_label
+
+    if not options.edges:
+        return labels_in, labels_out
+    if tbn_labels_in is None:
+        tbn_labels_in = add_edge_label(labels_in, options.edges, wrap=wrap)
+    values = np.unique(labels_in)
+    return tbn_labels_in, add_edge_label(labels_out, options.edges, wrap=options.tile, values=values)
