@@ -490,16 +490,7 @@ def generate(
     # the analysis' own cost counts whether it ran here or was shared
     timings["total"] = analysis.seconds + time.perf_counter() - t1
 
-    texture, layers = result.image, {}
-    if exemplar is not None and exemplar.bilayer is not None:  # guingo2017 eq. 6: P' + sum M'_k N_k
-        noise, masks = bilayer_layers(exemplar.bilayer, result.references, options.seed)
-        texture, layers = add_noise(result.image, noise), {"structure": result.image, "noise": noise, "masks": masks}
-        if material is not None:  # the structure layer's maps; its albedo with the new noise
-            material = dataclasses.replace(material, color=np.clip(material.color + noise, 0.0, 1.0))
-    if edits and material is not None:
-        from barkgen.material import edit_material
-
-        material = edit_material(material, edits, texture=texture, label_map=label_result.label_map)
+    texture, layers, material = _finished(result, material, exemplar, options, edits, label_result.label_map)
     report = run_report(photo, options, wrap, labels_in, label_result, result, material, timings)
     report["height_edits"] = len(edits)
     return GenerateResult(
@@ -515,6 +506,23 @@ def generate(
         cracks=grown,
         layers=layers,
     )
+
+
+def _finished(result, material, exemplar: Exemplar | None, options: GenerateOptions, edits, label_map):
+    """The texture, a bi-layer texture's layers and the material set as the run gives them: a
+    bi-layer texture's new noise added (guingo2017 eq. 6: P' + sum M'_k N_k, the material's
+    albedo too), the height edits replayed on the material set (wang2003 §3.3)."""
+    texture, layers = result.image, {}
+    if exemplar is not None and exemplar.bilayer is not None:
+        noise, masks = bilayer_layers(exemplar.bilayer, result.references, options.seed)
+        texture, layers = add_noise(result.image, noise), {"structure": result.image, "noise": noise, "masks": masks}
+        if material is not None:  # the structure layer's maps; its albedo with the new noise
+            material = dataclasses.replace(material, color=np.clip(material.color + noise, 0.0, 1.0))
+    if edits and material is not None:
+        from barkgen.material import edit_material
+
+        material = edit_material(material, edits, texture=texture, label_map=label_map)
+    return texture, layers, material
 
 
 def _output_material(photo, labels_in, options: GenerateOptions, wrap, scan, analysis, result):

@@ -31,6 +31,10 @@ from barkgen.shapes.patches import (
     subsample,
 )
 
+#: weight of an edited level's guide in the shape optimisation (:func:`adjust_shape`), in units of
+#: the matched boundary patches' mean weight
+GUIDE_WEIGHT = 1.0
+
 
 @dataclass(frozen=True)
 class ShapeConfig:
@@ -192,6 +196,7 @@ def adjust_shape(
     tile: bool,
     rng: np.random.Generator,
     fraction: float | None = None,
+    guide: np.ndarray | None = None,
 ) -> np.ndarray:
     """Optimise the binary ``shape`` towards the exemplar's boundary patches (§3.6.2–3.6.3).
 
@@ -228,6 +233,8 @@ def adjust_shape(
             near &= mask.astype(bool)
         need = target - int(np.count_nonzero(s[~near]))
         values = w[near]
+        if guide is not None and values.size:
+            values = values + GUIDE_WEIGHT * float(np.mean(np.abs(values))) * guide[near]
         limit = config.threshold_shift * float(np.mean(np.abs(values))) if values.size else 0.0
         new = s.copy()
         new[near] = values > dynamic_threshold(values, need, limit)

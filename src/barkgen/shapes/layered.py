@@ -131,6 +131,24 @@ def upsample_ranks(rank: np.ndarray, shape: tuple[int, int], n_layers: int, tile
     return out
 
 
+def edit_guide(layer: np.ndarray, shape: tuple[int, int], tile: bool) -> np.ndarray:
+    """An edited level's layer brought to a finer level's ``shape`` as a soft guide in [-1, 1]:
+    +1 inside, -1 outside, a smooth ramp across the edit's boundary (bilinear, so its steps
+    do not make staircases)."""
+    import cv2
+
+    h, w = shape
+    src = layer.astype(np.float32)
+    if tile:  # the ramp runs on across the border of a map that tiles
+        pad = 2
+        big = cv2.resize(np.pad(src, pad, mode="wrap"), None, fx=w / src.shape[1], fy=h / src.shape[0])
+        oy, ox = round(pad * h / src.shape[0]), round(pad * w / src.shape[1])
+        up = big[oy : oy + h, ox : ox + w]
+    else:
+        up = cv2.resize(src, (w, h), interpolation=cv2.INTER_LINEAR)
+    return (2.0 * up - 1.0).astype(np.float32)
+
+
 def synthesize_layers(
     exemplar_levels: list[np.ndarray],
     out_shape: tuple[int, int],
@@ -146,7 +164,8 @@ def synthesize_layers(
 ) -> np.ndarray:
     """Layered synthesis over the pyramid. ``exemplar_levels``: the exemplar's label codes per
     level, finest first. ``order``: labels bottom layer first. ``start``: ``(level, codes)`` to
-    resume from (an edited level); else a random start at the coarsest level. ``on_level(level,
+    resume from (an edited level), which guides every finer level (:func:`edit_guide`, as the
+    engine's edits are guided); else a random start at the coarsest level. ``on_level(level,
     codes)`` receives each level's result. Returns the finest level's codes."""
     n_levels = len(exemplar_levels)
     n_layers = len(order)
@@ -156,6 +175,7 @@ def synthesize_layers(
     first = n_levels - 1 if start is None else start[0]
     rank = None
     kept = None  # an edited level's own layer areas, kept at every finer level
+    edited = None if start is None else rank_of[start[1]]  # guides every finer level
     for lvl in range(first, -1, -1):
         shape = level_shape(out_shape, lvl)
         ex_rank = rank_of[exemplar_levels[lvl]]
@@ -182,6 +202,7 @@ def synthesize_layers(
                 tile=tile,
                 rng=rng,
                 fraction=None if kept is None else kept[i],
+                guide=None if edited is None or lvl == first else edit_guide(edited >= i, shape, tile),
             )
             new_rank += layer
             below = layer
