@@ -99,6 +99,70 @@ def test_the_exemplar_is_a_fixed_point_of_shape_adjustment():
     assert np.array_equal(out, discs)
 
 
+def test_every_exemplar_patch_is_matched_q_or_q_plus_one_times():
+    """§3.6.2: with |B_S| = Q |B_E| + R, each exemplar boundary patch is used exactly Q times, R of
+    them Q + 1 (the completeness half of eq. 3.9); before, Q + 1 was only an upper bound and
+    patches nobody's nearest went unused."""
+    from barkgen.shapes.binary import match_boundary
+    from barkgen.shapes.patches import boundary_pixels, extract_patches, pack
+
+    config = ShapeConfig()
+    rng = np.random.default_rng(0)
+    exemplar = (_discs(128, 8) > 0).astype(np.uint8)  # small discs: few boundary patches
+    boundary = ExemplarBoundary(exemplar, (0,), config, rng)
+    noise = np.random.default_rng(1).random((192, 192))
+    from scipy import ndimage as ndi
+
+    blobs = (ndi.gaussian_filter(noise, 3) > 0.5).astype(np.uint8)  # other shapes, more boundary
+    ys, xs = boundary_pixels(blobs, False)
+    codes = pack(extract_patches(blobs, ys, xs, config.patch, False))
+    q, r = divmod(len(ys), boundary.count)
+    assert q >= 1
+    rows, dist = match_boundary(codes, boundary, config.candidates, rng)
+    uses = np.bincount(rows % boundary.count, minlength=boundary.count)
+    assert uses.sum() == len(ys) and set(np.unique(uses)) <= {q, q + 1}
+    assert np.count_nonzero(uses == q + 1) == r
+    assert (dist >= 0).all()
+
+
+def test_each_layers_mask_is_shrunk_as_the_exemplars_next_layer_sits():
+    """§3.6.4: discs (the middle layer) with cores 8 px inside their edge (the top layer). The top
+    layer's mask is the middle layer shrunk where the matched exemplar patches have no core near
+    their centre, so the synthesized cores keep off the middle layer's edges, as in the exemplar;
+    with the mask the middle layer as it is (before), 15-18 % of the cores' pixels lay within
+    3 px of an edge."""
+    from scipy import ndimage as ndi
+
+    yy, xx = np.mgrid[0:256, 0:256]
+    rng = np.random.default_rng(0)
+    exemplar = np.zeros((256, 256), np.uint8)
+    for _ in range(14):
+        cy, cx = rng.integers(0, 256, 2)
+        r = rng.integers(18, 30)
+        exemplar[(yy - cy) ** 2 + (xx - cx) ** 2 < r * r] = 128
+    exemplar[ndi.binary_erosion(exemplar >= 128, iterations=8)] = 255
+
+    def on_edges(labels: np.ndarray) -> float:
+        middle = labels >= 128
+        edge = middle & ~ndi.binary_erosion(middle, iterations=3)
+        return float(np.sum((labels == 255) & edge) / max(np.sum(labels == 255), 1))
+
+    assert on_edges(exemplar) == 0.0
+    found = {}
+    for shrink in (True, False):
+        out = synthesize_label_map(
+            exemplar,
+            (256, 256),
+            strategy="layered",
+            seed=0,
+            tile=True,
+            rotations="all",
+            config=ShapeConfig(shrink_masks=shrink),
+        ).label_map
+        found[shrink] = on_edges(out)
+    assert found[True] < 0.08 and found[True] < 0.5 * found[False], found
+
+
 def test_layered_binary_synthesis_makes_discs_of_the_right_area():
     discs = _discs(256, 16)
     result = synthesize_label_map(discs, (256, 256), strategy="layered", rotations="all", seed=0)

@@ -2,8 +2,12 @@
 
 A label map is read as a layer map: labels are stacked in an order, and a pixel of layer ``i``
 belongs to every layer below it too. Layer ``i``'s binary shape ``rank >= i`` is synthesized by
-:func:`barkgen.shapes.binary.adjust_shape` inside the shape of layer ``i - 1`` (nested masks),
-coarse to fine over a Gaussian pyramid from a random start.
+:func:`barkgen.shapes.binary.adjust_shape` inside its mask, coarse to fine over a Gaussian
+pyramid from a random start. The mask is layer ``i - 1``; with ``ShapeConfig(shrink_masks=True)``
+it is shrunk where the exemplar patches matched to its boundary say layer ``i`` does not reach
+(§3.6.4: "each mask is initially set to the shape of the previous layer and then is shrunk
+according to a weight matrix created based on the last boundary patch matching"), so successive
+layers stay correlated as in the exemplar (off by default: see the option).
 """
 
 from __future__ import annotations
@@ -14,7 +18,7 @@ from collections.abc import Callable
 import numpy as np
 
 from barkgen.pyramid import level_shape
-from barkgen.shapes.binary import ExemplarBoundary, ShapeConfig, adjust_shape
+from barkgen.shapes.binary import ExemplarBoundary, ShapeConfig, adjust_shape, next_layer_mask
 
 #: exhaustive search of layer orders up to this many labels, greedy beyond
 _EXHAUSTIVE_ORDER = 7
@@ -192,7 +196,8 @@ def synthesize_layers(
         below = np.ones(shape, np.uint8)
         new_rank = np.zeros(shape, np.int32)
         for i in range(1, n_layers):
-            boundary = ExemplarBoundary((ex_rank >= i).astype(np.uint8), quarter_turns, config, rng)
+            above = (ex_rank >= i + 1).astype(np.uint8) if config.shrink_masks and i + 1 < n_layers else None
+            boundary = ExemplarBoundary((ex_rank >= i).astype(np.uint8), quarter_turns, config, rng, above)
             layer = adjust_shape(
                 (rank >= i).astype(np.uint8),
                 boundary,
@@ -205,7 +210,9 @@ def synthesize_layers(
                 guide=None if edited is None or lvl == first else edit_guide(edited >= i, shape, tile),
             )
             new_rank += layer
-            below = layer
+            # §3.6.4: the next layer's mask, this layer shrunk where the exemplar's next layer
+            # does not reach its boundary (the layer itself without shrink_masks)
+            below = next_layer_mask(layer, boundary, config=config, tile=tile, rng=rng) if above is not None else layer
             if tick:
                 tick()
         rank = new_rank
