@@ -37,6 +37,14 @@ def labels_command(
             "merged automatically (wang2003 §3.2).",
         ),
     ] = "color",
+    merge_by: Annotated[
+        str,
+        typer.Option(
+            "--merge-by",
+            help="With --method texton: group the texton channels by texture (their mean filter "
+            "responses, wang2003 §3.2) or colour.",
+        ),
+    ] = "texture",
     edges: Annotated[bool, typer.Option("--edges", help="Add a label for the region edges (k + 1 labels).")] = False,
     edge_width: Annotated[int, typer.Option("--edge-width", help="Width of the edge band, px.")] = 3,
     exemplar_wraps: ExemplarWrapsOption = "auto",
@@ -63,8 +71,10 @@ def labels_command(
     image = read_image(photo)
     wrap = resolve_exemplar_wrap(exemplar_wraps, image)
     with progress_bar(not quiet, "labelling"):
-        regions = color_regions if method == "color" else texton_regions
-        label_map = regions(image, k, seed=seed, wrap=wrap)
+        if method == "color":
+            label_map = color_regions(image, k, seed=seed, wrap=wrap)
+        else:
+            label_map = texton_regions(image, k, seed=seed, wrap=wrap, merge_by=merge_by)
         if edges:
             label_map = add_edge_label(label_map, edge_width)
         sheet = label_preview(image, label_map) if preview is not None else None
@@ -84,28 +94,45 @@ def textons_command(
     n_textons: Annotated[int, typer.Option("--textons", help="Number of textons (2-64).")] = 25,
     exemplar_wraps: ExemplarWrapsOption = "auto",
     seed: SeedOption = 0,
+    preview: Annotated[
+        Optional[Path],
+        typer.Option(
+            "--preview", help="Also write every channel over the photo, as one sheet (wang2003 Fig. 4 (c)-(d))."
+        ),
+    ] = None,
     quiet: QuietOption = False,
 ) -> None:
     """Texton channels of a photo (wang2003 §3.2): OUT/textons.png (texton number per pixel),
     one mask per texton (OUT/texton_NN.png) and a contact sheet (OUT/sheet.png)."""
     from barkgen.io import encode_png, read_image
-    from barkgen.labels import contact_sheet, texton_channels
+    from barkgen.labels import channel_previews, contact_sheet, texton_channels
     from barkgen.labels.textons import MAX_TEXTONS
     from barkgen.synth import resolve_exemplar_wrap
 
     check_folder(output_dir, "output")
     n_files = min(max(n_textons, 0), MAX_TEXTONS)  # (the count itself is checked with the photo)
     names = ["textons.png", "sheet.png"] + [f"texton_{t:02d}.png" for t in range(n_files)]
-    refuse_targets({f"output {n}": output_dir / n for n in names})
+    targets = {f"output {n}": output_dir / n for n in names}
+    if preview is not None:
+        check_target(preview, "--preview")
+        targets["--preview"] = preview
+    refuse_targets(targets)
     image = read_image(photo)
     wrap = resolve_exemplar_wrap(exemplar_wraps, image)
     with progress_bar(not quiet, "textons"):
         textons, _ = texton_channels(image, n_textons, seed=seed, wrap=wrap)
         masks = [np.where(textons == t, 255, 0).astype(np.uint8) for t in range(n_textons)]
         sheet = contact_sheet(masks, [f"texton {t}" for t in range(n_textons)])
+        over = None
+        if preview is not None:
+            shown = [int(t) for t in np.unique(textons)]
+            over = contact_sheet(channel_previews(image, textons), [f"texton {t}" for t in shown], tile_size=240)
     files = {"textons.png": encode_png(textons), "sheet.png": encode_png(sheet)}
     files.update({f"texton_{t:02d}.png": encode_png(mask) for t, mask in enumerate(masks)})
     write_files(output_dir, files)
+    if over is not None:
+        assert preview is not None  # the sheet is made for a preview
+        write_outputs({preview: encode_png(over)})
     if not quiet:
         typer.echo(f"wrote {n_textons} texton channels to {output_dir}", err=True)
 

@@ -1,10 +1,12 @@
 """Texton channels of a bark photo and their merging into labels (wang2003 §3.2).
 
-A bank of 36 Gaussian-derivative filters (2 phases x 3 scales x 6 orientations) gives every
-pixel a 36-d response vector; k-means clusters the responses into ``K`` textons (25 in the
-paper). Each texton is a raw channel; the user merges raw channels into a few feature channels
-(fractures, lenticels, ...) with :func:`merge_channels`, or :func:`auto_merge` groups them by
-agglomerative clustering so the pipeline needs no user step.
+A bank of 36 Gaussian-derivative filters (2 phases x 3 scales separated by half-octaves x 6
+orientations, as the paper's) gives every pixel a 36-d response vector; k-means clusters the
+responses into ``K`` textons (25 in the paper). Each texton is a raw channel; the user merges
+raw channels into a few feature channels (fractures, lenticels, ...) with
+:func:`merge_channels`, or :func:`auto_merge` groups them by agglomerative clustering of their
+textons (their mean filter responses: what the channel's structure is) or of their colours, so
+the pipeline needs no user step. :func:`channel_previews` shows each channel over the photo.
 """
 
 from __future__ import annotations
@@ -23,13 +25,16 @@ from barkgen.labels.regions import (
     to_label_image,
 )
 
-#: scales (Gaussian sigma, px) and orientations of the filter bank
-FILTER_SCALES = (1.0, 2.0, 4.0)
+#: scales (Gaussian sigma across the orientation, px) and orientations of the filter bank: three
+#: scales separated by half-octaves (wang2003 §3.2, after Malik et al. 2001)
+FILTER_SCALES = (float(np.sqrt(2.0)), 2.0, float(2.0 * np.sqrt(2.0)))
 N_ORIENTATIONS = 6
 #: most textons
 MAX_TEXTONS = 64
 #: responses sampled to fit k-means (all pixels are then assigned)
 TEXTON_SAMPLES = 50_000
+#: what :func:`auto_merge` groups textons by
+MERGE_BY = ("texture", "colour")
 
 
 def filter_bank(scales=FILTER_SCALES, n_orientations: int = N_ORIENTATIONS) -> list[np.ndarray]:
@@ -262,14 +267,27 @@ def merge_channels(texton_map: np.ndarray, groups) -> np.ndarray:
     return to_label_image(lookup[tm], len(groups))
 
 
-def auto_merge(texton_map: np.ndarray, image: np.ndarray, k: int) -> list[list[int]]:
+def auto_merge(
+    texton_map: np.ndarray,
+    image: np.ndarray,
+    k: int,
+    *,
+    by: str = "texture",
+    responses: np.ndarray | None = None,
+) -> list[list[int]]:
     """Groups of textons for ``k`` labels, so that the pipeline needs no user step.
 
-    Agglomerative clustering of the textons by the mean CIELAB colour of their pixels
-    (standardised), with Ward's criterion weighted by pixel counts (merging groups of ``n_a``
-    and ``n_b`` pixels costs ``n_a n_b / (n_a + n_b)`` times their squared distance), so rare
-    textons join their nearest group before common ones merge and e.g. the dark fissure textons
-    of every orientation form one label.
+    Agglomerative clustering of the textons, with Ward's criterion weighted by pixel counts
+    (merging groups of ``n_a`` and ``n_b`` pixels costs ``n_a n_b / (n_a + n_b)`` times their
+    squared distance), so rare textons join their nearest group before common ones merge. What
+    is compared (standardised per dimension):
+
+    * ``by="texture"`` (default): what the textons' pixels are, their mean oriented energy
+      (``sqrt(even² + odd²)`` of each scale and orientation of the bank: the structure, whatever
+      the phase: both sides of a fracture, light and dark, are one fracture; wang2003 §3.2,
+      Fig. 5's merge by feature);
+    * ``by="colour"``: the mean CIELAB colour of their pixels (e.g. the dark fissure textons of
+      every orientation form one label).
 
     Parameters
     ----------
@@ -279,6 +297,11 @@ def auto_merge(texton_map: np.ndarray, image: np.ndarray, k: int) -> list[list[i
         The photo the textons belong to.
     k : int
         Number of labels wanted, 1-16 and at most the number of textons present.
+    by : {"texture", "colour"}, default "texture"
+        What the textons are grouped by.
+    responses : ndarray, shape (h, w, 36), optional
+        The photo's filter responses (:func:`texton_channels`' second value); made when not
+        given and ``by="texture"``.
 
     Returns
     -------
@@ -289,28 +312,46 @@ def auto_merge(texton_map: np.ndarray, image: np.ndarray, k: int) -> list[list[i
     Raises
     ------
     InvalidInputError
-        ``k`` out of range or larger than the number of textons.
+        ``k`` out of range or larger than the number of textons, or an unknown ``by``.
 
     References
     ----------
-    .. [1] wang2003, §3.2 (the merge the user makes by hand there).
+    .. [1] wang2003, §3.2 (the merge the user makes by hand there, Fig. 5).
     """
     from barkgen.color import rgb_to_lab
 
     k = check_k(k)
+    if by not in MERGE_BY:
+        raise InvalidInputError(f"textons are merged by {' or '.join(MERGE_BY)}, not {by!r}")
     tm = np.asarray(texton_map).astype(np.int64)
-    lab = rgb_to_lab(check_image(image)).reshape(-1, 3)
+    rgb = check_image(image)
+    lab = rgb_to_lab(rgb).reshape(-1, 3)
     present = np.unique(tm)
     if k > len(present):
         raise InvalidInputError(f"the texton map has {len(present)} textons; cannot merge them into {k} labels")
     flat = tm.ravel()
     size = int(present.max()) + 1
     counts = np.bincount(flat, minlength=size)[present].astype(np.float64)
-    means = (
-        np.stack([np.bincount(flat, weights=lab[:, c], minlength=size)[present] for c in range(3)], axis=1)
-        / counts[:, None]
-    )
-    feats = (means - means.mean(axis=0)) / (means.std(axis=0) + 1e-6)
+
+    def means_of(values: np.ndarray) -> np.ndarray:
+        return (
+            np.stack(
+                [np.bincount(flat, weights=values[:, c], minlength=size)[present] for c in range(values.shape[1])], 1
+            )
+            / counts[:, None]
+        )
+
+    colours = means_of(lab)
+    if by == "texture":
+        if responses is None:
+            responses = filter_responses(rgb)
+        flat_responses = np.asarray(responses, np.float32).reshape(flat.size, -1)
+        half = flat_responses.shape[1] // 2  # even filters, then the odd ones in the same order
+        energy = np.hypot(flat_responses[:, :half], flat_responses[:, half:])
+        described = means_of(energy.astype(np.float64))
+    else:
+        described = colours
+    feats = (described - described.mean(axis=0)) / (described.std(axis=0) + 1e-6)
     groups = [[int(t)] for t in present]
     n = list(counts)
     centre = [f for f in feats]
@@ -327,12 +368,43 @@ def auto_merge(texton_map: np.ndarray, image: np.ndarray, k: int) -> list[list[i
         groups[a] += groups[b]
         del groups[b], n[b], centre[b]
     lookup = {int(t): i for i, t in enumerate(present)}
-    lum = [np.average([means[lookup[t], 0] for t in g], weights=[counts[lookup[t]] for t in g]) for g in groups]
+    lum = [np.average([colours[lookup[t], 0] for t in g], weights=[counts[lookup[t]] for t in g]) for g in groups]
     return [sorted(groups[i]) for i in np.argsort(lum, kind="stable")]
 
 
+def channel_previews(image: np.ndarray, texton_map: np.ndarray) -> list[np.ndarray]:
+    """Each texton channel over the photo (wang2003 Fig. 4 (c)-(d)): the photo dimmed to a
+    third, the channel's pixels at full brightness with an orange edge around them, one RGB
+    uint8 image per texton present, in texton order."""
+    import cv2
+
+    from barkgen._shared.arrays import as_uint8
+
+    rgb = as_uint8(check_image(image))
+    if rgb.ndim == 2 or rgb.shape[2] == 1:
+        rgb = np.repeat(rgb.reshape(rgb.shape[0], rgb.shape[1], 1), 3, axis=2)
+    rgb = rgb[..., :3]
+    dim = (rgb.astype(np.float32) / 3.0).astype(np.uint8)
+    tm = np.asarray(texton_map)
+    out = []
+    for t in np.unique(tm):
+        channel = (tm == t).astype(np.uint8)
+        tile = np.where(channel[..., None] > 0, rgb, dim)
+        edge = cv2.morphologyEx(channel, cv2.MORPH_GRADIENT, np.ones((3, 3), np.uint8)) > 0
+        tile[edge & (channel == 0)] = (255, 140, 0)
+        out.append(np.ascontiguousarray(tile))
+    return out
+
+
 def texton_regions(
-    image: np.ndarray, k: int, *, n_textons: int = 25, min_region: int | None = None, seed: int = 0, wrap: Wrap = False
+    image: np.ndarray,
+    k: int,
+    *,
+    n_textons: int = 25,
+    min_region: int | None = None,
+    seed: int = 0,
+    wrap: Wrap = False,
+    merge_by: str = "texture",
 ) -> np.ndarray:
     """A ``k``-label map from texton channels with no user step.
 
@@ -355,6 +427,8 @@ def texton_regions(
     wrap : bool or (bool, bool), default False
         The photo tiles (both axes, or ``(rows, columns)``): filters and regions run across its
         edge there.
+    merge_by : {"texture", "colour"}, default "texture"
+        What the textons are grouped by (:func:`auto_merge`).
 
     Returns
     -------
@@ -367,8 +441,8 @@ def texton_regions(
     .. [2] laitoch2018, §3.5.4 (removing small regions).
     """
     k = check_k(k)
-    textons, _ = texton_channels(image, n_textons, seed=seed, wrap=wrap)
-    merged = merge_channels(textons, auto_merge(textons, image, k))
+    textons, responses = texton_channels(image, n_textons, seed=seed, wrap=wrap)
+    merged = merge_channels(textons, auto_merge(textons, image, k, by=merge_by, responses=responses))
     codes, _ = to_codes(merged)
     if min_region is None:
         min_region = default_min_region(codes.shape)
