@@ -35,6 +35,10 @@ MAX_TEXTONS = 64
 TEXTON_SAMPLES = 50_000
 #: what :func:`auto_merge` groups textons by
 MERGE_BY = ("texture", "colour")
+#: textons merged by texture are scattered pixel by pixel (a texton is a local structure, not a
+#: region): :func:`texton_regions` lets each pixel take the label most of its neighbourhood
+#: (a Gaussian of this sigma, px) has before the small regions are cleaned up
+TEXTURE_VOTE_SIGMA = 4.0
 
 
 def filter_bank(scales=FILTER_SCALES, n_orientations: int = N_ORIENTATIONS) -> list[np.ndarray]:
@@ -396,6 +400,21 @@ def channel_previews(image: np.ndarray, texton_map: np.ndarray) -> list[np.ndarr
     return out
 
 
+def _neighbourhood_vote(codes: np.ndarray, sigma: float, wrap: Wrap) -> np.ndarray:
+    """Each pixel's label: the one with the most Gaussian-weighted votes around it (across the
+    edges that wrap)."""
+    import cv2
+
+    n = int(codes.max()) + 1
+    reach = int(np.ceil(4 * sigma))
+
+    def votes(indicator: np.ndarray) -> np.ndarray:
+        return cv2.GaussianBlur(indicator, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
+
+    stacked = np.stack([on_torus(votes, (codes == i).astype(np.float32), reach, wrap) for i in range(n)], axis=-1)
+    return stacked.argmax(axis=-1).astype(np.int32)
+
+
 def texton_regions(
     image: np.ndarray,
     k: int,
@@ -408,8 +427,9 @@ def texton_regions(
 ) -> np.ndarray:
     """A ``k``-label map from texton channels with no user step.
 
-    :func:`texton_channels`, :func:`auto_merge`, :func:`merge_channels`, then the clean-up of the
-    colour-region maps (small labels grown, regions under ``min_region`` px dissolved;
+    :func:`texton_channels`, :func:`auto_merge`, :func:`merge_channels` (merged by texture, each
+    pixel then takes the label of most of its neighbourhood, :data:`TEXTURE_VOTE_SIGMA`), then
+    the clean-up of the colour-region maps (small labels grown, regions under ``min_region`` px dissolved;
     laitoch2018 §3.5.4).
 
     Parameters
@@ -444,6 +464,8 @@ def texton_regions(
     textons, responses = texton_channels(image, n_textons, seed=seed, wrap=wrap)
     merged = merge_channels(textons, auto_merge(textons, image, k, by=merge_by, responses=responses))
     codes, _ = to_codes(merged)
+    if merge_by == "texture":
+        codes = _neighbourhood_vote(codes, TEXTURE_VOTE_SIGMA, wrap)
     if min_region is None:
         min_region = default_min_region(codes.shape)
     return finish_label_map(clean_regions(codes, k, int(min_region), wrap), k)
