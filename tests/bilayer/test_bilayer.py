@@ -120,6 +120,23 @@ def composite_model():
     return analyze(_composite(), AnalysisOptions(k=3, tloc=8, seed=3))  # fine, coarse, the bar
 
 
+def test_the_tloc_sheet_shows_new_noise_over_the_same_structure(composite_model):
+    """guingo2017 Fig. 14: "a result with N synthesized over the same P". Not a synthesis of the
+    structure too: P itself, of the exemplar's size, plus new noise under its masks. The noise
+    differs from the exemplar's own but has its strength on each side of the bar."""
+    from barkgen.bilayer.sheets import noise_over_structure
+
+    model = composite_model
+    over = noise_over_structure(model, seed=1)
+    assert over.shape == model.exemplar.shape
+    new = over - model.structure
+    assert not np.allclose(new, model.noise_layer, atol=0.01)
+    assert np.allclose(noise_over_structure(model, seed=1), over)  # seeded
+    assert not np.allclose(noise_over_structure(model, seed=2), over)
+    for side in (np.s_[:, 4:36], np.s_[:, 72:120]):  # fine noise left of the bar, coarse right
+        assert np.std(new[side]) == pytest.approx(np.std(model.noise_layer[side]), rel=0.35)
+
+
 def test_analysis_separates_the_two_noises(composite_model):
     model = composite_model
     assert np.allclose(model.structure + model.noise_layer, model.exemplar)

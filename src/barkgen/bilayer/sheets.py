@@ -64,11 +64,27 @@ def analysis_preview(model, synthesized: np.ndarray | None = None) -> np.ndarray
     return contact_sheet(tiles, captions, columns=4, tile_size=256)
 
 
+def noise_over_structure(model, seed: int = 0) -> np.ndarray:
+    """The exemplar's own structure layer ``P`` with new noise under its masks: ``P + sum_k M_k
+    N_k`` with every ``N_k`` synthesized anew from its spectra (guingo2017 §5, Fig. 14's "result
+    with N synthesized over the same P"), float32 ``(h, w, 3)`` in [0, 1]. It shows what T_loc put
+    into the noise, with nothing else changed."""
+    from barkgen._shared.arrays import unit_float
+
+    noise = model.noise_on_torus(model.masks, np.random.default_rng([int(seed), 0xF14]))
+    structure = unit_float(np.asarray(model.structure))
+    if structure.ndim == 2:
+        structure = np.repeat(structure[:, :, None], 3, axis=2)
+    return np.clip(structure[:, :, :3] + noise, 0.0, 1.0).astype(np.float32)
+
+
 def tune_sheet(exemplar: np.ndarray, options=None, *, tlocs=TLOC_CHOICES, seed: int = 0, progress=None) -> np.ndarray:
     """The T_loc choice sheet of guingo2017 Fig. 14.
 
-    For each T_loc a row of P, N and a synthesized sample of twice the exemplar's width (the same
-    seed for all rows), so the user can pick the largest T_loc whose synthesis still looks right.
+    For each T_loc a row of P, N and P with new noise synthesized under its masks
+    (:func:`noise_over_structure`, the same seed for all rows), so the user can pick the largest
+    T_loc whose result still looks right: the paper's "result with N synthesized over the same P",
+    which judges the split itself, not a synthesis of the structure too.
 
     Parameters
     ----------
@@ -100,10 +116,9 @@ def tune_sheet(exemplar: np.ndarray, options=None, *, tlocs=TLOC_CHOICES, seed: 
     tiles, captions = [], []
     for i, tloc in enumerate(tlocs):
         model = analyze(exemplar, dataclasses.replace(options, tloc=tloc))
-        h, w = model.exemplar.shape[:2]
-        sample = model.window(0, 0, 2 * w, h, seed=seed)
+        sample = noise_over_structure(model, seed)
         tiles += [_u8(model.structure), noise_picture(model.noise_layer), _u8(sample)]
-        captions += [f"T_loc {tloc}: P", f"T_loc {tloc}: N", f"T_loc {tloc}: synthesis"]
+        captions += [f"T_loc {tloc}: P", f"T_loc {tloc}: N", f"T_loc {tloc}: P + new N"]
         if progress:
             progress(i + 1, len(tlocs))
     return contact_sheet(tiles, captions, columns=3, tile_size=256)

@@ -105,7 +105,8 @@ def tune_command(
     quiet: QuietOption = False,
 ) -> None:
     """The T_loc choice sheet (guingo2017 Fig. 14): for T_loc = 2, 4, 8, 16 the structure P,
-    the noise N and a synthesized sample. Pick the largest T_loc that still looks right."""
+    the noise N and P with new noise synthesized under its masks. Pick the largest T_loc that
+    still looks right."""
     from barkgen.bilayer import AnalysisOptions, tune_sheet
     from barkgen.data import sample_exemplar_path
     from barkgen.io import encode_png, read_image
