@@ -104,20 +104,22 @@ def open_session(state: AppState, result_id: int) -> ReliefSession:
     return session
 
 
-def checked_edits(items: list[dict]) -> list[HeightEdit]:
-    """The page's edit items as edits (an empty list is the base height)."""
-    return parse_edits({"version": 1, "edits": items}) if items else []
+def checked_edits(items: list[dict], size: tuple[int, int]) -> list[HeightEdit]:
+    """The page's edit items as edits (an empty list is the base height), each inside a result
+    of ``size`` ``(width, height)``."""
+    edits = parse_edits({"version": 1, "edits": items}) if items else []
+    width, height = size
+    for i, edit in enumerate(edits):
+        if not (0 <= edit.x < width and 0 <= edit.y < height):
+            raise InvalidInputError(f"edit {i} at ({edit.x}, {edit.y}) is outside the {width}x{height} result")
+    return edits
 
 
 def edited_height(state: AppState, result_id: int, items: list[dict]) -> np.ndarray:
     """The result's height after the edits (pixels, float32)."""
     session = open_session(state, result_id)
-    edits = checked_edits(items)
     h, w = session.editor.shape
-    for i, edit in enumerate(edits):
-        if not (0 <= edit.x < w and 0 <= edit.y < h):
-            raise InvalidInputError(f"edit {i} at ({edit.x}, {edit.y}) is outside the {w}x{h} result")
-    return session.height_after(edits)
+    return session.height_after(checked_edits(items, (w, h)))
 
 
 @router.post("/api/results/{result_id}/relief")

@@ -171,13 +171,9 @@ def relief_edits(state: AppState, request: ReliefSaveRequest, exemplar_id: int, 
         raise InvalidInputError(f"result {parent.id} belongs to exemplar {parent.exemplar_id}, not {exemplar_id}")
     if params["size"] != list(parent.params["size"]) or not params["material"]:
         raise InvalidInputError("saving a relief keeps the result's size and its material maps")
-    edits = checked_edits(request.edits)
+    edits = checked_edits(request.edits, tuple(params["size"]))
     if not edits:
         raise InvalidInputError("there is no relief edit to save")
-    width, height = params["size"]
-    for i, edit in enumerate(edits):
-        if not (0 <= edit.x < width and 0 <= edit.y < height):
-            raise InvalidInputError(f"edit {i} at ({edit.x}, {edit.y}) is outside the {width}x{height} result")
     if "edits.json" in parent.files:  # a result sculpted before: its edits first, then these
         edits = parse_edits(json.loads(state.library.result_file(parent.id, "edits.json"))) + edits
     return edits_document(edits)["edits"]
