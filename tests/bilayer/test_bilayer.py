@@ -210,20 +210,34 @@ def test_noise_tiles_share_phases_across_clusters():
 
 def test_deformation_keeps_fine_noise_where_a_single_layer_stretches_it():
     """guingo2017 Fig. 10: zooming the structure magnifies a single layer's grain, while the
-    bi-layer regenerates its noise at the exemplar's scale."""
+    bi-layer regenerates its noise at the exemplar's scale. The zoom is applied per patch to
+    each tile's exchanged content (the Wang edges stay), so it is measured in the tiles'
+    cores."""
     exemplar = _composite(seed=5, n=160)
     bilayer = analyze(exemplar, AnalysisOptions(k=2, tloc=8))
     single = single_layer(exemplar)
-    options = SynthesisOptions(deformation=Deformation(rotate=20, scale=(1.8, 2.0)))
+    size = 40
+    options = SynthesisOptions(tile_size=size, warp=0, deformation=Deformation(rotate=20, scale=(1.8, 2.0)))
+    plain = SynthesisOptions(tile_size=size, warp=0)
+    y, x = np.mgrid[0:320, 0:320] % size
+    core = np.minimum.reduce([y, x, size - 1 - y, size - 1 - x]) >= size // 4
 
-    def fine_energy(img):
-        lum = img.mean(axis=2)
-        return float(np.abs(np.diff(lum, axis=1)).mean())
+    def fine_energy(img, where=None):
+        step = np.abs(np.diff(img.mean(axis=2), axis=1))
+        return float(step.mean() if where is None else step[where[:, 1:]].mean())
 
-    target = fine_energy(exemplar)
-    e_bi = fine_energy(bilayer.window(0, 0, 320, 320, seed=1, options=options))
-    e_single = fine_energy(single.window(0, 0, 320, 320, seed=1, options=options))
-    assert abs(np.log(e_bi / target)) < 0.5 * abs(np.log(e_single / target))
+    def change(model):  # the cores' fine energy, zoomed against as built
+        a = model.window(0, 0, 320, 320, seed=1, options=options)
+        b = model.window(0, 0, 320, 320, seed=1, options=plain)
+        return abs(np.log(fine_energy(a, core) / fine_energy(b, core))), a, b
+
+    bi_change, _, _ = change(bilayer)
+    single_change, a, b = change(single)
+    assert bi_change < 0.5 * single_change
+    # only the cores changed: the tiles' borders (the Wang edges) are as built
+    edges = np.minimum.reduce([y, x, size - 1 - y, size - 1 - x]) < 1
+    assert np.array_equal(a[edges], b[edges])
+    assert np.abs(a[core] - b[core]).mean() > 0.02
 
 
 def test_compensated_noise_restores_what_a_deformation_takes_from_a_real_bark(texeval):
@@ -518,6 +532,18 @@ def test_cli_analyze_synth_tune_and_errors(tmp_path):
     )
     assert res.exit_code == 0, res.output
     assert not np.array_equal(read_image(cut), image)  # graph cuts only
+    field = tmp_path / "flow.npy"
+    np.save(field, np.full((200, 300), 45.0, np.float32))
+    turned = tmp_path / "turned.png"
+    args = ["bilayer", "synth", str(model), "--size", "300x200", "--seed", "4", "--flow", str(field)]
+    res = runner.invoke(app, [*args, "-o", str(turned)])
+    assert res.exit_code == 0, res.output
+    plain = tmp_path / "plain.png"
+    assert runner.invoke(app, [*args[:-2], "-o", str(plain)]).exit_code == 0
+    assert not np.array_equal(read_image(turned), read_image(plain))  # the contents turned by the field
+    np.save(field, np.zeros((20, 30), np.float32))
+    res = runner.invoke(app, [*args, "-o", str(tmp_path / "bad.png")])
+    assert res.exit_code == 2 and "output's size" in res.output and not (tmp_path / "bad.png").exists()
     sheet = tmp_path / "tune.png"
     res = runner.invoke(app, ["bilayer", "tune", str(photo), "-o", str(sheet), "-q"])
     assert res.exit_code == 0, res.output
@@ -551,3 +577,77 @@ def test_a_one_row_window_is_the_row_of_a_larger_one(composite_model):
     assert np.array_equal(row[0], block[0])
     column = composite_model.window(5, 7, 1, 3000, seed=2)
     assert np.array_equal(column[:, 0], composite_model.window(5, 7, 2, 3000, seed=2)[:, 0])
+
+
+def _core_angles(image, size, cells):
+    """Per tile cell, the direction (degrees, counter-clockwise on screen) of the mean
+    gradient of the luminance in the cell's core."""
+    lum = image.mean(axis=2)
+    gy, gx = np.gradient(lum)
+    angles = []
+    for i in range(cells):
+        for j in range(cells):
+            core = (slice(i * size + size // 4, (i + 1) * size - size // 4),) * 1 + (
+                slice(j * size + size // 4, (j + 1) * size - size // 4),
+            )
+            angles.append(np.degrees(np.arctan2(-gy[core].mean(), gx[core].mean())))
+    return np.array(angles)
+
+
+def test_each_patch_is_rotated_on_the_fly_by_any_angle_and_by_a_field():
+    """guingo2017 §4: each tile's content is turned while the window is made, by a hashed
+    angle of its own (any angle, not one of a few baked copies) plus the rotation field at
+    the pixel; windows still agree where they overlap."""
+    ramp = np.repeat(np.tile(np.linspace(0, 1, 160, dtype=np.float32), (160, 1))[:, :, None], 3, axis=2)
+    model = single_layer(ramp)
+    size, cells = 40, 8
+    free = SynthesisOptions(tile_size=size, warp=0, blend=False, deformation=Deformation(rotate=180))
+    angles = _core_angles(model.window(0, 0, size * cells, size * cells, seed=2, options=free), size, cells)
+    assert len(np.unique(np.round(angles))) >= 40  # of 64 cells; eight baked copies give <= 8
+    assert np.abs(angles).max() > 150 and np.abs(angles).min() < 30
+    still = SynthesisOptions(tile_size=size, warp=0, blend=False)  # a ramp's seams blended tilt its cores
+    field = np.full((size * cells, size * cells), 90.0, np.float32)
+    turned = model.window(0, 0, size * cells, size * cells, seed=2, options=still, flow=field)
+    assert np.abs(_core_angles(turned, size, cells) - 90).max() < 3
+    flat = model.window(0, 0, size * cells, size * cells, seed=2, options=still)
+    assert np.abs(_core_angles(flat, size, cells)).max() < 3
+    # a field that varies: windows agree on their overlap where their fields do
+    yy, xx = np.mgrid[0:200, 0:200]
+    swirl = (0.3 * (xx + yy)).astype(np.float32)
+    zoom = (1.0 + 0.002 * xx).astype(np.float32)
+    a = model.window(0, 0, 200, 200, seed=2, options=free, flow=swirl, flow_scale=zoom)
+    b = model.window(50, 70, 150, 130, seed=2, options=free, flow=swirl[70:, 50:], flow_scale=zoom[70:, 50:])
+    assert np.array_equal(a[70:, 50:], b)
+    with pytest.raises(InvalidInputError, match="flow scale"):
+        model.window(0, 0, 10, 10, flow_scale=np.full((10, 10), 9.0))
+    with pytest.raises(InvalidInputError, match="output's size"):
+        model.window(0, 0, 10, 10, flow=np.zeros((5, 5)))
+
+
+def test_barycentric_masks_keep_the_relative_distances_to_the_cluster_centres():
+    """guingo2017 §3.3: the soft masks are the convex barycentre of the cluster centres that
+    keeps a pixel's relative distances to them; inverse-square weights do not (a spectrum a
+    quarter of the way from one centre to another weighs 0.9, not 0.75)."""
+    from barkgen.bilayer.analysis import barycentric_weights, cluster_spectra
+
+    rng = np.random.default_rng(4)
+    centres = rng.normal(size=(3, 6))
+    t = np.linspace(0, 1, 9)
+    on_edge = barycentric_weights((1 - t)[:, None] * centres[0] + t[:, None] * centres[1], centres)
+    assert np.allclose(on_edge, np.stack([1 - t, t, 0 * t], axis=1), atol=1e-5)
+    inside = rng.dirichlet([1, 1, 1], size=20)
+    assert np.allclose(barycentric_weights(inside @ centres, centres), inside, atol=1e-5)
+    off = rng.normal(size=(50, 6)) * 2
+    w = barycentric_weights(off, centres)
+    assert (w >= 0).all() and np.allclose(w.sum(axis=1), 1)
+    ratios = np.linalg.norm((w @ centres)[:, None] - centres[None], axis=2) / np.linalg.norm(
+        off[:, None] - centres[None], axis=2
+    )
+    kept = (w > 1e-3).all(axis=1)  # inside the hull: the distance ratios are exactly the point's
+    assert kept.sum() > 10
+    assert (ratios[kept].std(axis=1) / ratios[kept].mean(axis=1)).max() < 1e-4
+    # the analysis' soft masks are these weights
+    spectra = (rng.dirichlet([1, 1], size=(8, 8)) @ centres[:2]).astype(np.float32)
+    _, _, masks = cluster_spectra(spectra, 2, "barycentric", np.random.default_rng(0))
+    assert np.allclose(masks.sum(axis=2), 1, atol=1e-5)
+    assert masks.min() < 0.2 and 0.3 < np.median(masks) < 0.7

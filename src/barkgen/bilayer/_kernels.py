@@ -155,8 +155,57 @@ def _noise_colour(texel, noise_tiles, bases, means, quantiles, sigmas, wts, ty_i
             colour[ch] += m * s
 
 
+@njit(cache=True)
+def _mirror(i, n):
+    """Index ``i`` mirrored into ``[0, n)`` however far outside it lies (period ``2 n``)."""
+    i = i % (2 * n)
+    return 2 * n - 1 - i if i >= n else i
+
+
+@njit(cache=True)
+def _patch_jitter(ty, tx, seed, jitter):
+    """The random rotation (degrees) and zoom of the content of tile cell ``(ty, tx)``: hashes
+    of the cell drawn uniformly from ``jitter = (rotate, zoom_lo, zoom_hi, keep_vertical)``,
+    half of the upright ones turned by 180°."""
+    hv = lattice_hash(ty, tx, 6, seed)
+    u = (hv & np.uint64(0xFFFFFF)) / 16777215.0
+    v = ((hv >> np.uint64(24)) & np.uint64(0xFFFFFF)) / 16777215.0
+    angle = jitter[0] * (2.0 * u - 1.0)
+    if jitter[3] > 0 and (hv >> np.uint64(63)) == np.uint64(1):
+        angle += 180.0
+    return angle, jitter[1] + (jitter[2] - jitter[1]) * v
+
+
+@njit(cache=True)
+def _deformed_texel(texel, tile, iy, ix, content, centre, alpha, cos_a, sin_a, inv_zoom):
+    """The pixel ``(iy, ix)`` of a tile whose exchanged content is rotated and zoomed
+    (guingo2017 §4) into ``texel``: the content is read from the exemplar's layers
+    (``content``, bilinear, mirrored borders) about the sample's centre ``centre``, the
+    rotation and zoom about the tile's centre, and blended over the tile's own pixel with
+    the content's weight ``alpha`` there (1 inside the graph cuts, 0 on the Wang edges)."""
+    h, w, n_ch = content.shape
+    half = 0.5 * (tile.shape[0] - 1)
+    dy = (iy - half) * inv_zoom
+    dx = (ix - half) * inv_zoom
+    sy = centre[0] + dx * sin_a + dy * cos_a  # the content turned counter-clockwise on screen
+    sx = centre[1] + dx * cos_a - dy * sin_a
+    fy = math.floor(sy)
+    fx = math.floor(sx)
+    ty = sy - fy
+    tx = sx - fx
+    y0 = _mirror(np.int64(fy), h)
+    y1 = _mirror(np.int64(fy) + 1, h)
+    x0 = _mirror(np.int64(fx), w)
+    x1 = _mirror(np.int64(fx) + 1, w)
+    for ch in range(n_ch):
+        top = content[y0, x0, ch] * (1.0 - tx) + content[y0, x1, ch] * tx
+        bottom = content[y1, x0, ch] * (1.0 - tx) + content[y1, x1, ch] * tx
+        v = top * (1.0 - ty) + bottom * ty
+        texel[ch] = alpha * v + (1.0 - alpha) * tile[iy, ix, ch]
+
+
 @njit(parallel=True, cache=True)
-def render_window(y0, x0, out, layers, tiles, lattice, noise):
+def render_window(y0, x0, out, layers, tiles, lattice, noise, deform):
     """Pixels ``[y0, y0 + H) x [x0, x0 + W)`` of the unbounded bi-layer texture into ``out``.
 
     Structure + masks: Wang tiles (Cohen 2003) laid on a lattice of ``tile`` px cells; the
@@ -177,10 +226,23 @@ def render_window(y0, x0, out, layers, tiles, lattice, noise):
     tile, the hash seed and the warp amplitude in px; ``noise = (noise_tiles, cell, bases,
     means, quantiles, sigmas)`` the (K, PC, period, period) noise tiles (the period a power of
     two), the noise cell and the per-cluster PCA and equalisation tables.
+
+    Deformation (guingo2017 §4, Fig. 9-10), per patch and on the fly: ``deform = (content,
+    centres, interior, jitter, angle, zoom)``. Each cell's exchanged content (where the
+    tile's ``interior`` weight is > 0) is read anew from the exemplar's ``content`` layers
+    about its sample's centre (``centres``, per tile), rotated by the cell's hashed angle
+    plus the ``angle`` field (degrees, counter-clockwise on screen) at the pixel and zoomed
+    by the cell's hashed zoom times the ``zoom`` field; the Wang edges stay as they are, so
+    cells still join. ``jitter = (rotate, zoom_lo, zoom_hi, keep_vertical, active)``; the
+    fields are the window's size, or ``(0, 0)`` for none. Inactive: the tiles as built.
     """
     structure_out, noise_out = layers
     colours, variants, seed, warp = lattice
     noise_tiles, cell, bases, means, quantiles, sigmas = noise
+    content, centres, interior, jitter, angle_field, zoom_field = deform
+    deformed = jitter[4] > 0
+    has_angle = angle_field.shape[0] == out.shape[0] and angle_field.shape[1] == out.shape[1]
+    has_zoom = zoom_field.shape[0] == out.shape[0] and zoom_field.shape[1] == out.shape[1]
     h, w, _ = out.shape
     n_tiles, size, _, n_ch = tiles.shape
     k_noise, n_pc, period, _ = noise_tiles.shape
@@ -209,6 +271,11 @@ def render_window(y0, x0, out, layers, tiles, lattice, noise):
         fy = _smooth((gy - cy * cell) / cell)
         nvals = np.empty((k_noise, n_pc), np.float64)
         colour = np.empty(3, np.float64)
+        texel = np.empty(n_ch, np.float64)
+        cell_angle = 0.0
+        cell_zoom = 1.0
+        cell_cos = 1.0
+        cell_sin = 0.0
         offy = np.empty(4, np.int64)
         offx = np.empty(4, np.int64)
         wy = np.empty(4, np.float64)
@@ -256,6 +323,23 @@ def render_window(y0, x0, out, layers, tiles, lattice, noise):
             ix = sx - tx_lo
             if moved:  # a new tile: its edge colours and content variant
                 idx = _tile_index(ty, tx, seed, ucol, variants)
+                if deformed:
+                    cell_angle, cell_zoom = _patch_jitter(ty, tx, seed, jitter)
+                    cell_cos = math.cos(math.radians(cell_angle))
+                    cell_sin = math.sin(math.radians(cell_angle))
+            alpha = interior[idx, iy, ix] if deformed else 0.0
+            if alpha > 0.0:
+                cos_a = cell_cos
+                sin_a = cell_sin
+                if has_angle:  # the field varies per pixel
+                    rad = math.radians(cell_angle + angle_field[r, col])
+                    cos_a = math.cos(rad)
+                    sin_a = math.sin(rad)
+                zoom = cell_zoom * zoom_field[r, col] if has_zoom else cell_zoom
+                _deformed_texel(texel, tiles[idx], iy, ix, content, centres[idx], alpha, cos_a, sin_a, 1.0 / zoom)
+            else:
+                for ch in range(n_ch):
+                    texel[ch] = tiles[idx, iy, ix, ch]
             cx = col_cx[col]
             if cx != cx_cur:  # a new noise cell: the offsets of its four corners
                 cx_cur = cx
@@ -267,13 +351,11 @@ def render_window(y0, x0, out, layers, tiles, lattice, noise):
                 wts[q] = wy[q] * (fx if (q & 1) else 1.0 - fx) * norm
                 ty_idx[q] = (py + offy[q]) & wrap
                 tx_idx[q] = (px + offx[q]) & wrap
-            _noise_colour(
-                tiles[idx, iy, ix], noise_tiles, bases, means, quantiles, sigmas, wts, ty_idx, tx_idx, nvals, colour
-            )
+            _noise_colour(texel, noise_tiles, bases, means, quantiles, sigmas, wts, ty_idx, tx_idx, nvals, colour)
             for ch in range(3):
-                out[r, col, ch] = min(max(tiles[idx, iy, ix, ch] + colour[ch], 0.0), 1.0)
+                out[r, col, ch] = min(max(texel[ch] + colour[ch], 0.0), 1.0)
                 if want_noise:
                     noise_out[r, col, ch] = colour[ch]
             if want_layers:
                 for ch in range(n_ch):
-                    structure_out[r, col, ch] = tiles[idx, iy, ix, ch]
+                    structure_out[r, col, ch] = texel[ch]

@@ -49,9 +49,77 @@ def extract_structure(
     return structure
 
 
+def barycentric_weights(points: np.ndarray, centres: np.ndarray) -> np.ndarray:
+    """Convex barycentric coordinates of ``points`` (N, D) over ``centres`` (K, D) that keep
+    the points' relative distances to the centres (guingo2017 §3.3).
+
+    The coordinates ``w`` (summing to 1) of the point ``B = sum_k w_k c_k`` whose squared
+    distances to the centres are the point's own times one factor ``s``:
+    ``|B - c_k|^2 = s |x - c_k|^2`` for every ``k``. Differences of two such equations are
+    linear in ``w`` (``B`` is in the centres' affine span), so ``w = u + s v`` solves a K x K
+    system; the first equation is then a quadratic in ``s``. Of its roots, the one whose
+    ``w`` has the least negative mass is kept, and ``w`` is made convex (negative parts
+    dropped, renormalised). A point inside the centres' hull gets its exact coordinates
+    (``s = 1``, ``B = x``); a point off their span gets the barycentre at its distance ratios.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, D)
+    centres : ndarray, shape (K, D)
+
+    Returns
+    -------
+    ndarray of float32, shape (N, K)
+        Non-negative, summing to 1 per point.
+
+    References
+    ----------
+    .. [1] guingo2017, §3.3 ("a convex barycenter of {S_k^loc} that preserves the relative
+       distances").
+    """
+    x = np.asarray(points, np.float64)
+    c = np.asarray(centres, np.float64)
+    k = c.shape[0]
+    if k == 1:
+        return np.ones((len(x), 1), np.float32)
+    scale = max(float(np.abs(c).max()), 1e-30)  # unit-free: distances relative to the centres'
+    x, c = x / scale, c / scale
+    gram = c @ c.T
+    d2 = np.maximum((x**2).sum(axis=1)[:, None] - 2.0 * x @ c.T + np.diag(gram)[None, :], 0.0)  # (N, K)
+    system = np.vstack([-2.0 * (gram[1:] - gram[0]), np.ones((1, k))])
+    inverse = np.linalg.pinv(system)  # centres that are not affinely independent: least squares
+    fixed = np.concatenate([-(np.diag(gram)[1:] - gram[0, 0]), [1.0]])
+    u = inverse @ fixed  # (K,)
+    rhs = np.concatenate([d2[:, 1:] - d2[:, :1], np.zeros((len(x), 1))], axis=1)  # (N, K)
+    v = rhs @ inverse.T
+    u0 = u.copy()
+    u0[0] -= 1.0  # w - e_0: B - c_0 in coordinates
+    a = np.einsum("nk,kl,nl->n", v, gram, v)
+    b = 2.0 * (v @ (gram @ u0)) - d2[:, 0]
+    const = float(u0 @ gram @ u0)
+    disc = b * b - 4.0 * a * const
+    safe_a = np.where(np.abs(a) > 1e-12, a, 1.0)
+    root = np.sqrt(np.maximum(disc, 0.0))
+    candidates = np.stack([(-b + root) / (2.0 * safe_a), (-b - root) / (2.0 * safe_a)], axis=1)  # (N, 2)
+    linear = np.abs(a) <= 1e-12  # one root: -const / b
+    candidates[linear] = (-const / np.where(np.abs(b[linear]) > 1e-12, b[linear], 1.0))[:, None]
+    weights = u[None, None, :] + candidates[:, :, None] * v[:, None, :]  # (N, 2, K)
+    negative = np.minimum(weights, 0.0).sum(axis=2) - 1e-9 * (candidates < 0)  # prefer s >= 0 on ties
+    best = np.argmax(negative, axis=1)
+    w = np.maximum(weights[np.arange(len(x)), best], 0.0)
+    total = w.sum(axis=1, keepdims=True)
+    nearest = d2.argmin(axis=1)
+    empty = total[:, 0] <= 1e-12
+    w[empty] = 0.0
+    w[empty, nearest[empty]] = 1.0
+    total[empty] = 1.0
+    return (w / total).astype(np.float32)
+
+
 def cluster_spectra(spectra: np.ndarray, k: int, kind: str, rng: np.random.Generator):
     """K-means of the local spectra (guingo2017 §3.3): ``(labels, distances, masks)`` with the
-    distance of every pixel to every centre, and masks binary or convex-barycentric."""
+    distance of every pixel to every centre, and masks binary or convex-barycentric
+    (:func:`barycentric_weights`)."""
     from sklearn.cluster import KMeans
 
     h, w, d = spectra.shape
@@ -66,9 +134,8 @@ def cluster_spectra(spectra: np.ndarray, k: int, kind: str, rng: np.random.Gener
     labels = distances.argmin(axis=2)
     if kind == "binary":
         masks = (labels[:, :, None] == np.arange(k)).astype(np.float32)
-    else:  # convex weights, larger for nearer centres, preserving the order of distances
-        inv = 1.0 / np.maximum(distances, 1e-6) ** 2
-        masks = (inv / inv.sum(axis=2, keepdims=True)).astype(np.float32)
+    else:  # the convex barycentre that keeps the relative distances to the centres
+        masks = barycentric_weights(flat, centres).reshape(h, w, k)
     return labels, distances, masks
 
 

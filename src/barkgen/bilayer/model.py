@@ -10,7 +10,7 @@ import numpy as np
 from barkgen._shared.memory import check_memory_budget
 from barkgen.bilayer.options import AnalysisOptions, SynthesisOptions, as_rgb, estimate_window_memory
 from barkgen.bilayer.spectra import noise_from_white, welch_power
-from barkgen.bilayer.tiles import build_tiles, default_tile_size
+from barkgen.bilayer.tiles import TileSet, build_tiles, default_tile_size
 from barkgen.errors import InvalidInputError
 
 #: side of the periodic noise tiles; the window reads each at four hashed offsets per
@@ -77,18 +77,47 @@ class NoiseStatistics:
     quantiles: np.ndarray  # (K, 3, Q) or (K, 3, 1) when not equalising
 
 
+def _tiling(options: SynthesisOptions) -> tuple:
+    """What of the options the tile set depends on."""
+    return options.tile_size, options.colours, options.variants, options.blend
+
+
 @dataclass
 class _Synthesizer:
-    tiles: np.ndarray
+    tile_set: TileSet
+    content: np.ndarray  # the exemplar's layers (structure, masks) the deformed contents read
     noise_tiles: np.ndarray
     hash_seed: int
     noise: NoiseStatistics  # the model's, or compensated for the deformation
     options: SynthesisOptions
 
-    def render(self, x: int, y: int, out: np.ndarray, structure: np.ndarray, noise: np.ndarray) -> None:
+    @property
+    def tiles(self) -> np.ndarray:
+        return self.tile_set.tiles
+
+    def render(
+        self,
+        x: int,
+        y: int,
+        out: np.ndarray,
+        structure: np.ndarray,
+        noise: np.ndarray,
+        fields: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> None:
         from barkgen.bilayer._kernels import render_window
 
         stats = self.noise
+        deformation = self.options.deformation
+        angle, zoom = fields if fields is not None else (np.zeros((0, 0), np.float32),) * 2
+        jitter = np.array(
+            [
+                deformation.rotate,
+                *deformation.scale,
+                float(deformation.keep_vertical),
+                float(deformation.active or fields is not None),
+            ]
+        )
+        deform = (self.content, self.tile_set.centres, self.tile_set.interior, jitter, angle, zoom)
         lattice = (
             self.options.colours,
             self.options.variants,
@@ -103,7 +132,7 @@ class _Synthesizer:
             stats.quantiles.astype(np.float64),
             stats.sigmas.astype(np.float64),
         )
-        render_window(int(y), int(x), out, (structure, noise), self.tiles, lattice, tables)
+        render_window(int(y), int(x), out, (structure, noise), self.tiles, lattice, tables, deform)
 
 
 @dataclass
@@ -159,23 +188,25 @@ class BilayerModel:
             tiles_seq, noise_seq, hash_seq = np.random.SeedSequence([int(seed), 0xB1]).spawn(3)
             layers = np.concatenate([self.structure, self.masks], axis=2).astype(np.float32)
             size = options.tile_size or default_tile_size(self.structure.shape[:2])
-            tiles = build_tiles(
+            # deformations are applied per patch by the window: one tile set serves them all
+            tiling = (int(seed), options.tile_size, options.colours, options.variants, options.blend)
+            known = [s.tile_set for (s_seed, o), s in self._cache.items() if (s_seed, *_tiling(o)) == tiling]
+            tile_set = known[0] if known else build_tiles(
                 layers,
                 np.random.default_rng(tiles_seq),
                 size=size,
                 colours=options.colours,
                 variants=options.variants,
-                deformation=options.deformation,
                 blend=options.blend,
             )
             period = max(NOISE_TILE, 1 << (2 * self.noise.spectra.shape[2] - 1).bit_length())  # a power of two
             hash_seed = int(hash_seq.generate_state(1, np.uint64)[0] >> np.uint64(1))
             synth = _Synthesizer(
-                tiles, np.zeros((self.k, 3, period, period), np.float32), hash_seed, self.noise, options
+                tile_set, layers, np.zeros((self.k, 3, period, period), np.float32), hash_seed, self.noise, options
             )
             if options.compensate and options.deformation.active:
                 n = COMPENSATION_SAMPLE
-                sample = np.empty((n, n, tiles.shape[3]), np.float32)
+                sample = np.empty((n, n, layers.shape[2]), np.float32)
                 synth.render(0, 0, np.empty((n, n, 3), np.float32), sample, np.empty((n, n, 3), np.float32))
                 synth.noise = compensated_noise(self.noise, self.exemplar, self.masks, sample[:, :, :3])
             rng = np.random.default_rng(noise_seq)
@@ -196,6 +227,8 @@ class BilayerModel:
         seed: int = 0,
         options: SynthesisOptions | None = None,
         layers: bool = False,
+        flow: np.ndarray | None = None,
+        flow_scale: np.ndarray | None = None,
     ):
         """Pixels ``[x, x + width) x [y, y + height)`` of the unbounded synthesized texture.
 
@@ -214,6 +247,11 @@ class BilayerModel:
             Tiling, warp and deformation.
         layers : bool, default False
             Also return the synthesized layers.
+        flow, flow_scale : ndarray, shape (height, width), optional
+            A rotation field (degrees, counter-clockwise on screen) and a zoom field (0.25-4)
+            over the window, as the core engine's: each tile's exchanged content is turned and
+            zoomed by the field at each pixel, on top of ``options.deformation``'s random
+            per-patch draws (guingo2017 §4). Windows still agree where their fields do.
 
         Returns
         -------
@@ -261,12 +299,17 @@ class BilayerModel:
             options.max_memory,
             f"a {width}x{height} bi-layer window",
         )
+        fields = None
+        if flow is not None or flow_scale is not None:
+            from barkgen.synth import check_flow
+
+            fields = check_flow(flow, flow_scale, (height, width))
         synth = self._synthesizer(seed, options)
         n_ch = synth.tiles.shape[3]
         out = np.empty((height, width, 3), np.float32)
         structure = np.empty((height, width, n_ch) if layers else (0, 0, n_ch), np.float32)
         noise = np.empty((height, width, 3) if layers else (0, 0, 3), np.float32)
-        synth.render(x, y, out, structure, noise)
+        synth.render(x, y, out, structure, noise, fields)
         if not layers:
             return out
         return {"texture": out, "structure": structure[:, :, :3], "masks": structure[:, :, 3:], "noise": noise}

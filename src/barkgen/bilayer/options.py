@@ -29,8 +29,8 @@ class AnalysisOptions:
         Local spectrum window (``barkgen bilayer tune`` shows them).
     masks : {"binary", "barycentric"}, default "binary"
         ``"binary"``: a pixel belongs to its nearest cluster (sharp noise transitions, the
-        paper's choice for its results); ``"barycentric"``: convex weights from the distances to
-        the cluster centres (smooth transitions).
+        paper's choice for its results); ``"barycentric"``: the convex barycentre of the cluster
+        centres that keeps the pixel's relative distances to them (§3.3; smooth transitions).
     spectrum_size : int, default SPECTRUM_SIZE
         Size T of the global spectra (64 in the paper).
     equalize : bool, default False
@@ -163,10 +163,11 @@ class SynthesisOptions:
 #: bilateral filter's stacks, K-means (measured peaks: 0.85 GiB for a 1024x1024 photo, 2.4 GiB
 #: for 2048x2048, 520 bytes a pixel over the interpreter's base)
 ANALYSIS_BYTES_PER_PIXEL = 600
-#: bytes per exemplar pixel of a window's synthesizer (the deformed variants of the structure,
-#: its tiles and their seams; measured: 1.0 GiB for a 1024x1024 model's windows of 1024x1024
-#: and 2048x2048 alike, 3.8 GiB for a 2048x2048 model's 2048x2048 window: 950 bytes a pixel),
-#: and per window pixel (the texture and, with ``layers``, its layers)
+#: bytes per exemplar pixel of a window's synthesizer (its tiles and their seams; measured
+#: when the tile set was still built from 8 deformed copies: 1.0 GiB for a 1024x1024 model's
+#: windows of 1024x1024 and 2048x2048 alike, 3.8 GiB for a 2048x2048 model's 2048x2048
+#: window: 950 bytes a pixel, an upper bound since deformations moved into the window), and
+#: per window pixel (the texture and, with ``layers``, its layers)
 WINDOW_MODEL_BYTES_PER_PIXEL = 1000
 WINDOW_BYTES_PER_PIXEL = 64
 
@@ -178,7 +179,7 @@ def estimate_analysis_memory(photo_shape: tuple[int, int]) -> int:
 
 def estimate_window_memory(exemplar_shape: tuple[int, int], window_shape: tuple[int, int], variants: int = 4) -> int:
     """Estimated peak memory (bytes) of one :meth:`~barkgen.bilayer.BilayerModel.window` of
-    ``(height, width)`` from a model of a ``(h, w)`` exemplar (``variants`` deformed copies)."""
+    ``(height, width)`` from a model of a ``(h, w)`` exemplar with ``variants`` contents per tile."""
     n_ex = exemplar_shape[0] * exemplar_shape[1]
     return int(
         BASE_BYTES

@@ -1,7 +1,7 @@
 """Structure synthesis: Wang tiles with content exchange and deformations (guingo2017 §4).
 
 The structure layer and its masks are one multi-channel image (the masks "undergo the same
-operations as P"). A tile set is built from it once per seed and deformation:
+operations as P"). A tile set is built from it once per seed:
 
 - Wang tiles (Cohen et al. 2003): ``colours`` edge colours per direction; each colour is a
   sample of the exemplar straddling the edge, so the two tiles on either side of an edge of
@@ -19,16 +19,16 @@ operations as P"). A tile set is built from it once per seed and deformation:
   runs over it (willow's vertical furrows over a horizontal tile edge) still leaves a step;
   the structure of each tile is re-solved in the gradient domain (screened, so only the
   few pixels around a seam change) with its border fixed, so the tiles still join exactly.
-- Deformations (guingo2017 §4, Fig. 9-10): every sample (interior or edge) can be rotated by
-  up to ``rotate`` degrees (optionally about the vertical only, keeping bark upright: 0° or
-  180° plus the jitter) and zoomed by a factor in ``scale``.
+- Deformations (guingo2017 §4, Fig. 9-10) are not baked into the tile set: the window
+  turns and zooms each cell's exchanged content as it is made (per patch, any angle and
+  zoom, plus rotation and zoom fields), reading it anew from the exemplar about its sample's
+  centre (:class:`TileSet` keeps the centres and each content's weight); the Wang edges
+  stay, so cells still join.
 """
 
 from __future__ import annotations
 
 import itertools
-import os
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,14 +38,18 @@ from barkgen.errors import InvalidInputError
 
 @dataclass(frozen=True)
 class Deformation:
-    """Deformations of the structure's samples (guingo2017 §4).
+    """Deformations of the structure's samples (guingo2017 §4), per patch and on the fly.
+
+    Every tile cell of the window draws its own rotation and zoom (hashes of the cell, so
+    any angle in the range, not a few fixed ones) and turns its exchanged content by them;
+    the Wang edges are not turned, so cells still join.
 
     Parameters
     ----------
     rotate : float, default 0.0
-        Largest rotation of a sample in degrees (0: none; 180: any angle).
+        Largest rotation of a cell's content in degrees (0: none; 180: any angle).
     scale : (float, float), default (1.0, 1.0)
-        ``(min, max)`` zoom of a sample (output px per exemplar px), 0.25 <= min <= max <= 4.
+        ``(min, max)`` zoom of a cell's content (output px per exemplar px), 0.25 <= min <= max <= 4.
     keep_vertical : bool, default False
         Rotate only about the upright (0° or 180° plus up to ``rotate`` degrees), for bark whose
         furrows run vertically.
@@ -95,36 +99,6 @@ def default_tile_size(shape: tuple[int, int]) -> int:
     return int(max(16, 8 * round(min(shape) / 32)))
 
 
-def _sources(
-    layers: np.ndarray, rng: np.random.Generator, deformation: Deformation, count: int = 8
-) -> list[np.ndarray]:
-    """The exemplar layers as the tiles see them: itself, or ``count`` copies each rotated and
-    zoomed by one random draw of the deformation (resampled once, bilinear, borders reflected)."""
-    import cv2
-
-    if not deformation.active:
-        return [layers]
-    h, w, c = layers.shape
-    out = []
-    for _ in range(count):
-        angle = rng.uniform(-deformation.rotate, deformation.rotate) if deformation.rotate > 0 else 0.0
-        if deformation.keep_vertical and rng.random() < 0.5:
-            angle += 180.0
-        zoom = rng.uniform(*deformation.scale)
-        cos, sin = abs(np.cos(np.radians(angle))), abs(np.sin(np.radians(angle)))
-        out_w = int(np.ceil((w * cos + h * sin) * zoom))
-        out_h = int(np.ceil((w * sin + h * cos) * zoom))
-        matrix = cv2.getRotationMatrix2D((w / 2, h / 2), angle, zoom)
-        matrix[:, 2] += np.array([out_w / 2 - w / 2, out_h / 2 - h / 2])
-        warped = np.empty((out_h, out_w, c), np.float32)
-        for start in range(0, c, 4):  # OpenCV warps at most 4 channels at a time
-            chunk = np.ascontiguousarray(layers[:, :, start : start + 4])
-            res = cv2.warpAffine(chunk, matrix, (out_w, out_h), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
-            warped[:, :, start : start + 4] = res.reshape(out_h, out_w, -1)
-        out.append(warped)
-    return out
-
-
 def _random_sample(sources: list[np.ndarray], size: int, rng: np.random.Generator) -> np.ndarray:
     src = sources[int(rng.integers(len(sources)))]
     y = int(rng.integers(src.shape[0] - size + 1))
@@ -171,16 +145,14 @@ class _SampleIndex:
 
 
 def _matching_samples(
-    index: _SampleIndex, frame: np.ndarray, count: int, rng: np.random.Generator, pool: ThreadPoolExecutor
-) -> list[np.ndarray]:
-    """``count`` samples whose content agrees best with ``frame`` on the ring (the edge pieces
+    index: _SampleIndex, frame: np.ndarray, count: int, rng: np.random.Generator
+) -> list[tuple[np.ndarray, tuple[int, int]]]:
+    """``count`` samples (and their top-left corners in their source) whose content agrees best with ``frame`` on the ring (the edge pieces
     already fixed around a tile), as image quilting chooses its patches (Efros & Freeman
     2001), the squared difference taken relative to the candidate's contrast on the ring: the
     best matches of each source at least half a tile apart, then a random choice among the
     ``2 count`` best, for variety. The masked squared difference is expanded as
-    ``sum(m I^2) - 2 sum(m T I) + sum(m T^2)``: one correlation per source and tile, the
-    sources' on the threads of ``pool`` (OpenCV correlates on one core and releases the GIL:
-    1.7x faster with 8 deformed copies on 2 cores, same results)."""
+    ``sum(m I^2) - 2 sum(m T I) + sum(m T^2)``: one correlation per source and tile."""
     import cv2
 
     size, step = index.size, index.step
@@ -191,8 +163,8 @@ def _matching_samples(
     constant = float((weighted * template).sum())
     spacing = max(1, size // (2 * step))
     found = []
-    crosses = pool.map(lambda image: cv2.matchTemplate(image, weighted, cv2.TM_CCORR), index.images)
-    for i, cross in enumerate(crosses):
+    for i, image in enumerate(index.images):
+        cross = cv2.matchTemplate(image, weighted, cv2.TM_CCORR)
         # relative to the candidate's own contrast on the ring: plain squared differences
         # favour flat samples, and a tile set of flat samples is blurrier than the exemplar
         cost = np.maximum(index.ring_energy[i] - 2.0 * cross + constant, 0.0) / index.contrast[i]
@@ -209,7 +181,7 @@ def _matching_samples(
     best = found[: 2 * count]
     picks = rng.choice(len(best), size=min(count, len(best)), replace=False)
     return [
-        index.sources[best[i][1]][best[i][2] : best[i][2] + size, best[i][3] : best[i][3] + size].copy()
+        (index.sources[best[i][1]][best[i][2] : best[i][2] + size, best[i][3] : best[i][3] + size].copy(), best[i][2:])
         for i in sorted(picks)
     ]
 
@@ -315,6 +287,40 @@ def poisson_blend(images: np.ndarray, guidance: np.ndarray, spread: float | None
     return out
 
 
+@dataclass
+class TileSet:
+    """A Wang tile set with exchanged contents, and what the window needs to deform them.
+
+    Attributes
+    ----------
+    tiles : ndarray of float32, shape (colours**4 * variants, size, size, C)
+        Indexed ``(((n * colours + e) * colours + s) * colours + w) * variants + v``.
+    centres : ndarray of float64, shape (n_tiles, 2)
+        Per tile, the exemplar position (row, column) of its exchanged content's centre.
+    interior : ndarray of float32, shape (n_tiles, size, size)
+        Per tile, the exchanged content's weight: 1 where the graph cuts kept it, 0 on the
+        Wang edge pieces and the tile's border, feathered over a few pixels between.
+    """
+
+    tiles: np.ndarray
+    centres: np.ndarray
+    interior: np.ndarray
+
+
+#: how far (px) the exchanged content's weight is feathered across its graph cuts, for the
+#: window's deformed content to fade into the undeformed Wang edges
+INTERIOR_FEATHER = 1.5
+
+
+def _interior_weight(origin: np.ndarray, edge_distance: np.ndarray) -> np.ndarray:
+    """The exchanged content's weight in one tile (see :class:`TileSet`): ``origin == 0``
+    feathered, and 0 on the tile's border so that neighbouring cells still join exactly."""
+    from scipy.ndimage import gaussian_filter
+
+    soft = gaussian_filter((origin == 0).astype(np.float32), INTERIOR_FEATHER, mode="nearest")
+    return soft * np.clip((edge_distance - 1) / 3.0, 0.0, 1.0).astype(np.float32)
+
+
 def build_tiles(
     layers: np.ndarray,
     rng: np.random.Generator,
@@ -322,20 +328,18 @@ def build_tiles(
     size: int,
     colours: int = 3,
     variants: int = 4,
-    deformation: Deformation = Deformation(),
     blend: bool = True,
-) -> np.ndarray:
-    """The Wang tile set with exchanged contents: ``(colours**4 * variants, size, size, C)``
-    float32, indexed ``(((n * colours + e) * colours + s) * colours + w) * variants + v``.
-    With ``blend``, the structure's seams are blended in the gradient domain (the masks'
-    channels are left as cut)."""
+) -> TileSet:
+    """The Wang tile set with exchanged contents (see :class:`TileSet`). With ``blend``, the
+    structure's seams are blended in the gradient domain (the masks' channels are left as
+    cut). Deformations are not baked in: the window applies them per patch."""
     if size % 2 or size < 8:
         raise InvalidInputError(f"tile size must be even and at least 8, not {size}")
     if colours < 1 or variants < 1:
         raise InvalidInputError("tiles need at least one edge colour and one variant")
-    sources = _sources(layers, rng, deformation)
-    if min(min(src.shape[:2]) for src in sources) < size:
+    if min(layers.shape[:2]) < size:
         raise InvalidInputError(f"tiles of {size} px need an exemplar of at least {size} px")
+    sources = [layers]
     half = size // 2
     horizontal = [_random_sample(sources, size, rng) for _ in range(colours)]
     vertical = [_random_sample(sources, size, rng) for _ in range(colours)]
@@ -350,50 +354,51 @@ def build_tiles(
     boxes = {name: _bounding_box(triangle & ~core, margin=1) for name, (triangle, _) in geometry.items()}
     n_tiles = colours**4 * variants
     tiles = np.empty((n_tiles, size, size, layers.shape[2]), np.float32)
+    centres = np.empty((n_tiles, 2), np.float64)
+    interior = np.empty((n_tiles, size, size), np.float32)
     guidance = np.empty((n_tiles, size, size, 3), np.float32) if blend else None
     index = 0
-    with ThreadPoolExecutor(max_workers=min(len(sources), os.cpu_count() or 1)) as pool:
-        for n, e, s, w in itertools.product(range(colours), repeat=4):  # edge colours N, E, S, W
-            pieces = {
-                "N": np.roll(horizontal[n], -half, axis=0),  # the sample's lower half on top
-                "S": np.roll(horizontal[s], half, axis=0),
-                "W": np.roll(vertical[w], -half, axis=1),
-                "E": np.roll(vertical[e], half, axis=1),
-            }
-            frame = np.zeros_like(pieces["N"])
-            for name, piece in pieces.items():
-                frame[geometry[name][0]] = piece[geometry[name][0]]
-            made: list[tuple[float, int, np.ndarray, list[np.ndarray] | None, np.ndarray]] = []
-            for canvas in _matching_samples(index_of_samples, frame, 2 * variants, rng, pool):
-                seam = 0.0
-                stack = (
-                    [canvas[:, :, :3].copy()] + [pieces[name][:, :, :3] for name in EDGES] if blend else None
-                )  # the sources the blend's guidance reads
-                origin = np.zeros((size, size), np.intp)  # which of ``stack`` each pixel is
-                for number, name in enumerate(EDGES, start=1):
-                    triangle, strip = geometry[name]
-                    box = boxes[name]
-                    take = np.zeros((size, size), bool)
-                    take[box], cost = _graph_cut(
-                        canvas[box], pieces[name][box], keep=(~triangle | core)[box], take=(strip & triangle)[box]
-                    )
-                    canvas[take] = pieces[name][take]
-                    origin[take] = number
-                    seam += cost
-                grad = (
-                    np.abs(np.diff(canvas[:, :, :3], axis=0)).mean() + np.abs(np.diff(canvas[:, :, :3], axis=1)).mean()
+    for n, e, s, w in itertools.product(range(colours), repeat=4):  # edge colours N, E, S, W
+        pieces = {
+            "N": np.roll(horizontal[n], -half, axis=0),  # the sample's lower half on top
+            "S": np.roll(horizontal[s], half, axis=0),
+            "W": np.roll(vertical[w], -half, axis=1),
+            "E": np.roll(vertical[e], half, axis=1),
+        }
+        frame = np.zeros_like(pieces["N"])
+        for name, piece in pieces.items():
+            frame[geometry[name][0]] = piece[geometry[name][0]]
+        made: list[tuple[float, int, np.ndarray, list[np.ndarray] | None, np.ndarray, tuple[int, int]]] = []
+        for canvas, corner in _matching_samples(index_of_samples, frame, 2 * variants, rng):
+            seam = 0.0
+            stack = (
+                [canvas[:, :, :3].copy()] + [pieces[name][:, :, :3] for name in EDGES] if blend else None
+            )  # the sources the blend's guidance reads
+            origin = np.zeros((size, size), np.intp)  # which of ``stack`` each pixel is
+            for number, name in enumerate(EDGES, start=1):
+                triangle, strip = geometry[name]
+                box = boxes[name]
+                take = np.zeros((size, size), bool)
+                take[box], cost = _graph_cut(
+                    canvas[box], pieces[name][box], keep=(~triangle | core)[box], take=(strip & triangle)[box]
                 )
-                made.append((seam / (grad + 1e-6), len(made), canvas, stack, origin))  # relative seams
-            made.sort(key=lambda item: item[:2])  # content exchange: the best-fitting ones
-            for _, _, canvas, stack, origin in made[:variants]:
-                tiles[index] = canvas
-                if blend:
-                    assert guidance is not None and stack is not None  # both made when blending
-                    guidance[index] = _seam_guidance(canvas[:, :, :3], np.stack(stack), origin)
-                index += 1
+                canvas[take] = pieces[name][take]
+                origin[take] = number
+                seam += cost
+            grad = np.abs(np.diff(canvas[:, :, :3], axis=0)).mean() + np.abs(np.diff(canvas[:, :, :3], axis=1)).mean()
+            made.append((seam / (grad + 1e-6), len(made), canvas, stack, origin, corner))  # relative seams
+        made.sort(key=lambda item: item[:2])  # content exchange: the best-fitting ones
+        for _, _, canvas, stack, origin, corner in made[:variants]:
+            tiles[index] = canvas
+            centres[index] = (corner[0] + (size - 1) / 2, corner[1] + (size - 1) / 2)
+            interior[index] = _interior_weight(origin, edge_distance)
+            if blend:
+                assert guidance is not None and stack is not None  # both made when blending
+                guidance[index] = _seam_guidance(canvas[:, :, :3], np.stack(stack), origin)
+            index += 1
     if blend:
         assert guidance is not None  # made when blending
         for start in range(0, n_tiles, 64):  # bounded memory for large tiles
             part = slice(start, start + 64)
             tiles[part, :, :, :3] = poisson_blend(tiles[part, :, :, :3], guidance[part])
-    return tiles
+    return TileSet(tiles, centres, interior)

@@ -12,6 +12,8 @@ import typer
 from barkgen._shared.checks import parse_size
 from barkgen._shared.memory import parse_memory
 from barkgen.cli._common import (
+    FlowOption,
+    FlowScaleOption,
     MaxMemoryOption,
     OutputOption,
     QuietOption,
@@ -21,6 +23,7 @@ from barkgen.cli._common import (
     check_target,
     parse_pair,
     progress_bar,
+    read_fields,
     write_outputs,
 )
 
@@ -159,11 +162,14 @@ def synth_command(
             "--blend/--no-blend", help="Blend the tiles' seams in the gradient domain (--no-blend: graph cuts only)."
         ),
     ] = True,
+    flow: FlowOption = None,
+    flow_scale: FlowScaleOption = None,
     seed: SeedOption = 0,
     bits: Annotated[int, typer.Option("--bits", help="Bits per channel (8 or 16).")] = 8,
     max_memory: MaxMemoryOption = None,
 ) -> None:
-    """Synthesize a window of the unbounded bi-layer texture of a model."""
+    """Synthesize a window of the unbounded bi-layer texture of a model. Rotations, zooms and
+    the --flow/--flow-scale fields turn each tile's exchanged content as the window is made."""
     from barkgen.bilayer import Deformation, SynthesisOptions
     from barkgen.io import encode_png, read_bilayer_model
 
@@ -181,8 +187,9 @@ def synth_command(
         deformation=Deformation(rotate=rotate, scale=(lo, hi), keep_vertical=keep_vertical),
         max_memory=parse_memory(max_memory),
     )
+    fields = read_fields(flow, flow_scale)
     model = read_bilayer_model(model_path)
-    image = model.window(x, y, out_shape[1], out_shape[0], seed=seed, options=options)
+    image = model.window(x, y, out_shape[1], out_shape[0], seed=seed, options=options, **fields)
     image16 = (image * 65535.0 + 0.5).astype(np.uint16)
     write_outputs({output: encode_png(image16, bits=bits)})
 
