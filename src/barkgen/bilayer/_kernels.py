@@ -176,32 +176,84 @@ def _patch_jitter(ty, tx, seed, jitter):
     return angle, jitter[1] + (jitter[2] - jitter[1]) * v
 
 
-@njit(cache=True)
-def _deformed_texel(texel, tile, iy, ix, content, centre, alpha, cos_a, sin_a, inv_zoom):
+@njit(cache=True, inline="always")
+def _deformed_texel(texel, tiles, idx, iy, ix, content, centre_y, centre_x, alpha, cos_a, sin_a, inv_zoom):
     """The pixel ``(iy, ix)`` of a tile whose exchanged content is rotated and zoomed
     (guingo2017 §4) into ``texel``: the content is read from the exemplar's layers
     (``content``, bilinear, mirrored borders) about the sample's centre ``centre``, the
     rotation and zoom about the tile's centre, and blended over the tile's own pixel with
     the content's weight ``alpha`` there (1 inside the graph cuts, 0 on the Wang edges)."""
     h, w, n_ch = content.shape
-    half = 0.5 * (tile.shape[0] - 1)
+    half = 0.5 * (tiles.shape[1] - 1)
     dy = (iy - half) * inv_zoom
     dx = (ix - half) * inv_zoom
-    sy = centre[0] + dx * sin_a + dy * cos_a  # the content turned counter-clockwise on screen
-    sx = centre[1] + dx * cos_a - dy * sin_a
+    sy = centre_y + dx * sin_a + dy * cos_a  # the content turned counter-clockwise on screen
+    sx = centre_x + dx * cos_a - dy * sin_a
     fy = math.floor(sy)
     fx = math.floor(sx)
     ty = sy - fy
     tx = sx - fx
-    y0 = _mirror(np.int64(fy), h)
-    y1 = _mirror(np.int64(fy) + 1, h)
-    x0 = _mirror(np.int64(fx), w)
-    x1 = _mirror(np.int64(fx) + 1, w)
+    y0 = np.int64(fy)
+    x0 = np.int64(fx)
+    y1 = y0 + 1
+    x1 = x0 + 1
+    if y0 < 0 or y1 >= h or x0 < 0 or x1 >= w:  # mirrored only near the exemplar's borders
+        y0, y1 = _mirror(y0, h), _mirror(y1, h)
+        x0, x1 = _mirror(x0, w), _mirror(x1, w)
     for ch in range(n_ch):
         top = content[y0, x0, ch] * (1.0 - tx) + content[y0, x1, ch] * tx
         bottom = content[y1, x0, ch] * (1.0 - tx) + content[y1, x1, ch] * tx
         v = top * (1.0 - ty) + bottom * ty
-        texel[ch] = alpha * v + (1.0 - alpha) * tile[iy, ix, ch]
+        texel[ch] = v if alpha >= 1.0 else alpha * v + (1.0 - alpha) * tiles[idx, iy, ix, ch]
+
+
+@njit(cache=True)
+def _column_tables(x0, w, cell, wcell):
+    """Everything of the window that depends on the column alone: per column, its noise cell
+    and smooth position in it, its warp cell and position, and 1 / sqrt of the column part
+    of the noise weights' energy."""
+    col_cx = np.empty(w, np.int64)
+    col_fx = np.empty(w, np.float64)
+    col_cxw = np.empty(w, np.int64)
+    col_fxw = np.empty(w, np.float64)
+    col_nx = np.empty(w, np.float64)
+    for col in range(w):
+        gx = x0 + col
+        col_cx[col] = gx // cell
+        col_fx[col] = _smooth((gx - col_cx[col] * cell) / cell)
+        col_cxw[col] = gx // wcell
+        col_fxw[col] = _smooth((gx - col_cxw[col] * wcell) / wcell)
+        col_nx[col] = 1.0 / math.sqrt(col_fx[col] ** 2 + (1.0 - col_fx[col]) ** 2)
+    return col_cx, col_fx, col_cxw, col_fxw, col_nx
+
+
+@njit(cache=True)
+def _cell_rotation(ty, tx, seed, jitter, rotation):
+    """``rotation = (angle, zoom, cos, sin)`` of tile cell ``(ty, tx)``'s content."""
+    angle, zoom = _patch_jitter(ty, tx, seed, jitter)
+    rotation[0] = angle
+    rotation[1] = zoom
+    rotation[2] = math.cos(math.radians(angle))
+    rotation[3] = math.sin(math.radians(angle))
+
+
+@njit(cache=True, inline="always")
+def _deformed_content(texel, tiles, idx, iy, ix, deform, rotation, r, col, alpha):
+    """The structure and masks of one pixel of a deformed cell's content into ``texel``:
+    the content turned by the cell's ``rotation`` and the fields at window pixel
+    ``(r, col)``, blended over the tile's pixel with weight ``alpha`` (see
+    :func:`render_window`)."""
+    content, centres, _, _, angle_field, zoom_field = deform
+    cos_a = rotation[2]
+    sin_a = rotation[3]
+    if angle_field.shape[0] > 0:  # the field varies per pixel
+        rad = math.radians(rotation[0] + angle_field[r, col])
+        cos_a = math.cos(rad)
+        sin_a = math.sin(rad)
+    zoom = rotation[1] * zoom_field[r, col] if zoom_field.shape[0] > 0 else rotation[1]
+    _deformed_texel(
+        texel, tiles, idx, iy, ix, content, centres[idx, 0], centres[idx, 1], alpha, cos_a, sin_a, 1.0 / zoom
+    )
 
 
 @njit(parallel=True, cache=True)
@@ -239,10 +291,8 @@ def render_window(y0, x0, out, layers, tiles, lattice, noise, deform):
     structure_out, noise_out = layers
     colours, variants, seed, warp = lattice
     noise_tiles, cell, bases, means, quantiles, sigmas = noise
-    content, centres, interior, jitter, angle_field, zoom_field = deform
+    interior, jitter = deform[2], deform[3]
     deformed = jitter[4] > 0
-    has_angle = angle_field.shape[0] == out.shape[0] and angle_field.shape[1] == out.shape[1]
-    has_zoom = zoom_field.shape[0] == out.shape[0] and zoom_field.shape[1] == out.shape[1]
     h, w, _ = out.shape
     n_tiles, size, _, n_ch = tiles.shape
     k_noise, n_pc, period, _ = noise_tiles.shape
@@ -252,30 +302,15 @@ def render_window(y0, x0, out, layers, tiles, lattice, noise, deform):
     want_noise = noise_out.shape[0] == h and noise_out.shape[1] == w
     ucol = np.uint64(colours)
     wcell = 2 * size
-    # everything that depends on the column alone, once per window
-    col_cx = np.empty(w, np.int64)
-    col_fx = np.empty(w, np.float64)
-    col_cxw = np.empty(w, np.int64)
-    col_fxw = np.empty(w, np.float64)
-    col_nx = np.empty(w, np.float64)  # 1 / sqrt of the column part of the weights' energy
-    for col in range(w):
-        gx = x0 + col
-        col_cx[col] = gx // cell
-        col_fx[col] = _smooth((gx - col_cx[col] * cell) / cell)
-        col_cxw[col] = gx // wcell
-        col_fxw[col] = _smooth((gx - col_cxw[col] * wcell) / wcell)
-        col_nx[col] = 1.0 / math.sqrt(col_fx[col] ** 2 + (1.0 - col_fx[col]) ** 2)
+    col_cx, col_fx, col_cxw, col_fxw, col_nx = _column_tables(x0, w, cell, wcell)
     for r in prange(h):
         gy = y0 + r
         cy = gy // cell
         fy = _smooth((gy - cy * cell) / cell)
         nvals = np.empty((k_noise, n_pc), np.float64)
         colour = np.empty(3, np.float64)
-        texel = np.empty(n_ch, np.float64)
-        cell_angle = 0.0
-        cell_zoom = 1.0
-        cell_cos = 1.0
-        cell_sin = 0.0
+        deformed_texel = np.empty(n_ch, np.float32)
+        rotation = np.array([0.0, 1.0, 1.0, 0.0])  # the cell's content: angle, zoom, cos, sin
         offy = np.empty(4, np.int64)
         offx = np.empty(4, np.int64)
         wy = np.empty(4, np.float64)
@@ -324,22 +359,12 @@ def render_window(y0, x0, out, layers, tiles, lattice, noise, deform):
             if moved:  # a new tile: its edge colours and content variant
                 idx = _tile_index(ty, tx, seed, ucol, variants)
                 if deformed:
-                    cell_angle, cell_zoom = _patch_jitter(ty, tx, seed, jitter)
-                    cell_cos = math.cos(math.radians(cell_angle))
-                    cell_sin = math.sin(math.radians(cell_angle))
+                    _cell_rotation(ty, tx, seed, jitter, rotation)
+            texel = tiles[idx, iy, ix]  # the tile's pixel, or its deformed content's
             alpha = interior[idx, iy, ix] if deformed else 0.0
             if alpha > 0.0:
-                cos_a = cell_cos
-                sin_a = cell_sin
-                if has_angle:  # the field varies per pixel
-                    rad = math.radians(cell_angle + angle_field[r, col])
-                    cos_a = math.cos(rad)
-                    sin_a = math.sin(rad)
-                zoom = cell_zoom * zoom_field[r, col] if has_zoom else cell_zoom
-                _deformed_texel(texel, tiles[idx], iy, ix, content, centres[idx], alpha, cos_a, sin_a, 1.0 / zoom)
-            else:
-                for ch in range(n_ch):
-                    texel[ch] = tiles[idx, iy, ix, ch]
+                texel = deformed_texel
+                _deformed_content(texel, tiles, idx, iy, ix, deform, rotation, r, col, alpha)
             cx = col_cx[col]
             if cx != cx_cur:  # a new noise cell: the offsets of its four corners
                 cx_cur = cx

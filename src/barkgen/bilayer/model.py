@@ -191,13 +191,17 @@ class BilayerModel:
             # deformations are applied per patch by the window: one tile set serves them all
             tiling = (int(seed), options.tile_size, options.colours, options.variants, options.blend)
             known = [s.tile_set for (s_seed, o), s in self._cache.items() if (s_seed, *_tiling(o)) == tiling]
-            tile_set = known[0] if known else build_tiles(
-                layers,
-                np.random.default_rng(tiles_seq),
-                size=size,
-                colours=options.colours,
-                variants=options.variants,
-                blend=options.blend,
+            tile_set = (
+                known[0]
+                if known
+                else build_tiles(
+                    layers,
+                    np.random.default_rng(tiles_seq),
+                    size=size,
+                    colours=options.colours,
+                    variants=options.variants,
+                    blend=options.blend,
+                )
             )
             period = max(NOISE_TILE, 1 << (2 * self.noise.spectra.shape[2] - 1).bit_length())  # a power of two
             hash_seed = int(hash_seq.generate_state(1, np.uint64)[0] >> np.uint64(1))
