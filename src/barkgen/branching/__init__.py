@@ -8,9 +8,18 @@
   growth (§4) with merges;
 - :mod:`~barkgen.branching.render`: fragment-based image synthesis (§5) with the gaps filled by
   the core engine;
-- :mod:`~barkgen.branching.stats`: the Fig. 7 evaluation as numbers and a plot.
+- :mod:`~barkgen.branching.stats`: the Fig. 7 evaluation as numbers and a plot;
+- :mod:`~barkgen.branching.edit`: the user's edits of §6 (extend a branch, add a furcation,
+  delete a sub-branch) and a photo's perspective rectified before extraction (Fig. 8).
 """
 
+from barkgen.branching.edit import (
+    add_furcation,
+    delete_branch,
+    extend_branch,
+    nearest_branch,
+    rectify_perspective,
+)
 from barkgen.branching.extract import extract_structure, overlay_structure
 from barkgen.branching.grow import grow_structure
 from barkgen.branching.growth_options import GrowOptions, check_grow_size, estimate_grow_memory
@@ -42,16 +51,21 @@ __all__ = [
     "RenderResult",
     "Structure",
     "StructureComparison",
+    "add_furcation",
     "check_grow_size",
     "compare_structures",
     "comparison_plot",
     "crack_mask",
+    "delete_branch",
     "estimate_grow_memory",
+    "extend_branch",
     "extract_structure",
     "fit_model",
     "grow_structure",
+    "nearest_branch",
     "overlay_structure",
     "rasterize",
+    "rectify_perspective",
     "render_branches",
     "resample_polyline",
     "self_intersections",

@@ -37,6 +37,7 @@ from barkgen.pipeline.variants import Exemplar, add_noise, bilayer_layers, prepa
 from barkgen.synth import resolve_exemplar_wrap
 
 if TYPE_CHECKING:
+    from barkgen.branching import Structure
     from barkgen.io import ScannedSet
     from barkgen.material import HeightEdit, MaterialSet
     from barkgen.synth import AnalysisCache, OutputLinks
@@ -224,6 +225,7 @@ def analyze_photo(
     progress: ProgressCallback | None = None,
     scan: ScannedSet | None = None,
     solvers: bool = True,
+    cracks: Structure | None = None,
 ) -> PhotoAnalysis:
     """The per-photo part of :func:`generate`; the seed plays no part.
 
@@ -252,6 +254,10 @@ def analyze_photo(
     solvers : bool, default True
         Analyse the photo for the solvers too (not for a run along a flow field, whose solvers
         analyse the photo's turned copies).
+    cracks : Structure, optional
+        With ``structure="cracks"``, the photo's crack network as the user edited it
+        (:mod:`barkgen.branching.edit`, sibbing2010 §6): the model is learned from it instead
+        of from the network extracted from the photo. Of the photo's size.
 
     Returns
     -------
@@ -299,7 +305,7 @@ def analyze_photo(
             raise InvalidInputError("a bi-layer texture's material set is its structure layer's: give no scanned set")
         # (a bi-layer analysis, the longest step of its run, reports within the label map's share)
         within = None if progress is None else _within(progress, steps["labels"][1])
-        exemplar = prepare_exemplar(photo, options, labels_in, ANALYSIS_SEED, within)
+        exemplar = prepare_exemplar(photo, options, labels_in, ANALYSIS_SEED, within, cracks)
         photo, labels_in = exemplar.image, exemplar.labels_in
         if labels_in is None:
             regions = color_regions if options.method == "color" else texton_regions
@@ -365,6 +371,7 @@ def generate(
     flow_scale: np.ndarray | None = None,
     links: OutputLinks | None = None,
     edits: Iterable[HeightEdit] = (),
+    cracks: Structure | None = None,
 ) -> GenerateResult:
     """Turn a bark photo into new bark of ``options.size`` (laitoch2018 Figure 1.2).
 
@@ -402,6 +409,9 @@ def generate(
     edits : iterable of HeightEdit, default ()
         Height edits on the output's relief, in its pixels, replayed on its material set
         (wang2003 §3.3; :func:`barkgen.material.edit_material`; needs ``options.material``).
+    cracks : Structure, optional
+        The photo's crack network to learn from, edited by the user (:func:`analyze_photo`;
+        give it there when an ``analysis`` is given).
 
     Returns
     -------
@@ -426,9 +436,12 @@ def generate(
             scan=scan,
             # along a field the solvers analyse the photo's turned copies, not the photo
             solvers=flow is None and flow_scale is None,
+            cracks=cracks,
         )
     else:
         _check_analysis(analysis, photo, options, labels_in)
+        if cracks is not None:
+            raise InvalidInputError("give the crack network to analyze_photo, not with an analysis")
     labels_in = analysis.labels_in
     t1 = time.perf_counter()
     timings["analysis"] = analysis.seconds
@@ -493,6 +506,8 @@ def generate(
     texture, layers, material = _finished(result, material, exemplar, options, edits, label_result.label_map)
     report = run_report(photo, options, wrap, labels_in, label_result, result, material, timings)
     report["height_edits"] = len(edits)
+    if exemplar is not None and exemplar.cracks is not None:  # what the crack model learned from
+        report["crack_model"] = dict(exemplar.cracks.meta)
     return GenerateResult(
         texture=texture,
         labels_in=tbn_in,

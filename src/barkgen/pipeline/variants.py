@@ -62,17 +62,22 @@ def prepare_exemplar(
     labels_in: np.ndarray | None,
     seed: int = 0,
     progress: ProgressCallback | None = None,
+    cracks: Any = None,
 ) -> Exemplar:
     """The variant's exemplar of the photo (:class:`Exemplar`), made once per photo; ``seed``:
     the photo's analysis' own (the bi-layer clusters'), not a variant's; ``progress``: the
-    bi-layer analysis' ``(done, total)``.
+    bi-layer analysis' ``(done, total)``; ``cracks``: the photo's crack network as the user
+    edited it (a :class:`~barkgen.branching.Structure` of the photo's size, sibbing2010 §6),
+    learned from instead of the one extracted.
 
     Raises
     ------
     InvalidInputError
-        A label map with a bi-layer texture (its labels are its noise clusters), or a photo in
-        which no crack is found.
+        A label map with a bi-layer texture (its labels are its noise clusters), a photo in
+        which no crack is found, or a crack network for another variant or another size.
     """
+    if cracks is not None:
+        _check_cracks(cracks, photo, options)
     if options.model == "bilayer":
         if labels_in is not None:
             raise InvalidInputError("a bi-layer texture's labels are its noise clusters: give no label map")
@@ -81,9 +86,25 @@ def prepare_exemplar(
         from barkgen.branching import extract_structure, fit_model, rasterize
 
         # a user's label map: its darkest label in the photo is the cracks (extract_structure)
-        source = extract_structure(photo, labels_in)
+        source = cracks if cracks is not None else extract_structure(photo, labels_in)
         return Exemplar(photo, crack_labels(rasterize(source, np.shape(photo)[:2])), cracks=fit_model(source))
     return Exemplar(photo, labels_in)
+
+
+def _check_cracks(cracks: Any, photo: np.ndarray, options: GenerateOptions) -> None:
+    """A given crack network goes with ``structure="cracks"`` and the photo's size."""
+    from barkgen.branching import Structure
+
+    if options.structure != "cracks" or options.model == "bilayer":
+        raise InvalidInputError("a crack network is learned from with structure='cracks' only")
+    if not isinstance(cracks, Structure):
+        raise InvalidInputError(f"the crack network must be a barkgen.branching.Structure, got {type(cracks).__name__}")
+    h, w = np.shape(photo)[:2]
+    if tuple(cracks.size) != (w, h):
+        raise InvalidInputError(
+            f"the crack network is of a {cracks.width}x{cracks.height} px image but the photo is {w}x{h} px"
+        )
+    cracks.validate("the crack network")
 
 
 def _bilayer_exemplar(photo: np.ndarray, options: GenerateOptions, seed: int, progress=None) -> Exemplar:

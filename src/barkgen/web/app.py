@@ -1,11 +1,12 @@
 """The web app (FastAPI): the exemplar library as pages, one-click generation with progress,
 the result with its maps on a WebGL trunk, a label painter to steer the large-scale pattern
-(laitoch2018 §1), a relief editor (wang2003 §3.3) and the material set as a zip.
+(laitoch2018 §1), a relief editor (wang2003 §3.3), a crack view to edit the crack network a
+crack job learns from and rectify the photo (sibbing2010 §6) and the material set as a zip.
 
 The pages (``static/*.html``, plain JavaScript) drive the JSON API, which scripts can use too
 (docs, "Web app and library"). This module builds the app: its state (:class:`~.state.AppState`), its
 middleware (:mod:`.middleware`), the one place barkgen's errors become HTTP codes, and the
-routers of :mod:`.routes_pages`, :mod:`.routes_exemplars`, :mod:`.routes_jobs`,
+routers of :mod:`.routes_pages`, :mod:`.routes_exemplars`, :mod:`.routes_cracks`, :mod:`.routes_jobs`,
 :mod:`.routes_results` and :mod:`.relief`, whose endpoints wrap plain functions. The app adds no algorithm: it
 calls :mod:`barkgen.library`, :func:`barkgen.pipeline.generate` (in :mod:`.jobs`' worker
 process) and :mod:`barkgen.io`.
@@ -27,6 +28,7 @@ from barkgen.library import Library, NotFoundError
 from barkgen.web.jobs import JobManager, QueueFullError
 from barkgen.web.middleware import BodyLimit, BodyTooLarge, SameOrigin
 from barkgen.web.relief import router as relief_routes
+from barkgen.web.routes_cracks import router as crack_routes
 from barkgen.web.routes_exemplars import router as exemplar_routes
 from barkgen.web.routes_jobs import router as job_routes
 from barkgen.web.routes_pages import router as page_routes
@@ -116,7 +118,7 @@ def create_app(
         app.add_exception_handler(error, _answer_error(status))
     app.add_exception_handler(RequestValidationError, _answer_invalid_request)
 
-    for router in (page_routes, exemplar_routes, job_routes, result_routes, relief_routes):
+    for router in (page_routes, exemplar_routes, crack_routes, job_routes, result_routes, relief_routes):
         app.include_router(router)
     return app
 

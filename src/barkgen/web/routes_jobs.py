@@ -1,6 +1,6 @@
 """The web app's jobs: a generate request checked and queued (:func:`start_job`), optionally
 continuing a result from a label-map level the user painted (the large-scale pattern steered
-by hand, laitoch2018 §1), then followed (its JSON, or server-sent events) and cancelled.
+by hand, laitoch2018 §1) or learning a crack network the user edited (sibbing2010 §6), then followed (its JSON, or server-sent events) and cancelled.
 
 Each endpoint wraps a plain function of the same module that takes the app's
 :class:`~barkgen.web.state.AppState`; they raise barkgen's errors, which :mod:`barkgen.web.app`
@@ -34,6 +34,7 @@ from barkgen.library import NotFoundError
 from barkgen.material.presets import PRESETS
 from barkgen.pipeline import GenerateOptions
 from barkgen.web.jobs import FINISHED
+from barkgen.web.routes_cracks import checked_structure
 from barkgen.web.state import WEB_K, AppState, State, WebLimits, labels_key, name_slug
 
 router = APIRouter()
@@ -66,6 +67,14 @@ def job_request_model(options_class: type = GenerateOptions) -> type[BaseModel]:
         "resume": (ResumeRequest | None, None),
         "relief_edits": (ReliefSaveRequest | None, None),
         "preset": (Literal[PRESETS], Field(default="ambientcg", description="The material set's file layout.")),
+        "crack_structure": (
+            dict | None,
+            Field(
+                default=None,
+                description="With structure 'cracks': the photo's crack network as edited in the crack view "
+                "(structure JSON of the photo's size), learned from instead of the extracted one.",
+            ),
+        ),
     }
     for f in option_fields(options_class, "web"):
         default = WEB_DEFAULTS.get(f.name, f.default_text)
@@ -223,6 +232,12 @@ def start_job(state: AppState, request: JobRequest) -> dict:
     grey = library.analysis(exemplar.id, "labels_in", key) if plain else None
     if request.preset != "ambientcg":
         params["preset"] = request.preset
+    cracks = None
+    if request.crack_structure is not None:
+        if options.structure != "cracks":
+            raise InvalidInputError("crack_structure goes with structure 'cracks' only")
+        cracks = checked_structure(state, exemplar.id, request.crack_structure).to_dict()
+        params["crack_structure"] = {"edited": True, "branches": len(cracks["branches"])}
     spec = {
         "source": exemplar.name,
         "set_name": f"{name_slug(exemplar.name)}_seed{seed}",
@@ -231,6 +246,7 @@ def start_job(state: AppState, request: JobRequest) -> dict:
         "resume": resume,
         "preset": request.preset,
         "edits": edits,
+        "crack_structure": cracks,
     }
     job = state.jobs.submit(
         exemplar.id,

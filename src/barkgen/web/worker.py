@@ -72,6 +72,9 @@ class JobSpec:
     preset: str = "ambientcg"
     #: height edits replayed on the result's relief (the items of their JSON list)
     edits: list[dict] | None = None
+    #: the photo's crack network as the user edited it (structure JSON), learned from instead
+    #: of the extracted one (``structure="cracks"``, sibbing2010 §6)
+    crack_structure: dict | None = None
 
 
 @dataclass(frozen=True)
@@ -144,6 +147,20 @@ def encode_result(photo: np.ndarray, result, spec: JobSpec) -> dict[str, bytes]:
     return files
 
 
+def _edited_cracks(data: dict | None):
+    """An edited crack network's :class:`~barkgen.branching.Structure` and a digest of it (the
+    analysis it makes is kept under it); ``(None, None)`` without one."""
+    if not data:
+        return None, None
+    import hashlib
+    import json
+
+    from barkgen.branching import Structure
+
+    digest = hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()
+    return Structure.from_dict(data, "crack_structure"), digest
+
+
 def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
     """Run one job, reporting through ``send(message)``: :class:`Progress` messages, then
     :class:`Done` or :class:`Failed`."""
@@ -172,12 +189,14 @@ def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
     try:
         photo = decode_image(spec.photo, spec.source)
         options = GenerateOptions(**spec.options)
+        cracks, digest = _edited_cracks(spec.crack_structure)
         labels_in = decode_image(spec.labels_in, "labels") if spec.labels_in is not None else None
         # a scanned set's own maps make the material set (without material: the colour alone)
         scan = None
         if spec.set_files and options.material:
             scan = scanned_set_from_files(spec.set_files, where=spec.source)
-        key = (spec.photo_hash, scan is not None, analysis_key(options))
+        # an edited crack network is another analysis of the same photo
+        key = (spec.photo_hash, scan is not None, analysis_key(options), digest)
         analysis = analyses.get(key)
         if analysis is None:
             # generate() given an analysis reports from the end of its analysis stage on
@@ -188,6 +207,7 @@ def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
                 labels_in=labels_in,
                 progress=lambda done, total: progress(round(1000 * share * done / max(total, 1)), 1000),
                 scan=scan,
+                cracks=cracks,
             )
             analyses[key] = analysis
             while len(analyses) > ANALYSES_KEPT:

@@ -178,7 +178,7 @@ export function describeParams(params) {
   if (size) parts.push(size);
   if (params.k !== undefined && params.k !== null) parts.push(`k=${params.k}`);
   if (params.seed !== undefined && params.seed !== null) parts.push(`seed ${params.seed}`);
-  if (params.structure === "cracks") parts.push("cracks");
+  if (params.structure === "cracks") parts.push(params.crack_structure ? "edited cracks" : "cracks");
   if (params.model === "bilayer") parts.push("bi-layer");
   if (params.tile) parts.push("tileable");
   if (params.material) parts.push("material");

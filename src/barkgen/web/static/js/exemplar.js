@@ -1,7 +1,9 @@
-// Exemplar page: the photo, its label map for the chosen k, the parameter
-// form, the job panel and the earlier results of this photo.
+// Exemplar page: the photo, its label map for the chosen k (or, for cracks, the crack view:
+// the photo's crack network to edit), the parameter form, the job panel and the earlier
+// results of this photo.
 
 import { api, el, idFromPath, showError, formatDate, describeParams } from "./api.js";
+import { crackViewIn } from "./crackview.js";
 import { jobPanelIn, jobIdFromUrl } from "./jobs.js";
 
 const $ = (testid) => document.querySelector(`[data-testid="${testid}"]`);
@@ -22,6 +24,8 @@ let kinds = null;
 const LABEL_POLL_MS = 300;
 
 const exemplarId = idFromPath();
+/** The crack view (shown for the kind "cracks"). */
+const cracks = exemplarId === null ? null : crackViewIn($("crack-view"), exemplarId);
 
 /** A random seed in 0..99999. */
 const randomSeed = () => Math.floor(Math.random() * 100000);
@@ -65,6 +69,7 @@ function renderExemplar(ex) {
   const photo = $("exemplar-photo");
   photo.src = ex.photo_url;
   photo.alt = `Bark photo: ${name}`;
+  $("crack-photo").src = ex.photo_url;
   renderResults(ex.results || []);
 }
 
@@ -208,6 +213,12 @@ function updateKind() {
   const known = kinds && kinds[kind];
   $("param-kind-hint").textContent = known ? known.why : "";
   const labels = kind === "labels";
+  // the crack view takes the place of the photo and its label map
+  const crackView = kind === "cracks" && cracks !== null;
+  $("crack-view").hidden = !crackView;
+  $("photo-figure").hidden = crackView;
+  $("labels-figure").hidden = crackView;
+  if (crackView) cracks.show();
   $("param-k").disabled = kind === "cracks";
   $("param-method").disabled = !labels;
   $("param-strategy").disabled = !labels;
@@ -276,6 +287,8 @@ function readParams() {
     ...KINDS[kind],
   };
   if (material) body.relief = Number($("param-relief").value);
+  // the crack network as edited in the crack view is what the job learns from
+  if (kind === "cracks" && cracks && cracks.edited()) body.crack_structure = cracks.structure();
   return body;
 }
 
