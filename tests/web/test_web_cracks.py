@@ -5,12 +5,11 @@ corners into a new exemplar, and a cracks job that learns from the edited networ
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 from conftest import SHARED, _need_shared
 from fastapi.testclient import TestClient
+from test_web_api import _wait
 
 from barkgen.branching import Structure, delete_branch
 from barkgen.io import decode_image, encode_png
@@ -18,16 +17,6 @@ from barkgen.library import Library
 from barkgen.web import create_app
 
 JOB = {"size": "96x80", "k": 2, "tile": True, "material": False, "seed": 5, "structure": "cracks"}
-
-
-def _wait(client, job_id: str, timeout: float = 240) -> dict:
-    deadline = time.monotonic() + timeout
-    while True:
-        job = client.get(f"/api/jobs/{job_id}").json()
-        if job["state"] in ("done", "failed", "cancelled"):
-            return job
-        assert time.monotonic() < deadline, job
-        time.sleep(0.1)
 
 
 def _one_line(r, *statuses: int) -> str:
@@ -188,7 +177,7 @@ def test_a_cracks_job_learns_from_the_edited_network(client, library, mud):
     for name, extra in (("whole", {}), ("edited", {"crack_structure": pruned.to_dict()})):
         r = client.post("/api/jobs", json={"exemplar_id": mud, **JOB, **extra})
         assert r.status_code == 201, r.text
-        job = _wait(client, r.json()["id"])
+        job = _wait(client, r.json()["id"], timeout=240)
         assert job["state"] == "done", job
         results[name] = job["result_id"]
     reports = {k: client.get(f"/api/results/{v}/files/report.json").json() for k, v in results.items()}
