@@ -165,7 +165,7 @@ def _mirror(i, n):
 @njit(cache=True)
 def _patch_jitter(ty, tx, seed, jitter):
     """The random rotation (degrees) and zoom of the content of tile cell ``(ty, tx)``: hashes
-    of the cell drawn uniformly from ``jitter = (rotate, zoom_lo, zoom_hi, keep_vertical)``,
+    of the cell drawn uniformly from ``jitter = (rotate, zoom_lo, zoom_hi, keep_vertical, _)``,
     half of the upright ones turned by 180°."""
     hv = lattice_hash(ty, tx, 6, seed)
     u = (hv & np.uint64(0xFFFFFF)) / 16777215.0
@@ -180,7 +180,7 @@ def _patch_jitter(ty, tx, seed, jitter):
 def _deformed_texel(texel, tiles, idx, iy, ix, content, centre_y, centre_x, alpha, cos_a, sin_a, inv_zoom):
     """The pixel ``(iy, ix)`` of a tile whose exchanged content is rotated and zoomed
     (guingo2017 §4) into ``texel``: the content is read from the exemplar's layers
-    (``content``, bilinear, mirrored borders) about the sample's centre ``centre``, the
+    (``content``, bilinear, mirrored borders) about the sample's centre ``(centre_y, centre_x)``, the
     rotation and zoom about the tile's centre, and blended over the tile's own pixel with
     the content's weight ``alpha`` there (1 inside the graph cuts, 0 on the Wang edges)."""
     h, w, n_ch = content.shape
