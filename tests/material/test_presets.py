@@ -32,6 +32,7 @@ def small_set(metalness: bool = False, opacity: bool = False) -> MaterialSet:
         roughness=rng.random((h, w), dtype=np.float32),
         metalness=rng.random((h, w), dtype=np.float32) if metalness else None,
         opacity=rng.random((h, w), dtype=np.float32) if opacity else None,
+        pixel_size_m=0.01,
     )
 
 
@@ -116,7 +117,7 @@ def test_the_blender_preset_writes_materialx_that_validates(sets):
     valid, message = doc.validate()
     assert valid, message
     scale = float(doc.getNode("DS_bark").getInputValue("scale"))
-    assert scale == pytest.approx(material.depth / material.shape[1], rel=1e-5)
+    assert scale == pytest.approx(material.physical_size()["displacement_depth_m"], rel=1e-5)
     midlevel = float(doc.getNodeGraph("NG_bark").getNode("displacement_centred").getInputValue("in2"))
     assert midlevel == pytest.approx(material.midlevel, rel=1e-5)
     wired = {i.getAttribute("value") for i in doc.traverseTree() if i.getName() == "file"}

@@ -454,6 +454,14 @@ ReliefOption = Annotated[
         "2 doubles its depth and its slopes; normals and AO follow).",
     ),
 ]
+WidthMOption = Annotated[
+    Optional[float],
+    typer.Option(
+        "--width-m",
+        help="The set's real-world width in metres: its displacement's depth is given in metres "
+        "(NAME.json, NAME.mtlx, the Blender set-up). Default: the photo is assumed 0.5 m wide.",
+    ),
+]
 LightOption = Annotated[
     Optional[str],
     typer.Option(

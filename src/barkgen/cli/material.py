@@ -23,6 +23,7 @@ from barkgen.cli._common import (
     QuietOption,
     ReliefOption,
     SeedOption,
+    WidthMOption,
     check_file_name,
     check_folder,
     check_target,
@@ -47,6 +48,7 @@ def material_command(
     k: Annotated[int, typer.Option("--k", help="Labels of the structure cue (1-16).")] = 3,
     light: LightOption = None,
     relief: ReliefOption = 1.0,
+    width_m: WidthMOption = None,
     edits: EditsOption = None,
     exemplar_wraps: ExemplarWrapsOption = "auto",
     tile: Annotated[
@@ -76,6 +78,7 @@ def material_command(
         light=parse_light(light),
         seed=seed,
         relief=relief,
+        width_m=width_m,
         exemplar_wrap="yes" if tile else exemplar_wraps,
         max_memory=parse_memory(max_memory),
     )
@@ -104,7 +107,8 @@ def material_command(
         assert lt is not None  # make_material sets the light it used
         typer.echo(
             f"wrote {output_dir}/{name}_*.png ({w}x{h}; light {lt.azimuth:g},{lt.elevation:g}; "
-            f"depth {material.depth:.1f} px{_wrap_note(material.wraps)}) in {time.perf_counter() - start:.1f} s",
+            f"depth {material.depth:.1f} px = {1000 * material.physical_size()['displacement_depth_m']:.1f} mm"
+            f"{_wrap_note(material.wraps)}) in {time.perf_counter() - start:.1f} s",
             err=True,
         )
 

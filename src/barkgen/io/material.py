@@ -155,7 +155,10 @@ def _mtlx(material, name: str, images: dict) -> bytes:
         "opacity": "Opacity",
     }
     files = {key: f"{name}_{suffix}.png" for key, suffix in suffixes.items() if f"{name}_{suffix}.png" in images}
-    return encode_mtlx(name, files, depth=material.depth / material.shape[1], midlevel=material.midlevel)
+    # in metres on a surface as wide as the set where its real-world size is known (else in
+    # texture widths: a surface one unit wide per repeat)
+    depth = material.physical_size().get("displacement_depth_m", material.depth / material.shape[1])
+    return encode_mtlx(name, files, depth=depth, midlevel=material.midlevel)
 
 
 def find_material(folder: str | os.PathLike) -> tuple[str, dict]:
@@ -273,4 +276,10 @@ def read_material(folder: str | os.PathLike):
         roughness=_unit(maps["Roughness"][..., 0]),
         tile=tileable,
     )
+    if "width_m" in meta:  # (a set written before the real-world size has none)
+        width_m = _record_number(meta, "width_m", where)
+        if width_m <= 0:
+            raise InvalidInputError(f"{where}: 'width_m' must be > 0")
+        material.pixel_size_m = width_m / material.shape[1]
+        material.size_given = meta.get("real_size") == "given"
     return material, meta

@@ -4,8 +4,8 @@
 One ``standard_surface`` fed by a node graph of the set's images — the colour in sRGB, the data
 maps raw, the OpenGL normal map through a ``normalmap`` node — and a ``displacement`` shader
 whose input is the displacement re-centred on its midlevel and whose scale is the depth in
-texture widths (``displacement_depth_px / width``), so a renderer displaces by as much as the
-set's normals slope.
+metres (``displacement_depth_m`` of ``NAME.json``) on a surface as wide as the set's real-world
+width (``width_m``), so a renderer displaces by as much as the set's normals slope.
 """
 
 from __future__ import annotations
@@ -25,8 +25,8 @@ def _materialx():
 def build_mtlx(name: str, files: dict[str, str], *, depth: float, midlevel: float):
     """The MaterialX document (a ``MaterialX.Document``) of a set whose maps are the files
     ``files`` (``color``, ``normal``, ``roughness``, ``displacement``, optional ``metalness``
-    and ``opacity`` -> file name), displacement ``depth`` in texture widths, ``midlevel`` in
-    [0, 1]."""
+    and ``opacity`` -> file name), displacement ``depth`` in the surface's units (metres on a
+    surface as wide as the set's ``width_m``), ``midlevel`` in [0, 1]."""
     mx = _materialx()
     doc = mx.createDocument()
     graph = doc.addNodeGraph(f"NG_{name}")

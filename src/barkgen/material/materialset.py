@@ -38,6 +38,24 @@ from barkgen.material.maps import (
 )
 from barkgen.material.shading import Light, estimate_light, remove_shading, shading_confidence, with_shading_height
 
+#: the real-world width of a bark photo when nobody says it (a close-up of a trunk: fissures
+#: and plates a few centimetres apart, a few dozen of them across the frame)
+ASSUMED_PHOTO_WIDTH_M = 0.5
+#: the widths a set may be said to have, in metres
+WIDTH_M_RANGE = (1e-3, 1e3)
+
+
+def check_width_m(width_m: float | None) -> float | None:
+    """A set's real-world width in metres (``None``: assumed), within :data:`WIDTH_M_RANGE`."""
+    if width_m is None:
+        return None
+    lo, hi = WIDTH_M_RANGE
+    if isinstance(width_m, bool) or not isinstance(width_m, (int, float, np.floating, np.integer)):
+        raise InvalidInputError(f"the width in metres must be a number, not {width_m!r}")
+    if not (np.isfinite(width_m) and lo <= width_m <= hi):
+        raise InvalidInputError(f"the width in metres must be in [{lo:g}, {hi:g}], not {width_m:g}")
+    return float(width_m)
+
 
 @dataclass(frozen=True)
 class MaterialOptions:
@@ -65,6 +83,10 @@ class MaterialOptions:
         ``no``/``False`` neither, or ``(rows, columns)``.
     seed : int, default 0
         Seeds the label map's k-means.
+    width_m : float, optional
+        The photo's real-world width in metres: the set's pixels are ``width_m / w`` metres
+        wide, and its displacement's depth is stated in metres (``None``: the photo is
+        assumed :data:`ASSUMED_PHOTO_WIDTH_M` wide, and ``NAME.json`` says so).
     max_memory : int, optional
         Refuse a photo whose material set is estimated (:func:`estimate_material_memory`) to
         need more than this many bytes, before any work (None: what the machine has free).
@@ -83,6 +105,7 @@ class MaterialOptions:
     cavities: float = CAVITY_WEIGHT
     exemplar_wrap: str | bool | tuple[bool, bool] = "auto"
     seed: int = 0
+    width_m: float | None = None
     max_memory: int | None = None
 
     def __post_init__(self) -> None:
@@ -93,6 +116,7 @@ class MaterialOptions:
         check_k(self.k)
         check_seed(self.seed)
         check_budget_value(self.max_memory)
+        check_width_m(self.width_m)
         if not (np.isfinite(self.relief) and 0 < self.relief <= 100):
             raise InvalidInputError(f"relief must be in (0, 100], not {self.relief:g}")
         if not 1 <= self.ao_radius <= 256:
@@ -139,6 +163,11 @@ class MaterialSet:
         Bits per channel of a map's file (``color``, ``normals``, ``roughness``, ``ao``,
         ``metalness``, ``opacity``) where it is 16: a 16-bit scan's maps stay 16-bit. The
         displacement is always 16-bit.
+    pixel_size_m : float or None
+        The real-world size of a pixel in metres (``None``: unknown), which gives the set's
+        width and its displacement's depth in metres.
+    size_given : bool
+        ``pixel_size_m`` is the user's (a width in metres was given), not assumed.
     shape : tuple of int
         ``(h, w)``.
     depth : float
@@ -166,6 +195,8 @@ class MaterialSet:
     opacity: np.ndarray | None = None
     scanned: tuple[str, ...] = ()
     bits: dict[str, int] = field(default_factory=dict)
+    pixel_size_m: float | None = None
+    size_given: bool = False
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -242,6 +273,7 @@ class MaterialSet:
         normals /= np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-6)
         return dataclasses.replace(
             self,
+            pixel_size_m=None if self.pixel_size_m is None else self.pixel_size_m / float(np.sqrt(scale_y * scale_x)),
             color=resize(self.color),
             height=resize(self.height) * float(np.sqrt(scale_y * scale_x)),
             normals=normals,
@@ -275,6 +307,27 @@ class MaterialSet:
             wrap=(False, False),
         )
 
+    def with_width_m(self, width_m: float | None) -> MaterialSet:
+        """The set said to be ``width_m`` metres wide (its pixels that size / its width); ``None``:
+        the set as it is."""
+        if width_m is None:
+            return self
+        return dataclasses.replace(self, pixel_size_m=check_width_m(width_m) / self.shape[1], size_given=True)
+
+    def physical_size(self) -> dict:
+        """The set's real-world size and its displacement's depth in metres (``{}`` when the
+        pixel size is unknown): ``width_m``, ``height_m``, ``real_size`` (``given`` or
+        ``assumed``), ``displacement_depth_m`` (highest minus deepest point)."""
+        if self.pixel_size_m is None:
+            return {}
+        px = float(self.pixel_size_m)
+        return {
+            "width_m": round(self.shape[1] * px, 6),
+            "height_m": round(self.shape[0] * px, 6),
+            "real_size": "given" if self.size_given else f"assumed (a bark photo {ASSUMED_PHOTO_WIDTH_M:g} m wide)",
+            "displacement_depth_m": round(self.depth * px, 8),
+        }
+
     @property
     def wraps(self) -> tuple[bool, bool]:
         """``(rows, columns)``: the axes along which the maps wrap."""
@@ -302,6 +355,8 @@ class MaterialSet:
             },
             "barkgen_version": __version__,
         }
+        if self.pixel_size_m is not None:  # the real-world size, and the depth in metres
+            meta.update(self.physical_size())
         if self.scanned:  # a scanned set's: which maps are the scan's own, carried, not estimated
             meta["scanned_maps"] = list(self.scanned)
         meta.update(extra)
@@ -416,6 +471,8 @@ def make_material(
         shading_strength=strength,
         ao_cavities=cavities,
         wrap=wrap,
+        pixel_size_m=(options.width_m or ASSUMED_PHOTO_WIDTH_M) / w,
+        size_given=options.width_m is not None,
     )
 
 
@@ -502,6 +559,8 @@ def transfer_material(
         opacity=scanned.get("opacity"),
         scanned=source.scanned,
         bits=dict(source.bits),
+        pixel_size_m=source.pixel_size_m,
+        size_given=source.size_given,
     )
 
 

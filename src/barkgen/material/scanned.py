@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from barkgen.material.maps import normal_map
-from barkgen.material.materialset import MaterialOptions, MaterialSet, make_material
+from barkgen.material.materialset import ASSUMED_PHOTO_WIDTH_M, MaterialOptions, MaterialSet, make_material
 
 #: the displacement depth (fraction of the width) of a scan with a height map and no normals
 DEFAULT_DEPTH = 0.02
@@ -168,4 +168,5 @@ def scanned_material(
         wrap=wraps,
         scanned=tuple(dict.fromkeys(scanned)),
         bits=bits,
+        pixel_size_m=ASSUMED_PHOTO_WIDTH_M / color.shape[1],
     )

@@ -551,7 +551,8 @@ def _output_material(photo, labels_in, options: GenerateOptions, wrap, scan, ana
         source = _photo_material(photo, labels_in, options, wrap, scan)
     if result.orientation is not None:
         source, wrap = source.oriented(result.orientation), (False, False)
-    return transfer_material(source, result.references, tile=options.tile, exemplar_wrap=wrap, blend=options.blend)
+    material = transfer_material(source, result.references, tile=options.tile, exemplar_wrap=wrap, blend=options.blend)
+    return material.with_width_m(options.width_m)
 
 
 def _photo_material(

@@ -77,6 +77,10 @@ class GenerateOptions:
         estimated).
     relief : float, default 1.0
         The height's strength (1 = as fitted).
+    width_m : float, optional
+        The material set's real-world width in metres, which gives its displacement's depth
+        in metres (``None``: the photo is assumed
+        :data:`~barkgen.material.materialset.ASSUMED_PHOTO_WIDTH_M` wide).
     exemplar_wrap : {"auto", "yes", "no"}, default "auto"
         ``auto``: the photo is used as a torus along each axis it tiles along
         (:func:`barkgen.synth.exemplar_wraps`).
@@ -179,6 +183,15 @@ class GenerateOptions:
         maximum=100,
         analysis=True,
     )
+    width_m: float | None = option(
+        None,
+        "The material set's real-world width in metres: its displacement's depth is given in "
+        "metres in NAME.json, NAME.mtlx and the Blender set-up (default: the photo is assumed "
+        "0.5 m wide); needs material.",
+        kind=float,
+        minimum=0.001,
+        maximum=1000,
+    )
     exemplar_wrap: str = option(
         "auto",
         "auto: the photo is used as a torus along each axis along which it tiles itself "
@@ -213,6 +226,7 @@ class GenerateOptions:
 
     def __post_init__(self) -> None:
         from barkgen._shared.checks import check_k, check_seed
+        from barkgen.material.materialset import check_width_m
         from barkgen.shapes import STRATEGIES, check_rotations
         from barkgen.synth import check_blend, check_wrap_mode
 
@@ -241,9 +255,11 @@ class GenerateOptions:
             raise InvalidInputError("label and feature weights must be >= 0")
         if not (np.isfinite(self.relief) and 0 < self.relief <= 100):
             raise InvalidInputError(f"relief must be in (0, 100], not {self.relief:g}")
-        if not self.material and (self.light is not None or self.relief != 1.0):
+        check_width_m(self.width_m)
+        if not self.material and (self.light is not None or self.relief != 1.0 or self.width_m is not None):
             raise InvalidInputError(
-                "light and relief apply to the material set: turn material on (--material; material: true in a spec)"
+                "light, relief and width in metres apply to the material set: turn material on "
+                "(--material; material: true in a spec)"
             )
         if self.light is not None:
             from barkgen.material import Light
