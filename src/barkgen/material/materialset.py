@@ -310,9 +310,10 @@ class MaterialSet:
     def with_width_m(self, width_m: float | None) -> MaterialSet:
         """The set said to be ``width_m`` metres wide (its pixels that size / its width); ``None``:
         the set as it is."""
-        if width_m is None:
+        checked = check_width_m(width_m)
+        if checked is None:
             return self
-        return dataclasses.replace(self, pixel_size_m=check_width_m(width_m) / self.shape[1], size_given=True)
+        return dataclasses.replace(self, pixel_size_m=checked / self.shape[1], size_given=True)
 
     def physical_size(self) -> dict:
         """The set's real-world size and its displacement's depth in metres (``{}`` when the
