@@ -15,8 +15,8 @@ Run::
     python examples/06_material_and_trunk.py OUTDIR
 
 Writes ``OUTDIR/bark/`` (``bark_Color.png``, ``bark_NormalGL.png``, ``bark_NormalDX.png``,
-``bark_Displacement.png``, ``bark_Roughness.png``, ``bark_AmbientOcclusion.png``, ``bark.json``;
-128x128), ``OUTDIR/trunk_preview.png`` (192x192) and ``OUTDIR/trunk.glb`` (with ``[gltf]``).
+``bark_Displacement.png``, ``bark_Roughness.png``, ``bark_AmbientOcclusion.png``, ``bark.json``,
+``bark_blender.py``; 128x128), ``OUTDIR/trunk_preview.png`` (192x192) and ``OUTDIR/trunk.glb`` (with ``[gltf]``).
 """
 
 import sys

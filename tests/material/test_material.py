@@ -38,7 +38,7 @@ from barkgen.render import TrunkView, render_trunk, trunk_mesh
 
 SET_FILES = {
     f"bark_{s}.png" for s in ("Color", "NormalGL", "NormalDX", "Displacement", "Roughness", "AmbientOcclusion")
-} | {"bark.json"}
+} | {"bark.json", "bark_blender.py"}
 
 
 def bumps(n: int = 96, period: int = 16) -> np.ndarray:

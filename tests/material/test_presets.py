@@ -14,6 +14,7 @@ from PIL import Image
 
 from barkgen.errors import InvalidInputError
 from barkgen.io import encode_material
+from barkgen.io.material import material_file_names
 from barkgen.material import MaterialSet, decode_normals
 from barkgen.material.presets import PRESETS, preset_file_names
 
@@ -83,7 +84,8 @@ def test_each_preset_has_its_normal_convention(sets):
 def test_the_files_written_are_the_ones_named_before(sets):
     _, files = sets
     for preset in PRESETS:
-        assert set(files[preset]) - {"bark.json"} <= set(preset_file_names("bark", preset))
+        assert set(files[preset]) - {"bark.json", "bark_blender.py"} <= set(preset_file_names("bark", preset))
+        assert set(files[preset]) <= set(material_file_names("bark", preset))
 
 
 def test_the_ambientcg_preset_is_todays_set_and_opacity_rides_in_alpha():
@@ -98,6 +100,7 @@ def test_the_ambientcg_preset_is_todays_set_and_opacity_rides_in_alpha():
         "bark_NormalGL.png",
         "bark_Opacity.png",
         "bark_Roughness.png",
+        "bark_blender.py",
     ]
     assert "preset" not in json.loads(files["bark.json"])
     base = pixels(encode_material(material, "bark", "gltf")["bark_BaseColor.png"])

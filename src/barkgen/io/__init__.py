@@ -2,6 +2,7 @@
 written as one step (the only place where barkgen touches files)."""
 
 from barkgen.io.bilayer import encode_bilayer_model, read_bilayer_model, write_bilayer_model
+from barkgen.io.blender import blender_setup_script
 from barkgen.io.fields import read_field
 from barkgen.io.folders import (
     check_replaceable,
@@ -80,6 +81,7 @@ __all__ = [
     "add_tangents",
     "vertex_tangents",
     "encode_material",
+    "blender_setup_script",
     "find_material",
     "read_material",
     "read_centre_crop",

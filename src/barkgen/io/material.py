@@ -3,8 +3,9 @@ the trunk as glTF 2.0 binary.
 
 A set folder holds ``NAME_Color.png`` (sRGB), ``NAME_NormalGL.png`` / ``NAME_NormalDX.png``,
 ``NAME_Displacement.png`` (16-bit, 0 = deepest), ``NAME_Roughness.png``,
-``NAME_AmbientOcclusion.png`` (linear) and ``NAME.json`` (size, tileable, seed, source photo,
-displacement depth scale, barkgen version).
+``NAME_AmbientOcclusion.png`` (linear), ``NAME.json`` (size, tileable, seed, source photo,
+displacement depth scale, real-world size, barkgen version) and ``NAME_blender.py`` (the set
+set up in Blender at its real-world size, :mod:`barkgen.io.blender`).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from barkgen.errors import ImageReadError, InvalidInputError
+from barkgen.io.blender import blender_script_name, blender_setup_script
 from barkgen.io.images import encode_concurrently, encode_png, read_image
 
 #: the map suffixes of a set, in the order they are listed
@@ -56,14 +58,13 @@ def utf8_text(text: str) -> str:
 
 def material_file_names(name: str, preset: str = "ambientcg") -> list[str]:
     """The files a set called ``name`` may have in ``preset``'s layout (:func:`encode_material`
-    writes these, the metalness and opacity maps only where the set has them), known before
+    writes these, the metalness and opacity maps only where the set has them, the EXR only
+    with ``exr_height``; every set has its ``NAME_blender.py``), known before
     the set is made: a command refuses, before any work, to write one that is an input."""
     from barkgen.material.presets import preset_file_names
 
-    exr = [f"{name}_Displacement.exr"]  # (with --exr-height)
-    if preset == "ambientcg":
-        return [f"{name}_{suffix}.png" for suffix in MAP_SUFFIXES] + exr + [f"{name}.json"]
-    return preset_file_names(name, preset) + exr + [f"{name}.json"]
+    extra = [f"{name}_Displacement.exr", blender_script_name(name)]  # (the EXR with --exr-height)
+    return preset_file_names(name, preset) + extra + [f"{name}.json"]
 
 
 def encode_material(
@@ -90,7 +91,8 @@ def encode_material(
     Returns
     -------
     dict of str to bytes
-        The preset's images, ``NAME.json`` (and ``NAME.mtlx``). ``ambientcg``:
+        The preset's images, ``NAME.json``, ``NAME_blender.py`` (the set made in Blender at its
+        real-world size, :mod:`barkgen.io.blender`) (and ``NAME.mtlx``). ``ambientcg``:
         ``NAME_Color.png``, ``NAME_NormalGL.png``, ``NAME_NormalDX.png``,
         ``NAME_Displacement.png``, ``NAME_Roughness.png``, ``NAME_AmbientOcclusion.png``.
 
@@ -116,6 +118,7 @@ def encode_material(
             meta["packing"] = PACKING[preset]
     if preset == "blender":
         files[f"{name}.mtlx"] = _mtlx(material, name, images)
+    files[blender_script_name(name)] = blender_setup_script(material, name, images, preset).encode()
     if exr_height:
         files[f"{name}_Displacement.exr"] = encode_exr(material.displacement().astype(np.float32))
     meta["files"] = sorted(files)

@@ -37,6 +37,7 @@ _FILE_NOTES = {
     "_Roughness.png": "roughness (linear)",
     "_AmbientOcclusion.png": "ambient occlusion (linear)",
     ".json": "the material set's record: size, tileable, seed, source photo, displacement depth",
+    "_blender.py": "the set in Blender at its real-world size: blender --python it (or Run Script in the Text Editor)",
     "texture.png": "the new bark, as synthesized (before shading removal)",
     "labels_in.png": "the photo's label map (one grey value per region type)",
     "labels_out.png": "the new bark's label map (same grey values)",
