@@ -218,3 +218,15 @@ def test_the_blender_script_reads_packed_presets_through_their_channels(tmp_path
     for report in reports.values():
         heights = report["heights"]
         assert heights["max"] - heights["min"] == pytest.approx(depth, rel=0.03), report["object"]
+
+
+def test_the_blender_script_can_leave_the_displacement_to_cycles(tmp_path):
+    """``--displacement shader``: no Displace modifier (the plane stays flat until Cycles
+    renders it), the material displaces and bumps; ``--save`` writes the .blend."""
+    write(relief_set(), tmp_path, "bark")
+    saved = tmp_path / "bark.blend"
+    args = ["--python", str(tmp_path / "bark_blender.py"), "--python", str(CHECK)]
+    (report,) = run_blender(*args, "--", "--displacement", "shader", "--save", str(saved))
+    assert report["displacement"]["method"] == "BOTH" and "DISPLACE" not in report["modifiers"]
+    assert report["heights"]["min"] == report["heights"]["max"] == 0.0
+    assert saved.stat().st_size > 0
