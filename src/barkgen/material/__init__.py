@@ -10,6 +10,7 @@ files (ambientCG names) are written by :func:`barkgen.io.write_material` and the
 from barkgen.material.edited import edit_material
 from barkgen.material.editor import HeightEdit, HeightEditor, edits_document, parse_edits
 from barkgen.material.height import HeightConfig, estimate_height
+from barkgen.material.illumination import equalize_light, estimate_illumination
 from barkgen.material.maps import (
     ambient_occlusion,
     decode_normals,
@@ -25,10 +26,10 @@ from barkgen.material.materialset import (
     MaterialSet,
     derived_maps,
     make_material,
-    transfer_material,
 )
 from barkgen.material.scanned import integrate_normals, scanned_material
 from barkgen.material.shading import Light, estimate_light, parse_light, remove_shading, shading, shape_from_shading
+from barkgen.material.transfer import transfer_material
 
 __all__ = [
     "HeightConfig",
@@ -59,4 +60,6 @@ __all__ = [
     "shape_from_shading",
     "to_directx",
     "transfer_material",
+    "equalize_light",
+    "estimate_illumination",
 ]

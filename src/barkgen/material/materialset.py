@@ -1,16 +1,12 @@
-"""A whole material set from a photo, or from a synthesized texture and its reference map.
+"""A whole material set from a photo (:func:`transfer_material` carries it to a texture synthesized
+from the photo, :mod:`.transfer`).
 
-Photo (:func:`make_material`): label map -> estimated height (:mod:`.height`) -> light fitted
+Photo (:func:`make_material`): the photo's broad light taken out (:mod:`.illumination`) ->
+label map -> estimated height (:mod:`.height`) -> light fitted
 jointly with it and the photo's shape from shading joined to the height, as far as the two
 agree (:mod:`.shading`) -> replayed edits (:mod:`.editor`) -> normals, AO (the height's, plus
 the photo's cavities), roughness (:mod:`.maps`) -> albedo ``I / max(N·L, floor) ** g``
 relative to its geometric mean, ``g`` fitted (:mod:`.shading`).
-
-Synthesized texture (:func:`transfer_material`): the photo's albedo, height and roughness are
-carried to the output through the synthesis's reference map — the same exemplar pixel for
-every map, so all maps are aligned with the colour by construction — and normals and the
-height's AO are recomputed from the carried height, wrapping when the texture tiles, so they
-tile too (the AO's photo cavities are carried like the colour).
 """
 
 from __future__ import annotations
@@ -26,6 +22,7 @@ from barkgen._shared.memory import BASE_BYTES, check_budget_value, check_memory_
 from barkgen.errors import InvalidInputError
 from barkgen.material.editor import HeightEdit, HeightEditor
 from barkgen.material.height import HeightConfig, estimate_height, luminance
+from barkgen.material.illumination import check_strength, equalize_light, relit
 from barkgen.material.maps import (
     AO_RADIUS,
     CAVITY_WEIGHT,
@@ -36,25 +33,8 @@ from barkgen.material.maps import (
     photo_cavities,
     roughness_map,
 )
+from barkgen.material.realsize import ASSUMED_PHOTO_WIDTH_M, check_width_m, physical_size
 from barkgen.material.shading import Light, estimate_light, remove_shading, shading_confidence, with_shading_height
-
-#: the real-world width of a bark photo when nobody says it (a close-up of a trunk: fissures
-#: and plates a few centimetres apart, a few dozen of them across the frame)
-ASSUMED_PHOTO_WIDTH_M = 0.5
-#: the widths a set may be said to have, in metres
-WIDTH_M_RANGE = (1e-3, 1e3)
-
-
-def check_width_m(width_m: float | None) -> float | None:
-    """A set's real-world width in metres (``None``: assumed), within :data:`WIDTH_M_RANGE`."""
-    if width_m is None:
-        return None
-    lo, hi = WIDTH_M_RANGE
-    if isinstance(width_m, bool) or not isinstance(width_m, (int, float, np.floating, np.integer)):
-        raise InvalidInputError(f"the width in metres must be a number, not {width_m!r}")
-    if not (np.isfinite(width_m) and lo <= width_m <= hi):
-        raise InvalidInputError(f"the width in metres must be in [{lo:g}, {hi:g}], not {width_m:g}")
-    return float(width_m)
 
 
 @dataclass(frozen=True)
@@ -83,6 +63,9 @@ class MaterialOptions:
         ``no``/``False`` neither, or ``(rows, columns)``.
     seed : int, default 0
         Seeds the label map's k-means.
+    equalize_light : float, default 1.0
+        How much of the photo's broad light (:func:`~barkgen.material.illumination.equalize_light`)
+        is taken out before anything else: 1 all of it, 0 none (the photo's light kept).
     width_m : float, optional
         The photo's real-world width in metres: the set's pixels are ``width_m / w`` metres
         wide, and its displacement's depth is stated in metres (``None``: the photo is
@@ -105,6 +88,7 @@ class MaterialOptions:
     cavities: float = CAVITY_WEIGHT
     exemplar_wrap: str | bool | tuple[bool, bool] = "auto"
     seed: int = 0
+    equalize_light: float = 1.0
     width_m: float | None = None
     max_memory: int | None = None
 
@@ -117,6 +101,7 @@ class MaterialOptions:
         check_seed(self.seed)
         check_budget_value(self.max_memory)
         check_width_m(self.width_m)
+        check_strength(self.equalize_light)
         if not (np.isfinite(self.relief) and 0 < self.relief <= 100):
             raise InvalidInputError(f"relief must be in (0, 100], not {self.relief:g}")
         if not 1 <= self.ao_radius <= 256:
@@ -168,6 +153,11 @@ class MaterialSet:
         width and its displacement's depth in metres.
     size_given : bool
         ``pixel_size_m`` is the user's (a width in metres was given), not assumed.
+    illumination : ndarray of float32, shape (h, w), or None
+        The photo's broad light ``L`` (:func:`~barkgen.material.illumination.estimate_illumination`),
+        carried with the maps: :meth:`relit_color` puts it back.
+    equalization : float
+        How much of ``illumination`` was taken out of ``color`` (0 to 1).
     shape : tuple of int
         ``(h, w)``.
     depth : float
@@ -197,6 +187,8 @@ class MaterialSet:
     bits: dict[str, int] = field(default_factory=dict)
     pixel_size_m: float | None = None
     size_given: bool = False
+    illumination: np.ndarray | None = None
+    equalization: float = 0.0
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -279,6 +271,7 @@ class MaterialSet:
             normals=normals,
             ao=resize(self.ao),
             roughness=resize(self.roughness),
+            illumination=None if self.illumination is None else resize(self.illumination),
             ao_cavities=None if self.ao_cavities is None else resize(self.ao_cavities),
             metalness=None if self.metalness is None else resize(self.metalness),
             opacity=None if self.opacity is None else resize(self.opacity),
@@ -301,11 +294,19 @@ class MaterialSet:
             normals=oriented.atlas(np.asarray(self.normals, np.float32), kind="normals"),
             ao=atlas(self.ao),
             roughness=atlas(self.roughness),
+            illumination=atlas(self.illumination),
             ao_cavities=atlas(self.ao_cavities),
             metalness=atlas(self.metalness),
             opacity=atlas(self.opacity),
             wrap=(False, False),
         )
+
+    def relit_color(self, equalization: float) -> np.ndarray:
+        """The colour as if ``equalization`` (0 to 1) of the photo's broad light had been taken
+        out instead of :attr:`equalization` (the colour itself without an illumination)."""
+        if self.illumination is None or equalization == self.equalization:
+            return self.color
+        return relit(self.color, self.illumination, self.equalization - check_strength(equalization))
 
     def with_width_m(self, width_m: float | None) -> MaterialSet:
         """The set said to be ``width_m`` metres wide (its pixels that size / its width); ``None``:
@@ -321,13 +322,7 @@ class MaterialSet:
         ``assumed``), ``displacement_depth_m`` (highest minus deepest point)."""
         if self.pixel_size_m is None:
             return {}
-        px = float(self.pixel_size_m)
-        return {
-            "width_m": round(self.shape[1] * px, 6),
-            "height_m": round(self.shape[0] * px, 6),
-            "real_size": "given" if self.size_given else f"assumed (a bark photo {ASSUMED_PHOTO_WIDTH_M:g} m wide)",
-            "displacement_depth_m": round(self.depth * px, 8),
-        }
+        return physical_size(self.shape, self.depth, self.pixel_size_m, self.size_given)
 
     @property
     def wraps(self) -> tuple[bool, bool]:
@@ -356,6 +351,7 @@ class MaterialSet:
             },
             "barkgen_version": __version__,
         }
+        meta["light_equalization"] = round(float(self.equalization), 4)
         if self.pixel_size_m is not None:  # the real-world size, and the depth in metres
             meta.update(self.physical_size())
         if self.scanned:  # a scanned set's: which maps are the scan's own, carried, not estimated
@@ -446,6 +442,7 @@ def make_material(
     check_memory_budget(estimate_material_memory((h, w)), options.max_memory, f"the material set of a {w}x{h} photo")
     rgb = check_image(photo)
     wrap = resolve_exemplar_wrap(options.exemplar_wrap, photo)
+    rgb, illumination = equalize_light(rgb, options.equalize_light, tile=wrap)
     if label_map is None:
         label_map, _ = to_codes(color_regions(rgb, options.k, seed=options.seed, wrap=wrap))
     config = dataclasses.replace(options.height, strength=options.height.strength * options.relief)
@@ -474,132 +471,6 @@ def make_material(
         wrap=wrap,
         pixel_size_m=(options.width_m or ASSUMED_PHOTO_WIDTH_M) / w,
         size_given=options.width_m is not None,
+        illumination=illumination,
+        equalization=options.equalize_light,
     )
-
-
-def transfer_material(
-    source: MaterialSet,
-    references: np.ndarray,
-    *,
-    tile: bool,
-    ao_radius: int = AO_RADIUS,
-    exemplar_wrap: tuple[bool, bool] = (False, False),
-    blend: str = "gradient",
-) -> MaterialSet:
-    """The material set of a texture synthesized from the source's photo.
-
-    The source's albedo goes through the synthesis's reference map as the colour does (its
-    seams blended in the gradient domain, :func:`barkgen.synth.blend_seams`, unless
-    ``blend`` is ``"none"``: then exactly);
-    its height, roughness and the AO's photo cavities through the same references in the
-    gradient domain (:func:`barkgen.synth.resolve_continuous`: continuous across the
-    borders of the copied pieces, tileable when ``tile``); normals and the height's AO are
-    recomputed from that height (wrapping when ``tile``).
-
-    Parameters
-    ----------
-    source : MaterialSet
-        The photo's set (:func:`make_material`).
-    references : ndarray of int, shape (H, W, 2)
-        The synthesis's reference map, exemplar ``(y, x)`` per output pixel.
-    tile : bool
-        The texture tiles.
-    ao_radius : int, default AO_RADIUS
-        Reach of the recomputed occlusion in px.
-    exemplar_wrap : tuple of bool, default (False, False)
-        ``(rows, columns)``: the photo tiles along that axis.
-    blend : {"gradient", "none"}, default "gradient"
-        How the albedo is carried (as the texture's colour).
-
-    Returns
-    -------
-    MaterialSet
-        The output's set, of the reference map's size.
-
-    References
-    ----------
-    .. [1] laitoch2018, §3.3.1 (maps resolved through the reference map).
-    .. [2] perez2003 (gradient-domain re-integration).
-    """
-    from barkgen.synth import apply_references, blend_seams, check_blend, resolve_continuous
-
-    check_blend(blend)
-
-    refs = np.asarray(references)
-
-    def carry(image: np.ndarray) -> np.ndarray:
-        return resolve_continuous(image, refs, tile=tile, wrap=exemplar_wrap)
-
-    # the height's slopes too, so the normals recomputed from it have no creases at the borders
-    height = resolve_continuous(source.height, refs, tile=tile, wrap=exemplar_wrap, smooth_slopes=True)
-    scanned = _carry_scanned(source, refs, tile=tile, exemplar_wrap=exemplar_wrap)
-    cavities = None
-    if "normals" in scanned and "ao" in scanned:  # a scan's own: nothing to derive from the height
-        normals, ao = scanned["normals"], scanned["ao"]
-    else:
-        normals, ao = derived_maps(height, tile=tile, ao_radius=ao_radius)
-        if source.ao_cavities is not None:
-            cavities = carry(source.ao_cavities)
-            ao = np.clip(ao + cavities, 0.0, 1.0)
-    color = (
-        blend_seams(source.color, refs, tile=tile, wrap=exemplar_wrap)
-        if blend == "gradient"
-        else apply_references(refs, source.color)
-    )
-    return MaterialSet(
-        color=color,
-        height=height,
-        normals=scanned.get("normals", normals),
-        ao=scanned.get("ao", ao),
-        roughness=scanned["roughness"] if "roughness" in scanned else carry(source.roughness),
-        tile=tile,
-        light=source.light,
-        shading_strength=source.shading_strength,
-        ao_cavities=cavities,
-        metalness=scanned.get("metalness"),
-        opacity=scanned.get("opacity"),
-        scanned=source.scanned,
-        bits=dict(source.bits),
-        pixel_size_m=source.pixel_size_m,
-        size_given=source.size_given,
-    )
-
-
-def _carry_scanned(
-    source: MaterialSet, references: np.ndarray, *, tile: bool, exemplar_wrap: tuple[bool, bool]
-) -> dict[str, np.ndarray]:
-    """A scanned set's own local maps through the reference map as they are: exact inside the
-    copied pieces, continuous across their borders (:func:`barkgen.synth.resolve_local`);
-    normals as unit vectors (carried per component, renormalised)."""
-    from barkgen.synth import resolve_local
-
-    kinds = [
-        kind
-        for kind in ("normals", "ao", "roughness", "metalness", "opacity")
-        if getattr(source, kind) is not None and (kind in source.scanned or kind in ("metalness", "opacity"))
-    ]
-    if not kinds:
-        return {}
-    carried: dict[str, np.ndarray] = {}
-    # one solve per group of maps (their channels side by side: one set of borders and
-    # gradients); the levels (roughness, metalness, opacity) with their slopes run on across the
-    # borders too: they vary little inside pieces, and a step between pieces stands out (the
-    # scans' roughness: 1.63x the inside step without, 1.38x with)
-    for group, smooth_slopes in ((("normals", "ao"), False), (("roughness", "metalness", "opacity"), True)):
-        members = [kind for kind in kinds if kind in group]
-        if not members:
-            continue
-        layers = [np.asarray(getattr(source, kind), np.float32).reshape(source.shape + (-1,)) for kind in members]
-        stacked = resolve_local(
-            np.concatenate(layers, axis=2), references, tile=tile, wrap=exemplar_wrap, smooth_slopes=smooth_slopes
-        )
-        start = 0
-        for kind, layer in zip(members, layers, strict=True):
-            out = stacked[..., start : start + layer.shape[2]]
-            start += layer.shape[2]
-            if kind == "normals":
-                out = out / np.maximum(np.linalg.norm(out, axis=2, keepdims=True), 1e-6)
-            else:
-                out = np.clip(out[..., 0], 0.0, 1.0)
-            carried[kind] = np.ascontiguousarray(out, dtype=np.float32)
-    return carried

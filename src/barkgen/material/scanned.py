@@ -22,7 +22,8 @@ from __future__ import annotations
 import numpy as np
 
 from barkgen.material.maps import normal_map
-from barkgen.material.materialset import ASSUMED_PHOTO_WIDTH_M, MaterialOptions, MaterialSet, make_material
+from barkgen.material.materialset import MaterialOptions, MaterialSet, make_material
+from barkgen.material.realsize import ASSUMED_PHOTO_WIDTH_M
 
 #: the displacement depth (fraction of the width) of a scan with a height map and no normals
 DEFAULT_DEPTH = 0.02

@@ -200,6 +200,9 @@ class PhotoAnalysis:
     tbn_labels_in : ndarray of uint8 or None
         With ``options.edges``, the input label map with the edge label (laitoch2018 §3.5.5):
         what texture-by-numbers matches; ``None``: ``labels_in`` itself.
+    illumination : ndarray of float32 or None
+        The photo's broad light (:func:`barkgen.material.estimate_illumination`), of which
+        ``equalization`` (0 to 1) was taken out of the photo before everything else.
 
     References
     ----------
@@ -214,6 +217,8 @@ class PhotoAnalysis:
     seconds: float = 0.0
     exemplar: Exemplar | None = None
     tbn_labels_in: np.ndarray | None = None
+    illumination: np.ndarray | None = None
+    equalization: float = 0.0
 
 
 def analyze_photo(
@@ -284,6 +289,7 @@ def analyze_photo(
     """
     from barkgen.labels import color_regions, texton_regions
     from barkgen.labels.regions import grey_label_map
+    from barkgen.material.illumination import equalize_light
     from barkgen.shapes import analyse_label_map
     from barkgen.synth import TBN_CONFIG, AnalysisCache, analyse_texture_by_numbers
 
@@ -303,6 +309,10 @@ def analyze_photo(
         wrap = resolve_exemplar_wrap(options.exemplar_wrap, photo)
         if scan is not None and options.model == "bilayer":
             raise InvalidInputError("a bi-layer texture's material set is its structure layer's: give no scanned set")
+        # the photo's broad light out before anything learns from it (a scan's colour is its
+        # albedo already)
+        equalization = options.equalize_light if scan is None else 0.0
+        photo, illumination = equalize_light(photo, equalization, tile=wrap)
         # (a bi-layer analysis, the longest step of its run, reports within the label map's share)
         within = None if progress is None else _within(progress, steps["labels"][1])
         exemplar = prepare_exemplar(photo, options, labels_in, ANALYSIS_SEED, within, cracks)
@@ -321,7 +331,9 @@ def analyze_photo(
         # second thread while the two solvers analyse the photo, which keep 1.3 of 2 cores busy
         # (the quickstart's analysis without its label map: 5.3 s one after the other, 4.2 s so)
         material = (
-            pool.submit(in_budget, options.threads, _photo_material, photo, labels_in, options, wrap, scan)
+            pool.submit(
+                in_budget, options.threads, _photo_material, photo, labels_in, options, wrap, scan, illumination
+            )
             if options.material
             else None
         )
@@ -354,6 +366,8 @@ def analyze_photo(
             seconds=time.perf_counter() - t0,
             exemplar=exemplar,
             tbn_labels_in=tbn_labels_in if options.edges else None,
+            illumination=illumination,
+            equalization=equalization,
         )
 
 
@@ -548,7 +562,7 @@ def _output_material(photo, labels_in, options: GenerateOptions, wrap, scan, ana
 
     source = analysis.material
     if source is None:
-        source = _photo_material(photo, labels_in, options, wrap, scan)
+        source = _photo_material(photo, labels_in, options, wrap, scan, analysis.illumination)
     if result.orientation is not None:
         source, wrap = source.oriented(result.orientation), (False, False)
     material = transfer_material(source, result.references, tile=options.tile, exemplar_wrap=wrap, blend=options.blend)
@@ -561,6 +575,7 @@ def _photo_material(
     options: GenerateOptions,
     wrap: tuple[bool, bool],
     scan: ScannedSet | None = None,
+    illumination: np.ndarray | None = None,
 ):
     """The photo's own material set, its label map as the height's structure cue; wrapping
     along the axes the photo wraps along (``wrap``), as the solvers use it, so the maps carried
@@ -574,10 +589,17 @@ def _photo_material(
             scan, wrap=wrap, relief=options.relief, seed=ANALYSIS_SEED, k=options.k, label_map=to_codes(labels_in)[0]
         )
 
-    return make_material(
+    # (``photo`` is equalised already, as far as ``options`` says: the light goes with the set)
+    material = make_material(
         photo,
         MaterialOptions(
-            k=options.k, light=options.light, seed=ANALYSIS_SEED, relief=options.relief, exemplar_wrap=wrap
+            k=options.k,
+            light=options.light,
+            seed=ANALYSIS_SEED,
+            relief=options.relief,
+            exemplar_wrap=wrap,
+            equalize_light=0.0,
         ),
         label_map=to_codes(labels_in)[0],
     )
+    return dataclasses.replace(material, illumination=illumination, equalization=options.equalize_light)

@@ -77,10 +77,14 @@ class GenerateOptions:
         estimated).
     relief : float, default 1.0
         The height's strength (1 = as fitted).
+    equalize_light : float, default 1.0
+        How much of the photo's broad light (a trunk's curvature falloff, a gradient, dappled
+        light) is taken out before the label map, the synthesis and the material maps
+        (:func:`barkgen.material.equalize_light`): 1 all, 0 none (the photo's light kept).
     width_m : float, optional
         The material set's real-world width in metres, which gives its displacement's depth
         in metres (``None``: the photo is assumed
-        :data:`~barkgen.material.materialset.ASSUMED_PHOTO_WIDTH_M` wide).
+        :data:`~barkgen.material.realsize.ASSUMED_PHOTO_WIDTH_M` wide).
     exemplar_wrap : {"auto", "yes", "no"}, default "auto"
         ``auto``: the photo is used as a torus along each axis it tiles along
         (:func:`barkgen.synth.exemplar_wraps`).
@@ -183,6 +187,16 @@ class GenerateOptions:
         maximum=100,
         analysis=True,
     )
+    equalize_light: float = option(
+        1.0,
+        "How much of the photo's broad light (a trunk's curvature falloff, a light gradient, "
+        "dappled light) is taken out before anything learns from it: 1 all of it, 0 none (the "
+        "photo's light kept). Patches of another hue (moss, lichen) stay.",
+        kind=float,
+        minimum=0,
+        maximum=1,
+        analysis=True,
+    )
     width_m: float | None = option(
         None,
         "The material set's real-world width in metres: its displacement's depth is given in "
@@ -226,7 +240,8 @@ class GenerateOptions:
 
     def __post_init__(self) -> None:
         from barkgen._shared.checks import check_k, check_seed
-        from barkgen.material.materialset import check_width_m
+        from barkgen.material.illumination import check_strength
+        from barkgen.material.realsize import check_width_m
         from barkgen.shapes import STRATEGIES, check_rotations
         from barkgen.synth import check_blend, check_wrap_mode
 
@@ -256,6 +271,7 @@ class GenerateOptions:
         if not (np.isfinite(self.relief) and 0 < self.relief <= 100):
             raise InvalidInputError(f"relief must be in (0, 100], not {self.relief:g}")
         check_width_m(self.width_m)
+        check_strength(self.equalize_light)
         if not self.material and (self.light is not None or self.relief != 1.0 or self.width_m is not None):
             raise InvalidInputError(
                 "light, relief and width in metres apply to the material set: turn material on "

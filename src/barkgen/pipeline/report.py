@@ -41,6 +41,7 @@ def run_report(photo, options: GenerateOptions, wrap, labels_in, label_result, r
         "resumed_from_level": label_result.resumed_level,
         "label_fractions_in": _fractions(labels_in, values),
         "label_fractions_out": _fractions(label_result.label_map, values),
+        "light_equalization": options.equalize_light,
         "material": bool(options.material),
         "relief": options.relief if options.material else None,
         "light": None
