@@ -2,6 +2,7 @@
 """Relief from a photo alone, measured on photos whose answer is known (issue 33, part 1).
 
     .venv/bin/python benchmarks/bench_relief.py [--quick] [--scans NAME ...] [--json F]
+    .venv/bin/python benchmarks/bench_relief.py --light [--scans NAME ...] [--json F]
 
 Each case is rendered, so its truth is known:
 
@@ -37,6 +38,22 @@ albedo, light, height and normals, and the table says how close each came:
 
 The real photos' own figures are printed beside (their true albedo and light are unknown):
 height correlation and normal error against their scans.
+
+``--light`` measures the light equalisation (issue 65) on photos whose broad light is known:
+
+- the albedo: a scan's colour photo with its own broad light taken out (its luminance divided
+  by a blur of an eighth of the width: the scans' colours carry the light of the day they were
+  taken, the oak's lit and shaded bands among it, which is what is to be removed), and three
+  patches painted in whose hue and brightness are not the bark's (bright moss, pale lichen,
+  dark moss; soft-edged, a tenth of the width): the albedo's own broad variation, to be kept;
+- the light: a trunk's curvature falloff (the photo spans 120 degrees of the trunk, lit from
+  35 degrees off its axis, ambient 0.15), a linear gradient (0.35 to 1) and dappled light
+  (seven soft blobs, sigma 8-15 % of the width, over 0.35), multiplied in linear light;
+- the scores: the low-frequency error (a Gaussian blur of a sixteenth of the width, each
+  channel's gain matched by least squares) of the estimated albedo against the true one, over
+  the rendered photo's (target: at most 0.3), and the high-frequency error (what the blur takes
+  out) likewise (target: not above the albedo of ``make_material`` with the photo's light
+  kept, ``--equalize-light 0``).
 """
 
 from __future__ import annotations
@@ -151,13 +168,163 @@ def resized(image: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     return cv2.resize(image, (shape[1], shape[0]), interpolation=cv2.INTER_AREA)
 
 
+#: the light cases' size (px a side), the blur of the scores (a fraction of the width) and the
+#: scale above which a scan's own colour is taken as lit, not albedo (a fraction of the width)
+LIGHT_SIZE = 512
+LF_BLUR = 1 / 16
+ALBEDO_FLAT = 1 / 8
+#: the painted patches: linear colour (its hue) and luminance relative to the bark's
+PATCHES = (((0.30, 0.42, 0.12), 1.3), ((0.45, 0.55, 0.36), 1.4), ((0.20, 0.28, 0.10), 0.75))
+_LUMA = np.array([0.2126, 0.7152, 0.0722])
+
+
+def known_albedo(photo: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """The light cases' true albedo (linear): ``photo`` (sRGB) without its broad luminance,
+    with :data:`PATCHES` painted in."""
+    linear = srgb_to_linear(photo).astype(np.float64)
+    h, w = linear.shape[:2]
+    lum = linear @ _LUMA
+    broad = ndi.gaussian_filter(lum, w * ALBEDO_FLAT, mode="reflect")
+    linear = linear * (broad.mean() / broad)[..., None]
+    x, y = np.linspace(0, 1, w)[None, :], np.linspace(0, 1, h)[:, None]
+    mean = linear.reshape(-1, 3).mean(axis=0)
+    for colour, brightness in PATCHES:
+        cy, cx = rng.random(2)
+        sigma = rng.uniform(0.07, 0.12)
+        blob = np.exp(-((x - cx) ** 2 + (y - cy) ** 2) / (2 * sigma * sigma))
+        mask = ndi.gaussian_filter(np.clip((blob - 0.3) / 0.4, 0, 1), w / 64)[..., None]
+        hue = np.asarray(colour) / (np.asarray(colour) @ _LUMA) * (mean @ _LUMA) * brightness
+        linear = linear * (1 - mask) + linear / mean * hue * mask
+    return np.clip(linear, 0.0, 1.0)
+
+
+def broad_lights(h: int, w: int, rng: np.random.Generator) -> dict[str, np.ndarray]:
+    """The known broad lights (linear gains, at most 1) of the light cases."""
+    x, y = np.linspace(0, 1, w)[None, :], np.linspace(0, 1, h)[:, None]
+    across = np.radians((x - 0.5) * 120.0)
+    cylinder = 0.15 + 0.85 * np.maximum(np.cos(across - np.radians(35.0)), 0.0) + 0.0 * y
+    gradient = 0.35 + 0.65 * (0.7 * x + 0.3 * y)
+    blobs = np.full((h, w), 0.35)
+    for _ in range(7):
+        cy, cx = rng.random(2)
+        sigma = rng.uniform(0.08, 0.15)
+        blobs = blobs + rng.uniform(0.4, 0.8) * np.exp(-((x - cx) ** 2 + (y - cy) ** 2) / (2 * sigma * sigma))
+    return {"cylinder": cylinder, "gradient": gradient, "dappled": blobs / blobs.max()}
+
+
+def band_errors(estimate: np.ndarray, truth: np.ndarray) -> tuple[float, float]:
+    """(low, high)-frequency mean absolute errors of ``estimate`` against ``truth`` (both
+    linear), each channel's gain matched by least squares first."""
+    est = estimate.reshape(-1, 3).astype(np.float64)
+    tru = truth.reshape(-1, 3).astype(np.float64)
+    est = (est * ((est * tru).sum(0) / np.maximum((est * est).sum(0), 1e-12))).reshape(truth.shape)
+    sigma = truth.shape[1] * LF_BLUR
+
+    def low(a):
+        return ndi.gaussian_filter(a, (sigma, sigma, 0), mode="reflect")
+
+    low_est, low_tru = low(est), low(truth)
+    return float(np.abs(low_est - low_tru).mean()), float(np.abs((est - low_est) - (truth - low_tru)).mean())
+
+
+def light_table(names: list[str]) -> list[dict]:
+    """The light equalisation on the known-truth cases (see the module docstring)."""
+    import cv2
+
+    rng = np.random.default_rng(3)
+    rows = []
+    print(f"{'case':34} {'LF photo':>8} {'kept':>6} {'equalised':>9} {'HF kept':>8} {'HF eq.':>7}")
+    for name in names:
+        photo = bm.check_image(bm.read_image(bm.SHARED / "data" / "bark" / f"{name}.jpg"))
+        photo = cv2.resize(photo, (LIGHT_SIZE, LIGHT_SIZE), interpolation=cv2.INTER_AREA)
+        albedo = known_albedo(photo, rng)
+        for kind, gain in broad_lights(LIGHT_SIZE, LIGHT_SIZE, rng).items():
+            lit = linear_to_srgb(albedo * gain[..., None]).astype(np.float32)
+            photo_lf, photo_hf = band_errors(srgb_to_linear(lit), albedo)
+            row = {"case": f"{name} {kind}", "photo_lf": photo_lf, "photo_hf": photo_hf}
+            for label, strength in (("kept", 0.0), ("equalised", 1.0)):
+                material = make_material(lit, MaterialOptions(exemplar_wrap="no", equalize_light=strength))
+                lf, hf = band_errors(srgb_to_linear(material.color), albedo)
+                row[f"{label}_lf"], row[f"{label}_hf"] = lf / photo_lf, hf / photo_hf
+            rows.append(row)
+            print(
+                f"{row['case']:34} {photo_lf:8.4f} {row['kept_lf']:6.2f} {row['equalised_lf']:9.2f} "
+                f"{row['kept_hf']:8.2f} {row['equalised_hf']:7.2f}",
+                flush=True,
+            )
+    lf = [r["equalised_lf"] for r in rows]
+    better = sum(r["equalised_hf"] <= r["kept_hf"] for r in rows)
+    print(
+        f"equalised LF error / photo's: median {np.median(lf):.2f}, worst {max(lf):.2f}, "
+        f"<= 0.3 on {sum(v <= 0.3 for v in lf)}/{len(lf)}; HF not worse than kept on {better}/{len(rows)}"
+    )
+    return rows
+
+
+def low_luminance(rgb: np.ndarray, sigma: float) -> np.ndarray:
+    """The luminance of ``rgb`` (sRGB float) blurred by ``sigma`` px (wrapping)."""
+    return ndi.gaussian_filter(luminance(rgb).astype(np.float64), sigma, mode="wrap")
+
+
+def real_photo_table(size: int) -> list[dict]:
+    """On the shared photos, with the light kept and equalised: the k=2 label map's correlation
+    with the photo's broad luminance (a blur of a sixteenth of the width), and the standard
+    deviation of the broad luminance of ``generate --tile --material``'s colour over the
+    photo's (the same blur, in the photo's pixels)."""
+    from barkgen.labels import color_regions
+    from barkgen.labels.regions import to_codes
+    from barkgen.material import equalize_light
+    from barkgen.pipeline import GenerateOptions, generate
+
+    rows = []
+    print(f"\n{'photo':28} {'labels r kept':>13} {'equalised':>9} {'LF std kept':>11} {'equalised':>9}")
+    for path in sorted((bm.SHARED / "data" / "bark").glob("*.*")):
+        if path.suffix.lower() not in (".jpg", ".png"):
+            continue
+        photo = bm.check_image(bm.read_image(path))
+        sigma = photo.shape[1] / 16
+        broad = low_luminance(photo, sigma)
+        row: dict = {"photo": path.stem}
+        for label, strength in (("kept", 0.0), ("equalised", 1.0)):
+            equalised, _ = equalize_light(photo, strength)
+            codes, _ = to_codes(color_regions(equalised, 2, seed=0))
+            row[f"labels_r_{label}"] = abs(correlation(codes, broad))
+            out = generate(
+                photo,
+                GenerateOptions(
+                    size=(min(size, photo.shape[0]), min(size, photo.shape[1])),
+                    tile=True,
+                    material=True,
+                    seed=0,
+                    equalize_light=strength,
+                ),
+            )
+            tiled = np.tile(out.material.color, (2, 2, 1))
+            row[f"lf_std_{label}"] = float(low_luminance(tiled, sigma).std() / broad.std())
+        rows.append(row)
+        print(
+            f"{path.stem:28} {row['labels_r_kept']:13.2f} {row['labels_r_equalised']:9.2f} "
+            f"{row['lf_std_kept']:11.2f} {row['lf_std_equalised']:9.2f}",
+            flush=True,
+        )
+    print("targets (oak): labels r <= 0.3 (the issue measured 0.59 kept), LF std <= 0.5x the photo's")
+    return rows
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="one light per scan, no AO cases")
     parser.add_argument("--scans", nargs="*", help="only these scans (stems)")
     parser.add_argument("--json", type=Path)
+    parser.add_argument("--light", action="store_true", help="only the light equalisation's cases")
+    parser.add_argument("--size", type=int, default=1024, help="--light: the generated sets' size at most")
     args = parser.parse_args()
     names = [n for n in bm.SCANNED if not args.scans or n in args.scans]
+    if args.light:
+        light_rows = {"known": light_table(names), "photos": real_photo_table(args.size)}
+        if args.json:
+            args.json.write_text(json.dumps(light_rows, indent=2) + "\n")
+        return 0
     cases = {name: bm.load_case(name) for name in bm.SCANNED}
     lights = LIGHTS[:1] if args.quick else LIGHTS
     rows = []

@@ -46,6 +46,10 @@ CHROMA_TOLERANCE = 2.0
 WORK_SIDE = 256
 #: floor of the linear luminance under the logarithm (a black pixel has no light to measure)
 LUMINANCE_FLOOR = 1e-3
+#: how many times the variance the bark alone would give the estimate (its residual, shuffled in
+#: blocks) a part of the light's must exceed before any of it is taken out (all of it from twice
+#: that: the bark of a photo in even light, a pine's plates or a birch's lenticels, is not light)
+NOISE_MARGIN = 2.5
 #: the largest gain the equalisation applies (a region the estimate says is this dark is
 #: brightened no further: there is no colour left under the noise)
 MAX_GAIN = 8.0
@@ -106,12 +110,50 @@ def estimate_illumination(photo: np.ndarray, *, tile: Wrap = False) -> np.ndarra
     small_chroma = cv2.resize(chroma, small_shape[::-1], interpolation=cv2.INTER_AREA)
     sigma = WINDOW * max(small_shape)
     weight = _bark_colour_weight(small_chroma, sigma * CHROMA_WINDOW, tile)
-    trend = _weighted_trend(small_lum, weight, tile)
-    rest = small_lum - trend
-    local = _gaussian(weight * rest, sigma, tile) / np.maximum(_gaussian(weight, sigma, tile), 1e-6)
-    log_light = trend + local
+    trend, local = _broad_field(small_lum, weight, sigma, tile)
+    # what the same estimate makes of the bark alone: its residual, cut in blocks of half the
+    # window that are put back in another order (no broad light survives, the bark's own
+    # statistics do); each part of the light is kept only as far as it stands above that
+    noise_trend, noise_local = _broad_field(_shuffled_blocks(small_lum - trend - local, sigma / 2), weight, sigma, tile)
+    log_light = trend * _significance(float(trend.var()), float(noise_trend.var())) + local * _significance(
+        float(local.var()), float(noise_local.var())
+    )
     log_light -= float(log_light.mean())
     return np.exp(_resized(log_light, (h, w), tile)).astype(np.float32)
+
+
+def _broad_field(log_lum: np.ndarray, weight: np.ndarray, sigma: float, tile: Wrap) -> tuple[np.ndarray, np.ndarray]:
+    """The weighted quadratic trend of ``log_lum``, and the weighted Gaussian mean (``sigma``)
+    of what remains."""
+    trend = _weighted_trend(log_lum, weight, tile)
+    rest = log_lum - trend
+    return trend, _gaussian(weight * rest, sigma, tile) / np.maximum(_gaussian(weight, sigma, tile), 1e-6)
+
+
+def _significance(signal_var: float, noise_var: float) -> float:
+    """The share of a part of the light that is kept, by how far its variance stands above what
+    the bark alone gives the estimate: none up to :data:`NOISE_MARGIN` times it, all from
+    twice that, linear between."""
+    ratio = signal_var / max(noise_var, 1e-12)
+    return float(np.clip((ratio - NOISE_MARGIN) / NOISE_MARGIN, 0.0, 1.0))
+
+
+def _shuffled_blocks(values: np.ndarray, block: float) -> np.ndarray:
+    """``values`` cut in square blocks of ``block`` px, the blocks put back in a fixed scrambled
+    order (a multiplicative stride through them: deterministic, no seed); the ragged edge as it
+    is."""
+    side = max(int(round(block)), 2)
+    rows, cols = values.shape[0] // side, values.shape[1] // side
+    n = rows * cols
+    if n < 4:
+        return values
+    stride = next(k for k in range(int(n * 0.618) | 1, 2 * n) if np.gcd(k, n) == 1)
+    order = (np.arange(n) * stride) % n
+    blocks = values[: rows * side, : cols * side].reshape(rows, side, cols, side).transpose(0, 2, 1, 3)
+    blocks = blocks.reshape(n, side, side)[order].reshape(rows, cols, side, side)
+    out = values.copy()
+    out[: rows * side, : cols * side] = blocks.transpose(0, 2, 1, 3).reshape(rows * side, cols * side)
+    return out
 
 
 def equalize_light(photo: np.ndarray, strength: float = 1.0, *, tile: Wrap = False) -> tuple[np.ndarray, np.ndarray]:
