@@ -7,10 +7,15 @@ texture synthesized from it, :class:`HeightEditor` for self-similarity height ed
 files (ambientCG names) are written by :func:`barkgen.io.write_material` and the CLI.
 """
 
-from barkgen.material.edited import edit_material
+from barkgen.material.edited import adjust_material, edit_material
 from barkgen.material.editor import HeightEdit, HeightEditor, edits_document, parse_edits
 from barkgen.material.height import HeightConfig, estimate_height
-from barkgen.material.illumination import equalize_light, estimate_illumination
+from barkgen.material.illumination import (
+    decode_illumination,
+    encode_illumination,
+    equalize_light,
+    estimate_illumination,
+)
 from barkgen.material.maps import (
     ambient_occlusion,
     decode_normals,
@@ -32,6 +37,7 @@ from barkgen.material.shading import Light, estimate_light, parse_light, remove_
 from barkgen.material.transfer import transfer_material
 
 __all__ = [
+    "adjust_material",
     "HeightConfig",
     "HeightEdit",
     "HeightEditor",
@@ -61,5 +67,7 @@ __all__ = [
     "to_directx",
     "transfer_material",
     "equalize_light",
+    "encode_illumination",
+    "decode_illumination",
     "estimate_illumination",
 ]

@@ -70,3 +70,56 @@ def edit_material(
     if material.ao_cavities is not None:
         ao = np.clip(ao + material.ao_cavities, 0.0, 1.0)
     return dataclasses.replace(material, height=height, normals=normals, ao=ao.astype(np.float32))
+
+
+def adjust_material(
+    material: MaterialSet,
+    *,
+    relief: float = 1.0,
+    equalization: float | None = None,
+    ao_radius: int = AO_RADIUS,
+) -> MaterialSet:
+    """The set with its relief deepened or flattened and its colour relit, without making it
+    again: what the web app's depth and light sliders show, and what its Save writes.
+
+    Parameters
+    ----------
+    material : MaterialSet
+        The set.
+    relief : float, default 1.0
+        Multiplies the height (2 = twice as deep, its slopes twice as steep); the normals and
+        the height's AO are made again from it, the AO's photo cavities, roughness and albedo
+        stay. In (0, 100].
+    equalization : float, optional
+        How much of the photo's broad light is out of the colour (0 to 1,
+        :meth:`MaterialSet.relit_color`; ``None``: as it is).
+    ao_radius : int, default AO_RADIUS
+        Reach of the occlusion made again, in px.
+
+    Returns
+    -------
+    MaterialSet
+        A new set; ``material`` itself when nothing changes.
+
+    Raises
+    ------
+    InvalidInputError
+        A relief outside (0, 100], an equalisation outside [0, 1], or a colour to relight
+        that carries no light (:attr:`MaterialSet.illumination` is ``None``).
+    """
+    if not (np.isfinite(relief) and 0 < relief <= 100):
+        raise InvalidInputError(f"relief must be in (0, 100], not {relief:g}")
+    changed = material
+    if equalization is not None and equalization != material.equalization:
+        if material.illumination is None:
+            raise InvalidInputError("this set carries no photo light to put back or take out")
+        changed = dataclasses.replace(
+            changed, color=material.relit_color(equalization), equalization=float(equalization)
+        )
+    if relief != 1.0:
+        height = (material.height * np.float32(relief)).astype(np.float32)
+        normals, ao = derived_maps(height, tile=material.wraps, ao_radius=ao_radius)
+        if material.ao_cavities is not None:
+            ao = np.clip(ao + material.ao_cavities, 0.0, 1.0)
+        changed = dataclasses.replace(changed, height=height, normals=normals, ao=ao.astype(np.float32))
+    return changed

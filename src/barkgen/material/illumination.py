@@ -205,6 +205,25 @@ def relit(photo: np.ndarray, light: np.ndarray, power: float) -> np.ndarray:
     return out
 
 
+#: the range of ``log2 L`` a 16-bit illumination map holds (1/16 to 16)
+_LOG2_RANGE = 8.0
+
+
+def encode_illumination(light: np.ndarray) -> np.ndarray:
+    """A light field ``L`` as a 16-bit grey map: ``0.5 + log2(L) / 16`` of full scale (``L`` from
+    1/16 to 16, 1 at mid-grey), for ``illumination.png``."""
+    levels = 0.5 + np.log2(np.maximum(np.asarray(light, np.float64), 1e-9)) / (2 * _LOG2_RANGE)
+    return np.floor(np.clip(levels, 0.0, 1.0) * 65535 + 0.5).astype(np.uint16)
+
+
+def decode_illumination(levels: np.ndarray) -> np.ndarray:
+    """``L`` of a map :func:`encode_illumination` made, float32."""
+    unit = unit_float(np.asarray(levels))
+    if unit.ndim == 3:
+        unit = unit[..., 0]
+    return np.exp2((unit.astype(np.float64) - 0.5) * 2 * _LOG2_RANGE).astype(np.float32)
+
+
 def _linear_rgb(photo: np.ndarray) -> np.ndarray:
     arr = unit_float(np.asarray(photo))
     if arr.ndim == 2:

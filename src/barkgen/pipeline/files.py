@@ -15,10 +15,14 @@ from barkgen.io.folders import RECORD_HASHES, file_record
 from barkgen.io.images import encode_concurrently, encode_png
 from barkgen.io.material import check_material_name, encode_material, utf8_text
 from barkgen.io.references import encode_reference
+from barkgen.material.illumination import encode_illumination
 from barkgen.pipeline.report import preview_sheet
 
 #: the files every run writes (their stems are not free for --extra or the material name)
-GENERATE_FILES = ("texture", "labels_in", "labels_out", "reference", "preview", "report")
+GENERATE_FILES = ("texture", "labels_in", "labels_out", "reference", "preview", "report", "illumination")
+#: the photo's broad light as carried to the output (:func:`barkgen.material.encode_illumination`):
+#: what the web app's light slider puts back
+ILLUMINATION_FILE = "illumination.png"
 
 
 def check_generate_names(
@@ -112,6 +116,8 @@ def encode_generate(
         "preview.png": lambda: encode_png(preview_sheet(photo, result)),
     }
     jobs.update({f"{extra}.png": partial(encode_png, arr) for extra, arr in result.extras.items()})
+    if result.material is not None and result.material.illumination is not None:
+        jobs[ILLUMINATION_FILE] = partial(encode_png, encode_illumination(result.material.illumination))
     files = encode_concurrently(jobs)
     if result.material is not None:
         material_files = {}
