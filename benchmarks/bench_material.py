@@ -55,7 +55,6 @@ from barkgen.material import (  # noqa: E402
     ambient_occlusion,
     decode_normals,
     equalize_light,
-    estimate_height,
     make_material,
     normal_map,
     photo_cavities,
@@ -68,7 +67,6 @@ from barkgen.render import render_trunk  # noqa: E402
 SCANNED = ("birch_smooth_lenticels_01", "oak_furrowed_moss_01", "pine_plated_01", "willow_furrowed_01")
 #: the cues whose weights are fitted: the defaults' scales, every weight refitted
 CUES = HeightConfig()
-STRENGTHS = np.geomspace(0.25, 4.0, 25)
 
 
 def angular_error(normals: np.ndarray, truth: np.ndarray) -> float:
@@ -152,18 +150,23 @@ def material_of(case: dict, config: HeightConfig):
     )
 
 
-def fit_config(cases: list[dict], rule: str = "tilt") -> HeightConfig:
+def fit_config(cases: list[dict]) -> HeightConfig:
     """Band and label weights by least squares of the height's gradient against the scans'
-    slopes (on ``cases`` only), then the strength: ``tilt``, the one whose tilt distribution
-    matches the scans' (:func:`tilt_scale` of the product's normals); ``angle``, the one
-    minimising the mean angular error (the rule before issue 65: it rewards a timid relief
-    wherever the direction is uncertain)."""
+    slopes (on ``cases`` only), then the strength whose tilt distribution matches the scans'
+    (:func:`tilt_scale` of the product's normals; before issue 65 it was the strength that
+    minimised the mean angular error, which rewards a timid relief wherever the direction is
+    uncertain)."""
     rows, targets = [], []
     for case in cases:
         grads = [np.gradient(f) for f in case["features"]]  # (d/drow, d/dx)
         rows.append(np.stack([np.concatenate([gx.ravel(), gy.ravel()]) for gy, gx in grads], axis=1))
         t = case["truth"]
-        targets.append(np.concatenate([(-t[..., 0] / t[..., 2]).ravel(), (t[..., 1] / t[..., 2]).ravel()]))
+        target = np.concatenate([(-t[..., 0] / t[..., 2]).ravel(), (t[..., 1] / t[..., 2]).ravel()])
+        # each scan weighed by its own slopes' spread: a deep scan whose slopes no cue explains
+        # (willow) does not outweigh a shallower one whose slopes they do
+        spread = float(np.sqrt(np.mean(target**2)))
+        rows[-1] = rows[-1] / spread
+        targets.append(target / spread)
     weights = [float(w) for w in np.linalg.lstsq(np.concatenate(rows), np.concatenate(targets), rcond=None)[0]]
     n_bands, n_energy = len(CUES.bands), len(CUES.energy_bands)
     config = HeightConfig(
@@ -172,15 +175,9 @@ def fit_config(cases: list[dict], rule: str = "tilt") -> HeightConfig:
         label_weight=weights[-1],
         strength=1.0,
     )
-    if rule == "tilt":
-        scale = tilt_scale([material_of(c, config).normals for c in cases], [c["truth"] for c in cases])
-        return dataclasses.replace(config, strength=scale)
-    heights = [estimate_height(c["photo"], c["codes"], config=config) for c in cases]
-    errors = [
-        np.mean([angular_error(normal_map(h, strength=s), c["truth"]) for h, c in zip(heights, cases)])
-        for s in STRENGTHS
-    ]
-    return dataclasses.replace(config, strength=float(STRENGTHS[int(np.argmin(errors))]))
+    # (the height's depth is linear in the strength)
+    scale = tilt_scale([material_of(c, config).normals for c in cases], [c["truth"] for c in cases])
+    return dataclasses.replace(config, strength=scale)
 
 
 def slope_correlation(normals: np.ndarray, truth: np.ndarray) -> float:
@@ -245,7 +242,6 @@ def tilt_row(normals: np.ndarray, truth: np.ndarray, prefix: str) -> dict:
 
 def truth_table() -> list[dict]:
     cases = [load_case(n) for n in SCANNED]
-    before_cases = [load_case(n, equalize=0.0) for n in SCANNED]
     sobel = [sobel_errors(case) / flat_error(case["truth"]) for case in cases]
     sobel_unit = [sobel_normals(case, 1.0) for case in cases]
     rows = []
@@ -254,8 +250,6 @@ def truth_table() -> list[dict]:
         # the product's path: make_material with the leave-one-out weights (its light fitted
         # jointly with the height, the shading's height joined as far as they agree)
         material = material_of(case, config)
-        # before issue 65, in the same run: the photo's light kept, the angle-minimising strength
-        before = material_of(before_cases[i], fit_config([c for j, c in enumerate(before_cases) if j != i], "angle"))
         # the peer with its strength matched the same way, leave-one-out
         sobel_scale = tilt_scale(
             [n for j, n in enumerate(sobel_unit) if j != i], [c["truth"] for j, c in enumerate(cases) if j != i]
@@ -274,7 +268,6 @@ def truth_table() -> list[dict]:
             "scan_tilt50": float(np.median(scan_tilt)),
             "scan_tilt90": float(np.percentile(scan_tilt, 90)),
             **tilt_row(material.normals, case["truth"], "ours"),
-            **tilt_row(before.normals, case["truth"], "before"),
             **tilt_row(sobel_normals(case, sobel_scale), case["truth"], "sobel"),
             "depth_px": material.depth,
             "sobel_tuned": float(sobel[i].min() * flat_error(case["truth"])),
@@ -400,23 +393,21 @@ def main() -> int:
         rows = out["truth"] = truth_table()
         print("\nRelief against scanned truth (leave-one-out): tilt in degrees, its ratio to the scan's")
         print(
-            f"{'photo':28s} {'scan 50/90':>11s} {'barkgen 50/90':>14s} {'ratio':>11s} {'before 50/90':>13s} "
-            f"{'corr':>5s} {'before':>6s} {'sobel':>6s} {'angle':>6s} {'sobel~':>6s} {'flat':>5s} {'depth':>6s}"
+            f"{'photo':28s} {'scan 50/90':>11s} {'barkgen 50/90':>14s} {'ratio':>11s} "
+            f"{'corr':>5s} {'sobel':>6s} {'angle':>6s} {'sobel~':>6s} {'flat':>5s} {'depth':>6s}"
         )
         for r in rows:
             print(
                 f"{r['photo']:28s} {r['scan_tilt50']:5.1f}/{r['scan_tilt90']:<5.1f} "
                 f"{r['ours_tilt50']:7.1f}/{r['ours_tilt90']:<6.1f} "
                 f"{r['ours_tilt50_ratio']:5.2f}/{r['ours_tilt90_ratio']:<5.2f} "
-                f"{r['before_tilt50']:6.1f}/{r['before_tilt90']:<6.1f} "
-                f"{r['ours_corr']:5.3f} {r['before_corr']:6.3f} {r['sobel_corr']:6.3f} "
+                f"{r['ours_corr']:5.3f} {r['sobel_corr']:6.3f} "
                 f"{r['ours_angle']:6.1f} {r['sobel_angle']:6.1f} {r['flat']:5.1f} {r['depth_px']:6.1f}"
             )
         print(
             "targets: tilt ratio 0.8-1.25 (median) and 0.7-1.4 (90th percentile); corr (uncentred slope "
-            "correlation) >= sobel's and >= before's; angle <= sobel~'s (the Sobel of the luminance, blur "
-            f"{SOBEL_TILT_BLUR:g} px, its strength tilt-matched leave-one-out); before = the photo's light kept "
-            "and the strength that minimised the mean angle, in this run; depth = displacement depth in px"
+            "correlation) >= sobel's; angle <= sobel~'s (the Sobel of the luminance, blur "
+            f"{SOBEL_TILT_BLUR:g} px, its strength tilt-matched leave-one-out); depth = displacement depth in px"
         )
         print("\nNormals and AO from the photo alone vs scanned maps (leave-one-out; degrees)")
         print(

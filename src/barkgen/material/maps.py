@@ -19,8 +19,8 @@ AO_DIRECTIONS = 8
 AO_RADIUS = 32
 #: the photo's own cavities in the AO (:func:`photo_cavities`): how much (in units of the
 #: height AO's spread) and below which scale (px), as fitted on the scanned AO of four barks
-CAVITY_WEIGHT = 2.0
-CAVITY_SCALE = 64
+CAVITY_WEIGHT = 1.0
+CAVITY_SCALE = 32
 #: roughness model: bark is rough; cavities (occluded) rougher, exposed ridges a little smoother
 ROUGHNESS_BASE = 0.8
 ROUGHNESS_CAVITY = 0.6
