@@ -46,10 +46,10 @@ CHROMA_TOLERANCE = 2.0
 WORK_SIDE = 256
 #: floor of the linear luminance under the logarithm (a black pixel has no light to measure)
 LUMINANCE_FLOOR = 1e-3
-#: how many times the variance the bark alone would give the estimate (its residual, shuffled in
-#: blocks) a part of the light's must exceed before any of it is taken out (all of it from twice
-#: that: the bark of a photo in even light, a pine's plates or a birch's lenticels, is not light)
-NOISE_MARGIN = 2.5
+#: how many times the variance the bark alone would give the estimate (its residual's block
+#: means spread over the estimate's reach) a part of the light's must exceed before any of it
+#: is taken out (all of it from twice that: the bark of a photo in even light, a pine's plates or a birch's lenticels, is not light)
+NOISE_MARGIN = 4.0
 #: the largest gain the equalisation applies (a region the estimate says is this dark is
 #: brightened no further: there is no colour left under the noise)
 MAX_GAIN = 8.0
@@ -111,12 +111,17 @@ def estimate_illumination(photo: np.ndarray, *, tile: Wrap = False) -> np.ndarra
     sigma = WINDOW * max(small_shape)
     weight = _bark_colour_weight(small_chroma, sigma * CHROMA_WINDOW, tile)
     trend, local = _broad_field(small_lum, weight, sigma, tile)
-    # what the same estimate makes of the bark alone: its residual, cut in blocks of half the
-    # window that are put back in another order (no broad light survives, the bark's own
-    # statistics do); each part of the light is kept only as far as it stands above that
-    noise_trend, noise_local = _broad_field(_shuffled_blocks(small_lum - trend - local, sigma / 2), weight, sigma, tile)
-    log_light = trend * _significance(float(trend.var()), float(noise_trend.var())) + local * _significance(
-        float(local.var()), float(noise_local.var())
+    # what the same estimate would make of the bark alone: the variance of its residual's means
+    # over blocks of half the window, spread over the window's area (the local part) and over
+    # the whole photo with the trend's terms (the trend); each part of the light is kept only
+    # as far as it stands above that
+    block = max(sigma / 2, 1.0)
+    residual = small_lum - trend - local
+    block_var = float(_box(residual, block, tile).var())
+    noise_local = block_var * block**2 / (4 * np.pi * sigma**2)
+    noise_trend = block_var * block**2 * _trend_terms(tile) / small_lum.size
+    log_light = trend * _significance(float(trend.var()), noise_trend) + local * _significance(
+        float(local.var()), noise_local
     )
     log_light -= float(log_light.mean())
     return np.exp(_resized(log_light, (h, w), tile)).astype(np.float32)
@@ -138,22 +143,20 @@ def _significance(signal_var: float, noise_var: float) -> float:
     return float(np.clip((ratio - NOISE_MARGIN) / NOISE_MARGIN, 0.0, 1.0))
 
 
-def _shuffled_blocks(values: np.ndarray, block: float) -> np.ndarray:
-    """``values`` cut in square blocks of ``block`` px, the blocks put back in a fixed scrambled
-    order (a multiplicative stride through them: deterministic, no seed); the ragged edge as it
-    is."""
-    side = max(int(round(block)), 2)
-    rows, cols = values.shape[0] // side, values.shape[1] // side
-    n = rows * cols
-    if n < 4:
-        return values
-    stride = next(k for k in range(int(n * 0.618) | 1, 2 * n) if np.gcd(k, n) == 1)
-    order = (np.arange(n) * stride) % n
-    blocks = values[: rows * side, : cols * side].reshape(rows, side, cols, side).transpose(0, 2, 1, 3)
-    blocks = blocks.reshape(n, side, side)[order].reshape(rows, cols, side, side)
-    out = values.copy()
-    out[: rows * side, : cols * side] = blocks.transpose(0, 2, 1, 3).reshape(rows * side, cols * side)
-    return out
+def _box(values: np.ndarray, side: float, tile: Wrap) -> np.ndarray:
+    """The mean of ``values`` over a square of ``side`` px round each pixel (across the edges it
+    wraps along, mirrored at the others): every block's mean, whatever the blocks' offset."""
+    size = max(int(round(side)), 1)
+    pad = min(size, max(values.shape))
+    return on_torus(
+        lambda im: cv2.blur(im, (size, size), borderType=cv2.BORDER_REFLECT), values.astype(np.float32), pad, tile
+    )
+
+
+def _trend_terms(tile: Wrap) -> int:
+    """The non-constant terms of :func:`_weighted_trend`: a quadratic in the free axes."""
+    free = 2 - sum(wrap_axes(tile))
+    return free + free * (free + 1) // 2
 
 
 def equalize_light(photo: np.ndarray, strength: float = 1.0, *, tile: Wrap = False) -> tuple[np.ndarray, np.ndarray]:
