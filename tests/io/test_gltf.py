@@ -46,10 +46,11 @@ def test_tangents_follow_u_and_the_image_up():
     assert (mirrored[:, 3] == -1).all()
 
 
-@pytest.mark.parametrize("metalness", [False, True])
-def test_the_trunk_glb_passes_the_khronos_validator_clean(tmp_path, metalness):
+@pytest.mark.parametrize("metalness, width_m", [(False, None), (True, 0.3)])
+def test_the_trunk_glb_passes_the_khronos_validator_clean(tmp_path, metalness, width_m):
+    """With and without metalness; at the set's real size (its width known) and not."""
     pygltflib = pytest.importorskip("pygltflib")
-    material = small_set(metalness)
+    material = small_set(metalness).with_width_m(width_m)
     path = tmp_path / "trunk.glb"
     path.write_bytes(encode_glb(trunk_mesh(material, segments=32), material))
     report = validate(path)

@@ -4,6 +4,7 @@ set files (``barkgen.io``) and the ``material`` / ``preview`` / ``export-glb`` c
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +14,7 @@ from conftest import SHARED, run
 from barkgen.errors import InvalidInputError
 from barkgen.io import encode_glb, encode_material, read_image, read_material, write_bytes_atomic, write_png
 from barkgen.material import (
+    EditList,
     HeightEdit,
     HeightEditor,
     Light,
@@ -26,6 +28,7 @@ from barkgen.material import (
     flip_green,
     make_material,
     normal_map,
+    parse_edit_list,
     parse_edits,
     parse_light,
     photo_cavities,
@@ -220,6 +223,23 @@ def test_edit_lists_replay_and_reject_bad_documents():
         editor.edit(40, 3, 1.0)
     with pytest.raises(InvalidInputError):
         HeightEdit(1, 1, float("nan"))
+    # the depth and light the web app's sliders chose go beside the edits, and may stand alone
+    doc = json.loads(json.dumps(edits_document(editor.edits, relief=1.5, light_equalization=0.25)))
+    assert doc["relief"] == 1.5 and doc["light_equalization"] == 0.25
+    assert parse_edit_list(doc) == EditList(tuple(editor.edits), 1.5, 0.25)
+    assert parse_edit_list({"version": 1, "edits": [], "relief": 2}) == EditList((), 2.0, None)
+    assert "relief" not in edits_document(editor.edits)  # an edit list of edits only, as before
+    with pytest.raises(InvalidInputError, match="parse_edit_list"):
+        parse_edits(doc)  # (it would drop the depth and the light)
+    for bad, words in (
+        ({"relief": 0}, "relief"),
+        ({"relief": True}, "relief"),
+        ({"relief": 101.0}, "relief"),
+        ({"light_equalization": 1.5}, "[0, 1]"),
+        ({"relief": 1.0}, "empty"),
+    ):
+        with pytest.raises(InvalidInputError, match=re.escape(words)):
+            parse_edit_list({"version": 1, "edits": [], **bad})
 
 
 # ------------------------------------------------------------------ light and shading

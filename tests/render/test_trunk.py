@@ -11,7 +11,7 @@ from barkgen.color import linear_to_srgb
 from barkgen.errors import InvalidInputError
 from barkgen.material.materialset import MaterialSet
 from barkgen.material.shading import Light
-from barkgen.render import BACKGROUND, TrunkView, render_trunk, trunk_mesh
+from barkgen.render import BACKGROUND, TrunkView, real_repeat, render_trunk, trunk_mesh
 from barkgen.render._kernels import _bilinear
 
 SIZE = (48, 96)
@@ -132,3 +132,30 @@ def test_the_mesh_carries_the_relief():
     assert (radii[:, :8] > 0.2).all() and (radii[:, 9:16] < 0.2).all()
     flat = trunk_mesh(material(height), segments=16, radius_m=0.2, view=TrunkView(repeat=1.0, displacement=0.0))
     assert np.allclose(np.hypot(flat.vertices[:, 0], flat.vertices[:, 2]), 0.2, atol=1e-6)
+
+
+def test_a_set_of_known_size_wraps_at_its_real_width_and_moves_the_vertices_by_its_depth_in_metres():
+    """A set 0.4 m wide (its pixel size known) on a trunk of radius 0.15 m: the texture
+    goes round round(0.94 / 0.4) = 2 times, and the mesh's radii span the set's depth in metres
+    (``NAME.json``'s ``displacement_depth_m``), whatever the repeat; twice with displacement 2."""
+    rng = np.random.default_rng(4)
+    y, x = np.mgrid[0:32, 0:64]
+    height = np.sin(x / 3.0) * 3 + np.cos(y / 2.0) * 2 + rng.normal(0, 0.2, (32, 64))
+    known = material(height).with_width_m(0.4)
+    depth_m = known.physical_size()["displacement_depth_m"]
+    assert depth_m == pytest.approx(known.depth * 0.4 / 64)
+    mesh = trunk_mesh(known, segments=256, radius_m=0.15)
+    assert mesh.uv[:, 0].max() == pytest.approx(2.0)  # round(2 pi 0.15 / 0.4) = round(2.36)
+    radii = np.hypot(mesh.vertices[:, 0], mesh.vertices[:, 2])
+    assert np.ptp(radii) == pytest.approx(depth_m, rel=0.03)
+    # height 0 on the trunk's radius: the radii are the height in metres about it
+    assert radii.min() == pytest.approx(0.15 + known.height.min() * known.pixel_size_m, rel=1e-4)
+    deeper = trunk_mesh(known, segments=256, radius_m=0.15, view=TrunkView(displacement=2.0))
+    assert np.ptp(np.hypot(deeper.vertices[:, 0], deeper.vertices[:, 2])) == pytest.approx(2 * depth_m, rel=0.03)
+    # a repeat asked for is kept, the depth stays in metres
+    four = trunk_mesh(known, segments=256, radius_m=0.15, view=TrunkView(repeat=4.0))
+    assert four.uv[:, 0].max() == pytest.approx(4.0)
+    assert np.ptp(np.hypot(four.vertices[:, 0], four.vertices[:, 2])) == pytest.approx(depth_m, rel=0.03)
+    # a trunk thinner than the set: once round, squeezed; unknown size: as before (2 round)
+    assert real_repeat(0.4, 0.03) == 1 and real_repeat(0.4, 1.0) == 16
+    assert trunk_mesh(material(height), segments=16).uv[:, 0].max() == pytest.approx(2.0)

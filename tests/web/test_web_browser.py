@@ -534,9 +534,11 @@ def _set_heights(page, server: str, result: dict) -> np.ndarray:
 def test_relief_editor_stroke_spreads_relights_the_trunk_and_saves(server, browser):
     """wang2003 Fig. 6 in the page: on a 1024² result, a stroke of five edits raises the bark
     under it and at the self-similar places (the server's answer, checked against the edits the
-    page made), the trunk relights, undo and redo; Save makes a result whose displacement rose
-    where the page showed it and stayed where it did not. Each edit's time (pointer to the
-    relit trunk) is kept on the canvas; benchmarks/bench_relief_editor.py reports it."""
+    page made), the trunk relights, undo and redo; Depth and Photo light re-render the trunk at
+    once with no request; Save makes a result whose displacement rose where the page showed it
+    and stayed where it did not, twice as deep, with half of the photo's light out of its
+    colour. Each edit's time (pointer to the relit trunk) is kept on the canvas;
+    benchmarks/bench_relief_editor.py reports it."""
     page = browser.new_page(viewport={"width": 1366, "height": 768})
     errors = []
     page.on("pageerror", lambda exc: errors.append(str(exc)))
@@ -588,30 +590,111 @@ def test_relief_editor_stroke_spreads_relights_the_trunk_and_saves(server, brows
     # the trunk was relit from the new relief
     relit = np.abs(_canvas_pixels(page, "trunk-canvas") - trunk_before).sum(axis=2)
     assert (relit > 12).mean() > 0.005, (relit > 12).mean()
-    if SHOTS:  # the editor beside the trunk it relit
-        Path(SHOTS).mkdir(parents=True, exist_ok=True)
-        page.locator(".result-layout").screenshot(path=str(Path(SHOTS) / "web_relief_1366x768.png"))
     # undo takes the stroke back, redo brings it again
     page.get_by_test_id("relief-undo").click()
     page.wait_for_function("() => document.querySelector('[data-testid=relief-canvas]').dataset.edits === '0'")
     assert page.get_by_test_id("relief-undo").is_disabled()
     page.get_by_test_id("relief-redo").click()
     page.wait_for_function("() => document.querySelector('[data-testid=relief-canvas]').dataset.edits === '5'")
-    # Save: a new result, its displacement risen where the page showed it
+    # Depth 2x and Photo light 50 %: the trunk re-renders at once, on the page alone (no request)
+    asked = []
+    page.on("request", lambda request: asked.append(request.url))
+    trunk_edited = _canvas_pixels(page, "trunk-canvas")
+    took = {testid: _slide(page, testid, value) for testid, value in (("relief-depth", 1), ("photo-light", 50))}
+    deeper = np.abs(_canvas_pixels(page, "trunk-canvas") - trunk_edited).sum(axis=2)
+    assert (deeper > 12).mean() > 0.005, (deeper > 12).mean()
+    assert page.get_by_test_id("relief-depth-value").text_content().startswith("2.00× · ")
+    assert page.get_by_test_id("photo-light-value").text_content() == "50 %"
+    assert not [url for url in asked if "/api/" in url], asked
+    if SHOTS:  # the editor beside the trunk it relit, 2x as deep
+        Path(SHOTS).mkdir(parents=True, exist_ok=True)
+        page.locator(".result-layout").screenshot(path=str(Path(SHOTS) / "web_relief_1366x768.png"))
+    page.wait_for_function("() => document.querySelector('[data-testid=relief-canvas]').dataset.lightPower === '0.5'")
+    relit_ms = page.get_by_test_id("relief-canvas").get_attribute("data-relit")
+    print(f"slider to trunk frame: {took} ms; texture relit in {relit_ms} ms")  # (pytest -s shows it)
+    # Save: a new result, its displacement risen where the page showed it, twice as deep, half
+    # of the photo's light out of its colour
     page.get_by_test_id("relief-save").click()
     _follow_job(page)
     saved_id = re.search(r"/results/(\d+)", page.url).group(1)
     assert saved_id != result_id
     saved = page.request.get(f"{server}api/results/{saved_id}").json()
     parent = page.request.get(f"{server}api/results/{result_id}").json()
-    assert saved["params"]["relief_from"] == {"result_id": int(result_id), "edits": 5}
-    rise = _set_heights(page, server, saved) - _set_heights(page, server, parent)
-    quantum = (
-        2
-        * max(
-            page.request.get(f"{server}api/results/{r}").json()["displacement_depth_px"] for r in (saved_id, result_id)
-        )
-        / 65535
-    )
-    assert np.abs(rise - change).max() < 0.02 + quantum
+    assert saved["params"]["relief_from"] == {
+        "result_id": int(result_id),
+        "edits": 5,
+        "relief": 2.0,
+        "light_equalization": 0.5,
+    }
+    assert saved["material"]["light_equalization"] == 0.5
+    rise = _set_heights(page, server, saved) - 2 * _set_heights(page, server, parent)
+    quantum = 2 * max(saved["displacement_depth_px"], 2 * parent["displacement_depth_px"]) / 65535
+    assert np.abs(rise - 2 * change).max() < 2 * 0.02 + quantum
     assert not errors, errors
+
+
+def _slide(page, testid: str, value: float) -> float:
+    """Move a range input as a drag does (an ``input`` event) and wait for the trunk's next
+    frame: the milliseconds from the event to the frame drawn."""
+    return page.get_by_test_id(testid).evaluate(
+        """async (input, value) => {
+             const trunk = document.querySelector('[data-testid=trunk-canvas]');
+             const before = Number(trunk.dataset.frames);
+             const t0 = performance.now();
+             input.value = String(value);
+             input.dispatchEvent(new Event('input', {bubbles: true}));
+             input.dispatchEvent(new Event('change', {bubbles: true}));
+             while (Number(trunk.dataset.frames) === before) await new Promise((r) => requestAnimationFrame(r));
+             return performance.now() - t0;
+           }""",
+        value,
+    )
+
+
+def test_photo_light_relights_the_trunk_and_the_texture_or_says_why_not(server, browser):
+    """A 128² result of a photo lit as round a trunk: Photo light at 0 % puts the photo's broad
+    light back, on the trunk and on the relief editor's texture at once (no job); a result with
+    no record of its photo's light (its page's record as an older result's) has the slider off
+    and one line saying why."""
+    from test_web_relief import _trunk_photo
+
+    page = browser.new_page(viewport={"width": 1366, "height": 768})
+    errors = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    photo = {"name": "lit.png", "mimeType": "image/png", "buffer": _trunk_photo()}
+    exemplar = page.request.post(f"{server}api/exemplars", multipart={"file": photo, "name": "lit bark"}).json()
+    settings = {"size": "128x128", "k": 2, "tile": True, "material": True, "seed": 3}
+    job = page.request.post(f"{server}api/jobs", data={"exemplar_id": exemplar["id"], **settings}).json()
+    deadline = time.monotonic() + 120
+    while (state := page.request.get(f"{server}api/jobs/{job['id']}").json())["state"] not in ("done", "failed"):
+        assert time.monotonic() < deadline, state
+        time.sleep(0.2)
+    assert state["state"] == "done", state
+    result = page.request.get(f"{server}api/results/{state['result_id']}").json()
+    jobs = len(page.request.get(f"{server}api/jobs").json())
+    page.goto(f"{server}results/{result['id']}")
+    page.wait_for_selector("[data-testid=trunk-canvas][data-ready='1']", timeout=60_000)
+    page.wait_for_selector("[data-testid=relief-canvas][data-ready='1']", state="attached", timeout=60_000)
+    light = page.get_by_test_id("photo-light")
+    assert light.is_enabled() and light.input_value() == "100"
+    assert page.get_by_test_id("photo-light-note").is_hidden()
+    page.get_by_test_id("relief-toggle").check()
+    trunk, texture = _canvas_pixels(page, "trunk-canvas"), _canvas_pixels(page, "relief-canvas")
+    took = _slide(page, "photo-light", 0)
+    page.wait_for_function("() => document.querySelector('[data-testid=relief-canvas]').dataset.lightPower === '1'")
+    relit_trunk = np.abs(_canvas_pixels(page, "trunk-canvas") - trunk).sum(axis=2)
+    relit_texture = np.abs(_canvas_pixels(page, "relief-canvas") - texture).sum(axis=2)
+    assert (relit_trunk > 12).mean() > 0.05 and (relit_texture > 12).mean() > 0.05
+    assert len(page.request.get(f"{server}api/jobs").json()) == jobs  # no job made
+    print(f"photo light to frame: {took:.0f} ms")
+    # a result made before barkgen kept the photo's light: the slider off, and why
+    older = {**result, "material": {**result["material"], "illumination_url": None}}
+    page.route(f"**/api/results/{result['id']}", lambda route: route.fulfill(json=older))
+    page.goto(f"{server}results/{result['id']}")
+    page.wait_for_selector("[data-testid=trunk-canvas][data-ready='1']", timeout=60_000)
+    assert page.get_by_test_id("photo-light").is_disabled()
+    note = page.get_by_test_id("photo-light-note")
+    assert note.is_visible() and "no record of its photo's light" in note.text_content()
+    assert page.get_by_test_id("relief-depth").is_enabled()
+    assert not errors, errors
+    page.close()

@@ -11,11 +11,14 @@ from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from contextvars import ContextVar
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import TYPE_CHECKING, Annotated, Optional
 
 import typer
 
 from barkgen.errors import InvalidInputError
+
+if TYPE_CHECKING:
+    from barkgen.material import EditList
 
 _LEVEL_NAME = re.compile(r"level_(\d+)\.png$", re.IGNORECASE)
 
@@ -103,11 +106,12 @@ def read_resume(path: Path):
 MAX_EDITS_BYTES = 4 * 2**20
 
 
-def read_edits(path: Path) -> list:
-    """The height edits of an ``--edits`` JSON file (:func:`barkgen.material.parse_edits`)."""
+def read_edits(path: Path) -> EditList:
+    """The edit list of an ``--edits`` JSON file: its height edits, and the depth and light it
+    chose (:func:`barkgen.material.parse_edit_list`)."""
     import json
 
-    from barkgen.material import parse_edits
+    from barkgen.material import parse_edit_list
 
     try:
         if path.stat().st_size > MAX_EDITS_BYTES:
@@ -119,7 +123,7 @@ def read_edits(path: Path) -> list:
         raise InvalidInputError(f"{path}: nested too deeply to be an edit list") from None
     except ValueError as exc:  # (a UnicodeDecodeError too)
         raise InvalidInputError(f"{path}: not JSON ({str(exc)[:80]})") from None
-    return parse_edits(document)
+    return parse_edit_list(document)
 
 
 # ------------------------------------------------------------------------ output paths
@@ -507,7 +511,8 @@ EditsOption = Annotated[
         "--edits",
         help="JSON list of height edits to replay on the relief (HeightEditor, wang2003 §3.3; the web app's "
         'relief editor saves one): {"version": 1, "edits": [{"x": 10, "y": 20, "delta": 1.5, "radius": 4}]}, '
-        "in pixels of the image edited.",
+        'in pixels of the image edited; "relief": 1.5 and "light_equalization": 0.5 beside "edits" then scale '
+        "the depth and relight the colour (the web app's depth and photo light sliders).",
     ),
 ]
 FlowOption = Annotated[

@@ -87,8 +87,18 @@ def generate_command(
     into the output folder."""
     from barkgen.data import sample_exemplar_path
     from barkgen.io import read_image, read_scanned_set
+    from barkgen.material import EditList
     from barkgen.material.presets import check_preset
-    from barkgen.pipeline import encode_generate, generate, parse_sizes, sized_options, sized_set_names, stage_at
+    from barkgen.pipeline import (
+        adjusted_result,
+        check_edit_list,
+        encode_generate,
+        generate,
+        parse_sizes,
+        sized_options,
+        sized_set_names,
+        stage_at,
+    )
 
     check_bits(bits)
     check_folder(output_dir, "output")
@@ -115,7 +125,8 @@ def generate_command(
     label_map = read_image(labels) if labels is not None else None
     edited = read_resume(resume) if resume is not None else None
     fields = read_fields(flow, flow_scale)
-    edit_list = read_edits(edits) if edits is not None else []
+    edit_list = read_edits(edits) if edits is not None else EditList()
+    check_edit_list(edit_list, options.material)
     describe = functools.partial(stage_at, material=options.material)
     with progress_bar(not quiet, "generating", describe) as progress:
         result = generate(
@@ -126,9 +137,10 @@ def generate_command(
             resume=edited,
             progress=progress,
             scan=scan,
-            edits=edit_list,
+            edits=edit_list.edits,
             **fields,
         )
+        result = adjusted_result(result, edit_list)  # the edit list's depth and light, after its edits
         files = encode_generate(
             image, result, str(src), name=name, bits=bits, preset=preset, sizes=widths, exr_height=exr_height
         )

@@ -37,6 +37,14 @@ from barkgen.cli._common import (
 
 ViewRepeat = Annotated[float, typer.Option("--repeat", help="Times the texture goes round the trunk.")]
 ViewDisplacement = Annotated[float, typer.Option("--displacement", help="Relief scale (1 = the set's own depth).")]
+GlbRepeat = Annotated[
+    Optional[float],
+    typer.Option(
+        "--repeat",
+        help="Times the texture goes round the trunk (radius 0.15 m). Default: the set at its real size "
+        "(NAME.json's width_m: the circumference over the width, rounded to a whole number), else 2.",
+    ),
+]
 
 
 def material_command(
@@ -65,7 +73,7 @@ def material_command(
     from barkgen.data import sample_exemplar_path
     from barkgen.io import check_material_name, encode_material, read_image
     from barkgen.io.material import material_file_names
-    from barkgen.material import MaterialOptions, make_material
+    from barkgen.material import EditList, MaterialOptions, adjust_material, make_material
     from barkgen.material.presets import check_preset
 
     check_material_name(name)
@@ -82,13 +90,15 @@ def material_command(
         exemplar_wrap="yes" if tile else exemplar_wraps,
         max_memory=parse_memory(max_memory),
     )
-    edit_list = read_edits(edits) if edits is not None else []
+    edit_list = read_edits(edits) if edits is not None else EditList()
     src = photo if photo is not None else sample_exemplar_path()
     image = read_image(src)
     h, w = image.shape[:2]
     start = time.perf_counter()
     with progress_bar(not quiet, "material") as progress:
-        material = make_material(image, options, edits=edit_list)
+        material = make_material(image, options, edits=edit_list.edits)
+        if edit_list.adjusts:  # the edit list's depth and light, after its edits
+            material = adjust_material(material, relief=edit_list.relief, equalization=edit_list.light_equalization)
         if progress:
             progress(1, 1)
     files = encode_material(
@@ -98,7 +108,7 @@ def material_command(
         exr_height=exr_height,
         seed=seed,
         source_photo=str(src),
-        edits=len(edit_list),
+        edits=len(edit_list.edits),
         exemplar_wrap_mode=options.exemplar_wrap,
     )
     write_files(output_dir, files)
@@ -141,12 +151,12 @@ def preview_command(
 def export_glb_command(
     folder: Annotated[Path, typer.Argument(help="Material set folder.")],
     output: Annotated[Path, typer.Option("-o", "--output", help="Output .glb.")] = Path("trunk.glb"),
-    repeat: ViewRepeat = 2.0,
+    repeat: GlbRepeat = None,
     displacement: ViewDisplacement = 1.0,
     segments: Annotated[int, typer.Option("--segments", help="Vertices around the trunk.")] = 256,
 ) -> None:
-    """Write a glTF 2.0 trunk: the relief in the geometry, colour, normal and
-    occlusion-roughness-metallic textures."""
+    """Write a glTF 2.0 trunk: the relief in the geometry (in metres at the set's real size),
+    colour, normal and occlusion-roughness-metallic textures."""
     from barkgen.io import encode_glb, read_material
     from barkgen.render import TrunkView, trunk_mesh
 

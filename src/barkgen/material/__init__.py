@@ -8,7 +8,7 @@ files (ambientCG names) are written by :func:`barkgen.io.write_material` and the
 """
 
 from barkgen.material.edited import adjust_material, edit_material
-from barkgen.material.editor import HeightEdit, HeightEditor, edits_document, parse_edits
+from barkgen.material.editor import EditList, HeightEdit, HeightEditor, edits_document, parse_edit_list, parse_edits
 from barkgen.material.height import HeightConfig, estimate_height
 from barkgen.material.illumination import (
     decode_illumination,
@@ -38,6 +38,7 @@ from barkgen.material.transfer import transfer_material
 
 __all__ = [
     "adjust_material",
+    "EditList",
     "HeightConfig",
     "HeightEdit",
     "HeightEditor",
@@ -56,6 +57,7 @@ __all__ = [
     "integrate_normals",
     "make_material",
     "normal_map",
+    "parse_edit_list",
     "parse_edits",
     "parse_light",
     "photo_cavities",

@@ -9,7 +9,9 @@ neighbourhoods, for speed) and the mask is brought back to full size.
 
 Edits replay from JSON: ``{"version": 1, "edits": [{"x": 10, "y": 20, "delta": 1.5,
 "radius": 4}, ...]}`` (pixels of the photo; ``delta`` in pixels of height; optional
-``"threshold"`` per edit).
+``"threshold"`` per edit), and optionally the depth multiplier and the photo light to give the
+set after them (``"relief": 1.5, "light_equalization": 0.5``, :class:`EditList`: the web app's
+sliders).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from barkgen._shared.arrays import Wrap, pad_wrapped, wrap_axes
 from barkgen.errors import InvalidInputError
 from barkgen.material._kernels import neighbourhood_distance
 from barkgen.material.height import luminance
+from barkgen.material.illumination import check_strength
 
 #: the largest neighbourhood radius compared at full resolution; larger ones use a coarser level
 MAX_LEVEL_RADIUS = 4
@@ -75,8 +78,86 @@ class HeightEdit:
 MAX_EDITS = 10_000
 
 
+#: the largest depth multiplier an edit list may hold (:func:`barkgen.material.adjust_material`)
+MAX_RELIEF = 100.0
+
+
+@dataclass(frozen=True)
+class EditList:
+    """An edit list as its JSON holds it: the height edits, then the depth and the photo light
+    the web app's sliders chose (:func:`barkgen.material.adjust_material`, after the edits).
+
+    Parameters
+    ----------
+    edits : tuple of HeightEdit
+        In the set's pixels, in order (may be empty when ``relief`` or ``light_equalization``
+        says something).
+    relief : float, default 1.0
+        Multiplies the edited height, in (0, :data:`MAX_RELIEF`].
+    light_equalization : float, optional
+        How much of the photo's broad light is taken out of the colour, 0 to 1 (``None``: as
+        the run made it).
+    """
+
+    edits: tuple[HeightEdit, ...] = ()
+    relief: float = 1.0
+    light_equalization: float | None = None
+
+    @property
+    def adjusts(self) -> bool:
+        """The list changes the depth or the light (not only the height)."""
+        return self.relief != 1.0 or self.light_equalization is not None
+
+
+def parse_edit_list(document: object) -> EditList:
+    """An edit list's JSON, validated: its edits, and the depth and light it chose.
+
+    Parameters
+    ----------
+    document : object
+        The parsed JSON: ``{"version": 1, "edits": [{"x": 120, "y": 340, "delta": 2.0,
+        "radius": 4}, ...], "relief": 1.5, "light_equalization": 0.5}`` (each edit's
+        ``radius`` and ``threshold`` optional; ``relief`` and ``light_equalization`` optional,
+        and with either of them ``edits`` may be empty).
+
+    Returns
+    -------
+    EditList
+
+    Raises
+    ------
+    InvalidInputError
+        A wrong version, unknown keys, nothing to do, a bad edit, a relief outside
+        (0, :data:`MAX_RELIEF`] or a light outside [0, 1] (one line naming it).
+
+    Examples
+    --------
+    >>> parse_edit_list({"version": 1, "edits": [], "relief": 2}).relief
+    2.0
+    """
+    version = document.get("version") if isinstance(document, Mapping) else None
+    if type(version) is not int or version != EDITS_VERSION:
+        raise InvalidInputError(f'an edit list must be a JSON object with "version": {EDITS_VERSION}')
+    assert isinstance(document, Mapping)  # else its version is None: refused above
+    unknown = set(document) - {"version", "edits", "relief", "light_equalization"}
+    if unknown:
+        raise InvalidInputError(f"unknown key(s) in the edit list: {', '.join(sorted(unknown))}")
+    relief = document.get("relief", 1.0)
+    if isinstance(relief, bool) or not isinstance(relief, (int, float)) or not 0 < relief <= MAX_RELIEF:
+        raise InvalidInputError(f'the edit list\'s "relief" must be a number in (0, {MAX_RELIEF:g}], not {relief!r}')
+    light = document.get("light_equalization")
+    if light is not None:
+        light = check_strength(light)
+    items = document.get("edits")
+    adjusts = relief != 1.0 or light is not None
+    if not isinstance(items, list) or not (items or adjusts):
+        raise InvalidInputError('the edit list is empty: "edits" must list at least one edit')
+    return EditList(tuple(_parsed_items(items)), float(relief), light)
+
+
 def parse_edits(document: object) -> list[HeightEdit]:
-    """The edits of a JSON edit list, validated.
+    """The edits of a JSON edit list, validated (one that also sets the depth or the light is
+    read by :func:`parse_edit_list`).
 
     Parameters
     ----------
@@ -99,16 +180,14 @@ def parse_edits(document: object) -> list[HeightEdit]:
     >>> parse_edits({"version": 1, "edits": [{"x": 3, "y": 4, "delta": 2.0}]})[0].radius
     4
     """
-    version = document.get("version") if isinstance(document, Mapping) else None
-    if type(version) is not int or version != EDITS_VERSION:
-        raise InvalidInputError(f'an edit list must be a JSON object with "version": {EDITS_VERSION}')
-    assert isinstance(document, Mapping)  # else its version is None: refused above
-    unknown = set(document) - {"version", "edits"}
-    if unknown:
-        raise InvalidInputError(f"unknown key(s) in the edit list: {', '.join(sorted(unknown))}")
-    items = document.get("edits")
-    if not isinstance(items, list) or not items:
-        raise InvalidInputError('the edit list is empty: "edits" must list at least one edit')
+    parsed = parse_edit_list(document)
+    if parsed.adjusts:
+        raise InvalidInputError("this edit list also sets the depth or the light: read it with parse_edit_list")
+    return list(parsed.edits)
+
+
+def _parsed_items(items: list) -> list[HeightEdit]:
+    """The edits of an edit list's ``"edits"`` items (one line naming a bad one)."""
     if len(items) > MAX_EDITS:
         raise InvalidInputError(
             f"the edit list has {len(items)} edits; at most {MAX_EDITS} (an artist's session is a few hundred)"
@@ -143,23 +222,35 @@ def parse_edits(document: object) -> list[HeightEdit]:
     return edits
 
 
-def edits_document(edits: Iterable[HeightEdit]) -> dict:
-    """The JSON document of a list of edits (what :func:`parse_edits` reads).
+def edits_document(
+    edits: Iterable[HeightEdit], *, relief: float = 1.0, light_equalization: float | None = None
+) -> dict:
+    """The JSON document of a list of edits (what :func:`parse_edit_list` reads).
 
     Parameters
     ----------
     edits : iterable of HeightEdit
         The edits.
+    relief : float, default 1.0
+        The depth multiplier after the edits (written only when it is not 1).
+    light_equalization : float, optional
+        The photo light chosen (written only when given).
 
     Returns
     -------
     dict
-        ``{"version": 1, "edits": [...]}``, every field of every edit written out.
+        ``{"version": 1, "edits": [...]}``, every field of every edit written out, then
+        ``relief`` and ``light_equalization`` where they say something.
     """
-    return {
+    document: dict = {
         "version": EDITS_VERSION,
         "edits": [{"x": e.x, "y": e.y, "delta": e.delta, "radius": e.radius, "threshold": e.threshold} for e in edits],
     }
+    if relief != 1.0:
+        document["relief"] = float(relief)
+    if light_equalization is not None:
+        document["light_equalization"] = float(light_equalization)
+    return document
 
 
 def _disc_offsets(radius: int) -> np.ndarray:

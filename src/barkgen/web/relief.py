@@ -4,9 +4,15 @@ self-similar places of the texture, answered at once so the page relights its tr
 The page sends its whole edit list each time (``POST /api/results/{id}/relief``); the server
 keeps, per result, the heights after the last edits it replayed, so a new edit costs one edit
 (:class:`~barkgen.material.HeightEditor`) and an undo none. The answer is the edited height,
-float32 little-endian, row by row. Saving the edits is a job like any other: the result's
-settings with ``relief_edits: {result_id, edits}`` (:mod:`.routes_jobs`), which ``barkgen generate
---material --edits`` replays to the same bytes.
+float32 little-endian, row by row.
+
+The page's Depth and Photo light sliders change its views at once, on the page alone: it scales
+the displacement and the normals' slopes, and relights the colour with the photo's broad light
+(``GET /api/results/{id}/illumination``, fetched once) as
+:meth:`barkgen.material.MaterialSet.relit_color` does. Saving is a job like any other: the
+result's settings with ``relief_edits: {result_id, edits, relief, light_equalization}``
+(:mod:`.routes_jobs`); its ``edits.json`` holds all of it, and ``barkgen generate --material
+--edits`` replays it to the same bytes.
 """
 
 from __future__ import annotations
@@ -23,7 +29,9 @@ from pydantic import BaseModel
 
 from barkgen.errors import InvalidInputError
 from barkgen.io import decode_image
+from barkgen.library import NotFoundError
 from barkgen.material import HeightEdit, HeightEditor, parse_edits
+from barkgen.pipeline.files import ILLUMINATION_FILE
 from barkgen.web.state import AppState, State
 
 router = APIRouter()
@@ -32,6 +40,8 @@ router = APIRouter()
 SESSIONS_KEPT = 2
 #: bytes of edited heights kept per result (the last edits' heights: an undo costs nothing)
 CHECKPOINT_BYTES = 256 * 2**20
+#: the depth multipliers the page's Depth slider offers, of the result's own depth
+RELIEF_RANGE = (0.25, 4.0)
 
 
 class ReliefRequest(BaseModel):
@@ -115,6 +125,42 @@ def checked_edits(items: list[dict], size: tuple[int, int]) -> list[HeightEdit]:
     return edits
 
 
+def checked_sliders(state: AppState, result, relief: float, light: float | None) -> tuple[float, float | None]:
+    """The page's depth multiplier and photo light for a Save of ``result`` (a library
+    result): the depth within :data:`RELIEF_RANGE`, the light in [0, 1] on a result that
+    carries its photo's light (``illumination.png``); ``None`` for a light that is the
+    result's own."""
+    low, high = RELIEF_RANGE
+    if not (np.isfinite(relief) and low <= relief <= high):
+        raise InvalidInputError(f"the depth must be {low:g}x to {high:g}x the result's, not {relief:g}x")
+    if light is None:
+        return float(relief), None
+    if not (np.isfinite(light) and 0.0 <= light <= 1.0):
+        raise InvalidInputError(f"the photo light taken out must be 0 to 1, not {light:g}")
+    meta = json.loads(state.library.result_file(result.id, f"{_material_name(result.files)}.json"))
+    own = meta.get("light_equalization")
+    if own is not None and abs(light - float(own)) < 5e-5:
+        return float(relief), None
+    if ILLUMINATION_FILE not in result.files:
+        raise InvalidInputError(
+            f"result {result.id} has no record of its photo's light (no {ILLUMINATION_FILE}: made before "
+            "barkgen kept it), so its light cannot change"
+        )
+    return float(relief), float(light)
+
+
+def illumination(state: AppState, result_id: int) -> tuple[np.ndarray, str]:
+    """The photo's broad light ``L`` carried to a result (:func:`barkgen.material.decode_illumination`
+    of its ``illumination.png``), float32, and its size as ``WxH``."""
+    from barkgen.material import decode_illumination
+
+    result = state.library.result(result_id)
+    if ILLUMINATION_FILE not in result.files:
+        raise NotFoundError(f"result {result_id} has no {ILLUMINATION_FILE} (made before barkgen kept the light)")
+    light = decode_illumination(decode_image(state.library.result_file(result_id, ILLUMINATION_FILE), "illumination"))
+    return light, f"{light.shape[1]}x{light.shape[0]}"
+
+
 def edited_height(state: AppState, result_id: int, items: list[dict]) -> np.ndarray:
     """The result's height after the edits (pixels, float32)."""
     session = open_session(state, result_id)
@@ -132,4 +178,17 @@ def relief(result_id: int, request: ReliefRequest, state: State):
         height.astype("<f4").tobytes(),
         media_type="application/octet-stream",
         headers={"X-Height-Size": f"{w}x{h}", "Cache-Control": "no-store"},
+    )
+
+
+@router.get("/api/results/{result_id}/illumination")
+def result_illumination(result_id: int, state: State):
+    """The photo's broad light carried to the result (what the page's Photo light slider puts
+    back or takes out): float32 little-endian, row by row; its size in ``X-Height-Size``
+    (``WxH``, as the relief's)."""
+    light, size = illumination(state, result_id)
+    return Response(
+        light.astype("<f4").tobytes(),
+        media_type="application/octet-stream",
+        headers={"X-Height-Size": size, "Cache-Control": "max-age=3600"},
     )

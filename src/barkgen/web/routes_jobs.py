@@ -47,10 +47,15 @@ class ResumeRequest(BaseModel):
 
 
 class ReliefSaveRequest(BaseModel):
-    """A result's relief edits to replay on it (the relief editor's Save)."""
+    """A result's relief edits to replay on it, and the depth and photo light its sliders chose
+    (the relief editor's Save)."""
 
     result_id: int
     edits: list[dict]
+    #: the depth, a multiple of the result's own (:data:`barkgen.web.relief.RELIEF_RANGE`)
+    relief: float = 1.0
+    #: how much of the photo's broad light is out of the colour, 0 to 1 (``None``: the result's own)
+    light_equalization: float | None = None
 
 
 #: the web app's defaults where they are not GenerateOptions' own: the CLI's, but a seed of None
@@ -168,12 +173,18 @@ def painted_level(state: AppState, request: ResumeRequest, exemplar_id: int, par
     return request.level, values[codes].astype(level.dtype)
 
 
-def relief_edits(state: AppState, request: ReliefSaveRequest, exemplar_id: int, params: dict) -> list[dict]:
-    """The relief editor's edits of a result, checked against it (same photo, size, material
-    maps), after the result's own edits when it was sculpted before, as the items of their JSON
-    list."""
-    from barkgen.material import edits_document, parse_edits
-    from barkgen.web.relief import checked_edits
+def relief_edits(state: AppState, request: ReliefSaveRequest, exemplar_id: int, params: dict) -> dict:
+    """The relief editor's Save of a result, checked against it (same photo, size, material
+    maps), as the JSON document of its edit list (``edits.json``,
+    :func:`barkgen.material.parse_edit_list`): the height edits, then the depth and the light.
+
+    A result sculpted or adjusted before is saved from its own run: its edit list comes first,
+    the new edits' deltas in its run's heights (divided by its depth multiplier), the depth
+    multipliers multiplied and the light the one chosen last."""
+    import dataclasses
+
+    from barkgen.material import EditList, edits_document, parse_edit_list
+    from barkgen.web.relief import checked_edits, checked_sliders
 
     parent = state.library.result(request.result_id)
     if parent.exemplar_id != exemplar_id:
@@ -181,11 +192,19 @@ def relief_edits(state: AppState, request: ReliefSaveRequest, exemplar_id: int, 
     if params["size"] != list(parent.params["size"]) or not params["material"]:
         raise InvalidInputError("saving a relief keeps the result's size and its material maps")
     edits = checked_edits(request.edits, tuple(params["size"]))
-    if not edits:
-        raise InvalidInputError("there is no relief edit to save")
+    relief, light = checked_sliders(state, parent, request.relief, request.light_equalization)
+    if not edits and relief == 1.0 and light is None:
+        raise InvalidInputError("there is no relief edit, depth or light change to save")
+    before = EditList()
     if "edits.json" in parent.files:  # a result sculpted before: its edits first, then these
-        edits = parse_edits(json.loads(state.library.result_file(parent.id, "edits.json"))) + edits
-    return edits_document(edits)["edits"]
+        before = parse_edit_list(json.loads(state.library.result_file(parent.id, "edits.json")))
+    if before.relief != 1.0:  # the page edited heights already deepened by the parent's relief
+        edits = [dataclasses.replace(e, delta=e.delta / before.relief) for e in edits]
+    return edits_document(
+        [*before.edits, *edits],
+        relief=before.relief * relief,
+        light_equalization=light if light is not None else before.light_equalization,
+    )
 
 
 def start_job(state: AppState, request: JobRequest) -> dict:
@@ -224,7 +243,11 @@ def start_job(state: AppState, request: JobRequest) -> dict:
     if request.relief_edits is not None:
         parent_id = request.relief_edits.result_id
         edits = relief_edits(state, request.relief_edits, exemplar.id, params)
-        params["relief_from"] = {"result_id": request.relief_edits.result_id, "edits": len(edits)}
+        params["relief_from"] = {
+            "result_id": request.relief_edits.result_id,
+            "edits": len(edits["edits"]),
+            **{k: edits[k] for k in ("relief", "light_equalization") if k in edits},
+        }
     # the photo's label map when a page has made it already (else the worker makes it); cracks
     # and bi-layer textures have label maps of their own (barkgen.pipeline.variants)
     plain = options.structure == "labels" and options.model == "patches"

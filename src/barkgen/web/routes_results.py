@@ -23,11 +23,23 @@ from barkgen.io import decode_image, encode_png
 from barkgen.labels import label_colour_map
 from barkgen.labels.preview import label_colours
 from barkgen.library import NotFoundError
+from barkgen.pipeline import GenerateOptions
 from barkgen.web.state import LABEL_METHOD, AppState, State, cached_response, name_slug
 
 router = APIRouter()
 
 _MEDIA = {".png": "image/png", ".jpg": "image/jpeg", ".json": "application/json", ".glb": "model/gltf-binary"}
+
+#: the keys of a set's ``NAME.json`` the page's trunk and sliders read
+_RECORD_KEYS = (
+    "displacement_depth_px",
+    "displacement_midlevel",
+    "displacement_depth_m",
+    "width_m",
+    "height_m",
+    "real_size",
+    "light_equalization",
+)
 
 _FILE_NOTES = {
     "_Color.png": "base colour (sRGB), shading removed",
@@ -45,7 +57,10 @@ _FILE_NOTES = {
     "(barkgen apply-reference re-applies it to any map of the photo)",
     "preview.png": "contact sheet: photo, labels in, labels out, result",
     "report.json": "parameters, seed, label areas and timings of the run",
-    "edits.json": "the relief editor's height edits (barkgen generate --material --edits edits.json replays them)",
+    "edits.json": "the relief editor's height edits, depth and photo light (barkgen generate --material --edits "
+    "edits.json replays them)",
+    "illumination.png": "16-bit: the photo's broad light carried to the new bark (log2, mid-grey = 1; "
+    "barkgen.material.decode_illumination)",
     "trunk.glb": "the bark on a trunk, glTF 2.0 binary with its material (Blender, three.js, game engines)",
 }
 
@@ -89,13 +104,12 @@ def result_json(state: AppState, result) -> dict:
     files = {name: f"{base}/files/{name}" for name in result.files}
     material_name = next((n[: -len("_Color.png")] for n in result.files if n.endswith("_Color.png")), None)
     maps = None
-    depth = None
+    meta: dict = {}
     if material_name is not None:
         from barkgen.io import MAP_SUFFIXES
 
         maps = {suffix: files[f"{material_name}_{suffix}.png"] for suffix in MAP_SUFFIXES}
         meta = json.loads(state.library.result_file(result.id, f"{material_name}.json"))
-        depth = meta.get("displacement_depth_px")
     levels = _levels(state, result, base)
     values = _label_values(state, result.id)
     return {
@@ -106,11 +120,27 @@ def result_json(state: AppState, result) -> dict:
         "labels_in_url": f"{base}/labels/labels_in.png",
         "labels_out_url": f"{base}/labels/labels_out.png",
         "maps": maps,
-        "displacement_depth_px": depth,
+        "displacement_depth_px": meta.get("displacement_depth_px"),
+        "material": _material_record(result, meta) if maps is not None else None,
         "levels": levels,
         "palette": label_colours(values.size).tolist(),
         "label_looks": label_looks(state, result.exemplar_id, result.id, values),
         "download_url": f"{base}/download",
+    }
+
+
+def _material_record(result, meta: dict) -> dict:
+    """What the page's trunk and its Depth and Photo light sliders need of a result's set: its
+    ``NAME.json``'s depth, midlevel, real size (``None`` where the set predates them), the light
+    taken out of its colour and of its ``texture.png`` (the run's), and where the photo's light
+    is (``illumination_url``: ``None`` for a result made before barkgen kept it)."""
+    from barkgen.pipeline.files import ILLUMINATION_FILE
+
+    run_light = result.params.get("equalize_light", GenerateOptions().equalize_light)
+    return {
+        **{key: meta.get(key) for key in _RECORD_KEYS},
+        "texture_light_equalization": run_light,
+        "illumination_url": f"/api/results/{result.id}/illumination" if ILLUMINATION_FILE in result.files else None,
     }
 
 

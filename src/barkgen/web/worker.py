@@ -70,8 +70,9 @@ class JobSpec:
     set_files: dict[str, bytes] | None = None
     #: the material set's file layout (:data:`barkgen.material.presets.PRESETS`)
     preset: str = "ambientcg"
-    #: height edits replayed on the result's relief (the items of their JSON list)
-    edits: list[dict] | None = None
+    #: the edit list replayed on the result's set: its ``edits.json`` document (height edits, depth,
+    #: light; :func:`barkgen.material.parse_edit_list`)
+    edits: dict | None = None
     #: the photo's crack network as the user edited it (structure JSON), learned from instead
     #: of the extracted one (``structure="cracks"``, sibbing2010 §6)
     crack_structure: dict | None = None
@@ -138,7 +139,7 @@ def encode_result(photo: np.ndarray, result, spec: JobSpec) -> dict[str, bytes]:
     if spec.edits:  # the relief editor's list, for `barkgen generate --material --edits`
         import json
 
-        files["edits.json"] = (json.dumps({"version": 1, "edits": spec.edits}, indent=1) + "\n").encode()
+        files["edits.json"] = (json.dumps(spec.edits, indent=1) + "\n").encode()
     thumb = Image.fromarray(as_uint8(result.texture).squeeze())
     thumb.thumbnail((320, 320))
     buffer = io.BytesIO()
@@ -166,9 +167,10 @@ def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
     :class:`Done` or :class:`Failed`."""
     from barkgen.errors import BarkgenError
     from barkgen.io import decode_image, scanned_set_from_files
-    from barkgen.material import parse_edits
+    from barkgen.material import EditList, parse_edit_list
     from barkgen.pipeline import (
         GenerateOptions,
+        adjusted_result,
         analysis_key,
         analyze_photo,
         generate,
@@ -214,10 +216,11 @@ def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
                 analyses.popitem(last=False)
         else:
             analyses.move_to_end(key)
-        edits = parse_edits({"version": 1, "edits": spec.edits}) if spec.edits else []
+        edit_list = parse_edit_list(spec.edits) if spec.edits else EditList()
         result = generate(
-            photo, options, analysis=analysis, resume=spec.resume, progress=progress, scan=scan, edits=edits
+            photo, options, analysis=analysis, resume=spec.resume, progress=progress, scan=scan, edits=edit_list.edits
         )
+        result = adjusted_result(result, edit_list)  # the sliders' depth and light, after the edits
         files = encode_result(photo, result, spec)
     except BarkgenError as exc:
         send(Failed(spec.job_id, str(exc)))

@@ -3,13 +3,31 @@
 // (the server's HeightEditor) and the trunk relights at once. The page keeps
 // the edit list (strokes, for undo and redo) and sends it whole; the server
 // answers the edited height (float32) from the heights it kept, so an undo
-// costs nothing. Save makes a new result with the edits replayed, as
+// costs nothing. The trunk panel's Photo light relights the texture drawn here
+// (with the photo's light L carried to the result), and its Depth and Photo
+// light go into the edit list beside the edits. Save makes a new result with
+// the edits replayed and the depth and light given to its set, as
 // `barkgen generate --material --edits edits.json` does.
 
 import { showError } from "./api.js";
 
 /** The edits of a stroke are at least this many result pixels apart. */
 const MIN_SPACING = 2;
+/** The gain the relit texture is capped at either way (barkgen.material.illumination.MAX_GAIN). */
+const MAX_GAIN = 8;
+/** Steps of ln L the relit texture looks its gain up in (4096 over L's range: under 0.1 % apart). */
+const LIGHT_STEPS = 4096;
+
+/** sRGB 0..255 -> linear light, and linear light in 4096 steps of 0..1 -> sRGB 0..255
+ * (to MAX_GAIN: the brightest pixel relit as far as it goes, 255 beyond 1). */
+const TO_LINEAR = Float32Array.from({ length: 256 }, (_, v) => {
+  const c = v / 255;
+  return c <= 0.04045 ? c / 12.92 : ((c + 0.055) / 1.055) ** 2.4;
+});
+const TO_SRGB = Uint8ClampedArray.from({ length: 4096 * MAX_GAIN + 1 }, (_, i) => {
+  const c = Math.min(1, i / 4096);
+  return Math.round((c <= 0.0031308 ? c * 12.92 : 1.055 * c ** (1 / 2.4) - 0.055) * 255);
+});
 
 export class ReliefEditor {
   /**
@@ -24,6 +42,8 @@ export class ReliefEditor {
    * @param {HTMLElement} o.status
    * @param {HTMLElement} o.errorBox
    * @param {(height: Float32Array, width: number, rows: number) => void} o.onHeight
+   * @param {() => object} o.adjustments  the sliders' {relief, light_equalization} where
+   *   they differ from the result's own (for the edit list beside the edits)
    */
   constructor(o) {
     Object.assign(this, o);
@@ -39,6 +59,10 @@ export class ReliefEditor {
     this.rows = 0;
     this.pending = []; // times the edits not yet answered were made
     this.latencies = [];
+    this.texturePixels = null; // the texture's RGBA, read once
+    this.light = null; // {index, low, step}: ln L of the photo's light, in LIGHT_STEPS steps
+    this.lightPower = 0; // the texture is shown times L^lightPower (in linear light)
+    this.relightQueued = false;
     this.ctx = this.canvas.getContext("2d");
     this.bind();
   }
@@ -204,16 +228,87 @@ export class ReliefEditor {
       `${count} edit${count === 1 ? "" : "s"}` + (last === null ? "" : ` · last took ${Math.round(last)} ms`);
   }
 
-  /** The texture, tinted where the height changed (red raised, blue lowered). */
+  /**
+   * The photo's light carried to the result (L, one value a pixel), for
+   * setLightPower: ln L in LIGHT_STEPS steps over its range (a gain table of
+   * that many entries then relights a pixel with one look-up).
+   */
+  setLight(light) {
+    if (light.length !== this.width * this.rows) return;
+    let low = Infinity;
+    let high = -Infinity;
+    for (const v of light) {
+      low = Math.min(low, v);
+      high = Math.max(high, v);
+    }
+    [low, high] = [Math.log(low), Math.log(high)];
+    const step = (high - low) / (LIGHT_STEPS - 1) || 1;
+    const index = Uint16Array.from(light, (v) => Math.round((Math.log(v) - low) / step));
+    this.light = { index, low, step };
+  }
+
+  /**
+   * Show the texture relit, times L^power in linear light (0: as it is): drawn
+   * once the trunk's next frame is out, with the last power asked for.
+   */
+  setLightPower(power) {
+    const next = this.light ? power : 0;
+    if (next === this.lightPower) return;
+    this.lightPower = next;
+    if (!this.base || this.relightQueued) return;
+    this.relightQueued = true;
+    requestAnimationFrame(() =>
+      setTimeout(() => {
+        this.relightQueued = false;
+        const t0 = performance.now();
+        this.draw();
+        this.canvas.dataset.relit = String(Math.round(performance.now() - t0));
+        this.canvas.dataset.lightPower = String(this.lightPower);
+      }, 0)
+    );
+  }
+
+  /** The texture's pixels, relit by the photo light chosen. */
+  texturePixelsLit() {
+    const { ctx, width, rows } = this;
+    if (!this.texturePixels) {
+      ctx.drawImage(this.texture, 0, 0, width, rows);
+      this.texturePixels = ctx.getImageData(0, 0, width, rows);
+    }
+    const image = new ImageData(new Uint8ClampedArray(this.texturePixels.data), width, rows);
+    if (!this.lightPower) return image;
+    const px = image.data;
+    const { index, low, step } = this.light;
+    // the gain of each step of ln L (capped either way), times the sRGB table's 4096 steps
+    const gains = new Float32Array(LIGHT_STEPS);
+    for (let k = 0; k < LIGHT_STEPS; k++) {
+      const gain = Math.exp((low + k * step) * this.lightPower);
+      gains[k] = Math.min(MAX_GAIN, Math.max(1 / MAX_GAIN, gain)) * 4096;
+    }
+    for (let i = 0, o = 0; i < index.length; i++, o += 4) {
+      const gain = gains[index[i]];
+      px[o] = TO_SRGB[(TO_LINEAR[px[o]] * gain + 0.5) | 0];
+      px[o + 1] = TO_SRGB[(TO_LINEAR[px[o + 1]] * gain + 0.5) | 0];
+      px[o + 2] = TO_SRGB[(TO_LINEAR[px[o + 2]] * gain + 0.5) | 0];
+    }
+    return image;
+  }
+
+  /** The texture (relit), tinted where the height changed (red raised, blue lowered). */
   draw() {
     const { ctx, width, rows } = this;
-    ctx.drawImage(this.texture, 0, 0, width, rows);
-    if (!this.height || this.height === this.base) return;
-    const image = ctx.getImageData(0, 0, width, rows);
+    const image = this.texturePixelsLit();
     const px = image.data;
+    if (!this.height || this.height === this.base) {
+      ctx.putImageData(image, 0, 0);
+      return;
+    }
     let most = 0;
     for (let i = 0; i < this.height.length; i++) most = Math.max(most, Math.abs(this.height[i] - this.base[i]));
-    if (most <= 0) return;
+    if (most <= 0) {
+      ctx.putImageData(image, 0, 0);
+      return;
+    }
     for (let i = 0; i < this.height.length; i++) {
       const change = (this.height[i] - this.base[i]) / most;
       const a = Math.min(1, Math.abs(change)) * 0.6;
@@ -232,13 +327,15 @@ export class ReliefEditor {
     this.buttons.redo.disabled = !this.undone.length;
     this.buttons.reset.disabled = !this.strokes.length;
     const edits = this.edits;
+    const adjustments = this.adjustments();
+    const something = edits.length > 0 || Object.keys(adjustments).length > 0;
     if (this.downloadUrl) URL.revokeObjectURL(this.downloadUrl);
     this.downloadUrl = URL.createObjectURL(
-      new Blob([JSON.stringify({ version: 1, edits }, null, 1) + "\n"], { type: "application/json" })
+      new Blob([JSON.stringify({ version: 1, edits, ...adjustments }, null, 1) + "\n"], { type: "application/json" })
     );
     this.download.href = this.downloadUrl;
-    this.download.classList.toggle("is-disabled", !edits.length);
-    this.download.setAttribute("aria-disabled", String(!edits.length));
+    this.download.classList.toggle("is-disabled", !something);
+    this.download.setAttribute("aria-disabled", String(!something));
     if (!edits.length) this.status.textContent = "No edits yet: drag on the texture.";
   }
 }

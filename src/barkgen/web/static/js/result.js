@@ -24,7 +24,7 @@ const MAP_NAMES = {
 
 /** The options a result's params may carry that a new job takes as they are. */
 const JOB_OPTIONS = ["k", "tile", "material", "method", "strategy", "rotations", "relief", "light", "structure", "model",
-  "label_weight", "feature_weight", "blend", "preset"];
+  "label_weight", "feature_weight", "blend", "preset", "equalize_light", "width_m"];
 
 /** The job body of a result's settings (its size as "WxH"). */
 function jobOptions(p) {
@@ -143,8 +143,11 @@ function renderTimings(result) {
   add("Tileable", p.tile ? "yes" : "no");
   add("Material maps", p.material ? "yes" : "no");
   if (result.displacement_depth_px !== null && result.displacement_depth_px !== undefined) {
-    add("Relief depth", `${Number(result.displacement_depth_px).toFixed(1)} px`);
+    const metres = result.material && result.material.displacement_depth_m;
+    add("Relief depth", `${Number(result.displacement_depth_px).toFixed(1)} px` + (metres ? ` (${(metres * 1000).toFixed(1)} mm)` : ""));
   }
+  const record = result.material;
+  if (record && record.width_m) add("Real size", `${Math.round(record.width_m * 1000)} × ${Math.round(record.height_m * 1000)} mm (${record.real_size})`);
   for (const [name, value] of Object.entries(result.timings || {})) {
     add(`Time: ${name}`, typeof value === "number" ? `${value.toFixed(2)} s` : String(value));
   }
@@ -158,8 +161,9 @@ function trunkControls() {
   return {
     azimuth: $("light-azimuth"),
     elevation: $("light-elevation"),
-    displacement: $("displacement"),
     repeat: $("repeat"),
+    depth: $("relief-depth"),
+    light: $("photo-light"),
     reset: $("trunk-reset"),
   };
 }
@@ -169,8 +173,8 @@ function setupRangeOutputs() {
   const format = {
     "light-azimuth": (v) => `${v}°`,
     "light-elevation": (v) => `${v}°`,
-    displacement: (v) => Number(v).toFixed(3),
-    repeat: (v) => `${v}×`,
+    repeat: (v) => `${v}×` + ($("repeat").disabled ? " · real size" : ""),
+    "photo-light": (v) => `${v} %`,
   };
   for (const [testid, fmt] of Object.entries(format)) {
     const input = $(testid);
@@ -184,7 +188,72 @@ function setupRangeOutputs() {
   }
 }
 
-async function setupTrunk(result) {
+// ---------------------------------------------------------------------------
+// Depth and Photo light: the set as it would be, on the trunk and in the relief
+// editor at once; the relief editor's Save keeps them
+
+/** The Depth output: the multiple and the depth it gives (mm at the set's real size, else px). */
+function setupDepth(result) {
+  const input = $("relief-depth");
+  const output = $("relief-depth-value");
+  const record = result.material;
+  const update = () => {
+    const relief = 2 ** Number(input.value);
+    let depth = "";
+    if (record && record.displacement_depth_m) depth = ` · ${(record.displacement_depth_m * relief * 1000).toFixed(1)} mm`;
+    else if (record && record.displacement_depth_px) depth = ` · ${(record.displacement_depth_px * relief).toFixed(1)} px`;
+    output.textContent = `${relief.toFixed(2)}×${depth}`;
+  };
+  input.addEventListener("input", update);
+  update();
+  if (!record) {
+    // a texture without material maps has no relief to deepen or colour to relight
+    input.disabled = true;
+    input.closest("label").hidden = true;
+    $("photo-light").closest("label").hidden = true;
+  }
+}
+
+/**
+ * The photo's light carried to the result (GET .../illumination, fetched once),
+ * and the Photo light slider on it: starting at the set's own, off with a
+ * one-line reason where the result has none.
+ * @returns {Promise<?{light: Float32Array, width: number, rows: number}>}
+ */
+async function loadIllumination(result) {
+  const input = $("photo-light");
+  const note = $("photo-light-note");
+  const record = result.material;
+  const off = (text) => {
+    input.disabled = true;
+    note.textContent = text;
+    note.hidden = !text;
+    input.dispatchEvent(new Event("input"));
+  };
+  if (!record) {
+    off("");
+    return null;
+  }
+  input.value = String(Math.round(Number(record.light_equalization ?? 1) * 100));
+  input.dispatchEvent(new Event("input"));
+  if (!record.illumination_url) {
+    off("Photo light: this result has no record of its photo's light (it was made before barkgen kept it).");
+    return null;
+  }
+  try {
+    const response = await fetch(record.illumination_url);
+    if (!response.ok) throw new Error(`the server answered ${response.status}`);
+    const [width, rows] = response.headers.get("X-Height-Size").split("x").map(Number);
+    const answer = { light: new Float32Array(await response.arrayBuffer()), width, rows };
+    input.disabled = false;
+    return answer;
+  } catch (err) {
+    off(`Photo light: the photo's light could not be loaded (${err.message}).`);
+    return null;
+  }
+}
+
+async function setupTrunk(result, illumination) {
   const canvas = $("trunk-canvas");
   const message = $("trunk-message");
   const say = (text) => {
@@ -206,7 +275,7 @@ async function setupTrunk(result) {
     return;
   }
   try {
-    return await trunk.initTrunk({ canvas, result, controls: trunkControls(), onStatus: say });
+    return await trunk.initTrunk({ canvas, result, controls: trunkControls(), illumination, onStatus: say });
   } catch (err) {
     console.warn("3D trunk failed:", err);
     const noWebGL = /webgl/i.test(String(err && err.message));
@@ -218,7 +287,7 @@ async function setupTrunk(result) {
 // ---------------------------------------------------------------------------
 // Relief editor (results with material maps)
 
-async function setupRelief(result, trunkReady) {
+async function setupRelief(result, trunkReady, illumination) {
   if (!result.maps || !result.maps.Displacement) return;
   $("relief-toggle-label").hidden = false;
   const toggle = $("relief-toggle");
@@ -240,6 +309,17 @@ async function setupRelief(result, trunkReady) {
   toggle.addEventListener("change", show);
   const errorBox = $("relief-error");
   const tile = Boolean(result.params && result.params.tile);
+  const lightInput = $("photo-light");
+  const depthInput = $("relief-depth");
+  const ownLight = Math.round(Number(result.material.light_equalization ?? 1) * 100);
+  /** The sliders' depth and light where they differ from the result's own (as the edit list holds them). */
+  const adjustments = () => {
+    const chosen = {};
+    const relief = Math.round(2 ** Number(depthInput.value) * 1e4) / 1e4;
+    if (relief !== 1) chosen.relief = relief;
+    if (!lightInput.disabled && Number(lightInput.value) !== ownLight) chosen.light_equalization = Number(lightInput.value) / 100;
+    return chosen;
+  };
   const texture = new Image();
   texture.src = (result.files && result.files["texture.png"]) || result.maps.Color;
   let trunk = null;
@@ -261,7 +341,13 @@ async function setupRelief(result, trunkReady) {
     onHeight: (height, width, rows) => {
       if (trunk) trunk.setRelief(height, width, rows, tile);
     },
+    adjustments,
   });
+  // the photo light relights the texture here too (texture.png is as the run equalised it)
+  const textureLight = Number(result.material.texture_light_equalization ?? 1);
+  const relight = () => editor.setLightPower(lightInput.disabled ? 0 : textureLight - lightInput.value / 100);
+  lightInput.addEventListener("input", relight);
+  for (const input of [lightInput, depthInput]) input.addEventListener("change", () => editor.updateButtons());
   const save = $("relief-save");
   const root = $("relief-job-panel");
   const panel = new JobPanel({
@@ -277,14 +363,15 @@ async function setupRelief(result, trunkReady) {
   save.addEventListener("click", async () => {
     showError(errorBox, "");
     const edits = editor.edits;
-    if (!edits.length) {
-      showError(errorBox, "There is nothing to save yet: drag on the texture first.");
+    const chosen = adjustments();
+    if (!edits.length && !Object.keys(chosen).length) {
+      showError(errorBox, "There is nothing to save yet: drag on the texture, or move Depth or Photo light.");
       return;
     }
     const body = {
       exemplar_id: result.exemplar_id,
       ...jobOptions(result.params || {}),
-      relief_edits: { result_id: result.id, edits },
+      relief_edits: { result_id: result.id, edits, ...chosen },
     };
     try {
       await panel.start(body);
@@ -294,6 +381,9 @@ async function setupRelief(result, trunkReady) {
   });
   trunk = await trunkReady;
   await editor.start();
+  const answer = await illumination;
+  if (answer) editor.setLight(answer.light);
+  relight();
   $("relief-canvas").dataset.ready = "1";
 }
 
@@ -383,8 +473,10 @@ async function main() {
   renderExemplarName(result.exemplar_id);
   // The trunk, the relief editor and the painter are independent: one failing
   // leaves the others (the editor relights the trunk when there is one).
-  const trunkReady = setupTrunk(result);
-  setupRelief(result, trunkReady).catch((err) => showError($("relief-error"), `The relief editor failed: ${err.message}`));
+  setupDepth(result);
+  const illumination = loadIllumination(result);
+  const trunkReady = setupTrunk(result, illumination);
+  setupRelief(result, trunkReady, illumination).catch((err) => showError($("relief-error"), `The relief editor failed: ${err.message}`));
   setupPainter(result).catch((err) => showError($("paint-error"), `The label painter failed: ${err.message}`));
 }
 

@@ -1,4 +1,9 @@
-// 3D trunk preview: the result's material set on a displaced cylinder.
+// 3D trunk preview: the result's material set on a displaced cylinder, in
+// metres, as barkgen.render.trunk_mesh makes the glb: a set of known real size
+// goes round the trunk at its real width (the repeats rounded to a whole
+// number) and its relief is its depth in metres; the Depth slider scales it,
+// the Photo light slider relights the colour in the shader with the photo's
+// broad light L (colour_linear * L^(set's - chosen), as MaterialSet.relit_color).
 //
 // This module imports three.js statically; result.js loads it with a dynamic
 // import() so a missing three.js (or no WebGL) only disables this panel.
@@ -6,9 +11,27 @@
 import * as THREE from "three";
 import { OrbitControls } from "three/addons/controls/OrbitControls.js";
 
-const RADIUS = 1;
-const HEIGHT = 4;
+/** The trunk's radius in metres (barkgen.render.trunk_mesh's default) and height. */
+const RADIUS = 0.15;
+const HEIGHT = 4 * RADIUS;
 const SEGMENTS = 256;
+/** The gain the relit colour is capped at either way (barkgen.material.illumination.MAX_GAIN). */
+const MAX_GAIN = 8;
+
+/** Times a set `widthM` metres wide goes round the trunk at its real size (barkgen.render.real_repeat). */
+export function realRepeat(widthM) {
+  return Math.max(1, Math.round((2 * Math.PI * RADIUS) / widthM));
+}
+
+/** The depth multiplier of the Depth slider (log2 of it on the slider). */
+export function reliefOf(input) {
+  return Math.round(2 ** Number(input.value) * 1e4) / 1e4;
+}
+
+/** The photo light taken out of the colour, 0..1, of the Photo light slider (percent). */
+export function lightOf(input) {
+  return Number(input.value) / 100;
+}
 
 /**
  * Light direction from azimuth/elevation in degrees. y is up (the trunk's
@@ -88,15 +111,61 @@ function dataTexture(data, width, rows) {
 }
 
 /**
+ * The photo's light as a half-float texture of log2 L, rows bottom-up (a
+ * DataTexture is not flipped on upload), wrapping as the maps do.
+ */
+function lightTexture(light, width, rows) {
+  const data = new Uint16Array(width * rows);
+  for (let y = 0; y < rows; y++) {
+    const from = y * width;
+    const to = (rows - 1 - y) * width;
+    for (let x = 0; x < width; x++) data[to + x] = THREE.DataUtils.toHalfFloat(Math.log2(light[from + x]));
+  }
+  const texture = new THREE.DataTexture(data, width, rows, THREE.RedFormat, THREE.HalfFloatType);
+  texture.wrapS = THREE.RepeatWrapping;
+  texture.wrapT = THREE.RepeatWrapping;
+  texture.colorSpace = THREE.NoColorSpace;
+  texture.magFilter = THREE.LinearFilter;
+  texture.minFilter = THREE.LinearFilter;
+  texture.generateMipmaps = false;
+  texture.needsUpdate = true;
+  return texture;
+}
+
+/**
+ * The material relights its colour (after the colour map's sRGB decoding, in
+ * linear light) by clamp(L^power, 1/8, 8), L sampled where the colour is.
+ */
+function relightInShader(material, uniforms) {
+  material.onBeforeCompile = (shader) => {
+    shader.uniforms.photoLight = uniforms.photoLight;
+    shader.uniforms.photoLightPower = uniforms.photoLightPower;
+    shader.fragmentShader = shader.fragmentShader
+      .replace("#include <common>", "#include <common>\nuniform sampler2D photoLight;\nuniform float photoLightPower;")
+      .replace(
+        "#include <map_fragment>",
+        `#include <map_fragment>
+        #ifdef USE_MAP
+          float photoGain = clamp(exp2(texture2D(photoLight, vMapUv).r * photoLightPower), ${(1 / MAX_GAIN).toFixed(6)}, ${MAX_GAIN.toFixed(1)});
+          diffuseColor.rgb = min(diffuseColor.rgb * photoGain, vec3(1.0));
+        #endif`
+      );
+  };
+  material.customProgramCacheKey = () => "barkgen-photo-light";
+}
+
+/**
  * Set up the trunk viewer.
  * @param {object} opts
  * @param {HTMLCanvasElement} opts.canvas
  * @param {object} opts.result   GET /api/results/{id} answer
- * @param {object} opts.controls {azimuth, elevation, displacement, repeat} range inputs
+ * @param {object} opts.controls {azimuth, elevation, repeat, depth, light} range inputs
+ * @param {Promise<?{light: Float32Array, width: number, rows: number}>} opts.illumination
+ *   the photo's light carried to the result (null: none)
  * @param {(text:string)=>void} opts.onStatus  short messages for the panel
  * @returns {Promise<{dispose: Function}>}
  */
-export async function initTrunk({ canvas, result, controls, onStatus }) {
+export async function initTrunk({ canvas, result, controls, illumination, onStatus }) {
   // Throws when WebGL is unavailable; the caller shows a message.
   const renderer = new THREE.WebGLRenderer({ canvas, antialias: true, preserveDrawingBuffer: true });
   renderer.setPixelRatio(Math.min(window.devicePixelRatio || 1, 2));
@@ -105,14 +174,14 @@ export async function initTrunk({ canvas, result, controls, onStatus }) {
   const scene = new THREE.Scene();
   scene.background = new THREE.Color(0x1a1b1d);
 
-  const camera = new THREE.PerspectiveCamera(35, 1, 0.05, 100);
-  camera.position.set(0, 0.3, 5.2);
+  const camera = new THREE.PerspectiveCamera(35, 1, 0.05 * RADIUS, 100 * RADIUS);
+  camera.position.set(0, 0.3 * RADIUS, 5.2 * RADIUS);
 
   const orbit = new OrbitControls(camera, canvas);
   orbit.target.set(0, 0, 0);
   orbit.enableDamping = false; // render on demand: no inertia animation
-  orbit.minDistance = 1.6;
-  orbit.maxDistance = 14;
+  orbit.minDistance = 1.6 * RADIUS;
+  orbit.maxDistance = 14 * RADIUS;
   // keep the view on the bark: no looking down into the open tube
   orbit.minPolarAngle = Math.PI / 2 - 0.6;
   orbit.maxPolarAngle = Math.PI / 2 + 0.6;
@@ -156,29 +225,60 @@ export async function initTrunk({ canvas, result, controls, onStatus }) {
     roughness: roughness ? 1.0 : 0.85,
     metalness: 0.0,
   });
+  // the photo's light: none (L = 1) until it has loaded
+  const uniforms = {
+    photoLight: { value: lightTexture(new Float32Array([1]), 1, 1) },
+    photoLightPower: { value: 0 },
+  };
+  relightInShader(material, uniforms);
   const trunk = new THREE.Mesh(geometry, material);
   scene.add(trunk);
 
-  // Texel aspect of the texture (width / height).
+  // Texel aspect of the texture (width / height), and the set's record.
   const image = colour.image;
+  const texWidth = (image && image.width) || 1;
   const aspect = image && image.width && image.height ? image.width / image.height : 1;
+  const record = result.material || null;
+  const widthM = record && record.width_m ? Number(record.width_m) : null;
+  // the height's range in px (the displacement map's 0..1), the set's own until the editor's
+  const depthPx = record ? Number(record.displacement_depth_px) || 0 : 0;
+  const midlevel = Number((record && record.displacement_midlevel) ?? 0.5);
+  let range = [-midlevel * depthPx, (1 - midlevel) * depthPx];
+  const setLight = Number((record && record.light_equalization) ?? 1);
+  if (widthM) {
+    // at its real size the texture goes round as many whole times as fit
+    const repeat = realRepeat(widthM);
+    controls.repeat.max = String(Math.max(Number(controls.repeat.max), repeat));
+    controls.repeat.value = String(repeat);
+    controls.repeat.disabled = true;
+    controls.repeat.title = `The set is ${Math.round(widthM * 1000)} mm wide: at its real size it goes ${repeat}× round this trunk (${Math.round(RADIUS * 2000)} mm across).`;
+    controls.repeat.dispatchEvent(new Event("input"));
+  }
 
   // --- controls --------------------------------------------------------------
+  const repeatNow = () => (widthM ? realRepeat(widthM) : Math.max(1, Number(controls.repeat.value) || 1));
   const apply = () => {
     const az = Number(controls.azimuth.value);
     const el = Number(controls.elevation.value);
     sun.position.copy(lightDirection(az, el).multiplyScalar(10));
 
-    // Relief: offset so the mean surface stays near the trunk's radius.
-    const scale = displacement ? Number(controls.displacement.value) : 0;
-    material.displacementScale = scale;
-    material.displacementBias = -0.5 * scale;
-
     // u: `repeat` times round the trunk; v: as many as keep the texels square.
-    const repeat = Math.max(1, Number(controls.repeat.value) || 1);
+    const repeat = repeatNow();
     const circumference = 2 * Math.PI * RADIUS;
     const repeatV = (HEIGHT * repeat * aspect) / circumference;
     for (const texture of textures) texture.repeat.set(repeat, repeatV);
+
+    // Relief in metres: the height times the pixel's size (the set's real one, else
+    // a texel's width on the trunk), times Depth; height 0 on the trunk's radius.
+    // The normals' slopes scale with it (normalScale is exact for a height's slopes).
+    const relief = material.displacementMap ? reliefOf(controls.depth) : 0;
+    const metresPerPx = widthM ? widthM / texWidth : circumference / repeat / texWidth;
+    material.displacementScale = (range[1] - range[0]) * metresPerPx * relief;
+    material.displacementBias = range[0] * metresPerPx * relief;
+    material.normalScale.set(relief || 1, relief || 1);
+
+    // Photo light: the colour as if `chosen` of the light were out instead of the set's
+    uniforms.photoLightPower.value = controls.light.disabled ? 0 : setLight - lightOf(controls.light);
   };
 
   const resize = () => {
@@ -190,9 +290,11 @@ export async function initTrunk({ canvas, result, controls, onStatus }) {
   };
 
   let pending = false;
+  let frames = 0;
   const render = () => {
     pending = false;
     renderer.render(scene, camera);
+    canvas.dataset.frames = String(++frames);
   };
   const requestRender = () => {
     if (pending) return;
@@ -205,7 +307,7 @@ export async function initTrunk({ canvas, result, controls, onStatus }) {
     apply();
     requestRender();
   };
-  for (const input of [controls.azimuth, controls.elevation, controls.displacement, controls.repeat]) {
+  for (const input of [controls.azimuth, controls.elevation, controls.repeat, controls.depth, controls.light]) {
     input.addEventListener("input", onInput);
     input.addEventListener("change", onInput);
   }
@@ -224,7 +326,7 @@ export async function initTrunk({ canvas, result, controls, onStatus }) {
   observer.observe(canvas);
 
   // Say when displacement is not available (no material maps).
-  if (!displacement) controls.displacement.disabled = true;
+  if (!displacement) controls.depth.disabled = true;
 
   // --- first frame -------------------------------------------------------------
   resize();
@@ -233,12 +335,25 @@ export async function initTrunk({ canvas, result, controls, onStatus }) {
   canvas.dataset.ready = "1";
   onStatus("");
 
+  // The photo's light, once it has come (the slider waits for it).
+  illumination
+    .then((answer) => {
+      if (!answer) return;
+      const old = uniforms.photoLight.value;
+      uniforms.photoLight.value = lightTexture(answer.light, answer.width, answer.rows);
+      old.dispose();
+      textures.push(uniforms.photoLight.value);
+      apply();
+      requestRender();
+    })
+    .catch(() => {}); // the page says why the slider stays off
+
   // The relief editor's heights: normals and displacement made here, the first
   // height's range mapped to the displacement's 0..1 (as the set's own map).
-  let range = null;
   let edited = null; // {normal, disp}: the editor's textures, made once and refilled
+  let ranged = false;
   const setRelief = (height, width, rows, tile) => {
-    if (!range) {
+    if (!ranged) {
       let low = Infinity;
       let high = -Infinity;
       for (const v of height) {
@@ -246,6 +361,7 @@ export async function initTrunk({ canvas, result, controls, onStatus }) {
         if (v > high) high = v;
       }
       range = [low, high];
+      ranged = true;
     }
     const { normal: normalData, disp } = reliefTexels(height, width, rows, tile, range[0], range[1]);
     if (!edited || edited.normal.image.width !== width || edited.normal.image.height !== rows) {
@@ -259,7 +375,7 @@ export async function initTrunk({ canvas, result, controls, onStatus }) {
       material.displacementMap = edited.disp;
       textures.push(edited.normal, edited.disp);
       material.needsUpdate = true;
-      controls.displacement.disabled = false;
+      controls.depth.disabled = false;
     } else {
       edited.normal.image.data = normalData;
       edited.disp.image.data = disp;
@@ -267,12 +383,16 @@ export async function initTrunk({ canvas, result, controls, onStatus }) {
       edited.disp.needsUpdate = true;
     }
     apply();
-    renderer.render(scene, camera); // now: the caller times the edit up to this frame
+    render(); // now: the caller times the edit up to this frame
   };
 
   return {
     render: requestRender,
     setRelief,
+    /** Frames drawn so far (a test's proof that a slider re-rendered). */
+    get frames() {
+      return frames;
+    },
     dispose() {
       observer.disconnect();
       orbit.dispose();
