@@ -458,6 +458,15 @@ ReliefOption = Annotated[
         "2 doubles its depth and its slopes; normals and AO follow).",
     ),
 ]
+EqualizeLightOption = Annotated[
+    float,
+    typer.Option(
+        "--equalize-light",
+        help="How much of the photo's broad light (a trunk's curvature falloff, a light gradient, "
+        "dappled light) is taken out before anything learns from it: 1 all of it, 0 none (the "
+        "photo's light kept). Patches of another hue (moss, lichen) stay.",
+    ),
+]
 WidthMOption = Annotated[
     Optional[float],
     typer.Option(

@@ -13,6 +13,7 @@ from barkgen._shared.checks import parse_size
 from barkgen._shared.memory import parse_memory
 from barkgen.cli._common import (
     EditsOption,
+    EqualizeLightOption,
     ExemplarWrapsOption,
     ExrHeightOption,
     LightOption,
@@ -57,6 +58,7 @@ def material_command(
     light: LightOption = None,
     relief: ReliefOption = 1.0,
     width_m: WidthMOption = None,
+    equalize_light: EqualizeLightOption = 1.0,
     edits: EditsOption = None,
     exemplar_wraps: ExemplarWrapsOption = "auto",
     tile: Annotated[
@@ -87,6 +89,7 @@ def material_command(
         seed=seed,
         relief=relief,
         width_m=width_m,
+        equalize_light=equalize_light,
         exemplar_wrap="yes" if tile else exemplar_wraps,
         max_memory=parse_memory(max_memory),
     )
