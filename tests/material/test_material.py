@@ -161,7 +161,7 @@ def test_estimated_relief_is_as_deep_as_the_scans_and_points_better_than_sobel()
         scan_tilt = np.median(np.arccos(np.clip(truth[..., 2], -1, 1)))
         assert 0.8 < tilt / scan_tilt < 1.25, (name, np.degrees(tilt), np.degrees(scan_tilt))
 
-        def slopes_correlation(normals):  # uncentred, of the slope vectors: direction only
+        def slopes_correlation(normals, truth=truth):  # uncentred, of the slope vectors: direction only
             a, b = normals[..., :2] / normals[..., 2:], truth[..., :2] / truth[..., 2:]
             return float((a * b).sum() / np.sqrt((a * a).sum() * (b * b).sum()))
 

@@ -10,6 +10,7 @@ import numpy as np
 import typer
 
 from barkgen.cli._common import (
+    EqualizeLightOption,
     ExemplarWrapsOption,
     KOption,
     OutputOption,
@@ -48,6 +49,7 @@ def labels_command(
     edges: Annotated[bool, typer.Option("--edges", help="Add a label for the region edges (k + 1 labels).")] = False,
     edge_width: Annotated[int, typer.Option("--edge-width", help="Width of the edge band, px.")] = 3,
     exemplar_wraps: ExemplarWrapsOption = "auto",
+    equalize_light: EqualizeLightOption = 1.0,
     seed: SeedOption = 0,
     preview: Annotated[
         Optional[Path],
@@ -57,7 +59,8 @@ def labels_command(
 ) -> None:
     """Make the label map of a bark photo (input of texture-by-numbers)."""
     from barkgen.io import encode_png, read_image
-    from barkgen.labels import add_edge_label, color_regions, label_preview, texton_regions
+    from barkgen.labels import add_edge_label, label_preview
+    from barkgen.pipeline.labelmaps import photo_label_map
     from barkgen.synth import resolve_exemplar_wrap
 
     # --method picks the function to call, so it is checked here (k, seed and the edge width
@@ -71,10 +74,8 @@ def labels_command(
     image = read_image(photo)
     wrap = resolve_exemplar_wrap(exemplar_wraps, image)
     with progress_bar(not quiet, "labelling"):
-        if method == "color":
-            label_map = color_regions(image, k, seed=seed, wrap=wrap)
-        else:
-            label_map = texton_regions(image, k, seed=seed, wrap=wrap, merge_by=merge_by)
+        extra = {} if method == "color" else {"merge_by": merge_by}
+        label_map = photo_label_map(image, k, method, wrap=wrap, equalize_light=equalize_light, seed=seed, **extra)
         if edges:
             label_map = add_edge_label(label_map, edge_width)
         sheet = label_preview(image, label_map) if preview is not None else None

@@ -29,7 +29,8 @@ from barkgen._shared.memory import check_memory_budget
 from barkgen._shared.options import option_fields
 from barkgen._shared.threads import in_budget, thread_budget
 from barkgen.errors import InvalidInputError
-from barkgen.pipeline.labelmaps import check_variant, output_label_map, with_edge_labels
+from barkgen.pipeline.labelmaps import ANALYSIS_SEED, check_variant, output_label_map, with_edge_labels
+from barkgen.pipeline.materials import output_material, photo_material
 from barkgen.pipeline.options import GenerateOptions, analysis_key
 from barkgen.pipeline.progress import ANALYSIS_SHARES, share_spans, stage_progress
 from barkgen.pipeline.report import run_report
@@ -167,11 +168,6 @@ def _check_scan(scan: ScannedSet | None, photo: np.ndarray, options: GenerateOpt
         raise InvalidInputError("a scanned set's maps go into the material set: turn material on")
     if tuple(scan.shape) != tuple(np.shape(photo)[:2]):
         raise InvalidInputError("the scanned set is not the photo's: their sizes differ")
-
-
-#: seed of the photo's own analysis (the k-means of its label map): the photo's labels belong to
-#: the photo, not to a variant, so every seed's output of one photo shares one analysis
-ANALYSIS_SEED = 0
 
 
 @dataclass
@@ -331,9 +327,7 @@ def analyze_photo(
         # second thread while the two solvers analyse the photo, which keep 1.3 of 2 cores busy
         # (the quickstart's analysis without its label map: 5.3 s one after the other, 4.2 s so)
         material = (
-            pool.submit(
-                in_budget, options.threads, _photo_material, photo, labels_in, options, wrap, scan, illumination
-            )
+            pool.submit(in_budget, options.threads, photo_material, photo, labels_in, options, wrap, scan, illumination)
             if options.material
             else None
         )
@@ -510,7 +504,7 @@ def generate(
         timings["texture"] = t3 - t2
         material = None
         if options.material:
-            material = _output_material(photo, labels_in, options, wrap, scan, analysis, result)
+            material = output_material(photo, labels_in, options, wrap, scan, analysis, result)
             timings["material"] = time.perf_counter() - t3
             if progress:
                 progress(1000, 1000)
@@ -552,54 +546,3 @@ def _finished(result, material, exemplar: Exemplar | None, options: GenerateOpti
 
         material = edit_material(material, edits, texture=texture, label_map=label_map)
     return texture, layers, material
-
-
-def _output_material(photo, labels_in, options: GenerateOptions, wrap, scan, analysis, result):
-    """The output's material set: the photo's (from its analysis, or made now) carried through
-    the texture's reference map; along a flow field, the photo's maps cut as its turned copies
-    first."""
-    from barkgen.material import transfer_material
-
-    source = analysis.material
-    if source is None:
-        source = _photo_material(photo, labels_in, options, wrap, scan, analysis.illumination)
-    if result.orientation is not None:
-        source, wrap = source.oriented(result.orientation), (False, False)
-    material = transfer_material(source, result.references, tile=options.tile, exemplar_wrap=wrap, blend=options.blend)
-    return material.with_width_m(options.width_m)
-
-
-def _photo_material(
-    photo: np.ndarray,
-    labels_in: np.ndarray,
-    options: GenerateOptions,
-    wrap: tuple[bool, bool],
-    scan: ScannedSet | None = None,
-    illumination: np.ndarray | None = None,
-):
-    """The photo's own material set, its label map as the height's structure cue; wrapping
-    along the axes the photo wraps along (``wrap``), as the solvers use it, so the maps carried
-    through the reference map meet where the pieces run on across the photo's edge. A scanned
-    set's own maps where it has them."""
-    from barkgen.labels.regions import to_codes
-    from barkgen.material import MaterialOptions, make_material, scanned_material
-
-    if scan is not None:
-        return scanned_material(
-            scan, wrap=wrap, relief=options.relief, seed=ANALYSIS_SEED, k=options.k, label_map=to_codes(labels_in)[0]
-        )
-
-    # (``photo`` is equalised already, as far as ``options`` says: the light goes with the set)
-    material = make_material(
-        photo,
-        MaterialOptions(
-            k=options.k,
-            light=options.light,
-            seed=ANALYSIS_SEED,
-            relief=options.relief,
-            exemplar_wrap=wrap,
-            equalize_light=0.0,
-        ),
-        label_map=to_codes(labels_in)[0],
-    )
-    return dataclasses.replace(material, illumination=illumination, equalization=options.equalize_light)

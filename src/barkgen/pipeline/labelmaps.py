@@ -11,6 +11,27 @@ from barkgen.pipeline.options import GenerateOptions
 from barkgen.pipeline.progress import stage_progress
 from barkgen.pipeline.variants import crack_label_map
 
+#: seed of the photo's own analysis (the k-means of its label map): the photo's labels belong to
+#: the photo, not to a variant, so every seed's output of one photo shares one analysis
+ANALYSIS_SEED = 0
+
+
+def photo_label_map(
+    photo: np.ndarray, k: int, method: str = "color", *, wrap, equalize_light: float = 1.0, **regions_options
+) -> np.ndarray:
+    """The photo's label map as :func:`barkgen.pipeline.generate` makes it: the photo's broad
+    light taken out first (``equalize_light``, :func:`barkgen.material.equalize_light`), then
+    its colour regions or texton regions (laitoch2018 §3.5; ``method``), across its edges where
+    it wraps; ``regions_options`` go to the regions' function (``seed``, default
+    :data:`ANALYSIS_SEED`; ``merge_by`` for textons)."""
+    from barkgen.labels import color_regions, texton_regions
+    from barkgen.material.illumination import equalize_light as equalize
+
+    equalised, _ = equalize(photo, equalize_light, tile=wrap)
+    regions = color_regions if method == "color" else texton_regions
+    regions_options.setdefault("seed", ANALYSIS_SEED)
+    return regions(equalised, k, wrap=wrap, **regions_options)
+
 
 def output_label_map(labels_in, photo, options: GenerateOptions, analysis, wrap, resume, progress, fields):
     """The output label map (:func:`barkgen.shapes.synthesize_label_map` by ``options.strategy``,

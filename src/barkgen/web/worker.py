@@ -94,17 +94,19 @@ def run_labels(spec: LabelSpec, send) -> None:
     :class:`Failed` through ``send``."""
     from barkgen.errors import BarkgenError
     from barkgen.io import decode_image, encode_png
-    from barkgen.labels import color_regions, texton_regions
-    from barkgen.pipeline import ANALYSIS_SEED, GenerateOptions
+    from barkgen.pipeline import GenerateOptions
+    from barkgen.pipeline.labelmaps import photo_label_map
     from barkgen.synth import resolve_exemplar_wrap
 
     send(Progress(spec.job_id, 0.0, "label map"))
     try:
         photo = decode_image(spec.photo, "photo")
-        # the label map generate makes of this photo: across its edges where it tiles
-        wrap = resolve_exemplar_wrap(GenerateOptions().exemplar_wrap, photo)
-        regions = texton_regions if spec.method == "texton" else color_regions
-        data = encode_png(regions(photo, spec.k, seed=ANALYSIS_SEED, wrap=wrap))
+        # the label map generate makes of this photo: its broad light out, across its edges
+        # where it tiles
+        defaults = GenerateOptions()
+        wrap = resolve_exemplar_wrap(defaults.exemplar_wrap, photo)
+        label_map = photo_label_map(photo, spec.k, spec.method, wrap=wrap, equalize_light=defaults.equalize_light)
+        data = encode_png(label_map)
     except BarkgenError as exc:
         send(Failed(spec.job_id, str(exc)))
         return
