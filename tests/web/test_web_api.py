@@ -659,6 +659,10 @@ def test_the_form_has_the_clis_defaults_and_every_web_option(client):
             assert fields[f.name]["default"] == f.default_text, f.name
     for name in ("size", "k", "method", "strategy", "relief", "tile", "material", "structure", "model", "seed"):
         assert name in fields, name
+    assert fields["equalize_light"]["default"] == 1.0 and fields["width_m"]["default"] is None
+    # a set's width outside the option's range is refused in one line, before any job
+    bad = client.post("/api/jobs", json={"exemplar_id": 1, **SMALL, "material": True, "width_m": -1})
+    assert bad.status_code == 422 and bad.json()["detail"][0]["loc"][-1] == "width_m"
     assert fields["seed"]["default"] is None  # the page rolls one
     assert fields["structure"]["choices"] == ["labels", "cracks"] and fields["model"]["choices"] == [
         "patches",

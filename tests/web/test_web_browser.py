@@ -410,6 +410,75 @@ def test_cracks_and_bilayer_from_the_form_with_every_control(server, browser, tm
     page.close()
 
 
+def test_photo_light_and_width_from_the_form_reach_the_set_and_come_back(server, browser):
+    """Photo light and Width under More settings, with the options' own help: the width only
+    with material maps, a negative one refused on the page; Photo light at 40 % and a 0.8 m
+    set make a 96² result whose params, report.json and NAME.json say so, its label map made
+    with that light (not the page's, made with all of it out, which stays as it was); "Generate
+    another seed" opens the form with both again."""
+    import json
+
+    from test_web_relief import _trunk_photo
+
+    page = browser.new_page(viewport={"width": 1366, "height": 768})
+    errors = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    photo = {"name": "lit.png", "mimeType": "image/png", "buffer": _trunk_photo()}
+    exemplar = page.request.post(f"{server}api/exemplars", multipart={"file": photo, "name": "lit form"}).json()
+    page.goto(f"{server}exemplars/{exemplar['id']}")
+    page.wait_for_function(  # the page's label map (k = 3, all of the light out), made and cached
+        "() => { const i = document.querySelector('[data-testid=labels-in]');"
+        " return i && i.complete && i.naturalWidth > 0; }",
+        timeout=60_000,
+    )
+    page_labels = page.request.get(f"{server}api/exemplars/{exemplar['id']}/labels.png?k=3").body()
+    fields = {f["name"]: f for f in page.request.get(f"{server}api/options").json()["fields"]}
+    light, width = page.get_by_test_id("param-equalize-light"), page.get_by_test_id("param-width-m")
+    page.get_by_test_id("more-settings").locator("summary").click()
+    assert light.input_value() == "100" and page.get_by_test_id("equalize-light-value").text_content() == "100 % out"
+    assert light.get_attribute("title") == fields["equalize_light"]["help"]
+    assert width.get_attribute("title") == fields["width_m"]["help"]
+    assert light.is_enabled() and width.is_disabled() and width.input_value() == ""
+    assert width.get_attribute("placeholder") == "0.5 (assumed)"
+    page.get_by_test_id("param-size").select_option("custom")
+    page.get_by_test_id("param-width").fill("96")
+    page.get_by_test_id("param-height").fill("96")
+    page.get_by_test_id("param-material").check()
+    assert width.is_enabled()
+    width.fill("-1")
+    page.get_by_test_id("generate").click()
+    assert "metres from 0.001" in page.get_by_test_id("generate-error").text_content()
+    assert "job=" not in page.url
+    light.evaluate("el => { el.value = 40; el.dispatchEvent(new Event('input', {bubbles: true})); }")
+    assert page.get_by_test_id("equalize-light-value").text_content() == "40 % out"
+    width.fill("0.8")
+    page.get_by_test_id("param-seed").fill("7")
+    page.get_by_test_id("generate").click()
+    _follow_job(page, timeout_s=120)
+    result_id = re.search(r"/results/(\d+)", page.url).group(1)
+    result = page.request.get(f"{server}api/results/{result_id}").json()
+    assert result["params"]["equalize_light"] == 0.4 and result["params"]["width_m"] == 0.8
+
+    def file(name: str) -> bytes:
+        return page.request.get(f"{server}{result['files'][name].lstrip('/')}").body()
+
+    assert json.loads(file("report.json"))["light_equalization"] == 0.4
+    set_name = next(n for n in result["files"] if n.endswith("_Displacement.png"))[: -len("_Displacement.png")]
+    record = json.loads(file(f"{set_name}.json"))
+    assert abs(record["width_m"] - 0.8) < 1e-6 and record["light_equalization"] == 0.4
+    # the job's label map is its own, less of the light out; the page's is kept as it was
+    assert page.request.get(f"{server}{result['labels_in_url'].lstrip('/')}").body() != page_labels
+    assert page.request.get(f"{server}api/exemplars/{exemplar['id']}/labels.png?k=3").body() == page_labels
+    # "Generate another seed": the form again with this result's photo light and width
+    page.get_by_test_id("another-seed").click()
+    page.wait_for_url(re.compile(r"/exemplars/\d+\?"))
+    page.wait_for_function("() => document.querySelector('[data-testid=equalize-light-value]').textContent")
+    assert light.input_value() == "40" and width.input_value() == "0.8" and width.is_enabled()
+    assert page.get_by_test_id("equalize-light-value").text_content() == "40 % out"
+    assert not errors, errors
+    page.close()
+
+
 def test_painter_over_the_bark_with_undo_redo_and_fill(server, browser):
     """The label painter shows the result's bark under the labels; a stroke, undone and redone
     (buttons and Ctrl+Z), and a fill of one region with another label."""

@@ -249,8 +249,13 @@ def start_job(state: AppState, request: JobRequest) -> dict:
             **{k: edits[k] for k in ("relief", "light_equalization") if k in edits},
         }
     # the photo's label map when a page has made it already (else the worker makes it); cracks
-    # and bi-layer textures have label maps of their own (barkgen.pipeline.variants)
-    plain = options.structure == "labels" and options.model == "patches"
+    # and bi-layer textures have label maps of their own (barkgen.pipeline.variants), and one with
+    # another share of the photo's light out is not the pages' (the label job's, the default)
+    plain = (
+        options.structure == "labels"
+        and options.model == "patches"
+        and options.equalize_light == GenerateOptions().equalize_light
+    )
     key = labels_key(options.k, options.method)
     grey = library.analysis(exemplar.id, "labels_in", key) if plain else None
     if request.preset != "ambientcg":

@@ -12,6 +12,8 @@ let K_MIN = 2;
 let K_MAX = 8;
 /** The server's largest output side (from /api/options). */
 let MAX_SIDE = 4096;
+/** The material set's real-world width in metres: the option's range (from /api/options). */
+let WIDTH_M = [0.001, 1000];
 /** The kinds of bark and the option values each is (structure, model). */
 const KINDS = {
   labels: { structure: "labels", model: "patches" },
@@ -64,7 +66,7 @@ function renderExemplar(ex) {
     $("material-hint").textContent = "the set's own maps, carried with the colour + 3D trunk";
     // a scanned set is there for its maps: the material set is on (as `barkgen generate SET/`)
     if (!new URLSearchParams(location.search).has("material")) $("param-material").checked = true;
-    updateRelief();
+    updateFields();
   }
   const photo = $("exemplar-photo");
   photo.src = ex.photo_url;
@@ -175,6 +177,17 @@ function setSize(text) {
   preset.value = [...preset.options].some((o) => o.value === text) ? text : "custom";
 }
 
+/** A number given as a number or as its text (not null, nor empty). */
+const isNumber = (v) => v !== undefined && v !== null && v !== "" && Number.isFinite(Number(v));
+
+/** Set the relief, the photo light (a share 0..1, shown in %) and the set's width in metres
+ * where a value is given (a width of null: none, the assumed one). */
+function setMaterialValues({ relief, equalize_light: light, width_m: width }) {
+  if (isNumber(relief)) $("param-relief").value = String(relief);
+  if (isNumber(light)) $("param-equalize-light").value = String(Math.round(Number(light) * 100));
+  if (width !== undefined) $("param-width-m").value = isNumber(width) ? String(Number(width)) : "";
+}
+
 /** The form's defaults: the options' own (shared with `barkgen generate`), then the URL's. */
 function applyDefaults(fields) {
   const byName = Object.fromEntries(fields.map((f) => [f.name, f]));
@@ -185,9 +198,15 @@ function applyDefaults(fields) {
   $("param-material").checked = Boolean(initial("material"));
   if (initial("method")) $("param-method").value = initial("method");
   if (initial("strategy")) $("param-strategy").value = initial("strategy");
-  if (initial("relief") !== undefined) $("param-relief").value = String(initial("relief"));
+  setMaterialValues({ relief: initial("relief"), equalize_light: initial("equalize_light"), width_m: initial("width_m") });
+  // the set's width within the option's own range (checked on Generate; the field's min stays 0,
+  // so its arrows step by whole centimetres)
+  if (byName.width_m) WIDTH_M = [byName.width_m.minimum ?? WIDTH_M[0], byName.width_m.maximum ?? WIDTH_M[1]];
   // each control's help is the option's own (the CLI's --help says the same)
-  const help = { k: "param-k", method: "param-method", strategy: "param-strategy", relief: "param-relief", tile: "param-tile", material: "param-material" };
+  const help = {
+    k: "param-k", method: "param-method", strategy: "param-strategy", relief: "param-relief", tile: "param-tile",
+    material: "param-material", equalize_light: "param-equalize-light", width_m: "param-width-m",
+  };
   for (const [name, testid] of Object.entries(help)) if (byName[name]) $(testid).title = byName[name].help;
   const q = new URLSearchParams(location.search);
   if (q.has("size")) setSize(q.get("size"));
@@ -196,15 +215,23 @@ function applyDefaults(fields) {
   if (q.has("tile")) $("param-tile").checked = q.get("tile") !== "0" && q.get("tile") !== "false";
   if (q.has("material")) $("param-material").checked = q.get("material") !== "0" && q.get("material") !== "false";
   for (const name of ["method", "strategy", "preset"]) if (q.has(name)) $(`param-${name}`).value = q.get(name);
+  // a result's relief, photo light and width ("Generate another seed" carries them)
+  const given = (name) => (q.has(name) ? q.get(name) : undefined);
+  setMaterialValues({ relief: given("relief"), equalize_light: given("equalize_light"), width_m: given("width_m") });
   if (q.has("kind") && KINDS[q.get("kind")]) $("param-kind").value = q.get("kind");
   const seed = Number(q.get("seed"));
   $("param-seed").value = String(q.has("seed") && Number.isInteger(seed) && seed >= 0 ? seed : randomSeed());
-  updateRelief();
+  updateFields();
 }
 
-function updateRelief() {
+/** The sliders' values shown; the fields of the material set only with material maps (the
+ * photo light changes the label map and the texture too: always on). */
+function updateFields() {
   $("relief-value").textContent = `${Number($("param-relief").value).toFixed(2)}×`;
-  $("param-relief").disabled = !$("param-material").checked;
+  $("equalize-light-value").textContent = `${$("param-equalize-light").value} % out`;
+  const material = $("param-material").checked;
+  $("param-relief").disabled = !material;
+  $("param-width-m").disabled = !material;
 }
 
 /** The chosen kind's hint, and the fields it uses. */
@@ -274,6 +301,13 @@ function readParams() {
     throw new Error("The seed must be a whole number, 0 or more (press 🎲 for a random one).");
   }
   const material = $("param-material").checked;
+  // a number field holds "" for text that is no number: badInput tells it from an empty field
+  const widthInput = $("param-width-m");
+  const widthText = widthInput.value.trim();
+  const widthM = Number(widthText);
+  if (material && (widthInput.validity.badInput || (widthText && !(widthM >= WIDTH_M[0] && widthM <= WIDTH_M[1])))) {
+    throw new Error(`The width must be a number of metres from ${WIDTH_M[0]} to ${WIDTH_M[1]} (or empty: 0.5 m assumed).`);
+  }
   const body = {
     exemplar_id: exemplarId,
     size: `${width}x${height}`,
@@ -284,9 +318,11 @@ function readParams() {
     method: $("param-method").value,
     strategy: $("param-strategy").value,
     preset: $("param-preset").value,
+    equalize_light: Number($("param-equalize-light").value) / 100,
     ...KINDS[kind],
   };
   if (material) body.relief = Number($("param-relief").value);
+  if (material && widthText) body.width_m = widthM;
   // the crack network as edited in the crack view is what the job learns from
   if (kind === "cracks" && cracks && cracks.edited()) body.crack_structure = cracks.structure();
   return body;
@@ -316,8 +352,9 @@ function setupForm() {
     });
   }
   $("param-kind").addEventListener("change", updateKind);
-  $("param-material").addEventListener("change", updateRelief);
-  $("param-relief").addEventListener("input", updateRelief);
+  $("param-material").addEventListener("change", updateFields);
+  $("param-relief").addEventListener("input", updateFields);
+  $("param-equalize-light").addEventListener("input", updateFields);
 
   form.addEventListener("submit", async (event) => {
     event.preventDefault();
@@ -352,10 +389,12 @@ function showJobParams(params) {
   if (typeof params.tile === "boolean") $("param-tile").checked = params.tile;
   if (typeof params.material === "boolean") $("param-material").checked = params.material;
   if (Number.isInteger(params.seed)) $("param-seed").value = String(params.seed);
+  // a job's params hold the options it changed (the others are the defaults the form has)
+  setMaterialValues({ relief: params.relief, equalize_light: params.equalize_light, width_m: params.width_m ?? null });
   const kind = params.structure === "cracks" ? "cracks" : params.model === "bilayer" ? "bilayer" : "labels";
   $("param-kind").value = kind;
   updateKind();
-  updateRelief();
+  updateFields();
 }
 
 // ---------------------------------------------------------------------------

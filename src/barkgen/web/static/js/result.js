@@ -73,6 +73,7 @@ function renderHeader(result) {
     kind: p.structure === "cracks" ? "cracks" : p.model === "bilayer" ? "bilayer" : "labels",
   });
   for (const name of ["method", "strategy", "preset"]) if (p[name]) query.set(name, p[name]);
+  for (const name of ["relief", "equalize_light", "width_m"]) if (typeof p[name] === "number") query.set(name, String(p[name]));
   $("another-seed").href = `${exemplarUrl}?${query}`;
 }
 
