@@ -43,11 +43,11 @@ ELEVATIONS = (20.0, 30.0, 45.0, 60.0, 75.0, 90.0)
 #: floor of N·L in the division, so grazing or back-facing pixels do not explode
 SHADING_FLOOR = 0.2
 #: the largest shading strength (exponent of N·L) fitted by :func:`shading_strength`, and the
-#: bisection steps of the fit: 1 is wang2003's plain division, right for a relief as deep as the
-#: bark's (issue 65); beyond it, what the fit takes for shading is the albedo's own dark
-#: patches where the relief is low (a birch's lenticels), and dividing them out adds detail
-#: the bark does not have (up to 8 was allowed while the relief was 2-3x too shallow)
-MAX_STRENGTH = 1.0
+#: bisection steps of the fit: 2 covers a Lambertian render whose light's elevation is
+#: estimated 15 degrees off (the fit's 1.9-2.0); up to 8 was allowed while the relief was 2-3x
+#: too shallow (issue 65), and with the relief at its real depth a larger exponent divides
+#: out the albedo's own dark patches where the relief is low (a birch's lenticels)
+MAX_STRENGTH = 2.0
 STRENGTH_STEPS = 16
 #: pixels sampled to fit the shading strength
 FIT_PIXELS = 262_144
