@@ -16,6 +16,9 @@ per pixel that varies slowly. ``log L`` is estimated from the log-luminance:
 2. what remains, averaged over a Gaussian window of :data:`WINDOW` of the photo's width
    (normalised convolution): the softer blobs of dappled light.
 
+Each part is kept only as far as it stands out of what the bark alone would give the same
+estimate (its residual's block means, spread over the estimate's reach: :data:`NOISE_MARGIN`):
+a bark's own plates and patches are not light, and a photo in even light is left as it is.
 Both are weighted by how much a neighbourhood's colour is the bark's usual colour: white light
 scales the three channels alike and leaves the chromaticity (``log R/G``, ``log B/G``) as it
 is, so a patch of another hue (moss, lichen, peeled bark) is the albedo's own, not light; its
