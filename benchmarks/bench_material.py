@@ -4,16 +4,23 @@
     .venv/bin/python benchmarks/bench_material.py [--runs 3] [--previews DIR] [--json out.json]
         [--skip-truth] [--skip-shading] [--skip-speed]
 
-Truth (``../shared/data/bark_maps``: scanned normal and AO of four photos, OpenGL): the mean
-angular error of the normal map :func:`make_material` estimates from the colour photo alone,
-against a flat normal map (0, 0, 1) and against the usual Sobel-of-luminance normal (the
-AwesomeBump / NormalMap-Online default) with one fixed blur and strength chosen leave-one-out
-(the best on the other three scans), and, as an oracle, tuned per image *on the truth*;
-targets: at most 1.0x flat and below the fixed Sobel on each.
-The height's band weights (:data:`barkgen.material.height.BAND_WEIGHTS`) were fitted on these
-maps, so the figures here are leave-one-out: weights refitted on the other three photos
-(least squares of the height's gradient against the scan's slopes, then the relief strength
-minimising their mean angular error). AO: Pearson correlation with the scanned AO (target
+Truth (``../shared/data/bark_maps``: scanned normal and AO of four photos, OpenGL), of the
+normal map :func:`make_material` estimates from the colour photo alone (its broad light taken
+out first, as the product does):
+
+- the relief's depth: the median and 90th percentile of the normals' tilt over the scan's
+  (targets 0.8-1.25x and 0.7-1.4x);
+- its direction: the uncentred correlation of the slope vectors with the scan's (target: at
+  least the Sobel of the luminance's, blur 2 px), and the mean angle to the scan's normals
+  (target: at most the same Sobel's with its strength tilt-matched leave-one-out);
+- the mean angular error against a flat normal map (0, 0, 1), the usual Sobel-of-luminance
+  normal with one fixed blur and strength chosen leave-one-out on the mean angle (the best on
+  the other three scans), and, as an oracle, that Sobel tuned per image *on the truth*.
+
+The height's weights and strength were fitted on these maps, so the figures here are
+leave-one-out: refitted on the other three photos (least squares of the height's gradient
+against the scans' slopes, each scan weighed by its slopes' spread, then the strength whose
+tilts match the scans', :func:`tilt_scale`). AO: Pearson correlation with the scanned AO (target
 >= 0.5) of the AO of the leave-one-out height plus the photo's cavities, their weight and scale
 picked on the other three photos too; also shown, the height's AO alone. Also shown: the
 ceiling, i.e. the error of the scan's own height (its normals integrated, Frankot-Chellappa),
