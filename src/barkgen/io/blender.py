@@ -27,45 +27,7 @@ import json
 from collections.abc import Iterable
 
 from barkgen.errors import InvalidInputError
-
-#: where each preset keeps each map: file stem, and how its value is read (``RGB`` the colour,
-#: ``V`` a grey map's value, ``R``/``G``/``B``/``A`` one channel, ``1-A`` one minus the alpha;
-#: the normal map's convention)
-LAYOUTS: dict[str, dict[str, tuple[str, str]]] = {
-    "ambientcg": {
-        "color": ("Color", "RGB"),
-        "normal": ("NormalGL", "OpenGL"),
-        "roughness": ("Roughness", "V"),
-        "metalness": ("Metalness", "V"),
-        "opacity": ("Opacity", "V"),
-        "displacement": ("Displacement", "V"),
-    },
-    "unreal": {
-        "color": ("BaseColor", "RGB"),
-        "normal": ("NormalDX", "DirectX"),
-        "roughness": ("ORM", "G"),
-        "metalness": ("ORM", "B"),
-        "opacity": ("Opacity", "V"),
-        "displacement": ("Displacement", "V"),
-    },
-    "unity": {
-        "color": ("BaseMap", "RGB"),
-        "normal": ("NormalGL", "OpenGL"),
-        "roughness": ("MaskMap", "1-A"),
-        "metalness": ("MaskMap", "R"),
-        "opacity": ("BaseMap", "A"),
-        "displacement": ("Height", "V"),
-    },
-    "gltf": {
-        "color": ("BaseColor", "RGB"),
-        "normal": ("NormalGL", "OpenGL"),
-        "roughness": ("ORM", "G"),
-        "metalness": ("ORM", "B"),
-        "opacity": ("BaseColor", "A"),
-        "displacement": ("Displacement", "V"),
-    },
-}
-LAYOUTS["blender"] = LAYOUTS["ambientcg"]
+from barkgen.material.presets import MAP_SOURCES, check_preset
 
 
 def blender_script_name(name: str) -> str:
@@ -121,12 +83,11 @@ def blender_setup_script(material, name: str, files: Iterable[str], preset: str 
     InvalidInputError
         An unknown preset, or a map the layout reads missing from ``files`` (a bug).
     """
-    if preset not in LAYOUTS:
-        raise InvalidInputError(f"preset must be one of {', '.join(LAYOUTS)}, not {preset!r}")
+    check_preset(preset)
     present = set(files)
-    wanted = [key for key in LAYOUTS[preset] if key not in ("metalness", "opacity")]
+    wanted = [key for key in MAP_SOURCES[preset] if key not in ("metalness", "opacity")]
     wanted += [key for key in ("metalness", "opacity") if getattr(material, key) is not None]
-    maps = {key: (f"{name}_{LAYOUTS[preset][key][0]}.png", LAYOUTS[preset][key][1]) for key in wanted}
+    maps = {key: (f"{name}_{MAP_SOURCES[preset][key][0]}.png", MAP_SOURCES[preset][key][1]) for key in wanted}
     missing = sorted({file for file, _ in maps.values()} - present)
     if missing:
         raise InvalidInputError(f"the Blender set-up of {name} reads {', '.join(missing)}, which the set lacks")

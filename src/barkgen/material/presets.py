@@ -50,6 +50,46 @@ PACKING = {
     "unity": {"MaskMap": "R metalness, G ambient occlusion, B detail mask (1), A smoothness (1 - roughness)"},
 }
 
+#: where each preset keeps each map, for what reads a set back (its Blender set-up,
+#: :func:`barkgen.io.blender_setup_script`): file stem, and how its value is read (``RGB`` the
+#: colour, ``V`` a grey map's value, ``R``/``G``/``B``/``A`` one channel, ``1-A`` one minus the
+#: alpha; the normal map's convention)
+MAP_SOURCES: dict[str, dict[str, tuple[str, str]]] = {
+    "ambientcg": {
+        "color": ("Color", "RGB"),
+        "normal": ("NormalGL", "OpenGL"),
+        "roughness": ("Roughness", "V"),
+        "metalness": ("Metalness", "V"),
+        "opacity": ("Opacity", "V"),
+        "displacement": ("Displacement", "V"),
+    },
+    "unreal": {
+        "color": ("BaseColor", "RGB"),
+        "normal": ("NormalDX", "DirectX"),
+        "roughness": ("ORM", "G"),
+        "metalness": ("ORM", "B"),
+        "opacity": ("Opacity", "V"),
+        "displacement": ("Displacement", "V"),
+    },
+    "unity": {
+        "color": ("BaseMap", "RGB"),
+        "normal": ("NormalGL", "OpenGL"),
+        "roughness": ("MaskMap", "1-A"),
+        "metalness": ("MaskMap", "R"),
+        "opacity": ("BaseMap", "A"),
+        "displacement": ("Height", "V"),
+    },
+    "gltf": {
+        "color": ("BaseColor", "RGB"),
+        "normal": ("NormalGL", "OpenGL"),
+        "roughness": ("ORM", "G"),
+        "metalness": ("ORM", "B"),
+        "opacity": ("BaseColor", "A"),
+        "displacement": ("Displacement", "V"),
+    },
+}
+MAP_SOURCES["blender"] = MAP_SOURCES["ambientcg"]
+
 
 def check_preset(preset: str) -> str:
     """``preset`` if it is one of :data:`PRESETS`, else :class:`InvalidInputError`."""
