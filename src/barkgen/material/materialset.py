@@ -397,6 +397,7 @@ def make_material(
     *,
     label_map: np.ndarray | None = None,
     edits: Iterable[HeightEdit] = (),
+    illumination: np.ndarray | None = None,
 ) -> MaterialSet:
     """The material set of a bark photo, from the photo alone (see the module docstring).
 
@@ -410,6 +411,10 @@ def make_material(
         The photo's label codes (darkest label 0); else a colour label map is made.
     edits : iterable of HeightEdit, default ()
         Height edits to replay (:class:`~barkgen.material.editor.HeightEdit`).
+    illumination : ndarray, shape (h, w), optional
+        The photo's broad light when the caller has estimated it already
+        (:func:`~barkgen.material.equalize_light`), and ``photo`` is equalised by
+        ``options.equalize_light`` already: it is not estimated or taken out again.
 
     Returns
     -------
@@ -442,7 +447,8 @@ def make_material(
     check_memory_budget(estimate_material_memory((h, w)), options.max_memory, f"the material set of a {w}x{h} photo")
     rgb = check_image(photo)
     wrap = resolve_exemplar_wrap(options.exemplar_wrap, photo)
-    rgb, illumination = equalize_light(rgb, options.equalize_light, tile=wrap)
+    if illumination is None:
+        rgb, illumination = equalize_light(rgb, options.equalize_light, tile=wrap)
     if label_map is None:
         label_map, _ = to_codes(color_regions(rgb, options.k, seed=options.seed, wrap=wrap))
     config = dataclasses.replace(options.height, strength=options.height.strength * options.relief)

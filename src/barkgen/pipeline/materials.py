@@ -3,7 +3,6 @@ the output's, carried through the texture's reference map."""
 
 from __future__ import annotations
 
-import dataclasses
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -50,8 +49,8 @@ def photo_material(
             scan, wrap=wrap, relief=options.relief, seed=ANALYSIS_SEED, k=options.k, label_map=to_codes(labels_in)[0]
         )
 
-    # (``photo`` is equalised already, as far as ``options`` says: the light goes with the set)
-    material = make_material(
+    # (``photo`` is equalised already, as far as ``options`` says: its light goes with the set)
+    return make_material(
         photo,
         MaterialOptions(
             k=options.k,
@@ -59,8 +58,8 @@ def photo_material(
             seed=ANALYSIS_SEED,
             relief=options.relief,
             exemplar_wrap=wrap,
-            equalize_light=0.0,
+            equalize_light=options.equalize_light,
         ),
         label_map=to_codes(labels_in)[0],
+        illumination=illumination,
     )
-    return dataclasses.replace(material, illumination=illumination, equalization=options.equalize_light)
