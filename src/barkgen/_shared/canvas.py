@@ -29,9 +29,10 @@ class Canvas:
         Output ``(height, width)``.
     tile : bool
         The output tiles (every neighbourhood wraps round its edges; mazzolini2012 §4.1).
-    exemplar_wrap : (bool, bool)
+    exemplar_wrap : (bool, bool) or None
         The photo's axes that wrap (rows, columns): its neighbourhoods are read across those
         edges (resolved once from ``"auto"``, :func:`barkgen.synth.resolve_exemplar_wrap`).
+        None: not resolved yet, ``"auto"`` (the public function that reads the photo decides).
     flow, flow_scale : ndarray, optional
         ``(H, W)`` orientation (degrees) and scale fields the bark follows (mazzolini2012
         §3.1.3).
@@ -41,7 +42,7 @@ class Canvas:
 
     shape: tuple[int, int]
     tile: bool = False
-    exemplar_wrap: tuple[bool, bool] = (False, False)
+    exemplar_wrap: tuple[bool, bool] | None = None
     flow: np.ndarray | None = None
     flow_scale: np.ndarray | None = None
     links: Any = None
@@ -50,7 +51,8 @@ class Canvas:
         shape = (int(self.shape[0]), int(self.shape[1]))
         object.__setattr__(self, "shape", shape)
         object.__setattr__(self, "tile", bool(self.tile))
-        object.__setattr__(self, "exemplar_wrap", (bool(self.exemplar_wrap[0]), bool(self.exemplar_wrap[1])))
+        if self.exemplar_wrap is not None:
+            object.__setattr__(self, "exemplar_wrap", (bool(self.exemplar_wrap[0]), bool(self.exemplar_wrap[1])))
 
     @property
     def along(self) -> bool:
