@@ -36,7 +36,7 @@ def photo_label_map(
 def output_label_map(labels_in, photo, options: GenerateOptions, analysis, wrap, resume, progress, fields):
     """The output label map (:func:`barkgen.shapes.synthesize_label_map` by ``options.strategy``,
     or a grown crack network's raster) and the grown network (None but for cracks)."""
-    from barkgen.shapes import synthesize_label_map
+    from barkgen.shapes import Budget, Canvas, synthesize_label_map
 
     flow, flow_scale, links = fields
     exemplar = analysis.exemplar
@@ -50,19 +50,14 @@ def output_label_map(labels_in, photo, options: GenerateOptions, analysis, wrap,
         grown = None
         label_result = synthesize_label_map(
             labels_in,
-            options.size,
             strategy=options.strategy,
-            tile=options.tile,
-            seed=options.seed,
+            photo=photo,
+            canvas=Canvas(options.size, options.tile, wrap, flow, flow_scale, links),
+            budget=Budget(
+                options.seed, progress=stage_progress(progress, "label_map", options.material), cache=analysis.cache
+            ),
             rotations=options.rotations,
             resume=resume,
-            progress=stage_progress(progress, "label_map", options.material),
-            cache=analysis.cache,
-            photo=photo,
-            exemplar_wrap=wrap,
-            flow=flow,
-            flow_scale=flow_scale,
-            links=links,
         )
     return label_result, grown
 
