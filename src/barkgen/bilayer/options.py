@@ -7,7 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from barkgen._shared.memory import BASE_BYTES, check_budget_value
+from barkgen._shared.memory import BASE_BYTES, check_budget_value, parse_memory
+from barkgen._shared.options import check_options, option
 from barkgen.bilayer.spectra import SPECTRUM_SIZE, check_tloc
 from barkgen.bilayer.tiles import Deformation
 from barkgen.errors import InvalidInputError
@@ -67,18 +68,46 @@ class AnalysisOptions:
     .. [1] guingo2017, §3.3, §5, §6.
     """
 
-    k: int = 2
-    tloc: int = 4
-    masks: str = "binary"
-    spectrum_size: int = SPECTRUM_SIZE
-    equalize: bool = False
-    border: int = 0
-    iterations: int = 5
-    radius: int = 8
-    sigma_range: float = 0.001
-    core: float = 0.9
-    seed: int = 0
-    max_memory: int | None = None
+    k: int = option(2, "Number of stationary noises (clusters), 1-8.", kind=int, minimum=1, maximum=8)
+    tloc: int = option(
+        4,
+        "Local spectrum window: 2, 4, 8 or 16 px (larger: more goes into the noise; see `barkgen bilayer tune`).",
+        kind=int,
+        minimum=2,
+        maximum=16,
+    )
+    masks: str = option("binary", "binary or barycentric.", choices=MASK_KINDS)
+    spectrum_size: int = option(
+        SPECTRUM_SIZE, "Size T of the global spectra (64 in the paper), even.", kind=int, minimum=16, fronts=()
+    )
+    equalize: bool = option(False, "Equalise the noise's histogram per cluster (non-Gaussian noise, §6).", kind=bool)
+    border: int = option(
+        0, "Band (px) along mask borders kept sharp in the structure (§6); 0: none.", kind=int, minimum=0
+    )
+    iterations: int = option(5, "Iterations of the joint bilateral filter (§5).", kind=int, minimum=0, fronts=())
+    radius: int = option(8, "Radius of the joint bilateral filter (§5), px.", kind=int, minimum=1, fronts=())
+    sigma_range: float = option(
+        0.001,
+        "Range sigma of the structure filter (larger: more of the grain goes into the noise).",
+        kind=float,
+        flag="--sigma",
+        minimum=0,
+        maximum=1,
+    )
+    core: float = option(
+        0.9,
+        "Fraction of each cluster, nearest its centre, that estimates its spectrum (§3.3).",
+        kind=float,
+        minimum=0,
+        maximum=1,
+        fronts=(),
+    )
+    seed: int = option(0, "Random seed (same seed, same bytes).", kind=int, minimum=0)
+    max_memory: int | None = option(
+        None,
+        "Refuse jobs estimated to need more memory than this, e.g. 8G (default: what the machine has free).",
+        parse=parse_memory,
+    )
 
     def __post_init__(self) -> None:
         check_tloc(self.tloc)
@@ -95,6 +124,7 @@ class AnalysisOptions:
         if self.seed < 0:
             raise InvalidInputError(f"seed must be >= 0, not {self.seed}")
         check_budget_value(self.max_memory)
+        check_options(self)
 
 
 @dataclass(frozen=True)
@@ -140,14 +170,35 @@ class SynthesisOptions:
     .. [3] sibbing2010, §5 (seams blended in the gradient domain, after perez2003).
     """
 
-    tile_size: int | None = None
-    colours: int = 3
-    variants: int = 4
-    deformation: Deformation = Deformation()
-    warp: float = 0.1
-    compensate: bool = True
-    blend: bool = True
-    max_memory: int | None = None
+    tile_size: int | None = option(
+        None, "Wang tile size in px (default: a quarter of the exemplar).", kind=int, minimum=8
+    )
+    colours: int = option(
+        3, "Edge colours per direction (colours**4 tiles), 1-4.", kind=int, minimum=1, maximum=4, fronts=()
+    )
+    variants: int = option(4, "Exchanged contents per tile, 1-16.", kind=int, minimum=1, maximum=16, fronts=())
+    deformation: Deformation = option(Deformation(), "Rotations and zooms of the structure's samples.", fronts=())
+    warp: float = option(
+        0.1, "Turbulence bending the tile grid, in tile sizes (0-1; 0: none).", kind=float, minimum=0, maximum=1
+    )
+    compensate: bool = option(
+        True,
+        "With --rotate or --scale, give the noise the fine detail the deformed "
+        "structure lost (--no-compensate: the paper's noise).",
+        kind=bool,
+        flag="--compensate/--no-compensate",
+    )
+    blend: bool = option(
+        True,
+        "Blend the tiles' seams in the gradient domain (--no-blend: graph cuts only).",
+        kind=bool,
+        flag="--blend/--no-blend",
+    )
+    max_memory: int | None = option(
+        None,
+        "Refuse jobs estimated to need more memory than this, e.g. 8G (default: what the machine has free).",
+        parse=parse_memory,
+    )
 
     def __post_init__(self) -> None:
         if self.tile_size is not None and (self.tile_size < 8 or self.tile_size % 2):
@@ -157,6 +208,7 @@ class SynthesisOptions:
         if not (0 <= self.warp <= 1):
             raise InvalidInputError(f"warp must be between 0 and 1 tile size, not {self.warp}")
         check_budget_value(self.max_memory)
+        check_options(self)
 
 
 #: bytes per photo pixel of the analysis: local spectra (T_loc² values a pixel), the joint

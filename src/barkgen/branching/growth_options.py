@@ -5,7 +5,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from barkgen._shared.memory import check_budget_value, check_memory_budget
+from barkgen._shared.memory import check_budget_value, check_memory_budget, parse_memory
+from barkgen._shared.options import check_options, option
 from barkgen.errors import InvalidInputError
 
 #: the regulariser of growth's density scaling ``Q** = Q* / (D + eps)``: ``1 / eps`` bounds it (§4.4)
@@ -14,14 +15,36 @@ EPSILON = 1e-3
 
 @dataclass(frozen=True)
 class GrowOptions:
-    """Stopping rules and space-colonisation parameters of :func:`grow_structure`."""
+    """Stopping rules and space-colonisation parameters of :func:`grow_structure` (sibbing2010
+    §4.4-4.5), checked once when made."""
 
-    total_length: float | None = None  # pixels; default: the source's length per pixel x area
-    max_levels: int = 64  # branch generations below a root
-    rho: float | None = None  # density spread; default: learned from the source
-    fill: float = 2.0  # stop adding roots when no pixel is farther than fill*rho
-    max_branches: int = 20000
-    max_memory: int | None = None  # bytes; refuse a size estimated above it (None: what is free)
+    total_length: float | None = option(
+        None,
+        "Total branch length to grow in px (default: the source's length per pixel times the output area).",
+        kind=float,
+        flag="--length",
+    )
+    max_levels: int = option(64, "Maximum branch generations.", kind=int, flag="--levels")
+    rho: float | None = option(
+        None,
+        "Density spread in px (default: learned from the source).",
+        kind=float,
+        minimum=0.5,
+        maximum=1000,
+        fronts=(),
+    )
+    fill: float = option(
+        2.0, "Stop adding roots when no pixel is farther than fill x rho.", kind=float, minimum=0, fronts=()
+    )
+    max_branches: int = option(20000, "Most branches grown.", kind=int, minimum=1, fronts=())
+    max_memory: int | None = option(
+        None,
+        "Refuse jobs estimated to need more memory than this, e.g. 8G (default: what the machine has free).",
+        parse=parse_memory,
+    )
+
+    def __post_init__(self) -> None:
+        self.validate()
 
     def validate(self) -> GrowOptions:
         if self.total_length is not None and not 0 < self.total_length <= 1e8:
@@ -31,6 +54,7 @@ class GrowOptions:
         if self.rho is not None and not 0.5 <= self.rho <= 1000:
             raise InvalidInputError(f"rho must be in [0.5, 1000] pixels, got {self.rho}")
         check_budget_value(self.max_memory)
+        check_options(self)
         return self
 
 

@@ -18,7 +18,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from barkgen._shared.arrays import Wrap
-from barkgen._shared.memory import BASE_BYTES, check_budget_value, check_memory_budget
+from barkgen._shared.memory import BASE_BYTES, check_budget_value, check_memory_budget, parse_memory
+from barkgen._shared.options import check_options, option
 from barkgen.errors import InvalidInputError
 from barkgen.material.editor import HeightEdit, HeightEditor
 from barkgen.material.height import HeightConfig, estimate_height, luminance
@@ -34,7 +35,18 @@ from barkgen.material.maps import (
     roughness_map,
 )
 from barkgen.material.realsize import ASSUMED_PHOTO_WIDTH_M, check_width_m, physical_size
-from barkgen.material.shading import Light, estimate_light, remove_shading, shading_confidence, with_shading_height
+from barkgen.material.shading import (
+    Light,
+    estimate_light,
+    parse_light,
+    remove_shading,
+    shading_confidence,
+    with_shading_height,
+)
+
+
+def _light_text(light: Light) -> str:
+    return f"{light.azimuth:g},{light.elevation:g}"
 
 
 @dataclass(frozen=True)
@@ -80,17 +92,65 @@ class MaterialOptions:
         Any value out of range.
     """
 
-    k: int = 3
-    light: Light | None = None
-    height: HeightConfig = field(default_factory=HeightConfig)
-    relief: float = 1.0
-    ao_radius: int = AO_RADIUS
-    cavities: float = CAVITY_WEIGHT
-    exemplar_wrap: str | bool | tuple[bool, bool] = "auto"
-    seed: int = 0
-    equalize_light: float = 1.0
-    width_m: float | None = None
-    max_memory: int | None = None
+    k: int = option(3, "Labels of the structure cue (1-16).", kind=int, minimum=1, maximum=16)
+    light: Light | None = option(
+        None,
+        "The photo's light AZ,EL in degrees (azimuth counter-clockwise from the "
+        "right, elevation above the surface) for shading removal. Default: estimated.",
+        parse=parse_light,
+        text=_light_text,
+    )
+    height: HeightConfig = option(
+        help="The height's cues (barkgen.material.height.HeightConfig).", default_factory=HeightConfig, fronts=()
+    )
+    relief: float = option(
+        1.0,
+        "Relief strength of the estimated height (1 = as fitted on scanned bark; "
+        "2 doubles its depth and its slopes; normals and AO follow).",
+        kind=float,
+        minimum=0,
+        maximum=100,
+    )
+    ao_radius: int = option(AO_RADIUS, "Reach of the occlusion in px.", kind=int, minimum=1, maximum=256, fronts=())
+    cavities: float = option(
+        CAVITY_WEIGHT,
+        "Weight of the photo's own cavities in the AO (0: the height's AO alone).",
+        kind=float,
+        minimum=0,
+        maximum=100,
+        fronts=(),
+    )
+    exemplar_wrap: str | bool | tuple[bool, bool] = option(
+        "auto",
+        "auto: the photo is used as a torus along each axis along which it "
+        "tiles itself (its last row continues into its first), so pieces run on across its edge; "
+        "yes / no: force it.",
+        flag="--exemplar-wraps",
+        choices=("auto", "yes", "no"),
+    )
+    seed: int = option(0, "Random seed (same seed, same bytes).", kind=int, minimum=0)
+    equalize_light: float = option(
+        1.0,
+        "How much of the photo's broad light (a trunk's curvature falloff, a light gradient, "
+        "dappled light) is taken out before anything learns from it: 1 all of it, 0 none (the "
+        "photo's light kept). Patches of another hue (moss, lichen) stay.",
+        kind=float,
+        minimum=0,
+        maximum=1,
+    )
+    width_m: float | None = option(
+        None,
+        "The set's real-world width in metres: its displacement's depth is given in metres "
+        "(NAME.json, NAME.mtlx, the Blender set-up). Default: the photo is assumed 0.5 m wide.",
+        kind=float,
+        minimum=0.001,
+        maximum=1000,
+    )
+    max_memory: int | None = option(
+        None,
+        "Refuse jobs estimated to need more memory than this, e.g. 8G (default: what the machine has free).",
+        parse=parse_memory,
+    )
 
     def __post_init__(self) -> None:
         from barkgen._shared.checks import check_k, check_seed
@@ -108,6 +168,7 @@ class MaterialOptions:
             raise InvalidInputError(f"AO radius must be 1..256 px, not {self.ao_radius}")
         if not (np.isfinite(self.cavities) and 0 <= self.cavities <= 100):
             raise InvalidInputError(f"the AO's cavity weight must be in [0, 100], not {self.cavities:g}")
+        check_options(self)
 
 
 @dataclass

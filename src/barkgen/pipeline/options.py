@@ -11,7 +11,7 @@ import numpy as np
 
 from barkgen._shared.checks import parse_output_shape, parse_size
 from barkgen._shared.memory import check_budget_value, parse_memory
-from barkgen._shared.options import option, option_fields
+from barkgen._shared.options import check_options, option, option_fields
 from barkgen.errors import InvalidInputError
 
 if TYPE_CHECKING:
@@ -123,6 +123,7 @@ class GenerateOptions:
         "Input label map: color (laitoch2018 §3.5) or texton (wang2003 §3.2).",
         choices=LABEL_METHODS,
         analysis=True,
+        group="more",
     )
     edges: int = option(
         0,
@@ -134,6 +135,7 @@ class GenerateOptions:
         maximum=32,
         analysis=True,
         fronts=_NOT_WEB,
+        group="advanced",
     )
     strategy: str = option(
         "joint",
@@ -142,19 +144,28 @@ class GenerateOptions:
         "shape synthesis, laitoch2018 §3.6).",
         choices=("joint", "engine", "layered"),
         analysis=True,
+        group="more",
     )
     rotations: str = option(
         "vertical",
         "Layered strategy: boundary patches may turn none, vertical (180°) or all (90° steps).",
         choices=("none", "vertical", "all"),
+        group="advanced",
     )
     tile: bool = option(False, "Make the output tile seamlessly.", kind=bool)
     seed: int = option(
         0, "Random seed (same seed, same bytes).", kind=int, minimum=0, fronts=("cli", "web")
     )  # a batch spec's seeds are its entries' own
-    label_weight: float = option(20.0, "Texture-by-numbers' label weight (laitoch2018 eq. 3.1).", kind=float, minimum=0)
+    label_weight: float = option(
+        20.0, "Texture-by-numbers' label weight (laitoch2018 eq. 3.1).", kind=float, minimum=0, group="advanced"
+    )
     feature_weight: float = option(
-        8.0, "Texture-by-numbers' feature-distance weight (laitoch2018 eq. 3.3).", kind=float, minimum=0, analysis=True
+        8.0,
+        "Texture-by-numbers' feature-distance weight (laitoch2018 eq. 3.3).",
+        kind=float,
+        minimum=0,
+        analysis=True,
+        group="advanced",
     )
     threads: int | None = option(None, "Worker threads (default: all cores).", kind=int, minimum=1, fronts=("cli",))
     max_memory: int | None = option(
@@ -177,6 +188,8 @@ class GenerateOptions:
         parse=_parse_light,
         text=_light_text,
         analysis=True,
+        group="advanced",
+        needs="material",
     )
     relief: float = option(
         1.0,
@@ -186,6 +199,8 @@ class GenerateOptions:
         minimum=0,
         maximum=100,
         analysis=True,
+        group="more",
+        needs="material",
     )
     equalize_light: float = option(
         1.0,
@@ -196,6 +211,8 @@ class GenerateOptions:
         minimum=0,
         maximum=1,
         analysis=True,
+        group="more",
+        report="light_equalization",
     )
     width_m: float | None = option(
         None,
@@ -205,6 +222,8 @@ class GenerateOptions:
         kind=float,
         minimum=0.001,
         maximum=1000,
+        group="more",
+        needs="material",
     )
     exemplar_wrap: str = option(
         "auto",
@@ -215,12 +234,15 @@ class GenerateOptions:
         choices=("auto", "yes", "no"),
         analysis=True,
         fronts=_NOT_WEB,
+        group="advanced",
+        report="exemplar_wrap_mode",
     )
     blend: str = option(
         "gradient",
         "gradient: the colour's seams between copied pieces blended in the gradient "
         "domain (Pérez et al. 2003); none: every pixel an exact copy of the photo's.",
         choices=("gradient", "none"),
+        group="advanced",
     )
 
     structure: str = option(
@@ -229,6 +251,7 @@ class GenerateOptions:
         "crack network, extracted, grown anew at the output size and filled with bark; sibbing2010).",
         choices=STRUCTURES,
         analysis=True,
+        group="kind",
     )
     model: str = option(
         "patches",
@@ -236,6 +259,7 @@ class GenerateOptions:
         "structure layer in pieces plus new noise of its spectra; k noises, 1-8).",
         choices=MODELS,
         analysis=True,
+        group="kind",
     )
 
     def __post_init__(self) -> None:
@@ -282,6 +306,7 @@ class GenerateOptions:
 
             if not isinstance(self.light, Light):
                 raise InvalidInputError("light must be a barkgen.material.Light (or None: estimated)")
+        check_options(self)
 
 
 def analysis_key(options: GenerateOptions) -> tuple:

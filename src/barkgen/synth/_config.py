@@ -1,10 +1,13 @@
-"""Typed, validated configuration of the synthesizer."""
+"""Typed, validated configuration of the synthesizer (laitoch2018 §3.3): every field declared
+with :func:`barkgen._shared.options.option`, the CLI's ``--threads``, ``--max-memory`` and
+``--blend`` among them."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from barkgen._shared.memory import check_budget_value
+from barkgen._shared.memory import check_budget_value, parse_memory
+from barkgen._shared.options import check_options, option
 from barkgen.errors import InvalidInputError
 
 #: (neighbourhood size, iterations) pairs run at the coarsest, middle and finest levels.
@@ -75,26 +78,73 @@ class SynthesisConfig:
         machine has free when the job starts).
     """
 
-    k: int = 6
-    pca_components: int = 8
-    coarsest_exemplar: int = 16
-    schedule_coarsest: Schedule = ((9, 5), (7, 3), (5, 2))
-    schedule_middle: Schedule = ((9, 2), (5, 1))
-    schedule_finest: Schedule = ((5, 1),)
-    vote_radius: int = 3
-    kset_cost: float = 2.0
-    occurrence_weight: float = 1.0
-    max_copy: float = 0.2
-    jitter: float = 0.0
-    seam_sweeps: int = 4
-    seam_cut_run: int = 24
-    seam_cut_levels: int = 2
-    seam_expansion_band: int = 8
-    seam_expansion_rounds: int = 1
-    extra_weight: float = 0.5
-    blend: str = "gradient"
-    threads: int | None = None
-    max_memory: int | None = None
+    k: int = option(6, "Size of each k-coherence set (Tong 2002).", kind=int, minimum=1, maximum=32, fronts=())
+    pca_components: int = option(
+        8, "Appearance-space dimensions (Lefebvre & Hoppe 2006).", kind=int, minimum=1, maximum=64, fronts=()
+    )
+    coarsest_exemplar: int = option(
+        16, "Short side, px, of the exemplar's coarsest pyramid level.", kind=int, minimum=8, fronts=()
+    )
+    schedule_coarsest: Schedule = option(
+        ((9, 5), (7, 3), (5, 2)), "(size, iterations) pairs of the coarsest level (Kwatra 2005).", fronts=()
+    )
+    schedule_middle: Schedule = option(((9, 2), (5, 1)), "(size, iterations) pairs of the middle levels.", fronts=())
+    schedule_finest: Schedule = option(((5, 1),), "(size, iterations) pairs of the finest level.", fronts=())
+    vote_radius: int = option(
+        3, "The E-step's votes from neighbourhoods centred at most this far.", kind=int, minimum=1, maximum=7, fronts=()
+    )
+    kset_cost: float = option(
+        2.0, "Extra cost of a non-coherent candidate (Ashikhmin 2001).", kind=float, minimum=0, fronts=()
+    )
+    occurrence_weight: float = option(
+        1.0, "Weight of the occurrence cost (Kaspar 2015).", kind=float, minimum=0, fronts=()
+    )
+    max_copy: float = option(
+        0.2,
+        "Largest piece copied verbatim, a fraction of the exemplar's area.",
+        kind=float,
+        minimum=0,
+        maximum=1,
+        fronts=(),
+    )
+    jitter: float = option(
+        0.0, "Jitter of the up-sampled references (Lefebvre & Hoppe 2005).", kind=float, minimum=0, fronts=()
+    )
+    seam_sweeps: int = option(
+        4, "Sweeps of seam optimisation after each level (Kwatra 2003).", kind=int, minimum=0, maximum=64, fronts=()
+    )
+    seam_cut_run: int = option(
+        24,
+        "Straight seams at least this long re-cut by graph cuts; 0: off.",
+        kind=int,
+        minimum=0,
+        maximum=4096,
+        fronts=(),
+    )
+    seam_cut_levels: int = option(2, "Finest levels that get those cuts.", kind=int, minimum=0, maximum=16, fronts=())
+    seam_expansion_band: int = option(
+        8, "Expansion moves' reach, px (Boykov 2001); 0: off.", kind=int, minimum=0, maximum=64, fronts=()
+    )
+    seam_expansion_rounds: int = option(
+        1, "Expansion moves of every piece.", kind=int, minimum=1, maximum=16, fronts=()
+    )
+    extra_weight: float = option(
+        0.5, "Weight of the extra channels relative to luminance.", kind=float, minimum=0, fronts=()
+    )
+    blend: str = option(
+        "gradient",
+        "gradient: the colour's seams between copied pieces blended in the gradient "
+        "domain (Pérez et al. 2003); none: every pixel an exact copy of the photo's.",
+        choices=("gradient", "none"),
+        fronts=("cli",),
+    )
+    threads: int | None = option(None, "Worker threads (default: all cores).", kind=int, minimum=1, fronts=("cli",))
+    max_memory: int | None = option(
+        None,
+        "Refuse jobs estimated to need more memory than this, e.g. 8G (default: what the machine has free).",
+        parse=parse_memory,
+        fronts=("cli",),
+    )
 
     def __post_init__(self) -> None:
         if not 1 <= self.k <= 32:
@@ -135,6 +185,7 @@ class SynthesisConfig:
         if self.threads is not None and self.threads < 1:
             raise InvalidInputError("threads must be >= 1")
         check_budget_value(self.max_memory)
+        check_options(self)
 
     def schedule_for(self, level: int, n_levels: int) -> Schedule:
         """The (size, iterations) pairs of pyramid level ``level`` (0 = finest)."""
