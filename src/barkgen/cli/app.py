@@ -21,6 +21,7 @@ import typer
 
 import barkgen.cli.bilayer as bilayer
 import barkgen.cli.branches as branches
+import barkgen.cli.evaluate as evaluate
 import barkgen.cli.generate as generate
 import barkgen.cli.labels as labels
 import barkgen.cli.library as library
@@ -53,9 +54,10 @@ TOP_LEVEL = (
     "tree",
     "serve",
     "warm-up",
+    "evaluate",
 )
 #: the modules that give those commands
-COMMAND_MODULES = (synth, labels, shapes, generate, tree, material, serve, warmup)
+COMMAND_MODULES = (synth, labels, shapes, generate, tree, material, serve, warmup, evaluate)
 #: the groups of sub-commands (``barkgen bilayer analyze`` ...), in the order of ``--help``
 GROUPS = (("bilayer", bilayer), ("library", library), ("branches", branches))
 
