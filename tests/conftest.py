@@ -1,4 +1,5 @@
-"""Shared fixtures: real bark photos and the team's texeval from ../shared (skipped if absent)."""
+"""Shared fixtures: the real bark photos and scans shipped in tests/data (see its SOURCES.md),
+a crack-network photo drawn here, and helpers the tests share."""
 
 from __future__ import annotations
 
@@ -13,9 +14,10 @@ import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
-SHARED = Path(os.environ.get("BARKGEN_SHARED", REPO.parent / "shared"))
-BARK = SHARED / "data" / "bark"
-EVAL = SHARED / "eval"
+#: the permissively licensed photos and scans the tests need (tests/data/SOURCES.md)
+DATA = REPO / "tests" / "data"
+BARK = DATA / "bark"
+BARK_MAPS = DATA / "bark_maps"
 
 
 def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
@@ -32,45 +34,8 @@ def pytest_configure(config) -> None:
     os.environ["BARKGEN_LIBRARY"] = str(Path(tempfile.mkdtemp(prefix="barkgen-test-library-")) / "lib")
 
 
-def _need_shared() -> None:
-    if not (BARK.is_dir() and (EVAL / "texeval.py").is_file()):
-        pytest.skip(
-            f"needs the team's shared folder with data/bark and eval/texeval.py at {SHARED} "
-            "(set BARKGEN_SHARED); not part of a user's checkout"
-        )
-
-
-def _eval_module(name: str):
-    """A module of the team's ../shared/eval (texeval, seams)."""
-    import importlib
-
-    _need_shared()
-    if str(EVAL) not in sys.path:
-        sys.path.insert(0, str(EVAL))
-    return importlib.import_module(name)
-
-
-@pytest.fixture(scope="session")
-def texeval():
-    """The texeval module of ../shared/eval."""
-    return _eval_module("texeval")
-
-
-@pytest.fixture(scope="session")
-def seams():
-    """The seams module of ../shared/eval (longest straight seam, step ratio across seams)."""
-    return _eval_module("seams")
-
-
-@pytest.fixture(scope="session")
-def lines():
-    """The lines module of ../shared/eval (straight lines in any map, from the pixels alone)."""
-    return _eval_module("lines")
-
-
 def bark_exemplar(name: str, size: int) -> np.ndarray:
-    """Centre crop of a real bark photo, short side resized to ``size`` (like compare.py)."""
-    _need_shared()
+    """Centre crop of a real bark photo of tests/data/bark, short side resized to ``size``."""
     from barkgen.io import read_centre_crop
 
     return read_centre_crop(next(BARK.glob(name + ".*")), size)
@@ -79,6 +44,56 @@ def bark_exemplar(name: str, size: int) -> np.ndarray:
 @pytest.fixture(scope="session")
 def pine64() -> np.ndarray:
     return bark_exemplar("pine_plated_01", 64)
+
+
+def crack_photo(size: int = 256, seed: int = 0, *, cell: int = 40, grey: bool = False) -> np.ndarray:
+    """A photo-like crack network drawn here (no licence to carry): plates of a Voronoi
+    tessellation of a jittered grid (about ``cell`` px each, on the torus) with slightly different
+    tones, parted by dark cracks that wobble (the plane warped by smooth noise), branch at T and
+    Y junctions and vary in half-width (0.6-3.5 px), with pixel noise and a slight blur. The
+    same ``(size, seed, cell)`` gives the same bytes."""
+    from scipy import ndimage
+    from scipy.spatial import cKDTree
+
+    rng = np.random.default_rng(seed)
+    n = max(4, round(size / cell))
+    gy, gx = np.mgrid[0:n, 0:n]
+    centres = (np.stack([gy, gx], -1).reshape(-1, 2) + 0.5 + rng.uniform(-0.38, 0.38, (n * n, 2))) * (size / n)
+
+    def smooth_noise(sigma: float) -> np.ndarray:
+        noise = ndimage.gaussian_filter(rng.normal(0, 1, (size, size)), sigma, mode="wrap")
+        return noise / noise.std()
+
+    y, x = np.mgrid[0:size, 0:size].astype(np.float64)
+    warped = np.stack([y + 3.0 * smooth_noise(9), x + 3.0 * smooth_noise(9)], -1) % size
+    distance, cell_of = cKDTree(centres, boxsize=size).query(warped.reshape(-1, 2), k=2)
+    to_border = ((distance[:, 1] - distance[:, 0]) / 2).reshape(size, size)
+    half_width = np.clip(1.8 + smooth_noise(14), 0.6, 3.5)
+    crack = np.clip(half_width + 0.5 - to_border, 0, 1)
+    plate = 175 + rng.normal(0, 10, n * n)[cell_of[:, 0].reshape(size, size)] + 6 * smooth_noise(6)
+    image = (plate + rng.normal(0, 5, (size, size))) * (1 - crack) + (55 + rng.normal(0, 5, (size, size))) * crack
+    image = ndimage.gaussian_filter(image, 0.6, mode="wrap")
+    if grey:
+        return np.clip(image, 0, 255).astype(np.uint8)
+    return np.clip(image[..., None] * np.array([1.0, 0.88, 0.72]), 0, 255).astype(np.uint8)
+
+
+_CRACK_FILES: dict[tuple, Path] = {}
+
+
+def crack_photo_file(size: int = 256, seed: int = 0, *, cell: int = 40, grey: bool = False) -> Path:
+    """:func:`crack_photo` written once per session as a PNG (``cracks_{size}_{seed}.png``)."""
+    import tempfile
+
+    from barkgen.io import write_png
+
+    key = (size, seed, cell, grey)
+    if key not in _CRACK_FILES:
+        folder = Path(tempfile.mkdtemp(prefix="barkgen-test-cracks-"))
+        path = folder / f"cracks_{size}_{seed}.png"
+        write_png(path, crack_photo(size, seed, cell=cell, grey=grey))
+        _CRACK_FILES[key] = path
+    return _CRACK_FILES[key]
 
 
 @pytest.fixture(scope="session")

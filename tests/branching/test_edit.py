@@ -8,7 +8,7 @@ import copy
 
 import numpy as np
 import pytest
-from conftest import SHARED, _need_shared
+from conftest import crack_photo
 
 from barkgen.branching import (
     Branch,
@@ -174,13 +174,11 @@ def test_delete_removes_the_sub_tree_and_keeps_the_rest_linked():
 
 
 def test_edits_of_a_photos_network_change_what_the_model_learns():
-    """A real crack network (dried mud): deleting the trunk's sub-trees leaves fewer branches
+    """A photo-like crack network (conftest's drawn mud): deleting the trunk's sub-trees leaves fewer branches
     and furcations for the model (§4) to learn; a furcation adds one; each still validates."""
-    _need_shared()
     from barkgen.branching import extract_structure
-    from barkgen.io import read_image
 
-    source = extract_structure(read_image(SHARED / "data" / "branching" / "dried_mud_01.jpg"))
+    source = extract_structure(crack_photo(256, 0))
     pruned = source
     while len(pruned.branches) > 3:
         pruned = delete_branch(pruned, len(pruned.branches) - 1)
@@ -303,11 +301,9 @@ def test_generate_learns_from_a_given_network_of_the_photos_size_only():
     """``generate(..., cracks=)``: the crack model learns from the structure given (the report
     says so); a structure with another variant, of another size or with an analysis is refused
     in one line."""
-    _need_shared()
-    from barkgen.io import read_image
     from barkgen.pipeline import GenerateOptions, analyze_photo, generate
 
-    photo = read_image(SHARED / "data" / "branching" / "dried_mud_01.jpg")
+    photo = crack_photo(256, 0)
     options = GenerateOptions(structure="cracks", size=(64, 64), seed=2)
     source = _tree()  # 120 x 100: not this photo's size
     with pytest.raises(InvalidInputError, match="120x100 px image but the photo is 256x256"):

@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import os
-from pathlib import Path
-
 import cv2
 import numpy as np
 import pytest
@@ -13,9 +10,10 @@ from barkgen.branching.extract import crack_mask, default_step, extract_structur
 from barkgen.branching.structure import Structure
 from barkgen.errors import InvalidInputError
 
-SHARED = Path(os.environ.get("BARKGEN_SHARED", Path(__file__).resolve().parents[3] / "shared"))
-BRANCHING = SHARED / "data" / "branching"
-REAL = ["mud_crackle_gray_01.png", "cracked_earth_01.jpg", "dried_mud_01.jpg", "dried_mud_02.jpg"]
+#: photo-like crack networks: conftest's drawn ones (size, seed, cell, grey: in place of the
+#: team's dried-mud photos, which are copyleft) and the plated pine of tests/data, whose plates
+#: are parted by a network of dark fissures (its top-left 512 px)
+NETWORKS = [(256, 0, 40, False), (512, 1, 32, False), (512, 2, 40, True), "pine_plated_01"]
 
 HALF_WIDTH = 3  # px: the drawn cracks are 2 * HALF_WIDTH wide
 # a T (a side crack leaves the main crack), a Y (the side crack forks) and a closed cell on the
@@ -217,17 +215,20 @@ def test_bad_arguments():
         crack_mask(np.zeros((32, 32, 5), np.uint8))
 
 
-# --------------------------------------------------------------------------- real photos
+# --------------------------------------------------------------------------- photo-like networks
 
 
-@pytest.mark.parametrize("name", REAL)
-def test_real_crack_networks(name):
+@pytest.mark.parametrize("network", NETWORKS, ids=str)
+def test_real_crack_networks(network):
+    from conftest import BARK, crack_photo
+
     from barkgen.io import read_image
 
-    path = BRANCHING / name
-    if not path.is_file():
-        pytest.skip(f"needs the shared data at {BRANCHING} (set BARKGEN_SHARED)")
-    image = read_image(path)
+    if isinstance(network, str):
+        image = read_image(BARK / f"{network}.jpg")[:512, :512]
+    else:
+        size, seed, cell, grey = network
+        image = crack_photo(size, seed, cell=cell, grey=grey)
     s = extract_structure(image)
     _check_structure(s, image.shape[:2])
     assert len(s.branches) > 10
