@@ -9,9 +9,13 @@ web app (in process, and a real server for Ctrl-C), the library and batch.
 
 Each case runs in a fresh folder, with its own time budget: a heavy request must be refused
 within 2 s (whole command, Python's start included), a run that is allowed finishes within
-the budget it states. A case holds when its check passes within its budget. Prints one row per
-case (group, case, seconds, budget, held or what went wrong) and ``cases tried / held``; exits
-1 when a case did not hold. About 4 minutes on 2 cores.
+the budget it states. A refusal (a case whose every command exited 2) must also hold its
+memory: its commands' peak resident memory at most 32 MB over ``barkgen --version``'s (a
+64 MP PNG's header check once decoded it: +62 MB). A case holds when its check passes within
+its budgets. Prints the targets, then one row per case (group, case, seconds, budget, MB over
+barkgen's start, held or what went wrong) and ``cases tried / held``; exits 1 when a case did
+not hold. About 5 minutes on 2 cores; run it on a quiet machine (the budgets are the unit
+tests' old wall-clock bounds, which a shared machine broke).
 """
 
 from __future__ import annotations
@@ -39,6 +43,7 @@ from barkgen.io import read_image, write_png  # noqa: E402
 
 ENV = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(REPO / "src"), os.environ.get("PYTHONPATH")]))}
 REFUSE_S = 2.0  # a heavy request is refused within this, whole command
+REFUSE_EXTRA_MB = 32  # ... and its peak memory is at most this over `barkgen --version`'s
 
 
 @dataclass
@@ -65,10 +70,41 @@ def case(group: str, name: str, budget_s: float = REFUSE_S):
 CLI_TIMEOUT_S = 60
 
 
+#: (exit status, peak resident memory in MB or None) of every command the running case started
+COMMANDS_RUN: list[tuple[int, float | None]] = []
+#: ``python -m barkgen`` that writes its peak resident memory (Linux's VmHWM, its own since the
+#: exec, not the forking benchmark's) in KiB to the file named by its first argument at exit
+_LAUNCHER = """
+import atexit, runpy, sys
+report = sys.argv.pop(1)
+def peak():
+    try:
+        lines = open("/proc/self/status").read().splitlines()
+    except OSError:
+        return
+    with open(report, "w") as fh:
+        fh.write(next(line.split()[1] for line in lines if line.startswith("VmHWM:")))
+atexit.register(peak)
+sys.argv[0] = "barkgen"
+runpy.run_module("barkgen", run_name="__main__", alter_sys=True)
+"""
+
+
 def cli(*args: str, timeout: float = CLI_TIMEOUT_S, env: dict | None = None) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, "-m", "barkgen", *args], capture_output=True, text=True, timeout=timeout, env=env or ENV
-    )
+    """``barkgen ARGS`` in a subprocess, its output captured and its peak memory recorded in
+    :data:`COMMANDS_RUN`."""
+    with tempfile.TemporaryDirectory(prefix="barkgen-abuse-peak-") as folder:
+        report = Path(folder) / "peak"
+        r = subprocess.run(
+            [sys.executable, "-c", _LAUNCHER, str(report), *args],
+            capture_output=True,
+            text=True,
+            timeout=timeout,
+            env=env or ENV,
+        )
+        peak = int(report.read_text()) / 1024 if report.is_file() else None
+    COMMANDS_RUN.append((r.returncode, peak))
+    return r
 
 
 def one_line(r: subprocess.CompletedProcess, *words: str) -> str | None:
@@ -502,20 +538,24 @@ def _serve(tmp: Path) -> tuple[subprocess.Popen, str, Path]:
     return process, f"http://127.0.0.1:{port}", log
 
 
-@case("runaway", "9 Ctrl-C on the server while a label map is made: stops at once", 40)
-def _(tmp):
+def _ctrl_c_on_the_server(tmp: Path, kind: str) -> str | None:
+    """None when ``barkgen serve`` stops within 10 s of a Ctrl-C sent while a job of ``kind``
+    (a 6 MP photo's label map, a 2048² generate) runs, exit 0, leaving no process behind."""
     import httpx
 
     process, base, log = _serve(tmp)
     try:
-        rng = np.random.default_rng(1)
-        big = np.clip(rng.normal(120, 40, (2400, 2400, 3)), 0, 255).astype(np.uint8)
-        added = httpx.post(f"{base}/api/exemplars", files={"file": ("big.png", png_bytes(big))}, timeout=60).json()
-        job = httpx.post(f"{base}/api/exemplars/{added['id']}/labels?k=5").json()["job"]
+        if kind == "labels":
+            rng = np.random.default_rng(1)
+            big = np.clip(rng.normal(120, 40, (2400, 2400, 3)), 0, 255).astype(np.uint8)
+            added = httpx.post(f"{base}/api/exemplars", files={"file": ("big.png", png_bytes(big))}, timeout=60)
+            job = httpx.post(f"{base}/api/exemplars/{added.json()['id']}/labels?k=5").json()["job"]
+        else:
+            job = httpx.post(f"{base}/api/jobs", json={"exemplar_id": 1, "size": "2048x2048", "seed": 1}).json()
         deadline = time.monotonic() + 10
         while httpx.get(f"{base}/api/jobs/{job['id']}").json()["state"] != "running":
             if time.monotonic() > deadline:
-                return "the label job never ran"
+                return f"the {kind} job never ran"
             time.sleep(0.05)
         process.send_signal(signal.SIGINT)
         t = time.perf_counter()
@@ -530,6 +570,16 @@ def _(tmp):
     finally:
         if process.poll() is None:
             process.kill()
+
+
+@case("runaway", "9 Ctrl-C on the server while a label map is made: stops within 10 s", 40)
+def _(tmp):
+    return _ctrl_c_on_the_server(tmp, "labels")
+
+
+@case("runaway", "9 Ctrl-C on the server while a 2048² generate runs: stops within 10 s", 40)
+def _(tmp):
+    return _ctrl_c_on_the_server(tmp, "generate")
 
 
 # -- 10-17: crashes and unclear errors -------------------------------------------------------
@@ -910,7 +960,11 @@ def _(tmp):
 
 
 # -- the runner ------------------------------------------------------------------------------
-def run_case(item: Case) -> tuple[float, str | None]:
+def run_case(item: Case, start_mb: float) -> tuple[float, float | None, str | None]:
+    """``(seconds, MB over barkgen's start or None, what went wrong or None)`` of a case: its
+    check, its time budget, and, when it is a refusal (every command it ran exited 2), its
+    memory budget (:data:`REFUSE_EXTRA_MB` over ``start_mb``)."""
+    COMMANDS_RUN.clear()
     with tempfile.TemporaryDirectory(prefix="barkgen-abuse-") as folder:
         t = time.perf_counter()
         try:
@@ -923,7 +977,12 @@ def run_case(item: Case) -> tuple[float, str | None]:
         seconds = time.perf_counter() - t
     if problem is None and seconds > item.budget_s:
         problem = f"over its budget of {item.budget_s:g} s"
-    return seconds, problem
+    peaks = [mb for _, mb in COMMANDS_RUN if mb is not None]
+    over_mb = max(peaks) - start_mb if peaks else None
+    refusal = bool(COMMANDS_RUN) and all(code == 2 for code, _ in COMMANDS_RUN)
+    if problem is None and refusal and over_mb is not None and over_mb > REFUSE_EXTRA_MB:
+        problem = f"the refusal used {over_mb:.0f} MB over barkgen's start (at most {REFUSE_EXTRA_MB})"
+    return seconds, over_mb, problem
 
 
 # -- issue 56: nothing of the user's is touched, every input bounded ----------------------------
@@ -986,6 +1045,30 @@ def _(tmp):
         "--debug-dir",
         str(d),
         word="feature_distance.png",
+    )
+
+
+@case("no loss", "56.1 tbn -o D/t.png --extra height=D/t_height.png refused before the work")
+def _(tmp):
+    d = tmp / "d"
+    d.mkdir()
+    p = photo(tmp)
+    photo(d, "t_height.png")
+    labels = tmp / "a.png"
+    write_png(labels, (read_image(p)[..., 0] > 100).astype(np.uint8) * 255)
+    return _refused_untouched(
+        d,
+        "tbn",
+        str(p),
+        "--labels",
+        str(labels),
+        "--target",
+        str(labels),
+        "-o",
+        str(d / "t.png"),
+        "--extra",
+        f"height={d / 't_height.png'}",
+        word="t_height.png",
     )
 
 
@@ -1060,6 +1143,16 @@ def _(tmp):
     return _refused_untouched(tmp, "material", str(tmp / "bark_Color.png"), "-o", str(tmp), word="bark_Color.png")
 
 
+@case("no loss", "56.3 material P --edits D/bark.json -o D refused before the work")
+def _(tmp):
+    d = tmp / "d"
+    d.mkdir()
+    (d / "bark.json").write_text('{"version": 1, "edits": []}')
+    return _refused_untouched(
+        d, "material", str(photo(tmp)), "--edits", str(d / "bark.json"), "-o", str(d), word="bark.json"
+    )
+
+
 @case("no loss", "56.4 outputs in two folders: all or none (a folder that cannot be made)")
 def _(tmp):
     (tmp / "blocker").write_text("a file where a folder should be")
@@ -1077,6 +1170,15 @@ def _(tmp):
     cv2.imwrite(str(tmp / "big.png"), np.zeros((8000, 8000), np.uint8))
     os.replace(tmp / "big.png", tmp / "big.dat")
     return one_line(cli("labels", str(tmp / "big.dat"), "-o", str(tmp / "l.png"), "-q"), "megapixels")
+
+
+@case("bounds", "56.5 a 64 MP PNG with no suffix refused from its header")
+def _(tmp):
+    import cv2
+
+    cv2.imwrite(str(tmp / "big.png"), np.zeros((8000, 8000), np.uint8))
+    os.replace(tmp / "big.png", tmp / "big")
+    return one_line(cli("labels", str(tmp / "big"), "-o", str(tmp / "l.png"), "-q"), "megapixels")
 
 
 @case("bounds", "56.5 /dev/zero as a photo refused")
@@ -1130,6 +1232,23 @@ def _(tmp):
     spec = tmp / "spec.json"
     spec.write_text(json.dumps({"size": "32x32", "exemplars": [{"name": "a", "path": str(p), "seeds": [0]}]}))
     return one_line(cli("batch", str(spec), "-o", str(tmp / "out"), "--scheduler", "tcp://256.1.1.1:99999"), "port")
+
+
+for _address, _word in (
+    ("tcp://256.1.1.1:8786", "not an IP address"),
+    ("not-a-url", "tcp://HOST:PORT"),
+    ("", "tcp://HOST:PORT"),
+    ("http://host:8786", "tcp://HOST:PORT"),
+):
+
+    def _scheduler(tmp, address=_address, word=_word):
+        spec = tmp / "spec.json"
+        spec.write_text(
+            json.dumps({"size": "32x32", "exemplars": [{"name": "a", "path": str(photo(tmp)), "seeds": [0]}]})
+        )
+        return one_line(cli("batch", str(spec), "-o", str(tmp / "out"), "--scheduler", address), word)
+
+    case("bounds", f"56.8 --scheduler {_address!r} refused at once")(_scheduler)
 
 
 @case("errors", "56 --size 1x<5000 digits> is one line")
@@ -1210,22 +1329,29 @@ def main() -> int:
     chosen = [c for c in CASES if not args.only or args.only in c.name]
     rows = []
     started = time.perf_counter()
-    print("| group | case | s | budget s | held |\n|---|---|---:|---:|---|")
+    ok(cli("--version"))
+    start_mb = COMMANDS_RUN[-1][1] or 0.0  # (0 without /proc: no memory is measured then)
+    print(
+        f"targets: a refusal within {REFUSE_S:g} s, whole command, and at most {REFUSE_EXTRA_MB} MB over "
+        f"barkgen's start ({start_mb:.0f} MB: barkgen --version); every case within its budget\n"
+    )
+    print("| group | case | s | budget s | MB over start | held |\n|---|---|---:|---:|---:|---|")
     for item in chosen:
-        seconds, problem = run_case(item)
+        seconds, over_mb, problem = run_case(item, start_mb)
         rows.append(
             {
                 "group": item.group,
                 "case": item.name,
                 "seconds": round(seconds, 2),
                 "budget_s": item.budget_s,
+                "mb_over_start": None if over_mb is None else round(over_mb, 1),
                 "held": problem is None,
                 "problem": problem,
             }
         )
         print(
             f"| {item.group} | {item.name} | {seconds:.2f} | {item.budget_s:g} | "
-            f"{'held' if problem is None else 'NO: ' + problem} |",
+            f"{'' if over_mb is None else f'{over_mb:.0f}'} | {'held' if problem is None else 'NO: ' + problem} |",
             flush=True,
         )
     held = sum(r["held"] for r in rows)
