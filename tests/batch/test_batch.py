@@ -542,16 +542,14 @@ def test_another_programs_manifest_is_neither_changed_nor_trusted(photos, tmp_pa
 def test_a_scanned_set_folder_with_a_preset_and_sizes_makes_generates_files(tmp_path):
     """A spec's ``path`` may be a scanned set's folder (issue 32); ``preset`` and ``sizes`` are
     spec keys; the variant's files are ``barkgen generate SETDIR``'s with the same flags."""
-    from conftest import SHARED
+    from conftest import BARK, BARK_MAPS
 
     from barkgen.batch import load_spec, run_batch
 
-    maps = SHARED / "data" / "bark_maps"
-    if not (maps / "pine_plated_01_normal.jpg").is_file():
-        pytest.skip(f"needs the team's shared folder with data/bark_maps at {SHARED}")
+    maps = BARK_MAPS
     folder = tmp_path / "pineset"
     folder.mkdir()
-    write_png(folder / "pine_plated_01.png", read_image(SHARED / "data" / "bark" / "pine_plated_01.jpg")[:128, :128])
+    write_png(folder / "pine_plated_01.png", read_image(BARK / "pine_plated_01.jpg")[:128, :128])
     for kind in ("normal", "ao", "roughness"):
         write_png(folder / f"pine_plated_01_{kind}.png", read_image(maps / f"pine_plated_01_{kind}.jpg")[:128, :128])
     spec = tmp_path / "spec.yaml"
@@ -587,15 +585,12 @@ def test_a_spec_mixing_plain_cracks_and_bilayer_resumes_after_ctrl_c(tmp_path):
     (``structure: cracks``) and a bi-layer texture (``model: bilayer``), on the LocalCluster;
     Ctrl-C after the first variants, then the rerun makes only the rest, and each variant's
     report says what it is."""
-    from conftest import SHARED, _need_shared, bark_exemplar
+    from conftest import BARK, bark_exemplar, crack_photo
 
-    _need_shared()
     (tmp_path / "photos").mkdir()
     write_png(tmp_path / "photos" / "fir.png", bark_exemplar("fir_scaly_01", 160))
-    write_png(
-        tmp_path / "photos" / "lichen.png", read_image(SHARED / "data" / "bark" / "lichen_covered_01.jpg")[:160, :160]
-    )
-    mud = read_image(SHARED / "data" / "branching" / "dried_mud_01.jpg")
+    write_png(tmp_path / "photos" / "lichen.png", read_image(BARK / "lichen_covered_01.jpg")[:160, :160])
+    mud = crack_photo(256, 0)  # a drawn crack network (the team's dried mud photo is copyleft)
     write_png(tmp_path / "photos" / "mud.png", mud)
     doc = {
         "size": "128x96",

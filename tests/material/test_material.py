@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import SHARED, run
+from conftest import BARK, BARK_MAPS, run
 
 from barkgen.errors import InvalidInputError
 from barkgen.io import encode_glb, encode_material, read_image, read_material, write_bytes_atomic, write_png
@@ -147,15 +147,12 @@ def test_estimated_relief_is_as_deep_as_the_scans_and_points_better_than_sobel()
     on all four, so these are not the leave-one-out figures of the benchmark): the median tilt
     within 0.8-1.25x of the scan's, the slopes' direction closer to the scan's than the Sobel of
     the luminance's, and the AO."""
-    from conftest import _need_shared
-
     from barkgen._shared.checks import check_image
 
-    _need_shared()
     for name in ("oak_furrowed_moss_01", "pine_plated_01"):
         middle = np.s_[256:768, 256:768]
-        photo = check_image(read_image(SHARED / "data" / "bark" / f"{name}.jpg"))[middle]
-        truth = decode_normals(read_image(SHARED / "data" / "bark_maps" / f"{name}_normal.jpg"))[middle]
+        photo = check_image(read_image(BARK / f"{name}.jpg"))[middle]
+        truth = decode_normals(read_image(BARK_MAPS / f"{name}_normal.jpg"))[middle]
         material = make_material(photo)
         tilt = np.median(np.arccos(np.clip(material.normals[..., 2], -1, 1)))
         scan_tilt = np.median(np.arccos(np.clip(truth[..., 2], -1, 1)))
@@ -173,7 +170,7 @@ def test_estimated_relief_is_as_deep_as_the_scans_and_points_better_than_sobel()
         assert slopes_correlation(material.normals) > slopes_correlation(sobel), name
         # the photo's cavities do not make the AO less like the scanned one than the height's
         # alone (now that the relief is as deep as the scans', its own AO carries most of it)
-        scan_ao = read_image(SHARED / "data" / "bark_maps" / f"{name}_ao.jpg")[middle].astype(np.float32)
+        scan_ao = read_image(BARK_MAPS / f"{name}_ao.jpg")[middle].astype(np.float32)
         scan_ao = scan_ao[..., 0] if scan_ao.ndim == 3 else scan_ao
         r_set = np.corrcoef(material.ao.ravel(), scan_ao.ravel())[0, 1]
         r_height = np.corrcoef(ambient_occlusion(material.height).ravel(), scan_ao.ravel())[0, 1]

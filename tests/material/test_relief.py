@@ -63,19 +63,18 @@ def test_shape_from_shading_recovers_a_height_the_luminance_does_not_show():
 def pine_scan():
     """The plated pine's scanned normals and AO, and its colour photo flattened (its fine
     luminance divided out: an albedo without the photo's own shading), full size."""
-    from conftest import SHARED, _need_shared
+    from conftest import BARK, BARK_MAPS
 
     from barkgen._shared.arrays import unit_float
     from barkgen.io import read_image
     from barkgen.material import decode_normals
     from barkgen.material.height import luminance
 
-    _need_shared()  # (the scans are the team's; issue 70 ships what the tests need)
-    maps = SHARED / "data" / "bark_maps"
+    maps = BARK_MAPS
     normals = decode_normals(read_image(maps / "pine_plated_01_normal.jpg"))
     ao = read_image(maps / "pine_plated_01_ao.jpg").astype(np.float32)
     ao = (ao[..., 0] if ao.ndim == 3 else ao) / 255.0
-    photo = unit_float(read_image(SHARED / "data" / "bark" / "pine_plated_01.jpg"))
+    photo = unit_float(read_image(BARK / "pine_plated_01.jpg"))
     lum = np.maximum(luminance(photo), 1e-3)
     albedo = np.clip(photo * (ndi.gaussian_filter(lum, 16) / lum)[..., None], 0, 1)
     return normals, ao, albedo.astype(np.float32)

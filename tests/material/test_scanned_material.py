@@ -9,23 +9,21 @@ import json
 import cv2
 import numpy as np
 import pytest
-from conftest import SHARED, run
+from conftest import BARK, BARK_MAPS, run
 
 from barkgen.io import read_image, read_scanned_set, write_png
 from barkgen.material import scanned_material
 from barkgen.pipeline import GenerateOptions, generate
 from barkgen.synth import piece_borders
 
-MAPS = SHARED / "data" / "bark_maps"
+MAPS = BARK_MAPS
 
 
 def scan_crop(tmp_path, name: str, size: int):
-    """A folder holding a ``size`` crop of a scanned set of ``../shared`` (photo + its maps)."""
-    if not (MAPS / f"{name}_normal.jpg").is_file():
-        pytest.skip(f"needs the team's shared folder with data/bark_maps at {SHARED}")
+    """A folder holding a ``size`` crop of a scanned set of tests/data (photo + its maps)."""
     folder = tmp_path / name
     folder.mkdir()
-    write_png(folder / f"{name}.png", read_image(SHARED / "data" / "bark" / f"{name}.jpg")[:size, :size])
+    write_png(folder / f"{name}.png", read_image(BARK / f"{name}.jpg")[:size, :size])
     for kind in ("normal", "ao", "roughness"):
         write_png(folder / f"{name}_{kind}.png", read_image(MAPS / f"{name}_{kind}.jpg")[:size, :size])
     return folder
