@@ -304,10 +304,9 @@ def _iterate(
             la.features,
             (la.kernel_weights[nb_size], proj.mean, proj.features),
             la.ksets,
-            (penalty, np.float32(config.kset_cost * la.scale)),
+            (penalty, np.float32(config.kset_cost * la.scale), forbid),
             (stride, oy, ox),
             tile,
-            forbid,
             kernel_guide,
             match,
         )
