@@ -197,6 +197,8 @@ HOUSE_TESTS = {
     "test_examples.py",
     "test_docs.py",
     "test_docs_site.py",
+    "test_docs_names.py",
+    "test_guides.py",
     "test_wheel.py",
 }
 
