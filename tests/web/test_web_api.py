@@ -676,14 +676,13 @@ def test_cracks_and_bilayer_jobs_texton_labels_glb_and_a_zip_named_after_the_pho
     it is. Texton label maps are their own analysis. A result with material maps has its trunk
     as a glb, and the zip is named after the photo, its set too, with the licence given at
     upload in README.txt."""
-    from conftest import SHARED, _need_shared
+    from conftest import crack_photo_file
 
-    _need_shared()
-    mud = (SHARED / "data" / "branching" / "dried_mud_01.jpg").read_bytes()
+    mud = crack_photo_file(256, 0, cell=32).read_bytes()  # a drawn crack network, as of dried mud
     r = client.post(
         "/api/exemplars",
-        files={"file": ("dried mud.jpg", mud)},
-        data={"name": "Dried mud", "licence": "GPL-2 (UFO:AI)"},
+        files={"file": ("dried mud.png", mud)},
+        data={"name": "Dried mud", "licence": "CC0 (drawn by the tests)"},
     )
     assert r.status_code == 201, r.text
     ex = r.json()["id"]
@@ -716,7 +715,7 @@ def test_cracks_and_bilayer_jobs_texton_labels_glb_and_a_zip_named_after_the_pho
     assert 'filename="barkgen_dried-mud_seed5_96x80.zip"' in r.headers["content-disposition"]
     archive = zipfile.ZipFile(io.BytesIO(r.content))
     readme = archive.read("README.txt").decode()
-    assert "Photo licence: GPL-2 (UFO:AI)" in readme and "trunk.glb" in readme
+    assert "Photo licence: CC0 (drawn by the tests)" in readme and "trunk.glb" in readme
     assert any(n.startswith("dried-mud_seed5") for n in archive.namelist()), archive.namelist()
     # k beyond the pages' range, an unknown kind: one line, 4xx
     r = client.post("/api/jobs", json={"exemplar_id": ex, **SMALL, "k": 9})

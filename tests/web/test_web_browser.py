@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import BARK, _need_shared
+from conftest import BARK, BARK_MAPS, crack_photo_file
 
 CHROMIUM = Path("/usr/bin/chromium")
 CHROMIUM_ARGS = [
@@ -133,7 +133,6 @@ def _canvas_pixels(page, testid: str) -> np.ndarray:
 
 
 def test_upload_generate_view_paint_continue_download(server, browser, tmp_path):
-    _need_shared()
     photo = BARK / "oak_furrowed_moss_01.jpg"
     page = browser.new_page(viewport={"width": 1400, "height": 1000})
     errors = []
@@ -264,8 +263,7 @@ def test_a_scanned_sets_zip_is_uploaded_and_its_maps_make_the_material(server, b
     photo's page says it is a set, and a result's roughness is the scan's (not an estimate)."""
     import zipfile
 
-    _need_shared()
-    maps = BARK.parent / "bark_maps"
+    maps = BARK_MAPS
     archive = tmp_path / "willow_furrowed_01_1k.zip"
     with zipfile.ZipFile(archive, "w") as zipped:
         zipped.write(BARK / "willow_furrowed_01.jpg", "willow_furrowed_01/willow_furrowed_01.jpg")
@@ -316,13 +314,10 @@ def test_cracks_and_bilayer_from_the_form_with_every_control(server, browser, tm
     result's page says so, offers its trunk as a glb and a zip named after the photo with its
     licence; then a bi-layer texture of the same photo. A flat photo is told why it has no
     cracks to grow."""
-    _need_shared()
-    from conftest import SHARED
-
     page = browser.new_page(viewport={"width": 1366, "height": 768})
     errors = []
     page.on("pageerror", lambda exc: errors.append(str(exc)))
-    _upload(page, server, SHARED / "data" / "branching" / "dried_mud_01.jpg", "Dried mud", "GPL-2")
+    _upload(page, server, crack_photo_file(256, 0, cell=32), "Dried mud", "CC0")
     hint = page.get_by_test_id("param-kind-hint")
     page.wait_for_selector("[data-testid=param-kind][data-kinds='1']", timeout=60_000)
     page.get_by_test_id("param-kind").select_option("cracks")
@@ -379,7 +374,7 @@ def test_cracks_and_bilayer_from_the_form_with_every_control(server, browser, tm
     assert info.value.suggested_filename == "barkgen_dried-mud_seed11_192x128.zip"
     archive = tmp_path / "set.zip"
     info.value.save_as(archive)
-    assert "Photo licence: GPL-2" in zipfile.ZipFile(archive).read("README.txt").decode()
+    assert "Photo licence: CC0" in zipfile.ZipFile(archive).read("README.txt").decode()
     _shot(page, "web_cracks_result_1366x768", full_page=True)
 
     # a bi-layer texture of the same photo, k = 8 noises at most

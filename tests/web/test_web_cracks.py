@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import SHARED, _need_shared
+from conftest import crack_photo_file
 from fastapi.testclient import TestClient
 from test_web_api import _wait
 
@@ -41,9 +41,8 @@ def client(library):
 
 @pytest.fixture()
 def mud(client) -> int:
-    _need_shared()
-    data = (SHARED / "data" / "branching" / "dried_mud_01.jpg").read_bytes()
-    r = client.post("/api/exemplars", files={"file": ("mud.jpg", data)}, data={"name": "Dried mud"})
+    data = crack_photo_file(256, 0, cell=32).read_bytes()  # a drawn crack network, as of dried mud
+    r = client.post("/api/exemplars", files={"file": ("mud.png", data)}, data={"name": "Dried mud"})
     assert r.status_code == 201, r.text
     return r.json()["id"]
 
