@@ -7,7 +7,9 @@ Public names
 ------------
 Synthesis (:mod:`barkgen.synth`)
     :func:`synthesize`, :func:`texture_by_numbers`, :func:`apply_references`,
-    :class:`SynthesisConfig`, :class:`SynthesisResult`.
+    :class:`SynthesisConfig`, :class:`SynthesisResult`; :class:`Canvas` (the output: its
+    shape, tiling, the exemplar's wrap, flow fields, links) and :class:`Budget` (the run's
+    seed, threads, memory, progress, cache), the two objects a run hands down its stages.
 The one-click pipeline (:mod:`barkgen.pipeline`)
     :func:`generate`, :class:`GenerateOptions`, :class:`GenerateResult`; :func:`warm_up`
     compiles the numba kernels ahead (about 30 s once per install; the first run that has to

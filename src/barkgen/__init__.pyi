@@ -16,6 +16,8 @@ from barkgen.pipeline import warm_up as warm_up
 from barkgen.render import render_trunk as render_trunk
 from barkgen.render import trunk_mesh as trunk_mesh
 from barkgen.shapes import synthesize_label_map as synthesize_label_map
+from barkgen.synth import Budget as Budget
+from barkgen.synth import Canvas as Canvas
 from barkgen.synth import SynthesisConfig as SynthesisConfig
 from barkgen.synth import SynthesisResult as SynthesisResult
 from barkgen.synth import apply_references as apply_references
@@ -24,6 +26,8 @@ from barkgen.synth import texture_by_numbers as texture_by_numbers
 
 __all__ = [
     "BarkgenError",
+    "Budget",
+    "Canvas",
     "GenerateOptions",
     "GenerateResult",
     "HeightEditor",

@@ -298,21 +298,19 @@ def test_bad_sizes_and_images_are_one_line():
 
 
 def test_generate_learns_from_a_given_network_of_the_photos_size_only():
-    """``generate(..., cracks=)``: the crack model learns from the structure given (the report
-    says so); a structure with another variant, of another size or with an analysis is refused
-    in one line."""
+    """``analyze_photo(..., cracks=)``, then ``generate(..., analysis=)``: the crack model learns
+    from the structure given (the report says so); a structure with another variant or of
+    another size is refused in one line."""
     from barkgen.pipeline import GenerateOptions, analyze_photo, generate
 
     photo = crack_photo(256, 0)
     options = GenerateOptions(structure="cracks", size=(64, 64), seed=2)
     source = _tree()  # 120 x 100: not this photo's size
     with pytest.raises(InvalidInputError, match="120x100 px image but the photo is 256x256"):
-        generate(photo, options, cracks=source)
+        analyze_photo(photo, options, cracks=source)
     mine = Structure(STEP, (256, 256), _tree().branches)
     with pytest.raises(InvalidInputError, match="structure='cracks' only"):
-        generate(photo, GenerateOptions(size=(64, 64)), cracks=mine)
-    result = generate(photo, options, cracks=mine)
+        analyze_photo(photo, GenerateOptions(size=(64, 64)), cracks=mine)
+    result = generate(photo, options, analysis=analyze_photo(photo, options, cracks=mine))
     assert result.report["crack_model"]["branches"] == 5 and result.report["crack_model"]["furcations"] == 3
     assert result.cracks is not None
-    with pytest.raises(InvalidInputError, match="to analyze_photo"):
-        generate(photo, options, cracks=mine, analysis=analyze_photo(photo, options, cracks=mine))

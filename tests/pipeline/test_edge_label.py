@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from conftest import run
 
+from barkgen import Canvas
 from barkgen.errors import InvalidInputError
 from barkgen.io import read_image, write_png
 from barkgen.labels import add_edge_label
@@ -66,7 +67,7 @@ def test_generate_matches_both_maps_with_their_edge_label(sample256):
 def test_edges_and_a_flow_field_are_refused_in_one_line(sample256):
     field = np.zeros((64, 64), np.float32)
     with pytest.raises(InvalidInputError, match="edge label does not follow a flow field"):
-        generate(sample256[:96, :96], GenerateOptions(size=(64, 64), edges=3), flow=field)
+        generate(sample256[:96, :96], GenerateOptions(size=(64, 64), edges=3), canvas=Canvas((64, 64), flow=field))
 
 
 def test_the_commands_take_edges(tmp_path, sample256):

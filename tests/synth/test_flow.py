@@ -9,7 +9,7 @@ import pytest
 from conftest import run
 
 from barkgen.errors import InvalidInputError
-from barkgen.synth import OrientedExemplar, check_flow, orient_exemplar, synthesize, texture_by_numbers
+from barkgen.synth import Budget, Canvas, OrientedExemplar, check_flow, orient_exemplar, synthesize, texture_by_numbers
 
 
 def _stripes(size: int = 64, period: float = 6.0, seed: int = 0) -> np.ndarray:
@@ -87,16 +87,16 @@ def test_synthesis_follows_a_turned_field_and_is_reproducible():
     assert _angle_error(_stripe_direction(plain.image), 90.0) < 5
     for angle in (90.0, 45.0, -30.0):
         field = np.full((64, 96), angle, np.float32)
-        result = synthesize(exemplar, (64, 96), seed=3, flow=field)
+        result = synthesize(exemplar, canvas=Canvas((64, 96), flow=field), budget=Budget(seed=3))
         assert result.orientation is not None and result.exemplar_shape == result.orientation.atlas_shape
         assert _angle_error(_stripe_direction(result.image), 90.0 + angle) < 6, angle
     # two halves turned apart: each follows its own
     field = np.zeros((64, 96), np.float32)
     field[:, 48:] = 60.0
-    first = synthesize(exemplar, (64, 96), seed=5, flow=field, tile=True)
+    first = synthesize(exemplar, canvas=Canvas((64, 96), tile=True, flow=field), budget=Budget(seed=5))
     assert _angle_error(_stripe_direction(first.image[:, 4:44]), 90.0) < 8
     assert _angle_error(_stripe_direction(first.image[:, 52:92]), 150.0) < 8
-    second = synthesize(exemplar, (64, 96), seed=5, flow=field, tile=True)
+    second = synthesize(exemplar, canvas=Canvas((64, 96), tile=True, flow=field), budget=Budget(seed=5))
     assert np.array_equal(first.image, second.image) and np.array_equal(first.references, second.references)
 
 
@@ -106,7 +106,7 @@ def test_texture_by_numbers_keeps_its_labels_along_a_field():
     target = np.zeros((64, 64), np.uint8)
     target[:, 32:] = 255
     field = np.full((64, 64), 90.0, np.float32)
-    result = texture_by_numbers(exemplar, ex_labels, target, seed=1, flow=field)
+    result = texture_by_numbers(exemplar, ex_labels, target, canvas=Canvas((64, 64), flow=field), budget=Budget(seed=1))
     atlas_labels = result.orientation.atlas(ex_labels, kind="labels")
     got = atlas_labels[result.references[..., 0], result.references[..., 1]]
     assert np.mean(got == target) > 0.97
@@ -190,13 +190,13 @@ def test_linked_pixels_show_their_sources_in_their_own_frame():
     target = (rows * 64 + np.arange(60, 64)[None, :]).ravel()  # the last four columns ...
     source = (rows * 64 + np.arange(0, 4)[None, :]).ravel()  # ... show the first four
     links = OutputLinks((64, 64), target, source)
-    plain = synthesize(exemplar, (64, 64), seed=2, links=links)
+    plain = synthesize(exemplar, canvas=Canvas((64, 64), links=links), budget=Budget(seed=2))
     flat = plain.references.reshape(-1, 2)
     assert np.array_equal(flat[target], flat[source])
     # along a field that turns the linked columns apart: the same exemplar point, each in its copy
     field = np.zeros((64, 64), np.float32)
     field[:, 32:] = 90.0
-    turned = synthesize(exemplar, (64, 64), seed=2, flow=field, links=links)
+    turned = synthesize(exemplar, canvas=Canvas((64, 64), flow=field, links=links), budget=Budget(seed=2))
     coords = turned.orientation.exemplar_coordinates(turned.references).reshape(-1, 2)
     turns, _ = turned.orientation.turns(turned.references)
     assert np.allclose(turns.reshape(-1)[target], 90.0) and np.allclose(turns.reshape(-1)[source], 0.0)

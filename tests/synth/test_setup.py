@@ -36,24 +36,26 @@ def test_memory_budget_is_checked_before_work(synthetic_exemplar):
 def test_the_set_up_is_what_synthesize_runs(synthetic_exemplar):
     """:func:`set_up` then :meth:`SolveSetup.solve` is :func:`synthesize`, byte for byte; a grey
     ``(h, w)`` exemplar is given back as a grey image."""
-    from barkgen.synth import matching_features
+    from barkgen.synth import Budget, Canvas, matching_features
     from barkgen.synth._setup import SolveSetup, set_up
 
     config = SynthesisConfig()
-    setup = set_up(synthetic_exemplar, (40, 56), seed=3, extra=None, config=config, tile=True, exemplar_wrap="no")
+    canvas = Canvas((40, 56), tile=True, exemplar_wrap="no")
+    setup = set_up(synthetic_exemplar, None, config, canvas, Budget(seed=3))
     assert isinstance(setup, SolveSetup)
-    assert setup.exemplar.shape == synthetic_exemplar.shape and setup.out_shape == (40, 56)
-    assert setup.wrap == (False, False) and not setup.flat and setup.n_levels >= 2
-    assert np.array_equal(setup.features, matching_features(synthetic_exemplar, None, config.extra_weight))
+    assert setup.exemplar.shape == synthetic_exemplar.shape and setup.canvas.shape == (40, 56)
+    assert setup.wrap == (False, False) and not setup.flat and setup.inputs.n_levels >= 2
+    assert np.array_equal(setup.inputs.features, matching_features(synthetic_exemplar, None, config.extra_weight))
     direct = synthesize(synthetic_exemplar, (40, 56), seed=3, tile=True, exemplar_wrap="no")
     assert np.array_equal(setup.solve().image, direct.image)
-    grey = set_up(synthetic_exemplar[:, :, 0], 40, seed=0, extra=None, config=config, tile=False, exemplar_wrap="auto")
+    grey = set_up(synthetic_exemplar[:, :, 0], None, config, Canvas((40, 40)), Budget(seed=0))
     assert grey.flat and grey.exemplar.shape[2] == 1 and grey.solve().image.ndim == 2
 
 
 def test_the_set_up_checks_in_order_inputs_front_memory_then_wrap(synthetic_exemplar):
     """Validation first, then the front's own checks, then the memory budget, and only then is
     the exemplar's wrap resolved (a bad wrap setting on an impossible size is a budget error)."""
+    from barkgen.synth import Budget, Canvas
     from barkgen.synth._setup import Front, set_up
 
     seen = []
@@ -65,39 +67,15 @@ def test_the_set_up_checks_in_order_inputs_front_memory_then_wrap(synthetic_exem
 
     budget = SynthesisConfig(max_memory=2**30)
     with pytest.raises(InvalidInputError):  # validation before the front
-        set_up(
-            synthetic_exemplar,
-            (0, 10),
-            seed=0,
-            extra=None,
-            config=budget,
-            tile=False,
-            exemplar_wrap="no",
-            front=Refusing(),
-        )
+        set_up(synthetic_exemplar, None, budget, Canvas((0, 10), exemplar_wrap="no"), Budget(), front=Refusing())
     assert seen == []
     with pytest.raises(InvalidInputError, match="front"):  # the front before the budget
         set_up(
-            synthetic_exemplar,
-            (50_000, 50_000),
-            seed=0,
-            extra=None,
-            config=budget,
-            tile=False,
-            exemplar_wrap="no",
-            front=Refusing(),
+            synthetic_exemplar, None, budget, Canvas((50_000, 50_000), exemplar_wrap="no"), Budget(), front=Refusing()
         )
     assert seen == [synthetic_exemplar.shape]
     with pytest.raises(MemoryBudgetError):  # the budget before the wrap setting
-        set_up(
-            synthetic_exemplar,
-            (50_000, 50_000),
-            seed=0,
-            extra=None,
-            config=budget,
-            tile=False,
-            exemplar_wrap="sometimes",
-        )
+        set_up(synthetic_exemplar, None, budget, Canvas((50_000, 50_000), exemplar_wrap="sometimes"), Budget())
 
 
 def test_a_front_adds_its_channels_to_the_memory_estimate(synthetic_exemplar):

@@ -27,19 +27,16 @@ def test_a_run_stopped_at_a_level_is_that_level_of_the_full_run(synthetic_exempl
         if name.endswith("_result"):
             levels[int(name[5:-7])] = image
 
-    from barkgen.synth import AnalysisCache
+    from barkgen.synth import AnalysisCache, Budget, Canvas, SolverInputs
 
-    args = dict(n_levels=n_levels, config=config, seed=4, tile=True)
+    inputs = SolverInputs(synthetic_exemplar, features, n_levels, config)
+    canvas = Canvas((96, 96), tile=True, exemplar_wrap=(False, False))
     # the stopped run analyses only the levels it solves; the full run then goes on below them
     cache = AnalysisCache()
-    stopped = solve(
-        exemplar=synthetic_exemplar, extras={}, features=features, out_shape=(96, 96), stop_level=1, cache=cache, **args
-    )
+    stopped = solve(inputs, canvas, Budget(seed=4, cache=cache), stop_level=1)
     (levels_kept,) = cache._entries.values()
     assert levels_kept[0] is None and all(la is not None for la in levels_kept[1:])
-    solve(
-        exemplar=synthetic_exemplar, extras={}, features=features, out_shape=(96, 96), debug=keep, cache=cache, **args
-    )
+    solve(inputs, canvas, Budget(seed=4, cache=cache, debug=keep))
     (levels_now,) = cache._entries.values()
     assert levels_now[0] is not None and all(a is b for a, b in zip(levels_now[1:], levels_kept[1:]))
     assert len(cache) == 1
@@ -48,14 +45,10 @@ def test_a_run_stopped_at_a_level_is_that_level_of_the_full_run(synthetic_exempl
     assert stopped.references[..., 0].max() < h and stopped.references[..., 1].max() < w
     assert np.array_equal(stopped.image, levels[1])
     flat = (stopped.references[..., 0] * w + stopped.references[..., 1]).astype(np.int32)
-    resumed = solve(
-        exemplar=synthetic_exemplar, extras={}, features=features, out_shape=(96, 96), start=(1, flat), **args
-    )
+    resumed = solve(inputs, canvas, Budget(seed=4), start=(1, flat))
     assert np.array_equal(resumed.image, synthetic_exemplar[resumed.references[..., 0], resumed.references[..., 1]])
     with pytest.raises(InvalidInputError, match="stop_level"):
-        solve(
-            exemplar=synthetic_exemplar, extras={}, features=features, out_shape=(96, 96), stop_level=n_levels, **args
-        )
+        solve(inputs, canvas, Budget(seed=4), stop_level=n_levels)
 
 
 def test_thread_budget_sizes_every_pool_and_gives_them_back():
@@ -113,26 +106,21 @@ def test_upsampled_references_are_the_childs_of_each_parent():
     assert upsample_references(edge, (2, 2), (9, 13), (True, True))[1, 1].tolist() == [0, 0]
 
 
-def test_solve_takes_every_argument_as_a_keyword(synthetic_exemplar):
-    """``solve`` has no positional parameters: a call by position is refused before any work."""
+def test_solve_takes_its_inputs_canvas_and_budget_then_keywords(synthetic_exemplar):
+    """``solve(inputs, canvas, budget, *, ...)``: what is copied, what the output is and how the
+    run works are three objects; everything else is a keyword, refused by position before any
+    work."""
     import inspect
 
-    from barkgen.synth import matching_features, solve
+    from barkgen.synth import Budget, Canvas, SolverInputs, matching_features, solve
 
-    kinds = {p.kind for p in inspect.signature(solve).parameters.values()}
-    assert kinds == {inspect.Parameter.KEYWORD_ONLY}
+    parameters = inspect.signature(solve).parameters.values()
+    assert [p.name for p in parameters if p.kind != inspect.Parameter.KEYWORD_ONLY] == ["inputs", "canvas", "budget"]
+    assert len(parameters) <= 10
     features = matching_features(synthetic_exemplar, None, 0.0)
+    inputs = SolverInputs(synthetic_exemplar, features, 2, SynthesisConfig())
     with pytest.raises(TypeError):
-        solve(
-            synthetic_exemplar,
-            {},
-            features,
-            (32, 32),
-            n_levels=2,  # noqa - on purpose
-            config=SynthesisConfig(),
-            seed=0,
-            tile=False,
-        )
+        solve(inputs, Canvas((32, 32), exemplar_wrap=(False, False)), Budget(), None)  # noqa - on purpose
 
 
 def _level(synthetic_exemplar, config):
@@ -142,18 +130,27 @@ def _level(synthetic_exemplar, config):
     return AnalysisCache().analyse(features, 2, config)
 
 
+def _context(la, config, rng, tile, seam_channels):
+    """Level 1 of 2 of a 40x48 output (20x24 at that level), unguided."""
+    from barkgen.synth import Canvas, SolverInputs
+    from barkgen.synth._solver import _level_context
+
+    inputs = SolverInputs(np.zeros((1, 1, 1)), np.zeros((1, 1, 1), np.float32), 2, config, seam_channels=seam_channels)
+    return _level_context(la, 1, inputs, Canvas((40, 48), tile=tile), rng, None)
+
+
 def test_a_level_context_carries_the_level_and_cannot_be_changed(synthetic_exemplar):
     """:class:`LevelContext` holds what a level's steps share: unguided, its guide is empty; its
     seam image is the level's first ``seam_channels`` feature channels as an image; it is frozen."""
     import dataclasses
 
-    from barkgen.synth._solver import LevelContext, _level_context
+    from barkgen.synth._solver import LevelContext
 
     config = SynthesisConfig(coarsest_exemplar=8)
     levels = _level(synthetic_exemplar, config)
     la = levels[1]
     rng = np.random.default_rng(0)
-    ctx = _level_context(la, 1, 2, (20, 24), config, rng, True, None, 1)
+    ctx = _context(la, config, rng, True, 1)
     assert isinstance(ctx, LevelContext)
     assert (ctx.level, ctx.n_levels, ctx.shape, ctx.tile) == (1, 2, (20, 24), True)
     assert ctx.analysis is la and ctx.config is config and ctx.rng is rng
@@ -167,11 +164,11 @@ def test_a_level_context_carries_the_level_and_cannot_be_changed(synthetic_exemp
 def test_the_coarsest_state_draws_from_the_contexts_generator(synthetic_exemplar):
     """Unguided, the coarsest level starts from references drawn uniformly over the level's
     exemplar by the solve's one generator (so the same seed gives the same start)."""
-    from barkgen.synth._solver import _initial_state, _level_context
+    from barkgen.synth._solver import _initial_state
 
     config = SynthesisConfig(coarsest_exemplar=8)
     la = _level(synthetic_exemplar, config)[1]
-    ctx = _level_context(la, 1, 2, (20, 24), config, np.random.default_rng(5), False, None, None)
+    ctx = _context(la, config, np.random.default_rng(5), False, None)
     refs = _initial_state(ctx, None)
     expected = np.random.default_rng(5).integers(0, la.height * la.width, size=(20, 24), dtype=np.int32)
     assert refs.dtype == np.int32 and np.array_equal(refs, expected)

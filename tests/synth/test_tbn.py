@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from barkgen.errors import InvalidInputError
-from barkgen.synth import TBN_CONFIG, SynthesisConfig, synthesize, texture_by_numbers
+from barkgen.synth import TBN_CONFIG, Budget, Canvas, SynthesisConfig, synthesize, texture_by_numbers
 
 
 def source_labels(result, a):
@@ -22,12 +22,12 @@ def source_labels(result, a):
 
 def test_output_follows_the_target_labels(label_case):
     ex, a, b = label_case
-    res = texture_by_numbers(ex, a, b, seed=1)
+    res = texture_by_numbers(ex, a, b, budget=Budget(seed=1))
     assert res.image.shape == b.shape + (3,) and res.image.dtype == ex.dtype
     assert (source_labels(res, a) == b).mean() > 0.9
     # without the seam blending, the image is exemplar pixels resolved through the references
     # (nothing blurred); the blending changes the colour only, never the references
-    exact = texture_by_numbers(ex, a, b, seed=1, config=dataclasses.replace(TBN_CONFIG, blend="none"))
+    exact = texture_by_numbers(ex, a, b, budget=Budget(seed=1), config=dataclasses.replace(TBN_CONFIG, blend="none"))
     assert np.array_equal(exact.references, res.references)
     assert np.array_equal(exact.image, ex[res.references[..., 0], res.references[..., 1]])
     unguided = synthesize(ex, b.shape, seed=1)
@@ -37,29 +37,29 @@ def test_output_follows_the_target_labels(label_case):
 @pytest.mark.parametrize("init", ["smart", "random"])
 def test_same_seed_same_result_any_thread_count(label_case, init):
     ex, a, b = label_case
-    one = texture_by_numbers(ex, a, b, seed=4, init=init, config=SynthesisConfig(threads=1))
-    two = texture_by_numbers(ex, a, b, seed=4, init=init, config=SynthesisConfig(threads=2))
+    one = texture_by_numbers(ex, a, b, budget=Budget(seed=4), init=init, config=SynthesisConfig(threads=1))
+    two = texture_by_numbers(ex, a, b, budget=Budget(seed=4), init=init, config=SynthesisConfig(threads=2))
     assert np.array_equal(one.image, two.image)
-    other = texture_by_numbers(ex, a, b, seed=5, init=init)
+    other = texture_by_numbers(ex, a, b, budget=Budget(seed=5), init=init)
     assert not np.array_equal(one.image, other.image)
 
 
 def test_extras_grey_exemplars_and_tiles(label_case):
     ex, a, b = label_case
     height = (ex.astype(np.uint16).sum(axis=2) * 80).astype(np.uint16)  # the exemplar's shapes
-    res = texture_by_numbers(ex, a, b, extra={"height": height}, tile=True, seed=0)
+    res = texture_by_numbers(ex, a, b, extra={"height": height}, canvas=Canvas(b.shape, tile=True))
     from conftest import assert_continuous_copy
 
     assert res.extras["height"].dtype == np.uint16
     assert_continuous_copy(res.extras["height"][..., 0], height, res.references, tolerance=0.35)
-    grey = texture_by_numbers(ex[:, :, 0], a, b[:40, :50], seed=0)
+    grey = texture_by_numbers(ex[:, :, 0], a, b[:40, :50], budget=Budget(seed=0))
     assert grey.image.shape == (40, 50)
 
 
 def test_debug_receives_levels_initialization_and_results(label_case):
     ex, a, b = label_case
     seen = {}
-    texture_by_numbers(ex, a, b, debug=lambda name, img: seen.setdefault(name, img))
+    texture_by_numbers(ex, a, b, budget=Budget(debug=lambda name, img: seen.setdefault(name, img)))
     assert {
         "initialization",
         "level0_result",
@@ -78,7 +78,7 @@ def test_debug_receives_levels_initialization_and_results(label_case):
         ({"feature_weight": float("nan")}, "feature_weight"),
         ({"init": np.zeros((64, 64), np.int32)}, "reference map must be"),
         ({"init": np.full((64, 64, 2), 40, np.int32)}, "outside the exemplar"),
-        ({"init_level": -1}, "init_level"),
+        ({"init": (np.zeros((64, 64, 2), np.int32), -1)}, "init_level"),
     ],
 )
 def test_bad_parameters_are_refused(label_case, kwargs, message):
@@ -100,8 +100,8 @@ def test_start_from_a_reference_map(label_case):
     coords = np.stack([yy, xx], -1)
     refs = np.stack([shuffled_blocks(coords[..., i], 64, block=8, seed=2) for i in range(2)], -1)
     assert np.array_equal(a[refs[..., 0], refs[..., 1]], b)
-    result = texture_by_numbers(ex, a, b, init=refs.astype(np.int32), seed=0)
-    smart = texture_by_numbers(ex, a, b, seed=0)
+    result = texture_by_numbers(ex, a, b, init=refs.astype(np.int32), budget=Budget(seed=0))
+    smart = texture_by_numbers(ex, a, b, budget=Budget(seed=0))
     assert np.mean(source_labels(result, a) == b) >= np.mean(source_labels(smart, a) == b) - 0.005
     kept = np.mean(np.all(result.references == refs, axis=-1))
     assert kept > 1.5 * np.mean(np.all(smart.references == refs, axis=-1)) and kept > 0.1
@@ -116,7 +116,7 @@ def test_start_from_a_reference_map(label_case):
         level: np.mean(
             np.all(
                 texture_by_numbers(
-                    ex, a, b, init=refs.astype(np.int32), init_level=level, seed=0, config=deep
+                    ex, a, b, init=(refs.astype(np.int32), level), budget=Budget(seed=0), config=deep
                 ).references
                 == refs,
                 axis=-1,
@@ -151,7 +151,7 @@ def bark_case(texeval):
 
 def test_label_fidelity_and_sharpness_on_bark(bark_case):
     ex, a, b, ev = bark_case
-    smart = ev.evaluate(texture_by_numbers(ex, a, b, seed=0).image, labels_out=b)
+    smart = ev.evaluate(texture_by_numbers(ex, a, b, budget=Budget(seed=0)).image, labels_out=b)
     assert smart["label_fidelity_ratio"] >= 0.9
     assert smart["label_fidelity_balanced"] >= 0.85
     # the seams' colour steps blended away cost some sharpness on this label map of small

@@ -29,35 +29,47 @@ class Canvas:
         Output ``(height, width)``.
     tile : bool
         The output tiles (every neighbourhood wraps round its edges; mazzolini2012 §4.1).
-    exemplar_wrap : (bool, bool) or None
+    exemplar_wrap : (bool, bool), None or {"auto", "yes", "no"} or bool
         The photo's axes that wrap (rows, columns): its neighbourhoods are read across those
         edges (resolved once from ``"auto"``, :func:`barkgen.synth.resolve_exemplar_wrap`).
-        None: not resolved yet, ``"auto"`` (the public function that reads the photo decides).
+        None: not resolved yet, ``"auto"`` (the public function that reads the photo decides);
+        a mode (``"auto"``, ``"yes"``, ``"no"``, a bool) is kept as given until then.
     flow, flow_scale : ndarray, optional
         ``(H, W)`` orientation (degrees) and scale fields the bark follows (mazzolini2012
         §3.1.3).
     links : OutputLinks, optional
         Output pixels that take the references of others (a texture atlas's gutters).
+    oriented : OrientedExemplar, optional
+        Along the flow fields, the atlas of the exemplar's turned copies to use (one another
+        synthesis of the same fields shares, :func:`barkgen.synth.orient_exemplar`); else the
+        solver makes the one the fields need.
     """
 
     shape: tuple[int, int]
     tile: bool = False
-    exemplar_wrap: tuple[bool, bool] | None = None
+    exemplar_wrap: tuple[bool, bool] | str | bool | None = None
     flow: np.ndarray | None = None
     flow_scale: np.ndarray | None = None
     links: Any = None
+    oriented: Any = None
 
     def __post_init__(self) -> None:
         shape = (int(self.shape[0]), int(self.shape[1]))
         object.__setattr__(self, "shape", shape)
         object.__setattr__(self, "tile", bool(self.tile))
-        if self.exemplar_wrap is not None:
+        if isinstance(self.exemplar_wrap, (tuple, list)):
             object.__setattr__(self, "exemplar_wrap", (bool(self.exemplar_wrap[0]), bool(self.exemplar_wrap[1])))
 
     @property
     def along(self) -> bool:
         """The bark follows a flow or scale field."""
         return self.flow is not None or self.flow_scale is not None
+
+    @property
+    def wrap_mode(self) -> str | bool | tuple[bool, bool]:
+        """``exemplar_wrap`` as :func:`barkgen.synth.resolve_exemplar_wrap` reads it (None:
+        ``"auto"``)."""
+        return "auto" if self.exemplar_wrap is None else self.exemplar_wrap
 
     @property
     def wrap_axes(self) -> tuple[bool, bool]:
@@ -85,6 +97,8 @@ class Budget:
         ``progress(done, total)``.
     cache : AnalysisCache, optional
         The photo's analysis, shared by every seed.
+    debug : callable, optional
+        ``debug(name, image)`` receives the solver's intermediate images (uint8).
     """
 
     seed: int = 0
@@ -92,6 +106,7 @@ class Budget:
     max_memory: int | None = None
     progress: ProgressCallback | None = None
     cache: Any = None
+    debug: Callable[[str, np.ndarray], None] | None = None
 
     def rng(self, offset: int = 0) -> np.random.Generator:
         """The run's generator (``offset`` picks an independent stream of the same seed)."""

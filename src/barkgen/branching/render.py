@@ -499,16 +499,15 @@ def render_branches(
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
     if fill:
-        from barkgen.synth import texture_by_numbers
+        from barkgen.synth import Budget, texture_by_numbers
 
         res = texture_by_numbers(
             img,
             src_raster.astype(np.uint8) * 255,
             labels.astype(np.uint8) * 255,
-            seed=int(seed),
             label_weight=float(opts.fill_label_weight),
             config=opts.fill_config,
-            progress=fill_progress,
+            budget=Budget(seed=int(seed), progress=fill_progress),
         )
         canvas = res.image.reshape(th, tw, -1).astype(np.float32)
         content = np.ones((th, tw), bool)

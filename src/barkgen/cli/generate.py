@@ -85,6 +85,7 @@ def generate_command(
     (laitoch2018 Figure 1.2). Writes texture.png, labels_in.png, labels_out.png, reference.png,
     report.json and preview.png (+ NAME.png per --extra, + the material set with --material)
     into the output folder."""
+    from barkgen import Canvas
     from barkgen.data import sample_exemplar_path
     from barkgen.io import read_image, read_scanned_set
     from barkgen.material import EditList
@@ -138,7 +139,7 @@ def generate_command(
             progress=progress,
             scan=scan,
             edits=edit_list.edits,
-            **fields,
+            canvas=Canvas(options.size, tile=options.tile, **fields) if fields else None,
         )
         result = adjusted_result(result, edit_list)  # the edit list's depth and light, after its edits
         files = encode_generate(

@@ -63,7 +63,7 @@ def synth_command(
     and scale field with --flow / --flow-scale)."""
     from barkgen.data import sample_exemplar_path
     from barkgen.io import read_image
-    from barkgen.synth import SynthesisConfig, synthesize
+    from barkgen.synth import Budget, Canvas, SynthesisConfig, synthesize
 
     out_shape = parse_size(size)
     budget = parse_memory(max_memory)
@@ -77,14 +77,10 @@ def synth_command(
     with progress_bar(not quiet, "synthesizing") as progress:
         result = synthesize(
             image,
-            out_shape,
-            tile=tile,
-            seed=seed,
             extra=extras,
             config=config,
-            progress=progress,
-            exemplar_wrap=exemplar_wraps,
-            **fields,
+            canvas=Canvas(out_shape, tile=tile, exemplar_wrap=exemplar_wraps, **fields),
+            budget=Budget(seed=seed, progress=progress),
         )
     _write_result(result, output, bits, save_reference, quiet)
 
@@ -146,7 +142,7 @@ def tbn_command(
     """Texture-by-numbers: synthesize bark that follows a target label map."""
 
     from barkgen.io import read_image
-    from barkgen.synth import TBN_CONFIG, texture_by_numbers
+    from barkgen.synth import TBN_CONFIG, Budget, Canvas, texture_by_numbers
 
     budget = parse_memory(max_memory)
     extra_paths = parse_extras(extra)
@@ -169,14 +165,12 @@ def tbn_command(
             label_weight=label_weight,
             feature_weight=feature_weight,
             init=init,
-            tile=tile,
-            seed=seed,
             extra=extras,
             config=config,
-            progress=progress,
-            debug=_debug_writer(debug_dir),
-            exemplar_wrap=exemplar_wraps,
-            **read_fields(flow, flow_scale),
+            canvas=Canvas(
+                target_map.shape[:2], tile=tile, exemplar_wrap=exemplar_wraps, **read_fields(flow, flow_scale)
+            ),
+            budget=Budget(seed=seed, progress=progress, debug=_debug_writer(debug_dir)),
         )
     _write_result(result, output, bits, save_reference, quiet)
 

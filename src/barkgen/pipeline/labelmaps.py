@@ -1,19 +1,15 @@
-"""The label maps of a run (laitoch2018 Figure 1.2): the output label map by strategy or a grown
-crack network's raster, the checks of what goes together, and the edge label (§3.5.5) added to
-the photo's and the output's maps once both are made."""
+"""The photo's label map as a run makes it (laitoch2018 §3.5), and the edge label (§3.5.5) added
+to the photo's and the output's maps once both are made; the output label map is the structure
+variant's (:mod:`barkgen.pipeline.variants`)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from barkgen.errors import InvalidInputError
 from barkgen.pipeline.options import GenerateOptions
-from barkgen.pipeline.progress import stage_progress
-from barkgen.pipeline.variants import crack_label_map
+from barkgen.pipeline.variants import ANALYSIS_SEED
 
-#: seed of the photo's own analysis (the k-means of its label map): the photo's labels belong to
-#: the photo, not to a variant, so every seed's output of one photo shares one analysis
-ANALYSIS_SEED = 0
+__all__ = ["ANALYSIS_SEED", "photo_label_map", "with_edge_labels"]
 
 
 def photo_label_map(
@@ -31,50 +27,6 @@ def photo_label_map(
     regions = color_regions if method == "color" else texton_regions
     regions_options.setdefault("seed", ANALYSIS_SEED)
     return regions(equalised, k, wrap=wrap, **regions_options)
-
-
-def output_label_map(labels_in, photo, options: GenerateOptions, analysis, wrap, resume, progress, fields):
-    """The output label map (:func:`barkgen.shapes.synthesize_label_map` by ``options.strategy``,
-    or a grown crack network's raster) and the grown network (None but for cracks)."""
-    from barkgen.shapes import Budget, Canvas, synthesize_label_map
-
-    flow, flow_scale, links = fields
-    exemplar = analysis.exemplar
-    if options.structure == "cracks":
-        if exemplar is None or exemplar.cracks is None:
-            raise InvalidInputError("the photo analysis has no crack network: analyse it with structure='cracks'")
-        label_result, grown = crack_label_map(
-            exemplar.cracks, options, stage_progress(progress, "label_map", options.material)
-        )
-    else:
-        grown = None
-        label_result = synthesize_label_map(
-            labels_in,
-            strategy=options.strategy,
-            photo=photo,
-            canvas=Canvas(options.size, options.tile, wrap, flow, flow_scale, links),
-            budget=Budget(
-                options.seed, progress=stage_progress(progress, "label_map", options.material), cache=analysis.cache
-            ),
-            rotations=options.rotations,
-            resume=resume,
-        )
-    return label_result, grown
-
-
-def check_variant(options: GenerateOptions, along: bool, resume: bool) -> None:
-    """What goes together: cracks and bi-layer textures go their own ways
-    (:mod:`barkgen.pipeline.variants`), and neither they nor the edge label follow a flow field;
-    a crack network is not resumed."""
-    variant = (
-        "cracks" if options.structure == "cracks" else "a bi-layer texture" if options.model == "bilayer" else None
-    )
-    if variant and along:
-        raise InvalidInputError(f"{variant} does not follow a flow field yet: leave out the flow field")
-    if along and options.edges:
-        raise InvalidInputError("the edge label does not follow a flow field yet: leave out edges or the flow field")
-    if resume and options.structure == "cracks":
-        raise InvalidInputError("a crack network is grown, not resumed: leave out the label map to resume from")
 
 
 def with_edge_labels(

@@ -7,25 +7,27 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from barkgen.pipeline.labelmaps import ANALYSIS_SEED
 from barkgen.pipeline.options import GenerateOptions
+from barkgen.pipeline.variants import ANALYSIS_SEED
 
 if TYPE_CHECKING:
+    from barkgen._shared.canvas import Canvas
     from barkgen.io import ScannedSet
+    from barkgen.material import MaterialOptions
 
 
-def output_material(photo, labels_in, options: GenerateOptions, wrap, scan, analysis, result):
-    """The output's material set: the photo's (from its analysis, or made now) carried through
-    the texture's reference map; along a flow field, the photo's maps cut as its turned copies
-    first."""
+def output_material(photo, options: GenerateOptions, canvas: Canvas, scan, analysis, result):
+    """The output's material set: the photo's (from its ``analysis``, or made now) carried
+    through the texture's reference map onto the ``canvas``; along a flow field, the photo's
+    maps cut as its turned copies first."""
     from barkgen.material import transfer_material
 
-    source = analysis.material
+    source, wrap = analysis.material, canvas.exemplar_wrap
     if source is None:
-        source = photo_material(photo, labels_in, options, wrap, scan, analysis.illumination)
+        source = photo_material(photo, analysis.labels_in, options, wrap, scan, analysis.illumination)
     if result.orientation is not None:
         source, wrap = source.oriented(result.orientation), (False, False)
-    material = transfer_material(source, result.references, tile=options.tile, exemplar_wrap=wrap, blend=options.blend)
+    material = transfer_material(source, result.references, tile=canvas.tile, exemplar_wrap=wrap, blend=options.blend)
     return material.with_width_m(options.width_m)
 
 
@@ -42,7 +44,7 @@ def photo_material(
     through the reference map meet where the pieces run on across the photo's edge. A scanned
     set's own maps where it has them."""
     from barkgen.labels.regions import to_codes
-    from barkgen.material import MaterialOptions, make_material, scanned_material
+    from barkgen.material import make_material, scanned_material
 
     if scan is not None:
         return scanned_material(
@@ -52,14 +54,23 @@ def photo_material(
     # (``photo`` is equalised already, as far as ``options`` says: its light goes with the set)
     return make_material(
         photo,
-        MaterialOptions(
-            k=options.k,
-            light=options.light,
-            seed=ANALYSIS_SEED,
-            relief=options.relief,
-            exemplar_wrap=wrap,
-            equalize_light=options.equalize_light,
-        ),
+        photo_material_options(options, wrap),
         label_map=to_codes(labels_in)[0],
         illumination=illumination,
+    )
+
+
+def photo_material_options(options: GenerateOptions, wrap: tuple[bool, bool]) -> MaterialOptions:
+    """The :class:`~barkgen.material.MaterialOptions` of a run's photo set (``report.json``
+    lists them): generate's label count, light, relief and photo light, the analysis' seed,
+    and the photo's wrap."""
+    from barkgen.material import MaterialOptions
+
+    return MaterialOptions(
+        k=options.k,
+        light=options.light,
+        seed=ANALYSIS_SEED,
+        relief=options.relief,
+        exemplar_wrap=wrap,
+        equalize_light=options.equalize_light,
     )

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from barkgen._shared.arrays import ProgressCallback
+from barkgen._shared.canvas import Canvas
 from barkgen.pipeline.core import GenerateResult, generate
 from barkgen.pipeline.options import GenerateOptions
 from barkgen.tree import TexelMap, TreeMesh, default_tree_mesh, level_charts, texel_map
@@ -77,7 +78,8 @@ def make_tree(
         bark_width_m=bark_width_m,
         scale_with_radius=scale_with_radius,
     )
-    result = generate(photo, options, flow=texels.flow, flow_scale=texels.scale, links=texels.links, progress=progress)
+    fields = Canvas(options.size, tile=options.tile, flow=texels.flow, flow_scale=texels.scale, links=texels.links)
+    result = generate(photo, options, canvas=fields, progress=progress)
     if result.material is not None:  # the charts' heights brought to one level on the surface
         result.material = dataclasses.replace(result.material, height=level_charts(result.material.height, texels))
     return TreeResult(mesh, texels, result)

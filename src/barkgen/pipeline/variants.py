@@ -5,7 +5,7 @@
   output tiles. Its raster is the output label map (cracks the darkest label, so the material's
   height is low in them) and texture-by-numbers fills it with the photo's bark: the core engine
   in place of the paper's fragment rendering (§5), which the benchmark shows coherent where
-  fragments were 3-13x less (docs/benchmarks/pipeline.md).
+  fragments were 3-13x less (docs/benchmarks/variants.md).
 - ``model="bilayer"``: the photo is split into a structure layer and spatially varying noise
   (guingo2017 §3); the engine synthesizes the structure layer like a photo (tileable, with a
   reference map, so the material set is the structure's, carried through it), the masks come
@@ -17,18 +17,30 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from barkgen._shared.arrays import ProgressCallback, unit_float
-from barkgen.errors import InvalidInputError
 
 if TYPE_CHECKING:
+    from barkgen._shared.canvas import Budget, Canvas
     from barkgen.bilayer import BilayerModel
     from barkgen.pipeline.options import GenerateOptions
     from barkgen.shapes import LabelMapResult
+
+#: seed of the photo's own analysis (the k-means of its label map, the bi-layer clusters): the
+#: photo's labels belong to the photo, not to a variant, so every seed's output of one photo
+#: shares one analysis
+ANALYSIS_SEED = 0
+
+#: the pyramid level texture-by-numbers takes up each strategy's label-map references at
+#: (measured on the ten bark photos: joint at level 0/1/2 gave oak coherence 1.21/1.28/1.35x
+#: plain synthesis; the label-only engine's references need two levels to fit in colour); the
+#: strategies whose exemplar analysis the photo's analysis makes
+INIT_LEVELS = {"joint": 0, "engine": 2}
 
 #: grey values of the crack label maps: cracks the darkest label (low in the height's cue)
 CRACK_VALUE, BARK_VALUE = 0, 255
@@ -56,55 +68,137 @@ class Exemplar:
     cracks: Any = None
 
 
-def prepare_exemplar(
-    photo: np.ndarray,
-    options: GenerateOptions,
-    labels_in: np.ndarray | None,
-    seed: int = 0,
-    progress: ProgressCallback | None = None,
-    cracks: Any = None,
-) -> Exemplar:
-    """The variant's exemplar of the photo (:class:`Exemplar`), made once per photo; ``seed``:
-    the photo's analysis' own (the bi-layer clusters'), not a variant's; ``progress``: the
-    bi-layer analysis' ``(done, total)``; ``cracks``: the photo's crack network as the user
-    edited it (a :class:`~barkgen.branching.Structure` of the photo's size, sibbing2010 §6),
-    learned from instead of the one extracted.
+@dataclass(frozen=True)
+class Run:
+    """One :func:`~barkgen.pipeline.generate` run as its stages see it: the options, the
+    :class:`~barkgen.Canvas` and :class:`~barkgen.Budget` built once at its top (the budget's
+    ``progress`` is the whole run's), and its two variants, chosen once (:func:`variants`)."""
 
-    Raises
-    ------
-    InvalidInputError
-        A label map with a bi-layer texture (its labels are its noise clusters), a photo in
-        which no crack is found, or a crack network for another variant or another size.
-    """
-    if cracks is not None:
-        _check_cracks(cracks, photo, options)
-    if options.model == "bilayer":
-        if labels_in is not None:
-            raise InvalidInputError("a bi-layer texture's labels are its noise clusters: give no label map")
-        return _bilayer_exemplar(photo, options, seed, progress)
-    if options.structure == "cracks":
+    options: GenerateOptions
+    canvas: Canvas
+    budget: Budget
+    structure: PhotoLabels | Cracks
+    model: Patches | Bilayer
+
+    def resolved(self, photo: np.ndarray) -> Run:
+        """The run with the photo's wrap resolved from the options' mode
+        (:func:`barkgen.synth.resolve_exemplar_wrap`): every stage reads the same axes."""
+        from barkgen.synth import resolve_exemplar_wrap
+
+        wrap = resolve_exemplar_wrap(self.options.exemplar_wrap, photo)
+        return dataclasses.replace(self, canvas=self.canvas.replace(exemplar_wrap=wrap))
+
+    def progress(self, stage: str) -> ProgressCallback | None:
+        """The progress callback of ``stage``'s share of the run."""
+        from barkgen.pipeline.progress import stage_progress
+
+        return stage_progress(self.budget.progress, stage, self.options.material)
+
+    def stage_budget(self, stage: str, cache: Any = None) -> Budget:
+        """The budget a stage hands its solver: the run's seed, the stage's progress and the
+        photo analysis' ``cache``."""
+        return self.budget.replace(progress=self.progress(stage), cache=cache)
+
+
+class PhotoLabels:
+    """``structure="labels"``: the photo's label map, and an output label map synthesized from
+    it by ``options.strategy`` (:func:`barkgen.shapes.synthesize_label_map`, laitoch2018 §3.6)."""
+
+    def exemplar(self, photo: np.ndarray, labels_in: np.ndarray | None, cracks: Any = None) -> Exemplar:
+        """The photo as it is, with the user's label map if any."""
+        return Exemplar(photo, labels_in)
+
+    def analyse(self, labels_in: np.ndarray, photo: np.ndarray, cache: Any, run: Run) -> None:
+        """The engine strategies' exemplar analysis into ``cache`` (mazzolini2012 §4.1.2)."""
+        from barkgen.shapes import analyse_label_map
+
+        strategy = run.options.strategy
+        if strategy in INIT_LEVELS:
+            analyse_label_map(
+                labels_in,
+                run.canvas.shape,
+                cache,
+                photo=photo if strategy == "joint" else None,
+                exemplar_wrap=run.canvas.exemplar_wrap,
+            )
+
+    def label_map(self, labels_in: np.ndarray, photo: np.ndarray, analysis: Any, run: Run, resume: Any):
+        """The output label map and no grown network."""
+        from barkgen.shapes import synthesize_label_map
+
+        # (the run's memory was checked as a whole, check_generate_memory)
+        budget = run.stage_budget("label_map", analysis.cache).replace(max_memory=None)
+        result = synthesize_label_map(
+            labels_in,
+            strategy=run.options.strategy,
+            photo=photo,
+            canvas=run.canvas,
+            budget=budget,
+            rotations=run.options.rotations,
+            resume=resume,
+        )
+        return result, None
+
+
+class Cracks:
+    """``structure="cracks"``: the photo's crack network is extracted (sibbing2010 §3), its
+    statistics fitted (§4.1) and a new network grown at the output size (§4.2-4.5), on the
+    torus when the output tiles; its raster is the output label map."""
+
+    def exemplar(self, photo: np.ndarray, labels_in: np.ndarray | None, cracks: Any = None) -> Exemplar:
+        """The crack network's statistics (learned from ``cracks``, the user's edited network,
+        or the one extracted from the photo: with a user's label map, its darkest label is the
+        cracks) and its raster as the photo's label map."""
         from barkgen.branching import extract_structure, fit_model, rasterize
 
-        # a user's label map: its darkest label in the photo is the cracks (extract_structure)
         source = cracks if cracks is not None else extract_structure(photo, labels_in)
         return Exemplar(photo, crack_labels(rasterize(source, np.shape(photo)[:2])), cracks=fit_model(source))
-    return Exemplar(photo, labels_in)
+
+    def analyse(self, labels_in: np.ndarray, photo: np.ndarray, cache: Any, run: Run) -> None:
+        """Nothing: a network is grown, not synthesized."""
+
+    def label_map(self, labels_in: np.ndarray, photo: np.ndarray, analysis: Any, run: Run, resume: Any):
+        """The grown network's raster and the network."""
+        return crack_label_map(analysis.exemplar.cracks, run.options, run.canvas, run.progress("label_map"))
 
 
-def _check_cracks(cracks: Any, photo: np.ndarray, options: GenerateOptions) -> None:
-    """A given crack network goes with ``structure="cracks"`` and the photo's size."""
-    from barkgen.branching import Structure
+class Patches:
+    """``model="patches"``: the engine copies the photo's pixels; the texture is its result."""
 
-    if options.structure != "cracks" or options.model == "bilayer":
-        raise InvalidInputError("a crack network is learned from with structure='cracks' only")
-    if not isinstance(cracks, Structure):
-        raise InvalidInputError(f"the crack network must be a barkgen.branching.Structure, got {type(cracks).__name__}")
-    h, w = np.shape(photo)[:2]
-    if tuple(cracks.size) != (w, h):
-        raise InvalidInputError(
-            f"the crack network is of a {cracks.width}x{cracks.height} px image but the photo is {w}x{h} px"
-        )
-    cracks.validate("the crack network")
+    def exemplar(self, photo: np.ndarray, options: GenerateOptions, progress=None) -> Exemplar | None:
+        """None: the structure variant's exemplar is the photo's."""
+        return None
+
+    def finish(self, result: Any, material: Any, exemplar: Exemplar, seed: int) -> tuple[np.ndarray, dict, Any]:
+        """The texture, no layers, the material set as it is."""
+        return result.image, {}, material
+
+
+class Bilayer:
+    """``model="bilayer"``: the photo is split into a structure layer and spatially varying
+    noise (guingo2017 §3); the engine synthesizes the structure layer, and new noise of the
+    photo's spectra is laid under its masks on the output's torus (eq. 6)."""
+
+    def exemplar(self, photo: np.ndarray, options: GenerateOptions, progress=None) -> Exemplar:
+        """The photo's bi-layer model, its structure layer what the engine copies
+        (``progress``: the analysis' ``(done, total)``)."""
+        return _bilayer_exemplar(photo, options, ANALYSIS_SEED, progress)
+
+    def finish(self, result: Any, material: Any, exemplar: Exemplar, seed: int) -> tuple[np.ndarray, dict, Any]:
+        """The new noise added (guingo2017 eq. 6: P' + sum M'_k N_k, the material's albedo
+        too); the layers ``structure``, ``noise`` and ``masks``."""
+        noise, masks = bilayer_layers(exemplar.bilayer, result.references, seed)
+        texture = add_noise(result.image, noise)
+        if material is not None:  # the structure layer's maps; its albedo with the new noise
+            material = dataclasses.replace(material, color=np.clip(material.color + noise, 0.0, 1.0))
+        return texture, {"structure": result.image, "noise": noise, "masks": masks}, material
+
+
+def variants(options: GenerateOptions) -> tuple[PhotoLabels | Cracks, Patches | Bilayer]:
+    """The run's structure and model variants (:class:`GenerateOptions` refuses cracks with a
+    bi-layer texture)."""
+    structure = Cracks() if options.structure == "cracks" else PhotoLabels()
+    return structure, Bilayer() if options.model == "bilayer" else Patches()
 
 
 def _bilayer_exemplar(photo: np.ndarray, options: GenerateOptions, seed: int, progress=None) -> Exemplar:
@@ -137,10 +231,10 @@ def crack_labels(mask: np.ndarray) -> np.ndarray:
 
 
 def crack_label_map(
-    cracks: Any, options: GenerateOptions, progress: ProgressCallback | None = None
+    cracks: Any, options: GenerateOptions, canvas: Canvas, progress: ProgressCallback | None = None
 ) -> tuple[LabelMapResult, Any]:
-    """A new crack network grown from the photo's statistics at ``options.size`` (on the torus
-    with ``options.tile``; sibbing2010 §4), and its raster as the output label map.
+    """A new crack network grown from the photo's statistics at ``canvas.shape`` (on the torus
+    when it tiles; sibbing2010 §4), and its raster as the output label map.
 
     Returns
     -------
@@ -150,14 +244,14 @@ def crack_label_map(
     from barkgen.branching import GrowOptions, grow_structure, rasterize
     from barkgen.shapes import LabelMapResult
 
-    h, w = options.size
+    h, w = canvas.shape
     grown = grow_structure(
         cracks,
         (w, h),
         seed=options.seed,
         options=GrowOptions(max_memory=options.max_memory),
         progress=progress,
-        tile=options.tile,
+        tile=canvas.tile,
     )
     labels = crack_labels(rasterize(grown))
     return LabelMapResult(label_map=labels, levels=[labels], strategy="cracks"), grown

@@ -48,11 +48,13 @@ from collections.abc import Callable
 import numpy as np
 
 from barkgen._shared.arrays import ProgressCallback
+from barkgen._shared.canvas import Budget, Canvas
 from barkgen.pyramid import count_levels, gaussian_pyramid, level_shape
 from barkgen.synth import (
     AnalysisCache,
     Guidance,
     LabelBalance,
+    SolverInputs,
     SynthesisConfig,
     cut_straight_seams,
     exemplar_grid,
@@ -242,22 +244,12 @@ def synthesize_codes(
 
     finest = finest_level(n_levels, joint=joint, resumed=start is not None)
     result = solve(
-        exemplar=ex,
-        extras={},
-        features=features,
-        out_shape=out_shape,
-        n_levels=n_levels,
-        config=config,
-        seed=seed,
-        tile=tile,
+        SolverInputs(ex, features, n_levels, config, seam_channels=features.shape[2] - n_labels if joint else None),
+        Canvas(out_shape, tile=tile, exemplar_wrap=exemplar_wrap),
+        Budget(seed=seed, progress=progress, cache=cache, debug=debug),
         guidance=guidance,
-        progress=progress,
-        debug=debug,
         start=resume,
         balance=balance,
-        cache=cache,
-        exemplar_wrap=exemplar_wrap,
-        seam_channels=features.shape[2] - n_labels if joint else None,
         stop_level=finest,
     )
     references = result.references
@@ -373,19 +365,11 @@ def _choose_coarse_start(
                 results.append((int(name[5:-7]), image.astype(np.int32)))
 
         run = solve(
-            exemplar=ex,
-            extras={},
-            features=features,
-            out_shape=out_shape,
-            n_levels=n_levels,
-            config=config,
-            seed=int(candidate_seed),
-            tile=tile,
-            debug=keep,
-            cache=cache,
+            SolverInputs(ex, features, n_levels, config),
+            Canvas(out_shape, tile=tile, exemplar_wrap=exemplar_wrap),
+            Budget(seed=int(candidate_seed), cache=cache, debug=keep),
             stop_level=level,
             balance=gentle,
-            exemplar_wrap=exemplar_wrap,
         )
         references = run.references[..., 0] * run.exemplar_shape[1] + run.references[..., 1]
         score = start_score(references, run.exemplar_shape[1], balance.shares[level], balance.fractions)

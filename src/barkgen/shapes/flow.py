@@ -37,7 +37,7 @@ def codes_along_flow(
     same fields, whatever the seed, with room for the labels: the one texture-by-numbers
     makes after it), and the synthesis they come from (its ``extras`` without the labels)."""
     from barkgen.labels import label_colour_map
-    from barkgen.synth import MAX_LABELS, check_flow, orient_exemplar, synthesize
+    from barkgen.synth import MAX_LABELS, Budget, Canvas, check_flow, orient_exemplar, synthesize
 
     # the atlas texture-by-numbers will use after it (its labels paired with these copies)
     fields = check_flow(flow, flow_scale, (int(out_shape[0]), int(out_shape[1])))
@@ -46,16 +46,17 @@ def codes_along_flow(
     exemplar = photo if photo is not None else label_colour_map(codes.astype(np.uint8))
     result = synthesize(
         exemplar,
-        out_shape,
-        tile=tile,
-        seed=seed,
         extra={"labels": one_hot},
-        progress=progress,
-        exemplar_wrap=exemplar_wrap,
-        flow=flow,
-        flow_scale=flow_scale,
-        links=links,
-        orientation=oriented,
+        canvas=Canvas(
+            out_shape,
+            tile=tile,
+            exemplar_wrap=exemplar_wrap,
+            flow=flow,
+            flow_scale=flow_scale,
+            links=links,
+            oriented=oriented,
+        ),
+        budget=Budget(seed=seed, progress=progress),
     )
     atlas_codes = result.orientation.atlas(codes.astype(np.int32), kind="labels")
     refs = result.references

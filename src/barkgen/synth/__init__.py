@@ -4,7 +4,8 @@ the package's one face, the names every other package uses.
 The fronts: :func:`synthesize` and :func:`apply_references` (mazzolini2012 §4.1, laitoch2018
 §3.3), texture-by-numbers (:func:`texture_by_numbers`, laitoch2018 §3.1-3.4); both run through
 one set-up (``_setup``: inputs, memory budget, the exemplar's wrap, features, levels). For the
-packages that drive the solver themselves (:mod:`barkgen.shapes`): :func:`solve` with a
+packages that drive the solver themselves (:mod:`barkgen.shapes`): :func:`solve` with its
+:class:`SolverInputs`, the output's :class:`Canvas` and the run's :class:`Budget`, a
 :class:`Guidance`, a :class:`LabelBalance` or an :class:`AnalysisCache`, and what makes a guide
 from label maps and moves seams.
 
@@ -16,6 +17,7 @@ expansion moves, the gradient-domain blend; kwatra2003) and :mod:`.guides` (text
 guide channels, guidance, initialisation).
 """
 
+from barkgen._shared.canvas import Budget, Canvas
 from barkgen.synth._analysis import AnalysisCache, LevelAnalysis, analyse_exemplar, matching_features
 from barkgen.synth._config import SynthesisConfig
 from barkgen.synth._edges import check_wrap_mode, exemplar_wraps, resolve_exemplar_wrap
@@ -23,7 +25,7 @@ from barkgen.synth._flow import FLOW_SCALE_RANGE, OrientedExemplar, check_flow, 
 from barkgen.synth._links import OutputLinks
 from barkgen.synth._occurrence import LabelBalance
 from barkgen.synth._setup import estimate_memory
-from barkgen.synth._solver import DebugCallback, SynthesisResult, solve, upsample_references
+from barkgen.synth._solver import DebugCallback, SolverInputs, SynthesisResult, solve, upsample_references
 from barkgen.synth._synthesize import apply_references, synthesize
 from barkgen.synth._tbn import TBN_CONFIG, analyse_texture_by_numbers, texture_by_numbers
 from barkgen.synth.guides.channels import MAX_LABELS, guide_channels, label_pyramid, level_guide
@@ -45,12 +47,15 @@ __all__ = [
     "MAX_LABELS",
     "TBN_CONFIG",
     "AnalysisCache",
+    "Budget",
+    "Canvas",
     "DebugCallback",
     "Guidance",
     "LabelBalance",
     "LevelAnalysis",
     "OrientedExemplar",
     "OutputLinks",
+    "SolverInputs",
     "SynthesisConfig",
     "SynthesisResult",
     "analyse_exemplar",

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from barkgen._shared.arrays import as_hw_c
+from barkgen._shared.canvas import Budget, Canvas
 from barkgen._shared.checks import parse_output_shape
 from barkgen._shared.memory import check_memory_budget
 from barkgen.errors import InvalidInputError
@@ -19,7 +20,7 @@ from barkgen.pyramid import count_levels
 from barkgen.synth._analysis import matching_features
 from barkgen.synth._config import SynthesisConfig
 from barkgen.synth._edges import resolve_exemplar_wrap
-from barkgen.synth._solver import SynthesisResult, solve
+from barkgen.synth._solver import SolverInputs, SynthesisResult, solve
 
 #: smallest exemplar side accepted
 MIN_EXEMPLAR_SIDE = 16
@@ -126,40 +127,32 @@ class Front:
 class SolveSetup:
     """The checked inputs of one synthesis, ready for :func:`solve` (made by :func:`set_up`).
 
-    ``exemplar`` is ``(h, w, C)`` (``flat``: it was given as ``(h, w)``, and the image is given
-    back so); ``wrap`` the exemplar's resolved ``(rows, columns)`` wrap; ``features`` what is
-    matched; ``n_levels`` the pyramid's depth.
+    ``inputs.exemplar`` is ``(h, w, C)`` (``flat``: it was given as ``(h, w)``, and the image
+    is given back so); ``canvas`` the output's, its ``exemplar_wrap`` resolved against the
+    exemplar; ``budget`` the run's; ``front`` the front that made the features.
     """
 
-    exemplar: np.ndarray
-    extras: dict
-    out_shape: tuple[int, int]
-    wrap: tuple[bool, bool]
-    features: np.ndarray
-    n_levels: int
-    config: SynthesisConfig
-    seed: int
-    tile: bool
+    inputs: SolverInputs
+    canvas: Canvas
+    budget: Budget
     flat: bool = False
     front: Front = field(default_factory=Front)
 
+    @property
+    def exemplar(self) -> np.ndarray:
+        """The validated ``(h, w, C)`` exemplar."""
+        return self.inputs.exemplar
+
+    @property
+    def wrap(self) -> tuple[bool, bool]:
+        """The exemplar's resolved ``(rows, columns)`` wrap."""
+        return self.canvas.exemplar_wrap
+
     def solve(self, **options) -> SynthesisResult:
         """:func:`solve` on these inputs (``options``: its other keywords: ``guidance``,
-        ``progress``, ``debug``, ``start``, ``cache``), the colour compared by the seam costs;
-        the image as flat as the exemplar was given."""
-        result = solve(
-            exemplar=self.exemplar,
-            extras=self.extras,
-            features=self.features,
-            out_shape=self.out_shape,
-            n_levels=self.n_levels,
-            config=self.config,
-            seed=self.seed,
-            tile=self.tile,
-            exemplar_wrap=self.wrap,
-            seam_channels=colour_channels(self.exemplar),
-            **options,
-        )
+        ``start``, ``balance``, ``stop_level``), the colour compared by the seam costs; the
+        image as flat as the exemplar was given."""
+        result = solve(self.inputs, self.canvas, self.budget, **options)
         if self.flat:
             result.image = result.image[:, :, 0]
         return result
@@ -167,36 +160,28 @@ class SolveSetup:
 
 def set_up(
     exemplar: np.ndarray,
-    size: int | tuple[int, int],
-    *,
-    seed: int,
     extra: Mapping[str, np.ndarray] | None,
     config: SynthesisConfig,
-    tile: bool,
-    exemplar_wrap: str | bool | tuple[bool, bool],
+    canvas: Canvas,
+    budget: Budget,
     front: Front | None = None,
 ) -> SolveSetup:
     """Validate the inputs (and the ``front``'s own), check the memory budget, resolve the
-    exemplar's wrap, make the matching features and choose the pyramid's depth, in that order
-    and before any solver work (see :class:`SolveSetup`)."""
+    exemplar's wrap (``canvas.exemplar_wrap``), make the matching features and choose the
+    pyramid's depth, in that order and before any solver work (see :class:`SolveSetup`)."""
     front = front if front is not None else Front()
-    ex, out_shape, extras = validate_inputs(exemplar, size, seed, extra)
+    ex, out_shape, extras = validate_inputs(exemplar, canvas.shape, budget.seed, extra)
     front.check(ex)
     n_feat = colour_channels(ex) + front.added_channels + sum(e.shape[2] for e in extras.values())
     check_memory(ex, extras, out_shape, n_feat, config, guided=front.guided)
-    wrap = resolve_exemplar_wrap(exemplar_wrap, ex)
+    wrap = resolve_exemplar_wrap(canvas.wrap_mode, ex)
     feats = front.features(ex, extras, wrap, config)
     n_levels = count_levels(ex.shape[:2], out_shape, config.coarsest_exemplar)
+    inputs = SolverInputs(ex, feats, n_levels, config, extras, seam_channels=colour_channels(ex))
     return SolveSetup(
-        ex,
-        extras,
-        out_shape,
-        wrap,
-        feats,
-        n_levels,
-        config,
-        seed,
-        tile,
+        inputs,
+        canvas.replace(exemplar_wrap=wrap),
+        budget,
         flat=np.asarray(exemplar).ndim == 2,
         front=front,
     )

@@ -29,7 +29,8 @@ from typing import Any
 
 import numpy as np
 
-from barkgen._shared.arrays import ProgressCallback, as_uint8
+from barkgen._shared.arrays import as_uint8
+from barkgen._shared.canvas import Budget, Canvas
 from barkgen._shared.threads import thread_budget
 from barkgen.errors import InvalidInputError
 from barkgen.pyramid import level_shape
@@ -175,22 +176,21 @@ class LevelContext:
 def _level_context(
     la: LevelAnalysis,
     lvl: int,
-    n_levels: int,
-    shape: tuple[int, int],
-    config: SynthesisConfig,
+    inputs: SolverInputs,
+    canvas: Canvas,
     rng: np.random.Generator,
-    tile: bool,
     guidance: Guidance | None,
-    seam_channels: int | None,
-    links: OutputLinks | None = None,
 ) -> LevelContext:
     """The :class:`LevelContext` of level ``lvl``: its guide (:func:`level_guidance`) and its
     seam image made."""
-    guide = level_guidance(guidance, lvl, n_levels, config, shape, la.wrap, tile)
-    seam_image = np.ascontiguousarray(la.features[:, :seam_channels]).reshape(
+    shape = level_shape(canvas.shape, lvl)
+    guide = level_guidance(guidance, lvl, inputs.n_levels, inputs.config, shape, la.wrap, canvas.tile)
+    seam_image = np.ascontiguousarray(la.features[:, : inputs.seam_channels]).reshape(
         la.height, la.width, -1
     )  # what the seam costs compare, as an image
-    return LevelContext(la, lvl, n_levels, shape, config, rng, tile, guide, seam_image, links)
+    return LevelContext(
+        la, lvl, inputs.n_levels, shape, inputs.config, rng, canvas.tile, guide, seam_image, canvas.links
+    )
 
 
 def _initial_state(ctx: LevelContext, guidance: Guidance | None) -> np.ndarray:
@@ -429,54 +429,73 @@ def _solve_level(
     return ctx.relink(refs)
 
 
+@dataclass(frozen=True)
+class SolverInputs:
+    """What the solver copies and matches, validated (by the fronts' set-up,
+    :func:`barkgen.synth._setup.set_up`, or by the package that drives the solver itself).
+
+    Attributes
+    ----------
+    exemplar : ndarray, shape (h, w, C)
+        Resolved through the final references.
+    features : ndarray of float32, shape (h, w, F)
+        What is matched.
+    n_levels : int
+        The pyramid's depth.
+    config : SynthesisConfig
+        The solver's parameters.
+    extras : dict of str to ndarray
+        Maps aligned with the exemplar, resolved through the final references too.
+    seam_channels : int, optional
+        The seam costs compare the first ``seam_channels`` feature channels (the colour;
+        None: all).
+    """
+
+    exemplar: np.ndarray
+    features: np.ndarray
+    n_levels: int
+    config: SynthesisConfig
+    extras: Mapping[str, np.ndarray] = field(default_factory=dict)
+    seam_channels: int | None = None
+
+
 def solve(
+    inputs: SolverInputs,
+    canvas: Canvas,
+    budget: Budget,
     *,
-    exemplar: np.ndarray,
-    extras: Mapping[str, np.ndarray],
-    features: np.ndarray,
-    out_shape: tuple[int, int],
-    n_levels: int,
-    config: SynthesisConfig,
-    seed: int,
-    tile: bool,
     guidance: Guidance | None = None,
-    progress: ProgressCallback | None = None,
-    debug: DebugCallback | None = None,
     start: tuple[int, np.ndarray] | None = None,
     balance: LabelBalance | None = None,
-    cache: AnalysisCache | None = None,
     stop_level: int = 0,
-    exemplar_wrap: tuple[bool, bool] = (False, False),
-    seam_channels: int | None = None,
-    links: OutputLinks | None = None,
 ) -> SynthesisResult:
     """The coarse-to-fine discrete solver shared by :func:`synthesize` and texture-by-numbers
-    (mazzolini2012 §4.1, laitoch2018 §3.3); every argument is a keyword.
+    (mazzolini2012 §4.1, laitoch2018 §3.3).
 
-    ``exemplar`` ``(h, w, C)`` and ``extras`` are resolved through the final references;
-    ``features`` ``(h, w, F)`` float32 are what is matched. Inputs must already be validated.
+    ``inputs`` (:class:`SolverInputs`, validated): what is copied and matched. ``canvas``: the
+    output's shape, whether it tiles, the exemplar's resolved ``exemplar_wrap`` ``(rows,
+    columns)`` (the exemplar tiles along that axis and is used as a torus there; along an axis
+    that does not wrap, pieces may run up to its border, :mod:`barkgen.synth._edges`, and after
+    each iteration a straight seam stuck at that border is handed back to the solver,
+    :func:`unstick_border_seams`) and its ``links`` (output pixels that take the references of
+    others after every iteration of every level: a texture atlas's gutters,
+    :class:`~barkgen.synth._links.OutputLinks`). ``budget``: the seed, ``progress``, ``debug``
+    and ``cache`` (an :class:`AnalysisCache` that supplies, or keeps, the exemplar's analysis).
     ``start``: ``(level, references)`` resumes at that level from a given reference map (flat
     indices into the level's exemplar) instead of starting at the coarsest level. ``balance``
-    adds the label-area term of :class:`LabelBalance` to the occurrence cost. ``cache``: an
-    :class:`AnalysisCache` that supplies (or keeps) the exemplar's analysis. ``stop_level`` > 0
+    adds the label-area term of :class:`LabelBalance` to the occurrence cost. ``stop_level`` > 0
     stops after that level: the result's ``references`` and ``exemplar_shape`` are then that
     level's, its ``image`` the level shown in the exemplar's colours, and it has no extras.
-    ``exemplar_wrap`` ``(rows, columns)``: the exemplar tiles along that axis and is used as a
-    torus there; along an axis that does not wrap, pieces may run up to its border
-    (:mod:`barkgen.synth._edges`), and after each iteration a straight seam stuck at that border
-    is handed back to the solver (:func:`unstick_border_seams`).
     After each level's iterations, ``config.seam_sweeps`` sweeps of seam optimisation
     (``seams._kernels.refine_seams``) and, at the finest levels, graph cuts of the straight seams
     (:mod:`barkgen.synth.seams.cuts`) move the borders between pieces onto low-error paths; their
-    seam cost compares the first ``seam_channels`` feature channels (the colour; None: all).
-    ``links``: output pixels that take the references of others, after every iteration of every
-    level (a texture atlas's gutters, :class:`~barkgen.synth._links.OutputLinks`).
+    seam cost compares the first ``inputs.seam_channels`` feature channels.
     """
-    ex = exemplar
+    ex, config, n_levels, debug = inputs.exemplar, inputs.config, inputs.n_levels, budget.debug
     if not 0 <= stop_level < n_levels:
         raise InvalidInputError(f"stop_level must be in 0..{n_levels - 1}")
     with thread_budget(config.threads):  # every pool sized, BLAS at one thread
-        rng = np.random.default_rng(int(seed))
+        rng = np.random.default_rng(int(budget.seed))
         total = (
             n_levels
             - stop_level
@@ -487,19 +506,20 @@ def solve(
         def tick() -> None:
             nonlocal done
             done += 1
-            if progress:
-                progress(done, total)
+            if budget.progress:
+                budget.progress(done, total)
 
         t0 = time.perf_counter()
-        cache = cache if cache is not None else AnalysisCache()
-        wrap = (bool(exemplar_wrap[0]), bool(exemplar_wrap[1]))
-        levels = cache.analyse(features, n_levels, config, progress=tick, wrap=wrap, finest=stop_level)
+        cache = budget.cache if budget.cache is not None else AnalysisCache()
+        wrap = (bool(canvas.exemplar_wrap[0]), bool(canvas.exemplar_wrap[1]))
+        canvas = canvas.replace(exemplar_wrap=wrap)
+        levels = cache.analyse(inputs.features, n_levels, config, progress=tick, wrap=wrap, finest=stop_level)
         t1 = time.perf_counter()
 
         refs = forbid = None
         for lvl in reversed(range(stop_level, n_levels)):
             la = levels[lvl]
-            shape = level_shape(out_shape, lvl)
+            shape = level_shape(canvas.shape, lvl)
             if start is not None and lvl > start[0]:  # levels above the resumed one are not run
                 for _ in range(sum(it for _, it in config.schedule_for(lvl, n_levels))):
                     tick()
@@ -510,7 +530,7 @@ def solve(
                     f"level{lvl}_exemplar",
                     level_image(ex, np.arange(la.height * la.width).reshape(la.height, la.width), lvl),
                 )
-            ctx = _level_context(la, lvl, n_levels, shape, config, rng, tile, guidance, seam_channels, links)
+            ctx = _level_context(la, lvl, inputs, canvas, rng, guidance)
             if start is not None and lvl == start[0]:
                 refs = np.ascontiguousarray(start[1], dtype=np.int32)
                 forbid = np.full(shape, -1, np.int64)
@@ -530,23 +550,21 @@ def solve(
                 debug(f"level{lvl}_result", level_image(ex, refs, lvl))
         timings = {"analysis": t1 - t0, "synthesis": time.perf_counter() - t1}
         assert refs is not None  # the finest level ran
-        return _result(ex, extras, refs, levels, stop_level, out_shape, wrap, seed, tile, timings, config.blend)
+        return _result(inputs, canvas, budget.seed, refs, levels, stop_level, timings)
 
 
 def _result(
-    ex: np.ndarray,
-    extras: Mapping[str, np.ndarray],
+    inputs: SolverInputs,
+    canvas: Canvas,
+    seed: int,
     refs: np.ndarray,
     levels: list,
     stop_level: int,
-    out_shape: tuple[int, int],
-    wrap: tuple[bool, bool],
-    seed: int,
-    tile: bool,
     timings: dict[str, float],
-    blend: str,
 ) -> SynthesisResult:
     """The :class:`SynthesisResult` of the last level solved (see :func:`solve`)."""
+    ex, extras, blend = inputs.exemplar, inputs.extras, inputs.config.blend
+    tile, wrap, out_shape = canvas.tile, canvas.exemplar_wrap, canvas.shape
     if stop_level > 0:
         la = levels[stop_level]
         references = np.stack([la.coords_y[refs], la.coords_x[refs]], axis=-1).astype(np.int32)

@@ -11,17 +11,17 @@ from collections.abc import Mapping
 import numpy as np
 
 from barkgen._shared.arrays import ProgressCallback
+from barkgen._shared.canvas import Budget, Canvas
 from barkgen._shared.checks import parse_output_shape
 from barkgen.errors import InvalidInputError
 from barkgen.synth._config import SynthesisConfig
-from barkgen.synth._links import OutputLinks
 from barkgen.synth._setup import set_up
 from barkgen.synth._solver import SynthesisResult
 
 
 def synthesize(
     exemplar: np.ndarray,
-    size: int | tuple[int, int],
+    size: int | tuple[int, int] | None = None,
     *,
     tile: bool = False,
     seed: int = 0,
@@ -29,10 +29,8 @@ def synthesize(
     config: SynthesisConfig | None = None,
     progress: ProgressCallback | None = None,
     exemplar_wrap: str | bool | tuple[bool, bool] = "auto",
-    flow: np.ndarray | None = None,
-    flow_scale: np.ndarray | None = None,
-    links: OutputLinks | None = None,
-    orientation=None,
+    canvas: Canvas | None = None,
+    budget: Budget | None = None,
 ) -> SynthesisResult:
     """Synthesize a new texture of ``size`` = ``(height, width)`` from ``exemplar``.
 
@@ -46,7 +44,7 @@ def synthesize(
     exemplar : ndarray
         ``(h, w)`` or ``(h, w, C)`` array (uint8, uint16 or float), C = 1 or 3.
     size : int or tuple of int
-        Output ``(height, width)`` (numpy order), or an int for a square.
+        Output ``(height, width)`` (numpy order), or an int for a square (or ``canvas``).
     tile : bool, optional
         Make the output wrap seamlessly in x and y (toroidal neighbourhoods).
     seed : int, optional
@@ -62,24 +60,24 @@ def synthesize(
         ``"auto"``: the exemplar is used as a torus along each axis along which it tiles itself
         (:func:`barkgen.synth.exemplar_wraps`); ``"yes"``, ``"no"``, or a
         ``(rows, columns)`` pair of bools.
-    flow : ndarray, optional
-        ``(H, W)`` orientation field: at each output pixel, the angle in degrees,
-        counter-clockwise as seen on screen, by which the exemplar is turned (0 = as it is; an
-        upright fissure then runs at 90° + angle). The matching, the k-coherence shifts and
-        the up-sampling happen in that local frame (:mod:`barkgen.synth._flow`: the solver runs
-        on an atlas of turned copies, as texture-by-numbers with one label per copy, with this
-        function's config); a normal map among ``extra`` (a name holding ``normal``) has its
-        tangent components turned.
-    flow_scale : ndarray, optional
-        ``(H, W)`` scale field (1 = the exemplar's scale; 2 = features twice as large),
-        between 0.25 and 4.
-    links : OutputLinks, optional
-        Output pixels that take the references of others while the solver runs: a texture
-        atlas's gutters, so that texels on either side of a chart border are matched across it
-        on the surface (:class:`barkgen.synth.OutputLinks`).
-    orientation : OrientedExemplar, optional
-        Along a flow field, the atlas of turned copies to use (one another synthesis shares:
-        :func:`barkgen.synth.orient_exemplar`), else the one the fields need.
+    canvas : Canvas, optional
+        The output as one object (:class:`barkgen.Canvas`), in place of ``size``, ``tile`` and
+        ``exemplar_wrap``; it also carries the fields the texture follows: ``flow``, an
+        ``(H, W)`` orientation field (at each output pixel, the angle in degrees,
+        counter-clockwise as seen on screen, by which the exemplar is turned: 0 = as it is; an
+        upright fissure then runs at 90° + angle; the matching, the k-coherence shifts and the
+        up-sampling happen in that local frame, :mod:`barkgen.synth._flow`: the solver runs on
+        an atlas of turned copies, as texture-by-numbers with one label per copy, with this
+        function's config; a normal map among ``extra``, a name holding ``normal``, has its
+        tangent components turned), ``flow_scale``, an ``(H, W)`` scale field (1 = the
+        exemplar's scale; 2 = features twice as large, between 0.25 and 4), ``links``, output
+        pixels that take the references of others while the solver runs (a texture atlas's
+        gutters, so that texels on either side of a chart border are matched across it on the
+        surface: :class:`barkgen.synth.OutputLinks`), and ``oriented``, the atlas of turned
+        copies to use (one another synthesis shares: :func:`barkgen.synth.orient_exemplar`).
+    budget : Budget, optional
+        The run's seed, progress callback and analysis cache as one object
+        (:class:`barkgen.Budget`), in place of ``seed`` and ``progress``.
 
     Returns
     -------
@@ -110,28 +108,18 @@ def synthesize(
     >>> result = barkgen.synthesize(exemplar, (96, 128), tile=True, seed=1)
     >>> result.image.shape, result.references.shape
     ((96, 128, 3), (96, 128, 2))
+    >>> canvas = barkgen.Canvas((96, 128), tile=True, flow=np.full((96, 128), 30.0))
+    >>> barkgen.synthesize(exemplar, canvas=canvas, budget=barkgen.Budget(seed=1)).image.shape
+    (96, 128, 3)
     """
-    if flow is not None or flow_scale is not None:
+    canvas = canvas or Canvas(parse_output_shape(size), tile=tile, exemplar_wrap=exemplar_wrap)
+    budget = budget or Budget(seed=seed, progress=progress)
+    config = config or SynthesisConfig()
+    if canvas.along:
         from barkgen.synth._tbn import along_flow
 
-        return along_flow(
-            exemplar,
-            None,
-            parse_output_shape(size),
-            flow,
-            flow_scale,
-            seed=seed,
-            extra=extra,
-            exemplar_wrap=exemplar_wrap,
-            tile=tile,
-            config=config or SynthesisConfig(),
-            progress=progress,
-            links=links,
-            oriented=orientation,
-        )
-    config = config or SynthesisConfig()
-    setup = set_up(exemplar, size, seed=seed, extra=extra, config=config, tile=tile, exemplar_wrap=exemplar_wrap)
-    return setup.solve(progress=progress, links=links)
+        return along_flow(exemplar, None, extra, canvas, budget, config=config)
+    return set_up(exemplar, extra, config, canvas, budget).solve()
 
 
 def apply_references(references: np.ndarray, image: np.ndarray) -> np.ndarray:

@@ -22,17 +22,18 @@ Nothing is averaged: outputs are resolved from references, so they are as sharp 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
-from barkgen._shared.arrays import ProgressCallback, as_uint8
+from barkgen._shared.arrays import as_uint8
+from barkgen._shared.canvas import Budget, Canvas
 from barkgen.errors import InvalidInputError
 from barkgen.pyramid import count_levels, gaussian_pyramid, level_shape
 from barkgen.synth._analysis import AnalysisCache, matching_features
 from barkgen.synth._config import SynthesisConfig
 from barkgen.synth._edges import resolve_exemplar_wrap
-from barkgen.synth._links import OutputLinks
-from barkgen.synth._setup import Front, set_up, validate_inputs
+from barkgen.synth._setup import Front, SolveSetup, set_up, validate_inputs
 from barkgen.synth._solver import DebugCallback, SynthesisResult
 from barkgen.synth.guides.channels import (
     LabelMaps,
@@ -120,19 +121,11 @@ def texture_by_numbers(
     *,
     label_weight: float = 20.0,
     feature_weight: float = 8.0,
-    init: str | np.ndarray = "smart",
-    init_level: int = REFERENCE_START_LEVEL,
-    tile: bool = False,
-    seed: int = 0,
+    init: str | np.ndarray | tuple[np.ndarray, int] = "smart",
     extra: Mapping[str, np.ndarray] | None = None,
     config: SynthesisConfig | None = None,
-    progress: ProgressCallback | None = None,
-    debug: DebugCallback | None = None,
-    cache: AnalysisCache | None = None,
-    exemplar_wrap: str | bool | tuple[bool, bool] = "auto",
-    flow: np.ndarray | None = None,
-    flow_scale: np.ndarray | None = None,
-    links: OutputLinks | None = None,
+    canvas: Canvas | None = None,
+    budget: Budget | None = None,
 ) -> SynthesisResult:
     """Synthesize a texture that follows ``target_labels`` from ``exemplar`` and its labels.
 
@@ -154,36 +147,31 @@ def texture_by_numbers(
         exemplar's colour variance.
     feature_weight : float, optional
         ``z`` of eq. 3.3: weight of the feature-distance channel, same units.
-    init : {"smart", "random"} or ndarray, optional
-        ``"smart"`` (§3.4.2, region growing), ``"random"`` (§3.4.1), or an ``(H, W, 2)``
-        reference map to start from, e.g. a :class:`barkgen.shapes.LabelMapResult`'s.
-    init_level : int, optional
-        The pyramid level (0 = finest) a reference map ``init`` is taken up at; the solver
-        refines it there and below (the coarsest level when the pyramid is shorter).
-    tile, seed
-        As for :func:`barkgen.synthesize` (with ``tile`` the target is read as a torus too).
+    init : {"smart", "random"}, ndarray or (ndarray, int), optional
+        ``"smart"`` (§3.4.2, region growing), ``"random"`` (§3.4.1), an ``(H, W, 2)``
+        reference map to start from, e.g. a :class:`barkgen.shapes.LabelMapResult`'s, taken up
+        at pyramid level :data:`REFERENCE_START_LEVEL`, or a pair ``(references, level)`` that
+        says the level (0 = finest; the coarsest when the pyramid is shorter): the solver
+        refines it there and below.
     extra : mapping of str to ndarray, optional
         Named maps aligned with the exemplar (height, ...), synthesized along.
     config : SynthesisConfig, optional
         Solver parameters; default :data:`TBN_CONFIG`.
-    progress : callable, optional
-        ``progress(done, total)``, called after each unit of work.
-    debug : callable, optional
-        ``debug(name, image)`` receives intermediate images (uint8).
-    cache : AnalysisCache, optional
-        Holds (or keeps) the exemplar's k-coherence analysis, e.g. from
-        :func:`analyse_texture_by_numbers`.
-    exemplar_wrap : {"auto", "yes", "no"} or tuple of bool, optional
-        The exemplar is used as a torus along the axes it tiles along
-        (:func:`barkgen.synth.exemplar_wraps`).
-    flow, flow_scale : ndarray, optional
-        ``(H, W)`` orientation field (degrees, counter-clockwise on screen: the exemplar's turn
-        at each output pixel) and scale field (1 = the exemplar's): the texture is synthesized
-        in that local frame (:mod:`barkgen.synth._flow`); the labels then are the pairs (label,
-        turned copy), so the fields' turns and scales times the labels must stay under 64.
-    links : OutputLinks, optional
-        Output pixels that take the references of others while the solver runs (a texture
-        atlas's gutters: :class:`barkgen.synth.OutputLinks`).
+    canvas : Canvas, optional
+        The output (:class:`barkgen.Canvas`): ``shape`` (the target label map's), ``tile``
+        (the target is then read as a torus too), the exemplar's wrap (default ``"auto"``: a
+        torus along the axes it tiles along, :func:`barkgen.synth.exemplar_wraps`), and
+        ``flow``, ``flow_scale`` (an ``(H, W)`` orientation field, degrees counter-clockwise on
+        screen: the exemplar's turn at each output pixel, and a scale field, 1 = the
+        exemplar's: the texture is synthesized in that local frame, :mod:`barkgen.synth._flow`;
+        the labels then are the pairs (label, turned copy), so the fields' turns and scales
+        times the labels must stay under 64) and ``links`` (output pixels that take the
+        references of others while the solver runs: a texture atlas's gutters,
+        :class:`barkgen.synth.OutputLinks`). Default: the target's shape, not tiled.
+    budget : Budget, optional
+        ``seed``, ``progress(done, total)``, ``debug(name, image)`` (intermediate images,
+        uint8) and ``cache`` (holds or keeps the exemplar's k-coherence analysis, e.g. from
+        :func:`analyse_texture_by_numbers`) (:class:`barkgen.Budget`; default seed 0).
 
     Returns
     -------
@@ -206,43 +194,34 @@ def texture_by_numbers(
     See ``examples/03_texture_by_numbers.py``.
 
     """
-    if flow is not None or flow_scale is not None:
+    target = _check_arguments(target_labels, init, label_weight, feature_weight)
+    canvas = _target_canvas(canvas, target)
+    budget = budget or Budget()
+    if canvas.along:
         return along_flow(
             exemplar,
             (exemplar_labels, target_labels),
-            np.shape(target_labels)[:2],
-            flow,
-            flow_scale,
-            seed=seed,
-            extra=extra,
-            exemplar_wrap=exemplar_wrap,
+            extra,
+            canvas,
+            budget,
             label_weight=label_weight,
             feature_weight=feature_weight,
             init=init,
-            init_level=init_level,
-            tile=tile,
             config=config,
-            progress=progress,
-            debug=debug,
-            cache=cache,
-            links=links,
         )
     config = config or TBN_CONFIG
-    target = _check_arguments(target_labels, init, init_level, label_weight, feature_weight)
     front = _LabelFront(exemplar_labels, target, feature_weight)
-    setup = set_up(
-        exemplar,
-        target.shape[:2],
-        seed=seed,
-        extra=extra,
-        config=config,
-        tile=tile,
-        exemplar_wrap=exemplar_wrap,
-        front=front,
-    )
+    setup = set_up(exemplar, extra, config, canvas, budget, front=front)
+    guidance, start = _guidance(front, setup, label_weight, init)
+    return setup.solve(guidance=guidance, start=start)
+
+
+def _guidance(front: _LabelFront, setup: SolveSetup, label_weight: float, init) -> tuple[Guidance, Any]:
+    """The solver's guide from both label maps (laitoch2018 eq. 3.2's label channels and their
+    pyramids) and the start a given ``init`` makes (else None; §3.4)."""
     labels, colour_variance = front.labels, front.colour_variance
     assert labels is not None  # set_up checked the exemplar: front.check encoded the maps
-    wrap, n_levels = setup.wrap, setup.n_levels
+    wrap, n_levels, tile, debug = setup.wrap, setup.inputs.n_levels, setup.canvas.tile, setup.budget.debug
     # a pixel whose soft label differs completely costs label_weight x the colour variance
     guide_a, guide_b = guide_channels(
         labels.exemplar,
@@ -252,57 +231,68 @@ def texture_by_numbers(
         exemplar_wrap=wrap,
         target_wrap=tile,
     )
-
     pyr_a = label_pyramid(labels.exemplar, labels.n_labels, n_levels)
     pyr_b = label_pyramid(labels.target, labels.n_labels, n_levels)
     guides = [level_guide(a, b, labels.n_labels) for a, b in zip(pyr_a, pyr_b)]
-
     if debug is not None:
         _show_labels(debug, labels, pyr_a, pyr_b, wrap)
-
-    start, initial = _start(init, init_level, n_levels, setup.out_shape, setup.exemplar.shape[:2], tile, wrap)
+    start, initial = _start(init, n_levels, setup.exemplar.shape[:2], setup.canvas)
     guidance = Guidance(
         levels=guides,
         exemplar_guides=gaussian_pyramid(guide_a, n_levels, wrap),
         target_guides=gaussian_pyramid(guide_b, n_levels, (tile, tile)),
         initial_references=initial,
     )
-    return setup.solve(guidance=guidance, progress=progress, debug=debug, start=start, cache=cache, links=links)
+    return guidance, start
+
+
+def _target_canvas(canvas: Canvas | None, target: np.ndarray) -> Canvas:
+    """The canvas of a target label map: the given one, which must be of its size, or its own
+    (not tiled, the exemplar's wrap ``"auto"``)."""
+    shape = tuple(target.shape[:2])
+    if canvas is None:
+        return Canvas(shape)
+    if canvas.shape != shape:
+        raise InvalidInputError(
+            f"the canvas is {canvas.shape[1]}x{canvas.shape[0]} px but the target label map is "
+            f"{shape[1]}x{shape[0]} px; they must match"
+        )
+    return canvas
 
 
 def along_flow(
     exemplar: np.ndarray,
     labels: tuple[np.ndarray, np.ndarray] | None,
-    out_shape: tuple[int, int],
-    flow: np.ndarray | None,
-    flow_scale: np.ndarray | None,
-    *,
-    seed: int,
     extra: Mapping[str, np.ndarray] | None,
-    exemplar_wrap: str | bool | tuple[bool, bool],
-    links: OutputLinks | None = None,
-    oriented=None,
+    canvas: Canvas,
+    budget: Budget,
     **options,
 ) -> SynthesisResult:
     """:func:`texture_by_numbers` (or, without ``labels``, plain synthesis) along the fields
-    ``flow`` and ``flow_scale`` of an output of ``out_shape``: on the atlas of the exemplar's
-    turned and scaled copies, each output pixel wanting the copy of its turn and scale
-    (:func:`barkgen.synth._flow.oriented_inputs`; ``oriented``: a given atlas of copies);
-    ``options``: texture-by-numbers' own."""
+    ``canvas.flow`` and ``canvas.flow_scale``: on the atlas of the exemplar's turned and scaled
+    copies, each output pixel wanting the copy of its turn and scale
+    (:func:`barkgen.synth._flow.oriented_inputs`; ``canvas.oriented``: a given atlas of
+    copies); ``options``: texture-by-numbers' own."""
     from barkgen.synth._flow import check_flow, oriented_inputs
 
-    ex, out_shape, extras = validate_inputs(exemplar, out_shape, seed=seed, extra=extra)
-    fields = check_flow(flow, flow_scale, out_shape)
-    wrap = resolve_exemplar_wrap(exemplar_wrap, ex)
-    inputs = oriented_inputs(ex, *fields, wrap=wrap, extra=extras, labels=labels, oriented=oriented)
+    ex, out_shape, extras = validate_inputs(exemplar, canvas.shape, seed=budget.seed, extra=extra)
+    fields = check_flow(canvas.flow, canvas.flow_scale, out_shape)
+    wrap = resolve_exemplar_wrap(canvas.wrap_mode, ex)
+    inputs = oriented_inputs(ex, *fields, wrap=wrap, extra=extras, labels=labels, oriented=canvas.oriented)
+    links = canvas.links
+    atlas_canvas = Canvas(
+        out_shape,
+        tile=canvas.tile,
+        exemplar_wrap=(False, False),
+        links=None if links is None else links.oriented_by(inputs.oriented, inputs.copies),
+    )
     result = texture_by_numbers(
         inputs.exemplar,
         inputs.exemplar_labels,
         inputs.target_labels,
-        seed=seed,
         extra=inputs.extras,
-        exemplar_wrap=(False, False),
-        links=None if links is None else links.oriented_by(inputs.oriented, inputs.copies),
+        canvas=atlas_canvas,
+        budget=budget,
         **options,
     )
     result.orientation = inputs.oriented
@@ -340,34 +330,32 @@ class _LabelFront(Front):
         return feats
 
 
-def _start(
-    init,
-    init_level: int,
-    n_levels: int,
-    out_shape: tuple[int, int],
-    exemplar_shape: tuple[int, int],
-    tile: bool,
-    wrap: tuple[bool, bool],
-):
+def _start(init, n_levels: int, exemplar_shape: tuple[int, int], canvas: Canvas):
     """``(start, initial)``: the level and reference map a given ``init`` starts from (else
-    None), and the initialisation of the coarsest level otherwise (laitoch2018 §3.4)."""
+    None), and the initialisation of the coarsest level otherwise (laitoch2018 §3.4); ``canvas``
+    with the exemplar's resolved wrap."""
     if not isinstance(init, str):
+        references, init_level = init if isinstance(init, tuple) else (init, REFERENCE_START_LEVEL)
         level = min(int(init_level), n_levels - 1)
         # (the initialisation is not used: the solver starts from the given level)
-        return (level, _level_references(init, out_shape, exemplar_shape, level)), random_initialization
+        return (level, _level_references(references, canvas.shape, exemplar_shape, level)), random_initialization
     if init == "smart":
 
         def initial(a: np.ndarray, b: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-            return smart_initialization(a, b, rng, tile=tile, exemplar_wrap=wrap)
+            return smart_initialization(a, b, rng, tile=canvas.tile, exemplar_wrap=canvas.exemplar_wrap)
 
         return None, initial
     return None, random_initialization
 
 
-def _check_arguments(target_labels, init, init_level, label_weight: float, feature_weight: float) -> np.ndarray:
+def _check_arguments(target_labels, init, label_weight: float, feature_weight: float) -> np.ndarray:
     """:func:`texture_by_numbers`' own arguments checked; the target label map as an array."""
-    if not isinstance(init_level, (int, np.integer)) or init_level < 0:
-        raise InvalidInputError(f"init_level must be a pyramid level >= 0, not {init_level!r}")
+    if isinstance(init, tuple):
+        if len(init) != 2:
+            raise InvalidInputError("init as a pair must be (reference map, pyramid level)")
+        init_level = init[1]
+        if not isinstance(init_level, (int, np.integer)) or init_level < 0:
+            raise InvalidInputError(f"init_level must be a pyramid level >= 0, not {init_level!r}")
     if isinstance(init, str) and init not in INITIALIZATIONS:
         raise InvalidInputError(f"init must be one of {', '.join(INITIALIZATIONS)} or a reference map, not {init!r}")
     for name, value in (("label_weight", label_weight), ("feature_weight", feature_weight)):
