@@ -105,7 +105,7 @@ def run_case(name: str, size: int, mode: str, seed: int = 0) -> dict:
 
     from barkgen.io import read_image
     from barkgen.pipeline import GenerateOptions, generate
-    from barkgen.synth import synthesize
+    from barkgen.synth import Budget, Canvas, synthesize
 
     photo = read_image(SHARED / "data" / "bark" / PHOTOS[name])
     period = fissure_period(photo)
@@ -114,10 +114,11 @@ def run_case(name: str, size: int, mode: str, seed: int = 0) -> dict:
 
     def make(**fields) -> tuple[np.ndarray, float]:
         t0 = time.perf_counter()
+        canvas = Canvas((size, size), **fields)
         if mode == "generate":
-            image = generate(photo, GenerateOptions(size=(size, size), seed=seed), **fields).texture
+            image = generate(photo, GenerateOptions(size=(size, size), seed=seed), canvas=canvas).texture
         else:
-            image = synthesize(photo, (size, size), seed=seed, **fields).image
+            image = synthesize(photo, canvas=canvas, budget=Budget(seed=seed)).image
         return image, time.perf_counter() - t0
 
     along, along_s = make(flow=field)
@@ -130,7 +131,7 @@ def run_case(name: str, size: int, mode: str, seed: int = 0) -> dict:
     ratios = {}
     for angle in (0.0, 30.0):
         constant = np.full((size, size), angle, np.float32)
-        turned = synthesize(photo, (size, size), seed=seed, flow=constant)
+        turned = synthesize(photo, canvas=Canvas((size, size), flow=constant), budget=Budget(seed=seed))
         oriented = turned.orientation
         copy = oriented.atlas(photo)[oriented.margin : oriented.margin + oriented.copy_shape[0]]
         ratios[angle] = texeval.evaluate(copy, turned.image)["coherence"] / plain_coherence

@@ -36,7 +36,7 @@ sys.path.insert(0, str(REPO / "src"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from barkgen.io import read_centre_crop  # noqa: E402
-from barkgen.synth import synthesize, texture_by_numbers  # noqa: E402
+from barkgen.synth import Budget, synthesize, texture_by_numbers  # noqa: E402
 from barkgen.testing import kmeans_label_map, shuffled_blocks  # noqa: E402
 
 PHOTO_SUFFIXES = {".jpg", ".jpeg", ".png"}
@@ -65,10 +65,10 @@ def quality(names: list[str] | None, sizes: list[int]) -> list[dict]:
                 runs = {
                     "answer": shuffled_blocks(ex, size, seed=1),
                     "unguided": synthesize(ex, size, seed=0).image,
-                    "smart": texture_by_numbers(ex, a, b, seed=0).image,
+                    "smart": texture_by_numbers(ex, a, b, budget=Budget(seed=0)).image,
                 }
                 if i == 0:
-                    runs["random"] = texture_by_numbers(ex, a, b, seed=0, init="random").image
+                    runs["random"] = texture_by_numbers(ex, a, b, budget=Budget(seed=0), init="random").image
                 m = {k: ev.evaluate(img, labels_out=b) for k, img in runs.items()}
                 row = {"photo": path.stem, "labels": n_labels, "size": size}
                 for k, r in m.items():
@@ -110,7 +110,7 @@ def speed(runs: int) -> dict:
         synthesize(ex, 1024, seed=i)
         plain.append(time.perf_counter() - t)
         t = time.perf_counter()
-        texture_by_numbers(ex, a, b, seed=i)
+        texture_by_numbers(ex, a, b, budget=Budget(seed=i))
         tbn.append(time.perf_counter() - t)
     return {"tbn": statistics.median(tbn), "unguided": statistics.median(plain), "runs": runs}
 

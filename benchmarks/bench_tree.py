@@ -180,11 +180,13 @@ def main() -> None:
         seconds.append(time.perf_counter() - t0)
     assert tree is not None
     # the baseline: the same atlas without the chart-border links
+    from barkgen import Canvas
     from barkgen.pipeline import generate
 
     t0 = time.perf_counter()
     texels = tree.texels
-    unlinked = generate(photo, options, flow=texels.flow, flow_scale=texels.scale)
+    fields = Canvas(options.size, tile=options.tile, flow=texels.flow, flow_scale=texels.scale)
+    unlinked = generate(photo, options, canvas=fields)
     baseline_s = time.perf_counter() - t0
     material = tree.result.material
     maps = {"colour": lab(tree.result.texture), "displacement": material.height}

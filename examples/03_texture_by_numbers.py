@@ -38,7 +38,7 @@ def main(out_dir: Path) -> None:
     dark, light = np.unique(labels)
     target = wavy_fissures((160, 128), dark, light)
 
-    result = barkgen.texture_by_numbers(exemplar, labels, target, seed=3)
+    result = barkgen.texture_by_numbers(exemplar, labels, target, budget=barkgen.Budget(seed=3))
 
     barkgen.write_png(out_dir / "exemplar_labels.png", labels)
     barkgen.write_png(out_dir / "target_labels.png", target)
