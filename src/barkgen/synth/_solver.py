@@ -432,23 +432,11 @@ def _solve_level(
 @dataclass(frozen=True)
 class SolverInputs:
     """What the solver copies and matches, validated (by the fronts' set-up,
-    :func:`barkgen.synth._setup.set_up`, or by the package that drives the solver itself).
-
-    Attributes
-    ----------
-    exemplar : ndarray, shape (h, w, C)
-        Resolved through the final references.
-    features : ndarray of float32, shape (h, w, F)
-        What is matched.
-    n_levels : int
-        The pyramid's depth.
-    config : SynthesisConfig
-        The solver's parameters.
-    extras : dict of str to ndarray
-        Maps aligned with the exemplar, resolved through the final references too.
-    seam_channels : int, optional
-        The seam costs compare the first ``seam_channels`` feature channels (the colour;
-        None: all).
+    :func:`barkgen.synth._setup.set_up`, or by the package that drives the solver itself):
+    the ``(h, w, C)`` ``exemplar`` and the ``extras`` aligned with it, both resolved through the
+    final references; the ``(h, w, F)`` float32 ``features`` matched; the pyramid's depth
+    ``n_levels``; the solver's ``config``; ``seam_channels``: the seam costs compare the first
+    that many feature channels (the colour; None: all).
     """
 
     exemplar: np.ndarray
@@ -472,24 +460,21 @@ def solve(
     """The coarse-to-fine discrete solver shared by :func:`synthesize` and texture-by-numbers
     (mazzolini2012 §4.1, laitoch2018 §3.3).
 
-    ``inputs`` (:class:`SolverInputs`, validated): what is copied and matched. ``canvas``: the
-    output's shape, whether it tiles, the exemplar's resolved ``exemplar_wrap`` ``(rows,
-    columns)`` (the exemplar tiles along that axis and is used as a torus there; along an axis
-    that does not wrap, pieces may run up to its border, :mod:`barkgen.synth._edges`, and after
-    each iteration a straight seam stuck at that border is handed back to the solver,
-    :func:`unstick_border_seams`) and its ``links`` (output pixels that take the references of
-    others after every iteration of every level: a texture atlas's gutters,
-    :class:`~barkgen.synth._links.OutputLinks`). ``budget``: the seed, ``progress``, ``debug``
-    and ``cache`` (an :class:`AnalysisCache` that supplies, or keeps, the exemplar's analysis).
-    ``start``: ``(level, references)`` resumes at that level from a given reference map (flat
-    indices into the level's exemplar) instead of starting at the coarsest level. ``balance``
-    adds the label-area term of :class:`LabelBalance` to the occurrence cost. ``stop_level`` > 0
-    stops after that level: the result's ``references`` and ``exemplar_shape`` are then that
-    level's, its ``image`` the level shown in the exemplar's colours, and it has no extras.
-    After each level's iterations, ``config.seam_sweeps`` sweeps of seam optimisation
-    (``seams._kernels.refine_seams``) and, at the finest levels, graph cuts of the straight seams
-    (:mod:`barkgen.synth.seams.cuts`) move the borders between pieces onto low-error paths; their
-    seam cost compares the first ``inputs.seam_channels`` feature channels.
+    ``inputs``: what is copied and matched (:class:`SolverInputs`, validated). ``canvas``: the
+    output's shape and tiling, the exemplar's resolved ``exemplar_wrap`` (a torus along the axes
+    it tiles along; along an edge that does not wrap pieces may run up to it,
+    :mod:`barkgen.synth._edges`, and a straight seam stuck there is handed back to the solver
+    after each iteration, :func:`unstick_border_seams`) and its ``links`` (output pixels given
+    the references of others after every iteration: an atlas's gutters, :class:`OutputLinks`).
+    ``budget``: the seed, ``progress``, ``debug`` and ``cache`` (an :class:`AnalysisCache` that
+    supplies, or keeps, the exemplar's analysis). ``start``: ``(level, references)`` resumes at
+    that level from a reference map (flat indices into the level's exemplar). ``balance`` adds
+    :class:`LabelBalance`'s label-area term to the occurrence cost. ``stop_level`` > 0 stops
+    after that level: the result's ``references`` and ``exemplar_shape`` are that level's, its
+    ``image`` the level in the exemplar's colours, and it has no extras. After each level's
+    iterations, ``config.seam_sweeps`` sweeps of seam optimisation and, at the finest levels,
+    graph cuts of the straight seams (:mod:`barkgen.synth.seams.cuts`) move the borders between
+    pieces onto low-error paths, comparing the first ``inputs.seam_channels`` feature channels.
     """
     ex, config, n_levels, debug = inputs.exemplar, inputs.config, inputs.n_levels, budget.debug
     if not 0 <= stop_level < n_levels:
