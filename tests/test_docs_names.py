@@ -40,6 +40,7 @@ PAGES = sorted(
 ILLUSTRATIVE: dict[str, str] = {
     "benchmarks/.cache/": "the benchmarks' cache of downloaded peers and data, made when they run",
     "barkgen.kernels": "a logger's name (logging.getLogger), not a module",
+    "--grain": "the made-up option of the add-an-option walk-through (docs/development.md)",
 }
 
 FENCE = re.compile(r"^(?P<fence>`{3,}|~{3,})[^\n]*\n(?P<body>.*?)^(?P=fence)[ \t]*$", re.MULTILINE | re.DOTALL)
@@ -142,7 +143,9 @@ def tree_files(code: str, line: int) -> Iterator[tuple[str, str, int]]:
         ):
             entry = (root if match.group("indent") else "") + match.group("entry")
             yield "path", entry, line + number
-        described = (match.group("text") or "") if match else text
+            described = match.group("text") or ""
+        else:  # a line that goes on with the entry above
+            described = text
         if entry.endswith("/"):
             for name in PY_FILE.findall(described):
                 yield "path", f"{entry}**/{name}", line + number
