@@ -1,13 +1,16 @@
 """Straight lines in any image or map, found from the pixels alone (no reference map needed).
 
 Where two copied pieces meet along a row or a column and the cut fails to hide the border, the
-image steps across that one boundary between pixel rows (or columns) much more than it steps
-across the boundaries a few pixels to either side, and does so for many pixels along it. A
-texture's own features (bark's furrows, plates, lichen) do not: they step where they cross an
-edge, but their edges wind, so along any one boundary the excess is short. The detector here
-measures, for every pair of neighbouring pixels, the step across their boundary against the
-median step of the boundaries 2-4 px beside it (the local texture's own step), smooths that
-excess along the boundary and returns the longest run over a threshold, px.
+image jumps across that one boundary between pixel rows (or columns): the step between the two
+pixels either side is larger than the steps across the boundaries next to it, for many pixels
+along it, whatever the sign or size of the jump. A texture's own features (bark's furrows,
+plates, lichen) step where their edges cross a boundary too, but their edges wind and are a few
+pixels soft, so along any one boundary the pattern is short. The detector here marks, for every
+pair of neighbouring pixels, whether the step across their boundary is the largest of the
+boundaries within :data:`REACH` px of it; a boundary is on a line where it is so for more than
+:data:`SHARE` of the :data:`WINDOW` px along it; runs :data:`GAP` px apart are one line (where
+both sides of a seam happen to match). The measure is the longest run, px: blind to contrast
+(a height map in metres and a texture in sRGB score alike) and to the sign of the step.
 
 It looks for lines along rows and columns: the seams of patch-based synthesis on a pixel grid
 (mazzolini2012 §3.2) and the borders of a tiled image are axis-aligned.
@@ -16,17 +19,19 @@ It looks for lines along rows and columns: the seams of patch-based synthesis on
 from __future__ import annotations
 
 import numpy as np
+from scipy import ndimage
 
 from barkgen.evaluate.patches import as_unit_image
+from barkgen.evaluate.seams import longest_run
 
-#: the boundaries either side whose steps are the local texture's own (px away)
-_BESIDE = (2, 3, 4)
-#: the excess of a boundary's step over its neighbours' that marks a line
-THRESHOLD = 2.5
-#: px along the boundary the excess is averaged over (a line's step changes sign and size)
-WINDOW = 9
-#: px of gap bridged within one line (where both sides happen to match)
-GAP = 4
+#: the boundaries either side a step is compared with, px
+REACH = 3
+#: px along a boundary over which it must mostly be the local maximum
+WINDOW = 32
+#: the share of the window where it must be (a boundary of a texture that is no line: ~1/4)
+SHARE = 0.6
+#: px of gap bridged within one line
+GAP = 32
 
 
 def _steps(image: np.ndarray, tile: bool) -> np.ndarray:
@@ -37,69 +42,61 @@ def _steps(image: np.ndarray, tile: bool) -> np.ndarray:
     return np.sqrt(np.sum((nxt - cur) ** 2, axis=2))
 
 
-def _excess(steps: np.ndarray, tile: bool) -> np.ndarray:
-    """Each step over the median of the steps :data:`_BESIDE` boundaries to either side (floored
-    at half the image's median step: flat areas and compression blocks are not lines)."""
+def _local_maxima(steps: np.ndarray, tile: bool) -> np.ndarray:
+    """Where a step is larger than every step within :data:`REACH` boundaries of it on the
+    same row (round the row when ``tile``; at an edge, the boundaries there are)."""
     n = steps.shape[1]
     idx = np.arange(n)
-    beside = []
-    for off in _BESIDE:
+    beside = np.zeros_like(steps)
+    for off in range(1, REACH + 1):
         for sign in (-1, 1):
             cols = (idx + sign * off) % n if tile else np.clip(idx + sign * off, 0, n - 1)
-            beside.append(steps[:, cols])
-    local = np.median(np.stack(beside), axis=0)
-    floor = 0.5 * max(float(np.median(steps)), 1e-6)
-    return steps / np.maximum(local, floor)
+            np.maximum(beside, np.where(cols == idx, 0.0, steps[:, cols]), out=beside)
+    return steps > beside
 
 
-def _along(values: np.ndarray, length: int, tile: bool) -> np.ndarray:
-    """Mean of ``length`` consecutive values down axis 0, centred (round the end when ``tile``)."""
-    half = length // 2
-    if tile:
-        padded = np.concatenate((values[-half:], values, values[:half]), axis=0)
-    else:
-        padded = np.pad(values, ((half, half), (0, 0)), mode="edge")
-    total = np.cumsum(np.concatenate((np.zeros((1, values.shape[1])), padded), axis=0), axis=0)
-    return (total[length:] - total[:-length]) / length
+def _runs_on(maxima: np.ndarray) -> np.ndarray:
+    """Pixels on a line down axis 0: covered by a :data:`WINDOW` px window where the boundary
+    is the local maximum more than :data:`SHARE` of the time, gaps of :data:`GAP` px closed."""
+    length = maxima.shape[0]
+    if length < WINDOW:
+        return np.zeros_like(maxima)
+    total = np.cumsum(np.concatenate((np.zeros((1, maxima.shape[1])), maxima), axis=0), axis=0)
+    strong = (total[WINDOW:] - total[:-WINDOW]) / WINDOW > SHARE  # window k covers k .. k + WINDOW - 1
+    cover = np.zeros((length + 1, maxima.shape[1]), np.int32)
+    cover[: len(strong)] += strong
+    cover[WINDOW : WINDOW + len(strong)] -= strong
+    on = np.cumsum(cover, axis=0)[:length] > 0
+    padded = np.pad(on, ((GAP, GAP), (0, 0)))
+    return ndimage.binary_closing(padded, np.ones((GAP + 1, 1), bool))[GAP:-GAP]
 
 
-def _longest_down(on: np.ndarray, tile: bool) -> int:
-    """The longest run of True down axis 0 of a mask, runs ``GAP`` px apart joined."""
-    from scipy import ndimage
-
-    from barkgen.evaluate.seams import longest_run
-
-    if GAP:
-        structure = np.ones((GAP + 1, 1), bool)
-        if tile:
-            reps = np.concatenate((on, on, on), axis=0)
-            on = ndimage.binary_closing(reps, structure)[len(on) : 2 * len(on)]
-        else:
-            padded = np.pad(on, ((GAP, GAP), (0, 0)))
-            on = ndimage.binary_closing(padded, structure)[GAP:-GAP]
-    return longest_run(on.T, wrap=tile)
+def _vertical_lines(image: np.ndarray, tile: bool) -> np.ndarray:
+    """``(H, B)`` mask of the boundaries between columns that are on a vertical line."""
+    maxima = _local_maxima(_steps(image, tile), tile).astype(np.float64)
+    if not tile:
+        return _runs_on(maxima)
+    h = maxima.shape[0]  # round the image's end: measured on three copies, the middle one kept
+    return _runs_on(np.concatenate((maxima, maxima, maxima), axis=0))[h : 2 * h]
 
 
 def line_mask(image: np.ndarray, *, tile: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """The boundaries on a straight line: ``(across_cols, across_rows)`` masks of neighbour
     pairs (``across_cols[i, j]``: between pixels ``(i, j)`` and ``(i, j + 1)``, on a vertical
-    line; ``across_rows[i, j]``: between ``(i, j)`` and ``(i + 1, j)``, on a horizontal one)."""
+    line; ``across_rows[i, j]``: between ``(i, j)`` and ``(i + 1, j)``, on a horizontal one;
+    with ``tile`` the last column and row pair with the first)."""
     img = as_unit_image(image)
-    masks = []
-    for arr in (img, img.transpose(1, 0, 2)):
-        steps = _steps(arr, tile)
-        masks.append(_along(_excess(steps, tile), WINDOW, tile) > THRESHOLD)
-    return masks[0], masks[1].T
+    return _vertical_lines(img, tile), _vertical_lines(img.transpose(1, 0, 2), tile).T
 
 
 def longest_line(image: np.ndarray, *, tile: bool = False) -> int:
     """The longest straight line visible in an image or map, px, from its pixels alone.
 
-    A line is a run along one boundary between pixel rows or columns where the image steps
-    :data:`THRESHOLD` times more than across the boundaries 2-4 px beside it (averaged over
-    :data:`WINDOW` px along the boundary, gaps of up to :data:`GAP` px bridged). A photo of bark
-    scores a few tens of px (its furrows wind); a hard straight seam or step scores its length;
-    a tiled image's border counts when ``tile`` (the last row or column against the first).
+    A line is a run along one boundary between pixel rows or columns where the step across it
+    is mostly the largest of the boundaries within :data:`REACH` px (:func:`line_mask`). A
+    photo of bark scores well under 100 px at 1024 px (its furrows wind); a hard straight seam
+    or step scores its length; a tiled image's border counts when ``tile`` (the last row or
+    column against the first), and a line may run round it.
 
     Parameters
     ----------
@@ -107,7 +104,7 @@ def longest_line(image: np.ndarray, *, tile: bool = False) -> int:
         ``(H, W)`` or ``(H, W, C)``: a texture, a height, normal, AO or label map; uint8,
         uint16 or float.
     tile : bool, default False
-        The image tiles: its edges meet, and lines may run round it.
+        The image tiles: its edges meet.
 
     Returns
     -------
@@ -115,4 +112,4 @@ def longest_line(image: np.ndarray, *, tile: bool = False) -> int:
         px; compare with the photo's own figure (its straight features count too).
     """
     across_cols, across_rows = line_mask(image, tile=tile)
-    return max(_longest_down(across_cols, tile), _longest_down(across_rows.T, tile))
+    return max(longest_run(across_cols.T, wrap=tile), longest_run(across_rows, wrap=tile))

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from barkgen._shared.threads import thread_budget
 from barkgen.color import rgb_to_lab
 from barkgen.errors import InvalidInputError
 
@@ -26,7 +27,7 @@ COMPONENTS = 24
 #: candidates re-ranked exactly per query
 CANDIDATES = 8
 #: above this many patches the search is an inverted file (IVF), below it exact
-_FLAT_LIMIT = 65536
+_FLAT_LIMIT = 8192
 
 
 def as_unit_image(image: np.ndarray, name: str = "image") -> np.ndarray:
@@ -96,11 +97,11 @@ def _index(features: np.ndarray):
     if n <= _FLAT_LIMIT:
         index = faiss.IndexFlatL2(d)
     else:
-        nlist = int(4 * np.sqrt(n))
+        nlist = int(np.sqrt(n))
         inverted = faiss.IndexIVFFlat(faiss.IndexFlatL2(d), d, nlist)
         inverted.cp.seed = 1234
         inverted.train(features[:: max(1, n // (nlist * 40))])
-        inverted.nprobe = 16
+        inverted.nprobe = 8
         index = inverted
     index.add(features)
     return index
@@ -126,13 +127,15 @@ def nearest_patch_distances(queries: np.ndarray, database: np.ndarray, patch: in
     d_shape = (database.shape[0] - patch + 1, database.shape[1] - patch + 1)
     q = _patches(q_img, *_grid(q_shape, MAX_QUERIES), patch)
     db = _patches(database, *_grid(d_shape, MAX_DATABASE), patch)
-    mean = db.mean(axis=0)
-    fit = db[:: max(1, len(db) // 20000)] - mean
-    _, _, vt = np.linalg.svd(fit.astype(np.float64), full_matrices=False)
-    basis = vt[: min(COMPONENTS, vt.shape[0])].T.astype(np.float32)
-    index = _index(np.ascontiguousarray((db - mean) @ basis))
-    k = min(CANDIDATES, len(db))
-    _, cand = index.search(np.ascontiguousarray((q - mean) @ basis), k)
+    with thread_budget():
+        mean = db.mean(axis=0, dtype=np.float64)
+        fit = db[:: max(1, len(db) // 20000)].astype(np.float64) - mean
+        _, vectors = np.linalg.eigh(fit.T @ fit)  # the principal axes, by increasing variance
+        basis = np.ascontiguousarray(vectors[:, ::-1][:, :COMPONENTS], dtype=np.float32)
+        mean = mean.astype(np.float32)
+        index = _index(np.ascontiguousarray((db - mean) @ basis))
+        k = min(CANDIDATES, len(db))
+        _, cand = index.search(np.ascontiguousarray((q - mean) @ basis), k)
     best = np.full(len(q), np.inf)
     for j in range(k):
         ok = cand[:, j] >= 0
