@@ -50,7 +50,7 @@ from barkgen.io import (  # noqa: E402
 )
 from barkgen.labels import color_regions  # noqa: E402
 from barkgen.pipeline import GenerateOptions, generate, preview_sheet  # noqa: E402
-from barkgen.shapes import label_dissimilarity, synthesize_label_map  # noqa: E402
+from barkgen.shapes import Budget, label_dissimilarity, synthesize_label_map  # noqa: E402
 from barkgen.synth import synthesize  # noqa: E402
 
 PHOTO_SUFFIXES = {".jpg", ".jpeg", ".png"}
@@ -81,7 +81,11 @@ def labelmaps(paths: list[Path], ks: list[int], crop: int) -> list[dict]:
             for strategy in STRATEGIES:
                 t = time.perf_counter()
                 out = synthesize_label_map(
-                    labels, labels.shape, strategy=strategy, seed=0, photo=ex if strategy == "joint" else None
+                    labels,
+                    labels.shape,
+                    strategy=strategy,
+                    photo=ex if strategy == "joint" else None,
+                    budget=Budget(seed=0),
                 ).label_map
                 elapsed = time.perf_counter() - t
                 areas = [abs(np.mean(out == v) - np.mean(labels == v)) * 100 for v in values]

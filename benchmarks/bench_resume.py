@@ -31,7 +31,7 @@ sys.path.insert(0, str(REPO / "src"))
 
 from barkgen.io import read_centre_crop  # noqa: E402
 from barkgen.labels import color_regions  # noqa: E402
-from barkgen.shapes import synthesize_label_map  # noqa: E402
+from barkgen.shapes import Budget, Canvas, synthesize_label_map  # noqa: E402
 from barkgen.shapes.engine import upsample_codes  # noqa: E402
 
 PHOTOS = ("fir_scaly_01", "oak_furrowed_moss_01", "pine_plated_01", "willow_furrowed_01")
@@ -51,7 +51,9 @@ def measure(photo: np.ndarray, strategy: str, seeds: list[int], size: int) -> di
     kept, held = [], []
     start = time.perf_counter()
     for seed in seeds:
-        base = synthesize_label_map(labels, (size, size), strategy=strategy, seed=seed, tile=True, photo=given)
+        base = synthesize_label_map(
+            labels, canvas=Canvas((size, size), tile=True), strategy=strategy, photo=given, budget=Budget(seed=seed)
+        )
         edited = base.levels[LEVEL].copy()
         h, w = edited.shape
         stroke = np.zeros_like(edited, bool)
@@ -61,9 +63,16 @@ def measure(photo: np.ndarray, strategy: str, seeds: list[int], size: int) -> di
             painted = edited.copy()
             painted[stroke] = value
             out = synthesize_label_map(
-                labels, (size, size), strategy=strategy, seed=seed, tile=True, resume=(LEVEL, painted), photo=given
+                labels,
+                canvas=Canvas((size, size), tile=True),
+                strategy=strategy,
+                resume=(LEVEL, painted),
+                photo=given,
+                budget=Budget(seed=seed),
             ).label_map
-            wanted = values[upsample_codes(np.searchsorted(values, painted), (size, size), values.size, tile=True)]
+            wanted = values[
+                upsample_codes(np.searchsorted(values, painted), Canvas((size, size), tile=True), values.size)
+            ]
             kept.append(float(np.mean(out[big] == value)))
             held.append(float(np.mean(out == wanted)))
     return {

@@ -39,7 +39,9 @@ def main(out_dir: Path) -> None:
     barkgen.write_png(out_dir / "labels_texton.png", textons)
     barkgen.write_png(out_dir / "preview.png", barkgen.labels.label_preview(photo, labels))
 
-    result = barkgen.shapes.synthesize_label_map(labels, 192, tile=True, seed=4)
+    result = barkgen.shapes.synthesize_label_map(
+        labels, canvas=barkgen.Canvas((192, 192), tile=True), budget=barkgen.Budget(seed=4)
+    )
     barkgen.write_png(out_dir / "labels_out.png", result.label_map)
     for level, level_map in enumerate(result.levels):
         barkgen.write_png(out_dir / f"labels_out_level_{level}.png", level_map)

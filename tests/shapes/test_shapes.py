@@ -8,6 +8,8 @@ import pytest
 
 from barkgen.errors import InvalidInputError
 from barkgen.shapes import (
+    Budget,
+    Canvas,
     ShapeConfig,
     automatic_layer_order,
     label_dissimilarity,
@@ -152,12 +154,11 @@ def test_each_layers_mask_is_shrunk_as_the_exemplars_next_layer_sits():
     for shrink in (True, False):
         out = synthesize_label_map(
             exemplar,
-            (256, 256),
+            canvas=Canvas((256, 256), tile=True),
             strategy="layered",
-            seed=0,
-            tile=True,
             rotations="all",
             config=ShapeConfig(shrink_masks=shrink),
+            budget=Budget(seed=0),
         ).label_map
         found[shrink] = on_edges(out)
     assert found[True] < 0.08 and found[True] < 0.5 * found[False], found
@@ -165,7 +166,7 @@ def test_each_layers_mask_is_shrunk_as_the_exemplars_next_layer_sits():
 
 def test_layered_binary_synthesis_makes_discs_of_the_right_area():
     discs = _discs(256, 16)
-    result = synthesize_label_map(discs, (256, 256), strategy="layered", rotations="all", seed=0)
+    result = synthesize_label_map(discs, (256, 256), strategy="layered", rotations="all", budget=Budget(seed=0))
     out = result.label_map
     assert abs(np.mean(out == 255) - np.mean(discs == 255)) < 0.01
     d_out = shape_dissimilarity(out == 255, discs == 255, rotations="all")
@@ -197,7 +198,7 @@ def test_automatic_layer_order_finds_the_nesting():
 def test_engine_strategy_keeps_areas_and_shapes(fir_labels, k):
     labels = fir_labels[k]
     values = np.unique(labels)
-    out = synthesize_label_map(labels, (256, 320), seed=1).label_map
+    out = synthesize_label_map(labels, (256, 320), budget=Budget(seed=1)).label_map
     assert out.shape == (256, 320) and set(np.unique(out)) <= set(values)
     assert np.abs(_fractions(out, values) - _fractions(labels, values)).max() < 0.03
     assert _mean_dissimilarity(labels, out) <= 1.5 * _halves_dissimilarity(labels)
@@ -207,7 +208,7 @@ def test_engine_strategy_keeps_areas_and_shapes(fir_labels, k):
 def test_joint_strategy_keeps_areas_and_shapes(fir_photo, fir_labels, k):
     labels = fir_labels[k]
     values = np.unique(labels)
-    result = synthesize_label_map(labels, (256, 320), strategy="joint", photo=fir_photo, seed=1)
+    result = synthesize_label_map(labels, (256, 320), strategy="joint", photo=fir_photo, budget=Budget(seed=1))
     out = result.label_map
     assert out.shape == (256, 320) and set(np.unique(out)) <= set(values)
     # the map is the exemplar's labels at its references
@@ -235,7 +236,9 @@ def test_joint_strategy_stops_a_level_above_the_finest(fir_photo, fir_labels, mo
     monkeypatch.setattr(engine, "_move_finest_seams", spy)
     labels = fir_labels[3]
     cache = AnalysisCache()
-    result = synthesize_label_map(labels, (192, 256), strategy="joint", photo=fir_photo, seed=2, cache=cache)
+    result = synthesize_label_map(
+        labels, (192, 256), strategy="joint", photo=fir_photo, budget=Budget(seed=2, cache=cache)
+    )
     position = np.stack(np.mgrid[:192, :256], axis=-1)
     # offsets on the exemplar's torus (the photo may wrap)
     up = (seen["up-sampled"].astype(np.int64) - position) % np.array(labels.shape)
@@ -273,8 +276,8 @@ def test_joint_strategy_pieces_fit_in_the_photo(fir_photo, fir_labels):
         return float(np.mean(np.abs(right - inside)))
 
     for seed in (0, 1):
-        joint = synthesize_label_map(labels, 256, strategy="joint", photo=fir_photo, seed=seed)
-        engine = synthesize_label_map(labels, 256, strategy="engine", seed=seed)
+        joint = synthesize_label_map(labels, 256, strategy="joint", photo=fir_photo, budget=Budget(seed=seed))
+        engine = synthesize_label_map(labels, 256, strategy="engine", budget=Budget(seed=seed))
         assert seam_energy(joint.references) < 0.8 * seam_energy(engine.references)
 
 
@@ -289,7 +292,7 @@ def test_joint_strategy_needs_its_photo(fir_photo, fir_labels):
 def test_layered_strategy_keeps_areas_on_a_photo(fir_labels):
     labels = fir_labels[3]
     values = np.unique(labels)
-    result = synthesize_label_map(labels, (256, 256), strategy="layered", seed=0)
+    result = synthesize_label_map(labels, (256, 256), strategy="layered", budget=Budget(seed=0))
     assert sorted(result.layer_order) == sorted(int(v) for v in values)
     assert np.abs(_fractions(result.label_map, values) - _fractions(labels, values)).max() < 0.03
 
@@ -306,8 +309,12 @@ def test_tileable_label_maps_wrap(fir_photo, fir_labels, strategy):
         return max(np.mean(m[0, :] != m[-1, :]) / rows, np.mean(m[:, 0] != m[:, -1]) / cols)
 
     photo = fir_photo if strategy == "joint" else None
-    tiled = synthesize_label_map(labels, (192, 192), strategy=strategy, tile=True, seed=2, photo=photo).label_map
-    plain = synthesize_label_map(labels, (192, 192), strategy=strategy, tile=False, seed=2, photo=photo).label_map
+    tiled = synthesize_label_map(
+        labels, canvas=Canvas((192, 192), tile=True), strategy=strategy, photo=photo, budget=Budget(seed=2)
+    ).label_map
+    plain = synthesize_label_map(
+        labels, canvas=Canvas((192, 192), tile=False), strategy=strategy, photo=photo, budget=Budget(seed=2)
+    ).label_map
     assert seam_excess(tiled) <= 1.0
     assert seam_excess(plain) > 1.2  # the test can fail: an untileable map has a seam
 
@@ -316,9 +323,9 @@ def test_tileable_label_maps_wrap(fir_photo, fir_labels, strategy):
 def test_same_seed_same_map(fir_photo, fir_labels, strategy):
     labels = fir_labels[3]
     photo = fir_photo if strategy == "joint" else None
-    a = synthesize_label_map(labels, 128, strategy=strategy, seed=4, photo=photo).label_map
-    b = synthesize_label_map(labels, 128, strategy=strategy, seed=4, photo=photo).label_map
-    c = synthesize_label_map(labels, 128, strategy=strategy, seed=5, photo=photo).label_map
+    a = synthesize_label_map(labels, 128, strategy=strategy, photo=photo, budget=Budget(seed=4)).label_map
+    b = synthesize_label_map(labels, 128, strategy=strategy, photo=photo, budget=Budget(seed=4)).label_map
+    c = synthesize_label_map(labels, 128, strategy=strategy, photo=photo, budget=Budget(seed=5)).label_map
     assert np.array_equal(a, b) and not np.array_equal(a, c)
 
 
@@ -332,7 +339,7 @@ def test_levels_and_resume_from_an_edited_level(fir_photo, fir_labels, strategy)
     values = np.unique(labels)
     size = (256, 256)
     photo = fir_photo if strategy == "joint" else None
-    result = synthesize_label_map(labels, size, strategy=strategy, seed=0, photo=photo)
+    result = synthesize_label_map(labels, size, strategy=strategy, photo=photo, budget=Budget(seed=0))
     shapes = label_map_levels(labels.shape, size, strategy)
     assert [lvl.shape for lvl in result.levels] == shapes
     assert result.resumed_level is None
@@ -346,7 +353,7 @@ def test_levels_and_resume_from_an_edited_level(fir_photo, fir_labels, strategy)
         first, second = second, first  # paint each label where the unedited run has less of it
     edited[h // 4 : 3 * h // 4, w // 8 : 3 * w // 8] = first
     edited[h // 4 : 3 * h // 4, 5 * w // 8 : 7 * w // 8] = second
-    resumed = synthesize_label_map(labels, size, strategy=strategy, seed=0, resume=edited, photo=photo)
+    resumed = synthesize_label_map(labels, size, strategy=strategy, resume=edited, photo=photo, budget=Budget(seed=0))
     assert resumed.resumed_level == level
     assert all(lvl is None for lvl in resumed.levels[level + 1 :])
     out = resumed.label_map
@@ -369,7 +376,9 @@ def test_an_edit_keeps_its_layout_down_to_the_finest_level(fir_photo, fir_labels
     size = (256, 256)
     photo = fir_photo if strategy == "joint" else None
     for seed in (3, 4) if strategy == "layered" else (3,):
-        base = synthesize_label_map(labels, size, strategy=strategy, seed=seed, tile=True, photo=photo)
+        base = synthesize_label_map(
+            labels, canvas=Canvas(size, tile=True), strategy=strategy, photo=photo, budget=Budget(seed=seed)
+        )
         level = 3
         edited = base.levels[level].copy()
         h, w = edited.shape
@@ -379,10 +388,15 @@ def test_an_edit_keeps_its_layout_down_to_the_finest_level(fir_photo, fir_labels
             painted = edited.copy()
             painted[stroke] = value
             out = synthesize_label_map(
-                labels, size, strategy=strategy, seed=seed, tile=True, resume=(level, painted), photo=photo
+                labels,
+                canvas=Canvas(size, tile=True),
+                strategy=strategy,
+                resume=(level, painted),
+                photo=photo,
+                budget=Budget(seed=seed),
             ).label_map
             codes = np.searchsorted(values, painted)
-            wanted = values[upsample_codes(codes, size, values.size, tile=True)]
+            wanted = values[upsample_codes(codes, Canvas(size, tile=True), values.size)]
             big_stroke = np.kron(stroke, np.ones((2**level, 2**level), bool))
             assert np.mean(out[big_stroke] == value) > 0.9, (seed, value)
             assert np.mean(out == wanted) > 0.8  # the rest of the level's layout holds too

@@ -256,6 +256,31 @@ def _deformed_content(texel, tiles, idx, iy, ix, deform, rotation, r, col, alpha
     )
 
 
+@njit
+def _row_weights(fy, wy):
+    """The row parts ``wy`` of a noise cell's four corner weights at fraction ``fy`` down the
+    cell; returns the row part of their unit-energy norm (the weights are separable: their
+    energy is (row part) x (column part))."""
+    for q in range(4):
+        wy[q] = fy if (q >> 1) else 1.0 - fy
+    return 1.0 / math.sqrt(fy * fy + (1.0 - fy) * (1.0 - fy))
+
+
+@njit
+def _write_pixel(out, layers, r, col, texel, colour, want_layers, want_noise):
+    """Pixel ``(r, col)`` of the window: the structure ``texel`` plus the noise ``colour``,
+    clipped to [0, 1], into ``out``, and the two layers into ``layers = (structure_out,
+    noise_out)`` when they are wanted."""
+    structure_out, noise_out = layers
+    for ch in range(3):
+        out[r, col, ch] = min(max(texel[ch] + colour[ch], 0.0), 1.0)
+        if want_noise:
+            noise_out[r, col, ch] = colour[ch]
+    if want_layers:
+        for ch in range(texel.shape[0]):
+            structure_out[r, col, ch] = texel[ch]
+
+
 @njit(parallel=True, cache=True)
 def render_window(y0, x0, out, layers, tiles, lattice, noise, deform):
     """Pixels ``[y0, y0 + H) x [x0, x0 + W)`` of the unbounded bi-layer texture into ``out``.
@@ -315,10 +340,7 @@ def render_window(y0, x0, out, layers, tiles, lattice, noise, deform):
         offx = np.empty(4, np.int64)
         wy = np.empty(4, np.float64)
         wts = np.empty(4, np.float64)
-        for q in range(4):
-            wy[q] = fy if (q >> 1) else 1.0 - fy
-        # the weights are separable: their energy is (row part) x (column part)
-        ny = 1.0 / math.sqrt(fy * fy + (1.0 - fy) * (1.0 - fy))
+        ny = _row_weights(fy, wy)
         ty_idx = np.empty(4, np.int64)
         tx_idx = np.empty(4, np.int64)
         idx = np.int64(0)
@@ -377,10 +399,4 @@ def render_window(y0, x0, out, layers, tiles, lattice, noise, deform):
                 ty_idx[q] = (py + offy[q]) & wrap
                 tx_idx[q] = (px + offx[q]) & wrap
             _noise_colour(texel, noise_tiles, bases, means, quantiles, sigmas, wts, ty_idx, tx_idx, nvals, colour)
-            for ch in range(3):
-                out[r, col, ch] = min(max(texel[ch] + colour[ch], 0.0), 1.0)
-                if want_noise:
-                    noise_out[r, col, ch] = colour[ch]
-            if want_layers:
-                for ch in range(n_ch):
-                    structure_out[r, col, ch] = texel[ch]
+            _write_pixel(out, layers, r, col, texel, colour, want_layers, want_noise)

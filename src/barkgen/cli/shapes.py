@@ -62,10 +62,11 @@ def shapes_command(
 ) -> None:
     """Synthesize a new label map of any size from an exemplar's label map (laitoch2018 §3.6)."""
     from barkgen.io import encode_png, read_image
-    from barkgen.shapes import synthesize_label_map
+    from barkgen.shapes import Budget, Canvas, synthesize_label_map
+    from barkgen.synth import resolve_exemplar_wrap
 
     out_shape = parse_size(size)
-    budget = parse_memory(max_memory)
+    memory = parse_memory(max_memory)
     check_target(output, "output")
     if save_levels is not None:
         check_folder(save_levels, "--save-levels")
@@ -77,20 +78,19 @@ def shapes_command(
     label_map = read_image(labels)
     photo_image = read_image(photo) if photo is not None else None
     edited = read_resume(resume) if resume is not None else None
+    # "auto" is decided on the photo (or the label map) by synthesize_label_map
+    wrap = None if exemplar_wraps == "auto" else resolve_exemplar_wrap(exemplar_wraps, label_map)
     with progress_bar(not quiet, "label map") as progress:
         result = synthesize_label_map(
             label_map,
             out_shape,
             strategy=strategy,
-            tile=tile,
-            seed=seed,
+            photo=photo_image,
+            canvas=Canvas(out_shape, tile=tile, exemplar_wrap=wrap),
+            budget=Budget(seed=seed, max_memory=memory, progress=progress),
             rotations=rotations,
             layer_order=order,
             resume=edited,
-            progress=progress,
-            photo=photo_image,
-            exemplar_wrap=exemplar_wraps,
-            max_memory=budget,
         )
     levels: dict[Path, bytes] = {}
     if save_levels is not None:

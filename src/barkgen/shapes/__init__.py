@@ -14,9 +14,12 @@ Three strategies:
   automatic layer order.
 
 Both work coarse to fine over a pyramid whose levels can be returned (``result.levels``) and
-resumed from after an edit (``resume=(level, label_map)``), and both can tile.
+resumed from after an edit (``resume=(level, label_map)``), and both can tile. The output's
+shape, tile, exemplar wrap and flow field come in one :class:`Canvas`, the seed, progress,
+cache and memory budget in one :class:`Budget`.
 """
 
+from barkgen._shared.canvas import Budget, Canvas
 from barkgen.shapes.api import (
     STRATEGIES,
     LabelMapResult,
@@ -34,6 +37,8 @@ from barkgen.shapes.patches import (
 )
 
 __all__ = [
+    "Budget",
+    "Canvas",
     "LabelMapResult",
     "ROTATIONS",
     "check_rotations",

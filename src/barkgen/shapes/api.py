@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from barkgen._shared.arrays import ProgressCallback
+from barkgen._shared.canvas import Budget, Canvas
 from barkgen._shared.checks import check_seed, parse_output_shape
 from barkgen._shared.memory import BASE_BYTES, check_budget_value, check_memory_budget
 from barkgen.errors import InvalidInputError
@@ -18,7 +18,7 @@ from barkgen.pyramid import count_levels, level_shape
 from barkgen.shapes.binary import ShapeConfig
 from barkgen.shapes.layered import automatic_layer_order
 from barkgen.shapes.patches import check_rotations
-from barkgen.synth import AnalysisCache, OutputLinks, label_pyramid
+from barkgen.synth import AnalysisCache, label_pyramid
 
 #: the label-map strategies (see :mod:`barkgen.shapes`)
 STRATEGIES = ("engine", "joint", "layered")
@@ -150,23 +150,16 @@ def _layer_order_codes(layer_order, palette: np.ndarray) -> list[int]:
 
 def synthesize_label_map(
     label_map: np.ndarray,
-    size,
+    size=None,
     *,
     strategy: str = "engine",
-    tile: bool = False,
-    seed: int = 0,
+    photo: np.ndarray | None = None,
+    canvas: Canvas | None = None,
+    budget: Budget | None = None,
     rotations: str = "vertical",
     layer_order: list[int] | None = None,
     resume: tuple[int, np.ndarray] | np.ndarray | None = None,
     config: ShapeConfig | None = None,
-    progress: ProgressCallback | None = None,
-    cache: AnalysisCache | None = None,
-    photo: np.ndarray | None = None,
-    exemplar_wrap: str | bool | tuple[bool, bool] = "auto",
-    max_memory: int | None = None,
-    flow: np.ndarray | None = None,
-    flow_scale: np.ndarray | None = None,
-    links: OutputLinks | None = None,
 ) -> LabelMapResult:
     """Synthesize a new label map of ``size`` from the exemplar's ``label_map`` (laitoch2018 §3.6).
 
@@ -174,15 +167,26 @@ def synthesize_label_map(
     ----------
     label_map : ndarray, shape (h, w)
         Grey label map (every distinct value is a label, at most 64).
-    size : int or (int, int)
-        Output ``(height, width)``.
+    size : int or (int, int), optional
+        Output ``(height, width)`` (default: ``canvas.shape``).
     strategy : {"engine", "joint", "layered"}, default "engine"
         The core engine on one-hot label channels; the engine matching ``photo``'s colours too;
         or Rosenberger et al.'s layered shape synthesis.
-    tile : bool, default False
-        The output label map wraps around, so the texture made from it can tile.
-    seed : int, default 0
-        Seeds every random choice.
+    photo : ndarray, optional
+        The photo ``label_map`` labels (same height and width); the joint strategy needs it.
+    canvas : Canvas, optional
+        What the output is (default: a plain ``size`` canvas): ``tile`` (the label map wraps
+        around, so its texture can tile); ``exemplar_wrap`` (the exemplar used as a torus
+        along each axis; None: ``"auto"``, the photo or else the label map decides,
+        :func:`barkgen.synth.exemplar_wraps`); the engine and joint strategies' ``flow`` and
+        ``flow_scale`` fields (as :func:`barkgen.synthesize`'s: the references then point into
+        the atlas of the exemplar's turned copies, and there are no coarser levels) and
+        ``links`` (along them, output pixels that take others' references).
+    budget : Budget, optional
+        ``seed`` (every random choice), ``progress`` (``progress(done, total)``), ``cache``
+        (the engine strategies' exemplar analysis, :func:`analyse_label_map`) and
+        ``max_memory`` (refuse the job, before any work, when its estimated peak memory,
+        :func:`estimate_label_map_memory`, exceeds it; None: what the machine has free).
     rotations : {"none", "vertical", "all"}, default "vertical"
         Boundary patches may match turned 180° or four ways (layered strategy, eq. 3.7).
     layer_order : list of int, optional
@@ -192,27 +196,6 @@ def synthesize_label_map(
         size tells the level, :func:`label_map_levels`), in the exemplar's grey values.
     config : ShapeConfig, optional
         Parameters of the layered strategy.
-    progress : callable, optional
-        ``progress(done, total)`` callback.
-    cache : AnalysisCache, optional
-        Holds (or keeps) the engine strategies' exemplar analysis (:func:`analyse_label_map`).
-    photo : ndarray, optional
-        The photo ``label_map`` labels (same height and width); the joint strategy needs it.
-    exemplar_wrap : {"auto", "yes", "no"} or (bool, bool), default "auto"
-        Whether the exemplar is used as a torus along each axis (``auto``: the photo, or else
-        the label map, decides: :func:`barkgen.synth.exemplar_wraps`).
-    max_memory : int, optional
-        Refuse the job, before any work, when its estimated peak memory
-        (:func:`estimate_label_map_memory`) exceeds this many bytes (None: what the machine
-        has free).
-    flow, flow_scale : ndarray, optional
-        ``(H, W)`` orientation (degrees, counter-clockwise on screen) and scale fields the
-        label map follows (engine and joint strategies; :func:`barkgen.synthesize`'s): its
-        references then point into the atlas of the exemplar's turned copies, and it has no
-        coarser levels.
-    links : OutputLinks, optional
-        Along a flow field: output pixels that take the references of others (a texture
-        atlas's gutters, :class:`barkgen.synth.OutputLinks`).
 
     Returns
     -------
@@ -223,28 +206,26 @@ def synthesize_label_map(
     InvalidInputError
         A bad strategy, rotations, seed, size, layer order, edited level or photo.
     MemoryBudgetError
-        The job would not fit ``max_memory``.
+        The job would not fit ``budget.max_memory``.
 
     References
     ----------
     .. [1] laitoch2018, §3.6 and Figure 1.2's "output label map"; rosenberger2009 (layered).
     .. [2] kopf2007 (the label-area histogram matching of the joint strategy).
+
     """
     if strategy not in STRATEGIES:
         raise InvalidInputError(f"strategy must be one of {', '.join(STRATEGIES)}, not {strategy!r}")
     turns = check_rotations(rotations)
-    check_seed(seed)
-    check_budget_value(max_memory)
-    out_shape = parse_output_shape(size)
+    budget = budget or Budget()
+    check_seed(budget.seed)
+    check_budget_value(budget.max_memory)
+    canvas = _output_canvas(size, canvas)
     codes, palette = to_codes(label_map)
     photo = _check_photo(photo, codes.shape, strategy)
-    check_memory_budget(
-        estimate_label_map_memory(codes.shape, out_shape, strategy, palette.size),
-        max_memory,
-        f"label map {out_shape[1]}x{out_shape[0]}",
-    )
+    _check_memory(codes.shape, canvas.shape, strategy, palette.size, budget.max_memory)
     config = config or ShapeConfig()
-    shapes = label_map_levels(codes.shape, out_shape, strategy, config)
+    shapes = label_map_levels(codes.shape, canvas.shape, strategy, config)
     start = _resume_codes(resume, palette, shapes) if resume is not None else None
     levels: list = [None] * len(shapes)
 
@@ -255,58 +236,22 @@ def synthesize_label_map(
         on_level(*start)
     t0 = time.perf_counter()
     order_values = references = synthesis = None
-    if (flow is not None or flow_scale is not None) and strategy == "layered":
-        raise InvalidInputError("the layered strategy does not follow a flow field; use the engine or joint strategy")
-    if flow is not None or flow_scale is not None:
+    _check_along(canvas, strategy, start)
+    if canvas.along:
         from barkgen.shapes.flow import codes_along_flow
 
-        if start is not None:
-            raise InvalidInputError("a label map along a flow field cannot be resumed from an edited level yet")
-        out, references, synthesis = codes_along_flow(
-            codes,
-            palette.size,
-            out_shape,
-            flow,
-            flow_scale,
-            tile=tile,
-            seed=int(seed),
-            photo=photo,
-            exemplar_wrap=_wrap(exemplar_wrap, codes, photo),
-            progress=progress,
-            cache=cache,
-            links=links,
-        )
+        canvas = canvas.replace(exemplar_wrap=_wrap(canvas.exemplar_wrap, codes, photo))
+        out, references, synthesis = codes_along_flow(codes, palette.size, canvas, budget, photo)
     elif strategy in ("engine", "joint"):
         from barkgen.shapes.engine import synthesize_codes
 
+        canvas = canvas.replace(exemplar_wrap=_wrap(canvas.exemplar_wrap, codes, photo))
         out, references = synthesize_codes(
-            codes,
-            palette.size,
-            out_shape,
-            tile=tile,
-            seed=int(seed),
-            start=start,
-            on_level=on_level,
-            progress=progress,
-            cache=cache,
-            photo=photo,
-            exemplar_wrap=_wrap(exemplar_wrap, codes, photo),
+            codes, palette.size, canvas, budget, start=start, on_level=on_level, photo=photo
         )
     else:
-        out, order_values = _layered_codes(
-            codes,
-            palette,
-            out_shape,
-            shapes,
-            layer_order,
-            turns=turns,
-            tile=tile,
-            config=config,
-            seed=int(seed),
-            start=start,
-            on_level=on_level,
-            progress=progress,
-        )
+        layers = _LayeredRequest(palette, shapes, layer_order, turns, config)
+        out, order_values = _layered_codes(codes, layers, canvas, budget, start, on_level)
     label_out = palette[out]
     levels[0] = label_out
     return LabelMapResult(
@@ -321,46 +266,86 @@ def synthesize_label_map(
     )
 
 
+def _check_memory(exemplar_shape, out_shape, strategy: str, n_labels: int, max_memory: int | None) -> None:
+    """Refuse, before any work, a label map whose estimated peak memory exceeds ``max_memory``."""
+    check_memory_budget(
+        estimate_label_map_memory(exemplar_shape, out_shape, strategy, n_labels),
+        max_memory,
+        f"label map {out_shape[1]}x{out_shape[0]}",
+    )
+
+
+def _check_along(canvas: Canvas, strategy: str, start) -> None:
+    """Along a flow field: the engine and joint strategies only, and no resumed edit yet."""
+    if canvas.along and strategy == "layered":
+        raise InvalidInputError("the layered strategy does not follow a flow field; use the engine or joint strategy")
+    if canvas.along and start is not None:
+        raise InvalidInputError("a label map along a flow field cannot be resumed from an edited level yet")
+
+
+def _output_canvas(size, canvas: Canvas | None) -> Canvas:
+    """The output's canvas: ``canvas`` (or a plain one) of ``size``, checked."""
+    if size is None and canvas is None:
+        raise InvalidInputError("give the output size (size=) or a canvas (canvas=)")
+    out_shape = parse_output_shape(size if size is not None else canvas.shape)  # type: ignore[union-attr]
+    if canvas is None:
+        return Canvas(out_shape)
+    if size is not None and tuple(canvas.shape) != out_shape:
+        raise InvalidInputError(
+            f"the size ({out_shape[1]}x{out_shape[0]}) and the canvas "
+            f"({canvas.shape[1]}x{canvas.shape[0]}) differ: give one of them"
+        )
+    return canvas.replace(shape=out_shape)
+
+
+@dataclass(frozen=True)
+class _LayeredRequest:
+    """What the layered strategy is asked: the exemplar's palette, the pyramid's level shapes,
+    the user's layer order (grey values or None), the boundary patches' quarter turns and the
+    shape optimisation's parameters."""
+
+    palette: np.ndarray
+    shapes: list
+    layer_order: list[int] | None
+    turns: Any
+    config: ShapeConfig
+
+
 def _layered_codes(
     codes: np.ndarray,
-    palette: np.ndarray,
-    out_shape: tuple[int, int],
-    shapes: list[tuple[int, int]],
-    layer_order: list[int] | None,
-    *,
-    turns,
-    tile: bool,
-    config: ShapeConfig,
-    seed: int,
+    request: _LayeredRequest,
+    canvas: Canvas,
+    budget: Budget,
     start,
     on_level,
-    progress: ProgressCallback | None,
 ) -> tuple[np.ndarray, list[int]]:
     """The layered strategy (rosenberger2009, laitoch2018 §3.6): the output codes and the layer
     order used, as grey values bottom layer first."""
     from barkgen.shapes.layered import synthesize_layers
 
-    if layer_order is None:
+    palette = request.palette
+    if request.layer_order is None:
         order = automatic_layer_order(codes, palette.size)
     else:
-        order = _layer_order_codes(layer_order, palette)
-    ex_levels = label_pyramid(codes, palette.size, len(shapes))
-    n_ticks = len(shapes) * max(palette.size - 1, 1)
+        order = _layer_order_codes(request.layer_order, palette)
+    ex_levels = label_pyramid(codes, palette.size, len(request.shapes))
+    n_ticks = len(request.shapes) * max(palette.size - 1, 1)
     done = [0]
+    progress = budget.progress
 
     def tick() -> None:
         done[0] += 1
         if progress:
             progress(done[0], n_ticks)
 
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(int(budget.seed))
     out = synthesize_layers(
         ex_levels,
-        out_shape,
+        canvas.shape,
         order,
-        quarter_turns=turns,
-        tile=tile,
-        config=config,
+        quarter_turns=request.turns,
+        tile=canvas.tile,
+        config=request.config,
         rng=rng,
         start=start,
         on_level=on_level,
@@ -387,10 +372,11 @@ def _check_photo(photo: np.ndarray | None, shape: tuple[int, int], strategy: str
 
 
 def _wrap(mode, codes: np.ndarray, photo: np.ndarray | None) -> tuple[bool, bool]:
-    """The exemplar's wrap: decided on the photo when there is one, else on the label map."""
+    """The exemplar's wrap: decided on the photo when there is one, else on the label map
+    (``mode`` None is ``"auto"``)."""
     from barkgen.synth import resolve_exemplar_wrap
 
-    return resolve_exemplar_wrap(mode, codes if photo is None else photo)
+    return resolve_exemplar_wrap("auto" if mode is None else mode, codes if photo is None else photo)
 
 
 def analyse_label_map(

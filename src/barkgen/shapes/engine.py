@@ -47,7 +47,6 @@ from collections.abc import Callable
 
 import numpy as np
 
-from barkgen._shared.arrays import ProgressCallback
 from barkgen._shared.canvas import Budget, Canvas
 from barkgen.pyramid import count_levels, gaussian_pyramid, level_shape
 from barkgen.synth import (
@@ -154,21 +153,22 @@ def block_initialization(
 def synthesize_codes(
     codes: np.ndarray,
     n_labels: int,
-    out_shape: tuple[int, int],
+    canvas: Canvas,
+    budget: Budget,
     *,
-    tile: bool,
-    seed: int,
     start: tuple[int, np.ndarray] | None = None,
     on_level: Callable[[int, np.ndarray], None] | None = None,
-    progress: ProgressCallback | None = None,
     config: SynthesisConfig | None = None,
     balance_weight: float | None = None,
-    cache: AnalysisCache | None = None,
     photo: np.ndarray | None = None,
-    exemplar_wrap: tuple[bool, bool] = (False, False),
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Synthesize label codes ``(H, W)`` from the exemplar's ``codes`` with the core solver;
-    returns them and their reference map ``(H, W, 2)`` (exemplar ``(y, x)`` per pixel).
+    """Synthesize label codes ``canvas.shape`` from the exemplar's ``codes`` with the core
+    solver; returns them and their reference map ``(H, W, 2)`` (exemplar ``(y, x)`` per pixel).
+
+    ``canvas``: the output's shape, its tile and the exemplar's resolved ``exemplar_wrap``
+    ``(rows, columns)`` (:func:`barkgen.synth.exemplar_wraps`). ``budget``: the seed, the
+    progress callback and the :class:`AnalysisCache` holding (or to keep) the exemplar's
+    k-coherence analysis (:func:`analyse_codes`).
 
     ``photo``: the photo the codes label (same height and width); given, the joint strategy
     matches its colour along the labels (:func:`joint_features`), with :data:`JOINT_CONFIG`,
@@ -178,35 +178,21 @@ def synthesize_codes(
     ``start``: ``(level, codes)`` of an edited level: its reference map is made by the smart
     initialisation of texture-by-numbers (coherent exemplar pieces whose labels match the edit,
     laitoch2018 §3.4.2) and the solver continues from that level. ``on_level(level, codes)``
-    receives each level's result. ``cache``: an :class:`AnalysisCache` holding (or to keep) the
-    exemplar's k-coherence analysis (:func:`analyse_codes`). ``exemplar_wrap`` ``(rows,
-    columns)``: the exemplar tiles along that axis (:func:`barkgen.synth.exemplar_wraps`).
+    receives each level's result.
     """
     joint = photo is not None
+    out_shape, exemplar_wrap = canvas.shape, canvas.exemplar_wrap
     features, config = _solver_inputs(codes, n_labels, photo, config, exemplar_wrap)
     n_levels = engine_levels(codes.shape, out_shape, config)
     ex = codes.astype(np.uint8)[:, :, None]
-    rng = np.random.default_rng([int(seed), 1])
-    guidance = None
+    rng = np.random.default_rng([int(budget.seed), 1])
+    cache = budget.cache
+    guidance = balance = None
     resume: tuple[int, np.ndarray] | None
     if start is not None:
         # an edit sets the layout, and its own label areas: no area term pulls against it, and
         # the edit guides every finer level
-        level, edited = start
-        ex_levels = label_pyramid(codes, n_labels, n_levels)
-        resume = (level, smart_initialization(ex_levels[level], edited.astype(np.int32), rng, tile=tile))
-        guidance = edit_guidance(
-            codes,
-            features,
-            upsample_codes(edited, out_shape, n_labels, tile=tile),
-            n_labels,
-            n_levels,
-            tile=tile,
-            softness=EDIT_SOFTNESS * 2.0**level,
-            exemplar_levels=ex_levels,
-            exemplar_wrap=exemplar_wrap,
-        )
-        balance = None
+        resume, guidance = _edited_start(codes, features, n_labels, n_levels, start, canvas, rng)
     else:
         shares = label_shares(codes, n_labels, n_levels)
         fractions = np.bincount(codes.ravel(), minlength=n_labels) / codes.size
@@ -215,18 +201,7 @@ def synthesize_codes(
         balance = LabelBalance(shares=shares, fractions=fractions, weight=balance_weight)
         if joint:
             cache = cache if cache is not None else AnalysisCache()
-            resume, coarse_levels = _choose_coarse_start(
-                ex,
-                features,
-                out_shape,
-                n_levels,
-                config,
-                balance,
-                tile=tile,
-                rng=rng,
-                cache=cache,
-                exemplar_wrap=exemplar_wrap,
-            )
+            resume, coarse_levels = _choose_coarse_start(ex, features, n_levels, config, balance, canvas, rng, cache)
             if on_level is not None:
                 for lvl, image in coarse_levels:
                     on_level(lvl, image)
@@ -245,8 +220,8 @@ def synthesize_codes(
     finest = finest_level(n_levels, joint=joint, resumed=start is not None)
     result = solve(
         SolverInputs(ex, features, n_levels, config, seam_channels=features.shape[2] - n_labels if joint else None),
-        Canvas(out_shape, tile=tile, exemplar_wrap=exemplar_wrap),
-        Budget(seed=seed, progress=progress, cache=cache, debug=debug),
+        canvas.replace(links=None),
+        Budget(seed=int(budget.seed), progress=budget.progress, cache=cache, debug=debug),
         guidance=guidance,
         start=resume,
         balance=balance,
@@ -258,20 +233,44 @@ def synthesize_codes(
             references, level_shape(out_shape, lvl), level_shape(codes.shape, lvl), exemplar_wrap
         )
     if finest > 0 and joint:
-        references = _move_finest_seams(
-            references, features[..., : features.shape[2] - n_labels], tile, exemplar_wrap, config, rng
-        )
+        references = _move_finest_seams(references, features[..., : features.shape[2] - n_labels], canvas, config, rng)
     out_codes = codes[references[..., 0], references[..., 1]].astype(np.int32)
     if finest > 0 and on_level is not None:
         on_level(0, out_codes)
     return out_codes, references
 
 
+def _edited_start(
+    codes: np.ndarray,
+    features: np.ndarray,
+    n_labels: int,
+    n_levels: int,
+    start: tuple[int, np.ndarray],
+    canvas: Canvas,
+    rng: np.random.Generator,
+) -> tuple[tuple[int, np.ndarray], Guidance]:
+    """Where an edited level resumes (its smart initialisation, laitoch2018 §3.4.2) and the
+    guide that keeps the edit's layout down to the finest level (:func:`edit_guidance`)."""
+    level, edited = start
+    ex_levels = label_pyramid(codes, n_labels, n_levels)
+    resume = (level, smart_initialization(ex_levels[level], edited.astype(np.int32), rng, tile=canvas.tile))
+    guidance = edit_guidance(
+        codes,
+        features,
+        upsample_codes(edited, canvas, n_labels),
+        n_labels,
+        n_levels,
+        canvas,
+        softness=EDIT_SOFTNESS * 2.0**level,
+        exemplar_levels=ex_levels,
+    )
+    return resume, guidance
+
+
 def _move_finest_seams(
     references: np.ndarray,
     colour: np.ndarray,
-    tile: bool,
-    exemplar_wrap: tuple[bool, bool],
+    canvas: Canvas,
     config: SynthesisConfig,
     rng: np.random.Generator,
 ) -> np.ndarray:
@@ -286,6 +285,7 @@ def _move_finest_seams(
     leave them half as long, and the up-sampling doubles them (peeling crop, 1024x1024, seed 0:
     79 px before this level's cuts)."""
     h, w = colour.shape[:2]
+    tile, exemplar_wrap = canvas.tile, canvas.exemplar_wrap
     if config.seam_expansion_band:
         flat = references[..., 0] * w + references[..., 1]
         unguided = (np.zeros(1, np.int32), np.zeros((1, 1), np.int32))
@@ -333,15 +333,12 @@ def start_score(references: np.ndarray, exemplar_width: int, shares: np.ndarray,
 def _choose_coarse_start(
     ex: np.ndarray,
     features: np.ndarray,
-    out_shape: tuple[int, int],
     n_levels: int,
     config: SynthesisConfig,
     balance: LabelBalance,
-    *,
-    tile: bool,
+    canvas: Canvas,
     rng: np.random.Generator,
     cache: AnalysisCache,
-    exemplar_wrap: tuple[bool, bool] = (False, False),
 ) -> tuple[tuple[int, np.ndarray] | None, list]:
     """The joint strategy's start: :data:`JOINT_CANDIDATES` runs of the coarsest levels down to
     :data:`JOINT_SELECT_DEPTH` below the coarsest, each from its own seed and with
@@ -366,7 +363,7 @@ def _choose_coarse_start(
 
         run = solve(
             SolverInputs(ex, features, n_levels, config),
-            Canvas(out_shape, tile=tile, exemplar_wrap=exemplar_wrap),
+            canvas.replace(links=None),
             Budget(seed=int(candidate_seed), cache=cache, debug=keep),
             stop_level=level,
             balance=gentle,
@@ -388,14 +385,15 @@ EDIT_SOFTNESS = 0.5
 EDIT_VOTE_DISCOUNT = 1.0
 
 
-def upsample_codes(edited: np.ndarray, out_shape: tuple[int, int], n_labels: int, *, tile: bool) -> np.ndarray:
-    """An edited level brought to ``out_shape`` with smooth boundaries: each label's indicator
-    resized bilinearly (wrapping when ``tile``), then the largest one per pixel (nearest
-    resizing would give staircase boundaries of the level's pixel size)."""
+def upsample_codes(edited: np.ndarray, canvas: Canvas, n_labels: int) -> np.ndarray:
+    """An edited level brought to ``canvas.shape`` with smooth boundaries: each label's
+    indicator resized bilinearly (wrapping when the canvas tiles), then the largest one per
+    pixel (nearest resizing would give staircase boundaries of the level's pixel size)."""
     import cv2
 
+    out_shape = canvas.shape
     h, w = out_shape
-    pad = 2 if tile else 0
+    pad = 2 if canvas.tile else 0
     best = np.zeros(out_shape, np.float32) - 1.0
     result = np.zeros(out_shape, np.int32)
     for label in range(n_labels):
@@ -424,20 +422,20 @@ def edit_guidance(
     target: np.ndarray,
     n_labels: int,
     n_levels: int,
+    canvas: Canvas,
     *,
-    tile: bool,
     softness: float = 0.0,
     exemplar_levels: list | None = None,
-    exemplar_wrap: tuple[bool, bool] = (False, False),
 ) -> Guidance:
     """The :class:`~barkgen.synth.Guidance` that makes the label engine follow a target
     label map (texture-by-numbers of the label map itself, laitoch2018 §3.3) as a soft guide:
     the target's channels are blurred by ``softness`` px (boundaries may move that much to take
     exemplar shapes), votes of other labels count, and no label is enforced afterwards. The
-    exemplar's channels wrap round where it tiles (``exemplar_wrap``), the target's where the
-    output does (``tile``)."""
+    exemplar's channels wrap round where it tiles (``canvas.exemplar_wrap``), the target's
+    where the output does (``canvas.tile``)."""
     import cv2
 
+    tile, exemplar_wrap = canvas.tile, canvas.exemplar_wrap
     variance = float(features.reshape(-1, features.shape[-1]).var(axis=0).sum())
     guide_a, guide_b = guide_channels(
         codes, target, n_labels, np.sqrt(EDIT_WEIGHT * variance / 2.0), exemplar_wrap=exemplar_wrap, target_wrap=tile

@@ -13,50 +13,34 @@ from __future__ import annotations
 
 import numpy as np
 
-from barkgen._shared.arrays import ProgressCallback
-from barkgen.synth import AnalysisCache, OutputLinks, SynthesisResult
+from barkgen._shared.canvas import Budget, Canvas
+from barkgen.synth import SynthesisResult
 
 
 def codes_along_flow(
-    codes: np.ndarray,
-    n_labels: int,
-    out_shape: tuple[int, int],
-    flow: np.ndarray | None,
-    flow_scale: np.ndarray | None,
-    *,
-    tile: bool,
-    seed: int,
-    photo: np.ndarray | None,
-    exemplar_wrap: tuple[bool, bool],
-    progress: ProgressCallback | None = None,
-    cache: AnalysisCache | None = None,
-    links: OutputLinks | None = None,
+    codes: np.ndarray, n_labels: int, canvas: Canvas, budget: Budget, photo: np.ndarray | None
 ) -> tuple[np.ndarray, np.ndarray, SynthesisResult]:
     """Label codes ``(H, W)`` along the fields, their reference map into the atlas of
     turned copies (``(H, W, 2)``; the atlas is :func:`barkgen.synth.orient_exemplar`'s of the
     same fields, whatever the seed, with room for the labels: the one texture-by-numbers
-    makes after it), and the synthesis they come from (its ``extras`` without the labels)."""
+    makes after it), and the synthesis they come from (its ``extras`` without the labels).
+    ``canvas`` carries the fields, the links, the tile and the photo's resolved wrap;
+    ``budget`` the seed and the progress callback."""
     from barkgen.labels import label_colour_map
-    from barkgen.synth import MAX_LABELS, Budget, Canvas, check_flow, orient_exemplar, synthesize
+    from barkgen.synth import MAX_LABELS, check_flow, orient_exemplar, synthesize
 
     # the atlas texture-by-numbers will use after it (its labels paired with these copies)
-    fields = check_flow(flow, flow_scale, (int(out_shape[0]), int(out_shape[1])))
+    out_shape, exemplar_wrap = canvas.shape, canvas.exemplar_wrap
+    fields = check_flow(canvas.flow, canvas.flow_scale, out_shape)
     oriented = orient_exemplar(codes.shape, *fields, wrap=exemplar_wrap, max_copies=(MAX_LABELS - 1) // n_labels)
     one_hot = (codes[..., None] == np.arange(n_labels)[None, None, :]).astype(np.float32)
     exemplar = photo if photo is not None else label_colour_map(codes.astype(np.uint8))
+    # the label map's own budget: its seed, threads and progress (not the label map's analysis)
     result = synthesize(
         exemplar,
         extra={"labels": one_hot},
-        canvas=Canvas(
-            out_shape,
-            tile=tile,
-            exemplar_wrap=exemplar_wrap,
-            flow=flow,
-            flow_scale=flow_scale,
-            links=links,
-            oriented=oriented,
-        ),
-        budget=Budget(seed=seed, progress=progress),
+        canvas=canvas.replace(oriented=oriented),
+        budget=Budget(seed=int(budget.seed), threads=budget.threads, progress=budget.progress),
     )
     atlas_codes = result.orientation.atlas(codes.astype(np.int32), kind="labels")
     refs = result.references

@@ -124,10 +124,10 @@ def _shifted_neighbour_source(refs, y, x, dy, dx, tile, exemplar):
 
 
 @nb.njit
-def _project_query(refs, y, x, tile, exemplar, ex_feat, projection, q, ex_labels, target, n_random):
+def _project_query(refs, y, x, tile, exemplar, ex_feat, projection, q, guide):
     """The output neighbourhood of (y, x) (resolved references) projected into appearance space
-    into ``q``; returns how many of its pixels have the wrong label (counted when
-    ``n_random`` > 0).
+    into ``q``; returns how many of its pixels have the wrong label (``ex_labels`` of its
+    reference against ``target``, counted when ``n_random`` > 0; ``guide``: :func:`m_step`'s).
 
     Incremental projection: the neighbourhood is compared with the exemplar neighbourhood of its
     centre's reference, whose projection is known (``appearance[e0]``, reflected at the exemplar
@@ -136,6 +136,7 @@ def _project_query(refs, y, x, tile, exemplar, ex_feat, projection, q, ex_labels
     most pixels differ."""
     ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x = exemplar
     proj_w, proj_mean, appearance = projection
+    _, _, ex_labels, target, _, _, n_random, _ = guide
     H, W = refs.shape
     S, _, C, D = proj_w.shape
     r = S // 2
@@ -186,12 +187,14 @@ def _project_query(refs, y, x, tile, exemplar, ex_feat, projection, q, ex_labels
 
 
 @nb.njit
-def _label_candidates(best, best_cost, y, x, r, tile, exemplar, costs, guide, query, fb):
+def _label_candidates(incumbent, y, x, r, tile, exemplar, costs, guide, query, fb):
     """Texture-by-numbers' drawn candidates of the M-step at (y, x) (see :func:`m_step`):
     ``n_random`` from the wanted label's exemplar pixels and one aligned on the nearest pixel
-    that wants another label. Returns the new ``(best, best_cost)``."""
+    that wants another label. Returns the new ``(best, best_cost)`` from ``incumbent``, the
+    ones so far."""
+    best, best_cost = incumbent
     ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x = exemplar
-    penalty, kset_cost = costs
+    penalty, kset_cost, _ = costs
     _, _, _, target, pool, pool_start, n_random, random_key = guide
     W = target.shape[1]
     for t in range(n_random + 1):
@@ -218,12 +221,10 @@ def _label_candidates(best, best_cost, y, x, r, tile, exemplar, costs, guide, qu
 
 
 @nb.njit(parallel=True, cache=True, fastmath=True)
-def m_step(
-    refs, exemplar, ex_feat, projection, ksets, costs, grid, tile, forbid, guide, match
-):  # pragma: no cover - compiled
+def m_step(refs, exemplar, ex_feat, projection, ksets, costs, grid, tile, guide, match):  # pragma: no cover - compiled
     """M-step on the sparse grid ``(oy + i * stride, ox + j * stride)``, ``grid = (stride, oy,
-    ox)``; ``projection = (proj_w, proj_mean, appearance)``, ``costs = (penalty, kset_cost)``,
-    ``guide = (guide_ex, guide_out, ex_labels, target, pool, pool_start, n_random,
+    ox)``; ``projection = (proj_w, proj_mean, appearance)``, ``costs = (penalty, kset_cost,
+    forbid)``, ``guide = (guide_ex, guide_out, ex_labels, target, pool, pool_start, n_random,
     random_key)``.
 
     For each grid pixel, the output neighbourhood (resolved references) is projected into
@@ -250,7 +251,7 @@ def m_step(
     """
     ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x = exemplar
     proj_w, proj_mean, appearance = projection
-    penalty, kset_cost = costs
+    penalty, kset_cost, forbid = costs
     stride, oy, ox = grid
     guide_ex, guide_out, ex_labels, target, pool, pool_start, n_random, random_key = guide
     H, W = refs.shape
@@ -264,7 +265,7 @@ def m_step(
         seen = np.empty(9, np.int32)
         query = (appearance, q, guide_ex, guide_out)
         for x in range(ox, W, stride):
-            n_wrong = _project_query(refs, y, x, tile, exemplar, ex_feat, projection, q, ex_labels, target, n_random)
+            n_wrong = _project_query(refs, y, x, tile, exemplar, ex_feat, projection, q, guide)
             best = np.int64(refs[y, x])
             best_cost = np.inf
             n_seen = 0
@@ -287,7 +288,7 @@ def m_step(
                             v2, penalty[v2] + kset_cost, best, best_cost, fb, y, x, ex_y, ex_x, query
                         )
             if n_wrong > 0:
-                best, best_cost = _label_candidates(best, best_cost, y, x, r, tile, exemplar, costs, guide, query, fb)
+                best, best_cost = _label_candidates((best, best_cost), y, x, r, tile, exemplar, costs, guide, query, fb)
             match[y, x] = best
 
 

@@ -111,12 +111,14 @@ def _feat_dist(feat, ay, ax, by, bx):
 
 
 @nb.njit
-def _seam_cost(feat, ex_h, ex_w, wrap_y, wrap_x, cy, cx, fy, fx, dy, dx):
+def _seam_cost(feat, sides, cy, cx, fy, fx, dy, dx):
     """Cost of the seam between an output pixel taking exemplar pixel ``(cy, cx)`` and its
     neighbour ``(dy, dx)`` away taking ``(fy, fx)`` (Kwatra et al. 2003, eq. 1): ||A(p) - B(p)||
     + ||A(q) - B(q)||, A and B the two pieces, each continued one pixel across the seam; 0 when
     the first continues into the other. A piece that cannot be continued (it reaches a
-    non-wrapping exemplar edge) is taken as its last pixel. ``feat``: ``(h, w, C)``."""
+    non-wrapping exemplar edge) is taken as its last pixel. ``feat``: ``(h, w, C)``;
+    ``sides = (ex_h, ex_w, wrap_y, wrap_x)``, the exemplar's size and its wrapping axes."""
+    ex_h, ex_w, wrap_y, wrap_x = sides
     ay = _ex_inside(cy + dy, ex_h, wrap_y)
     ax = _ex_inside(cx + dx, ex_w, wrap_x)
     if ay >= 0 and ax >= 0 and ay == fy and ax == fx:
@@ -152,6 +154,7 @@ def refine_seams(refs, feat, exemplar, tile, parity, forbid, labels, after, move
     nothing else, so the others would keep theirs). ``moved`` ``(H, W)`` uint8 receives 1 where
     a pixel changed. Returns the number changed. ``labels = (ex_labels, target)``."""
     ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x = exemplar
+    sides = (ex_h, ex_w, wrap_y, wrap_x)
     ex_labels, target = labels
     H, W = refs.shape
     guided = ex_labels.shape[0] > 1
@@ -203,7 +206,7 @@ def refine_seams(refs, feat, exemplar, tile, parity, forbid, labels, after, move
                     if not inside:
                         continue
                     f = refs[qy, qx]
-                    cost += _seam_cost(feat, ex_h, ex_w, wrap_y, wrap_x, ex_y[c], ex_x[c], ex_y[f], ex_x[f], dy, dx)
+                    cost += _seam_cost(feat, sides, ex_y[c], ex_x[c], ex_y[f], ex_x[f], dy, dx)
                 if cost < best_cost - 1e-6:
                     best_cost = cost
                     best = c
@@ -294,18 +297,27 @@ def seam_band(ry, rx, feat, wrap_y, wrap_x, tile, i, cols, band, out):  # pragma
     ``cand_y/cand_x[l]`` the reference of choice ``l`` (0: the pixel of row ``i`` continued up
     or down, 1: that of row ``i + 1``), ``valid[l]`` whether it exists on the exemplar,
     ``member`` whether the pixel is in the band (it belongs to its side's piece, unbroken from
-    the seam), ``cost[l]`` the seam cost with its neighbours outside the band (plus the
-    graph-representable part of the pair terms) and ``w_down``/``w_right`` the pair weights to
-    the band pixel below / to the right (Kolmogorov & Zabih 2004's reduction of a 2x2 table,
-    clipped at 0 where it is not submodular). Returns the number of band pixels.
-    ``out = (cand_y, cand_x, valid, member, cost, w_down, w_right)``."""
+    the seam; :func:`_band_members`), ``cost[l]`` the seam cost with its neighbours outside the
+    band (plus the graph-representable part of the pair terms) and ``w_down``/``w_right`` the
+    pair weights to the band pixel below / to the right (:func:`_band_costs`). Returns the
+    number of band pixels. ``out = (cand_y, cand_x, valid, member, cost, w_down, w_right)``."""
+    sides = (feat.shape[0], feat.shape[1], wrap_y, wrap_x)
+    seam = (i, cols, band)
+    _band_members(ry, rx, sides, tile, seam, out)
+    return _band_costs(ry, rx, feat, sides, tile, seam, out)
+
+
+@nb.njit
+def _band_members(ry, rx, sides, tile, seam, out):
+    """:func:`seam_band`'s choices per band pixel and whether it is in the band (``seam = (i,
+    cols, band)``; ``sides``: :func:`_seam_cost`'s)."""
     cand_y, cand_x, valid, member, cost, w_down, w_right = out
+    i, cols, band = seam
+    ex_h, ex_w, wrap_y, wrap_x = sides
     H, W = ry.shape
-    ex_h, ex_w = feat.shape[0], feat.shape[1]
     L = cols.shape[0]
     K2 = 2 * band
     j = i + 1 if i + 1 < H else 0
-    n = 0
     for c in range(L):
         x = cols[c]
         for k in range(K2):
@@ -334,6 +346,19 @@ def seam_band(ry, rx, feat, wrap_y, wrap_x, tile, i, cols, band, out):  # pragma
             member[k, c] = member[k, c] and member[k + 1, c]
         for k in range(band + 1, K2):
             member[k, c] = member[k, c] and member[k - 1, c]
+
+
+@nb.njit
+def _band_costs(ry, rx, feat, sides, tile, seam, out):
+    """:func:`seam_band`'s terms: each band pixel's seam cost with its neighbours outside the
+    band, and the pair weights inside it (Kolmogorov & Zabih 2004's reduction of a 2x2 table,
+    clipped at 0 where it is not submodular). Returns the number of band pixels."""
+    cand_y, cand_x, valid, member, cost, w_down, w_right = out
+    i, cols, band = seam
+    H, W = ry.shape
+    L = cols.shape[0]
+    K2 = 2 * band
+    n = 0
     for c in range(L):
         for k in range(K2):
             cost[0, k, c] = 0.0
@@ -364,10 +389,7 @@ def seam_band(ry, rx, feat, wrap_y, wrap_x, tile, i, cols, band, out):  # pragma
                 for lab in range(2):
                     cost[lab, k, c] += _seam_cost(
                         feat,
-                        ex_h,
-                        ex_w,
-                        wrap_y,
-                        wrap_x,
+                        sides,
                         cand_y[lab, k, c],
                         cand_x[lab, k, c],
                         ry[qy, qx],
@@ -387,10 +409,7 @@ def seam_band(ry, rx, feat, wrap_y, wrap_x, tile, i, cols, band, out):  # pragma
                     for v in range(2):
                         e[u, v] = _seam_cost(
                             feat,
-                            ex_h,
-                            ex_w,
-                            wrap_y,
-                            wrap_x,
+                            sides,
                             cand_y[u, k, c],
                             cand_x[u, k, c],
                             cand_y[v, kk, cc],
@@ -418,7 +437,7 @@ def _pair_cost(feat, exemplar, c, f, dy, dx):
     exemplar's border between them."""
     ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x = exemplar
     cy, cx, fy, fx = ex_y[c], ex_x[c], ex_y[f], ex_x[f]
-    cost = _seam_cost(feat, ex_h, ex_w, wrap_y, wrap_x, cy, cx, fy, fx, dy, dx)
+    cost = _seam_cost(feat, (ex_h, ex_w, wrap_y, wrap_x), cy, cx, fy, fx, dy, dx)
     if dy != 0 and not wrap_y:
         last = ex_h - 1
         if (dy > 0 and cy == last and fy == 0) or (dy < 0 and cy == 0 and fy == last):
@@ -447,12 +466,12 @@ def border_costs(refs, codes, feat, exemplar, tile, out):  # pragma: no cover - 
 
 @nb.njit(cache=True)
 def expansion_nodes(
-    refs, codes, alpha, members, exemplar, tile, keep, labels, band, node_of, out
+    refs, codes, piece, exemplar, tile, keep, labels, band, node_of, out
 ):  # pragma: no cover - compiled
-    """The nodes of the expansion move of piece offset ``alpha``: every output pixel within
-    ``band`` pixels (a square) of a border pixel of the piece (``members``: the flat output
-    indices whose offset code was ``alpha`` when the round began; those no longer ``alpha`` in
-    ``codes`` are skipped) whose seam costs at least ``least`` (``border_cost``, from
+    """The nodes of the expansion move of the piece ``piece = (alpha, members)`` (its offset
+    code ``alpha``): every output pixel within ``band`` pixels (a square) of a border pixel of
+    the piece (``members``: the flat output indices whose offset code was ``alpha`` when the
+    round began; those no longer ``alpha`` in ``codes`` are skipped) whose seam costs at least ``least`` (``border_cost``, from
     :func:`border_costs`: cheap stretches of border are left where they are), and that may take
     the piece continued to it.
 
@@ -467,6 +486,7 @@ def expansion_nodes(
     node_x, node_ref, touched)`` receive the nodes' positions, their continued references and
     the flat indices of every pixel marked (so the caller can reset ``node_of``). Returns
     ``(n_nodes, n_touched)``."""
+    alpha, members = piece
     ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x = exemplar
     ex_labels, target = labels
     forbid, rare, border_cost, least = keep

@@ -159,8 +159,7 @@ def expand_pieces(
             n, n_touched = XK.expansion_nodes(
                 refs,
                 codes,
-                alpha,
-                members,
+                (alpha, members),
                 grid,
                 tile,
                 (forbid, rare, border_cost, least),
