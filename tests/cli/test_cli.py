@@ -371,6 +371,7 @@ HELP_COMMANDS = [
     "tree",
     "serve",
     "warm-up",
+    "evaluate",
     "bilayer",
     "library",
     "branches",

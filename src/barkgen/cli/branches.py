@@ -9,17 +9,16 @@ from typing import Annotated, Optional
 import numpy as np
 import typer
 
-from barkgen._shared.checks import parse_size
-from barkgen._shared.memory import parse_memory
+from barkgen.branching import GrowOptions
 from barkgen.cli._common import (
-    MaxMemoryOption,
     OutputOption,
     QuietOption,
-    SeedOption,
     check_target,
     progress_bar,
     write_outputs,
 )
+from barkgen.cli._options import option_flags, with_options
+from barkgen.pipeline import GenerateOptions
 
 #: help of the ``branches`` group
 HELP = (
@@ -86,10 +85,13 @@ def extract_command(
         )
 
 
+@option_flags(GenerateOptions)  # (the output's size and seed)
+@with_options(GrowOptions, after="guide")
 def grow_command(
     source_path: SourceArgument,
     output: Annotated[Path, typer.Option("-o", "--output", help="Grown structure JSON.")] = Path("grown.json"),
-    size: Annotated[str, typer.Option("--size", help="Output size WIDTHxHEIGHT.")] = "1024x1024",
+    *,
+    size: tuple[int, int],
     guide: Annotated[
         Optional[Path],
         typer.Option(
@@ -98,28 +100,19 @@ def grow_command(
             "(a dark valley along a path), roots start where it is dark.",
         ),
     ] = None,
-    length: Annotated[
-        Optional[float],
-        typer.Option(
-            "--length",
-            help="Total branch length to grow in px (default: the source's length per pixel times the output area).",
-        ),
-    ] = None,
-    levels: Annotated[int, typer.Option("--levels", help="Maximum branch generations.")] = 64,
-    seed: SeedOption = 0,
-    max_memory: MaxMemoryOption = None,
+    seed: int,
     quiet: QuietOption = False,
+    options: GrowOptions,
 ) -> None:
     """Grow a new structure with the source's bending, furcation and merge statistics."""
-    from barkgen.branching import GrowOptions, check_grow_size, fit_model, grow_structure
+    from barkgen.branching import check_grow_size, fit_model, grow_structure
     from barkgen.io import read_image
     from barkgen.io.branches import encode_structure, read_structure
 
     check_target(output, "output", ".json")
-    h, w = parse_size(size)
-    # the options, the size's range and the guide map's size: grow_structure
-    options = GrowOptions(total_length=length, max_levels=levels, max_memory=parse_memory(max_memory))
-    check_grow_size((w, h), options.validate(), guide is not None)  # before the model is fitted
+    h, w = size
+    # the options: GrowOptions (the flags); the size's range and the guide map's size: grow_structure
+    check_grow_size((w, h), options, guide is not None)  # before the model is fitted
     source = read_structure(source_path)
     guide_map = _grey_unit(read_image(guide)) if guide is not None else None
     model = fit_model(source)
@@ -141,6 +134,7 @@ def _grey_unit(image: np.ndarray) -> np.ndarray:
     return grey.mean(axis=2) if grey.ndim == 3 else grey
 
 
+@option_flags(GenerateOptions)  # (the seed)
 def render_command(
     image_path: Annotated[Path, typer.Argument(metavar="IMAGE", help="The source image.")],
     source_path: Annotated[Path, typer.Argument(metavar="SRC.json", help="Its structure.")],
@@ -153,7 +147,8 @@ def render_command(
             help="Also write the fissure label map of the output (white cracks on black) for texture-by-numbers.",
         ),
     ] = None,
-    seed: SeedOption = 0,
+    *,
+    seed: int,
     quiet: QuietOption = False,
 ) -> None:
     """Render a structure from fragments of the source image; the core engine fills the gaps."""

@@ -10,12 +10,8 @@ import numpy as np
 import typer
 
 from barkgen.cli._common import (
-    EqualizeLightOption,
-    ExemplarWrapsOption,
-    KOption,
     OutputOption,
     QuietOption,
-    SeedOption,
     check_folder,
     check_target,
     progress_bar,
@@ -23,21 +19,18 @@ from barkgen.cli._common import (
     write_files,
     write_outputs,
 )
+from barkgen.cli._options import option_flags
 from barkgen.errors import InvalidInputError
+from barkgen.pipeline import GenerateOptions
 
 
+@option_flags(GenerateOptions)  # (the photo's label map as generate makes it)
 def labels_command(
     photo: Annotated[Path, typer.Argument(help="Bark photo (PNG/JPEG/TIFF/WebP).")],
     output: OutputOption,
-    k: KOption = 3,
-    method: Annotated[
-        str,
-        typer.Option(
-            "--method",
-            help="color: colour regions (laitoch2018 §3.5); texton: texton channels "
-            "merged automatically (wang2003 §3.2).",
-        ),
-    ] = "color",
+    *,
+    k: int,
+    method: str,
     merge_by: Annotated[
         str,
         typer.Option(
@@ -48,9 +41,9 @@ def labels_command(
     ] = "texture",
     edges: Annotated[bool, typer.Option("--edges", help="Add a label for the region edges (k + 1 labels).")] = False,
     edge_width: Annotated[int, typer.Option("--edge-width", help="Width of the edge band, px.")] = 3,
-    exemplar_wraps: ExemplarWrapsOption = "auto",
-    equalize_light: EqualizeLightOption = 1.0,
-    seed: SeedOption = 0,
+    exemplar_wrap: str,
+    equalize_light: float,
+    seed: int,
     preview: Annotated[
         Optional[Path],
         typer.Option("--preview", help="Also write the photo with the label regions tinted and outlined."),
@@ -72,7 +65,7 @@ def labels_command(
         check_target(preview, "--preview")
         refuse_targets({"output": output, "--preview": preview})
     image = read_image(photo)
-    wrap = resolve_exemplar_wrap(exemplar_wraps, image)
+    wrap = resolve_exemplar_wrap(exemplar_wrap, image)
     with progress_bar(not quiet, "labelling"):
         extra = {} if method == "color" else {"merge_by": merge_by}
         label_map = photo_label_map(image, k, method, wrap=wrap, equalize_light=equalize_light, seed=seed, **extra)
@@ -89,12 +82,14 @@ def labels_command(
         typer.echo(f"wrote {output} ({label_map.shape[1]}x{label_map.shape[0]}, {n} labels)", err=True)
 
 
+@option_flags(GenerateOptions)
 def textons_command(
     photo: Annotated[Path, typer.Argument(help="Bark photo (PNG/JPEG/TIFF/WebP).")],
     output_dir: Annotated[Path, typer.Option("-o", "--output", help="Output folder.")],
     n_textons: Annotated[int, typer.Option("--textons", help="Number of textons (2-64).")] = 25,
-    exemplar_wraps: ExemplarWrapsOption = "auto",
-    seed: SeedOption = 0,
+    *,
+    exemplar_wrap: str,
+    seed: int,
     preview: Annotated[
         Optional[Path],
         typer.Option(
@@ -119,7 +114,7 @@ def textons_command(
         targets["--preview"] = preview
     refuse_targets(targets)
     image = read_image(photo)
-    wrap = resolve_exemplar_wrap(exemplar_wraps, image)
+    wrap = resolve_exemplar_wrap(exemplar_wrap, image)
     with progress_bar(not quiet, "textons"):
         textons, _ = texton_channels(image, n_textons, seed=seed, wrap=wrap)
         masks = [np.where(textons == t, 255, 0).astype(np.uint8) for t in range(n_textons)]

@@ -4,27 +4,20 @@ with its shading removed, wang2003 §3.3-3.4), ``preview`` (the set rendered on 
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
 
 from barkgen._shared.checks import parse_size
-from barkgen._shared.memory import parse_memory
 from barkgen.cli._common import (
     EditsOption,
-    EqualizeLightOption,
-    ExemplarWrapsOption,
     ExrHeightOption,
-    LightOption,
-    MaxMemoryOption,
     NameOption,
     OutputOption,
     PresetOption,
     QuietOption,
-    ReliefOption,
-    SeedOption,
-    WidthMOption,
     check_file_name,
     check_folder,
     check_target,
@@ -35,6 +28,8 @@ from barkgen.cli._common import (
     write_files,
     write_outputs,
 )
+from barkgen.cli._options import with_options
+from barkgen.material import MaterialOptions
 
 ViewRepeat = Annotated[float, typer.Option("--repeat", help="Times the texture goes round the trunk.")]
 ViewDisplacement = Annotated[float, typer.Option("--displacement", help="Relief scale (1 = the set's own depth).")]
@@ -48,25 +43,20 @@ GlbRepeat = Annotated[
 ]
 
 
+@with_options(MaterialOptions, after="exr_height")
 def material_command(
     photo: Annotated[Optional[Path], typer.Argument(help="Bark photo. Default: the bundled sample.")] = None,
     output_dir: Annotated[Path, typer.Option("-o", "--output", help="Output folder.")] = Path("material"),
     name: NameOption = "bark",
     preset: PresetOption = "ambientcg",
     exr_height: ExrHeightOption = False,
-    k: Annotated[int, typer.Option("--k", help="Labels of the structure cue (1-16).")] = 3,
-    light: LightOption = None,
-    relief: ReliefOption = 1.0,
-    width_m: WidthMOption = None,
-    equalize_light: EqualizeLightOption = 1.0,
     edits: EditsOption = None,
-    exemplar_wraps: ExemplarWrapsOption = "auto",
     tile: Annotated[
         bool, typer.Option("--tile", help="The photo is a tileable texture: maps wrap (as --exemplar-wraps yes).")
     ] = False,
-    seed: SeedOption = 0,
-    max_memory: MaxMemoryOption = None,
     quiet: QuietOption = False,
+    *,
+    options: MaterialOptions,
 ) -> None:
     """The material set of a photo: height, normals (OpenGL and DirectX), AO, roughness and the
     colour with its shading removed (wang2003 §3.3-3.4), in ambientCG names."""
@@ -75,24 +65,16 @@ def material_command(
     from barkgen.data import sample_exemplar_path
     from barkgen.io import check_material_name, encode_material, read_image
     from barkgen.io.material import material_file_names
-    from barkgen.material import EditList, MaterialOptions, adjust_material, make_material
+    from barkgen.material import EditList, adjust_material, make_material
     from barkgen.material.presets import check_preset
 
     check_material_name(name)
     check_preset(preset)
     check_folder(output_dir, "output")
     refuse_targets({f"output {n}": output_dir / n for n in material_file_names(name, preset)})
-    # k, seed and relief: MaterialOptions; edits outside the photo: the height editor
-    options = MaterialOptions(
-        k=k,
-        light=parse_light(light),
-        seed=seed,
-        relief=relief,
-        width_m=width_m,
-        equalize_light=equalize_light,
-        exemplar_wrap="yes" if tile else exemplar_wraps,
-        max_memory=parse_memory(max_memory),
-    )
+    # the options: MaterialOptions (the flags); edits outside the photo: the height editor
+    if tile:
+        options = dataclasses.replace(options, exemplar_wrap="yes")
     edit_list = read_edits(edits) if edits is not None else EditList()
     src = photo if photo is not None else sample_exemplar_path()
     image = read_image(src)
@@ -109,7 +91,7 @@ def material_command(
         name,
         preset,
         exr_height=exr_height,
-        seed=seed,
+        seed=options.seed,
         source_photo=str(src),
         edits=len(edit_list.edits),
         exemplar_wrap_mode=options.exemplar_wrap,

@@ -16,34 +16,29 @@ def _fractions(label_map: np.ndarray, values: np.ndarray) -> dict[str, float]:
 
 
 def run_report(photo, options: GenerateOptions, wrap, labels_in, label_result, result, material, timings) -> dict:
-    """The JSON-ready report of a :func:`generate` run: its parameters, label areas and timings."""
+    """The JSON-ready report of a :func:`generate` run: every option, from its declaration
+    (:func:`barkgen._shared.options.option_values`: each field under its report key, so a new
+    option is reported with no edit here), the options of the material set it made, and what
+    the run found and took: the photo's size, its labels and their areas, the wraps, the light,
+    the flow's copies and the timings."""
+    from barkgen._shared.options import option_values
+    from barkgen.pipeline.materials import photo_material_options
+
     values = np.unique(labels_in)
-    return {
+    report = option_values(options)
+    found = {
         "size": [options.size[1], options.size[0]],
         "photo_size": [int(np.asarray(photo).shape[1]), int(np.asarray(photo).shape[0])],
-        "k": int(values.size),
-        "method": options.method,
-        "strategy": options.strategy,
-        "structure": options.structure,
-        "model": options.model,
-        "rotations": options.rotations,
+        "k": int(values.size),  # the labels found (a given label map has its own count)
         "layer_order": label_result.layer_order,
-        "tile": bool(options.tile),
-        "exemplar_wrap_mode": options.exemplar_wrap,
         "exemplar_wrap": [bool(wrap[0]), bool(wrap[1])],
-        "seed": int(options.seed),
-        "label_weight": options.label_weight,
-        "feature_weight": options.feature_weight,
         "texture_init": "label map references" if label_result.references is not None else "smart",
-        "blend": options.blend,
         "extras": sorted(result.extras),
         "extra_wraps": {name: list(axes) for name, axes in sorted(result.extra_wraps.items())},
         "resumed_from_level": label_result.resumed_level,
         "label_fractions_in": _fractions(labels_in, values),
         "label_fractions_out": _fractions(label_result.label_map, values),
-        "light_equalization": options.equalize_light,
-        "material": bool(options.material),
-        "relief": options.relief if options.material else None,
+        # the light the shading removal took (given or estimated)
         "light": None
         if material is None or material.light is None
         else [material.light.azimuth, material.light.elevation],
@@ -54,8 +49,10 @@ def run_report(photo, options: GenerateOptions, wrap, labels_in, label_result, r
             "angles": sorted(set(result.orientation.angles)),
             "scales": sorted(set(result.orientation.scales)),
         },
+        "material_options": option_values(photo_material_options(options, wrap)) if options.material else None,
         "timings_s": {name: round(value, 3) for name, value in timings.items()},
     }
+    return report | found
 
 
 def preview_sheet(photo: np.ndarray, result, tile_size: int = 320) -> np.ndarray:

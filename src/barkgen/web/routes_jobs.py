@@ -26,7 +26,7 @@ from fastapi.responses import StreamingResponse
 from pydantic import BaseModel, Field, create_model
 
 from barkgen._shared.checks import parse_size
-from barkgen._shared.options import OptionField, option_fields
+from barkgen._shared.options import OptionField, option_fields, option_schema
 from barkgen.errors import InvalidInputError
 from barkgen.io import AlphaDroppedWarning, decode_image
 from barkgen.labels.preview import label_colours
@@ -325,23 +325,14 @@ async def job_event_stream(
 
 # -- endpoints ------------------------------------------------------------------------------
 def web_options(state: AppState) -> dict:
-    """What the generate form offers: every option of :class:`~barkgen.pipeline.GenerateOptions`
-    the web has, with its default (the CLI's own), help, choices and range; the server's largest
-    output side, the k the pages offer and the material set's layouts."""
-    fields = [
-        {
-            "name": f.name,
-            "default": WEB_DEFAULTS.get(f.name, f.default_text),
-            "help": f.info.help,
-            "kind": f.info.kind.__name__,
-            "choices": list(f.info.choices) if f.info.choices else None,
-            "minimum": f.info.minimum,
-            "maximum": f.info.maximum,
-        }
-        for f in option_fields(GenerateOptions, "web")
-    ]
+    """What the generate form offers, the source of its fields (``exemplar.js`` builds a control
+    for every option it has none of its own for): every option of
+    :class:`~barkgen.pipeline.GenerateOptions` the web has, with its kind, default (the CLI's
+    own), range, choices, help, form group and the option it needs
+    (:func:`barkgen._shared.options.option_schema`); the server's largest output side, the k
+    the pages offer and the material set's layouts."""
     return {
-        "fields": fields,
+        "fields": option_schema(GenerateOptions, "web", WEB_DEFAULTS),
         "max_output_side": state.limits.max_output_side,
         "k_range": list(WEB_K),
         "presets": list(PRESETS),

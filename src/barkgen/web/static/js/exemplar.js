@@ -14,6 +14,11 @@ let K_MAX = 8;
 let MAX_SIDE = 4096;
 /** The material set's real-world width in metres: the option's range (from /api/options). */
 let WIDTH_M = [0.001, 1000];
+/** The generate options the server offers (GET /api/options: name, kind, default, range,
+ * choices, help, group, needs), in their declared order: the form's fields. */
+let FIELDS = [];
+/** The options the kind select sets (structure, model) and those the page reads itself. */
+const KIND_GROUP = "kind";
 /** The kinds of bark and the option values each is (structure, model). */
 const KINDS = {
   labels: { structure: "labels", model: "patches" },
@@ -188,8 +193,109 @@ function setMaterialValues({ relief, equalize_light: light, width_m: width }) {
   if (width !== undefined) $("param-width-m").value = isNumber(width) ? String(Number(width)) : "";
 }
 
+/** The control of an option: the page's own (`param-NAME`: the size's width × height, the
+ * sliders, the selects) or one built from its declaration. */
+const controlOf = (name) => $(`param-${name.replaceAll("_", "-")}`);
+
+/** "label_weight" → "Label weight". */
+const labelOf = (name) => name.charAt(0).toUpperCase() + name.slice(1).replaceAll("_", " ");
+
+/** A plain control for an option the page has no control of its own for, from its declaration:
+ * a select of its choices, a check box, or a number or text field with its range. */
+function buildControl(field) {
+  const testid = `param-${field.name.replaceAll("_", "-")}`;
+  const common = { name: field.name, "data-testid": testid, title: field.help, dataset: { option: "built" } };
+  if (field.kind === "bool") {
+    return el(
+      "label",
+      { class: "field field-check" },
+      el("input", { type: "checkbox", ...common }),
+      el("span", { class: "check-text" }, el("span", { class: "field-label", text: labelOf(field.name) }))
+    );
+  }
+  let input;
+  if (field.choices) {
+    input = el("select", common, ...field.choices.map((c) => el("option", { value: c, text: c })));
+  } else if (field.kind === "int" || field.kind === "float") {
+    input = el("input", {
+      type: "number",
+      ...common,
+      min: field.minimum ?? null,
+      max: field.maximum ?? null,
+      step: field.kind === "int" ? "1" : "any",
+      inputmode: field.kind === "int" ? "numeric" : "decimal",
+    });
+  } else {
+    input = el("input", { type: "text", ...common, placeholder: field.default === null ? "default" : null });
+  }
+  return el("label", { class: "field" }, el("span", { class: "field-label", text: labelOf(field.name) }), input);
+}
+
+/** The section that holds an option's built control: the main form, More settings, or an
+ * Advanced section inside it (made when an option asks for it). */
+function sectionOf(group) {
+  if (!group) return { holder: $("params-form"), before: $("more-settings") };
+  if (group === "more") return { holder: $("more-settings"), before: null };
+  let section = document.querySelector(`[data-testid="${group}-settings"]`);
+  if (!section) {
+    section = el("details", { class: "more", "data-testid": `${group}-settings` }, el("summary", { text: labelOf(group) }));
+    $("more-settings").append(section);
+  }
+  return { holder: section, before: null };
+}
+
+/** The form's fields from the options the server offers: each option without a control of the
+ * page's own gets one built from its declaration, in its group's section, two to a row. */
+function buildFields(fields) {
+  FIELDS = fields;
+  const rows = new Map();
+  for (const field of fields) {
+    if (field.group === KIND_GROUP || field.name === "size" || controlOf(field.name)) continue;
+    const { holder, before } = sectionOf(field.group);
+    let row = rows.get(holder);
+    if (!row || row.children.length >= 2) {
+      row = el("div", { class: "field-row" });
+      holder.insertBefore(row, before);
+      rows.set(holder, row);
+    }
+    row.append(buildControl(field));
+  }
+}
+
+/** Set a built control to a value (a default, the URL's, a job's). */
+function setBuilt(field, value) {
+  const control = controlOf(field.name);
+  if (!control || control.dataset.option !== "built" || value === undefined) return;
+  if (field.kind === "bool") control.checked = value === true || value === "1" || value === "true";
+  else control.value = value === null ? "" : String(value);
+}
+
+/** A built control's value for the job, or undefined where it is the option's default (a
+ * job's params hold the options it changed) or empty; throws Error(message) when out of range. */
+function readBuilt(field) {
+  const control = controlOf(field.name);
+  if (!control || control.dataset.option !== "built" || control.disabled) return undefined;
+  let value;
+  if (field.kind === "bool") value = control.checked;
+  else if (field.kind === "int" || field.kind === "float") {
+    const text = control.value.trim();
+    if (!text) return undefined;
+    value = Number(text);
+    const whole = field.kind === "int" ? Number.isInteger(value) : Number.isFinite(value);
+    if (!whole || (field.minimum !== null && value < field.minimum) || (field.maximum !== null && value > field.maximum)) {
+      const range = [field.minimum, field.maximum].map((v) => (v === null ? "" : v)).join(" to ");
+      throw new Error(`${labelOf(field.name)} must be a ${field.kind === "int" ? "whole " : ""}number (${range}).`);
+    }
+  } else {
+    value = control.value.trim();
+    if (!value) return undefined;
+  }
+  return value === field.default ? undefined : value;
+}
+
 /** The form's defaults: the options' own (shared with `barkgen generate`), then the URL's. */
 function applyDefaults(fields) {
+  buildFields(fields);
   const byName = Object.fromEntries(fields.map((f) => [f.name, f]));
   const initial = (name) => (byName[name] ? byName[name].default : undefined);
   setSize(initial("size"));
@@ -202,13 +308,14 @@ function applyDefaults(fields) {
   // the set's width within the option's own range (checked on Generate; the field's min stays 0,
   // so its arrows step by whole centimetres)
   if (byName.width_m) WIDTH_M = [byName.width_m.minimum ?? WIDTH_M[0], byName.width_m.maximum ?? WIDTH_M[1]];
-  // each control's help is the option's own (the CLI's --help says the same)
-  const help = {
-    k: "param-k", method: "param-method", strategy: "param-strategy", relief: "param-relief", tile: "param-tile",
-    material: "param-material", equalize_light: "param-equalize-light", width_m: "param-width-m",
-  };
-  for (const [name, testid] of Object.entries(help)) if (byName[name]) $(testid).title = byName[name].help;
+  // each control's help is the option's own (the CLI's --help says the same); the built ones
+  // start at their defaults
+  for (const field of fields) {
+    if (controlOf(field.name)) controlOf(field.name).title = field.help;
+    setBuilt(field, field.default);
+  }
   const q = new URLSearchParams(location.search);
+  for (const field of fields) if (q.has(field.name)) setBuilt(field, q.get(field.name));
   if (q.has("size")) setSize(q.get("size"));
   const k = Number(q.get("k"));
   if (q.has("k") && Number.isInteger(k) && k >= K_MIN && k <= K_MAX) $("param-k").value = String(k);
@@ -229,9 +336,11 @@ function applyDefaults(fields) {
 function updateFields() {
   $("relief-value").textContent = `${Number($("param-relief").value).toFixed(2)}×`;
   $("equalize-light-value").textContent = `${$("param-equalize-light").value} % out`;
-  const material = $("param-material").checked;
-  $("param-relief").disabled = !material;
-  $("param-width-m").disabled = !material;
+  // an option that applies under another (relief under material) is off while that one is
+  for (const field of FIELDS) {
+    const control = controlOf(field.name);
+    if (field.needs && control && controlOf(field.needs)) control.disabled = !controlOf(field.needs).checked;
+  }
 }
 
 /** The chosen kind's hint, and the fields it uses. */
@@ -323,6 +432,11 @@ function readParams() {
   };
   if (material) body.relief = Number($("param-relief").value);
   if (material && widthText) body.width_m = widthM;
+  // every other option the server offers, from its built control
+  for (const field of FIELDS) {
+    const value = readBuilt(field);
+    if (value !== undefined) body[field.name] = value;
+  }
   // the crack network as edited in the crack view is what the job learns from
   if (kind === "cracks" && cracks && cracks.edited()) body.crack_structure = cracks.structure();
   return body;
@@ -391,6 +505,7 @@ function showJobParams(params) {
   if (Number.isInteger(params.seed)) $("param-seed").value = String(params.seed);
   // a job's params hold the options it changed (the others are the defaults the form has)
   setMaterialValues({ relief: params.relief, equalize_light: params.equalize_light, width_m: params.width_m ?? null });
+  for (const field of FIELDS) setBuilt(field, field.name in params ? params[field.name] : field.default);
   const kind = params.structure === "cracks" ? "cracks" : params.model === "bilayer" ? "bilayer" : "labels";
   $("param-kind").value = kind;
   updateKind();
