@@ -1,6 +1,7 @@
-"""What the command groups share: the one-line error, the progress bar, the parsing of CLI-only
-strings, the checks of output paths, the writing of encoded files, and the options several
-commands take."""
+"""What the command groups share that is not an option of a run: the one-line error, the progress
+bar, the reading of inputs (CLI-only strings, edit lists, flow fields), the checks of output
+paths, the writing of encoded files, and the flags of the files several commands read and write.
+A run's options are the options classes' fields (:mod:`barkgen.cli._options`)."""
 
 from __future__ import annotations
 
@@ -375,30 +376,10 @@ def level_files(levels: list) -> dict[str, bytes]:
     return {f"level_{i}.png": encode_png(lvl) for i, lvl in enumerate(levels) if lvl is not None}
 
 
-# ------------------------------------------------------------------------ shared options
+# ------------------------------------------------------------------------ inputs and outputs several commands name
+# (what a run is made with: the options classes' fields, barkgen.cli._options)
 
 OutputOption = Annotated[Path, typer.Option("-o", "--output", help="Output PNG.")]
-SizeOption = Annotated[str, typer.Option("--size", help="Output size WIDTHxHEIGHT.")]
-TileOption = Annotated[bool, typer.Option("--tile", help="Make the output tile seamlessly.")]
-SeedOption = Annotated[int, typer.Option("--seed", min=0, help="Random seed (same seed, same bytes).")]
-KOption = Annotated[int, typer.Option("--k", help="Number of labels (1-16).")]
-ExemplarWrapsOption = Annotated[
-    str,
-    typer.Option(
-        "--exemplar-wraps",
-        help="auto: the photo is used as a torus along each axis along which it "
-        "tiles itself (its last row continues into its first), so pieces run on across its edge; "
-        "yes / no: force it.",
-    ),
-]
-BlendOption = Annotated[
-    str,
-    typer.Option(
-        "--blend",
-        help="gradient: the colour's seams between copied pieces blended in the gradient "
-        "domain (Pérez et al. 2003); none: every pixel an exact copy of the photo's.",
-    ),
-]
 ExtraOption = Annotated[
     Optional[list[str]],
     typer.Option(
@@ -413,14 +394,6 @@ SaveReferenceOption = Annotated[
 BitsOption = Annotated[
     Optional[int], typer.Option("--bits", help="Bits per channel of the output (8 or 16). Default: the exemplar's.")
 ]
-MaxMemoryOption = Annotated[
-    Optional[str],
-    typer.Option(
-        "--max-memory",
-        help="Refuse jobs estimated to need more memory than this, e.g. 8G (default: what the machine has free).",
-    ),
-]
-ThreadsOption = Annotated[Optional[int], typer.Option("--threads", min=1, help="Worker threads.")]
 QuietOption = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")]
 LibraryOption = Annotated[
     Optional[Path],
@@ -449,54 +422,6 @@ ExrHeightOption = Annotated[
 ]
 NameOption = Annotated[
     str, typer.Option("--name", help="Material set name: files NAME_Color.png, NAME_NormalGL.png, ..., NAME.json.")
-]
-ReliefOption = Annotated[
-    float,
-    typer.Option(
-        "--relief",
-        help="Relief strength of the estimated height (1 = as fitted on scanned bark; "
-        "2 doubles its depth and its slopes; normals and AO follow).",
-    ),
-]
-EqualizeLightOption = Annotated[
-    float,
-    typer.Option(
-        "--equalize-light",
-        help="How much of the photo's broad light (a trunk's curvature falloff, a light gradient, "
-        "dappled light) is taken out before anything learns from it: 1 all of it, 0 none (the "
-        "photo's light kept). Patches of another hue (moss, lichen) stay.",
-    ),
-]
-WidthMOption = Annotated[
-    Optional[float],
-    typer.Option(
-        "--width-m",
-        help="The set's real-world width in metres: its displacement's depth is given in metres "
-        "(NAME.json, NAME.mtlx, the Blender set-up). Default: the photo is assumed 0.5 m wide.",
-    ),
-]
-LightOption = Annotated[
-    Optional[str],
-    typer.Option(
-        "--light",
-        help="The photo's light AZ,EL in degrees (azimuth counter-clockwise from the "
-        "right, elevation above the surface) for shading removal. Default: estimated.",
-    ),
-]
-StrategyOption = Annotated[
-    str,
-    typer.Option(
-        "--strategy",
-        help="Output label maps: joint (the core engine on one-hot label channels and "
-        "the photo's colours; generate's default, shapes needs --photo), engine (label channels alone; "
-        "shapes' default) or layered (Rosenberger et al.'s layered shape synthesis, laitoch2018 §3.6).",
-    ),
-]
-RotationsOption = Annotated[
-    str,
-    typer.Option(
-        "--rotations", help="Layered strategy: boundary patches may turn none, vertical (180°) or all (90° steps)."
-    ),
 ]
 SaveLevelsOption = Annotated[
     Optional[Path],

@@ -8,20 +8,11 @@ from typing import Annotated, Optional
 
 import typer
 
-from barkgen._shared.checks import parse_size
-from barkgen._shared.memory import parse_memory
 from barkgen.cli._common import (
-    ExemplarWrapsOption,
-    MaxMemoryOption,
     OutputOption,
     QuietOption,
     ResumeOption,
-    RotationsOption,
     SaveLevelsOption,
-    SeedOption,
-    SizeOption,
-    StrategyOption,
-    TileOption,
     check_folder,
     check_target,
     level_files,
@@ -30,21 +21,25 @@ from barkgen.cli._common import (
     refuse_input_folder,
     write_outputs,
 )
+from barkgen.cli._options import option_flags
 from barkgen.errors import InvalidInputError
+from barkgen.pipeline import GenerateOptions
 
 
+@option_flags(GenerateOptions)  # (the canvas, the strategy, the seed and the memory)
 def shapes_command(
     labels: Annotated[Path, typer.Argument(help="Label map of the exemplar (lossless, grey).")],
     output: OutputOption,
-    size: SizeOption = "1024x1024",
-    strategy: StrategyOption = "engine",
+    *,
+    size: tuple[int, int],
+    strategy: str = "engine",
     photo: Annotated[
         Optional[Path],
         typer.Option(
             "--photo", help="The photo the label map belongs to (the joint strategy matches its colours too)."
         ),
     ] = None,
-    rotations: RotationsOption = "vertical",
+    rotations: str,
     layer_order: Annotated[
         Optional[str],
         typer.Option(
@@ -52,12 +47,12 @@ def shapes_command(
             help='Layered strategy: grey values bottom layer first, e.g. "255,0,128" (default: automatic).',
         ),
     ] = None,
-    tile: TileOption = False,
-    seed: SeedOption = 0,
+    tile: bool,
+    seed: int,
     save_levels: SaveLevelsOption = None,
     resume: ResumeOption = None,
-    exemplar_wraps: ExemplarWrapsOption = "auto",
-    max_memory: MaxMemoryOption = None,
+    exemplar_wrap: str,
+    max_memory: int | None,
     quiet: QuietOption = False,
 ) -> None:
     """Synthesize a new label map of any size from an exemplar's label map (laitoch2018 §3.6)."""
@@ -65,8 +60,7 @@ def shapes_command(
     from barkgen.shapes import Budget, Canvas, synthesize_label_map
     from barkgen.synth import resolve_exemplar_wrap
 
-    out_shape = parse_size(size)
-    memory = parse_memory(max_memory)
+    out_shape, memory = size, max_memory
     check_target(output, "output")
     if save_levels is not None:
         check_folder(save_levels, "--save-levels")
@@ -79,7 +73,7 @@ def shapes_command(
     photo_image = read_image(photo) if photo is not None else None
     edited = read_resume(resume) if resume is not None else None
     # "auto" is decided on the photo (or the label map) by synthesize_label_map
-    wrap = None if exemplar_wraps == "auto" else resolve_exemplar_wrap(exemplar_wraps, label_map)
+    wrap = None if exemplar_wrap == "auto" else resolve_exemplar_wrap(exemplar_wrap, label_map)
     with progress_bar(not quiet, "label map") as progress:
         result = synthesize_label_map(
             label_map,

@@ -3,29 +3,19 @@ laitoch2018 §3.4) and ``apply-reference`` (a saved reference map re-applied, §
 
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
 
-from barkgen._shared.checks import parse_size
-from barkgen._shared.memory import parse_memory
 from barkgen.cli._common import (
     BitsOption,
-    BlendOption,
-    ExemplarWrapsOption,
     ExtraOption,
     FlowOption,
     FlowScaleOption,
-    MaxMemoryOption,
     OutputOption,
     QuietOption,
     SaveReferenceOption,
-    SeedOption,
-    SizeOption,
-    ThreadsOption,
-    TileOption,
     check_bits,
     check_folder,
     check_target,
@@ -36,55 +26,58 @@ from barkgen.cli._common import (
     refuse_targets,
     write_outputs,
 )
+from barkgen.cli._options import option_flags, with_options
 from barkgen.errors import InvalidInputError
+from barkgen.pipeline import GenerateOptions
+from barkgen.synth import TBN_CONFIG, SynthesisConfig
 
 
+@option_flags(GenerateOptions)  # (the canvas: size, tile, seed, the photo's wrap)
+@with_options(SynthesisConfig, after="bits", into="config")
 def synth_command(
     exemplar: Annotated[
         Optional[Path],
         typer.Argument(help="Bark photo to learn from (PNG/JPEG/TIFF/WebP). Default: the bundled sample."),
     ] = None,
     output: OutputOption = Path("barkgen.png"),
-    size: SizeOption = "1024x1024",
-    tile: TileOption = False,
-    seed: SeedOption = 0,
+    *,
+    size: tuple[int, int],
+    tile: bool,
+    seed: int,
     extra: ExtraOption = None,
     save_reference: SaveReferenceOption = None,
     bits: BitsOption = None,
-    max_memory: MaxMemoryOption = None,
-    threads: ThreadsOption = None,
-    exemplar_wraps: ExemplarWrapsOption = "auto",
-    blend: BlendOption = "gradient",
+    exemplar_wrap: str,
     flow: FlowOption = None,
     flow_scale: FlowScaleOption = None,
     quiet: QuietOption = False,
+    config: SynthesisConfig,
 ) -> None:
     """Synthesize a new bark texture of any size from one exemplar photo (along an orientation
     and scale field with --flow / --flow-scale)."""
     from barkgen.data import sample_exemplar_path
     from barkgen.io import read_image
-    from barkgen.synth import Budget, Canvas, SynthesisConfig, synthesize
+    from barkgen.synth import Budget, Canvas, synthesize
 
-    out_shape = parse_size(size)
-    budget = parse_memory(max_memory)
     extra_paths = parse_extras(extra)
     _check_outputs(output, save_reference, bits, extra_paths)
     src = exemplar if exemplar is not None else sample_exemplar_path()
     image = read_image(src)
     extras = {name: read_image(p) for name, p in extra_paths.items()}
     fields = read_fields(flow, flow_scale)
-    config = SynthesisConfig(threads=threads, max_memory=budget, blend=blend)
     with progress_bar(not quiet, "synthesizing") as progress:
         result = synthesize(
             image,
             extra=extras,
             config=config,
-            canvas=Canvas(out_shape, tile=tile, exemplar_wrap=exemplar_wraps, **fields),
+            canvas=Canvas(size, tile=tile, exemplar_wrap=exemplar_wrap, **fields),
             budget=Budget(seed=seed, progress=progress),
         )
     _write_result(result, output, bits, save_reference, quiet)
 
 
+@option_flags(GenerateOptions)  # (the canvas, the seed and texture-by-numbers' weights)
+@with_options(SynthesisConfig, after="bits", into="config", base=TBN_CONFIG)
 def tbn_command(
     exemplar: Annotated[Path, typer.Argument(help="Bark photo to learn from.")],
     labels: Annotated[
@@ -97,18 +90,11 @@ def tbn_command(
     target: Annotated[Path, typer.Option("--target", help="Label map of the wanted output; sets the output size.")],
     output: OutputOption = Path("barkgen.png"),
     init: Annotated[str, typer.Option("--init", help="Initialisation: smart or random.")] = "smart",
-    label_weight: Annotated[
-        float,
-        typer.Option(
-            "--label-weight",
-            help="Weight w of the label term (laitoch2018 eq. 3.1), in units of the exemplar's colour variance.",
-        ),
-    ] = 20.0,
-    feature_weight: Annotated[
-        float, typer.Option("--feature-weight", help="Weight z of the feature-distance channel (eq. 3.3), same units.")
-    ] = 8.0,
-    tile: TileOption = False,
-    seed: SeedOption = 0,
+    *,
+    label_weight: float,
+    feature_weight: float,
+    tile: bool,
+    seed: int,
     extra: ExtraOption = None,
     save_reference: SaveReferenceOption = None,
     debug_dir: Annotated[
@@ -120,31 +106,18 @@ def tbn_command(
         ),
     ] = None,
     bits: BitsOption = None,
-    max_memory: MaxMemoryOption = None,
-    threads: ThreadsOption = None,
-    exemplar_wraps: ExemplarWrapsOption = "auto",
-    blend: BlendOption = "gradient",
+    exemplar_wrap: str,
     flow: FlowOption = None,
     flow_scale: FlowScaleOption = None,
-    edges: Annotated[
-        int,
-        typer.Option(
-            "--edges",
-            metavar="WIDTH",
-            help="Add one more label for the region edges, WIDTH px wide, to both label maps before "
-            "matching them (laitoch2018 §3.5.5); 0: none.",
-            min=0,
-            max=32,
-        ),
-    ] = 0,
+    edges: int,
     quiet: QuietOption = False,
+    config: SynthesisConfig,
 ) -> None:
     """Texture-by-numbers: synthesize bark that follows a target label map."""
 
     from barkgen.io import read_image
-    from barkgen.synth import TBN_CONFIG, Budget, Canvas, texture_by_numbers
+    from barkgen.synth import Budget, Canvas, texture_by_numbers
 
-    budget = parse_memory(max_memory)
     extra_paths = parse_extras(extra)
     _check_outputs(output, save_reference, bits, extra_paths)
     if debug_dir is not None:
@@ -154,9 +127,8 @@ def tbn_command(
     label_map = read_image(labels)
     target_map = read_image(target)
     if edges:
-        label_map, target_map = _with_edges(image, label_map, target_map, edges, tile, exemplar_wraps)
+        label_map, target_map = _with_edges(image, label_map, target_map, edges, tile, exemplar_wrap)
     extras = {name: read_image(p) for name, p in extra_paths.items()}
-    config = dataclasses.replace(TBN_CONFIG, threads=threads, max_memory=budget, blend=blend)
     with progress_bar(not quiet, "texture-by-numbers") as progress:
         result = texture_by_numbers(
             image,
@@ -168,7 +140,7 @@ def tbn_command(
             extra=extras,
             config=config,
             canvas=Canvas(
-                target_map.shape[:2], tile=tile, exemplar_wrap=exemplar_wraps, **read_fields(flow, flow_scale)
+                target_map.shape[:2], tile=tile, exemplar_wrap=exemplar_wrap, **read_fields(flow, flow_scale)
             ),
             budget=Budget(seed=seed, progress=progress, debug=_debug_writer(debug_dir)),
         )
