@@ -329,45 +329,35 @@ def generate(
         The bark photo (uint8, uint16 or float).
     options : GenerateOptions, optional
         Default: 1024x1024, k = 3, colour labels, joint label maps, not tileable, seed 0.
-    extra, labels_in, scan
-        Maps aligned with the photo (height, ...), synthesized along; the photo's label map,
-        when the user has one (``k`` and ``method`` are then unused); a scanned set whose
-        colour is ``photo``, whose own maps the output's material set carries through the
-        reference map instead of estimating them (needs ``options.material``). As for
-        :func:`analyze_photo`, to which an edited crack network is given.
+    extra, labels_in, scan, progress
+        As for :func:`analyze_photo` (to which an edited crack network is given); ``scan``'s
+        own maps are carried to the output's material set; ``progress`` covers the whole run.
     resume : ndarray or (int, ndarray), optional
-        An edited level of the output label map to continue from
-        (:func:`~barkgen.shapes.synthesize_label_map`).
-    progress : callable, optional
-        ``progress(done, total)`` callback over the whole run.
+        An edited level of the output label map to continue from (:func:`~barkgen.shapes.synthesize_label_map`).
     analysis : PhotoAnalysis, optional
         :func:`analyze_photo` of the same photo, extras and options (the seed aside): skips
-        the per-photo work, and the result is the same bytes as without it.
+        the per-photo work; the result is the same bytes as without it.
     canvas : Canvas, optional
-        The fields the bark follows, ``Canvas(options.size, tile=options.tile, flow=...)``:
-        ``flow``, ``flow_scale``, ``(H, W)`` orientation field (degrees, counter-clockwise on
-        screen: the photo's turn at each output pixel; an upright fissure runs at 90° + angle)
-        and scale field (1 = the photo's): the label map (engine and joint strategies) and the
-        texture follow them (mazzolini2012 §3.1.3), the material's normals turned with the
-        bark; ``links``, output pixels that take the references of others while the solvers
-        run (a texture atlas's gutters, :class:`barkgen.synth.OutputLinks`).
+        ``Canvas(options.size, tile=options.tile, flow=...)``: the ``flow`` and ``flow_scale``
+        fields (degrees counter-clockwise on screen, the photo's turn at each output pixel; 1 =
+        the photo's scale) the label map, the texture and the material's normals follow
+        (mazzolini2012 §3.1.3), and ``links`` (a texture atlas's gutters, :class:`~barkgen.synth.OutputLinks`).
     edits : iterable of HeightEdit, default ()
-        Height edits on the output's relief, in its pixels, replayed on its material set
-        (wang2003 §3.3; :func:`barkgen.material.edit_material`; needs ``options.material``).
+        Height edits on the output's relief, replayed on its material set (wang2003 §3.3;
+        :func:`barkgen.material.edit_material`; needs ``options.material``).
 
     Returns
     -------
     GenerateResult
     """
-    options, edits = options or GenerateOptions(), list(edits)
-    run, given = _run(options, progress, canvas), PhotoInputs(extra, labels_in, scan)
+    options, edits, given = options or GenerateOptions(), list(edits), PhotoInputs(extra, labels_in, scan)
+    run = _run(options, progress, canvas)
     check_run(photo, options, canvas, given, analysis, resume, edits)
     run = run.resolved(photo)
     if analysis is None:  # along a field the solvers analyse the photo's turned copies, not the photo
         analysis = _analysis_stage(photo, run, given, not run.canvas.along, run.progress("analysis"))
     source = analysis.exemplar.image if analysis.exemplar is not None else photo  # what is copied
-    timings = {"analysis": analysis.seconds}
-    t1 = time.perf_counter()
+    timings, t1 = {"analysis": analysis.seconds}, time.perf_counter()
     with thread_budget(options.threads):  # every pool sized, BLAS at one thread
         labels = _label_stage(run, analysis, source, resume)
         timings["labels_out"] = time.perf_counter() - t1
