@@ -324,7 +324,7 @@ async def job_event_stream(
 
 
 # -- endpoints ------------------------------------------------------------------------------
-def web_options(state: AppState) -> dict:
+def web_options(state: AppState, options_class: type = GenerateOptions) -> dict:
     """What the generate form offers, the source of its fields (``exemplar.js`` builds a control
     for every option it has none of its own for): every option of
     :class:`~barkgen.pipeline.GenerateOptions` the web has, with its kind, default (the CLI's
@@ -332,7 +332,7 @@ def web_options(state: AppState) -> dict:
     (:func:`barkgen._shared.options.option_schema`); the server's largest output side, the k
     the pages offer and the material set's layouts."""
     return {
-        "fields": option_schema(GenerateOptions, "web", WEB_DEFAULTS),
+        "fields": option_schema(options_class, "web", WEB_DEFAULTS),
         "max_output_side": state.limits.max_output_side,
         "k_range": list(WEB_K),
         "presets": list(PRESETS),
