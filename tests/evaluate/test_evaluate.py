@@ -196,6 +196,16 @@ def test_a_synthetic_step_scores_its_length():
     assert longest_seam(refs, tile=True) == 160  # round the output, its last row meets its first
 
 
+def test_evaluate_knows_when_the_photo_tiles_itself(photo):
+    h, w = photo.shape[:2]
+    refs = identity(h, w, 40, 70) % np.array([h, w])
+    shifted = np.roll(photo, (-40, -70), axis=(0, 1))
+    assert evaluate(shifted, photo, references=refs).largest_copy < 1.0
+    both = evaluate(shifted, photo, references=refs, photo_wraps=True)
+    assert both.largest_copy == 1.0 and both.longest_seam == 0
+    assert evaluate(shifted, photo, references=refs, photo_wraps=(True, False)).longest_seam == h
+
+
 def test_a_seam_round_a_tiled_output_counts_only_when_it_tiles():
     refs = identity(64, 64, 3, 5)
     assert longest_seam(refs) == 0
@@ -257,7 +267,8 @@ def folder(tmp_path_factory, photo):
     write_png(out / "texture.png", blocks)
     write_png(out / "edges.png", cv2.Canny(blocks, 50, 150))
     write_reference(out / "reference.png", refs, photo.shape[:2])
-    (out / "report.json").write_text(json.dumps({"tile": False, "exemplar_wrap": [False, False], "extras": ["edges"]}))
+    report = {"tile": False, "exemplar_wrap": [False, False], "extras": ["edges"]}
+    (out / "report.json").write_text(json.dumps(report))
     write_png(root / "photo.png", photo)
     return out
 

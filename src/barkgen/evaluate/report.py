@@ -95,15 +95,15 @@ class Evaluation:
         """The measures as a text table: one line each, its value and what good looks like."""
         rows = [
             ("size", f"{self.size[0]}x{self.size[1]}", ""),
-            ("coherence", _fmt(self.coherence), "Lab, lower is better (< 5: all of it looks like the photo)"),
-            ("completeness", _fmt(self.completeness), "Lab, lower is better (< 8: it shows all of the photo)"),
-            ("sharpness_ratio", _fmt(self.sharpness_ratio), "1 = as sharp as the photo (< 0.6: blurred)"),
-            ("colour_distance", _fmt(self.colour_distance), "Lab, lower is better (< 2: same colours)"),
+            ("coherence", _fmt(self.coherence), "Lab, lower is better (0 = every patch is in the photo)"),
+            ("completeness", _fmt(self.completeness), "Lab, lower is better (0 = all of the photo is shown)"),
+            ("sharpness_ratio", _fmt(self.sharpness_ratio), "1 = as sharp as the photo (< 0.5: blurred)"),
+            ("colour_distance", _fmt(self.colour_distance), "Lab, lower is better (< 1: the same colours)"),
             ("longest_line", f"{self.longest_line} px", f"the photo's own: {self.photo_longest_line} px"),
         ]
         if self.largest_copy is not None:
             rows += [
-                ("largest_copy", _fmt(self.largest_copy), "share of the result pasted in one piece (< 0.05)"),
+                ("largest_copy", _fmt(self.largest_copy), "share of the result pasted in one piece (1 = a plain copy)"),
                 ("longest_seam", f"{self.longest_seam} px", "longest straight border between pieces"),
                 ("border_step_ratio", _fmt(self.border_step_ratio), "1 = the borders between pieces are invisible"),
             ]
@@ -135,7 +135,7 @@ def evaluate(
     references: np.ndarray | None = None,
     maps: dict[str, np.ndarray] | None = None,
     tile: bool = False,
-    exemplar_wrap: tuple[int, int] | None = None,
+    photo_wraps: bool | tuple[bool, bool] = False,
     patch: int = 7,
 ) -> Evaluation:
     """Every measure of :mod:`barkgen.evaluate` that applies to a result.
@@ -152,8 +152,9 @@ def evaluate(
         and, with ``references``, its step ratio across piece borders.
     tile : bool, default False
         The result tiles (its edges meet).
-    exemplar_wrap : (int, int), optional
-        The photo's ``(h, w)`` when it tiles itself (see :func:`~barkgen.evaluate.piece_borders`).
+    photo_wraps : bool or (bool, bool), default False
+        The photo tiles itself (along its rows, its columns): references continue across its
+        edges. ``report.json``'s and ``GenerateResult.report``'s ``exemplar_wrap`` say it.
     patch : int, default 7
         The patch side of coherence and completeness, px.
 
@@ -180,7 +181,10 @@ def evaluate(
         longest_line=longest_line(res, tile=tile),
         photo_longest_line=longest_line(photo),
     )
-    wraps = dict(tile=tile, exemplar_wrap=exemplar_wrap)
+    rows_wrap, cols_wrap = photo_wraps if isinstance(photo_wraps, (tuple, list)) else (photo_wraps, photo_wraps)
+    photo_h, photo_w = np.shape(photo)[:2]
+    periods = (photo_h if rows_wrap else 0, photo_w if cols_wrap else 0)
+    wraps = dict(tile=tile, exemplar_wrap=periods if any(periods) else None)
     if references is not None:
         measured.update(
             largest_copy=largest_copy(references, **wraps),
@@ -206,7 +210,7 @@ def _folder_report(folder: Path) -> dict:
 
 def read_folder(folder: str | os.PathLike) -> dict:
     """What :func:`evaluate_folder` reads of a ``barkgen generate`` folder: ``texture``,
-    ``references`` (or None), ``exemplar_wrap`` (or None), ``tile`` and ``maps`` (the material
+    ``references`` (or None), ``photo_wraps`` (rows, columns), ``tile`` and ``maps`` (the material
     set's height, normals, AO and roughness, and the run's extra maps, by name).
 
     Raises
@@ -222,13 +226,12 @@ def read_folder(folder: str | os.PathLike) -> dict:
     if not (folder / TEXTURE_FILE).is_file():
         raise ImageReadError(f"{folder}: no {TEXTURE_FILE} (expected what barkgen generate wrote)")
     report = _folder_report(folder)
-    found: dict = {"texture": read_image(folder / TEXTURE_FILE), "references": None, "exemplar_wrap": None}
+    found: dict = {"texture": read_image(folder / TEXTURE_FILE), "references": None}
     found["tile"] = bool(report.get("tile", False))
+    wraps = report.get("exemplar_wrap")
+    found["photo_wraps"] = (bool(wraps[0]), bool(wraps[1])) if isinstance(wraps, list) and len(wraps) == 2 else False
     if (folder / REFERENCE_FILE).is_file():
-        found["references"], photo_shape = read_reference(folder / REFERENCE_FILE)
-        wraps = report.get("exemplar_wrap")
-        if photo_shape is not None and isinstance(wraps, list) and len(wraps) == 2 and all(wraps):
-            found["exemplar_wrap"] = photo_shape
+        found["references"], _ = read_reference(folder / REFERENCE_FILE)
     maps: dict[str, np.ndarray] = {}
     for extra in report.get("extras") or []:
         if (folder / f"{extra}.png").is_file():
@@ -270,5 +273,5 @@ def evaluate_folder(folder: str | os.PathLike, photo: np.ndarray | str | os.Path
         references=found["references"],
         maps=found["maps"],
         tile=found["tile"],
-        exemplar_wrap=found["exemplar_wrap"],
+        photo_wraps=found["photo_wraps"],
     )

@@ -52,7 +52,7 @@ def piece_borders(
         The output tiles: its last row and column border its first.
     exemplar_wrap : (int, int), optional
         The photo's ``(h, w)`` when it tiles itself (``report.json``'s ``exemplar_wrap``):
-        references continue across its edges.
+        references continue across its edges; 0 for an axis along which it does not.
     tolerance : int, default 0
         Px by which a neighbour's reference may miss the continuing one and still continue the
         piece.
@@ -142,8 +142,10 @@ def piece_labels(
     h, w = ry.shape
     oy = ry - np.arange(h)[:, None]
     ox = rx - np.arange(w)[None, :]
-    if exemplar_wrap:
-        oy, ox = np.mod(oy, exemplar_wrap[0]), np.mod(ox, exemplar_wrap[1])
+    if exemplar_wrap and exemplar_wrap[0]:
+        oy = np.mod(oy, exemplar_wrap[0])
+    if exemplar_wrap and exemplar_wrap[1]:
+        ox = np.mod(ox, exemplar_wrap[1])
     _, key = np.unique(np.stack((oy.ravel(), ox.ravel()), 1), axis=0, return_inverse=True)
     labels = label(key.reshape(h, w) + 1, background=0, connectivity=1) - 1
     if not tile:
