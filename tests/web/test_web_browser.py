@@ -333,7 +333,7 @@ def test_cracks_and_bilayer_from_the_form_with_every_control(server, browser, tm
     page.get_by_test_id("param-height").fill("128")
     page.get_by_test_id("param-tile").check()
     page.get_by_test_id("param-material").check()
-    page.get_by_test_id("more-settings").locator("summary").click()
+    page.get_by_test_id("more-settings").locator(":scope > summary").click()
     page.get_by_test_id("param-relief").evaluate(
         "el => { el.value = 1.5; el.dispatchEvent(new Event('input', {bubbles: true})); }"
     )
@@ -429,7 +429,7 @@ def test_photo_light_and_width_from_the_form_reach_the_set_and_come_back(server,
     page_labels = page.request.get(f"{server}api/exemplars/{exemplar['id']}/labels.png?k=3").body()
     fields = {f["name"]: f for f in page.request.get(f"{server}api/options").json()["fields"]}
     light, width = page.get_by_test_id("param-equalize-light"), page.get_by_test_id("param-width-m")
-    page.get_by_test_id("more-settings").locator("summary").click()
+    page.get_by_test_id("more-settings").locator(":scope > summary").click()
     assert light.input_value() == "100" and page.get_by_test_id("equalize-light-value").text_content() == "100 % out"
     assert light.get_attribute("title") == fields["equalize_light"]["help"]
     assert width.get_attribute("title") == fields["width_m"]["help"]
@@ -485,7 +485,7 @@ def test_painter_over_the_bark_with_undo_redo_and_fill(server, browser):
     page.get_by_test_id("param-tile").check()
     page.get_by_test_id("param-seed").fill("4")
     # texton labels (the label map on the page follows) and the label-only engine's shapes
-    page.get_by_test_id("more-settings").locator("summary").click()
+    page.get_by_test_id("more-settings").locator(":scope > summary").click()
     page.get_by_test_id("param-method").select_option("texton")
     page.wait_for_function(
         "() => { const i = document.querySelector('[data-testid=labels-in]');"
@@ -549,6 +549,68 @@ def test_painter_over_the_bark_with_undo_redo_and_fill(server, browser):
     if neighbour_same:  # the pixel right of the corner was in its region: filled with it
         assert canvas.evaluate(same_as_corner)
     _shot(page, "web_painter_1366x768", full_page=True)
+    page.close()
+
+
+def test_the_form_builds_its_fields_from_the_options_the_server_offers(server, browser):
+    """The form's fields come from ``/api/options``: an option the page has no control of its
+    own for (a new one: here added to the server's answer) gets one built from its declaration,
+    in its group's section, with its range and help; a changed value goes into the job request,
+    an unchanged one is left to the server's default, one out of range is refused in one line."""
+    page = browser.new_page()
+    dummy = {
+        "name": "dummy_strength",
+        "kind": "float",
+        "default": 0.5,
+        "minimum": 0,
+        "maximum": 2,
+        "choices": None,
+        "help": "A test's option.",
+        "group": "advanced",
+        "needs": None,
+    }
+
+    def add_dummy(route):
+        answer = route.fetch().json()
+        answer["fields"].append(dummy)
+        route.fulfill(json=answer)
+
+    sent = []
+
+    def capture(route):
+        if route.request.method != "POST":
+            route.continue_()
+            return
+        sent.append(route.request.post_data_json)
+        route.fulfill(status=400, json={"detail": "captured by the test"})
+
+    page.route("**/api/options", add_dummy)
+    page.route("**/api/jobs", capture)
+    page.goto(server)
+    page.get_by_test_id("exemplar-card").first.click()
+    page.wait_for_url(re.compile(r"/exemplars/\d+"))
+    page.wait_for_selector("[data-testid=param-kind][data-kinds='1']", timeout=60_000)
+    page.get_by_test_id("more-settings").locator(":scope > summary").click()
+    page.get_by_test_id("advanced-settings").locator(":scope > summary").click()
+    control = page.get_by_test_id("param-dummy-strength")
+    assert control.is_visible() and control.get_attribute("title") == "A test's option."
+    assert (control.get_attribute("min"), control.get_attribute("max"), control.input_value()) == ("0", "2", "0.5")
+    # the page's own controls stay as they were; the web options without one are built
+    for testid in ("param-relief", "param-equalize-light", "param-width-m", "param-method", "param-strategy"):
+        assert page.get_by_test_id(testid).get_attribute("data-option") is None, testid
+    for testid in ("param-rotations", "param-label-weight", "param-blend", "param-light"):
+        assert page.get_by_test_id(testid).get_attribute("data-option") == "built", testid
+    assert page.get_by_test_id("param-light").is_disabled()  # it needs the material maps
+    control.fill("1.25")
+    page.get_by_test_id("generate").click()
+    page.get_by_test_id("generate-error").wait_for()
+    body = sent[-1]
+    assert body["dummy_strength"] == 1.25 and "label_weight" not in body and "rotations" not in body
+    assert body["method"] == "color" and body["structure"] == "labels" and "relief" not in body
+    control.fill("3")
+    page.get_by_test_id("generate").click()
+    assert "Dummy strength must be a number (0 to 2)" in page.get_by_test_id("generate-error").text_content()
+    assert len(sent) == 1
     page.close()
 
 
