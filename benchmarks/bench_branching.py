@@ -15,8 +15,8 @@ recorded as a merge; junctions (furcations + merges) and free ends (branch ends 
 nothing, away from the border) per megapixel, source vs grown.
 With ``--render``: the render of the first seed's structure at ``--size``² (median time of
 ``--render-repeats`` renders), the core engine's plain synthesis of the same image at the
-same size (timed in the same process: how fast the machine was), texeval coherence and
-sharpness of the render against the plain synthesis, and crack continuity: mean luminance
+same size (timed in the same process: how fast the machine was), coherence and sharpness
+(:mod:`barkgen.evaluate`) of the render against the plain synthesis, and crack continuity: mean luminance
 along the grown skeleton in the render over mean luminance along the source skeleton in the
 image.
 """
@@ -89,7 +89,7 @@ def skeleton_luminance(image: np.ndarray, structure) -> float:
 
 
 def run_image(
-    path: Path, size: int, seeds: list[int], render: bool, sheets: Path | None, texeval, render_repeats: int = 3
+    path: Path, size: int, seeds: list[int], render: bool, sheets: Path | None, render_repeats: int = 3
 ) -> dict:
     from barkgen.branching.extract import extract_structure, overlay_structure
     from barkgen.branching.grow import grow_structure
@@ -153,12 +153,12 @@ def run_image(
         row["plain_s"] = time.perf_counter() - t0  # the core engine, same size, same process
         out = result.image if result.image.shape[2] == 3 else np.repeat(result.image, 3, axis=2)
         plain3 = plain if plain.shape[2] == 3 else np.repeat(plain, 3, axis=2)
-        ev = texeval.TexEval(rgb)
-        r_out, r_plain = ev.evaluate(out), ev.evaluate(plain3)
-        row["coherence"] = r_out["coherence"]
-        row["coherence_plain"] = r_plain["coherence"]
-        row["coherence_ratio"] = r_out["coherence"] / r_plain["coherence"]
-        row["sharpness_ratio"] = r_out["sharpness_ratio"] / r_plain["sharpness_ratio"]
+        from barkgen.evaluate import coherence, sharpness_ratio
+
+        row["coherence"] = coherence(out, rgb)
+        row["coherence_plain"] = coherence(plain3, rgb)
+        row["coherence_ratio"] = row["coherence"] / row["coherence_plain"]
+        row["sharpness_ratio"] = sharpness_ratio(out, rgb) / sharpness_ratio(plain3, rgb)
         row["crack_lum_ratio"] = skeleton_luminance(out, grown[0]) / skeleton_luminance(rgb, source)
         if sheets is not None:
             write_png(sheets / f"{path.stem}_render.png", out)
@@ -177,16 +177,12 @@ def main() -> None:
     parser.add_argument("--render-repeats", type=int, default=3, help="renders timed per image (median)")
     parser.add_argument("--images", nargs="*", help="only these image stems")
     args = parser.parse_args()
-    texeval = None
-    if args.render:
-        sys.path.insert(0, str(SHARED / "eval"))
-        import texeval
     rows = []
     for path in IMAGES:
         if args.images and path.stem not in args.images:
             continue
         rows.append(
-            run_image(path, args.size, list(range(args.seeds)), args.render, args.sheets, texeval, args.render_repeats)
+            run_image(path, args.size, list(range(args.seeds)), args.render, args.sheets, args.render_repeats)
         )
         r = rows[-1]
         print(

@@ -15,8 +15,8 @@ spacing has no fissure to turn) plus a band turned by 45°. Measured:
   window a fissure period, found from the photo's spectrum) against the photo's own dominant
   direction turned by the field: median and 90th percentile of the angular error, over every
   pixel; the same for plain synthesis (no field) as the baseline the field must beat;
-- where the field is constant: outputs along a field of 0° and of 30° everywhere, the team's
-  texeval coherence of each (against the photo turned as the field says: the atlas's one copy)
+- where the field is constant: outputs along a field of 0° and of 30° everywhere, the
+  coherence of each (:func:`barkgen.evaluate.coherence`) (against the photo turned as the field says: the atlas's one copy)
   over plain synthesis's (against the photo), same seed, same run: the ratios;
 - seconds of the run along the whirl and of the plain one, in the same process.
 
@@ -100,9 +100,7 @@ def dominant(directions: np.ndarray) -> float:
 
 
 def run_case(name: str, size: int, mode: str, seed: int = 0) -> dict:
-    sys.path.insert(0, str(SHARED / "eval"))
-    import texeval
-
+    from barkgen.evaluate import coherence
     from barkgen.io import read_image
     from barkgen.pipeline import GenerateOptions, generate
     from barkgen.synth import Budget, Canvas, synthesize
@@ -127,14 +125,14 @@ def run_case(name: str, size: int, mode: str, seed: int = 0) -> dict:
     wanted = own + field
     error = angle_error(orientation(along, period), wanted)
     plain_error = angle_error(orientation(plain, period), wanted)
-    plain_coherence = texeval.evaluate(photo, plain)["coherence"]
+    plain_coherence = coherence(plain, photo)
     ratios = {}
     for angle in (0.0, 30.0):
         constant = np.full((size, size), angle, np.float32)
         turned = synthesize(photo, canvas=Canvas((size, size), flow=constant), budget=Budget(seed=seed))
         oriented = turned.orientation
         copy = oriented.atlas(photo)[oriented.margin : oriented.margin + oriented.copy_shape[0]]
-        ratios[angle] = texeval.evaluate(copy, turned.image)["coherence"] / plain_coherence
+        ratios[angle] = coherence(turned.image, copy) / plain_coherence
     return {
         "photo": name,
         "size": size,
