@@ -181,9 +181,7 @@ def main() -> None:
     for path in IMAGES:
         if args.images and path.stem not in args.images:
             continue
-        rows.append(
-            run_image(path, args.size, list(range(args.seeds)), args.render, args.sheets, args.render_repeats)
-        )
+        rows.append(run_image(path, args.size, list(range(args.seeds)), args.render, args.sheets, args.render_repeats))
         r = rows[-1]
         print(
             f"{r['image']:26s} extract {r['extract_s']:5.2f}s  grow {r['grow_s']:5.2f}s  "
