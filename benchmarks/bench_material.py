@@ -28,7 +28,8 @@ which no height field can beat, and the correlation of that height's AO.
 
 Shading (every photo of ``../shared/data/bark``): correlation of luminance with the estimated
 ``N·L`` before (photo) and after (albedo) shading removal (target: at least halved), and
-texeval's sharpness ratio of the albedo against the photo (target >= 0.85).
+the albedo's RMS gradient of lightness over the photo's (the square root of
+:func:`barkgen.evaluate.sharpness_ratio`, a ratio of gradient energies; target >= 0.85).
 
 Speed: ``make_material`` on a 1024^2 photo (target <= 10 s) and ``render_trunk`` at 1024^2
 (target <= 5 s), medians over ``--runs``, next to the Sobel normal map in the same process.
@@ -314,11 +315,7 @@ def truth_table() -> list[dict]:
 
 
 def shading_table(previews: Path | None) -> list[dict]:
-    sys.path.insert(0, str(SHARED / "eval"))
-    import texeval
-
-    def sharp(rgb: np.ndarray) -> float:
-        return float(texeval._grad_mag(texeval.rgb_to_lab(rgb)[..., 0]).mean())
+    from barkgen.evaluate import sharpness_ratio
 
     rows = []
     for path in sorted((SHARED / "data" / "bark").glob("*.*")):
@@ -334,7 +331,7 @@ def shading_table(previews: Path | None) -> list[dict]:
             "strength": material.shading_strength,
             "corr_photo": float(np.corrcoef(lum_photo, shade.ravel())[0, 1]),
             "corr_albedo": float(np.corrcoef(lum_albedo, shade.ravel())[0, 1]),
-            "sharpness": sharp(material.color) / sharp(photo),
+            "sharpness": float(np.sqrt(sharpness_ratio(material.color, photo))),
         }
         rows.append(row)
         print(
