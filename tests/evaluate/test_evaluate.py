@@ -29,6 +29,7 @@ from barkgen.evaluate import (
     piece_labels,
     seam_mask,
     sharpness_ratio,
+    wrap_step_ratio,
 )
 
 BLOCK = 32
@@ -204,6 +205,19 @@ def test_evaluate_knows_when_the_photo_tiles_itself(photo):
     both = evaluate(shifted, photo, references=refs, photo_wraps=True)
     assert both.largest_copy == 1.0 and both.longest_seam == 0
     assert evaluate(shifted, photo, references=refs, photo_wraps=(True, False)).longest_seam == h
+
+
+def test_the_border_of_a_tiling_image_is_measured_when_it_repeats(photo256):
+    half = photo256[:, :128]  # its left and right edges are unrelated
+    assert wrap_step_ratio(half) > 1.5
+    rolled = np.roll(photo256, (90, 50), axis=(0, 1))  # the sample tiles itself: any roll does too
+    assert wrap_step_ratio(rolled) == pytest.approx(1.0, abs=0.2)
+    # a ramp along the rows: steps of 1/63 between columns and 0 between rows inside (mean 1/126);
+    # across the wrap, 1 from the last column to the first and 0 from the last row (mean 1/2)
+    ramp = np.tile(np.linspace(0, 1, 64), (64, 1))
+    assert wrap_step_ratio(ramp) == pytest.approx(63.0)
+    assert evaluate(half, photo256, tile=True).wrap_step_ratio > 1.5
+    assert evaluate(half, photo256).wrap_step_ratio is None
 
 
 def test_a_seam_round_a_tiled_output_counts_only_when_it_tiles():

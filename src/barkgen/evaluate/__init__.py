@@ -9,13 +9,14 @@ wants to know of a synthesised bark texture (``barkgen evaluate OUT --photo P``)
   :func:`seam_mask`, :func:`longest_seam` (the longest straight border between pieces),
   :func:`border_step_ratio` (how visible the borders are in an image or map) and
   :func:`border_distance`;
-- from the pixels alone: :func:`longest_line`, the longest straight line in any image or map;
+- from the pixels alone: :func:`longest_line`, the longest straight line in any image or map,
+  and :func:`wrap_step_ratio`, how visible a tiling image's border is when it repeats;
 - :func:`evaluate` and :func:`evaluate_folder`: all of them at once, as an :class:`Evaluation`.
 
 The guide is ``docs/guide/evaluate.md``.
 """
 
-from barkgen.evaluate.lines import line_mask, longest_line
+from barkgen.evaluate.lines import line_mask, longest_line, wrap_step_ratio
 from barkgen.evaluate.patches import (
     as_lab,
     coherence,
@@ -60,4 +61,5 @@ __all__ = [
     "read_folder",
     "seam_mask",
     "sharpness_ratio",
+    "wrap_step_ratio",
 ]

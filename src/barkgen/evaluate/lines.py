@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
-from barkgen.evaluate.patches import as_unit_image
+from barkgen.evaluate.patches import as_lab, as_unit_image
 from barkgen.evaluate.seams import longest_run
 
 #: the boundaries either side a step is compared with, px
@@ -113,3 +113,24 @@ def longest_line(image: np.ndarray, *, tile: bool = False) -> int:
     """
     across_cols, across_rows = line_mask(image, tile=tile)
     return max(longest_run(across_cols.T, wrap=tile), longest_run(across_rows, wrap=tile))
+
+
+def wrap_step_ratio(image: np.ndarray) -> float:
+    """How visible the border of a tiling image is when tiled: the mean step (CIELAB norm for a
+    colour image; the norm over channels for a map) between its last column and its first and
+    its last row and its first, over the mean step between neighbouring columns and rows inside.
+
+    1 means the tiles meet as seamlessly as the image's own pixels; 2 and more shows a grid of
+    seams when the texture repeats. For an image that does not tile the figure is not meaningful
+    (a photo's opposite edges are unrelated: several times 1).
+    """
+    img = as_unit_image(image)
+    if img.shape[2] == 3:
+        img = as_lab(image).astype(np.float64)
+    across, inside = [], []
+    for axis in (0, 1):
+        steps = np.sqrt(np.sum(np.diff(img, axis=axis) ** 2, axis=2))
+        edge = np.take(img, [0], axis=axis) - np.take(img, [-1], axis=axis)
+        across.append(np.sqrt(np.sum(edge**2, axis=2)).ravel())
+        inside.append(steps.ravel())
+    return float(np.concatenate(across).mean() / max(float(np.concatenate(inside).mean()), 1e-12))

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from barkgen.errors import ImageReadError, InvalidInputError
-from barkgen.evaluate.lines import longest_line
+from barkgen.evaluate.lines import longest_line, wrap_step_ratio
 from barkgen.evaluate.patches import coherence, colour_distance, completeness, sharpness_ratio
 from barkgen.evaluate.seams import border_step_ratio, largest_copy, longest_seam
 
@@ -58,6 +58,8 @@ class Evaluation:
         px, the result's own straight lines (:func:`~barkgen.evaluate.longest_line`).
     photo_longest_line : int
         px, the photo's, to compare with.
+    wrap_step_ratio : float or None
+        When the result tiles: :func:`~barkgen.evaluate.wrap_step_ratio`, 1 = seamless.
     largest_copy, longest_seam, border_step_ratio
         From the reference map, when there is one.
     maps : dict of str to MapEvaluation
@@ -71,6 +73,7 @@ class Evaluation:
     colour_distance: float
     longest_line: int
     photo_longest_line: int
+    wrap_step_ratio: float | None = None
     largest_copy: float | None = None
     longest_seam: int | None = None
     border_step_ratio: float | None = None
@@ -101,6 +104,8 @@ class Evaluation:
             ("colour_distance", _fmt(self.colour_distance), "Lab, lower is better (< 1: the same colours)"),
             ("longest_line", f"{self.longest_line} px", f"the photo's own: {self.photo_longest_line} px"),
         ]
+        if self.wrap_step_ratio is not None:
+            rows.append(("wrap_step_ratio", _fmt(self.wrap_step_ratio), "1 = the tiles meet without a seam"))
         if self.largest_copy is not None:
             rows += [
                 ("largest_copy", _fmt(self.largest_copy), "share of the result pasted in one piece (1 = a plain copy)"),
@@ -180,6 +185,7 @@ def evaluate(
         colour_distance=colour_distance(res, photo),
         longest_line=longest_line(res, tile=tile),
         photo_longest_line=longest_line(photo),
+        wrap_step_ratio=wrap_step_ratio(res) if tile else None,
     )
     rows_wrap, cols_wrap = photo_wraps if isinstance(photo_wraps, (tuple, list)) else (photo_wraps, photo_wraps)
     photo_h, photo_w = np.shape(photo)[:2]
