@@ -441,7 +441,7 @@ def _finished(run: Run, analysis: PhotoAnalysis, source, labels: _Labels, result
     bi-layer texture's new noise added), the height edits replayed on the material set
     (wang2003 §3.3), and the report."""
     options, exemplar = run.options, analysis.exemplar
-    texture, layers, material = run.model.finish(result, material, exemplar, options.seed)
+    texture, layers, material = run.model.finish(result, material, exemplar, run.budget)
     if edits and material is not None:
         from barkgen.material import edit_material
 

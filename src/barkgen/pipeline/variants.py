@@ -169,7 +169,7 @@ class Patches:
         """None: the structure variant's exemplar is the photo's."""
         return None
 
-    def finish(self, result: Any, material: Any, exemplar: Exemplar, seed: int) -> tuple[np.ndarray, dict, Any]:
+    def finish(self, result: Any, material: Any, exemplar: Exemplar, budget: Budget) -> tuple[np.ndarray, dict, Any]:
         """The texture, no layers, the material set as it is."""
         return result.image, {}, material
 
@@ -182,12 +182,13 @@ class Bilayer:
     def exemplar(self, photo: np.ndarray, options: GenerateOptions, progress=None) -> Exemplar:
         """The photo's bi-layer model, its structure layer what the engine copies
         (``progress``: the analysis' ``(done, total)``)."""
-        return _bilayer_exemplar(photo, options, ANALYSIS_SEED, progress)
+        return _bilayer_exemplar(photo, options, progress)
 
-    def finish(self, result: Any, material: Any, exemplar: Exemplar, seed: int) -> tuple[np.ndarray, dict, Any]:
+    def finish(self, result: Any, material: Any, exemplar: Exemplar, budget: Budget) -> tuple[np.ndarray, dict, Any]:
         """The new noise added (guingo2017 eq. 6: P' + sum M'_k N_k, the material's albedo
-        too); the layers ``structure``, ``noise`` and ``masks``."""
-        noise, masks = bilayer_layers(exemplar.bilayer, result.references, seed)
+        too; its white noise from the run's seed); the layers ``structure``, ``noise`` and
+        ``masks``."""
+        noise, masks = bilayer_layers(exemplar.bilayer, result.references, budget.seed)
         texture = add_noise(result.image, noise)
         if material is not None:  # the structure layer's maps; its albedo with the new noise
             material = dataclasses.replace(material, color=np.clip(material.color + noise, 0.0, 1.0))
@@ -201,13 +202,16 @@ def variants(options: GenerateOptions) -> tuple[PhotoLabels | Cracks, Patches | 
     return structure, Bilayer() if options.model == "bilayer" else Patches()
 
 
-def _bilayer_exemplar(photo: np.ndarray, options: GenerateOptions, seed: int, progress=None) -> Exemplar:
-    """The photo's bi-layer model; its structure layer in the photo's dtype, and its clusters
-    as a label map, darkest cluster first (the height's label cue)."""
+def _bilayer_exemplar(photo: np.ndarray, options: GenerateOptions, progress=None) -> Exemplar:
+    """The photo's bi-layer model (its clusters from :data:`ANALYSIS_SEED`: the photo's own, not
+    a variant's); its structure layer in the photo's dtype, and its clusters as a label map,
+    darkest cluster first (the height's label cue)."""
     from barkgen.bilayer import AnalysisOptions, analyze
     from barkgen.labels.regions import order_by_luminance, to_label_image
 
-    model = analyze(photo, AnalysisOptions(k=options.k, seed=seed, max_memory=options.max_memory), progress=progress)
+    model = analyze(
+        photo, AnalysisOptions(k=options.k, seed=ANALYSIS_SEED, max_memory=options.max_memory), progress=progress
+    )
     structure = from_unit(model.structure, np.asarray(photo).dtype)
     if np.ndim(photo) == 2:
         structure = structure[:, :, 0]

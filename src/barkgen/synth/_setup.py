@@ -27,9 +27,11 @@ MIN_EXEMPLAR_SIDE = 16
 
 
 def validate_inputs(
-    exemplar: np.ndarray, size: int | tuple[int, int], seed: int, extra: Mapping[str, np.ndarray] | None
+    exemplar: np.ndarray, size: int | tuple[int, int], budget: Budget, extra: Mapping[str, np.ndarray] | None
 ) -> tuple[np.ndarray, tuple[int, int], dict]:
-    """Check the exemplar, output size, seed and extra maps; return them normalised."""
+    """Check the exemplar, output size, the budget's seed and extra maps; return them
+    normalised."""
+    seed = budget.seed
     ex = as_hw_c("exemplar", exemplar)
     if ex.shape[2] not in (1, 3):
         raise InvalidInputError(f"exemplar must have 1 or 3 channels, not {ex.shape[2]}")
@@ -170,7 +172,7 @@ def set_up(
     exemplar's wrap (``canvas.exemplar_wrap``), make the matching features and choose the
     pyramid's depth, in that order and before any solver work (see :class:`SolveSetup`)."""
     front = front if front is not None else Front()
-    ex, out_shape, extras = validate_inputs(exemplar, canvas.shape, budget.seed, extra)
+    ex, out_shape, extras = validate_inputs(exemplar, canvas.shape, budget, extra)
     front.check(ex)
     n_feat = colour_channels(ex) + front.added_channels + sum(e.shape[2] for e in extras.values())
     check_memory(ex, extras, out_shape, n_feat, config, guided=front.guided)

@@ -275,7 +275,7 @@ def along_flow(
     copies); ``options``: texture-by-numbers' own."""
     from barkgen.synth._flow import check_flow, oriented_inputs
 
-    ex, out_shape, extras = validate_inputs(exemplar, canvas.shape, seed=budget.seed, extra=extra)
+    ex, out_shape, extras = validate_inputs(exemplar, canvas.shape, budget, extra)
     fields = check_flow(canvas.flow, canvas.flow_scale, out_shape)
     wrap = resolve_exemplar_wrap(canvas.wrap_mode, ex)
     inputs = oriented_inputs(ex, *fields, wrap=wrap, extra=extras, labels=labels, oriented=canvas.oriented)
@@ -435,7 +435,7 @@ def analyse_texture_by_numbers(
     .. [1] mazzolini2012, §4.1.2 (the analysis phase of k-coherence search).
     """
     config = config or TBN_CONFIG
-    ex, out_shape, extras = validate_inputs(exemplar, size, 0, extra)
+    ex, out_shape, extras = validate_inputs(exemplar, size, Budget(), extra)
     labels = encode_label_maps(exemplar_labels, exemplar_labels, ex.shape[:2])
     wrap = resolve_exemplar_wrap(exemplar_wrap, ex)
     feats, _ = _matching_features(ex, extras, labels.exemplar, feature_weight, config, wrap)
