@@ -535,13 +535,13 @@ def solve(
                 debug(f"level{lvl}_result", level_image(ex, refs, lvl))
         timings = {"analysis": t1 - t0, "synthesis": time.perf_counter() - t1}
         assert refs is not None  # the finest level ran
-        return _result(inputs, canvas, budget.seed, refs, levels, stop_level, timings)
+        return _result(inputs, canvas, budget, refs, levels, stop_level, timings)
 
 
 def _result(
     inputs: SolverInputs,
     canvas: Canvas,
-    seed: int,
+    budget: Budget,
     refs: np.ndarray,
     levels: list,
     stop_level: int,
@@ -549,7 +549,7 @@ def _result(
 ) -> SynthesisResult:
     """The :class:`SynthesisResult` of the last level solved (see :func:`solve`)."""
     ex, extras, blend = inputs.exemplar, inputs.extras, inputs.config.blend
-    tile, wrap, out_shape = canvas.tile, canvas.exemplar_wrap, canvas.shape
+    tile, wrap, out_shape, seed = canvas.tile, canvas.exemplar_wrap, canvas.shape, budget.seed
     if stop_level > 0:
         la = levels[stop_level]
         references = np.stack([la.coords_y[refs], la.coords_x[refs]], axis=-1).astype(np.int32)
