@@ -65,8 +65,9 @@ TBN_CONFIG = SynthesisConfig(
     seam_expansion_band=0,
 )
 
-#: a reference map given as ``init`` is taken up at this pyramid level (0 = finest) unless
-#: ``init_level`` says otherwise: its coarser structure is kept, the solver refines the finer levels
+#: a reference map given as ``init`` is taken up at this pyramid level (0 = finest) unless a pair
+#: ``(references, level)`` says otherwise: its coarser structure is kept, the solver refines the
+#: finer levels
 REFERENCE_START_LEVEL = 2
 
 #: the feature-distance channel measures up to this many (full-resolution) pixels from an edge
