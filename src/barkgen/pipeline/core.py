@@ -449,8 +449,7 @@ def _finished(run: Run, analysis: PhotoAnalysis, source, labels: _Labels, result
     wrap = run.canvas.exemplar_wrap
     report = run_report(source, options, wrap, analysis.labels_in, labels.result, result, material, timings)
     report["height_edits"] = len(edits)
-    if exemplar is not None and exemplar.cracks is not None:  # what the crack model learned from
-        report["crack_model"] = dict(exemplar.cracks.meta)
+    report.update(run.structure.report(exemplar) if exemplar is not None else {})
     return GenerateResult(
         texture=texture,
         labels_in=labels.tbn_in,

@@ -139,6 +139,10 @@ class PhotoLabels:
         )
         return result, None
 
+    def report(self, exemplar: Exemplar) -> dict:
+        """Nothing beyond the run's report."""
+        return {}
+
 
 class Cracks:
     """``structure="cracks"``: the photo's crack network is extracted (sibbing2010 §3), its
@@ -160,6 +164,11 @@ class Cracks:
     def label_map(self, labels_in: np.ndarray, photo: np.ndarray, analysis: Any, run: Run, resume: Any):
         """The grown network's raster and the network."""
         return crack_label_map(analysis.exemplar.cracks, run.options, run.canvas, run.progress("label_map"))
+
+    def report(self, exemplar: Exemplar) -> dict:
+        """What the crack model learned from (``crack_model``: branches, vertices, furcations,
+        merges, source length)."""
+        return {"crack_model": dict(exemplar.cracks.meta)} if exemplar.cracks is not None else {}
 
 
 class Patches:
