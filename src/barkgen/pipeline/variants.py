@@ -13,6 +13,13 @@
   the output's torus (eq. 6). The analysis keeps the :class:`~barkgen.bilayer.BilayerModel`,
   whose :meth:`~barkgen.bilayer.BilayerModel.window` streams the model's unbounded texture (by
   its own tile-based synthesis, §4: the same model, not the engine's pixels).
+
+Each variant is one object, chosen once per run (:func:`variants`): the structure,
+:class:`PhotoLabels` or :class:`Cracks` (its exemplar, its solver analysis, its output label
+map, its report), and the model, :class:`Patches` or :class:`Bilayer` (its exemplar, how the
+run's texture is finished). :class:`Run` is what every stage of
+:func:`~barkgen.pipeline.generate` reads: the options, the Canvas, the Budget and the two
+variants.
 """
 
 from __future__ import annotations
