@@ -47,7 +47,7 @@ class Canvas:
 
     shape: tuple[int, int]
     tile: bool = False
-    exemplar_wrap: tuple[bool, bool] | str | bool | None = None
+    exemplar_wrap: Any = None  # (bool, bool) once resolved; None or a mode before
     flow: np.ndarray | None = None
     flow_scale: np.ndarray | None = None
     links: Any = None

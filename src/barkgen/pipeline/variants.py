@@ -185,7 +185,9 @@ class Patches:
         """None: the structure variant's exemplar is the photo's."""
         return None
 
-    def finish(self, result: Any, material: Any, exemplar: Exemplar, budget: Budget) -> tuple[np.ndarray, dict, Any]:
+    def finish(
+        self, result: Any, material: Any, exemplar: Exemplar | None, budget: Budget
+    ) -> tuple[np.ndarray, dict, Any]:
         """The texture, no layers, the material set as it is."""
         return result.image, {}, material
 
@@ -200,10 +202,13 @@ class Bilayer:
         (``progress``: the analysis' ``(done, total)``)."""
         return _bilayer_exemplar(photo, options, progress)
 
-    def finish(self, result: Any, material: Any, exemplar: Exemplar, budget: Budget) -> tuple[np.ndarray, dict, Any]:
+    def finish(
+        self, result: Any, material: Any, exemplar: Exemplar | None, budget: Budget
+    ) -> tuple[np.ndarray, dict, Any]:
         """The new noise added (guingo2017 eq. 6: P' + sum M'_k N_k, the material's albedo
         too; its white noise from the run's seed); the layers ``structure``, ``noise`` and
         ``masks``."""
+        assert exemplar is not None and exemplar.bilayer is not None  # the analysis made the model
         noise, masks = bilayer_layers(exemplar.bilayer, result.references, budget.seed)
         texture = add_noise(result.image, noise)
         if material is not None:  # the structure layer's maps; its albedo with the new noise

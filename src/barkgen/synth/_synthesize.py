@@ -112,7 +112,7 @@ def synthesize(
     >>> barkgen.synthesize(exemplar, canvas=canvas, budget=barkgen.Budget(seed=1)).image.shape
     (96, 128, 3)
     """
-    canvas = canvas or Canvas(parse_output_shape(size), tile=tile, exemplar_wrap=exemplar_wrap)
+    canvas = canvas or Canvas(parse_output_shape(size), tile=tile, exemplar_wrap=exemplar_wrap)  # type: ignore[arg-type]  # None: refused
     budget = budget or Budget(seed=seed, progress=progress)
     config = config or SynthesisConfig()
     if canvas.along:
