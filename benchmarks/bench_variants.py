@@ -5,11 +5,11 @@
                                                   [--render] [--json F]
 
 ``--case cracks``: ``generate --structure cracks --tile --material`` on the four crack images of
-``../shared/data/branching`` and two cracked barks. Per image: seconds; texeval's ``seam_ratio``
-(1 = no seam when tiled); the grown network against the photo's (sibbing2010 Fig. 7 as
+``../shared/data/branching`` and two cracked barks. Per image: seconds; the tile border's step
+ratio (:func:`barkgen.evaluate.wrap_step_ratio`, 1 = no seam when tiled); the grown network against the photo's (sibbing2010 Fig. 7 as
 numbers: L1 of the turning-angle and thickness histograms, 0 = equal, 2 = disjoint; crossings
 not recorded as a merge, counted on the torus; free ends per megapixel, grown over the photo's);
-texeval coherence over that of the core engine's plain tileable synthesis of the same photo, size
+coherence (:func:`barkgen.evaluate.coherence`) over that of the core engine's plain tileable synthesis of the same photo, size
 and seed in the same run (the ratio the branching issue measured at 3.2-12.8x for fragment
 renders); the material's mean height in the cracks over outside (below 0: cracks are low).
 With ``--render``: the fragment render (sibbing2010 §5) of the same grown network, untiled (it
@@ -17,8 +17,8 @@ has no torus), and its coherence ratio beside.
 
 ``--case bilayer``: ``generate --model bilayer --tile --material`` on three barks. Per photo:
 seconds, ``seam_ratio``, the coherence ratio against plain synthesis, and the largest step
-ratio of the material set's maps (``../shared/eval/seams.py``: mean step across piece borders
-over inside pieces, as the seamless issue measures it).
+ratio of the material set's maps (:func:`barkgen.evaluate.border_step_ratio`: mean step across
+piece borders over inside pieces, as the seamless issue measures it).
 
 ``--quick``: 512² and two images per case.
 """
@@ -37,7 +37,6 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 SHARED = Path(os.environ.get("BARKGEN_SHARED", REPO.parent / "shared"))
 sys.path.insert(0, str(REPO / "src"))
-sys.path.insert(0, str(SHARED / "eval"))
 
 CRACKS = [
     SHARED / "data" / "branching" / n
@@ -50,35 +49,31 @@ BILAYER = [
 
 
 def plain_coherence(photo: np.ndarray, size: int, seed: int) -> float:
-    """texeval coherence of the core engine's plain tileable synthesis of ``photo``."""
-    import texeval
-
+    """The coherence of the core engine's plain tileable synthesis of ``photo``."""
+    from barkgen.evaluate import coherence
     from barkgen.synth import synthesize
 
-    return texeval.evaluate(photo, synthesize(photo, (size, size), tile=True, seed=seed).image)["coherence"]
+    return coherence(synthesize(photo, (size, size), tile=True, seed=seed).image, photo, wrap=True)
 
 
 def material_steps(result, exemplar_shape) -> dict[str, float]:
-    """seams.py's step ratio of the texture and each material map across the run's piece borders."""
-    import seams
+    """The step ratio of the texture and each material map across the run's piece borders (the
+    photo taken as wrapping along the axes it wraps along)."""
+    from barkgen.evaluate import border_step_ratio
 
-    refs = result.references
-    wraps = any(result.report["exemplar_wrap"])
-    y, x = refs[..., 0].astype(np.int64), refs[..., 1].astype(np.int64)
-    hs, vs = seams.seam_masks(y, x, tuple(exemplar_shape), tile=True, wrap_exemplar=wraps)
+    wraps = result.report["exemplar_wrap"]
+    periods = tuple(int(n) if w else 0 for n, w in zip(exemplar_shape, wraps))
     m = result.material
     maps = {"color": m.color, "height": m.height, "normals": m.normals, "ao": m.ao, "roughness": m.roughness}
-    out = {}
-    for name, img in maps.items():
-        img = np.asarray(img, np.float64)
-        out[name] = seams.step_ratio(img if img.ndim == 3 else img[..., None], hs, vs, tile=True)
-    return out
+    return {
+        name: border_step_ratio(np.asarray(img, np.float64), result.references, tile=True, exemplar_wrap=periods)
+        for name, img in maps.items()
+    }
 
 
 def run_cracks(path: Path, size: int, seed: int, render: bool) -> dict:
-    import texeval
-
     from barkgen.branching import compare_structures, extract_structure, self_intersections
+    from barkgen.evaluate import coherence, wrap_step_ratio
     from barkgen.io import read_image
     from barkgen.pipeline import GenerateOptions, analyze_photo, generate
 
@@ -90,19 +85,18 @@ def run_cracks(path: Path, size: int, seed: int, render: bool) -> dict:
     seconds = time.perf_counter() - t0
     source = extract_structure(photo)
     cmp = compare_structures(source, result.cracks)
-    scores = texeval.evaluate(photo, result.texture, tile=True)
     plain = plain_coherence(photo, size, seed)
     crack = result.labels_out == 0
     height = result.material.height
     row = {
         "image": path.stem,
         "seconds": round(seconds, 1),
-        "seam_ratio": scores["seam_ratio"],
+        "seam_ratio": wrap_step_ratio(result.texture),
         "angle_l1": cmp.angle_l1,
         "thickness_l1": cmp.thickness_l1,
         "crossings": self_intersections(result.cracks),
         "free_ends_ratio": cmp.target_free_end_density / max(cmp.source_free_end_density, 1e-9),
-        "coherence_ratio": scores["coherence"] / plain,
+        "coherence_ratio": coherence(result.texture, photo, wrap=True) / plain,
         "crack_height": float((height[crack].mean() - height[~crack].mean()) / max(float(height.std()), 1e-9)),
     }
     if render:
@@ -111,13 +105,12 @@ def run_cracks(path: Path, size: int, seed: int, render: bool) -> dict:
 
         flat = Structure(result.cracks.step, result.cracks.size, result.cracks.branches)  # no torus
         rendered = render_branches(photo, source, flat, seed=seed).image
-        row["render_coherence_ratio"] = texeval.evaluate(photo, rendered)["coherence"] / plain
+        row["render_coherence_ratio"] = coherence(rendered, photo) / plain
     return row
 
 
 def run_bilayer(path: Path, size: int, seed: int) -> dict:
-    import texeval
-
+    from barkgen.evaluate import coherence, wrap_step_ratio
     from barkgen.io import read_image
     from barkgen.pipeline import GenerateOptions, analyze_photo, generate
 
@@ -127,14 +120,13 @@ def run_bilayer(path: Path, size: int, seed: int) -> dict:
     analysis = analyze_photo(photo, options)
     result = generate(photo, options, analysis=analysis)
     seconds = time.perf_counter() - t0
-    scores = texeval.evaluate(photo, result.texture, tile=True)
     steps = material_steps(result, photo.shape[:2])
     worst = max(steps, key=lambda k: steps[k])
     return {
         "image": path.stem,
         "seconds": round(seconds, 1),
-        "seam_ratio": scores["seam_ratio"],
-        "coherence_ratio": scores["coherence"] / plain_coherence(photo, size, seed),
+        "seam_ratio": wrap_step_ratio(result.texture),
+        "coherence_ratio": coherence(result.texture, photo, wrap=True) / plain_coherence(photo, size, seed),
         "worst_step": steps[worst],
         "worst_map": worst,
         "noise_std": float(result.layers["noise"].std()),
