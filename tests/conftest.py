@@ -122,6 +122,45 @@ def assert_continuous_copy(
     assert np.abs(d_got).max() <= 1.1 * np.abs(d_plain).max() + 1e-6
 
 
+def label_fidelity(exemplar: np.ndarray, labels_in: np.ndarray, output: np.ndarray, labels_out: np.ndarray) -> dict:
+    """How well ``output`` follows ``labels_out``, from its pixels alone: a random forest learns
+    each pixel's label of ``labels_in`` from the exemplar's local colour statistics (CIELAB,
+    its 7 px means and deviations, L's over 15 px: :func:`barkgen.testing` features) and
+    labels the output; ``fidelity`` is its agreement with ``labels_out``, ``ratio`` that over
+    its agreement on the exemplar itself (the ceiling) and ``balanced`` the mean per-label
+    recall on the output (hertzmann2001's texture-by-numbers asks the output to look, pixel by
+    pixel, like the exemplar's parts of the same label)."""
+    from sklearn.ensemble import RandomForestClassifier
+
+    from barkgen.testing import _features
+
+    def grey(labels: np.ndarray) -> np.ndarray:
+        labels = np.asarray(labels)
+        return labels[..., 0] if labels.ndim == 3 else labels
+
+    def u8(image: np.ndarray) -> np.ndarray:
+        image = np.asarray(image)
+        if image.dtype != np.uint8:
+            image = np.clip(np.round(image * 255.0), 0, 255).astype(np.uint8) if image.dtype.kind == "f" else image
+            image = (image >> 8).astype(np.uint8) if image.dtype == np.uint16 else image
+        return np.ascontiguousarray(image[..., :3])
+
+    a, b = grey(labels_in).ravel(), grey(labels_out).ravel()
+    features = _features(u8(exemplar))
+    x_ex = features.reshape(-1, features.shape[-1])
+    rng = np.random.default_rng(7)
+    pick = np.concatenate(
+        [rng.choice(np.flatnonzero(a == v), min(int((a == v).sum()), 20_000), replace=False) for v in np.unique(a)]
+    )
+    forest = RandomForestClassifier(n_estimators=40, max_depth=18, min_samples_leaf=3, n_jobs=2, random_state=0)
+    forest.fit(x_ex[pick], a[pick])
+    ceiling = float((forest.predict(x_ex) == a).mean())
+    predicted = forest.predict(_features(u8(output)).reshape(-1, features.shape[-1]))
+    fidelity = float((predicted == b).mean())
+    recalls = [float((predicted[b == v] == v).mean()) for v in np.unique(b)]
+    return {"fidelity": fidelity, "ratio": fidelity / max(ceiling, 1e-9), "balanced": float(np.mean(recalls))}
+
+
 def border_distance(references: np.ndarray, exemplar_shape: tuple[int, int], *, tile: bool) -> np.ndarray:
     """``(H, W)`` float: each output pixel's distance (px, city block) to the nearest border
     between copied pieces (a neighbour whose reference is not the matching neighbour of its

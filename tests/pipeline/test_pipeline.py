@@ -176,23 +176,24 @@ def test_analysis_cache_is_keyed_by_content():
 
 
 @pytest.mark.parametrize("name", ["pine_plated_01", "birch_smooth_lenticels_01"])
-def test_generate_quality_against_plain_synthesis(texeval, name):
+def test_generate_quality_against_plain_synthesis(name):
     """Measured quality (small version of benchmarks/bench_generate.py): the result follows its
     label map and is nearly as coherent and as sharp as plain synthesis of the same photo."""
-    from conftest import bark_exemplar
+    from conftest import bark_exemplar, label_fidelity
 
+    from barkgen import evaluate
     from barkgen.synth import synthesize
 
     photo = bark_exemplar(name, 256)
     result = generate(photo, GenerateOptions(size=(384, 384)))
     plain = synthesize(photo, (384, 384), seed=0).image
-    ev = texeval.TexEval(photo, labels_in=result.labels_in)
-    ours = ev.evaluate(result.texture, labels_out=result.labels_out)
-    base = ev.evaluate(plain)
-    assert ours["label_fidelity_ratio"] >= 0.85
-    assert ours["label_fidelity_balanced"] >= 0.75
-    assert ours["coherence"] <= 1.5 * base["coherence"]
-    assert 0.85 <= ours["sharpness_ratio"] <= 1.15
+    fidelity = label_fidelity(photo, result.labels_in, result.texture, result.labels_out)
+    # measured (pine / birch): ratio 0.97 / 0.98, balanced 0.93 / 0.94, coherence 0.98x / 0.74x
+    # the plain synthesis's, sharpness 0.99 / 0.93
+    assert fidelity["ratio"] >= 0.85
+    assert fidelity["balanced"] >= 0.75
+    assert evaluate.coherence(result.texture, photo) <= 1.5 * evaluate.coherence(plain, photo)
+    assert 0.85 <= evaluate.sharpness_ratio(result.texture, photo) <= 1.15
 
 
 def test_generate_options_are_validated():
