@@ -5,15 +5,15 @@
         [--json OUT.json] [--cache DIR] [--fresh]
 
 Each run is a whole ``python -m barkgen ...`` command, as a user would type it, writing into a
-temporary folder; the files it wrote are then measured with the team's tools in
-``../shared/eval`` (``$BARKGEN_SHARED/eval``):
+temporary folder; the files it wrote are then measured with :mod:`barkgen.evaluate`:
 
-- ``lines.py`` (pixels alone): the longest straight line (px) of every map, with ``--tile`` for
-  tiled outputs; beside it the same figure for the input photo (with ``--tile`` when the photo
-  wraps on both axes), since bark has its own straight furrows;
-- ``seams.py`` (reference map): the longest straight seam, and every map's step ratio (mean
-  step across seams over mean step inside pieces; a photo has 1.0), with ``--wrap-exemplar``
-  when the exemplar wraps on either axis (``report.json``'s ``exemplar_wrap`` for generate,
+- :func:`~barkgen.evaluate.longest_line` (pixels alone): the longest straight line (px) of every
+  map, tiled for tiled outputs; beside it the same figure for the input photo (tiled when the
+  photo wraps on both axes), since bark has its own straight furrows;
+- the reference map: the longest straight seam (:func:`~barkgen.evaluate.longest_seam`), and
+  every map's step ratio (:func:`~barkgen.evaluate.border_step_ratio`: mean step across piece
+  borders over mean step inside pieces; a photo has 1.0), the exemplar wrapping along the axes
+  it wraps along (``report.json``'s ``exemplar_wrap`` for generate,
   ``barkgen.synth.exemplar_wraps`` of the exemplar for synth).
 
 Maps of ``generate --material``: texture, bark_Color (the albedo), bark_Displacement (16-bit),
@@ -27,7 +27,7 @@ are measured once. Cases:
 3. ``extra``: ``synth --tile --extra height=H.png`` 1024x1024 from the sample, seed 0, where H.png
    is the sample's Displacement from ``material --exemplar-wraps no`` (a height whose own edges
    do not meet: the case that wrote a 503 px line), then from plain ``material`` (auto); seconds
-   are the synth command's; "own" is lines.py on H.png itself (tiled as the photo), and below
+   are the synth command's; "own" is the longest line of H.png itself (tiled as the photo), and below
    the table, on each map of the photo's own material set;
 4. ``untiled``: ``generate --material`` (no --tile) 2048x2048 from the sample, seed 0;
 5. ``synth``: ``synth --tile --save-reference`` 1024x1024 (colour only) from the sample, seeds
@@ -66,14 +66,12 @@ import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED = Path(os.environ.get("BARKGEN_SHARED", REPO.parent / "shared"))
-sys.path.insert(0, str(SHARED / "eval"))
 sys.path.insert(0, str(REPO / "src"))
 
-import lines  # noqa: E402, RUF100  (../shared/eval/lines.py)
-import seams  # noqa: E402, RUF100  (../shared/eval/seams.py)
-
+import barkgen.evaluate  # noqa: E402, RUF100
 from barkgen.data import sample_exemplar_path  # noqa: E402, RUF100
-from barkgen.io import read_centre_crop, read_image, write_png  # noqa: E402, RUF100
+from barkgen.evaluate import border_step_ratio, longest_line, longest_seam, piece_borders  # noqa: E402, RUF100
+from barkgen.io import read_centre_crop, read_image, read_reference, write_png  # noqa: E402, RUF100
 from barkgen.synth import exemplar_wraps  # noqa: E402, RUF100
 
 BARKGEN = [sys.executable, "-m", "barkgen"]
@@ -81,7 +79,7 @@ PHOTOS = sorted((SHARED / "data" / "bark").glob("*_01.*"))
 QUICK_PHOTOS = ("birch_smooth_lenticels_01", "oak_furrowed_moss_01", "pine_plated_01", "willow_furrowed_01")
 CASES = ("sample", "crops", "extra", "untiled", "synth")
 CROP = 512
-MEASURE_VERSION = 2  # bump when what a row holds changes
+MEASURE_VERSION = 3  # bump when what a row holds changes (3: barkgen.evaluate's measures)
 TARGETS = {"line": 96, "seam": 48, "colour": 1.25, "maps": 1.5}
 # generate --material: short label -> file in the output folder (NormalDX is checked apart)
 GENERATE_MAPS = {
@@ -136,7 +134,8 @@ def source_state() -> str:
 
 
 def tools_state() -> str:
-    return _sha(b"".join(Path(m.__file__).read_bytes() for m in (lines, seams)) + str(MEASURE_VERSION).encode())[:16]
+    tools = sorted(Path(barkgen.evaluate.__file__).parent.glob("*.py"))
+    return _sha(b"".join(p.read_bytes() for p in tools) + str(MEASURE_VERSION).encode())[:16]
 
 
 def run_key(run: Run, src: str) -> str:
@@ -161,11 +160,10 @@ _LINES: dict = {}
 
 
 def measure_lines(path: Path, tile: bool) -> dict:
-    """lines.py on one file, once per (content, tile)."""
+    """The longest straight line of one file, once per (content, tile)."""
     key = (file_sha(path), tile)
     if key not in _LINES:
-        m = lines.measure(path, tile=tile, window=64, thr=3.0)
-        _LINES[key] = {"lines": int(m["longest"]), "lines_where": m["longest_where"], "contrast": m["contrast"]}
+        _LINES[key] = {"lines": longest_line(read_image(path), tile=tile), "lines_where": None}
     return dict(_LINES[key])
 
 
@@ -220,12 +218,21 @@ def execute(run: Run) -> dict:
         missing = [str(p) for p in [ref, *files.values()] if not p.exists()]
         if missing:
             raise RuntimeError(f"not written: {', '.join(missing)}")
-        # seams.py: one call, each distinct file once
+        # the reference map's seams and each distinct file's step ratio, once
         unique: dict[str, Path] = {}
         for p in files.values():
             unique.setdefault(file_sha(p), p)
-        s = seams.measure(ref, tile=run.tile, wrap_exemplar=any(wrap), maps=list(unique.values()))
-        steps = {h: s["step_ratio"][str(p)] for h, p in unique.items()}
+        references, exemplar_shape = read_reference(ref)
+        shape = exemplar_shape or (int(references[..., 0].max()) + 1, int(references[..., 1].max()) + 1)
+        wraps = {"tile": run.tile, "exemplar_wrap": tuple(n if w else 0 for n, w in zip(shape, wrap))}
+        steps = {h: border_step_ratio(read_image(p), references, **wraps) for h, p in unique.items()}
+        steps = {h: (None if np.isnan(v) else v) for h, v in steps.items()}  # one piece: no border
+        across_rows, across_cols = piece_borders(references, **wraps)
+        s = {
+            "longest": longest_seam(references, **wraps),
+            "where": None,
+            "seam_share": float((across_rows.mean() + across_cols.mean()) / 2),
+        }
         maps = {}
         for k, p in files.items():
             maps[k] = {"file": p.name, **measure_lines(p, run.tile), "step": steps[file_sha(p)]}
@@ -237,7 +244,7 @@ def execute(run: Run) -> dict:
             "seconds_all": [round(t, 2) for t in seconds],
             "tile": run.tile,
             "exemplar_wrap": wrap,
-            "seam": {"longest": int(s["longest"]), "where": list(s["where"]), "seam_share": s["seam_share"]},
+            "seam": s,
             "maps": maps,
             "normal_dx_is_gl_flipped": dx_flip,
             "photo": photo_lines(run.photo),
