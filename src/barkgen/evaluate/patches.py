@@ -94,6 +94,7 @@ def _index(features: np.ndarray):
     import faiss
 
     n, d = features.shape
+    index: faiss.Index
     if n <= _FLAT_LIMIT:
         index = faiss.IndexFlatL2(d)
     else:

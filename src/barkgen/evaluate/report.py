@@ -177,8 +177,28 @@ def evaluate(
     for name, arr in [("references", references), *((f"map {k}", v) for k, v in (maps or {}).items())]:
         if arr is not None and np.shape(arr)[:2] != (h, w):
             raise InvalidInputError(f"{name}: {np.shape(arr)[1]}x{np.shape(arr)[0]}, the result is {w}x{h}")
-    measured = dict(
-        size=(w, h),
+    rows_wrap, cols_wrap = photo_wraps if isinstance(photo_wraps, (tuple, list)) else (photo_wraps, photo_wraps)
+    photo_h, photo_w = np.shape(photo)[:2]
+    periods = (int(photo_h) if rows_wrap else 0, int(photo_w) if cols_wrap else 0)
+    exemplar_wrap = periods if any(periods) else None
+    piecewise: dict[str, float | int | None] = dict(largest_copy=None, longest_seam=None, border_step_ratio=None)
+    if references is not None:
+        piecewise = dict(
+            largest_copy=largest_copy(references, tile=tile, exemplar_wrap=exemplar_wrap),
+            longest_seam=longest_seam(references, tile=tile, exemplar_wrap=exemplar_wrap),
+            border_step_ratio=border_step_ratio(res, references, tile=tile, exemplar_wrap=exemplar_wrap),
+        )
+    map_figures = {
+        name: MapEvaluation(
+            longest_line(_as_map(arr), tile=tile),
+            None
+            if references is None
+            else border_step_ratio(_as_map(arr), references, tile=tile, exemplar_wrap=exemplar_wrap),
+        )
+        for name, arr in sorted((maps or {}).items())
+    }
+    return Evaluation(
+        size=(int(w), int(h)),
         coherence=coherence(res, photo, patch=patch, wrap=tile),
         completeness=completeness(res, photo, patch=patch, wrap=tile),
         sharpness_ratio=sharpness_ratio(res, photo),
@@ -186,25 +206,11 @@ def evaluate(
         longest_line=longest_line(res, tile=tile),
         photo_longest_line=longest_line(photo),
         wrap_step_ratio=wrap_step_ratio(res) if tile else None,
+        largest_copy=piecewise["largest_copy"],
+        longest_seam=None if piecewise["longest_seam"] is None else int(piecewise["longest_seam"]),
+        border_step_ratio=piecewise["border_step_ratio"],
+        maps=map_figures,
     )
-    rows_wrap, cols_wrap = photo_wraps if isinstance(photo_wraps, (tuple, list)) else (photo_wraps, photo_wraps)
-    photo_h, photo_w = np.shape(photo)[:2]
-    periods = (photo_h if rows_wrap else 0, photo_w if cols_wrap else 0)
-    wraps = dict(tile=tile, exemplar_wrap=periods if any(periods) else None)
-    if references is not None:
-        measured.update(
-            largest_copy=largest_copy(references, **wraps),
-            longest_seam=longest_seam(references, **wraps),
-            border_step_ratio=border_step_ratio(res, references, **wraps),
-        )
-    measured["maps"] = {
-        name: MapEvaluation(
-            longest_line(_as_map(arr), tile=tile),
-            None if references is None else border_step_ratio(_as_map(arr), references, **wraps),
-        )
-        for name, arr in sorted((maps or {}).items())
-    }
-    return Evaluation(**measured)
 
 
 def _folder_report(folder: Path) -> dict:
