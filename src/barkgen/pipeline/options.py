@@ -284,10 +284,6 @@ class GenerateOptions:
             raise InvalidInputError(f"structure must be one of {', '.join(STRUCTURES)}, not {self.structure!r}")
         if self.model not in MODELS:
             raise InvalidInputError(f"model must be one of {', '.join(MODELS)}, not {self.model!r}")
-        if self.model == "bilayer" and self.structure == "cracks":
-            raise InvalidInputError("a bi-layer texture has its own structure layer: use one of cracks and bilayer")
-        if self.model == "bilayer" and self.k > 8:
-            raise InvalidInputError(f"a bi-layer texture has 1 to 8 noises (k), not {self.k}")
         if isinstance(self.edges, bool) or not isinstance(self.edges, (int, np.integer)) or not 0 <= self.edges <= 32:
             raise InvalidInputError(f"edges must be a width of 0 to 32 px, not {self.edges!r}")
         if self.label_weight < 0 or self.feature_weight < 0:
@@ -296,16 +292,14 @@ class GenerateOptions:
             raise InvalidInputError(f"relief must be in (0, 100], not {self.relief:g}")
         check_width_m(self.width_m)
         check_strength(self.equalize_light)
-        if not self.material and (self.light is not None or self.relief != 1.0 or self.width_m is not None):
-            raise InvalidInputError(
-                "light, relief and width in metres apply to the material set: turn material on "
-                "(--material; material: true in a spec)"
-            )
         if self.light is not None:
             from barkgen.material import Light
 
             if not isinstance(self.light, Light):
                 raise InvalidInputError("light must be a barkgen.material.Light (or None: estimated)")
+        from barkgen.pipeline.rules import check_combinations
+
+        check_combinations(self)  # the options that go together, with the run's other rules
         check_options(self)
 
 

@@ -4,8 +4,9 @@ variants go together (cracks, bi-layer textures, the edge label, a flow field, a
 map), what a scanned set, height edits, a user's label map or crack network and a shared photo
 analysis need. :func:`check_run` is called once by :func:`~barkgen.pipeline.generate`;
 :func:`check_photo_inputs`, its per-photo part, once by
-:func:`~barkgen.pipeline.analyze_photo`. The options' own values are checked where they are
-declared (:class:`~barkgen.pipeline.GenerateOptions`)."""
+:func:`~barkgen.pipeline.analyze_photo`; :func:`check_combinations`, the options that go
+together, by :class:`~barkgen.pipeline.GenerateOptions` as it is made (each option's own value
+is checked where it is declared)."""
 
 from __future__ import annotations
 
@@ -84,6 +85,22 @@ def check_generate_memory(
         need += MATERIAL_BYTES_PER_PIXEL * (n_ex + n_out)
     h, w = options.size
     return check_memory_budget(need, options.max_memory, f"output {w}x{h} from a {shape[1]}x{shape[0]} photo")
+
+
+def check_combinations(options: GenerateOptions) -> None:
+    """The options that go together, checked as the options are made
+    (:class:`~barkgen.pipeline.GenerateOptions`, each value checked there): a bi-layer texture
+    has its own structure layer and 1 to 8 noises; light, relief and width in metres belong to
+    a material set."""
+    if options.model == "bilayer" and options.structure == "cracks":
+        raise InvalidInputError("a bi-layer texture has its own structure layer: use one of cracks and bilayer")
+    if options.model == "bilayer" and options.k > 8:
+        raise InvalidInputError(f"a bi-layer texture has 1 to 8 noises (k), not {options.k}")
+    if not options.material and (options.light is not None or options.relief != 1.0 or options.width_m is not None):
+        raise InvalidInputError(
+            "light, relief and width in metres apply to the material set: turn material on "
+            "(--material; material: true in a spec)"
+        )
 
 
 def check_run(
