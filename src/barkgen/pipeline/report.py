@@ -23,6 +23,7 @@ def run_report(photo, options: GenerateOptions, wrap, labels_in, label_result, r
     the flow's copies and the timings."""
     from barkgen._shared.options import option_values
     from barkgen.pipeline.materials import photo_material_options
+    from barkgen.pipeline.variants import bilayer_options, growth_options
 
     values = np.unique(labels_in)
     report = option_values(options)
@@ -50,6 +51,8 @@ def run_report(photo, options: GenerateOptions, wrap, labels_in, label_result, r
             "scales": sorted(set(result.orientation.scales)),
         },
         "material_options": option_values(photo_material_options(options, wrap)) if options.material else None,
+        "bilayer_options": option_values(bilayer_options(options)) if options.model == "bilayer" else None,
+        "growth_options": option_values(growth_options(options)) if options.structure == "cracks" else None,
         "timings_s": {name: round(value, 3) for name, value in timings.items()},
     }
     return report | found

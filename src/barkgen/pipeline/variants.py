@@ -34,7 +34,8 @@ from barkgen._shared.arrays import ProgressCallback, unit_float
 
 if TYPE_CHECKING:
     from barkgen._shared.canvas import Budget, Canvas
-    from barkgen.bilayer import BilayerModel
+    from barkgen.bilayer import AnalysisOptions, BilayerModel
+    from barkgen.branching import GrowOptions
     from barkgen.pipeline.options import GenerateOptions
     from barkgen.shapes import LabelMapResult
 
@@ -227,18 +228,30 @@ def _bilayer_exemplar(photo: np.ndarray, options: GenerateOptions, progress=None
     """The photo's bi-layer model (its clusters from :data:`ANALYSIS_SEED`: the photo's own, not
     a variant's); its structure layer in the photo's dtype, and its clusters as a label map,
     darkest cluster first (the height's label cue)."""
-    from barkgen.bilayer import AnalysisOptions, analyze
+    from barkgen.bilayer import analyze
     from barkgen.labels.regions import order_by_luminance, to_label_image
 
-    model = analyze(
-        photo, AnalysisOptions(k=options.k, seed=ANALYSIS_SEED, max_memory=options.max_memory), progress=progress
-    )
+    model = analyze(photo, bilayer_options(options), progress=progress)
     structure = from_unit(model.structure, np.asarray(photo).dtype)
     if np.ndim(photo) == 2:
         structure = structure[:, :, 0]
     luma = model.structure @ np.array([0.2126, 0.7152, 0.0722], np.float32)  # Rec. 709
     codes = order_by_luminance(model.labels.astype(np.int32), luma, model.k)
     return Exemplar(structure, to_label_image(codes, model.k), bilayer=model)
+
+
+def bilayer_options(options: GenerateOptions) -> AnalysisOptions:
+    """The bi-layer analysis' options of a run (``report.json`` lists them)."""
+    from barkgen.bilayer import AnalysisOptions
+
+    return AnalysisOptions(k=options.k, seed=ANALYSIS_SEED, max_memory=options.max_memory)
+
+
+def growth_options(options: GenerateOptions) -> GrowOptions:
+    """The crack network's growth options of a run (``report.json`` lists them)."""
+    from barkgen.branching import GrowOptions
+
+    return GrowOptions(max_memory=options.max_memory)
 
 
 def from_unit(image: np.ndarray, dtype: np.dtype) -> np.ndarray:
@@ -266,7 +279,7 @@ def crack_label_map(
     (LabelMapResult, Structure)
         The label map (cracks :data:`CRACK_VALUE`) and the grown network.
     """
-    from barkgen.branching import GrowOptions, grow_structure, rasterize
+    from barkgen.branching import grow_structure, rasterize
     from barkgen.shapes import LabelMapResult
 
     h, w = canvas.shape
@@ -274,7 +287,7 @@ def crack_label_map(
         cracks,
         (w, h),
         seed=options.seed,
-        options=GrowOptions(max_memory=options.max_memory),
+        options=growth_options(options),
         progress=progress,
         tile=canvas.tile,
     )
