@@ -203,6 +203,9 @@ def test_report_json_has_every_option_under_its_key_and_keeps_its_old_keys():
     assert report["material_options"]["relief"] == 1.5 and report["material_options"]["k"] == 3
     plain = _run_report(GenerateOptions(size=64))
     assert plain["relief"] is None and plain["width_m"] is None and plain["material_options"] is None
+    assert plain["bilayer_options"] is None and plain["growth_options"] is None
+    assert _run_report(GenerateOptions(size=64, model="bilayer", k=2))["bilayer_options"]["k"] == 2
+    assert _run_report(GenerateOptions(size=64, structure="cracks"))["growth_options"]["max_levels"] == 64
 
 
 def _material_options(monkeypatch, tmp_path, args: list[str]):
