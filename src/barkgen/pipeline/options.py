@@ -11,8 +11,10 @@ import numpy as np
 
 from barkgen._shared.checks import parse_output_shape, parse_size
 from barkgen._shared.memory import check_budget_value, parse_memory
-from barkgen._shared.options import check_options, option, option_fields
+from barkgen._shared.options import check_options, option
 from barkgen.errors import InvalidInputError
+from barkgen.pipeline.rules import analysis_key as analysis_key
+from barkgen.pipeline.rules import check_combinations
 
 if TYPE_CHECKING:
     from barkgen.material import Light
@@ -297,13 +299,5 @@ class GenerateOptions:
 
             if not isinstance(self.light, Light):
                 raise InvalidInputError("light must be a barkgen.material.Light (or None: estimated)")
-        from barkgen.pipeline.rules import check_combinations
-
-        check_combinations(self)  # the options that go together, with the run's other rules
         check_options(self)
-
-
-def analysis_key(options: GenerateOptions) -> tuple:
-    """The options a :class:`PhotoAnalysis` depends on (the fields declared ``analysis=True``),
-    as a hashable tuple: two runs whose keys agree may share one analysis."""
-    return tuple((f.name, getattr(options, f.name)) for f in option_fields(type(options)) if f.info.analysis)
+        check_combinations(self)  # the options that go together, with the run's other rules

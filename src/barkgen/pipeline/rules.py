@@ -20,11 +20,14 @@ from barkgen._shared.checks import MAX_PHOTO_PIXELS
 from barkgen._shared.memory import check_memory_budget
 from barkgen._shared.options import option_fields
 from barkgen.errors import InvalidInputError
-from barkgen.pipeline.options import GenerateOptions, analysis_key
 
 if TYPE_CHECKING:
     from barkgen._shared.canvas import Canvas
     from barkgen.io import ScannedSet
+
+#: a :class:`~barkgen.pipeline.GenerateOptions` (its module imports this one, which therefore
+#: names the class without importing it)
+Options = Any
 
 #: bytes per output pixel of the material stage (height, normals, AO, roughness, albedo and the
 #: gradient-domain solves' transforms; the 4096x4096 set peaked at 2.7 GiB with the texture)
@@ -43,9 +46,7 @@ class PhotoInputs:
     cracks: Any = None
 
 
-def check_generate_memory(
-    photo: np.ndarray, options: GenerateOptions, extra: Mapping[str, np.ndarray] | None = None
-) -> int:
+def check_generate_memory(photo: np.ndarray, options: Options, extra: Mapping[str, np.ndarray] | None = None) -> int:
     """The estimated peak memory of :func:`~barkgen.pipeline.generate` (bytes), checked against
     ``options.max_memory`` before any work: texture-by-numbers' solver, the largest of the run,
     and the material set (each stage frees what it made before the next starts). A photo of
@@ -87,7 +88,13 @@ def check_generate_memory(
     return check_memory_budget(need, options.max_memory, f"output {w}x{h} from a {shape[1]}x{shape[0]} photo")
 
 
-def check_combinations(options: GenerateOptions) -> None:
+def analysis_key(options: Options) -> tuple:
+    """The options a :class:`~barkgen.pipeline.PhotoAnalysis` depends on (the fields declared
+    ``analysis=True``), as a hashable tuple: two runs whose keys agree may share one analysis."""
+    return tuple((f.name, getattr(options, f.name)) for f in option_fields(type(options)) if f.info.analysis)
+
+
+def check_combinations(options: Options) -> None:
     """The options that go together, checked as the options are made
     (:class:`~barkgen.pipeline.GenerateOptions`, each value checked there): a bi-layer texture
     has its own structure layer and 1 to 8 noises; light, relief and width in metres belong to
@@ -105,7 +112,7 @@ def check_combinations(options: GenerateOptions) -> None:
 
 def check_run(
     photo: np.ndarray,
-    options: GenerateOptions,
+    options: Options,
     fields: Canvas | None,
     given: PhotoInputs,
     analysis: Any = None,
@@ -140,7 +147,7 @@ def check_run(
         _check_analysis(analysis, photo, options, given)
 
 
-def check_photo_inputs(photo: np.ndarray, options: GenerateOptions, given: PhotoInputs, memory: bool = True) -> None:
+def check_photo_inputs(photo: np.ndarray, options: Options, given: PhotoInputs, memory: bool = True) -> None:
     """The rules of a photo's analysis (:func:`~barkgen.pipeline.analyze_photo`): the memory
     budget (with ``memory``), a scanned set that belongs to the photo and a material set but no
     bi-layer texture, a crack network for ``structure="cracks"`` of the photo's size, no label
@@ -166,7 +173,7 @@ def check_photo_inputs(photo: np.ndarray, options: GenerateOptions, given: Photo
         raise InvalidInputError(f"the label map is {w}x{h} px but the photo is {pw}x{ph} px; they must match")
 
 
-def _check_variant(options: GenerateOptions, along: bool, resume: bool) -> None:
+def _check_variant(options: Options, along: bool, resume: bool) -> None:
     """What goes together: cracks and bi-layer textures go their own ways
     (:mod:`barkgen.pipeline.variants`), and neither they nor the edge label follow a flow field;
     a crack network is not resumed."""
@@ -181,13 +188,13 @@ def _check_variant(options: GenerateOptions, along: bool, resume: bool) -> None:
         raise InvalidInputError("a crack network is grown, not resumed: leave out the label map to resume from")
 
 
-def _check_analysis(analysis: Any, photo: np.ndarray, options: GenerateOptions, given: PhotoInputs) -> None:
+def _check_analysis(analysis: Any, photo: np.ndarray, options: Options, given: PhotoInputs) -> None:
     """Refuse a shared :class:`~barkgen.pipeline.PhotoAnalysis` that does not belong to this
     photo and options, or inputs that belong to the analysis."""
     if given.labels_in is not None:
         raise InvalidInputError("give the label map to analyze_photo, not with an analysis")
     if analysis.options is not None and analysis_key(analysis.options) != analysis_key(options):
-        names = ", ".join(f.name for f in option_fields(GenerateOptions) if f.info.analysis)
+        names = ", ".join(f.name for f in option_fields(type(options)) if f.info.analysis)
         raise InvalidInputError(f"the photo analysis was made with other options (of {names}); analyse the photo again")
     if analysis.labels_in.shape[:2] != np.asarray(photo).shape[:2]:
         raise InvalidInputError("the photo analysis belongs to a photo of another size")
@@ -195,7 +202,7 @@ def _check_analysis(analysis: Any, photo: np.ndarray, options: GenerateOptions, 
         raise InvalidInputError("the photo analysis has no crack network: analyse it with structure='cracks'")
 
 
-def _check_cracks(cracks: Any, photo: np.ndarray, options: GenerateOptions) -> None:
+def _check_cracks(cracks: Any, photo: np.ndarray, options: Options) -> None:
     """A given crack network goes with ``structure="cracks"`` and the photo's size."""
     from barkgen.branching import Structure
 
