@@ -58,6 +58,7 @@ from barkgen.io import read_image, write_png  # noqa: E402
 from barkgen.labels import color_regions  # noqa: E402
 from barkgen.labels.regions import to_codes  # noqa: E402
 from barkgen.material import (  # noqa: E402
+    Boundary,  # noqa: E402
     HeightConfig,
     MaterialOptions,
     ambient_occlusion,
@@ -111,7 +112,7 @@ def load_case(name: str, equalize: float = 1.0) -> dict:
     ao = (ao[..., 0] if ao.ndim == 3 else ao) / 255.0
     seen, _ = equalize_light(photo, equalize)
     codes, _ = to_codes(color_regions(seen, 3, seed=0))
-    features = [f for _, f in height_features(seen, codes, CUES, tile=False)]
+    features = [f for _, f in height_features(seen, codes, CUES, boundary=Boundary(False))]
     return {
         "name": name,
         "photo": photo,
@@ -282,12 +283,13 @@ def truth_table() -> list[dict]:
             "sobel_loo": float(sobel[i][cell] * flat_error(case["truth"])),
             "sobel_loo_setting": [SOBEL_BLURS[cell[0]], float(SOBEL_STRENGTHS[cell[1]])],
             "light": [material.light.azimuth, material.light.elevation, material.light.correlation],
-            "ceiling": angular_error(normal_map(integrated, tile=True), case["truth"]),
+            "ceiling": angular_error(normal_map(integrated, boundary=Boundary(True)), case["truth"]),
             "ao_corr_height": float(np.corrcoef(case["ao_height"].ravel(), case["ao"].ravel())[0, 1]),
             "ao_corr_ceiling": float(
-                np.corrcoef(ambient_occlusion(integrated.astype(np.float32), tile=True).ravel(), case["ao"].ravel())[
-                    0, 1
-                ]
+                np.corrcoef(
+                    ambient_occlusion(integrated.astype(np.float32), boundary=Boundary(True)).ravel(),
+                    case["ao"].ravel(),
+                )[0, 1]
             ),
             "loo_config": dataclasses.asdict(config),
         }

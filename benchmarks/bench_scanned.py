@@ -68,9 +68,11 @@ def scan_folder(root: Path, name: str) -> Path:
 def inside_pieces(references: np.ndarray, shape, wrap, band: int = 8) -> np.ndarray:
     import cv2
 
-    from barkgen.synth import piece_borders
+    from barkgen.synth import Canvas, piece_borders
 
-    inside = (~piece_borders(references, shape, tile=True, wrap=wrap)).astype(np.uint8)
+    inside = (~piece_borders(references, shape, Canvas(references.shape[:2], tile=True, exemplar_wrap=wrap))).astype(
+        np.uint8
+    )
     pad = band + 1
     return cv2.distanceTransform(np.pad(inside, pad, mode="wrap"), cv2.DIST_L2, 3)[pad:-pad, pad:-pad] >= band
 

@@ -35,7 +35,9 @@ def main(out_dir: Path) -> None:
 
     synthesis = barkgen.synthesize(photo, 128, tile=True, seed=7)
     material = barkgen.material.transfer_material(
-        photo_material, synthesis.references, tile=True, exemplar_wrap=synthesis.exemplar_wrap
+        photo_material,
+        synthesis.references,
+        barkgen.Canvas(synthesis.references.shape[:2], tile=True, exemplar_wrap=synthesis.exemplar_wrap),
     )
     files = barkgen.io.encode_material(material, "bark", seed=7, source_photo="sample_bark.jpg")
     barkgen.io.write_folder_atomic(out_dir / "bark", files)

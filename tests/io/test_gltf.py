@@ -9,7 +9,7 @@ import pytest
 from conftest import validate_glb as validate
 
 from barkgen.io import encode_glb, vertex_tangents
-from barkgen.material import MaterialSet
+from barkgen.material import Boundary, MaterialSet
 from barkgen.render import trunk_mesh
 
 
@@ -20,7 +20,7 @@ def small_set(metalness: bool) -> MaterialSet:
     height = (np.sin(x / 4.0) * 2 + np.cos(y / 6.0)).astype(np.float32)
     from barkgen.material import derived_maps
 
-    normals, ao = derived_maps(height, tile=True)
+    normals, ao = derived_maps(height, boundary=Boundary(True))
     return MaterialSet(
         color=rng.random((h, w, 3), dtype=np.float32),
         height=height,

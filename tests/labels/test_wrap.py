@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
-from barkgen._shared.arrays import on_torus
+from barkgen._shared.arrays import Boundary
 from barkgen.labels.regions import (
     NL_MEANS_REACH,
     color_regions,
@@ -51,7 +51,7 @@ def test_every_label_analysis_commutes_with_rolling_a_photo_that_tiles(sample128
     codes = codes_of(sample128)
     analyses = {
         "denoising": (
-            lambda im: on_torus(lambda x: nl_means(x, 10.0), im, NL_MEANS_REACH, True),
+            lambda im: Boundary(True).torus(lambda x: nl_means(x, 10.0), im, NL_MEANS_REACH),
             sample128.astype(np.float32) / 255.0,
         ),
         "texton filters": (lambda im: filter_responses(im, wrap=True), sample128),

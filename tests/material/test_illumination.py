@@ -13,6 +13,7 @@ import barkgen
 from barkgen.color import linear_to_srgb, srgb_to_linear
 from barkgen.errors import InvalidInputError
 from barkgen.material import (
+    Boundary,
     MaterialOptions,
     adjust_material,
     decode_illumination,
@@ -102,8 +103,8 @@ def test_the_light_wraps_where_the_photo_does(albedo):
     photo = linear_to_srgb(
         albedo * (0.6 + 0.4 * np.sin(np.linspace(0, 2 * np.pi, SIZE, endpoint=False)))[None, :, None]
     )
-    light = estimate_illumination(photo, tile=True)
-    shifted = estimate_illumination(np.roll(photo, 64, axis=1), tile=True)
+    light = estimate_illumination(photo, boundary=Boundary(True))
+    shifted = estimate_illumination(np.roll(photo, 64, axis=1), boundary=Boundary(True))
     np.testing.assert_allclose(shifted, np.roll(light, 64, axis=1), rtol=0.02)
     # no step across the edge it wraps along
     assert abs(np.log(light[:, 0] / light[:, -1])).max() < 3 * abs(np.log(light[:, 1] / light[:, 0])).max() + 1e-3

@@ -11,9 +11,11 @@ import numpy as np
 import pytest
 from conftest import BARK, BARK_MAPS, run
 
+from barkgen import Canvas
 from barkgen.errors import InvalidInputError
 from barkgen.io import encode_glb, encode_material, read_image, read_material, write_bytes_atomic, write_png
 from barkgen.material import (
+    Boundary,
     EditList,
     HeightEdit,
     HeightEditor,
@@ -54,7 +56,7 @@ def render_lambert(height: np.ndarray, light: Light, albedo: np.ndarray) -> np.n
     """A photo of a height field under one light: sRGB of albedo * N·L (linear)."""
     from barkgen.color import linear_to_srgb
 
-    shade = np.clip(shading(normal_map(height, tile=True), light), 0.05, 1)
+    shade = np.clip(shading(normal_map(height, boundary=Boundary(True)), light), 0.05, 1)
     return linear_to_srgb(albedo[..., None] * shade[..., None] * np.ones(3, np.float32))
 
 
@@ -83,7 +85,7 @@ def test_normals_of_planes_follow_the_opengl_convention():
 
 
 def test_gl_and_dx_files_differ_exactly_in_green():
-    n = normal_map(bumps(), tile=True)
+    n = normal_map(bumps(), boundary=Boundary(True))
     gl = encode_normals(n)
     dx = flip_green(gl)
     assert np.array_equal(gl[..., [0, 2]], dx[..., [0, 2]])
@@ -101,25 +103,27 @@ def test_ambient_occlusion_darkens_pits_and_wraps():
     assert ao[32, 32] < 0.8 and ao[2, 2] > 0.99 and ao.min() >= 0
     tile = bumps(64)
     assert np.allclose(
-        ambient_occlusion(np.roll(tile, 9, 1), tile=True), np.roll(ambient_occlusion(tile, tile=True), 9, 1), atol=1e-6
+        ambient_occlusion(np.roll(tile, 9, 1), boundary=Boundary(True)),
+        np.roll(ambient_occlusion(tile, boundary=Boundary(True)), 9, 1),
+        atol=1e-6,
     )
 
 
 def test_photo_cavities_darken_the_ao_where_the_photo_is_dark_and_scale_with_the_relief():
     h = bumps(96)
-    ao = ambient_occlusion(h, tile=True)
+    ao = ambient_occlusion(h, boundary=Boundary(True))
     y, x = np.mgrid[0:96, 0:96]
     lum = np.full((96, 96), 0.6, np.float32)
     crack = (np.abs(x - 40) <= 1) & (y > 20) & (y < 70)  # a dark crack the height does not have
     lum[crack] = 0.2
-    cav = photo_cavities(ao, lum, tile=True)
+    cav = photo_cavities(ao, lum, boundary=Boundary(True))
     assert cav[crack].max() < 0 and cav[~crack].min() > cav[crack].max()
     assert abs(float(cav.mean())) < 1e-6
     # in units of the height AO's spread: twice the relief's spread, twice the term; none without
-    assert np.allclose(photo_cavities(0.5 + 2 * (ao - 0.5), lum, tile=True), 2 * cav, atol=1e-5)
+    assert np.allclose(photo_cavities(0.5 + 2 * (ao - 0.5), lum, boundary=Boundary(True)), 2 * cav, atol=1e-5)
     assert not photo_cavities(np.ones_like(ao), lum).any() and not photo_cavities(ao, lum, weight=0).any()
     assert np.allclose(
-        photo_cavities(np.roll(ao, 17, 0), np.roll(lum, 17, 0), tile=True), np.roll(cav, 17, 0), atol=1e-5
+        photo_cavities(np.roll(ao, 17, 0), np.roll(lum, 17, 0), boundary=Boundary(True)), np.roll(cav, 17, 0), atol=1e-5
     )
     with pytest.raises(InvalidInputError):
         MaterialOptions(cavities=-1)
@@ -133,7 +137,9 @@ def test_height_puts_dark_fissures_low_and_wraps_when_tiled():
     h = estimate_height(photo.astype(np.float32))
     assert h[:, x[0] % 16 == 4].mean() < h[:, x[0] % 16 == 12].mean() - 0.5  # fissure centre vs plate
     assert np.allclose(
-        estimate_height(np.roll(photo, 40, 1), tile=True), np.roll(estimate_height(photo, tile=True), 40, 1), atol=1e-4
+        estimate_height(np.roll(photo, 40, 1), boundary=Boundary(True)),
+        np.roll(estimate_height(photo, boundary=Boundary(True)), 40, 1),
+        atol=1e-4,
     )
     assert not estimate_height(np.full((32, 32, 3), 0.5, np.float32)).any()
     # one-pixel-high strips have a height and normals too
@@ -252,7 +258,7 @@ def test_light_is_recovered_and_shading_removed_on_a_rendered_surface():
     albedo = (0.5 + 0.1 * paint / paint.std()).astype(np.float32)
     truth = Light(135.0, 45.0)
     photo = render_lambert(height, truth, albedo)
-    normals = normal_map(height, tile=True)
+    normals = normal_map(height, boundary=Boundary(True))
     light = estimate_light(photo, normals)
     assert abs((light.azimuth - 135 + 180) % 360 - 180) <= 15 and abs(light.elevation - 45) <= 15
     shade = shading(normals, light).ravel()
@@ -274,7 +280,7 @@ def test_shading_is_removed_under_a_grazing_light():
     height = ndi.gaussian_filter(rng.normal(0, 1, (160, 160)), 3, mode="wrap")
     height = (height / height.std() * 2.0).astype(np.float32)
     photo = render_lambert(height, Light(135.0, 20.0), np.full((160, 160), 0.5, np.float32))
-    normals = normal_map(height, tile=True)
+    normals = normal_map(height, boundary=Boundary(True))
     light = estimate_light(photo, normals)
     shade = shading(normals, light).ravel()
     assert (shade < 0.2).mean() > 0.3
@@ -294,7 +300,7 @@ def test_light_is_the_best_match_even_when_no_light_explains_the_photo():
     from scipy import ndimage as ndi
 
     height = ndi.gaussian_filter(rng.normal(0, 1, (128, 128)), 2, mode="wrap")
-    normals = normal_map((height / height.std() * 1.5).astype(np.float32), tile=True)
+    normals = normal_map((height / height.std() * 1.5).astype(np.float32), boundary=Boundary(True))
     lateral = shading(normals, Light(200.0, 1e-3))
     photo = np.repeat((0.9 - 0.8 * normals[..., 2] + 0.01 * lateral)[..., None], 3, axis=2)
     light = estimate_light(photo.astype(np.float32), normals)
@@ -354,7 +360,9 @@ def test_transfer_follows_the_references_and_tiles(pine_set):
     from barkgen.synth import synthesize
 
     result = synthesize(pine_set.color, (96, 96), tile=True, seed=1)
-    out = transfer_material(pine_set, result.references, tile=True, blend="none")
+    out = transfer_material(
+        pine_set, result.references, canvas=Canvas(result.references.shape[:2], tile=True), blend="none"
+    )
     ry, rx = result.references[..., 0], result.references[..., 1]
     from conftest import assert_continuous_copy
 
@@ -365,12 +373,14 @@ def test_transfer_follows_the_references_and_tiles(pine_set):
     assert_continuous_copy(out.height, pine_set.height, result.references, tolerance=0.7)
     assert_continuous_copy(out.roughness, pine_set.roughness, result.references, tolerance=0.35)
     # normals and AO are recomputed on the torus: they tile like the colour
-    shifted = transfer_material(pine_set, np.roll(result.references, 31, axis=1), tile=True)
+    shifted = transfer_material(
+        pine_set, np.roll(result.references, 31, axis=1), canvas=Canvas(result.references.shape[:2], tile=True)
+    )
     assert np.allclose(shifted.normals, np.roll(out.normals, 31, axis=1), atol=1e-6)
     assert np.allclose(shifted.ao, np.roll(out.ao, 31, axis=1), atol=1e-6)
     # the AO is the carried height's, plus the photo's cavities carried like the height
     assert_continuous_copy(out.ao_cavities, pine_set.ao_cavities, result.references, tolerance=0.35)
-    height_ao = ambient_occlusion(out.height, tile=True)
+    height_ao = ambient_occlusion(out.height, boundary=Boundary(True))
     assert np.allclose(out.ao, np.clip(height_ao + out.ao_cavities, 0, 1), atol=1e-6)
 
 

@@ -11,7 +11,16 @@ from scipy import ndimage as ndi
 
 from barkgen.color import linear_to_srgb
 from barkgen.errors import InvalidInputError
-from barkgen.material import HeightConfig, Light, MaterialOptions, estimate_height, make_material, normal_map, shading
+from barkgen.material import (
+    Boundary,
+    HeightConfig,
+    Light,
+    MaterialOptions,
+    estimate_height,
+    make_material,
+    normal_map,
+    shading,
+)
 from barkgen.material.shading import (
     fit_light_azimuth,
     shading_confidence,
@@ -30,7 +39,7 @@ def furrowed(n: int = 192, seed: int = 4) -> np.ndarray:
 def photographed(height: np.ndarray, light: Light, *, occlusion: float = 0.0) -> np.ndarray:
     """``height`` under ``light`` with an ambient of 0.25 (sRGB, grey albedo 0.5), darkened in
     its low places by ``occlusion`` (what a sky's light does to furrows)."""
-    shade = 0.25 + 0.75 * np.maximum(shading(normal_map(height, tile=True), light), 0.0)
+    shade = 0.25 + 0.75 * np.maximum(shading(normal_map(height, boundary=Boundary(True)), light), 0.0)
     low = ndi.gaussian_filter(height, 2, mode="wrap")
     shade = shade * (1.0 - occlusion * (low < 0) * np.minimum(-low / 2, 1.0))
     return np.repeat(linear_to_srgb(0.5 * shade)[..., None], 3, axis=2).astype(np.float32)
@@ -54,9 +63,9 @@ def test_shape_from_shading_recovers_a_height_the_luminance_does_not_show():
     height = furrowed()
     photo = photographed(height, Light(30.0, 35.0))
     assert abs(corr(band(photo[..., 0]), band(height))) < 0.15
-    assert corr(band(shape_from_shading(photo, 30.0, tile=True)), band(height)) > 0.7
+    assert corr(band(shape_from_shading(photo, 30.0, boundary=Boundary(True))), band(height)) > 0.7
     # told the opposite light, the same shading gives the height upside down
-    assert corr(band(shape_from_shading(photo, 210.0, tile=True)), band(height)) < -0.7
+    assert corr(band(shape_from_shading(photo, 210.0, boundary=Boundary(True))), band(height)) < -0.7
 
 
 @pytest.fixture(scope="module")
@@ -102,8 +111,8 @@ def test_the_shading_joins_the_height_as_far_as_it_is_trusted():
     height = furrowed(96)
     photo = photographed(height, Light(60.0, 35.0))
     cue = np.zeros_like(height) + np.linspace(0, 1, 96, dtype=np.float32)[None, :]
-    assert np.array_equal(with_shading_height(photo, cue, Light(60.0, 35.0), weight=0.0, tile=True), cue)
-    joint = with_shading_height(photo, height, Light(60.0, 35.0), weight=1.0, tile=True)
+    assert np.array_equal(with_shading_height(photo, cue, Light(60.0, 35.0), weight=0.0, boundary=Boundary(True)), cue)
+    joint = with_shading_height(photo, height, Light(60.0, 35.0), weight=1.0, boundary=Boundary(True))
     assert corr(band(joint), band(height)) > 0.9
     assert shading_confidence(Light(60.0, 35.0), given=True) == 1.0
     assert shading_confidence(Light(60.0, 35.0, 0.01), given=False) == 0.0
@@ -120,7 +129,7 @@ def test_the_shading_weight_is_checked():
     given = MaterialOptions(light=Light(60.0, 35.0), exemplar_wrap="yes", k=2, equalize_light=0.0)
     joined = make_material(photo, given)
     off = make_material(photo, dataclasses.replace(given, height=HeightConfig(shading_weight=0.0)))
-    assert np.allclose(off.height, estimate_height(photo, off_labels(photo), tile=True), atol=1e-4)
+    assert np.allclose(off.height, estimate_height(photo, off_labels(photo), boundary=Boundary(True)), atol=1e-4)
     assert corr(band(joined.height), band(height)) > corr(band(off.height), band(height)) + 0.2
 
 

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from conftest import BARK, BARK_MAPS, run
 
+from barkgen import Canvas
 from barkgen.io import read_image, read_scanned_set, write_png
 from barkgen.material import scanned_material
 from barkgen.pipeline import GenerateOptions, generate
@@ -31,7 +32,7 @@ def scan_crop(tmp_path, name: str, size: int):
 
 def deep_inside(references: np.ndarray, exemplar_shape, band: int = 8) -> np.ndarray:
     """Output pixels at least ``band`` px from any border between copied pieces (on the torus)."""
-    inside = (~piece_borders(references, exemplar_shape, tile=True)).astype(np.uint8)
+    inside = (~piece_borders(references, exemplar_shape, Canvas(references.shape[:2], tile=True))).astype(np.uint8)
     pad = band + 1
     distance = cv2.distanceTransform(np.pad(inside, pad, mode="wrap"), cv2.DIST_L2, 3)[pad:-pad, pad:-pad]
     return distance >= band

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from barkgen.errors import InvalidInputError
-from barkgen.material import EditList, MaterialSet, derived_maps
+from barkgen.material import Boundary, EditList, MaterialSet, derived_maps
 from barkgen.pipeline import GenerateResult, adjusted_result, check_edit_list
 
 
@@ -32,7 +32,7 @@ def _result(material: MaterialSet | None) -> GenerateResult:
 def _set() -> MaterialSet:
     y, x = np.mgrid[0:24, 0:32]
     height = (np.sin(x / 3.0) * 2 + np.cos(y / 4.0)).astype(np.float32)
-    normals, ao = derived_maps(height, tile=True)
+    normals, ao = derived_maps(height, boundary=Boundary(True))
     light = np.exp(0.5 * np.cos(np.pi * x / 31)).astype(np.float32)  # brighter to the left
     return MaterialSet(
         color=np.full((24, 32, 3), 0.4, np.float32),

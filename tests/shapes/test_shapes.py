@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from barkgen._shared.arrays import Boundary
 from barkgen.errors import InvalidInputError
 from barkgen.shapes import (
     Budget,
@@ -97,7 +98,7 @@ def test_the_exemplar_is_a_fixed_point_of_shape_adjustment():
     config = ShapeConfig()
     rng = np.random.default_rng(0)
     boundary = ExemplarBoundary(discs, (0,), config, rng)
-    out = adjust_shape(discs.copy(), boundary, mask=None, iterations=3, config=config, tile=False, rng=rng)
+    out = adjust_shape(discs.copy(), boundary, mask=None, iterations=3, config=config, edges=Boundary(), rng=rng)
     assert np.array_equal(out, discs)
 
 
@@ -116,8 +117,8 @@ def test_every_exemplar_patch_is_matched_q_or_q_plus_one_times():
     from scipy import ndimage as ndi
 
     blobs = (ndi.gaussian_filter(noise, 3) > 0.5).astype(np.uint8)  # other shapes, more boundary
-    ys, xs = boundary_pixels(blobs, False)
-    codes = pack(extract_patches(blobs, ys, xs, config.patch, False))
+    ys, xs = boundary_pixels(blobs)
+    codes = pack(extract_patches(blobs, ys, xs, config.patch))
     q, r = divmod(len(ys), boundary.count)
     assert q >= 1
     rows, dist = match_boundary(codes, boundary, config.candidates, rng)
@@ -174,7 +175,7 @@ def test_layered_binary_synthesis_makes_discs_of_the_right_area():
     rng = np.random.default_rng(0)
     from barkgen.shapes.layered import random_layers
 
-    start = random_layers((256, 256), [1.0, float(np.mean(discs == 255))], False, rng)
+    start = random_layers((256, 256), [1.0, float(np.mean(discs == 255))], Boundary(), rng)
     d_start = shape_dissimilarity(start == 1, discs == 255, rotations="all")
     assert d_out < 0.5 * d_start
 

@@ -4,9 +4,12 @@ and the initialisations of laitoch2018 §3.4."""
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
+from barkgen import Canvas
 from barkgen.errors import InvalidInputError
 from barkgen.synth.guides.channels import boundary_distance, encode_label_maps, label_pyramid
 from barkgen.synth.guides.initialization import random_initialization, smart_initialization
@@ -96,7 +99,7 @@ def test_an_unguided_level_has_an_empty_guidance_and_a_guided_one_its_tables():
     from barkgen.synth.guides.guidance import level_guidance
 
     config = SynthesisConfig()
-    empty = level_guidance(None, 0, 2, config, (8, 8), (False, False), False)
+    empty = level_guidance(None, 0, 2, config, Canvas((8, 8), exemplar_wrap=(False, False)))
     assert not empty.guided and empty.guide_ex == {} and empty.guide_out == {}
     assert empty.expected is None and empty.n_random == 0
 
@@ -112,7 +115,7 @@ def test_an_unguided_level_has_an_empty_guidance_and_a_guided_one_its_tables():
         initial_references=random_initialization,
         components=3,
     )
-    level = level_guidance(guidance, 0, 2, config, (12, 10), (False, False), False)
+    level = level_guidance(guidance, 0, 2, config, Canvas((12, 10), exemplar_wrap=(False, False)))
     assert level.guided and level.n_random == guidance.random_candidates
     assert np.array_equal(level.ex_labels, a.ravel()) and np.array_equal(level.target, b)
     sizes = sorted({s for s, _ in config.schedule_finest})
@@ -136,6 +139,10 @@ def test_the_label_clean_up_continues_a_neighbouring_piece():
     stray[2, 2] = 6 * 8 + 6
     target = np.zeros((5, 5), np.int32)
     guide = LevelGuidance(ex_labels, target, ex_labels, np.zeros(3, np.int32), None, 0, 1.0, {}, {}, True)
-    out = enforce_labels(stray, exemplar_grid((8, 8), (False, False)), guide, 3, False)
+    # the solver's level as enforce_labels reads it: its exemplar grid, its guide, its tile
+    level = SimpleNamespace(
+        analysis=SimpleNamespace(grid=exemplar_grid((8, 8), (False, False))), guide=guide, tile=False
+    )
+    out = enforce_labels(stray, level, 3)
     assert np.array_equal(out, refs)
-    assert np.array_equal(enforce_labels(refs, exemplar_grid((8, 8), (False, False)), guide, 3, False), refs)
+    assert np.array_equal(enforce_labels(refs, level, 3), refs)

@@ -8,7 +8,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from barkgen import evaluate
+from barkgen import Canvas, evaluate
+from barkgen.material import Boundary
 from barkgen.synth import SynthesisConfig, exemplar_wraps, synthesize
 from barkgen.synth.seams.cuts import cut_straight_seams
 from barkgen.synth.seams.gradient import resolve_continuous
@@ -58,7 +59,7 @@ def test_a_straight_seam_is_recut_along_the_texture(photo_like):
     yy, xx = np.mgrid[0:64, 0:96]
     refs[..., 0] = np.where(yy < 32, yy + 10, yy + 50)
     refs[..., 1] = xx + 5
-    out = cut_straight_seams(refs, ex, tile=False)
+    out = cut_straight_seams(refs, ex, Canvas(refs.shape[:2], tile=False))
     assert out.shape == refs.shape and out.dtype == np.int32
     piece_a = (out[..., 0] == yy + 10) & (out[..., 1] == xx + 5)
     piece_b = (out[..., 0] == yy + 50) & (out[..., 1] == xx + 5)
@@ -94,15 +95,20 @@ def test_a_seam_on_a_flat_stretch_meanders_instead_of_staying_straight():
             best = max(best, int((ends - starts).max(initial=0)))
         return best
 
-    plain = cut_straight_seams(refs, ramp, tile=False, wrap=(False, True))
+    plain = cut_straight_seams(refs, ramp, Canvas(refs.shape[:2], tile=False, exemplar_wrap=(False, True)))
     assert longest_row_run(plain) == 192
-    out = cut_straight_seams(refs, ramp, tile=False, wrap=(False, True), rng=np.random.default_rng(0))
+    out = cut_straight_seams(
+        refs, ramp, Canvas(refs.shape[:2], tile=False, exemplar_wrap=(False, True)), rng=np.random.default_rng(0)
+    )
     piece_a = (out[..., 0] == yy + 40) & (out[..., 1] == xx + 20)
     piece_b = (out[..., 0] == yy + 80) & (out[..., 1] == xx + 20)
     assert np.all(piece_a | piece_b)
     assert longest_row_run(out) < 24
     assert np.array_equal(
-        out, cut_straight_seams(refs, ramp, tile=False, wrap=(False, True), rng=np.random.default_rng(0))
+        out,
+        cut_straight_seams(
+            refs, ramp, Canvas(refs.shape[:2], tile=False, exemplar_wrap=(False, True)), rng=np.random.default_rng(0)
+        ),
     )
 
 
@@ -132,10 +138,10 @@ def test_a_seam_stuck_at_the_exemplar_border_is_given_to_the_solver():
         refs = np.ascontiguousarray(ry * ew + rx, dtype=np.int32)
         coords = np.stack([ry, rx], axis=-1).astype(np.int32)
         assert np.array_equal(
-            cut_straight_seams(coords, np.zeros((eh, ew, 3), np.float32), tile=False), coords
+            cut_straight_seams(coords, np.zeros((eh, ew, 3), np.float32), Canvas(coords.shape[:2], tile=False)), coords
         )  # the cut cannot move it
         forbid = np.full(refs.shape, -1, np.int64)
-        assert unstick_border_seams(refs, level, forbid, False, 24) == 1
+        assert unstick_border_seams(refs, SimpleNamespace(analysis=level, tile=False), forbid, 24) == 1
         band = (
             (slice(32, 32 + UNSTICK_DEPTH), slice(None))
             if not transposed
@@ -150,11 +156,14 @@ def test_a_seam_stuck_at_the_exemplar_border_is_given_to_the_solver():
     movable = np.where(yy < 32, yy + (eh - 32), yy - 20)
     refs = np.ascontiguousarray(movable * ew + xx + 10, dtype=np.int32)
     forbid = np.full(refs.shape, -1, np.int64)
-    assert unstick_border_seams(refs, level, forbid, False, 24) == 0 and (forbid == -1).all()
+    assert (
+        unstick_border_seams(refs, SimpleNamespace(analysis=level, tile=False), forbid, 24) == 0
+        and (forbid == -1).all()
+    )
     # along an axis that wraps there is no border to be stuck at
     level.wrap = (True, False)
     refs = np.ascontiguousarray(stuck_rows * ew + xx + 10, dtype=np.int32)
-    assert unstick_border_seams(refs, level, forbid, False, 24) == 0
+    assert unstick_border_seams(refs, SimpleNamespace(analysis=level, tile=False), forbid, 24) == 0
 
 
 def test_the_copy_size_control_cuts_a_piece_along_meandering_lines():
@@ -173,9 +182,13 @@ def test_the_copy_size_control_cuts_a_piece_along_meandering_lines():
     yy, xx = np.mgrid[0:128, 0:128]
     refs = np.ascontiguousarray((yy + 10) * ew + xx + 10, dtype=np.int32)  # one 128 x 128 piece
 
+    def solver_level(seed):  # the solver's level as limit_copies reads it: a limit of 0.2
+        config = SimpleNamespace(max_copy=0.2)
+        return SimpleNamespace(analysis=level, config=config, tile=False, rng=np.random.default_rng(seed))
+
     def forbidden(seed):
         forbid = np.full(refs.shape, -1, np.int64)
-        assert limit_copies(refs, level, 0.2 * eh * ew, forbid, False, np.random.default_rng(seed)) == 1
+        assert limit_copies(refs, solver_level(seed), forbid) == 1
         return forbid >= 0
 
     band = forbidden(0)
@@ -228,16 +241,16 @@ def test_a_continuous_map_has_no_cliff_where_pieces_meet():
     plain = h[refs[..., 0], refs[..., 1]]
     assert np.abs(np.diff(plain, axis=1)).max() == 16  # the cliff
     for tile in (False, True):
-        u = resolve_continuous(h, refs, tile=tile)
+        u = resolve_continuous(h, refs, Canvas(refs.shape[:2], tile=tile))
         assert u.dtype == np.float32 and u.shape == (48, 48)
         assert np.abs(np.diff(u, axis=1)).max() < 2.0
         if not tile:  # (on a torus a ramp cannot close: its mean slope is 0 there)
             assert np.allclose(np.diff(u, axis=0)[5:40, 5:20], 1.0, atol=0.05)
-    u = resolve_continuous(h, refs, tile=True).astype(np.float64)
+    u = resolve_continuous(h, refs, Canvas(refs.shape[:2], tile=True)).astype(np.float64)
     wrap_step = np.abs(u[0] - u[-1]).mean()
     assert wrap_step < 3 * np.abs(np.diff(u, axis=0)).mean()
     # 16-bit maps stay 16-bit
-    u16 = resolve_continuous((h * 1000).astype(np.uint16), refs, tile=False)
+    u16 = resolve_continuous((h * 1000).astype(np.uint16), refs, Canvas(refs.shape[:2], tile=False))
     assert u16.dtype == np.uint16
 
 
@@ -252,7 +265,9 @@ def test_synthesized_material_maps_have_no_cliffs(sample256):
 
     source = make_material(sample256)
     res = synthesize(sample256, 384, tile=True, seed=0)
-    mat = transfer_material(source, res.references, tile=True, exemplar_wrap=res.exemplar_wrap)
+    mat = transfer_material(
+        source, res.references, canvas=Canvas(res.references.shape[:2], tile=True, exemplar_wrap=res.exemplar_wrap)
+    )
     y, x = res.references[..., 0].astype(np.int64), res.references[..., 1].astype(np.int64)
 
     def step_ratio(img):
@@ -264,11 +279,16 @@ def test_synthesized_material_maps_have_no_cliffs(sample256):
         ratio = step_ratio(img)
         assert ratio <= 1.5, (name, ratio)
     albedo = np.asarray(mat.color, np.float64)
-    exact = transfer_material(source, res.references, tile=True, exemplar_wrap=res.exemplar_wrap, blend="none")
+    exact = transfer_material(
+        source,
+        res.references,
+        canvas=Canvas(res.references.shape[:2], tile=True, exemplar_wrap=res.exemplar_wrap),
+        blend="none",
+    )
     assert np.array_equal(exact.color, source.color[y, x])
     assert step_ratio(albedo) < 0.9 * step_ratio(exact.color)
     assert np.allclose(np.linalg.norm(mat.normals, axis=-1), 1.0, atol=1e-4)
-    normals, _ = derived_maps(mat.height, tile=True)
+    normals, _ = derived_maps(mat.height, boundary=Boundary(True))
     assert np.allclose(normals, mat.normals)
     d = mat.displacement()
     assert np.abs(d[0] - d[-1]).mean() < 3 * np.abs(np.diff(d, axis=0)).mean()
@@ -425,7 +445,9 @@ def test_an_extra_map_whose_edges_do_not_meet_draws_no_line(sample256):
     height = make_material(sample256, MaterialOptions(exemplar_wrap="no")).height
     res = synthesize(sample256, 384, tile=True, seed=0, extra={"height": height})
     assert res.extra_wraps == {"height": (False, False)}
-    forced = resolve_continuous(height, res.references, tile=True, wrap=(True, True))
+    forced = resolve_continuous(
+        height, res.references, Canvas(res.references.shape[:2], tile=True, exemplar_wrap=(True, True))
+    )
     # (measured: the forced line 165 px, the carried height's 61 px and the wrapped one's 55 px:
     # the control must stay well above the 96 px the carried height's longest is held to)
     assert longest_line(forced) > 105

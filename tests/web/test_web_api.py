@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
+from barkgen import Canvas
 from barkgen.io import encode_png
 from barkgen.library import Library
 from barkgen.web import WebLimits, create_app
@@ -629,7 +630,9 @@ def test_a_zipped_scanned_set_is_an_exemplar_whose_maps_make_the_material(client
     references, _ = read_reference(reference)
     carried = roughness[references[..., 0] % 96, references[..., 1] % 96]
     carried = carried if out.dtype == np.uint16 else carried // 257
-    inside = np.pad(~piece_borders(references, (96, 96), tile=True), 9, mode="wrap")  # tiled: across the edges
+    inside = np.pad(
+        ~piece_borders(references, (96, 96), Canvas(references.shape[:2], tile=True)), 9, mode="wrap"
+    )  # tiled: across the edges
     inside = ndimage.distance_transform_edt(inside)[9:-9, 9:-9] >= 8
     assert inside.mean() > 0.1 and np.mean(out[inside] == carried[inside]) > 0.95
     # bad sets: one line each, 400, nothing added

@@ -14,7 +14,7 @@ from test_web_api import _photo_png, _wait
 
 from barkgen.io import decode_image, encode_png
 from barkgen.library import Library
-from barkgen.material import EditList, HeightEditor, decode_illumination, parse_edit_list, parse_edits
+from barkgen.material import Boundary, EditList, HeightEditor, decode_illumination, parse_edit_list, parse_edits
 from barkgen.material.illumination import relit
 from barkgen.web import create_app
 
@@ -70,12 +70,15 @@ def test_a_stroke_spreads_to_self_similar_places_and_undoes(served):
     assert set(np.unique(labels[change > 1e-6]).tolist()) <= edited_labels
     # what the page gets is HeightEditor's replay of the list on the base height
     texture = decode_image(client.get(result["files"]["texture.png"]).content)
-    editor = HeightEditor(texture, base, labels, tile=True)
+    editor = HeightEditor(texture, base, labels, boundary=Boundary(True))
     assert np.array_equal(editor.apply(parse_edits({"version": 1, "edits": STROKE})), edited)
     # undo (the list without its last edit) and redo answer from the kept heights, the same
     undone = heights(client, result["id"], STROKE[:-1])
     assert np.array_equal(
-        undone, HeightEditor(texture, base, labels, tile=True).apply(parse_edits({"version": 1, "edits": STROKE[:-1]}))
+        undone,
+        HeightEditor(texture, base, labels, boundary=Boundary(True)).apply(
+            parse_edits({"version": 1, "edits": STROKE[:-1]})
+        ),
     )
     assert np.array_equal(heights(client, result["id"], STROKE), edited)
     assert np.array_equal(heights(client, result["id"], []), base)

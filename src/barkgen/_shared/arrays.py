@@ -4,6 +4,7 @@ and images that wrap round (a photo that tiles along an axis is a torus along it
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any, cast
 
 import numpy as np
@@ -16,43 +17,95 @@ ProgressCallback = Callable[[int, int], None]
 Wrap = bool | tuple[bool, bool]
 
 
-def wrap_axes(tile: Wrap) -> tuple[bool, bool]:
-    """``(rows, columns)`` of a ``tile`` setting: a bool (both axes) or a pair. A photo that
-    tiles along one axis only (:func:`barkgen.synth.exemplar_wraps`) wraps along that one."""
-    if isinstance(tile, (tuple, list)):
-        return bool(tile[0]), bool(tile[1])
-    return bool(tile), bool(tile)
+@dataclass(frozen=True)
+class Boundary:
+    """How a run's filters read an image at its edges: round the torus along the axes it wraps
+    along (a photo that tiles, a tileable texture; mazzolini2012 §4.1), mirrored (or one-sided)
+    at the others. Built once per run from its wrap and handed to the filters, whose edge
+    handling is its methods.
+
+    Parameters
+    ----------
+    wrap : bool or (bool, bool), default (False, False)
+        ``(rows, columns)``, or a bool for both axes.
+
+    Examples
+    --------
+    >>> Boundary(True).wrap, Boundary().wraps_any
+    ((True, True), False)
+    """
+
+    wrap: Any = (False, False)
+
+    def __post_init__(self) -> None:
+        wrap = self.wrap
+        axes = (bool(wrap[0]), bool(wrap[1])) if isinstance(wrap, (tuple, list)) else (bool(wrap), bool(wrap))
+        object.__setattr__(self, "wrap", axes)
+
+    @property
+    def wraps_any(self) -> bool:
+        """The image wraps along some axis."""
+        return self.wrap[0] or self.wrap[1]
+
+    @property
+    def wraps_both(self) -> bool:
+        """The image wraps along both axes (it tiles)."""
+        return self.wrap[0] and self.wrap[1]
+
+    def pad(self, image: np.ndarray, pad: int, other: str | None = "reflect") -> np.ndarray:
+        """``image`` padded by ``pad`` px on both sides of its first two axes: wrapping along an
+        axis it wraps along, ``other`` (a :func:`numpy.pad` mode, or None: not padded) along the
+        others."""
+        rest = [(0, 0)] * (np.ndim(image) - 2)
+        out = np.asarray(image)
+        for axis, wraps in ((0, self.wrap[0]), (1, self.wrap[1])):
+            if not wraps and other is None:
+                continue
+            widths = [(0, 0), (0, 0)] + rest
+            widths[axis] = (pad, pad)
+            out = np.pad(out, widths, mode=cast(Any, "wrap" if wraps else other))  # numpy types mode as a Literal
+        return out
+
+    def torus(self, func: Callable[[np.ndarray], np.ndarray], image: np.ndarray, pad: int) -> np.ndarray:
+        """``func(image)`` of a local operation (a filter, a distance transform, a denoising)
+        whose reach is at most ``pad`` px, computed as if ``image`` wrapped round along the axes
+        it wraps along: padded there with its own opposite edge, then cropped back. Along the
+        other axes ``func`` sees the image as it is, so an image that wraps nowhere gives
+        ``func(image)`` itself, to the byte. ``func`` keeps the first two axes' size."""
+        wy, wx = self.wrap
+        if not (wy or wx):
+            return func(image)
+        h, w = np.shape(image)[:2]
+        py, px = (pad if wy else 0), (pad if wx else 0)
+        out = func(self.pad(image, pad, other=None))
+        return out[py : py + h, px : px + w]
+
+    def blur(self, image: np.ndarray, sigma: float) -> np.ndarray:
+        """Gaussian blur (float32, OpenCV), wrapping along the axes that wrap, mirrored at the
+        other borders."""
+        import cv2
+
+        image = np.asarray(image, np.float32)
+        pad = int(np.ceil(4 * sigma)) + 1  # (numpy wraps again when the pad exceeds the image)
+        return self.torus(lambda im: cv2.GaussianBlur(im, (0, 0), sigma, borderType=cv2.BORDER_REFLECT), image, pad)
+
+    def gradient(self, image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Central differences ``(d/dx, d/drow)`` float32: wrapping along the axes that wrap,
+        one-sided at the other borders; zero along an axis one pixel long."""
+        img = np.asarray(image, np.float32)
+        grads = []
+        for axis in (1, 0):
+            if img.shape[axis] < 2:
+                grads.append(np.zeros_like(img))
+            elif self.wrap[axis]:
+                grads.append((np.roll(img, -1, axis) - np.roll(img, 1, axis)) * np.float32(0.5))
+            else:
+                grads.append(np.gradient(img, axis=axis).astype(np.float32))
+        return grads[0], grads[1]
 
 
-def pad_wrapped(image: np.ndarray, pad: int, tile: Wrap, other: str | None = "reflect") -> np.ndarray:
-    """``image`` padded by ``pad`` px on both sides of its first two axes: wrapping along an
-    axis it wraps along (``tile``), ``other`` (a :func:`numpy.pad` mode, or None: not padded)
-    along the others."""
-    wy, wx = wrap_axes(tile)
-    rest = [(0, 0)] * (np.ndim(image) - 2)
-    out = np.asarray(image)
-    for axis, wraps in ((0, wy), (1, wx)):
-        if not wraps and other is None:
-            continue
-        widths = [(0, 0), (0, 0)] + rest
-        widths[axis] = (pad, pad)
-        out = np.pad(out, widths, mode=cast(Any, "wrap" if wraps else other))  # numpy types mode as a Literal
-    return out
-
-
-def on_torus(func: Callable[[np.ndarray], np.ndarray], image: np.ndarray, pad: int, tile: Wrap) -> np.ndarray:
-    """``func(image)`` of a local operation (a filter, a distance transform, a denoising) whose
-    reach is at most ``pad`` px, computed as if ``image`` wrapped round along the axes ``tile``
-    wraps along: padded there with its own opposite edge, then cropped back. Along the other
-    axes ``func`` sees the image as it is, so an image that wraps nowhere gives ``func(image)``
-    itself, to the byte. ``func`` keeps the first two axes' size."""
-    wy, wx = wrap_axes(tile)
-    if not (wy or wx):
-        return func(image)
-    h, w = np.shape(image)[:2]
-    py, px = (pad if wy else 0), (pad if wx else 0)
-    out = func(pad_wrapped(image, pad, (wy, wx), other=None))
-    return out[py : py + h, px : px + w]
+#: a boundary that wraps nowhere (the filters mirror or clamp at every edge)
+NO_WRAP = Boundary()
 
 
 def as_hw_c(name: str, array: np.ndarray) -> np.ndarray:

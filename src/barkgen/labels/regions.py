@@ -16,7 +16,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from barkgen._shared.arrays import Wrap, on_torus, wrap_axes
+from barkgen._shared.arrays import Boundary, Wrap
 from barkgen._shared.checks import MAX_K, check_image, check_k, check_seed
 from barkgen.errors import InvalidInputError
 
@@ -130,7 +130,7 @@ def grow_small_labels(codes: np.ndarray, fraction: float, n_labels: int, wrap: W
             if counts[lab] >= need or counts[lab] == 0:
                 break
             mask = (out == lab).astype(np.uint8)
-            ring = (on_torus(lambda m: cv2.dilate(m, kernel), mask, 1, wrap) > 0) & (mask == 0)
+            ring = (Boundary(wrap).torus(lambda m: cv2.dilate(m, kernel), mask, 1) > 0) & (mask == 0)
             ring &= counts[out] > need  # donors stay above the fraction
             if not ring.any():
                 break
@@ -149,7 +149,7 @@ def _components(mask: np.ndarray, wrap: Wrap) -> tuple[np.ndarray, np.ndarray]:
 
     n, comp, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
     sizes = stats[:, cv2.CC_STAT_AREA].astype(np.int64)
-    wy, wx = wrap_axes(wrap)
+    wy, wx = Boundary(wrap).wrap
     if not (wy or wx) or n <= 2:
         return comp, sizes
     pairs = []
@@ -224,11 +224,10 @@ def remove_small_regions(codes: np.ndarray, min_region: int, wrap: Wrap = False)
     while (out < 0).any():
         votes = np.stack(
             [
-                on_torus(
+                Boundary(wrap).torus(
                     lambda m: cv2.filter2D(m, -1, kernel, borderType=cv2.BORDER_CONSTANT),
                     (out == lab).astype(np.float32),
                     1,
-                    wrap,
                 )
                 for lab in range(n_labels)
             ]
@@ -349,7 +348,7 @@ def color_regions(
         loading = pool.submit(importlib.import_module, "sklearn.cluster")
         if denoise is not False and denoise != 0:
             strength = DENOISE_STRENGTH if denoise is True else float(denoise)
-            rgb = on_torus(lambda im: nl_means(im, strength), rgb, NL_MEANS_REACH, wrap)
+            rgb = Boundary(wrap).torus(lambda im: nl_means(im, strength), rgb, NL_MEANS_REACH)
         MiniBatchKMeans = loading.result().MiniBatchKMeans
     lab = rgb_to_lab(rgb).reshape(-1, 3)
     if k == 1:
@@ -443,7 +442,7 @@ def add_edge_label(
             c16, kernel, borderType=cv2.BORDER_REPLICATE
         )
 
-    near = on_torus(near_another, codes.astype(np.uint16), r, wrap)
+    near = Boundary(wrap).torus(near_another, codes.astype(np.uint16), r)
     if n > 1 and near.all():
         raise InvalidInputError(
             f"an edge band {width} px wide covers the whole "

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from barkgen._shared.arrays import Wrap, on_torus
+from barkgen._shared.arrays import Boundary, Wrap
 from barkgen._shared.checks import check_image, check_k, check_seed
 from barkgen.errors import InvalidInputError
 from barkgen.labels.regions import (
@@ -103,7 +103,7 @@ def filter_responses(image: np.ndarray, *, wrap: Wrap = False) -> np.ndarray:
             out[..., i] = cv2.filter2D(lum, cv2.CV_32F, f, borderType=cv2.BORDER_REFLECT_101)
         return out
 
-    return np.ascontiguousarray(on_torus(respond, lum, reach, wrap))
+    return np.ascontiguousarray(Boundary(wrap).torus(respond, lum, reach))
 
 
 def texton_channels(
@@ -411,7 +411,7 @@ def _neighbourhood_vote(codes: np.ndarray, sigma: float, wrap: Wrap) -> np.ndarr
     def votes(indicator: np.ndarray) -> np.ndarray:
         return cv2.GaussianBlur(indicator, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
 
-    stacked = np.stack([on_torus(votes, (codes == i).astype(np.float32), reach, wrap) for i in range(n)], axis=-1)
+    stacked = np.stack([Boundary(wrap).torus(votes, (codes == i).astype(np.float32), reach) for i in range(n)], axis=-1)
     return stacked.argmax(axis=-1).astype(np.int32)
 
 

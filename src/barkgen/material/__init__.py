@@ -4,9 +4,12 @@
 Arrays in, arrays out: :func:`make_material` for a photo, :func:`scanned_material` for a
 scanned set (its own maps), :func:`transfer_material` for a
 texture synthesized from it, :class:`HeightEditor` for self-similarity height editing; the
-files (ambientCG names) are written by :func:`barkgen.io.write_material` and the CLI.
+files (ambientCG names) are written by :func:`barkgen.io.write_material` and the CLI. A run's
+filters read the photo round its edges as its :class:`Boundary` says (where it wraps), built
+once by :func:`make_material` (or taken from a set, :attr:`MaterialSet.boundary`).
 """
 
+from barkgen._shared.arrays import Boundary
 from barkgen.material.edited import adjust_material, edit_material
 from barkgen.material.editor import EditList, HeightEdit, HeightEditor, edits_document, parse_edit_list, parse_edits
 from barkgen.material.height import HeightConfig, estimate_height
@@ -37,6 +40,7 @@ from barkgen.material.shading import Light, estimate_light, parse_light, remove_
 from barkgen.material.transfer import transfer_material
 
 __all__ = [
+    "Boundary",
     "adjust_material",
     "EditList",
     "HeightConfig",

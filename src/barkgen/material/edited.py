@@ -64,9 +64,9 @@ def edit_material(
         raise InvalidInputError("height edits apply to an estimated relief; this set's relief is a scan's own")
     if np.shape(texture)[:2] != material.shape:
         raise InvalidInputError("the texture the edits were made on and the material set differ in size")
-    editor = HeightEditor(texture, material.height, label_map, tile=material.wraps)
+    editor = HeightEditor(texture, material.height, label_map, boundary=material.boundary)
     height = editor.apply(edits)
-    normals, ao = derived_maps(height, tile=material.wraps, ao_radius=ao_radius)
+    normals, ao = derived_maps(height, material.boundary, ao_radius=ao_radius)
     if material.ao_cavities is not None:
         ao = np.clip(ao + material.ao_cavities, 0.0, 1.0)
     return dataclasses.replace(material, height=height, normals=normals, ao=ao.astype(np.float32))
@@ -118,7 +118,7 @@ def adjust_material(
         )
     if relief != 1.0:
         height = (material.height * np.float32(relief)).astype(np.float32)
-        normals, ao = derived_maps(height, tile=material.wraps, ao_radius=ao_radius)
+        normals, ao = derived_maps(height, material.boundary, ao_radius=ao_radius)
         if material.ao_cavities is not None:
             ao = np.clip(ao + material.ao_cavities, 0.0, 1.0)
         changed = dataclasses.replace(changed, height=height, normals=normals, ao=ao.astype(np.float32))

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from barkgen._shared.arrays import Wrap, pad_wrapped, wrap_axes
+from barkgen._shared.arrays import Boundary
 from barkgen.errors import InvalidInputError
 from barkgen.material._kernels import neighbourhood_distance
 from barkgen.material.height import luminance
@@ -276,8 +276,9 @@ class HeightEditor:
         The height to edit, in pixels (copied).
     label_map : ndarray, shape (h, w), optional
         Label codes: an edit spreads only within the edited pixel's label.
-    tile : bool or (bool, bool), default False
-        The photo wraps (both axes, or ``(rows, columns)``), so do the neighbourhoods.
+    boundary : Boundary, optional
+        Where the photo wraps (both axes, or ``(rows, columns)``), so do the neighbourhoods
+        (default: nowhere).
 
     Attributes
     ----------
@@ -306,7 +307,12 @@ class HeightEditor:
     """
 
     def __init__(
-        self, photo: np.ndarray, height: np.ndarray, label_map: np.ndarray | None = None, *, tile: Wrap = False
+        self,
+        photo: np.ndarray,
+        height: np.ndarray,
+        label_map: np.ndarray | None = None,
+        *,
+        boundary: Boundary | None = None,
     ):
         lum = luminance(photo).astype(np.float32)
         if lum.shape != np.asarray(height).shape:
@@ -317,7 +323,7 @@ class HeightEditor:
         self._lum = (lum - lum.mean()) / std
         self.height = np.array(height, np.float32, copy=True)
         self.label_map = None if label_map is None else np.asarray(label_map)
-        self.tile = wrap_axes(tile)
+        self.boundary = boundary or Boundary()
         self.edits: list[HeightEdit] = []
 
     @property
@@ -338,7 +344,7 @@ class HeightEditor:
         offsets = _disc_offsets(max(1, radius // factor))
         ly, lx = min(y // factor, lum.shape[0] - 1), min(x // factor, lum.shape[1] - 1)
         pad = int(np.abs(offsets).max())
-        padded = pad_wrapped(lum, pad, self.tile)
+        padded = self.boundary.pad(lum, pad)
         ref = np.ascontiguousarray(padded[ly + pad + offsets[:, 0], lx + pad + offsets[:, 1]], np.float32)
         dist = neighbourhood_distance(np.ascontiguousarray(padded, np.float32), ref, offsets.astype(np.int64), pad)
         weight: np.ndarray = np.clip(1.0 - dist / threshold, 0.0, 1.0)

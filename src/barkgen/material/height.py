@@ -38,10 +38,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
-from barkgen._shared.arrays import Wrap, on_torus, wrap_axes
+from barkgen._shared.arrays import Boundary
 from barkgen.errors import InvalidInputError
 
 #: (octave scale in px, weight) of the luminance bands; luminance in units of its std
@@ -112,15 +111,9 @@ def luminance(rgb: np.ndarray) -> np.ndarray:
     return rgb[..., :3] @ np.array([0.2126, 0.7152, 0.0722], np.float32)
 
 
-def blur(image: np.ndarray, sigma: float, *, tile: Wrap) -> np.ndarray:
-    """Gaussian blur (float32, OpenCV), wrapping along the axes ``tile`` wraps along
-    (:func:`wrap_axes`), mirrored at the other borders."""
-    image = np.asarray(image, np.float32)
-    pad = int(np.ceil(4 * sigma)) + 1  # (numpy wraps again when the pad exceeds the image)
-    return on_torus(lambda im: cv2.GaussianBlur(im, (0, 0), sigma, borderType=cv2.BORDER_REFLECT), image, pad, tile)
-
-
-def band(image: np.ndarray, scale: float, *, tile: Wrap, blurs: dict[float, np.ndarray] | None = None) -> np.ndarray:
+def band(
+    image: np.ndarray, scale: float, boundary: Boundary, blurs: dict[float, np.ndarray] | None = None
+) -> np.ndarray:
     """The band-pass octave of ``image`` around ``scale`` px: Gaussian(scale/2) - Gaussian(2 scale).
 
     ``blurs``: this image's blurs by sigma, filled and reused (bands two octaves apart share
@@ -128,42 +121,26 @@ def band(image: np.ndarray, scale: float, *, tile: Wrap, blurs: dict[float, np.n
     blurs = {} if blurs is None else blurs
     for sigma in (scale / 2, scale * 2):
         if sigma not in blurs:
-            blurs[sigma] = blur(image, sigma, tile=tile)
+            blurs[sigma] = boundary.blur(image, sigma)
     return blurs[scale / 2] - blurs[scale * 2]
 
 
-def gradient(image: np.ndarray, *, tile: Wrap) -> tuple[np.ndarray, np.ndarray]:
-    """Central differences ``(d/dx, d/drow)`` float32: wrapping along the axes ``tile`` wraps
-    along, one-sided at the other borders; zero along an axis one pixel long."""
-    img = np.asarray(image, np.float32)
-    wraps = wrap_axes(tile)
-    grads = []
-    for axis in (1, 0):
-        if img.shape[axis] < 2:
-            grads.append(np.zeros_like(img))
-        elif wraps[axis]:
-            grads.append((np.roll(img, -1, axis) - np.roll(img, 1, axis)) * np.float32(0.5))
-        else:
-            grads.append(np.gradient(img, axis=axis).astype(np.float32))
-    return grads[0], grads[1]
-
-
-def reference_slope(photo: np.ndarray, *, tile: Wrap) -> float:
+def reference_slope(photo: np.ndarray, boundary: Boundary) -> float:
     """The median slope (per px) of the photo's luminance (luma in [0, 1], Gaussian of
     :data:`REFERENCE_BLUR` px): the scale the relief's depth is a multiple of."""
-    gx, gy = gradient(blur(luminance(photo), REFERENCE_BLUR, tile=tile), tile=tile)
+    gx, gy = boundary.gradient(boundary.blur(luminance(photo), REFERENCE_BLUR))
     return float(np.median(np.hypot(gx, gy)))
 
 
-def texture_energy(lum: np.ndarray, scale: float, *, tile: Wrap) -> np.ndarray:
+def texture_energy(lum: np.ndarray, scale: float, boundary: Boundary) -> np.ndarray:
     """Local mean (Gaussian, ``scale / 2``) of the gradient magnitude, in units of its std."""
-    gx, gy = gradient(lum, tile=tile)
-    energy = blur(np.hypot(gx, gy), scale / 2, tile=tile)
+    gx, gy = boundary.gradient(lum)
+    energy = boundary.blur(np.hypot(gx, gy), scale / 2)
     return (energy - energy.mean()) / max(float(energy.std()), 1e-9)
 
 
 def height_features(
-    photo: np.ndarray, label_map: np.ndarray | None, config: HeightConfig, *, tile: Wrap
+    photo: np.ndarray, label_map: np.ndarray | None, config: HeightConfig, boundary: Boundary
 ) -> list[tuple[float, np.ndarray]]:
     """The weighted cues of :func:`estimate_height` as ``(weight, feature)`` pairs (each feature
     in units of its own std), so that fitting and estimating use one code path."""
@@ -173,8 +150,8 @@ def height_features(
         return []
     lum = (lum - lum.mean()) / std
     blurs: dict[float, np.ndarray] = {}
-    cues = [(w, band(lum, s, tile=tile, blurs=blurs)) for s, w in config.bands]
-    cues += [(w, band(texture_energy(lum, s, tile=tile), s, tile=tile)) for s, w in config.energy_bands]
+    cues = [(w, band(lum, s, boundary, blurs)) for s, w in config.bands]
+    cues += [(w, band(texture_energy(lum, s, boundary), s, boundary)) for s, w in config.energy_bands]
     if label_map is not None:
         codes = np.asarray(label_map)
         if codes.shape != lum.shape:
@@ -182,13 +159,17 @@ def height_features(
                 f"label map is {codes.shape[1]}x{codes.shape[0]} px but the photo is {lum.shape[1]}x{lum.shape[0]} px"
             )
         rank = codes.astype(np.float64) / max(int(codes.max()), 1)
-        cue = blur(rank, LABEL_BLUR, tile=tile)
+        cue = boundary.blur(rank, LABEL_BLUR)
         cues.append((config.label_weight, (cue - cue.mean()) / max(float(cue.std()), 1e-6)))
     return cues
 
 
 def estimate_height(
-    photo: np.ndarray, label_map: np.ndarray | None = None, *, config: HeightConfig | None = None, tile: Wrap = False
+    photo: np.ndarray,
+    label_map: np.ndarray | None = None,
+    *,
+    config: HeightConfig | None = None,
+    boundary: Boundary | None = None,
 ) -> np.ndarray:
     """Height field estimated from a photo alone.
 
@@ -205,9 +186,9 @@ def estimate_height(
         labels are fissures, hence low.
     config : HeightConfig, optional
         The cues' scales and weights.
-    tile : bool or (bool, bool), default False
-        The photo wraps (a photo that tiles, a synthesized tileable texture): filters wrap
-        around, along both axes or along ``(rows, columns)``.
+    boundary : Boundary, optional
+        Where the photo wraps (a photo that tiles, a synthesized tileable texture): the filters
+        wrap around there, along both axes or along ``(rows, columns)`` (default: nowhere).
 
     Returns
     -------
@@ -226,16 +207,17 @@ def estimate_height(
     ((64, 64), True)
     """
     config = config or HeightConfig()
-    cues = height_features(photo, label_map, config, tile=tile)
+    boundary = boundary or Boundary()
+    cues = height_features(photo, label_map, config, boundary)
     if not cues:
         return np.zeros(np.asarray(photo).shape[:2], np.float32)
     height = np.zeros(cues[0][1].shape)
     for weight, feature in cues:
         if weight:
             height += weight * feature
-    gx, gy = gradient(height, tile=tile)
+    gx, gy = boundary.gradient(height)
     slope = float(np.median(np.hypot(gx, gy)))
     if slope <= 1e-12:
         return np.zeros(height.shape, np.float32)
-    height *= config.strength * reference_slope(photo, tile=tile) / slope
+    height *= config.strength * reference_slope(photo, boundary) / slope
     return (height - height.mean()).astype(np.float32)

@@ -34,7 +34,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from barkgen._shared.arrays import Wrap, on_torus, unit_float, wrap_axes
+from barkgen._shared.arrays import Boundary, unit_float
 from barkgen.color import linear_to_srgb, srgb_to_linear
 from barkgen.errors import InvalidInputError
 
@@ -69,7 +69,7 @@ def check_strength(strength: float) -> float:
     return float(strength)
 
 
-def estimate_illumination(photo: np.ndarray, *, tile: Wrap = False) -> np.ndarray:
+def estimate_illumination(photo: np.ndarray, *, boundary: Boundary | None = None) -> np.ndarray:
     """The photo's broad light: a grey gain per pixel, geometric mean 1 (see the module
     docstring).
 
@@ -77,9 +77,9 @@ def estimate_illumination(photo: np.ndarray, *, tile: Wrap = False) -> np.ndarra
     ----------
     photo : ndarray, shape (h, w, 3) or (h, w)
         sRGB, uint8, uint16 or float in [0, 1].
-    tile : bool or (bool, bool), default False
-        The photo wraps (both axes, or ``(rows, columns)``): so does the light, and it has no
-        trend along a wrapping axis.
+    boundary : Boundary, optional
+        Where the photo wraps (both axes, or ``(rows, columns)``): so does the light, and it
+        has no trend along a wrapping axis (default: nowhere).
 
     Returns
     -------
@@ -99,6 +99,7 @@ def estimate_illumination(photo: np.ndarray, *, tile: Wrap = False) -> np.ndarra
     >>> bool(light[:, -1].mean() > 2 * light[:, 0].mean())
     True
     """
+    boundary = boundary or Boundary()
     linear = _linear_rgb(photo)
     h, w = linear.shape[:2]
     scale = min(1.0, WORK_SIDE / max(h, w))
@@ -112,30 +113,32 @@ def estimate_illumination(photo: np.ndarray, *, tile: Wrap = False) -> np.ndarra
     small_lum = cv2.resize(log_lum, small_shape[::-1], interpolation=cv2.INTER_AREA)
     small_chroma = cv2.resize(chroma, small_shape[::-1], interpolation=cv2.INTER_AREA)
     sigma = WINDOW * max(small_shape)
-    weight = _bark_colour_weight(small_chroma, sigma * CHROMA_WINDOW, tile)
-    trend, local = _broad_field(small_lum, weight, sigma, tile)
+    weight = _bark_colour_weight(small_chroma, sigma * CHROMA_WINDOW, boundary)
+    trend, local = _broad_field(small_lum, weight, sigma, boundary)
     # what the same estimate would make of the bark alone: the variance of its residual's means
     # over blocks of half the window, spread over the window's area (the local part) and over
     # the whole photo with the trend's terms (the trend); each part of the light is kept only
     # as far as it stands above that
     block = max(sigma / 2, 1.0)
     residual = small_lum - trend - local
-    block_var = float(_box(residual, block, tile).var())
+    block_var = float(_box(residual, block, boundary).var())
     noise_local = block_var * block**2 / (4 * np.pi * sigma**2)
-    noise_trend = block_var * block**2 * _trend_terms(tile) / small_lum.size
+    noise_trend = block_var * block**2 * _trend_terms(boundary) / small_lum.size
     log_light = trend * _significance(float(trend.var()), noise_trend) + local * _significance(
         float(local.var()), noise_local
     )
     log_light -= float(log_light.mean())
-    return np.exp(_resized(log_light, (h, w), tile)).astype(np.float32)
+    return np.exp(_resized(log_light, (h, w), boundary)).astype(np.float32)
 
 
-def _broad_field(log_lum: np.ndarray, weight: np.ndarray, sigma: float, tile: Wrap) -> tuple[np.ndarray, np.ndarray]:
+def _broad_field(
+    log_lum: np.ndarray, weight: np.ndarray, sigma: float, boundary: Boundary
+) -> tuple[np.ndarray, np.ndarray]:
     """The weighted quadratic trend of ``log_lum``, and the weighted Gaussian mean (``sigma``)
     of what remains."""
-    trend = _weighted_trend(log_lum, weight, tile)
+    trend = _weighted_trend(log_lum, weight, boundary)
     rest = log_lum - trend
-    return trend, _gaussian(weight * rest, sigma, tile) / np.maximum(_gaussian(weight, sigma, tile), 1e-6)
+    return trend, _gaussian(weight * rest, sigma, boundary) / np.maximum(_gaussian(weight, sigma, boundary), 1e-6)
 
 
 def _significance(signal_var: float, noise_var: float) -> float:
@@ -146,23 +149,25 @@ def _significance(signal_var: float, noise_var: float) -> float:
     return float(np.clip((ratio - NOISE_MARGIN) / NOISE_MARGIN, 0.0, 1.0))
 
 
-def _box(values: np.ndarray, side: float, tile: Wrap) -> np.ndarray:
+def _box(values: np.ndarray, side: float, boundary: Boundary) -> np.ndarray:
     """The mean of ``values`` over a square of ``side`` px round each pixel (across the edges it
     wraps along, mirrored at the others): every block's mean, whatever the blocks' offset."""
     size = max(int(round(side)), 1)
     pad = min(size, max(values.shape))
-    return on_torus(
-        lambda im: cv2.blur(im, (size, size), borderType=cv2.BORDER_REFLECT), values.astype(np.float32), pad, tile
+    return boundary.torus(
+        lambda im: cv2.blur(im, (size, size), borderType=cv2.BORDER_REFLECT), values.astype(np.float32), pad
     )
 
 
-def _trend_terms(tile: Wrap) -> int:
+def _trend_terms(boundary: Boundary) -> int:
     """The non-constant terms of :func:`_weighted_trend`: a quadratic in the free axes."""
-    free = 2 - sum(wrap_axes(tile))
+    free = 2 - sum(boundary.wrap)
     return free + free * (free + 1) // 2
 
 
-def equalize_light(photo: np.ndarray, strength: float = 1.0, *, tile: Wrap = False) -> tuple[np.ndarray, np.ndarray]:
+def equalize_light(
+    photo: np.ndarray, strength: float = 1.0, *, boundary: Boundary | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """The photo with its broad light taken out, ``strength`` of the way.
 
     Parameters
@@ -171,8 +176,8 @@ def equalize_light(photo: np.ndarray, strength: float = 1.0, *, tile: Wrap = Fal
         sRGB, uint8, uint16 or float in [0, 1] (a fourth channel, alpha, is kept as it is).
     strength : float, default 1.0
         0 keeps the photo's light (the photo is returned as it is), 1 takes it all out.
-    tile : bool or (bool, bool), default False
-        The photo wraps (:func:`estimate_illumination`).
+    boundary : Boundary, optional
+        Where the photo wraps (:func:`estimate_illumination`).
 
     Returns
     -------
@@ -189,7 +194,7 @@ def equalize_light(photo: np.ndarray, strength: float = 1.0, *, tile: Wrap = Fal
     """
     strength = check_strength(strength)
     arr = np.asarray(photo)
-    light = estimate_illumination(arr, tile=tile)
+    light = estimate_illumination(arr, boundary=boundary)
     if strength == 0.0:
         return arr, light
     return relit(arr, light, -strength), light
@@ -248,25 +253,25 @@ def _as_dtype(values: np.ndarray, dtype: np.dtype) -> np.ndarray:
     return values.astype(dtype if np.dtype(dtype).kind == "f" else np.float32)
 
 
-def _gaussian(image: np.ndarray, sigma: float, tile: Wrap) -> np.ndarray:
+def _gaussian(image: np.ndarray, sigma: float, boundary: Boundary) -> np.ndarray:
     pad = min(int(np.ceil(3 * sigma)) + 1, max(image.shape[:2]))
-    return on_torus(lambda im: cv2.GaussianBlur(im, (0, 0), sigma, borderType=cv2.BORDER_REFLECT), image, pad, tile)
+    return boundary.torus(lambda im: cv2.GaussianBlur(im, (0, 0), sigma, borderType=cv2.BORDER_REFLECT), image, pad)
 
 
-def _bark_colour_weight(chroma: np.ndarray, sigma: float, tile: Wrap) -> np.ndarray:
+def _bark_colour_weight(chroma: np.ndarray, sigma: float, boundary: Boundary) -> np.ndarray:
     """1 where a neighbourhood's chromaticity is the photo's usual, falling off (Gaussian in
     median absolute deviations) where it is another hue."""
-    local = _gaussian(chroma, sigma, tile)
+    local = _gaussian(chroma, sigma, boundary)
     usual = np.median(local.reshape(-1, 2), axis=0)
     distance = np.linalg.norm(local - usual, axis=2)
     spread = float(np.median(distance)) + 1e-6
     return np.exp(-((distance / (CHROMA_TOLERANCE * spread)) ** 2)).astype(np.float32)
 
 
-def _weighted_trend(values: np.ndarray, weight: np.ndarray, tile: Wrap) -> np.ndarray:
+def _weighted_trend(values: np.ndarray, weight: np.ndarray, boundary: Boundary) -> np.ndarray:
     """The weighted least-squares quadratic of ``values`` in x and y, in the variables of the
     axes that do not wrap (a wrapping axis has no trend)."""
-    wrap_rows, wrap_cols = wrap_axes(tile)
+    wrap_rows, wrap_cols = boundary.wrap
     h, w = values.shape
     y, x = np.mgrid[0:h, 0:w].astype(np.float64)
     x, y = x / max(w - 1, 1) - 0.5, y / max(h - 1, 1) - 0.5
@@ -278,12 +283,12 @@ def _weighted_trend(values: np.ndarray, weight: np.ndarray, tile: Wrap) -> np.nd
     return (basis @ coef).reshape(h, w).astype(np.float32)
 
 
-def _resized(values: np.ndarray, shape: tuple[int, int], tile: Wrap) -> np.ndarray:
+def _resized(values: np.ndarray, shape: tuple[int, int], boundary: Boundary) -> np.ndarray:
     """A smooth field resampled to ``shape`` (bilinear; across the edge where it wraps)."""
     h, w = shape
     if values.shape == (h, w):
         return values
-    wrap_rows, wrap_cols = wrap_axes(tile)
+    wrap_rows, wrap_cols = boundary.wrap
     pad_y, pad_x = int(wrap_rows), int(wrap_cols)
     padded = np.pad(values, ((pad_y, pad_y), (pad_x, pad_x)), mode="wrap")
     sy, sx = values.shape[0] / h, values.shape[1] / w

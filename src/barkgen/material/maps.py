@@ -3,16 +3,15 @@ work, in ambientCG's conventions: OpenGL normals, AO and roughness in [0, 1]).
 
 Heights are in pixels (a unit slope is 45°). Normals are tangent-space unit vectors
 ``(x right, y up, z out)`` — the OpenGL / glTF convention; :func:`to_directx` flips green for
-Unreal and Substance. Every map honours ``tile``: a tileable height gives tileable maps.
+Unreal and Substance. Every map honours its ``boundary``: a tileable height gives tileable maps.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from barkgen._shared.arrays import Wrap, wrap_axes
+from barkgen._shared.arrays import Boundary
 from barkgen.material._kernels import horizon_occlusion
-from barkgen.material.height import blur, gradient
 
 #: directions and reach (px) of the horizon-based ambient occlusion
 AO_DIRECTIONS = 8
@@ -27,7 +26,7 @@ ROUGHNESS_CAVITY = 0.6
 ROUGHNESS_RIDGE = 0.05
 
 
-def normal_map(height: np.ndarray, *, strength: float = 1.0, tile: Wrap = False) -> np.ndarray:
+def normal_map(height: np.ndarray, *, strength: float = 1.0, boundary: Boundary | None = None) -> np.ndarray:
     """Unit normals of a height field, OpenGL convention.
 
     Parameters
@@ -36,9 +35,9 @@ def normal_map(height: np.ndarray, *, strength: float = 1.0, tile: Wrap = False)
         Height in pixels.
     strength : float, default 1.0
         Multiplies the slopes.
-    tile : bool or (bool, bool), default False
-        The height wraps (both axes, or ``(rows, columns)``): slopes are taken across those
-        edges.
+    boundary : Boundary, optional
+        Where the height wraps (both axes, or ``(rows, columns)``): slopes are taken across those
+        edges (default: nowhere).
 
     Returns
     -------
@@ -55,7 +54,7 @@ def normal_map(height: np.ndarray, *, strength: float = 1.0, tile: Wrap = False)
     >>> normal_map(np.zeros((4, 4)))[0, 0].tolist() == [0.0, 0.0, 1.0]
     True
     """
-    gx, gy = gradient(height, tile=tile)
+    gx, gy = (boundary or Boundary()).gradient(height)
     normals = np.empty(gx.shape + (3,), np.float32)
     normals[..., 0] = -strength * gx
     normals[..., 1] = strength * gy  # rows run down, +Y runs up
@@ -152,7 +151,11 @@ def decode_normals(rgb: np.ndarray) -> np.ndarray:
 
 
 def ambient_occlusion(
-    height: np.ndarray, *, radius: int = AO_RADIUS, directions: int = AO_DIRECTIONS, tile: Wrap = False
+    height: np.ndarray,
+    *,
+    radius: int = AO_RADIUS,
+    directions: int = AO_DIRECTIONS,
+    boundary: Boundary | None = None,
 ) -> np.ndarray:
     """Horizon-based ambient occlusion of a height field.
 
@@ -164,8 +167,8 @@ def ambient_occlusion(
         Reach of the horizon search, in pixels.
     directions : int, default AO_DIRECTIONS
         Directions searched, evenly spaced.
-    tile : bool or (bool, bool), default False
-        The height wraps (both axes, or ``(rows, columns)``).
+    boundary : Boundary, optional
+        Where the height wraps (both axes, or ``(rows, columns)``) (default: nowhere).
 
     Returns
     -------
@@ -178,12 +181,17 @@ def ambient_occlusion(
     """
     angles = np.arange(directions) * (2 * np.pi / directions)
     dirs = np.stack([np.sin(angles), np.cos(angles)], axis=1).astype(np.float64)
-    wy, wx = wrap_axes(tile)
+    wy, wx = (boundary or Boundary()).wrap
     return horizon_occlusion(np.ascontiguousarray(height, dtype=np.float32), dirs, int(radius), wy, wx)
 
 
 def photo_cavities(
-    ao: np.ndarray, lum: np.ndarray, *, weight: float = CAVITY_WEIGHT, scale: float = CAVITY_SCALE, tile: Wrap = False
+    ao: np.ndarray,
+    lum: np.ndarray,
+    *,
+    weight: float = CAVITY_WEIGHT,
+    scale: float = CAVITY_SCALE,
+    boundary: Boundary | None = None,
 ) -> np.ndarray:
     """The photo's cavity term of the ambient occlusion, to add to the height's AO ``ao``.
 
@@ -205,8 +213,8 @@ def photo_cavities(
         Strength of the term in spreads of ``ao``; 0 gives zeros.
     scale : float, default CAVITY_SCALE
         Sigma of the surroundings' blur, in pixels.
-    tile : bool or (bool, bool), default False
-        The photo wraps (both axes, or ``(rows, columns)``).
+    boundary : Boundary, optional
+        Where the photo wraps (both axes, or ``(rows, columns)``) (default: nowhere).
 
     Returns
     -------
@@ -214,7 +222,7 @@ def photo_cavities(
         The term (mean 0), zeros when ``weight`` is 0 or the photo is flat.
     """
     lum = np.asarray(lum, np.float32)
-    detail = lum - blur(lum, scale, tile=tile)
+    detail = lum - (boundary or Boundary()).blur(lum, scale)
     spread = float(detail.std())
     if weight == 0 or spread < 1e-6:
         return np.zeros(lum.shape, np.float32)

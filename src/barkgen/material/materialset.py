@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from barkgen._shared.arrays import Wrap
+from barkgen._shared.arrays import Boundary
 from barkgen._shared.memory import BASE_BYTES, check_budget_value, check_memory_budget, parse_memory
 from barkgen._shared.options import check_options, option
 from barkgen.errors import InvalidInputError
@@ -390,6 +390,11 @@ class MaterialSet:
         """``(rows, columns)``: the axes along which the maps wrap."""
         return self.wrap if self.wrap is not None else (bool(self.tile), bool(self.tile))
 
+    @property
+    def boundary(self) -> Boundary:
+        """How the maps' filters read them at their edges (round the torus where they wrap)."""
+        return Boundary(self.wraps)
+
     def metadata(self, **extra) -> dict:
         """The ``NAME.json`` record (size, tileable, depth scale, light; plus ``extra``)."""
         from barkgen._version import __version__
@@ -421,15 +426,16 @@ class MaterialSet:
         return meta
 
 
-def derived_maps(height: np.ndarray, *, tile: Wrap, ao_radius: int = AO_RADIUS) -> tuple[np.ndarray, np.ndarray]:
+def derived_maps(height: np.ndarray, boundary: Boundary, ao_radius: int = AO_RADIUS) -> tuple[np.ndarray, np.ndarray]:
     """Normals (OpenGL) and ambient occlusion of a height field.
 
     Parameters
     ----------
     height : ndarray, shape (h, w)
         Height in pixels.
-    tile : bool or (bool, bool)
-        The height wraps (both axes, or ``(rows, columns)``).
+    boundary : Boundary
+        Where the height wraps (both axes, or ``(rows, columns)``; a set's own:
+        :attr:`MaterialSet.boundary`).
     ao_radius : int, default AO_RADIUS
         Reach of the occlusion in px.
 
@@ -438,7 +444,7 @@ def derived_maps(height: np.ndarray, *, tile: Wrap, ao_radius: int = AO_RADIUS) 
     normals : ndarray of float32, shape (h, w, 3)
     ao : ndarray of float32, shape (h, w)
     """
-    return normal_map(height, tile=tile), ambient_occlusion(height, radius=ao_radius, tile=tile)
+    return normal_map(height, boundary=boundary), ambient_occlusion(height, radius=ao_radius, boundary=boundary)
 
 
 #: bytes per photo pixel of :func:`make_material`: the label map's denoised copy and k-means,
@@ -507,22 +513,26 @@ def make_material(
     h, w = np.shape(photo)[:2]
     check_memory_budget(estimate_material_memory((h, w)), options.max_memory, f"the material set of a {w}x{h} photo")
     rgb = check_image(photo)
-    wrap = resolve_exemplar_wrap(options.exemplar_wrap, photo)
+    # every filter of the run reads the photo round its edges as it wraps
+    boundary = Boundary(resolve_exemplar_wrap(options.exemplar_wrap, photo))
+    wrap = boundary.wrap
     if illumination is None:
-        rgb, illumination = equalize_light(rgb, options.equalize_light, tile=wrap)
+        rgb, illumination = equalize_light(rgb, options.equalize_light, boundary=boundary)
     if label_map is None:
         label_map, _ = to_codes(color_regions(rgb, options.k, seed=options.seed, wrap=wrap))
     config = dataclasses.replace(options.height, strength=options.height.strength * options.relief)
-    height = estimate_height(rgb, label_map, config=config, tile=wrap)
-    light = options.light or estimate_light(rgb, normal_map(height, tile=wrap), height=height, tile=wrap)
+    height = estimate_height(rgb, label_map, config=config, boundary=boundary)
+    light = options.light or estimate_light(
+        rgb, normal_map(height, boundary=boundary), height=height, boundary=boundary
+    )
     confidence = shading_confidence(light, given=options.light is not None)
-    height = with_shading_height(rgb, height, light, weight=config.shading_weight * confidence, tile=wrap)
+    height = with_shading_height(rgb, height, light, weight=config.shading_weight * confidence, boundary=boundary)
     edits = list(edits)
     if edits:
-        editor = HeightEditor(rgb, height, label_map, tile=wrap)
+        editor = HeightEditor(rgb, height, label_map, boundary=boundary)
         height = editor.apply(edits)
-    normals, ao = derived_maps(height, tile=wrap, ao_radius=options.ao_radius)
-    cavities = photo_cavities(ao, luminance(rgb), weight=options.cavities, tile=wrap)
+    normals, ao = derived_maps(height, boundary, ao_radius=options.ao_radius)
+    cavities = photo_cavities(ao, luminance(rgb), weight=options.cavities, boundary=boundary)
     ao = np.clip(ao + cavities, 0.0, 1.0)
     albedo, strength = remove_shading(rgb, normals, light)
     return MaterialSet(

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from barkgen._shared.arrays import Boundary
 from barkgen.material.maps import normal_map
 from barkgen.material.materialset import MaterialOptions, MaterialSet, make_material
 from barkgen.material.realsize import ASSUMED_PHOTO_WIDTH_M
@@ -32,10 +33,11 @@ DEFAULT_DEPTH = 0.02
 INTEGRATION_SCREENING = 1e-6
 
 
-def integrate_normals(normals: np.ndarray, *, tile: bool) -> np.ndarray:
+def integrate_normals(normals: np.ndarray, boundary: Boundary) -> np.ndarray:
     """The least-squares height (pixels) of a normal map (OpenGL): the field whose forward steps
     best fit the normals' slopes ``-nx/nz`` (along x) and ``ny/nz`` (down the rows), averaged
-    between neighbours; on the torus when ``tile``, else with a Neumann border; mean 0.
+    between neighbours; on the torus when the ``boundary`` wraps both axes, else with a Neumann
+    border; mean 0.
 
     References
     ----------
@@ -46,25 +48,25 @@ def integrate_normals(normals: np.ndarray, *, tile: bool) -> np.ndarray:
     n = np.asarray(normals, np.float64)
     nz = np.maximum(n[..., 2], 0.05)  # a normal grazing the surface would give a vertical cliff
     p, q = -n[..., 0] / nz, n[..., 1] / nz
-    if tile:
+    torus = boundary.wraps_both
+    if torus:
         gx, gy = 0.5 * (p + np.roll(p, -1, 1)), 0.5 * (q + np.roll(q, -1, 0))
     else:
         gx = np.concatenate([0.5 * (p[:, :-1] + p[:, 1:]), p[:, -1:]], axis=1)
         gy = np.concatenate([0.5 * (q[:-1] + q[1:]), q[-1:]], axis=0)
     height = screened_poisson(
-        np.zeros(p.shape + (1,)), gy[..., None], gx[..., None], tile=tile, screening=INTEGRATION_SCREENING
+        np.zeros(p.shape + (1,)), gy[..., None], gx[..., None], tile=torus, screening=INTEGRATION_SCREENING
     )[..., 0]
     return (height - height.mean()).astype(np.float32)
 
 
-def displacement_depth(displacement: np.ndarray, normals: np.ndarray | None, *, tile: bool) -> float:
+def displacement_depth(displacement: np.ndarray, normals: np.ndarray | None, boundary: Boundary) -> float:
     """The depth (pixels) of a displacement map in [0, 1]: the least-squares scale at which its
-    slopes match the normals' (:data:`DEFAULT_DEPTH` of the width without normals)."""
+    slopes (round the ``boundary``) match the normals' (:data:`DEFAULT_DEPTH` of the width
+    without normals)."""
     if normals is None:
         return DEFAULT_DEPTH * displacement.shape[1]
-    from barkgen.material.height import gradient
-
-    gx, gy = gradient(displacement, tile=tile)
+    gx, gy = boundary.gradient(displacement)
     n = np.asarray(normals, np.float64)
     nz = np.maximum(n[..., 2], 0.05)
     p, q = -n[..., 0] / nz, n[..., 1] / nz
@@ -130,6 +132,8 @@ def scanned_material(
 
     wraps = (bool(wrap[0]), bool(wrap[1]))
     tile = wraps[0] and wraps[1]
+    # the scan's own height and normals are read on the torus only where it tiles both ways
+    boundary = Boundary(tile)
     color = check_image(scan.color)
     made: list[MaterialSet] = []
 
@@ -141,16 +145,16 @@ def scanned_material(
         return made[0]
 
     if scan.height is not None:
-        height = (scan.height - np.median(scan.height)) * displacement_depth(scan.height, scan.normals, tile=tile)
+        height = (scan.height - np.median(scan.height)) * displacement_depth(scan.height, scan.normals, boundary)
     elif scan.normals is not None:
-        height = integrate_normals(scan.normals, tile=tile)
+        height = integrate_normals(scan.normals, boundary)
     else:
         height = estimate().height / relief
     height = (relief * height).astype(np.float32)
     if scan.normals is not None:
         normals = scan.normals
     elif scan.height is not None:
-        normals = normal_map(height, tile=tile)
+        normals = normal_map(height, boundary=boundary)
     else:
         normals = estimate().normals
     scanned = tuple(scan.maps)

@@ -32,10 +32,10 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from barkgen._shared.arrays import Wrap, wrap_axes
+from barkgen._shared.arrays import Boundary
 from barkgen.color import linear_to_srgb, srgb_to_linear
 from barkgen.errors import InvalidInputError
-from barkgen.material.height import blur, gradient, luminance
+from barkgen.material.height import luminance
 
 #: the light directions tried by :func:`estimate_light` (degrees)
 AZIMUTHS = tuple(range(0, 360, 15))
@@ -145,11 +145,11 @@ def parse_light(text: str) -> Light:
     return Light(az, el)
 
 
-def _taper(image: np.ndarray, tile: Wrap) -> np.ndarray:
+def _taper(image: np.ndarray, boundary: Boundary) -> np.ndarray:
     """``image`` faded to 0 over :data:`BORDER_TAPER` px at the borders that do not wrap, so
     the Fourier transform sees no jump there."""
     out = np.asarray(image, np.float64).copy()
-    for axis, wraps in enumerate(wrap_axes(tile)):
+    for axis, wraps in enumerate(boundary.wrap):
         n = out.shape[axis]
         width = min(BORDER_TAPER, n // 4)
         if wraps or width < 1:
@@ -161,11 +161,11 @@ def _taper(image: np.ndarray, tile: Wrap) -> np.ndarray:
     return out
 
 
-def _shading_spectrum(photo: np.ndarray, tile: Wrap) -> np.ndarray:
+def _shading_spectrum(photo: np.ndarray, boundary: Boundary) -> np.ndarray:
     """Fourier transform of the log-luminance's high-pass (what the shading modulates)."""
     log_lum = np.log(np.maximum(luminance(photo), 1e-3)).astype(np.float32)
-    high = log_lum - blur(log_lum, SHADING_BAND, tile=tile)
-    return np.fft.rfft2(_taper(high, tile))
+    high = log_lum - boundary.blur(log_lum, SHADING_BAND)
+    return np.fft.rfft2(_taper(high, boundary))
 
 
 def _directional_derivative(shape: tuple[int, int], azimuth: float) -> np.ndarray:
@@ -185,7 +185,7 @@ def _integrated(spectrum: np.ndarray, shape: tuple[int, int], azimuth: float) ->
     return out
 
 
-def shape_from_shading(photo: np.ndarray, azimuth: float, *, tile: Wrap = False) -> np.ndarray:
+def shape_from_shading(photo: np.ndarray, azimuth: float, *, boundary: Boundary | None = None) -> np.ndarray:
     """The height whose slopes towards a light at ``azimuth`` explain the photo's shading.
 
     A surface is brighter where it faces the light, i.e. where it falls towards it: for small
@@ -200,8 +200,9 @@ def shape_from_shading(photo: np.ndarray, azimuth: float, *, tile: Wrap = False)
         The photo, float in [0, 1].
     azimuth : float
         The light's azimuth, degrees counter-clockwise from the right, +y up.
-    tile : bool or (bool, bool), default False
-        The photo wraps (both axes, or ``(rows, columns)``); borders that do not are tapered.
+    boundary : Boundary, optional
+        Where the photo wraps (both axes, or ``(rows, columns)``); borders that do not are
+        tapered (default: every border).
 
     Returns
     -------
@@ -217,11 +218,11 @@ def shape_from_shading(photo: np.ndarray, azimuth: float, *, tile: Wrap = False)
     >>> import numpy as np
     >>> x = np.arange(64) * 2 * np.pi / 16
     >>> waves = np.tile(0.5 + 0.1 * np.cos(x), (64, 1))  # lit from the right (+x)
-    >>> height = shape_from_shading(waves, 0.0, tile=True)  # bright where it falls to the right
+    >>> height = shape_from_shading(waves, 0.0, boundary=Boundary(True))  # bright where it falls to the right
     >>> bool(np.corrcoef(height[0], -np.sin(x))[0, 1] > 0.9)
     True
     """
-    spectrum = _shading_spectrum(photo, tile)
+    spectrum = _shading_spectrum(photo, boundary or Boundary())
     shape = np.shape(photo)[:2]
     height = np.fft.irfft2(_integrated(spectrum, shape, azimuth), s=shape)
     return (height - height.mean()).astype(np.float32)
@@ -236,16 +237,19 @@ def _reduced(image: np.ndarray) -> np.ndarray:
     return cv2.resize(np.asarray(image, np.float32), size, interpolation=cv2.INTER_AREA)
 
 
-def fit_light_azimuth(photo: np.ndarray, height: np.ndarray, *, tile: Wrap = False) -> tuple[float, float]:
+def fit_light_azimuth(
+    photo: np.ndarray, height: np.ndarray, *, boundary: Boundary | None = None
+) -> tuple[float, float]:
     """The light azimuth whose integrated shading (:func:`shape_from_shading`) correlates best
     with ``height`` (the photo's light-independent height cues), and that correlation.
 
     Computed in the Fourier domain at most :data:`FIT_SIDE` px on a side, one multiply per
-    azimuth of :data:`FIT_AZIMUTHS`."""
+    azimuth of :data:`FIT_AZIMUTHS`; round the photo's ``boundary`` (default: no wrap)."""
+    boundary = boundary or Boundary()
     small_photo, small_height = _reduced(photo), _reduced(height)
     shape = small_height.shape
-    spectrum = _shading_spectrum(small_photo, tile)
-    cue = np.fft.rfft2(_taper(small_height - small_height.mean(), tile))
+    spectrum = _shading_spectrum(small_photo, boundary)
+    cue = np.fft.rfft2(_taper(small_height - small_height.mean(), boundary))
     cue[0, 0] = 0.0
     # rfft2 holds each column but the first (and the Nyquist one) for two: weight them twice
     weight = np.full(cue.shape, 2.0)
@@ -266,7 +270,7 @@ def fit_light_azimuth(photo: np.ndarray, height: np.ndarray, *, tile: Wrap = Fal
 
 
 def with_shading_height(
-    photo: np.ndarray, height: np.ndarray, light: Light, *, weight: float, tile: Wrap = False
+    photo: np.ndarray, height: np.ndarray, light: Light, *, weight: float, boundary: Boundary | None = None
 ) -> np.ndarray:
     """``height`` plus the photo's shape from shading under ``light``
     (:func:`shape_from_shading`), its slopes scaled to ``weight`` times the height's.
@@ -281,8 +285,8 @@ def with_shading_height(
         The photo's light.
     weight : float
         Slope of the shading's height relative to ``height``'s (0: ``height`` as it is).
-    tile : bool or (bool, bool), default False
-        The photo wraps.
+    boundary : Boundary, optional
+        Where the photo wraps (default: nowhere).
 
     Returns
     -------
@@ -292,9 +296,10 @@ def with_shading_height(
     height = np.asarray(height, np.float32)
     if weight <= 0:
         return height
-    from_shading = shape_from_shading(photo, light.azimuth, tile=tile)
-    slope = float(np.std(np.hypot(*gradient(height, tile=tile))))
-    slope_shading = float(np.std(np.hypot(*gradient(from_shading, tile=tile))))
+    boundary = boundary or Boundary()
+    from_shading = shape_from_shading(photo, light.azimuth, boundary=boundary)
+    slope = float(np.std(np.hypot(*boundary.gradient(height))))
+    slope_shading = float(np.std(np.hypot(*boundary.gradient(from_shading))))
     if slope <= 0 or slope_shading <= 0:
         return height
     joint = height + (weight * slope / slope_shading) * from_shading
@@ -312,7 +317,7 @@ def shading_confidence(light: Light, *, given: bool) -> float:
 
 
 def estimate_light(
-    photo: np.ndarray, normals: np.ndarray, *, height: np.ndarray | None = None, tile: Wrap = False
+    photo: np.ndarray, normals: np.ndarray, *, height: np.ndarray | None = None, boundary: Boundary | None = None
 ) -> Light:
     """The photo's light: the direction under which the normals, rendered Lambertian, look most
     like the photo, or, given the height cues, the joint fit of light and shape.
@@ -332,8 +337,8 @@ def estimate_light(
     height : ndarray, shape (h, w), optional
         The height those normals are of, from cues that do not depend on the light
         (:func:`~barkgen.material.estimate_height`): fits the azimuth jointly with the shape.
-    tile : bool or (bool, bool), default False
-        The photo wraps (the joint fit's filters wrap there).
+    boundary : Boundary, optional
+        Where the photo wraps (the joint fit's filters wrap there; default: nowhere).
 
     Returns
     -------
@@ -358,7 +363,7 @@ def estimate_light(
     azimuths: tuple[float, ...] = tuple(float(a) for a in AZIMUTHS)
     agreement = None
     if height is not None:
-        azimuth, agreement = fit_light_azimuth(photo, height, tile=tile)
+        azimuth, agreement = fit_light_azimuth(photo, height, boundary=boundary)
         azimuths = (azimuth,)
     lum = lum - lum.mean()
     n = n - n.mean(axis=0)

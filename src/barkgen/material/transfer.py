@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from barkgen._shared.arrays import Boundary
+from barkgen._shared.canvas import Canvas
 from barkgen.material.maps import AO_RADIUS
 from barkgen.material.materialset import MaterialSet, derived_maps
 
@@ -18,21 +20,20 @@ from barkgen.material.materialset import MaterialSet, derived_maps
 def transfer_material(
     source: MaterialSet,
     references: np.ndarray,
+    canvas: Canvas,
     *,
-    tile: bool,
     ao_radius: int = AO_RADIUS,
-    exemplar_wrap: tuple[bool, bool] = (False, False),
     blend: str = "gradient",
 ) -> MaterialSet:
-    """The material set of a texture synthesized from the source's photo.
+    r"""The material set of a texture synthesized from the source's photo.
 
     The source's albedo goes through the synthesis's reference map as the colour does (its
     seams blended in the gradient domain, :func:`barkgen.synth.blend_seams`, unless
     ``blend`` is ``"none"``: then exactly);
     its height, roughness and the AO's photo cavities through the same references in the
     gradient domain (:func:`barkgen.synth.resolve_continuous`: continuous across the
-    borders of the copied pieces, tileable when ``tile``); normals and the height's AO are
-    recomputed from that height (wrapping when ``tile``).
+    borders of the copied pieces, tileable when the canvas tiles); normals and the height's AO
+    are recomputed from that height (wrapping when it tiles).
 
     Parameters
     ----------
@@ -40,12 +41,11 @@ def transfer_material(
         The photo's set (:func:`make_material`).
     references : ndarray of int, shape (H, W, 2)
         The synthesis's reference map, exemplar ``(y, x)`` per output pixel.
-    tile : bool
-        The texture tiles.
+    canvas : Canvas
+        The texture's: ``tile`` (it tiles) and ``exemplar_wrap``, ``(rows, columns)``, the axes
+        the photo tiles along (None: neither).
     ao_radius : int, default AO_RADIUS
         Reach of the recomputed occlusion in px.
-    exemplar_wrap : tuple of bool, default (False, False)
-        ``(rows, columns)``: the photo tiles along that axis.
     blend : {"gradient", "none"}, default "gradient"
         How the albedo is carried (as the texture's colour).
 
@@ -62,28 +62,24 @@ def transfer_material(
     from barkgen.synth import apply_references, blend_seams, check_blend, resolve_continuous
 
     check_blend(blend)
-
+    tile = canvas.tile
     refs = np.asarray(references)
 
     def carry(image: np.ndarray) -> np.ndarray:
-        return resolve_continuous(image, refs, tile=tile, wrap=exemplar_wrap)
+        return resolve_continuous(image, refs, canvas)
 
     # the height's slopes too, so the normals recomputed from it have no creases at the borders
-    height = resolve_continuous(source.height, refs, tile=tile, wrap=exemplar_wrap, smooth_slopes=True)
-    scanned = _carry_scanned(source, refs, tile=tile, exemplar_wrap=exemplar_wrap)
+    height = resolve_continuous(source.height, refs, canvas, smooth_slopes=True)
+    scanned = _carry_scanned(source, refs, canvas)
     cavities = None
     if "normals" in scanned and "ao" in scanned:  # a scan's own: nothing to derive from the height
         normals, ao = scanned["normals"], scanned["ao"]
     else:
-        normals, ao = derived_maps(height, tile=tile, ao_radius=ao_radius)
+        normals, ao = derived_maps(height, Boundary(tile), ao_radius=ao_radius)
         if source.ao_cavities is not None:
             cavities = carry(source.ao_cavities)
             ao = np.clip(ao + cavities, 0.0, 1.0)
-    color = (
-        blend_seams(source.color, refs, tile=tile, wrap=exemplar_wrap)
-        if blend == "gradient"
-        else apply_references(refs, source.color)
-    )
+    color = blend_seams(source.color, refs, canvas) if blend == "gradient" else apply_references(refs, source.color)
     return MaterialSet(
         color=color,
         height=height,
@@ -105,9 +101,7 @@ def transfer_material(
     )
 
 
-def _carry_scanned(
-    source: MaterialSet, references: np.ndarray, *, tile: bool, exemplar_wrap: tuple[bool, bool]
-) -> dict[str, np.ndarray]:
+def _carry_scanned(source: MaterialSet, references: np.ndarray, canvas: Canvas) -> dict[str, np.ndarray]:
     """A scanned set's own local maps through the reference map as they are: exact inside the
     copied pieces, continuous across their borders (:func:`barkgen.synth.resolve_local`);
     normals as unit vectors (carried per component, renormalised)."""
@@ -130,9 +124,7 @@ def _carry_scanned(
         if not members:
             continue
         layers = [np.asarray(getattr(source, kind), np.float32).reshape(source.shape + (-1,)) for kind in members]
-        stacked = resolve_local(
-            np.concatenate(layers, axis=2), references, tile=tile, wrap=exemplar_wrap, smooth_slopes=smooth_slopes
-        )
+        stacked = resolve_local(np.concatenate(layers, axis=2), references, canvas, smooth_slopes=smooth_slopes)
         start = 0
         for kind, layer in zip(members, layers, strict=True):
             out = stacked[..., start : start + layer.shape[2]]

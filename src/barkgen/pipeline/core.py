@@ -240,6 +240,7 @@ def _analysis_stage(
     material set; ``progress`` the analysis' own ``(done, total)``."""
     from barkgen.labels import color_regions, texton_regions
     from barkgen.labels.regions import grey_label_map
+    from barkgen.material import Boundary
     from barkgen.material.illumination import equalize_light
     from barkgen.synth import TBN_CONFIG, AnalysisCache, analyse_texture_by_numbers
 
@@ -256,7 +257,7 @@ def _analysis_stage(
         # the photo's broad light out before anything learns from it (a scan's colour is its
         # albedo already); every analysis of the photo runs across its edges where it tiles
         equalization = options.equalize_light if scan is None else 0.0
-        photo, illumination = equalize_light(photo, equalization, tile=wrap)
+        photo, illumination = equalize_light(photo, equalization, boundary=Boundary(wrap))
         # (a bi-layer analysis, the longest step of its run, reports within the label map's share)
         within = None if progress is None else _within(progress, steps["labels"][1])
         exemplar = run.model.exemplar(photo, options, within) or run.structure.exemplar(

@@ -21,9 +21,10 @@ def photo_label_map(
     it wraps; ``regions_options`` go to the regions' function (``seed``, default
     :data:`ANALYSIS_SEED`; ``merge_by`` for textons)."""
     from barkgen.labels import color_regions, texton_regions
+    from barkgen.material import Boundary
     from barkgen.material.illumination import equalize_light as equalize
 
-    equalised, _ = equalize(photo, equalize_light, tile=wrap)
+    equalised, _ = equalize(photo, equalize_light, boundary=Boundary(wrap))
     regions = color_regions if method == "color" else texton_regions
     regions_options.setdefault("seed", ANALYSIS_SEED)
     return regions(equalised, k, wrap=wrap, **regions_options)

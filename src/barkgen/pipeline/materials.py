@@ -27,7 +27,7 @@ def output_material(photo, options: GenerateOptions, canvas: Canvas, scan, analy
         source = photo_material(photo, analysis.labels_in, options, wrap, scan, analysis.illumination)
     if result.orientation is not None:
         source, wrap = source.oriented(result.orientation), (False, False)
-    material = transfer_material(source, result.references, tile=canvas.tile, exemplar_wrap=wrap, blend=options.blend)
+    material = transfer_material(source, result.references, canvas.replace(exemplar_wrap=wrap), blend=options.blend)
     return material.with_width_m(options.width_m)
 
 

@@ -5,22 +5,30 @@ from __future__ import annotations
 import numba as nb
 
 
+@nb.njit
+def _index(v, n, wraps):
+    """``v`` wrapped into ``0..n-1`` along an axis that ``wraps``, else ``v`` or -1 when
+    outside."""
+    if wraps:
+        return v % n
+    return v if 0 <= v < n else -1
+
+
 @nb.njit(cache=True, parallel=True)
-def boundary_mask(shape, tile, out):
+def boundary_mask(shape, wrap, out):
     """``out[y, x] = 1`` where the binary ``shape`` differs from one of its 4-neighbours (both
-    sides of every edge are boundary pixels). Neighbours wrap around when ``tile``; otherwise
-    the image border is not an edge."""
+    sides of every edge are boundary pixels). Neighbours wrap around along the axes ``wrap =
+    (rows, columns)`` says; elsewhere the image border is not an edge."""
+    wrap_y, wrap_x = wrap
     h, w = shape.shape
     for y in nb.prange(h):
         for x in range(w):
             v = shape[y, x]
             edge = False
             for dy, dx in ((-1, 0), (1, 0), (0, -1), (0, 1)):
-                ny, nx = y + dy, x + dx
-                if tile:
-                    ny %= h
-                    nx %= w
-                elif ny < 0 or ny >= h or nx < 0 or nx >= w:
+                ny = _index(y + dy, h, wrap_y)
+                nx = _index(x + dx, w, wrap_x)
+                if ny < 0 or nx < 0:
                     continue
                 if shape[ny, nx] != v:
                     edge = True
@@ -49,31 +57,25 @@ def assign_with_capacity(order, query, cand, capacity, out):
     return matched
 
 
-@nb.njit
-def _index(v, n, tile):
-    """``v`` wrapped into ``0..n-1`` when ``tile``, else ``v`` or -1 when outside."""
-    if tile:
-        return v % n
-    return v if 0 <= v < n else -1
-
-
 @nb.njit(cache=True)
-def accumulate_weights(ys, xs, patches, weights, falloff, tile, out):
+def accumulate_weights(ys, xs, patches, weights, falloff, wrap, out):
     """Shape adjustment weights (laitoch2018 eq. 3.10): every matched exemplar patch (``patches``
     ``(m, n, n)`` of +1 inside / -1 outside, already rotated) is superimposed on its synthesized
     boundary pixel ``(ys, xs)``, multiplied by the Gaussian ``falloff`` and by ``weights``
-    ``= 1 / (1 + D)``, and summed into ``out``. Serial: superimposed patches overlap."""
+    ``= 1 / (1 + D)``, and summed into ``out``, round the axes ``wrap = (rows, columns)`` says.
+    Serial: superimposed patches overlap."""
+    wrap_y, wrap_x = wrap
     h, w = out.shape
     n = patches.shape[1]
     r = n // 2
     for i in range(ys.shape[0]):
         wi = weights[i]
         for dy in range(n):
-            y = _index(ys[i] + dy - r, h, tile)
+            y = _index(ys[i] + dy - r, h, wrap_y)
             if y < 0:
                 continue
             for dx in range(n):
-                x = _index(xs[i] + dx - r, w, tile)
+                x = _index(xs[i] + dx - r, w, wrap_x)
                 if x < 0:
                     continue
                 out[y, x] += wi * falloff[dy, dx] * patches[i, dy, dx]

@@ -341,10 +341,9 @@ def _layered_codes(
     rng = np.random.default_rng(int(budget.seed))
     out = synthesize_layers(
         ex_levels,
-        canvas.shape,
+        canvas,
         order,
         quarter_turns=request.turns,
-        tile=canvas.tile,
         config=request.config,
         rng=rng,
         start=start,

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from barkgen._shared.arrays import Boundary
 from barkgen.errors import InvalidInputError
 from barkgen.shapes.patches import (
     binary_index,
@@ -128,7 +129,7 @@ class ExemplarBoundary:
         rng: np.random.Generator,
         next_layer: np.ndarray | None = None,
     ) -> None:
-        ys, xs = subsample(*boundary_pixels(shape, tile=False), config.max_exemplar_patches, rng)
+        ys, xs = subsample(*boundary_pixels(shape), config.max_exemplar_patches, rng)
         self.count = len(ys)
         self.fraction = float(np.mean(shape))
         #: the next layer (nested in ``shape``) around each patch, +1/-1, rows as ``signed``'s
@@ -213,9 +214,10 @@ def match_boundary(
 
 
 def next_layer_mask(
-    shape: np.ndarray, exemplar: ExemplarBoundary, *, config: ShapeConfig, tile: bool, rng: np.random.Generator
+    shape: np.ndarray, exemplar: ExemplarBoundary, *, config: ShapeConfig, edges: Boundary, rng: np.random.Generator
 ) -> np.ndarray:
-    """The mask of the layer above ``shape`` (laitoch2018 §3.6.4): ``shape`` shrunk where the
+    """The mask of the layer above ``shape`` (laitoch2018 §3.6.4), read round its ``edges``:
+    ``shape`` shrunk where the
     exemplar patches matched to its boundary, superimposed as in eq. 3.10 but with the
     exemplar's *next* layer as their indicator, predict that the next layer does not reach: the
     band of pixels along the boundary (the boundary and its 8-neighbours) leaves the mask where
@@ -226,29 +228,28 @@ def next_layer_mask(
     s = np.ascontiguousarray(shape, dtype=np.uint8)
     if exemplar.index is None or exemplar.next_signed is None:
         return s
-    ys, xs = boundary_pixels(s, tile)
+    ys, xs = boundary_pixels(s, edges)
     if len(ys) == 0:
         return s
-    rows, dist = match_boundary(pack(extract_patches(s, ys, xs, config.patch, tile)), exemplar, config.candidates, rng)
+    rows, dist = match_boundary(pack(extract_patches(s, ys, xs, config.patch, edges)), exemplar, config.candidates, rng)
     w = np.zeros(s.shape, np.float32)
-    K.accumulate_weights(ys, xs, exemplar.next_signed[rows], 1.0 / (1.0 + dist), config.falloff(), bool(tile), w)
+    K.accumulate_weights(ys, xs, exemplar.next_signed[rows], 1.0 / (1.0 + dist), config.falloff(), edges.wrap, w)
     # only the band along the boundary may leave the mask: where the next layer should keep off
     # the edge; inside, the next layer's own optimisation places it
-    off = (w < 0) & _band(ys, xs, s.shape, tile)
+    off = (w < 0) & _band(ys, xs, s.shape, edges)
     return s & ~off
 
 
-def _band(ys: np.ndarray, xs: np.ndarray, shape: tuple[int, int], tile: bool) -> np.ndarray:
-    """Boundary pixels and their 8-neighbours as a boolean image."""
+def _band(ys: np.ndarray, xs: np.ndarray, shape: tuple[int, int], edges: Boundary) -> np.ndarray:
+    """Boundary pixels and their 8-neighbours as a boolean image (round the ``edges`` that wrap)."""
     band = np.zeros(shape, bool)
     h, w = shape
+    wrap_y, wrap_x = edges.wrap
     for dy in (-1, 0, 1):
         for dx in (-1, 0, 1):
             y, x = ys + dy, xs + dx
-            if tile:
-                y, x = y % h, x % w
-            else:
-                y, x = np.clip(y, 0, h - 1), np.clip(x, 0, w - 1)
+            y = y % h if wrap_y else np.clip(y, 0, h - 1)
+            x = x % w if wrap_x else np.clip(x, 0, w - 1)
             band[y, x] = True
     return band
 
@@ -277,7 +278,7 @@ def adjust_shape(
     mask: np.ndarray | None,
     iterations: int,
     config: ShapeConfig,
-    tile: bool,
+    edges: Boundary,
     rng: np.random.Generator,
     fraction: float | None = None,
     guide: np.ndarray | None = None,
@@ -290,7 +291,8 @@ def adjust_shape(
     fraction (of the whole image).
     ``mask`` (nested layers) bounds where the shape may be; ``fraction`` overrides the area
     fraction to keep (an edited level keeps its own). Stops early when fewer than
-    ``config.tolerance`` of the pixels change.
+    ``config.tolerance`` of the pixels change. The shape is read round its ``edges`` (a map
+    that tiles wraps).
     """
     import barkgen.shapes._kernels as K
 
@@ -302,17 +304,17 @@ def adjust_shape(
     target = int(round((exemplar.fraction if fraction is None else fraction) * s.size))
     falloff = config.falloff()
     for _ in range(iterations):
-        ys, xs = boundary_pixels(s, tile)
+        ys, xs = boundary_pixels(s, edges)
         if len(ys) == 0:
             break
         rows, dist = match_boundary(
-            pack(extract_patches(s, ys, xs, config.patch, tile)), exemplar, config.candidates, rng
+            pack(extract_patches(s, ys, xs, config.patch, edges)), exemplar, config.candidates, rng
         )
         w = np.zeros(s.shape, np.float32)
-        K.accumulate_weights(ys, xs, exemplar.signed[rows], 1.0 / (1.0 + dist), falloff, bool(tile), w)
+        K.accumulate_weights(ys, xs, exemplar.signed[rows], 1.0 / (1.0 + dist), falloff, edges.wrap, w)
         # only pixels next to the boundary may change: the boundary moves, no holes or specks
         # open up away from it
-        near = (w != 0) & _band(ys, xs, s.shape, tile)
+        near = (w != 0) & _band(ys, xs, s.shape, edges)
         if mask is not None:
             near &= mask.astype(bool)
         need = target - int(np.count_nonzero(s[~near]))

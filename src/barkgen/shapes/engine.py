@@ -253,7 +253,11 @@ def _edited_start(
     guide that keeps the edit's layout down to the finest level (:func:`edit_guidance`)."""
     level, edited = start
     ex_levels = label_pyramid(codes, n_labels, n_levels)
-    resume = (level, smart_initialization(ex_levels[level], edited.astype(np.int32), rng, tile=canvas.tile))
+    # (the exemplar's boundary distances not across its edges, as an edit's start always had them)
+    resume = (
+        level,
+        smart_initialization(ex_levels[level], edited.astype(np.int32), rng, Canvas(canvas.shape, canvas.tile)),
+    )
     guidance = edit_guidance(
         codes,
         features,
@@ -301,9 +305,7 @@ def _move_finest_seams(
         )
         references = np.stack(np.divmod(moved, w), axis=-1).astype(np.int32)
     if config.seam_cut_run:
-        references = cut_straight_seams(
-            references, colour, tile=tile, wrap=exemplar_wrap, min_run=config.seam_cut_run, rng=rng
-        )
+        references = cut_straight_seams(references, colour, canvas, min_run=config.seam_cut_run, rng=rng)
     return references
 
 
@@ -456,7 +458,7 @@ def edit_guidance(
     pyr_b = label_pyramid(target, n_labels, n_levels)
 
     def initial(a: np.ndarray, b: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        return smart_initialization(a, b, rng, tile=tile, exemplar_wrap=exemplar_wrap)
+        return smart_initialization(a, b, rng, canvas)
 
     return Guidance(
         levels=[level_guide(a, b, n_labels) for a, b in zip(pyr_a, pyr_b)],

@@ -17,6 +17,8 @@ from collections.abc import Callable
 
 import numpy as np
 
+from barkgen._shared.arrays import Boundary
+from barkgen._shared.canvas import Canvas
 from barkgen.pyramid import level_shape
 from barkgen.shapes.binary import ExemplarBoundary, ShapeConfig, adjust_shape, next_layer_mask
 
@@ -87,11 +89,11 @@ def automatic_layer_order(codes: np.ndarray, n_labels: int) -> list[int]:
     return order
 
 
-def _smooth(field: np.ndarray, sigma: float, tile: bool) -> np.ndarray:
+def _smooth(field: np.ndarray, sigma: float, edges: Boundary) -> np.ndarray:
     import cv2
 
     r = int(3 * sigma) + 1
-    padded = np.pad(field.astype(np.float32), r, mode="wrap" if tile else "reflect")
+    padded = edges.pad(field.astype(np.float32), r, other="reflect")
     return cv2.GaussianBlur(padded, (0, 0), sigma)[r:-r, r:-r]
 
 
@@ -106,20 +108,23 @@ def _top_fraction(score: np.ndarray, allowed: np.ndarray, count: int) -> np.ndar
     return out
 
 
-def random_layers(shape: tuple[int, int], fractions: list[float], tile: bool, rng: np.random.Generator) -> np.ndarray:
-    """Random initialisation (laitoch2018 §3.6): smooth random noise, each layer the highest
-    noise values inside the layer below, with the exemplar's area fraction. Returns ranks."""
+def random_layers(
+    shape: tuple[int, int], fractions: list[float], edges: Boundary, rng: np.random.Generator
+) -> np.ndarray:
+    """Random initialisation (laitoch2018 §3.6): smooth random noise (round the ``edges`` that
+    wrap), each layer the highest noise values inside the layer below, with the exemplar's area
+    fraction. Returns ranks."""
     rank = np.zeros(shape, np.int32)
     allowed = np.ones(shape, bool)
     for frac in fractions[1:]:
-        noise = _smooth(rng.random(shape), 1.0, tile)
+        noise = _smooth(rng.random(shape), 1.0, edges)
         layer = _top_fraction(noise, allowed, int(round(frac * rank.size)))
         rank += layer
         allowed = layer.astype(bool)
     return rank
 
 
-def upsample_ranks(rank: np.ndarray, shape: tuple[int, int], n_layers: int, tile: bool) -> np.ndarray:
+def upsample_ranks(rank: np.ndarray, shape: tuple[int, int], n_layers: int, edges: Boundary) -> np.ndarray:
     """Next pyramid level's ranks: each layer's shape doubled, smoothed by a 3x3 box and
     re-thresholded (round corners instead of 2x2 blocks), nesting kept."""
     h, w = shape
@@ -127,7 +132,7 @@ def upsample_ranks(rank: np.ndarray, shape: tuple[int, int], n_layers: int, tile
     below = np.ones(shape, bool)
     for i in range(1, n_layers):
         big = np.repeat(np.repeat((rank >= i).astype(np.float32), 2, 0), 2, 1)[:h, :w]
-        padded = np.pad(big, 1, mode="wrap" if tile else "edge")
+        padded = edges.pad(big, 1, other="edge")
         box = sum(padded[dy : dy + h, dx : dx + w] for dy in range(3) for dx in range(3)) / 9.0
         layer = (box > 0.5) & below
         out += layer
@@ -135,7 +140,7 @@ def upsample_ranks(rank: np.ndarray, shape: tuple[int, int], n_layers: int, tile
     return out
 
 
-def edit_guide(layer: np.ndarray, shape: tuple[int, int], tile: bool) -> np.ndarray:
+def edit_guide(layer: np.ndarray, shape: tuple[int, int], edges: Boundary) -> np.ndarray:
     """An edited level's layer brought to a finer level's ``shape`` as a soft guide in [-1, 1]:
     +1 inside, -1 outside, a smooth ramp across the edit's boundary (bilinear, so its steps
     do not make staircases)."""
@@ -143,7 +148,7 @@ def edit_guide(layer: np.ndarray, shape: tuple[int, int], tile: bool) -> np.ndar
 
     h, w = shape
     src = layer.astype(np.float32)
-    if tile:  # the ramp runs on across the border of a map that tiles
+    if edges.wraps_both:  # the ramp runs on across the border of a map that tiles
         pad = 2
         big = cv2.resize(np.pad(src, pad, mode="wrap"), None, fx=w / src.shape[1], fy=h / src.shape[0])
         oy, ox = round(pad * h / src.shape[0]), round(pad * w / src.shape[1])
@@ -155,24 +160,24 @@ def edit_guide(layer: np.ndarray, shape: tuple[int, int], tile: bool) -> np.ndar
 
 def synthesize_layers(
     exemplar_levels: list[np.ndarray],
-    out_shape: tuple[int, int],
+    canvas: Canvas,
     order: list[int],
     *,
     quarter_turns: tuple[int, ...],
-    tile: bool,
     config: ShapeConfig,
     rng: np.random.Generator,
     start: tuple[int, np.ndarray] | None = None,
     on_level: Callable[[int, np.ndarray], None] | None = None,
     tick: Callable[[], None] | None = None,
 ) -> np.ndarray:
-    """Layered synthesis over the pyramid. ``exemplar_levels``: the exemplar's label codes per
-    level, finest first. ``order``: labels bottom layer first. ``start``: ``(level, codes)`` to
+    """Layered synthesis over the pyramid of the ``canvas`` (its shape; every level tiles when
+    it does). ``exemplar_levels``: the exemplar's label codes per level, finest first. ``order``: labels bottom layer first. ``start``: ``(level, codes)`` to
     resume from (an edited level), which guides every finer level (:func:`edit_guide`, as the
     engine's edits are guided); else a random start at the coarsest level. ``on_level(level,
     codes)`` receives each level's result. Returns the finest level's codes."""
     n_levels = len(exemplar_levels)
     n_layers = len(order)
+    out_shape, edges = canvas.shape, Boundary(canvas.tile)
     rank_of = np.empty(n_layers, np.int32)
     rank_of[order] = np.arange(n_layers, dtype=np.int32)
     to_label = np.asarray(order, np.int32)
@@ -189,9 +194,9 @@ def synthesize_layers(
                 kept = [float(np.mean(rank >= i)) for i in range(n_layers)]
             else:
                 fractions = [float(np.mean(ex_rank >= i)) for i in range(n_layers)]
-                rank = random_layers(shape, fractions, tile, rng)
+                rank = random_layers(shape, fractions, edges, rng)
         else:
-            rank = upsample_ranks(rank, shape, n_layers, tile)
+            rank = upsample_ranks(rank, shape, n_layers, edges)
         iterations = config.iterations(lvl, n_levels)
         below = np.ones(shape, np.uint8)
         new_rank = np.zeros(shape, np.int32)
@@ -204,15 +209,17 @@ def synthesize_layers(
                 mask=below,
                 iterations=iterations,
                 config=config,
-                tile=tile,
+                edges=edges,
                 rng=rng,
                 fraction=None if kept is None else kept[i],
-                guide=None if edited is None or lvl == first else edit_guide(edited >= i, shape, tile),
+                guide=None if edited is None or lvl == first else edit_guide(edited >= i, shape, edges),
             )
             new_rank += layer
             # §3.6.4: the next layer's mask, this layer shrunk where the exemplar's next layer
             # does not reach its boundary (the layer itself without shrink_masks)
-            below = next_layer_mask(layer, boundary, config=config, tile=tile, rng=rng) if above is not None else layer
+            below = (
+                next_layer_mask(layer, boundary, config=config, edges=edges, rng=rng) if above is not None else layer
+            )
             if tick:
                 tick()
         rank = new_rank

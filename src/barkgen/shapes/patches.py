@@ -10,10 +10,9 @@ Python.
 
 from __future__ import annotations
 
-from typing import Literal
-
 import numpy as np
 
+from barkgen._shared.arrays import NO_WRAP, Boundary
 from barkgen.errors import InvalidInputError
 
 #: allowed rotations of boundary patches, in quarter turns: bark is vertical, so by default a
@@ -29,24 +28,25 @@ def check_rotations(rotations: str) -> tuple[int, ...]:
         raise InvalidInputError(f"rotations must be one of {', '.join(ROTATIONS)}, not {rotations!r}") from None
 
 
-def boundary_pixels(shape: np.ndarray, tile: bool = False) -> tuple[np.ndarray, np.ndarray]:
+def boundary_pixels(shape: np.ndarray, edges: Boundary = NO_WRAP) -> tuple[np.ndarray, np.ndarray]:
     """Coordinates ``(ys, xs)`` of the boundary pixels of a binary ``shape``: pixels with a
-    4-neighbour of the other value (wrapping around when ``tile``)."""
+    4-neighbour of the other value (across its ``edges`` where they wrap)."""
     import barkgen.shapes._kernels as K
 
     s = np.ascontiguousarray(shape, dtype=np.uint8)
     out = np.empty_like(s)
-    K.boundary_mask(s, bool(tile), out)
+    K.boundary_mask(s, edges.wrap, out)
     ys, xs = np.nonzero(out)
     return ys.astype(np.int32), xs.astype(np.int32)
 
 
-def extract_patches(shape: np.ndarray, ys: np.ndarray, xs: np.ndarray, size: int, tile: bool = False) -> np.ndarray:
+def extract_patches(
+    shape: np.ndarray, ys: np.ndarray, xs: np.ndarray, size: int, edges: Boundary = NO_WRAP
+) -> np.ndarray:
     """The ``size x size`` neighbourhoods ``(m, size, size)`` uint8 of a binary ``shape`` at
-    ``(ys, xs)``: wrapped when ``tile``, else the border pixels are repeated."""
+    ``(ys, xs)``: wrapped where its ``edges`` wrap, else the border pixels are repeated."""
     r = size // 2
-    mode: Literal["wrap", "edge"] = "wrap" if tile else "edge"
-    padded = np.pad(np.asarray(shape, dtype=np.uint8), r, mode=mode)
+    padded = edges.pad(np.asarray(shape, dtype=np.uint8), r, other="edge")
     off = np.arange(size)
     return padded[ys[:, None, None] + off[None, :, None], xs[:, None, None] + off[None, None, :]]
 
@@ -87,13 +87,13 @@ def _one_sided(
     b: np.ndarray,
     size: int,
     turns: tuple[int, ...],
-    tile: bool,
+    edges: Boundary,
     max_samples: int,
     rng: np.random.Generator,
 ) -> tuple[float, int]:
     """Sum over (sampled) boundary pixels x1 of ``a`` of D(x1, b) (eq. 3.8), and their count."""
-    ay, ax = boundary_pixels(a, tile)
-    by, bx = boundary_pixels(b, tile)
+    ay, ax = boundary_pixels(a, edges)
+    by, bx = boundary_pixels(b, edges)
     if len(ay) == 0:
         return 0.0, 0
     if len(by) == 0:  # b has no boundary: nothing to match, every pixel of the patch differs
@@ -101,9 +101,9 @@ def _one_sided(
     n_a = len(ay)
     ay, ax = subsample(ay, ax, max_samples, rng)
     by, bx = subsample(by, bx, max_samples, rng)
-    db, _ = rotated(extract_patches(b, by, bx, size, tile), turns)
+    db, _ = rotated(extract_patches(b, by, bx, size, edges), turns)
     index = binary_index(pack(db))
-    dist, _ = index.search(pack(extract_patches(a, ay, ax, size, tile)), 1)
+    dist, _ = index.search(pack(extract_patches(a, ay, ax, size, edges)), 1)
     # the sampled mean stands for all of a's boundary pixels
     return float(dist[:, 0].mean()) * n_a, n_a
 
@@ -114,7 +114,7 @@ def shape_dissimilarity(
     *,
     patch: int = 9,
     rotations: str = "vertical",
-    tile: bool = False,
+    edges: Boundary = NO_WRAP,
     max_samples: int = 20000,
     seed: int = 0,
 ) -> float:
@@ -133,8 +133,8 @@ def shape_dissimilarity(
         Side of the boundary patches.
     rotations : {"none", "vertical", "all"}, default "vertical"
         Turns a patch may match in.
-    tile : bool, default False
-        The shapes wrap.
+    edges : Boundary, default: no wrap
+        Where the shapes wrap (``Boundary(True)``: both are tiles).
     max_samples : int, default 20000
         With more boundary pixels, a seeded random subset estimates the sums.
     seed : int, default 0
@@ -159,8 +159,8 @@ def shape_dissimilarity(
     rng = np.random.default_rng(seed)
     a = np.asarray(shape_a).astype(bool)
     b = np.asarray(shape_b).astype(bool)
-    sa, na = _one_sided(a, b, patch, turns, tile, max_samples, rng)
-    sb, nb = _one_sided(b, a, patch, turns, tile, max_samples, rng)
+    sa, na = _one_sided(a, b, patch, turns, edges, max_samples, rng)
+    sb, nb = _one_sided(b, a, patch, turns, edges, max_samples, rng)
     if na + nb == 0:
         return 0.0
     return (sa + sb) / (na + nb)
@@ -172,7 +172,7 @@ def label_dissimilarity(
     *,
     patch: int = 9,
     rotations: str = "vertical",
-    tile: bool = False,
+    edges: Boundary = NO_WRAP,
     max_samples: int = 20000,
     seed: int = 0,
 ) -> dict[int, float]:
@@ -182,7 +182,7 @@ def label_dissimilarity(
     ----------
     labels_a, labels_b : ndarray, shape (h, w)
         Grey label maps; the labels of ``labels_a`` are compared.
-    patch, rotations, tile, max_samples, seed
+    patch, rotations, edges, max_samples, seed
         As for :func:`shape_dissimilarity`.
 
     Returns
@@ -204,7 +204,7 @@ def label_dissimilarity(
         raise InvalidInputError("label dissimilarity needs 2-D (grey) label maps")
     return {
         int(v): shape_dissimilarity(
-            a == v, b == v, patch=patch, rotations=rotations, tile=tile, max_samples=max_samples, seed=seed
+            a == v, b == v, patch=patch, rotations=rotations, edges=edges, max_samples=max_samples, seed=seed
         )
         for v in np.unique(a)
     }

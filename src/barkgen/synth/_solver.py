@@ -184,7 +184,9 @@ def _level_context(
     """The :class:`LevelContext` of level ``lvl``: its guide (:func:`level_guidance`) and its
     seam image made."""
     shape = level_shape(canvas.shape, lvl)
-    guide = level_guidance(guidance, lvl, inputs.n_levels, inputs.config, shape, la.wrap, canvas.tile)
+    guide = level_guidance(
+        guidance, lvl, inputs.n_levels, inputs.config, canvas.replace(shape=shape, exemplar_wrap=la.wrap)
+    )
     seam_image = np.ascontiguousarray(la.features[:, : inputs.seam_channels]).reshape(
         la.height, la.width, -1
     )  # what the seam costs compare, as an image
@@ -326,9 +328,9 @@ def _iterate(
         ctx.relink(refs)
         if config.max_copy < 1.0 and (lvl > 0 or step < len(schedule) - 1):
             # (cuts act through the following iterations, none after the very last one)
-            limit_copies(refs, la, config.max_copy * la.height * la.width, forbid, tile, rng)
+            limit_copies(refs, ctx, forbid)
         if config.seam_cut_run and not all(wrap):
-            unstick_border_seams(refs, la, forbid, tile, max(4, config.seam_cut_run >> lvl))
+            unstick_border_seams(refs, ctx, forbid, max(4, config.seam_cut_run >> lvl))
         penalty = occurrence(refs)
         tick()
     return refs
@@ -384,15 +386,7 @@ def _move_seams(ctx: LevelContext, refs: np.ndarray, forbid: np.ndarray) -> np.n
             rounds=config.seam_expansion_rounds,
         )
     if config.seam_cut_run and lvl <= config.seam_cut_levels - 1:
-        refs = cut_seams(
-            refs,
-            la,
-            ctx.seam_image,
-            tile,
-            config.seam_cut_run,
-            (guide.ex_labels, guide.target) if guide.guided else None,
-            ctx.rng,
-        )
+        refs = cut_seams(refs, ctx, config.seam_cut_run)
     return refs
 
 
@@ -406,7 +400,7 @@ def _solve_level(
 ) -> np.ndarray:
     """The level of ``ctx`` from its starting state: iterations, seam sweeps, straight-seam
     cuts and (finest level, guided) ``cleanup_passes`` passes of the label clean-up."""
-    la, lvl, config, tile = ctx.analysis, ctx.level, ctx.config, ctx.tile
+    la, lvl, config = ctx.analysis, ctx.level, ctx.config
 
     def occurrence(refs: np.ndarray) -> np.ndarray:
         cost = occurrence_penalty(refs, la, config.occurrence_weight, 3, ctx.guide.expected)
@@ -420,12 +414,12 @@ def _solve_level(
     if lvl == 0 and config.seam_cut_run and not all(la.wrap):
         # the last iteration's stuck border seams have no iteration after it to be handed to
         for _ in range(STUCK_RETRIES):
-            if unstick_border_seams(refs, la, forbid, tile, max(4, config.seam_cut_run)) == 0:
+            if unstick_border_seams(refs, ctx, forbid, max(4, config.seam_cut_run)) == 0:
                 break
             refs = _iterate(ctx, refs, forbid, schedule[-1:], occurrence, lambda: None)
             refs = _move_seams(ctx, refs, forbid)
     if ctx.guide.guided and lvl == 0:
-        refs = enforce_labels(refs, la.grid, ctx.guide, cleanup_passes, tile)
+        refs = enforce_labels(refs, ctx, cleanup_passes)
     return ctx.relink(refs)
 
 
@@ -567,7 +561,7 @@ def _result(
     references = np.stack([ry, rx], axis=-1).astype(np.int32)
     t0 = time.perf_counter()
     if blend == "gradient":  # the colour's seams blended in the gradient domain
-        image = blend_seams(ex, references, tile=tile, wrap=wrap)
+        image = blend_seams(ex, references, canvas)
     else:
         image = ex.reshape(h * w, ex.shape[2])[refs].reshape(out_shape + (ex.shape[2],))
     # extra maps are continuous (height, normals, roughness): resolved in the gradient domain,
@@ -575,7 +569,8 @@ def _result(
     # own edges meet
     extra_wraps = {name: map_wraps(e, wrap) for name, e in extras.items()}
     out_extras = {
-        name: resolve_continuous(e, references, tile=tile, wrap=extra_wraps[name]) for name, e in extras.items()
+        name: resolve_continuous(e, references, canvas.replace(exemplar_wrap=extra_wraps[name]))
+        for name, e in extras.items()
     }
     timings["synthesis"] += time.perf_counter() - t0
     return SynthesisResult(

@@ -343,7 +343,7 @@ def _start(init, n_levels: int, exemplar_shape: tuple[int, int], canvas: Canvas)
     if init == "smart":
 
         def initial(a: np.ndarray, b: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-            return smart_initialization(a, b, rng, tile=canvas.tile, exemplar_wrap=canvas.exemplar_wrap)
+            return smart_initialization(a, b, rng, canvas)
 
         return None, initial
     return None, random_initialization

@@ -30,7 +30,7 @@ from pydantic import BaseModel
 from barkgen.errors import InvalidInputError
 from barkgen.io import decode_image
 from barkgen.library import NotFoundError
-from barkgen.material import HeightEdit, HeightEditor, parse_edits
+from barkgen.material import Boundary, HeightEdit, HeightEditor, parse_edits
 from barkgen.pipeline.files import ILLUMINATION_FILE
 from barkgen.web.state import AppState, State
 
@@ -105,7 +105,7 @@ def open_session(state: AppState, result_id: int) -> ReliefSession:
     texture = decode_image(library.result_file(result_id, "texture.png"), "texture")
     labels = decode_image(library.result_file(result_id, "labels_out.png"), "labels")
     labels = labels[..., 0] if labels.ndim == 3 else labels
-    editor = HeightEditor(texture, height, labels, tile=bool(result.params.get("tile")))
+    editor = HeightEditor(texture, height, labels, boundary=Boundary(bool(result.params.get("tile"))))
     session = ReliefSession(editor, heights={0: height})
     with state.relief_lock:
         sessions[result_id] = session

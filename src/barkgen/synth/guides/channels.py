@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from barkgen._shared.arrays import Wrap, on_torus, wrap_axes
+from barkgen._shared.arrays import Boundary, Wrap
 from barkgen.errors import InvalidInputError
 
 #: most labels a label map may have (more usually means a lossy JPEG or a photo, not labels)
@@ -165,10 +165,10 @@ def boundary_distance(codes: np.ndarray, clip: float | None = None, *, wrap: Wra
     4-neighbour of another label), by the 3x3 chamfer distance transform with Borgefors'
     weights (the 3-4 DT of laitoch2018 §3.4.2, as computed by OpenCV). ``clip`` caps it.
     ``wrap`` (a bool or ``(rows, columns)``): the map wraps round along that axis, so a
-    boundary across its edge is near (:func:`barkgen._shared.arrays.on_torus`)."""
-    if any(wrap_axes(wrap)):
+    boundary across its edge is near (:meth:`barkgen._shared.arrays.Boundary.torus`)."""
+    if any(Boundary(wrap).wrap):
         reach = int(np.ceil(clip)) + 2 if clip is not None else max(np.shape(codes)[:2])
-        return on_torus(lambda c: boundary_distance(c, clip), np.asarray(codes), reach, wrap)
+        return Boundary(wrap).torus(lambda c: boundary_distance(c, clip), np.asarray(codes), reach)
     import cv2
 
     c = np.asarray(codes)
@@ -273,7 +273,7 @@ def guide_channels(
 
         reach = int(np.ceil(4 * GUIDE_BLUR)) + 1
         chans = [
-            on_torus(blurred, (codes == lab).astype(np.float32), reach, wrap) * np.float32(boost[lab])
+            Boundary(wrap).torus(blurred, (codes == lab).astype(np.float32), reach) * np.float32(boost[lab])
             for lab in range(n_labels)
         ]
         return np.stack(chans, axis=-1)

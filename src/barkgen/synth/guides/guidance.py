@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from barkgen._shared.canvas import Canvas
 from barkgen.nnf import neighbourhood_pca, project_neighbourhoods
 from barkgen.synth._analysis import schedule_sizes
 from barkgen.synth._config import SynthesisConfig
@@ -70,13 +71,13 @@ def level_guidance(
     lvl: int,
     n_levels: int,
     config: SynthesisConfig,
-    shape: tuple[int, int],
-    wrap: tuple[bool, bool],
-    tile: bool,
+    canvas: Canvas,
 ) -> LevelGuidance:
     """The label tables of level ``lvl`` and the appearance-space label neighbourhoods of the
     exemplar and of the target for each neighbourhood size of the level's schedule
-    (laitoch2018 §3.3, eq. 3.2)."""
+    (laitoch2018 §3.3, eq. 3.2). ``canvas``: the level's (its shape, whether it tiles, the
+    exemplar level's resolved wrap)."""
+    shape, tile, wrap = canvas.shape, canvas.tile, canvas.exemplar_wrap or (False, False)
     if guidance is None:
         return LevelGuidance(NO_LABELS, NO_TARGET, NO_LABELS, NO_POOL_START, None, 0, 1.0, {}, {}, False)
     lg = guidance.levels[lvl]
@@ -101,12 +102,14 @@ def level_guidance(
     )
 
 
-def enforce_labels(refs: np.ndarray, grid: tuple, guide: LevelGuidance, passes: int, tile: bool) -> np.ndarray:
-    """Texture-by-numbers' label clean-up after the finest level
-    (``guides._kernels.enforce_labels``), at most ``passes`` passes on the level's exemplar
-    ``grid`` (:attr:`barkgen.synth._analysis.LevelAnalysis.grid`)."""
+def enforce_labels(refs: np.ndarray, ctx, passes: int) -> np.ndarray:
+    r"""Texture-by-numbers' label clean-up after the finest level
+    (``guides._kernels.enforce_labels``), at most ``passes`` passes; ``ctx``: the solver's level
+    (:class:`barkgen.synth._solver.LevelContext`: its exemplar ``analysis.grid``, its ``guide``
+    and whether it ``tile``\ s)."""
     import barkgen.synth.guides._kernels as K
 
+    grid, guide, tile = ctx.analysis.grid, ctx.guide, ctx.tile
     new = np.empty(refs.shape, np.int32)
     for _ in range(passes):
         if K.enforce_labels(refs, grid, guide.ex_labels, guide.target, tile, new) == 0:

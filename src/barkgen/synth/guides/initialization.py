@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from barkgen._shared.canvas import Canvas
 from barkgen.synth.guides.channels import boundary_distance, level_guide
 
 #: eq. 3.6's label weight (laitoch2018: w = 90)
@@ -40,10 +41,9 @@ def smart_initialization(
     exemplar_labels: np.ndarray,
     target_labels: np.ndarray,
     rng: np.random.Generator,
+    canvas: Canvas | None = None,
     *,
-    tile: bool = False,
     label_weight: float = SMART_LABEL_WEIGHT,
-    exemplar_wrap: tuple[bool, bool] = (False, False),
 ) -> np.ndarray:
     """Texture-synthesis-based initialisation (laitoch2018 §3.4.2; the first pass of Bonneel et
     al. 2010 as Fan et al. 2012 use it).
@@ -54,10 +54,14 @@ def smart_initialization(
     ``d < (d(pA, pB) + 5) * 1.25``). Seeds are visited in a random order drawn from ``rng``;
     among near-equal matches the least used exemplar pixel is taken, which spreads the copies
     over the whole exemplar (laitoch2018 §4.2). The distances run across the exemplar's edge
-    where it wraps (``exemplar_wrap``) and across the output's where it tiles (``tile``).
+    where it wraps and across the output's where it tiles: the ``canvas``'s ``exemplar_wrap``
+    (None: nowhere) and ``tile`` (its shape is not read: a level's target may be smaller);
+    default: neither.
     """
     import barkgen.synth.guides._kernels as K
 
+    tile = canvas is not None and canvas.tile
+    exemplar_wrap = (canvas.exemplar_wrap if canvas is not None else None) or (False, False)
     ida = np.ascontiguousarray(exemplar_labels, dtype=np.int32)
     idb = np.ascontiguousarray(target_labels, dtype=np.int32)
     da = boundary_distance(ida, SMART_DISTANCE_CLIP, wrap=exemplar_wrap)

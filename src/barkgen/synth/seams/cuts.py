@@ -23,6 +23,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from barkgen._shared.canvas import Canvas
+
 #: straight seam runs at least this long are re-cut
 MIN_RUN = 24
 #: half-width of the band (pixels on each side of the seam) a cut may move the border in
@@ -43,17 +45,19 @@ _BELOW = np.array([[0, 0, 0], [0, 0, 0], [0, 1, 0]])
 _RIGHT = np.array([[0, 0, 0], [0, 0, 1], [0, 0, 0]])
 
 
-class _Exemplar:
-    """One exemplar level's features ``(h, w, C)`` and wrap, in the frame of the seams being cut
-    (the transposed frame for seams between columns)."""
+class _Frame:
+    r"""What the seams are cut in: one exemplar level's features ``(h, w, C)`` and wrap, and
+    whether the output ``tile``\ s, in the frame of the seams being cut (the transposed frame
+    for seams between columns)."""
 
-    def __init__(self, features: np.ndarray, wrap: tuple[bool, bool]) -> None:
+    def __init__(self, features: np.ndarray, wrap: tuple[bool, bool], tile: bool) -> None:
         self.features = np.ascontiguousarray(features, dtype=np.float32)
         self.shape = self.features.shape[:2]
         self.wrap = (bool(wrap[0]), bool(wrap[1]))
+        self.tile = bool(tile)
 
-    def transposed(self) -> _Exemplar:
-        return _Exemplar(self.features.transpose(1, 0, 2), (self.wrap[1], self.wrap[0]))
+    def transposed(self) -> _Frame:
+        return _Frame(self.features.transpose(1, 0, 2), (self.wrap[1], self.wrap[0]), self.tile)
 
 
 def _meander_cost(
@@ -80,8 +84,7 @@ def _cut_run(
     rx: np.ndarray,
     i: int,
     cols: np.ndarray,
-    ex: _Exemplar,
-    tile: bool,
+    ex: _Frame,
     allowed=None,
     meander: np.random.Generator | None = None,
 ) -> int:
@@ -111,7 +114,7 @@ def _cut_run(
             ex.features,
             ex.wrap[0],
             ex.wrap[1],
-            tile,
+            ex.tile,
             i,
             np.ascontiguousarray(cols, dtype=np.int64),
             BAND,
@@ -147,38 +150,38 @@ def _cut_run(
     return changed
 
 
-def _cut_rows(ry, rx, ex: _Exemplar, tile: bool, min_run: int, allowed, meander: np.random.Generator | None) -> int:
+def _cut_rows(ry, rx, ex: _Frame, min_run: int, allowed, meander: np.random.Generator | None) -> int:
     """Re-cut every straight seam between rows at least ``min_run`` long; returns pixels changed."""
     import barkgen.synth.seams._kernels as K
 
     W = ry.shape[1]
-    runs = K.seam_runs(ry, rx, ex.shape[0], ex.shape[1], ex.wrap[0], ex.wrap[1], tile, min_run)
+    runs = K.seam_runs(ry, rx, ex.shape[0], ex.shape[1], ex.wrap[0], ex.wrap[1], ex.tile, min_run)
     changed = 0
     for i, start, length in runs:
         cols = np.arange(start, start + length)
-        cols = np.mod(cols, W) if tile else cols
-        changed += _cut_run(ry, rx, int(i), cols, ex, tile, allowed, meander if length >= MEANDER_MIN_RUN else None)
+        cols = np.mod(cols, W) if ex.tile else cols
+        changed += _cut_run(ry, rx, int(i), cols, ex, allowed, meander if length >= MEANDER_MIN_RUN else None)
     return changed
 
 
 def cut_straight_seams(
     references: np.ndarray,
     features: np.ndarray,
+    canvas: Canvas,
     *,
-    tile: bool,
-    wrap: tuple[bool, bool] = (False, False),
     min_run: int = MIN_RUN,
     rounds: int = 2,
     allowed=None,
     rng: np.random.Generator | None = None,
 ) -> np.ndarray:
-    """Re-cut the straight seams of a reference map along minimum-cost paths (Kwatra 2003).
+    r"""Re-cut the straight seams of a reference map along minimum-cost paths (Kwatra 2003).
 
     Args:
         references: ``(H, W, 2)`` exemplar ``(row, col)`` per output pixel.
         features: ``(h, w, C)`` float32 features of the exemplar the seam cost compares.
-        tile: the output wraps round (its last row meets its first).
-        wrap: ``(rows, columns)``: the exemplar tiles along that axis.
+        canvas: the output's: whether it ``tile``\ s (its last row meets its first) and the
+            exemplar's ``exemplar_wrap``, ``(rows, columns)``, the axes it tiles along (None:
+            neither).
         min_run: straight seams at least this long are re-cut.
         rounds: passes over both directions; from the second on, with ``rng``, the seams still
             straight are pulled towards random meanders.
@@ -193,15 +196,15 @@ def cut_straight_seams(
     refs = np.asarray(references)
     ry: np.ndarray = np.ascontiguousarray(refs[..., 0], dtype=np.int32)
     rx: np.ndarray = np.ascontiguousarray(refs[..., 1], dtype=np.int32)
-    ex = _Exemplar(features, wrap)
+    ex = _Frame(features, canvas.exemplar_wrap or (False, False), canvas.tile)
     ext = ex.transposed()
     allowed_t = None if allowed is None else (lambda ys, xs, ey, exx: allowed(xs, ys, exx, ey))
     for rnd in range(rounds):
         meander = rng if rnd > 0 else None
-        changed = _cut_rows(ry, rx, ex, tile, min_run, allowed, meander)
+        changed = _cut_rows(ry, rx, ex, min_run, allowed, meander)
         # seams between columns: the same on the transposed maps (cv2's blocked transpose)
         ry_t, rx_t = cv2.transpose(rx), cv2.transpose(ry)
-        changed += _cut_rows(ry_t, rx_t, ext, tile, min_run, allowed_t, meander)
+        changed += _cut_rows(ry_t, rx_t, ext, min_run, allowed_t, meander)
         ry, rx = cv2.transpose(rx_t), cv2.transpose(ry_t)
         if changed == 0 and (rnd > 0 or rng is None):
             break

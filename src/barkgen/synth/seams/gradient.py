@@ -24,6 +24,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from barkgen._shared.canvas import Canvas
+from barkgen.errors import InvalidInputError
+
 #: lambda of the screened Poisson equation: a step at a seam spreads over about
 #: 1 / sqrt(lambda) px (here ~30), far below the size of a copied piece
 SCREENING = 1e-3
@@ -68,12 +71,6 @@ def carried_gradients(
     return sy[ry, rx], sx[ry, rx]
 
 
-def _eigenvalues(n: int, tile: bool) -> np.ndarray:
-    """Eigenvalues of the 1-D negative Laplacian: periodic (FFT) or Neumann (DCT-II)."""
-    k = np.arange(n)
-    return 2.0 - 2.0 * np.cos((2.0 if tile else 1.0) * np.pi * k / n)
-
-
 def screened_poisson(
     plain: np.ndarray, gy: np.ndarray, gx: np.ndarray, *, tile: bool, screening: float = SCREENING
 ) -> np.ndarray:
@@ -96,30 +93,40 @@ def screened_poisson(
         div += gy
         div[1:] -= gy[:-1]
     rhs = screening * f - div
-    denom = (screening + _eigenvalues(H, tile)[:, None] + _eigenvalues(W, tile)[None, :])[:, :, None]
+    # eigenvalues of the 1-D negative Laplacian: periodic (FFT) or Neumann (DCT-II)
+    period = 2.0 if tile else 1.0
+    eig_y, eig_x = (2.0 - 2.0 * np.cos(period * np.pi * np.arange(n) / n) for n in (H, W))
+    denom = (screening + eig_y[:, None] + eig_x[None, :])[:, :, None]
     if tile:
         return np.real(sfft.ifft2(sfft.fft2(rhs, axes=(0, 1)) / denom, axes=(0, 1)))
     return sfft.idctn(sfft.dctn(rhs, type=2, axes=(0, 1), norm="ortho") / denom, type=2, axes=(0, 1), norm="ortho")
 
 
 def _integrate(
-    source: np.ndarray,
-    references: np.ndarray,
-    tile: bool,
-    wrap: tuple[bool, bool],
-    screening: float,
-    smooth_slopes: bool,
+    source: np.ndarray, references: np.ndarray, canvas: Canvas, screening: float, smooth_slopes: bool
 ) -> np.ndarray:
-    """The gradient-domain map ``(H, W, C)`` float64 of an ``(h, w, C)`` exemplar map."""
+    """The gradient-domain map ``(H, W, C)`` float64 of an ``(h, w, C)`` exemplar map, on the
+    ``canvas`` (its tile, the exemplar's wrap)."""
+    tile, wrap = canvas.tile, _exemplar_wrap(canvas)
     ry, rx = references[..., 0], references[..., 1]
     plain = np.asarray(source, dtype=np.float64)[ry, rx]
     if not smooth_slopes:
         gy, gx = carried_gradients(source, references, wrap)
     else:  # the slopes are continuous maps themselves: carried through their own gradients
         sy, sx = exemplar_steps(source, wrap)
-        gy = _integrate(sy, references, tile, wrap, screening, False)
-        gx = _integrate(sx, references, tile, wrap, screening, False)
+        gy = _integrate(sy, references, canvas, screening, False)
+        gx = _integrate(sx, references, canvas, screening, False)
     return screened_poisson(plain, gy, gx, tile=tile, screening=screening)
+
+
+def _exemplar_wrap(canvas: Canvas) -> tuple[bool, bool]:
+    """The canvas's resolved exemplar wrap (None: the exemplar wraps nowhere)."""
+    wrap = canvas.exemplar_wrap
+    if wrap is None:
+        return (False, False)
+    if not isinstance(wrap, tuple):
+        raise InvalidInputError(f"the canvas's exemplar wrap must be resolved to (rows, columns), not {wrap!r}")
+    return wrap
 
 
 def check_blend(mode: str) -> str:
@@ -133,12 +140,7 @@ def check_blend(mode: str) -> str:
 
 
 def blend_seams(
-    source: np.ndarray,
-    references: np.ndarray,
-    *,
-    tile: bool,
-    wrap: tuple[bool, bool] = (False, False),
-    screening: float = BLEND_SCREENING,
+    source: np.ndarray, references: np.ndarray, canvas: Canvas, *, screening: float = BLEND_SCREENING
 ) -> np.ndarray:
     """The colour (or any local map) of the exemplar through a reference map, its seams blended
     in the gradient domain.
@@ -146,7 +148,7 @@ def blend_seams(
     The copy of every pixel's reference keeps whatever low-frequency mismatch two pieces have
     (light falloff, a shadow, a colour cast) as a step at their border. Here the texture is
     composed from the exemplar's gradients at each pixel's reference and re-integrated
-    (screened Poisson, FFT on the torus when ``tile``; Pérez et al. 2003, as Kwatra et al.
+    (screened Poisson, FFT on the torus when the ``canvas`` tiles; Pérez et al. 2003, as Kwatra et al.
     2003 suggest for the seams a cut leaves), anchored to the copied colour by ``screening``,
     so the step at a border spreads over a few pixels either side and nothing drifts: inside
     a piece, a few pixels from its border, the pixels are the photo's own (to rounding).
@@ -159,13 +161,10 @@ def blend_seams(
     """
     src = np.asarray(source)
     if src.ndim == 2:
-        return resolve_continuous(src, references, tile=tile, wrap=wrap, screening=screening)
+        return resolve_continuous(src, references, canvas, screening=screening)
     # channel by channel: the solve's float64 transforms of one channel at a time
     return np.stack(
-        [
-            resolve_continuous(src[..., c], references, tile=tile, wrap=wrap, screening=screening)
-            for c in range(src.shape[2])
-        ],
+        [resolve_continuous(src[..., c], references, canvas, screening=screening) for c in range(src.shape[2])],
         axis=-1,
     )
 
@@ -173,15 +172,15 @@ def blend_seams(
 def resolve_continuous(
     source: np.ndarray,
     references: np.ndarray,
+    canvas: Canvas,
     *,
-    tile: bool,
-    wrap: tuple[bool, bool] = (False, False),
     screening: float = SCREENING,
     smooth_slopes: bool = False,
 ) -> np.ndarray:
     """A continuous map of the exemplar (height, roughness, ...) through a reference map
     ``(H, W, 2)`` in the gradient domain (see the module): continuous across the borders of the
-    copied pieces, tileable when ``tile``. ``smooth_slopes``: the slopes too are continuous
+    copied pieces, tileable when the ``canvas`` tiles (and continued across the exemplar's
+    edges along its ``exemplar_wrap``, None: neither). ``smooth_slopes``: the slopes too are continuous
     across the borders (the carried gradients go through the gradient domain first), so
     normals computed from a height resolved this way have no creases there. Same dtype and
     channels as ``source``; integer maps are rounded and clipped to their range, float maps in
@@ -190,7 +189,7 @@ def resolve_continuous(
     refs = np.asarray(references)
     flat = src.ndim == 2
     s3 = src[:, :, None] if flat else src
-    u = _integrate(s3, refs, tile, wrap, screening, smooth_slopes)
+    u = _integrate(s3, refs, canvas, screening, smooth_slopes)
     if src.dtype.kind in "ui":
         info = np.iinfo(src.dtype)
         u = np.clip(np.rint(u), info.min, info.max).astype(src.dtype)
@@ -202,12 +201,12 @@ def resolve_continuous(
     return u[:, :, 0] if flat else u
 
 
-def piece_borders(
-    references: np.ndarray, exemplar_shape: tuple[int, int], *, tile: bool, wrap: tuple[bool, bool] = (False, False)
-) -> np.ndarray:
+def piece_borders(references: np.ndarray, exemplar_shape: tuple[int, int], canvas: Canvas) -> np.ndarray:
     """``(H, W)`` bool: the output pixels on a border between copied pieces, those with a
     4-neighbour whose reference is not the matching neighbour of their own (modulo the exemplar
-    along an axis it wraps along; across the output's edges only when ``tile``)."""
+    along an axis it wraps along, the ``canvas``'s ``exemplar_wrap``; across the output's edges
+    only when it tiles)."""
+    tile, wrap = canvas.tile, _exemplar_wrap(canvas)
     refs = np.asarray(references).astype(np.int64)
     ry, rx = refs[..., 0], refs[..., 1]
     border = np.zeros(ry.shape, bool)
@@ -229,9 +228,8 @@ def piece_borders(
 def resolve_local(
     source: np.ndarray,
     references: np.ndarray,
+    canvas: Canvas,
     *,
-    tile: bool,
-    wrap: tuple[bool, bool] = (False, False),
     band: int = 8,
     screening: float = SCREENING,
     smooth_slopes: bool = False,
@@ -252,9 +250,9 @@ def resolve_local(
     src = np.asarray(source, dtype=np.float32)
     refs = np.asarray(references)
     exact = src[refs[..., 0], refs[..., 1]]
-    smooth = resolve_continuous(src, refs, tile=tile, wrap=wrap, screening=screening, smooth_slopes=smooth_slopes)
-    inside = (~piece_borders(refs, src.shape[:2], tile=tile, wrap=wrap)).astype(np.uint8)
-    pad = band + 1 if tile else 0
+    smooth = resolve_continuous(src, refs, canvas, screening=screening, smooth_slopes=smooth_slopes)
+    inside = (~piece_borders(refs, src.shape[:2], canvas)).astype(np.uint8)
+    pad = band + 1 if canvas.tile else 0
     padded = np.pad(inside, pad, mode="wrap") if pad else inside
     # the exact Euclidean distance (the 3x3 mask's falls short of ``band`` on some pixels that are
     # ``band`` px inside, and they were blended)

@@ -13,7 +13,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from barkgen.synth._analysis import LevelAnalysis
+from barkgen._shared.canvas import Canvas
 
 
 def offset_codes(dy: np.ndarray, dx: np.ndarray) -> np.ndarray:
@@ -41,15 +41,15 @@ CUT_MEANDER_AMPLITUDE = 0.05
 CUT_MEANDER_PERIOD = 0.4
 
 
-def limit_copies(
-    refs: np.ndarray, level: LevelAnalysis, max_area: float, forbid: np.ndarray, tile: bool, rng: np.random.Generator
-) -> int:
+def limit_copies(refs: np.ndarray, ctx, forbid: np.ndarray) -> int:
     """Copy-size control: find the pieces copied verbatim (``seams._kernels.label_pieces``: a piece that
     runs round a tiled output or across a wrapping exemplar's edge is one) larger than
-    ``max_area`` pixels and forbid their offsets on a cross-shaped band through each one's
-    centroid, so the next iterations cut it in up to four. The band's two lines meander (random
-    phase and period per piece, drawn from ``rng``): straight, they would leave two straight
-    seams, which the seam cuts would close again. Returns the number of regions cut.
+    ``config.max_copy`` of the level's exemplar and forbid their offsets on a cross-shaped band
+    through each one's centroid, so the next iterations cut it in up to four. The band's two
+    lines meander (random phase and period per piece, drawn from the solve's generator):
+    straight, they would leave two straight seams, which the seam cuts would close again.
+    ``ctx``: the solver's level (:class:`barkgen.synth._solver.LevelContext`: its analysis,
+    config, generator and tile). Returns the number of regions cut.
 
     The discrete solver left alone grows whole-exemplar copies wherever nothing stops coherence
     (G'MIC's results copy 64 % of the exemplar in one piece); this keeps the coherence bias while
@@ -57,6 +57,8 @@ def limit_copies(
     """
     import barkgen.synth.seams._kernels as K
 
+    level, tile, rng = ctx.analysis, ctx.tile, ctx.rng
+    max_area = ctx.config.max_copy * level.height * level.width
     labels = np.empty(refs.shape, np.int32)
     sizes = K.label_pieces(refs, level.grid, tile, labels)
     big = sizes > max_area
@@ -92,15 +94,16 @@ def limit_copies(
 UNSTICK_DEPTH = 4
 
 
-def unstick_border_seams(refs: np.ndarray, level: LevelAnalysis, forbid: np.ndarray, tile: bool, min_run: int) -> int:
+def unstick_border_seams(refs: np.ndarray, ctx, forbid: np.ndarray, min_run: int) -> int:
     """Where a straight seam joins two pieces that both end at the exemplar's border there
     (the upper one on its last row, the lower one on its first, along an axis that does not
     wrap), no cut can move it: neither piece continues past the border. The lower piece's offset
     is forbidden on the ``UNSTICK_DEPTH`` rows below the seam, so the next iterations put
-    other pieces there, which can be cut. The same for seams between columns. Returns the
-    number of seams treated."""
+    other pieces there, which can be cut. The same for seams between columns. ``ctx``: the
+    solver's level (:func:`limit_copies`). Returns the number of seams treated."""
     import barkgen.synth.seams._kernels as K
 
+    level, tile = ctx.analysis, ctx.tile
     ry = np.ascontiguousarray(level.coords_y[refs], dtype=np.int32)
     rx = np.ascontiguousarray(level.coords_x[refs], dtype=np.int32)
     h, w = level.height, level.width
@@ -177,27 +180,22 @@ def roll_state(refs: np.ndarray, forbid: np.ndarray, shift: tuple[int, int]) -> 
     )
 
 
-def cut_seams(
-    refs: np.ndarray,
-    level: LevelAnalysis,
-    features: np.ndarray,
-    tile: bool,
-    min_run: int,
-    labels: tuple[np.ndarray, np.ndarray] | None,
-    rng: np.random.Generator,
-) -> np.ndarray:
+def cut_seams(refs: np.ndarray, ctx, min_run: int) -> np.ndarray:
     """The level's reference map with its straight seams re-cut (:mod:`barkgen.synth.seams.cuts`);
-    ``features`` ``(h, w, C)``: what the seam cost compares; ``labels`` ``(exemplar labels,
-    target labels)`` keeps texture-by-numbers' labels; ``rng`` draws the meanders."""
+    ``ctx``: the solver's level (:func:`limit_copies`): its seam image (what the seam cost
+    compares), its guide (texture-by-numbers' labels are kept) and its generator (the
+    meanders)."""
     from barkgen.synth.seams.cuts import cut_straight_seams
 
+    level, guide = ctx.analysis, ctx.guide
     allowed = None
-    if labels is not None:
-        ex_labels, target = labels
+    if guide.guided:
+        ex_labels, target = guide.ex_labels, guide.target
 
         def allowed(ys, xs, ey, ex):
             return ex_labels[ey * level.width + ex] == target[ys, xs]
 
     coords = np.stack([level.coords_y[refs], level.coords_x[refs]], axis=-1)
-    cut = cut_straight_seams(coords, features, tile=tile, wrap=level.wrap, min_run=min_run, allowed=allowed, rng=rng)
+    canvas = Canvas(coords.shape[:2], tile=ctx.tile, exemplar_wrap=level.wrap)
+    cut = cut_straight_seams(coords, ctx.seam_image, canvas, min_run=min_run, allowed=allowed, rng=ctx.rng)
     return np.ascontiguousarray(cut[..., 0] * level.width + cut[..., 1], dtype=np.int32)
