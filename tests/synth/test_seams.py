@@ -214,11 +214,11 @@ def test_a_piece_round_a_tiled_output_is_one_piece():
     labels = np.empty((H, W), np.int32)
     # on an 80-row exemplar, rows 63 -> 0 do not continue: not tiled, two pieces; tiled, the
     # output's last row continues into its first, and the strip round the torus is one piece
-    assert sorted(K.label_pieces(refs, (cy, cx, eh, ew, False, False), False, labels)) == [30 * W, 34 * W]
-    assert K.label_pieces(refs, (cy, cx, eh, ew, False, False), True, labels).tolist() == [H * W]
+    assert sorted(K.label_pieces((refs, False), (cy, cx, eh, ew, False, False), labels)) == [30 * W, 34 * W]
+    assert K.label_pieces((refs, True), (cy, cx, eh, ew, False, False), labels).tolist() == [H * W]
     # on a 64-row exemplar that wraps, rows 63 -> 0 continue: one piece either way
     cy2, cx2 = np.divmod(np.arange(64 * ew, dtype=np.int32), np.int32(ew))
-    assert K.label_pieces(refs, (cy2, cx2, 64, ew, True, False), False, labels).tolist() == [H * W]
+    assert K.label_pieces((refs, False), (cy2, cx2, 64, ew, True, False), labels).tolist() == [H * W]
 
 
 def test_same_bytes_on_one_or_two_threads(sample256):

@@ -27,8 +27,9 @@ import numpy as np
 
 
 @nb.njit
-def _wrap_or_clamp(v, n, tile):
-    if tile:
+def _wrap_or_clamp(v, n, wraps):
+    """``v`` on an axis of ``n`` pixels: round it when the axis ``wraps``, else clamped."""
+    if wraps:
         while v < 0:
             v += n
         while v >= n:
@@ -104,11 +105,13 @@ def _mix(z):
 
 
 @nb.njit
-def _shifted_neighbour_source(refs, y, x, dy, dx, tile, exemplar):
+def _shifted_neighbour_source(output, y, x, dy, dx, exemplar):
     """The exemplar pixel that output pixel (y, x) would take to continue the piece its
     neighbour (y + dy, x + dx) was copied from (the neighbour's reference shifted back by
     (dy, dx)); -1 when the neighbour is outside the output (not tiled) or the shifted pixel
-    outside the exemplar (which wraps along the axes ``wrap_y`` / ``wrap_x``)."""
+    outside the exemplar (which wraps along the axes ``wrap_y`` / ``wrap_x``). ``output =
+    (refs, tile)``: the output's references and whether it wraps round."""
+    refs, tile = output
     ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x = exemplar
     H, W = refs.shape
     yy = y + dy
@@ -124,7 +127,7 @@ def _shifted_neighbour_source(refs, y, x, dy, dx, tile, exemplar):
 
 
 @nb.njit
-def _project_query(refs, y, x, tile, exemplar, ex_feat, projection, q, guide):
+def _project_query(output, y, x, exemplar, ex_feat, projection, q, guide):
     """The output neighbourhood of (y, x) (resolved references) projected into appearance space
     into ``q``; returns how many of its pixels have the wrong label (``ex_labels`` of its
     reference against ``target``, counted when ``n_random`` > 0; ``guide``: :func:`m_step`'s).
@@ -134,6 +137,7 @@ def _project_query(refs, y, x, tile, exemplar, ex_feat, projection, q, guide):
     border like the analysis); only the pixels that differ from it are projected (exact, the
     projection is linear). Pieces copied whole cost nothing; a full projection is done when
     most pixels differ."""
+    refs, tile = output
     ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x = exemplar
     proj_w, proj_mean, appearance = projection
     _, _, ex_labels, target, _, _, n_random, _ = guide
@@ -187,7 +191,7 @@ def _project_query(refs, y, x, tile, exemplar, ex_feat, projection, q, guide):
 
 
 @nb.njit
-def _label_candidates(incumbent, y, x, r, tile, exemplar, costs, guide, query, fb):
+def _label_candidates(incumbent, y, x, r, output, exemplar, costs, guide, query, fb):
     """Texture-by-numbers' drawn candidates of the M-step at (y, x) (see :func:`m_step`):
     ``n_random`` from the wanted label's exemplar pixels and one aligned on the nearest pixel
     that wants another label. Returns the new ``(best, best_cost)`` from ``incumbent``, the
@@ -204,7 +208,7 @@ def _label_candidates(incumbent, y, x, r, tile, exemplar, costs, guide, query, f
             sy = 0
             sx = 0
         else:
-            lab, sy, sx = _nearest_other_label(target, y, x, r, tile)
+            lab, sy, sx = _nearest_other_label(target, y, x, r, output)
             if lab < 0:
                 continue
         p0 = pool_start[lab]
@@ -221,9 +225,9 @@ def _label_candidates(incumbent, y, x, r, tile, exemplar, costs, guide, query, f
 
 
 @nb.njit(parallel=True, cache=True, fastmath=True)
-def m_step(refs, exemplar, ex_feat, projection, ksets, costs, grid, tile, guide, match):  # pragma: no cover - compiled
-    """M-step on the sparse grid ``(oy + i * stride, ox + j * stride)``, ``grid = (stride, oy,
-    ox)``; ``projection = (proj_w, proj_mean, appearance)``, ``costs = (penalty, kset_cost,
+def m_step(output, exemplar, ex_feat, projection, ksets, costs, grid, guide, match):  # pragma: no cover - compiled
+    """M-step on the sparse grid ``(oy + i * stride, ox + j * stride)`` of the output, ``output =
+    (refs, tile)`` (its references, whether it wraps round), ``grid = (stride, oy, ox)``; ``projection = (proj_w, proj_mean, appearance)``, ``costs = (penalty, kset_cost,
     forbid)``, ``guide = (guide_ex, guide_out, ex_labels, target, pool, pool_start, n_random,
     random_key)``.
 
@@ -249,6 +253,7 @@ def m_step(refs, exemplar, ex_feat, projection, ksets, costs, grid, tile, guide,
     ``target``): elsewhere coherent candidates already fit. Unguided synthesis passes zero guide
     columns and ``n_random = 0``.
     """
+    refs = output[0]
     ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x = exemplar
     proj_w, proj_mean, appearance = projection
     penalty, kset_cost, forbid = costs
@@ -265,14 +270,14 @@ def m_step(refs, exemplar, ex_feat, projection, ksets, costs, grid, tile, guide,
         seen = np.empty(9, np.int32)
         query = (appearance, q, guide_ex, guide_out)
         for x in range(ox, W, stride):
-            n_wrong = _project_query(refs, y, x, tile, exemplar, ex_feat, projection, q, guide)
+            n_wrong = _project_query(output, y, x, exemplar, ex_feat, projection, q, guide)
             best = np.int64(refs[y, x])
             best_cost = np.inf
             n_seen = 0
             fb = forbid[y, x]
             for dy in range(-1, 2):
                 for dx in range(-1, 2):
-                    u = _shifted_neighbour_source(refs, y, x, dy, dx, tile, exemplar)
+                    u = _shifted_neighbour_source(output, y, x, dy, dx, exemplar)
                     if u < 0:
                         continue
                     if _listed(seen, n_seen, u):
@@ -288,14 +293,18 @@ def m_step(refs, exemplar, ex_feat, projection, ksets, costs, grid, tile, guide,
                             v2, penalty[v2] + kset_cost, best, best_cost, fb, y, x, ex_y, ex_x, query
                         )
             if n_wrong > 0:
-                best, best_cost = _label_candidates((best, best_cost), y, x, r, tile, exemplar, costs, guide, query, fb)
+                best, best_cost = _label_candidates(
+                    (best, best_cost), y, x, r, output, exemplar, costs, guide, query, fb
+                )
             match[y, x] = best
 
 
 @nb.njit
-def _nearest_other_label(target, y, x, radius, tile):
+def _nearest_other_label(target, y, x, radius, output):
     """``(label, dy, dx)`` of a nearest pixel (ring by ring, Chebyshev distance <= ``radius``)
-    whose wanted label differs from ``target[y, x]``; label -1 if there is none."""
+    whose wanted label differs from ``target[y, x]`` (round the output's torus when it tiles,
+    ``output = (refs, tile)``); label -1 if there is none."""
+    tile = output[1]
     H, W = target.shape
     own = target[y, x]
     for d in range(1, radius + 1):
@@ -349,10 +358,11 @@ def _cost(base, bound, appearance, q, guide_ex, guide_out, u, y, x):
 
 
 @nb.njit
-def first_on_grid(y, radius, o, stride, n, tile):
-    """First offset d >= -radius with (y + d - o) divisible by ``stride`` (on the torus when
-    ``n`` is a multiple of it), or -radius when the grid is irregular."""
-    if tile and n % stride != 0:
+def first_on_grid(y, radius, o, stride, n, wraps):
+    """First offset d >= -radius with (y + d - o) divisible by ``stride`` on an axis of ``n``
+    pixels (on the torus, when it ``wraps``, if ``n`` is a multiple of it), or -radius when the
+    grid is irregular."""
+    if wraps and n % stride != 0:
         return -radius
     return -radius + (o - (y - radius)) % stride
 
@@ -392,7 +402,7 @@ def _least_squares_vote(votes, vw, nv, uniq, usup, nu, top, ex_feat, avg):
 
 
 @nb.njit(parallel=True, cache=True, fastmath=True)
-def e_step(match, refs, exemplar, ex_feat, votes, tile, forbid, labels, out):  # pragma: no cover - compiled
+def e_step(match, output, exemplar, ex_feat, votes, forbid, labels, out):  # pragma: no cover - compiled
     """E-step (laitoch2018 eq. 3.5, Han et al. 2006): every output pixel collects the
     forward-shifted references voted by the matched neighbourhoods that cover it (Gaussian
     weights by distance to the neighbourhood centre) and takes the reference with the largest
@@ -407,9 +417,11 @@ def e_step(match, refs, exemplar, ex_feat, votes, tile, forbid, labels, out):  #
     times as much, so labels are kept wherever any vote agrees with them (with 0, wrong votes
     count only when there is no other: then the first one is taken).
 
-    ``votes = (radius, stride, oy, ox, sigma)``: the matched neighbourhoods' radius and grid,
-    and the Gaussian's width; ``labels = (ex_labels, target, label_discount)``.
+    ``output = (refs, tile)``: the output's references and whether it wraps round; ``votes =
+    (radius, stride, oy, ox, sigma)``: the matched neighbourhoods' radius and grid, and the
+    Gaussian's width; ``labels = (ex_labels, target, label_discount)``.
     """
+    refs, tile = output
     ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x = exemplar
     radius, stride, oy, ox, sigma = votes
     ex_labels, target, label_discount = labels

@@ -301,25 +301,23 @@ def _iterate(
             key,
         )
         K.m_step(
-            refs,
+            (refs, tile),
             la.grid,
             la.features,
             (la.kernel_weights[nb_size], proj.mean, proj.features),
             la.ksets,
             (penalty, np.float32(config.kset_cost * la.scale), forbid),
             (stride, oy, ox),
-            tile,
             kernel_guide,
             match,
         )
         votes = (min(nb_size // 2, config.vote_radius), stride, oy, ox, np.float32(max(nb_size / 3.0, 1.0)))
         K.e_step(
             match,
-            refs,
+            (refs, tile),
             la.grid,
             la.features,
             votes,
-            tile,
             forbid,
             (guide.ex_labels, guide.target, np.float32(guide.discount)),
             new,
@@ -350,10 +348,9 @@ def _refine_seams(ctx: LevelContext, refs: np.ndarray, forbid: np.ndarray) -> np
         moved = 0
         for parity in (0, 1):
             moved += K.refine_seams(
-                refs,
+                (refs, tile),
                 ctx.seam_image,
                 ctx.analysis.grid,
-                tile,
                 parity,
                 forbid,
                 (guide.ex_labels, guide.target),

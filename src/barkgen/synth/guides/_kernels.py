@@ -10,8 +10,10 @@ from barkgen.synth._kernels import _mix, _shifted_neighbour_source, _wrap_or_cla
 
 
 @nb.njit
-def _load_output(idb, db, by, bx, radius, tile, lab, dist):
-    """The output neighbourhood of (by, bx) into ``lab`` / ``dist`` (wrapped when ``tile``)."""
+def _load_output(target, by, bx, radius, lab, dist):
+    """The output neighbourhood of (by, bx) into ``lab`` / ``dist`` (``target = (idb, db,
+    tile)``: wrapped when the output tiles)."""
+    idb, db, tile = target
     H, W = idb.shape
     k = 0
     for dy in range(-radius, radius + 1):
@@ -103,7 +105,7 @@ def _seed_match(pad, pool, seed, salt, neighbourhood, params, usage, cand, dist)
 
 
 @nb.njit(cache=True)
-def grow_regions(exemplar, target, label_pools, order, params, tile, salt, refs):  # pragma: no cover - compiled
+def grow_regions(exemplar, target, label_pools, order, params, salt, refs):  # pragma: no cover - compiled
     """Seeded region growing of Bonneel et al. 2010's first pass (laitoch2018 §3.4.2).
 
     Output pixels are taken as seeds in ``order`` (a random permutation); an unfilled seed ``pB``
@@ -117,11 +119,11 @@ def grow_regions(exemplar, target, label_pools, order, params, tile, salt, refs)
     (``-1`` = unfilled) receives flat exemplar indices. Returns the number of regions.
 
     ``exemplar`` ``(labels, boundary distances)`` of the exemplar (``ida``, ``da``), ``target``
-    the same of the output (``idb``, ``db``), ``label_pools`` ``(label_pool, label_start)``,
+    the same of the output and whether it wraps round (``idb``, ``db``, ``tile``), ``label_pools`` ``(label_pool, label_start)``,
     ``params`` ``(radius, label_weight, tolerance, max_candidates)``.
     """
     ida, da = exemplar
-    idb, db = target
+    idb, db, tile = target
     label_pool, label_start = label_pools
     radius, label_weight = params[0], params[1]
     h, w = ida.shape
@@ -149,7 +151,7 @@ def grow_regions(exemplar, target, label_pools, order, params, tile, salt, refs)
             continue
         by = seed // W
         bx = seed - by * W
-        _load_output(idb, db, by, bx, radius, tile, nb_lab, nb_dist)
+        _load_output(target, by, bx, radius, nb_lab, nb_dist)
         # candidates: the exemplar pixels of the seed's label
         own = idb[by, bx]
         pool = label_pool[label_start[own] : label_start[own + 1]]
@@ -185,7 +187,7 @@ def grow_regions(exemplar, target, label_pools, order, params, tile, salt, refs)
                 if refs[p] >= 0 or tested[p] == n_regions or ida[sy, sx] != idb[vy, vx]:
                     continue
                 tested[p] = n_regions
-                _load_output(idb, db, vy, vx, radius, tile, nb_lab, nb_dist)
+                _load_output(target, vy, vx, radius, nb_lab, nb_dist)
                 if _guide_distance(pad_a, pad_da, sy, sx, nb_lab, nb_dist, radius, label_weight, threshold) < threshold:
                     a = sy * w + sx
                     refs[p] = a
@@ -198,11 +200,13 @@ def grow_regions(exemplar, target, label_pools, order, params, tile, salt, refs)
 
 
 @nb.njit(parallel=True, cache=True)
-def enforce_labels(refs, exemplar, ex_labels, target, tile, out):  # pragma: no cover - compiled
+def enforce_labels(output, exemplar, ex_labels, target, out):  # pragma: no cover - compiled
     """Label clean-up (texture-by-numbers): an output pixel whose exemplar label differs from the
     wanted one takes, among the forward-shifted references of its 8 neighbours that have the
     wanted label, the one most of them agree on (so it continues a neighbouring piece); pixels
-    with no such neighbour keep their reference. Returns the number of pixels changed."""
+    with no such neighbour keep their reference. ``output = (refs, tile)``: the output's
+    references and whether it wraps round. Returns the number of pixels changed."""
+    refs = output[0]
     H, W = refs.shape
     changed = np.zeros(H, np.int64)
     for y in nb.prange(H):
@@ -219,7 +223,7 @@ def enforce_labels(refs, exemplar, ex_labels, target, tile, out):  # pragma: no 
                 for dx in range(-1, 2):
                     if dy == 0 and dx == 0:
                         continue
-                    u = _shifted_neighbour_source(refs, y, x, dy, dx, tile, exemplar)
+                    u = _shifted_neighbour_source(output, y, x, dy, dx, exemplar)
                     if u < 0 or ex_labels[u] != want:
                         continue
                     found = False

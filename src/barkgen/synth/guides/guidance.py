@@ -112,7 +112,7 @@ def enforce_labels(refs: np.ndarray, ctx, passes: int) -> np.ndarray:
     grid, guide, tile = ctx.analysis.grid, ctx.guide, ctx.tile
     new = np.empty(refs.shape, np.int32)
     for _ in range(passes):
-        if K.enforce_labels(refs, grid, guide.ex_labels, guide.target, tile, new) == 0:
+        if K.enforce_labels((refs, tile), grid, guide.ex_labels, guide.target, new) == 0:
             break
         refs, new = new, refs
     return refs

@@ -71,5 +71,5 @@ def smart_initialization(
     salt = np.uint64(rng.integers(0, 2**63))
     refs = np.full(idb.size, -1, np.int32)
     params = (SMART_RADIUS, float(label_weight), SMART_TOLERANCE, SMART_CANDIDATES)
-    K.grow_regions((ida, da), (idb, db), (guide.pool, guide.pool_start), order, params, bool(tile), salt, refs)
+    K.grow_regions((ida, da), (idb, db, bool(tile)), (guide.pool, guide.pool_start), order, params, salt, refs)
     return refs.reshape(idb.shape)

@@ -48,10 +48,12 @@ def _continues(refs, exemplar, py, px, qy, qx, dy, dx):
 
 
 @nb.njit
-def _neighbour4(y, x, k, H, W, tile):
+def _neighbour4(y, x, k, output):
     """The ``k``-th (0..3: below, above, right, left) 4-neighbour of output pixel (y, x):
-    ``(qy, qx, dy, dx, inside)``, round the torus when ``tile``; ``inside`` is False for a
-    neighbour beyond the edge of an output that does not tile."""
+    ``(qy, qx, dy, dx, inside)``, round the torus when the output tiles (``output = (refs,
+    tile)``); ``inside`` is False for a neighbour beyond the edge of an output that does not."""
+    refs, tile = output
+    H, W = refs.shape
     dy = (k == 0) - (k == 1)
     dx = (k == 2) - (k == 3)
     qy = y + dy
@@ -62,11 +64,12 @@ def _neighbour4(y, x, k, H, W, tile):
 
 
 @nb.njit(cache=True)
-def label_pieces(refs, exemplar, tile, labels):  # pragma: no cover - compiled
+def label_pieces(output, exemplar, labels):  # pragma: no cover - compiled
     """Label the pieces copied verbatim from the exemplar: the 4-connected regions whose
     neighbouring output pixels copy neighbouring exemplar pixels (:func:`_continues`). A piece
-    that runs round a tiled output (``tile``) or across a wrapping exemplar's edge is one piece.
-    Fills ``labels`` and returns each piece's pixel count."""
+    that runs round a tiled output (``output = (refs, tile)``) or across a wrapping exemplar's
+    edge is one piece. Fills ``labels`` and returns each piece's pixel count."""
+    refs = output[0]
     H, W = refs.shape
     for y in range(H):
         for x in range(W):
@@ -89,7 +92,7 @@ def label_pieces(refs, exemplar, tile, labels):  # pragma: no cover - compiled
                 px = p - py * W
                 count += 1
                 for k in range(4):
-                    qy, qx, dy, dx, inside = _neighbour4(py, px, k, H, W, tile)
+                    qy, qx, dy, dx, inside = _neighbour4(py, px, k, output)
                     if not inside or labels[qy, qx] >= 0:
                         continue
                     if _continues(refs, exemplar, py, px, qy, qx, dy, dx):
@@ -135,7 +138,7 @@ def _seam_cost(feat, sides, cy, cx, fy, fx, dy, dx):
 
 
 @nb.njit(parallel=True, cache=True, fastmath=True)
-def refine_seams(refs, feat, exemplar, tile, parity, forbid, labels, after, moved, out):  # pragma: no cover - compiled
+def refine_seams(output, feat, exemplar, parity, forbid, labels, after, moved, out):  # pragma: no cover - compiled
     """One half-sweep of seam optimisation (Kwatra et al. 2003, §3: the seam cost minimised by
     local moves): every output pixel with ``(y + x) % 2 == parity`` takes, among its own
     reference and the forward-shifted references of its 4 neighbours (each continues a
@@ -152,7 +155,9 @@ def refine_seams(refs, feat, exemplar, tile, parity, forbid, labels, after, move
     pixel: the ``moved`` map of the previous half-sweep, when this parity's pixels have been
     swept before; a pixel is then looked at only if a neighbour moved (its choice depends on
     nothing else, so the others would keep theirs). ``moved`` ``(H, W)`` uint8 receives 1 where
-    a pixel changed. Returns the number changed. ``labels = (ex_labels, target)``."""
+    a pixel changed. Returns the number changed. ``output = (refs, tile)``: the output's
+    references and whether it wraps round; ``labels = (ex_labels, target)``."""
+    refs = output[0]
     ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x = exemplar
     sides = (ex_h, ex_w, wrap_y, wrap_x)
     ex_labels, target = labels
@@ -171,7 +176,7 @@ def refine_seams(refs, feat, exemplar, tile, parity, forbid, labels, after, move
             if not every:
                 near = False
                 for k in range(4):
-                    qy, qx, dy, dx, inside = _neighbour4(y, x, k, H, W, tile)
+                    qy, qx, dy, dx, inside = _neighbour4(y, x, k, output)
                     if inside and after[qy, qx] != 0:
                         near = True
                         break
@@ -184,7 +189,7 @@ def refine_seams(refs, feat, exemplar, tile, parity, forbid, labels, after, move
             for k in range(4):
                 dy = (k == 0) - (k == 1)
                 dx = (k == 2) - (k == 3)
-                u = _shifted_neighbour_source(refs, y, x, dy, dx, tile, exemplar)
+                u = _shifted_neighbour_source(output, y, x, dy, dx, exemplar)
                 if u < 0:
                     continue
                 if fb >= 0 and offset_code(ex_y[u], ex_x[u], y, x) == fb:
@@ -202,7 +207,7 @@ def refine_seams(refs, feat, exemplar, tile, parity, forbid, labels, after, move
                 c = cand[t]
                 cost = 0.0
                 for k in range(4):
-                    qy, qx, dy, dx, inside = _neighbour4(y, x, k, H, W, tile)
+                    qy, qx, dy, dx, inside = _neighbour4(y, x, k, output)
                     if not inside:
                         continue
                     f = refs[qy, qx]
@@ -229,11 +234,14 @@ def _steps_on(d, n, wraps):
 
 
 @nb.njit(cache=True)
-def seam_runs(ry, rx, ex_h, ex_w, wrap_y, wrap_x, tile, min_run):  # pragma: no cover - compiled
-    """The straight seams between rows of a reference map (``ry``, ``rx``: exemplar row and
-    column per output pixel): runs of at least ``min_run`` neighbouring columns along which
-    output rows ``i`` and ``i + 1`` do not continue one piece (round the end when ``tile``; the
-    last row pairs with the first). Returns ``(n, 3)`` int64 rows ``(i, start, length)``."""
+def seam_runs(output, sides, min_run):  # pragma: no cover - compiled
+    """The straight seams between rows of a reference map (``output = (ry, rx, tile)``: exemplar
+    row and column per output pixel, and whether it wraps round; ``sides``: :func:`_seam_cost`'s):
+    runs of at least ``min_run`` neighbouring columns along which output rows ``i`` and ``i + 1``
+    do not continue one piece (round the end when it tiles; the last row pairs with the first).
+    Returns ``(n, 3)`` int64 rows ``(i, start, length)``."""
+    ry, rx, tile = output
+    ex_h, ex_w, wrap_y, wrap_x = sides
     H, W = ry.shape
     n_pairs = H if tile else H - 1
     out = np.empty((max(n_pairs * (W // max(min_run, 1) + 1), 1), 3), np.int64)
@@ -289,7 +297,7 @@ def seam_runs(ry, rx, ex_h, ex_w, wrap_y, wrap_x, tile, min_run):  # pragma: no 
 
 
 @nb.njit(cache=True)
-def seam_band(ry, rx, feat, wrap_y, wrap_x, tile, i, cols, band, out):  # pragma: no cover - compiled
+def seam_band(output, feat, wrap_y, wrap_x, i, cols, band, out):  # pragma: no cover - compiled
     """The graph of one straight seam's re-cut (``barkgen.synth.seams.cuts``), between output rows
     ``i`` and ``i + 1`` along columns ``cols``, over the ``2 * band`` rows around it.
 
@@ -300,17 +308,19 @@ def seam_band(ry, rx, feat, wrap_y, wrap_x, tile, i, cols, band, out):  # pragma
     the seam; :func:`_band_members`), ``cost[l]`` the seam cost with its neighbours outside the
     band (plus the graph-representable part of the pair terms) and ``w_down``/``w_right`` the
     pair weights to the band pixel below / to the right (:func:`_band_costs`). Returns the
-    number of band pixels. ``out = (cand_y, cand_x, valid, member, cost, w_down, w_right)``."""
+    number of band pixels. ``output = (ry, rx, tile)``: the reference map and whether it wraps
+    round; ``out = (cand_y, cand_x, valid, member, cost, w_down, w_right)``."""
     sides = (feat.shape[0], feat.shape[1], wrap_y, wrap_x)
     seam = (i, cols, band)
-    _band_members(ry, rx, sides, tile, seam, out)
-    return _band_costs(ry, rx, feat, sides, tile, seam, out)
+    _band_members(output, sides, seam, out)
+    return _band_costs(output, feat, sides, seam, out)
 
 
 @nb.njit
-def _band_members(ry, rx, sides, tile, seam, out):
+def _band_members(output, sides, seam, out):
     """:func:`seam_band`'s choices per band pixel and whether it is in the band (``seam = (i,
     cols, band)``; ``sides``: :func:`_seam_cost`'s)."""
+    ry, rx, tile = output
     cand_y, cand_x, valid, member, cost, w_down, w_right = out
     i, cols, band = seam
     ex_h, ex_w, wrap_y, wrap_x = sides
@@ -349,10 +359,11 @@ def _band_members(ry, rx, sides, tile, seam, out):
 
 
 @nb.njit
-def _band_costs(ry, rx, feat, sides, tile, seam, out):
+def _band_costs(output, feat, sides, seam, out):
     """:func:`seam_band`'s terms: each band pixel's seam cost with its neighbours outside the
     band, and the pair weights inside it (Kolmogorov & Zabih 2004's reduction of a 2x2 table,
     clipped at 0 where it is not submodular). Returns the number of band pixels."""
+    ry, rx, tile = output
     cand_y, cand_x, valid, member, cost, w_down, w_right = out
     i, cols, band = seam
     H, W = ry.shape
@@ -450,24 +461,24 @@ def _pair_cost(feat, exemplar, c, f, dy, dx):
 
 
 @nb.njit(parallel=True, cache=True, fastmath=True)
-def border_costs(refs, codes, feat, exemplar, tile, out):  # pragma: no cover - compiled
+def border_costs(output, codes, feat, exemplar, out):  # pragma: no cover - compiled
     """``out`` ``(H, W)``: each output pixel's highest seam cost (:func:`_pair_cost`) with a
-    4-neighbour of another piece (offset ``codes``), 0 inside a piece."""
+    4-neighbour of another piece (offset ``codes``), 0 inside a piece; ``output = (refs,
+    tile)``."""
+    refs = output[0]
     H, W = refs.shape
     for y in nb.prange(H):
         for x in range(W):
             best = 0.0
             for k in range(4):
-                qy, qx, dy, dx, inside = _neighbour4(y, x, k, H, W, tile)
+                qy, qx, dy, dx, inside = _neighbour4(y, x, k, output)
                 if inside and codes[qy, qx] != codes[y, x]:
                     best = max(best, _pair_cost(feat, exemplar, refs[y, x], refs[qy, qx], dy, dx))
             out[y, x] = best
 
 
 @nb.njit(cache=True)
-def expansion_nodes(
-    refs, codes, piece, exemplar, tile, keep, labels, band, node_of, out
-):  # pragma: no cover - compiled
+def expansion_nodes(output, codes, piece, exemplar, keep, labels, band, node_of, out):  # pragma: no cover - compiled
     """The nodes of the expansion move of the piece ``piece = (alpha, members)`` (its offset
     code ``alpha``): every output pixel within ``band`` pixels (a square) of a border pixel of
     the piece (``members``: the flat output indices whose offset code was ``alpha`` when the
@@ -486,6 +497,7 @@ def expansion_nodes(
     node_x, node_ref, touched)`` receive the nodes' positions, their continued references and
     the flat indices of every pixel marked (so the caller can reset ``node_of``). Returns
     ``(n_nodes, n_touched)``."""
+    refs, tile = output
     alpha, members = piece
     ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x = exemplar
     ex_labels, target = labels
@@ -540,7 +552,7 @@ def expansion_nodes(
 
 
 @nb.njit(parallel=True, cache=True, fastmath=True)
-def expansion_terms(refs, node_of, nodes, n, feat, exemplar, tile, out):  # pragma: no cover - compiled
+def expansion_terms(output, node_of, nodes, n, feat, exemplar, out):  # pragma: no cover - compiled
     """The terms of one expansion move's graph over its ``n`` nodes (``nodes = (node_y, node_x,
     node_ref)`` from :func:`expansion_nodes`): choice 0 keeps a node's reference, choice 1 takes
     the piece's. The energy is Kwatra et al. 2003's seam cost (:func:`_pair_cost` on ``feat``,
@@ -555,6 +567,7 @@ def expansion_terms(refs, node_of, nodes, n, feat, exemplar, tile, out):  # prag
     like the edge arrays, is scratch). The nodes' own terms are computed in parallel, each in
     its own slots, then summed in node order, so the result does not depend on the threads.
     Returns the number of edges."""
+    refs = output[0]
     node_y, node_x, node_ref = nodes
     unary, edge_i, edge_j, edge_cap, partner = out
     H, W = refs.shape
@@ -568,7 +581,7 @@ def expansion_terms(refs, node_of, nodes, n, feat, exemplar, tile, out):  # prag
             slot = 2 * t + (k >> 1)  # below -> slot 0, right -> slot 1
             if k == 0 or k == 2:
                 edge_j[slot] = -1
-            qy, qx, dy, dx, inside = _neighbour4(py, px, k, H, W, tile)
+            qy, qx, dy, dx, inside = _neighbour4(py, px, k, output)
             if not inside:
                 continue
             j = node_of[qy, qx]

@@ -109,12 +109,10 @@ def _cut_run(
     w_right = np.empty(shape)
     if (
         K.seam_band(
-            ry,
-            rx,
+            (ry, rx, ex.tile),
             ex.features,
             ex.wrap[0],
             ex.wrap[1],
-            ex.tile,
             i,
             np.ascontiguousarray(cols, dtype=np.int64),
             BAND,
@@ -155,7 +153,7 @@ def _cut_rows(ry, rx, ex: _Frame, min_run: int, allowed, meander: np.random.Gene
     import barkgen.synth.seams._kernels as K
 
     W = ry.shape[1]
-    runs = K.seam_runs(ry, rx, ex.shape[0], ex.shape[1], ex.wrap[0], ex.wrap[1], ex.tile, min_run)
+    runs = K.seam_runs((ry, rx, ex.tile), (ex.shape[0], ex.shape[1], ex.wrap[0], ex.wrap[1]), min_run)
     changed = 0
     for i, start, length in runs:
         cols = np.arange(start, start + length)

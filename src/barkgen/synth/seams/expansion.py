@@ -142,7 +142,7 @@ def expand_pieces(
     for _ in range(rounds):
         rare = rare_references(refs, grid)
         codes = piece_offsets(refs, grid)
-        XK.border_costs(refs, codes, feat, grid, tile, border_cost)
+        XK.border_costs((refs, tile), codes, feat, grid, border_cost)
         on_border = border_cost[border_cost > 0]
         if on_border.size == 0:
             break
@@ -157,11 +157,10 @@ def expand_pieces(
             alpha = uniq[k]
             members = order[start[k] : start[k] + count[k]]
             n, n_touched = XK.expansion_nodes(
-                refs,
+                (refs, tile),
                 codes,
                 (alpha, members),
                 grid,
-                tile,
                 (forbid, rare, border_cost, least),
                 labels,
                 band,
@@ -170,13 +169,12 @@ def expand_pieces(
             )
             if n:
                 m = XK.expansion_terms(
-                    refs,
+                    (refs, tile),
                     node_of,
                     (node_y, node_x, node_ref),
                     n,
                     feat,
                     grid,
-                    tile,
                     (unary, edge_i, edge_j, edge_cap, partner),
                 )
                 graph = maxflow.Graph[float](n, m)

@@ -60,7 +60,7 @@ def limit_copies(refs: np.ndarray, ctx, forbid: np.ndarray) -> int:
     level, tile, rng = ctx.analysis, ctx.tile, ctx.rng
     max_area = ctx.config.max_copy * level.height * level.width
     labels = np.empty(refs.shape, np.int32)
-    sizes = K.label_pieces(refs, level.grid, tile, labels)
+    sizes = K.label_pieces((refs, tile), level.grid, labels)
     big = sizes > max_area
     if not big.any():
         return 0
@@ -125,7 +125,7 @@ def unstick_border_seams(refs: np.ndarray, ctx, forbid: np.ndarray, min_run: int
                 forbid.T,
             )
         H, W = a.shape
-        runs = K.seam_runs(a, b, n_ex[0], n_ex[1], wy, wx, tile, min_run)
+        runs = K.seam_runs((a, b, tile), (n_ex[0], n_ex[1], wy, wx), min_run)
         for i, start, length in runs:
             cols = np.arange(start, start + length)
             cols = np.mod(cols, W) if tile else cols
