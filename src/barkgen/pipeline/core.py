@@ -281,7 +281,7 @@ def _analysis_stage(
         if solvers:
             run.structure.analyse(labels_in, photo, cache, run)
         report("label_map")
-        tbn_labels_in, _ = with_edge_labels(labels_in, labels_in, options, wrap=wrap)
+        tbn_labels_in, _ = with_edge_labels(labels_in, labels_in, run)
         if solvers:
             analyse_texture_by_numbers(
                 photo,
@@ -386,9 +386,7 @@ def _label_stage(run: Run, analysis: PhotoAnalysis, source: np.ndarray, resume) 
     maps (laitoch2018 §3.5.5)."""
     labels_in = analysis.labels_in
     result, grown = run.structure.label_map(labels_in, source, analysis, run, resume)
-    tbn_in, tbn_out = with_edge_labels(
-        labels_in, result.label_map, run.options, wrap=run.canvas.exemplar_wrap, tbn_labels_in=analysis.tbn_labels_in
-    )
+    tbn_in, tbn_out = with_edge_labels(labels_in, result.label_map, run, analysis.tbn_labels_in)
     return _Labels(result, grown, tbn_in, tbn_out)
 
 

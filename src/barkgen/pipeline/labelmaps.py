@@ -6,8 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from barkgen.pipeline.options import GenerateOptions
-from barkgen.pipeline.variants import ANALYSIS_SEED
+from barkgen.pipeline.variants import ANALYSIS_SEED, Run
 
 __all__ = ["ANALYSIS_SEED", "photo_label_map", "with_edge_labels"]
 
@@ -31,19 +30,20 @@ def photo_label_map(
 
 
 def with_edge_labels(
-    labels_in: np.ndarray, labels_out: np.ndarray, options: GenerateOptions, *, wrap, tbn_labels_in=None
+    labels_in: np.ndarray, labels_out: np.ndarray, run: Run, tbn_labels_in: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The photo's and the output's label maps as texture-by-numbers matches them: with
-    ``options.edges``, both with the edge label (laitoch2018 §3.5.5: "performed on both input
-    and output label maps after they are both generated"), numbered against the photo's labels
-    so they share their grey values; else as they are. ``wrap``: the photo's axes that wrap;
-    the output wraps where it tiles. ``tbn_labels_in``: the photo's, already edged (its
-    analysis')."""
+    """The photo's and the output's label maps as texture-by-numbers matches them: with the
+    run's ``options.edges``, both with the edge label (laitoch2018 §3.5.5: "performed on both
+    input and output label maps after they are both generated"), numbered against the photo's
+    labels so they share their grey values; else as they are. The photo's map wraps along the
+    run's ``canvas.exemplar_wrap``, the output's where the canvas tiles. ``tbn_labels_in``: the
+    photo's, already edged (its analysis')."""
     from barkgen.labels import add_edge_label
 
-    if not options.edges:
+    edges = run.options.edges
+    if not edges:
         return labels_in, labels_out
     if tbn_labels_in is None:
-        tbn_labels_in = add_edge_label(labels_in, options.edges, wrap=wrap)
+        tbn_labels_in = add_edge_label(labels_in, edges, wrap=run.canvas.exemplar_wrap)
     values = np.unique(labels_in)
-    return tbn_labels_in, add_edge_label(labels_out, options.edges, wrap=options.tile, values=values)
+    return tbn_labels_in, add_edge_label(labels_out, edges, wrap=run.canvas.tile, values=values)
