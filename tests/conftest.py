@@ -161,46 +161,6 @@ def label_fidelity(exemplar: np.ndarray, labels_in: np.ndarray, output: np.ndarr
     return {"fidelity": fidelity, "ratio": fidelity / max(ceiling, 1e-9), "balanced": float(np.mean(recalls))}
 
 
-def border_distance(references: np.ndarray, exemplar_shape: tuple[int, int], *, tile: bool) -> np.ndarray:
-    """``(H, W)`` float: each output pixel's distance (px, city block) to the nearest border
-    between copied pieces (a neighbour whose reference is not the matching neighbour of its
-    own; the exemplar taken as a rectangle)."""
-    from scipy import ndimage
-
-    ry, rx = references[..., 0].astype(np.int64), references[..., 1].astype(np.int64)
-    border = np.zeros(ry.shape, bool)
-    for axis in (0, 1):
-        dy = np.diff(ry, axis=axis) - (axis == 0)
-        dx = np.diff(rx, axis=axis) - (axis == 1)
-        cut = (dy != 0) | (dx != 0)
-        lo = [slice(None)] * 2
-        hi = [slice(None)] * 2
-        lo[axis], hi[axis] = slice(None, -1), slice(1, None)
-        border[tuple(lo)] |= cut
-        border[tuple(hi)] |= cut
-    if not border.any():
-        return np.full(ry.shape, np.inf)
-    return ndimage.distance_transform_cdt(~border, metric="taxicab").astype(np.float64)
-
-
-def border_step_ratio(image: np.ndarray, references: np.ndarray, exemplar_shape: tuple[int, int]) -> float:
-    """Mean step between neighbours across a border between pieces over the mean step inside
-    pieces (both directions; the exemplar taken as a rectangle): ``seams.py``'s step ratio,
-    without the shared folder."""
-    img = np.asarray(image, np.float64)
-    img = img[..., None] if img.ndim == 2 else img
-    ry, rx = references[..., 0].astype(np.int64), references[..., 1].astype(np.int64)
-    across, inside = [], []
-    for axis in (0, 1):
-        dy = np.diff(ry, axis=axis) - (axis == 0)
-        dx = np.diff(rx, axis=axis) - (axis == 1)
-        cut = (dy != 0) | (dx != 0)
-        step = np.linalg.norm(np.diff(img, axis=axis), axis=-1)
-        across.append(step[cut])
-        inside.append(step[~cut])
-    return float(np.concatenate(across).mean() / max(np.concatenate(inside).mean(), 1e-12))
-
-
 # ---- the synth tests' inputs ------------------------------------------------------------------
 
 

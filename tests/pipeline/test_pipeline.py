@@ -41,10 +41,12 @@ def test_generate_api_outputs_and_report(fir128):
     # the texture is the photo's pixels at the references, its seams blended (a few px either
     # side of the borders between pieces); the height map goes through them in the gradient
     # domain
-    from conftest import assert_continuous_copy, border_distance
+    from conftest import assert_continuous_copy
+
+    from barkgen.evaluate import border_distance
 
     ry, rx = result.references[..., 0], result.references[..., 1]
-    far = border_distance(result.references, fir128.shape[:2], tile=False) >= 8
+    far = border_distance(result.references) >= 8
     diff = np.abs(result.texture.astype(int) - fir128[ry, rx].astype(int)).max(axis=-1)
     assert far.any() and np.mean(diff[far] <= 1) > 0.9 and result.report["blend"] == "gradient"
     assert_continuous_copy(result.extras["height"][..., 0], height, result.references, tolerance=0.35)
