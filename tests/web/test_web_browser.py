@@ -1,5 +1,5 @@
 """The web app in a real browser: Debian's Chromium driven by Playwright against `barkgen serve`
-on loopback. Upload a shared bark photo, generate 512², watch the progress move and the result
+on loopback. Upload a bark photo of tests/data, generate 512², watch the progress move and the result
 appear, see the 3D trunk draw, paint a stroke on the label map and continue, download the zip.
 
 Chromium comes from Debian's package (``scripts/test.sh`` installs it); Playwright never downloads
@@ -142,7 +142,7 @@ def test_upload_generate_view_paint_continue_download(server, browser, tmp_path)
     page.get_by_test_id("exemplar-card").first.wait_for()
     _shot(page, "1_library")
 
-    # upload a shared photo: the app moves to its page
+    # upload a photo of tests/data: the app moves to its page
     page.get_by_test_id("upload-file").set_input_files(str(photo))
     page.get_by_test_id("upload-name").fill("oak in the browser")
     page.get_by_test_id("upload-submit").click()
