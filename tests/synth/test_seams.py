@@ -342,7 +342,7 @@ def test_expansion_moves_a_staircase_border_onto_a_cheaper_path():
     feat, flat, grid, upper = _staircase_case()
     unguided = (np.zeros(1, np.int32), np.zeros((1, 1), np.int32))
     forbid = np.full(flat.shape, -1, np.int64)
-    out = expand_pieces(flat, grid, feat, False, forbid, unguided, band=8, rounds=2)
+    out = expand_pieces(flat, grid, feat, Canvas(flat.shape, tile=False), forbid, unguided, band=8, rounds=2)
     assert out.dtype == np.int32 and out.shape == flat.shape
     as_coords = lambda r: np.stack(np.divmod(r, 160), -1)  # noqa: E731
     before, after = _seam_energy(as_coords(flat), feat), _seam_energy(as_coords(out), feat)
@@ -359,8 +359,12 @@ def test_expansion_moves_a_staircase_border_onto_a_cheaper_path():
     # the border's corners no longer all sit on even rows and columns
     rows = np.nonzero(piece_a[:-1] != piece_a[1:])[0] + 1
     assert (rows % 2).any()
-    assert np.array_equal(out, expand_pieces(flat, grid, feat, False, forbid, unguided, band=8, rounds=2))
-    assert np.array_equal(expand_pieces(flat, grid, feat, False, forbid, unguided, band=0, rounds=2), flat)
+    assert np.array_equal(
+        out, expand_pieces(flat, grid, feat, Canvas(flat.shape, tile=False), forbid, unguided, band=8, rounds=2)
+    )
+    assert np.array_equal(
+        expand_pieces(flat, grid, feat, Canvas(flat.shape, tile=False), forbid, unguided, band=0, rounds=2), flat
+    )
 
 
 def test_expansion_keeps_forbidden_offsets_and_labels():
@@ -370,12 +374,14 @@ def test_expansion_keeps_forbidden_offsets_and_labels():
 
     feat, flat, grid, upper = _staircase_case()
     unguided = (np.zeros(1, np.int32), np.zeros((1, 1), np.int32))
-    free = expand_pieces(flat, grid, feat, False, np.full(flat.shape, -1, np.int64), unguided, band=8, rounds=2)
+    free = expand_pieces(
+        flat, grid, feat, Canvas(flat.shape, tile=False), np.full(flat.shape, -1, np.int64), unguided, band=8, rounds=2
+    )
     codes = piece_offsets(flat, grid)
     a_code = codes[0, 0]
     # forbid the upper piece everywhere below the staircase: it can no longer grow
     forbid = np.where(upper, -1, a_code).astype(np.int64)
-    out = expand_pieces(flat, grid, feat, False, forbid, unguided, band=8, rounds=2)
+    out = expand_pieces(flat, grid, feat, Canvas(flat.shape, tile=False), forbid, unguided, band=8, rounds=2)
     assert not np.any(piece_offsets(out, grid)[~upper] == a_code)
     assert not np.array_equal(out, free)
     # labels: exemplar label 1 on its left half; the target wants label 1 on its left half too
@@ -383,7 +389,14 @@ def test_expansion_keeps_forbidden_offsets_and_labels():
     target = np.zeros((64, 64), np.int32)
     target[:, :32] = 1
     out = expand_pieces(
-        flat, grid, feat, False, np.full(flat.shape, -1, np.int64), (ex_labels, target), band=8, rounds=2
+        flat,
+        grid,
+        feat,
+        Canvas(flat.shape, tile=False),
+        np.full(flat.shape, -1, np.int64),
+        (ex_labels, target),
+        band=8,
+        rounds=2,
     )
     right_before = ex_labels[flat] == target
     assert np.all(ex_labels[out][right_before] == target[right_before])

@@ -55,7 +55,7 @@ def integrate_normals(normals: np.ndarray, boundary: Boundary) -> np.ndarray:
         gx = np.concatenate([0.5 * (p[:, :-1] + p[:, 1:]), p[:, -1:]], axis=1)
         gy = np.concatenate([0.5 * (q[:-1] + q[1:]), q[-1:]], axis=0)
     height = screened_poisson(
-        np.zeros(p.shape + (1,)), gy[..., None], gx[..., None], tile=torus, screening=INTEGRATION_SCREENING
+        np.zeros(p.shape + (1,)), gy[..., None], gx[..., None], Boundary(torus), screening=INTEGRATION_SCREENING
     )[..., 0]
     return (height - height.mean()).astype(np.float32)
 

@@ -289,7 +289,7 @@ def _move_finest_seams(
     leave them half as long, and the up-sampling doubles them (peeling crop, 1024x1024, seed 0:
     79 px before this level's cuts)."""
     h, w = colour.shape[:2]
-    tile, exemplar_wrap = canvas.tile, canvas.exemplar_wrap
+    exemplar_wrap = canvas.exemplar_wrap
     if config.seam_expansion_band:
         flat = references[..., 0] * w + references[..., 1]
         unguided = (np.zeros(1, np.int32), np.zeros((1, 1), np.int32))
@@ -297,7 +297,7 @@ def _move_finest_seams(
             flat,
             exemplar_grid((h, w), exemplar_wrap),
             colour,
-            tile,
+            canvas,
             np.full(flat.shape, -1, np.int64),
             unguided,
             band=config.seam_expansion_band,

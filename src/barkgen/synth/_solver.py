@@ -376,7 +376,7 @@ def _move_seams(ctx: LevelContext, refs: np.ndarray, forbid: np.ndarray) -> np.n
             refs,
             la.grid,
             ctx.seam_image,
-            tile,
+            Canvas(ctx.shape, tile),
             forbid,
             (guide.ex_labels, guide.target),
             band=config.seam_expansion_band,

@@ -46,18 +46,21 @@ _RIGHT = np.array([[0, 0, 0], [0, 0, 1], [0, 0, 0]])
 
 
 class _Frame:
-    r"""What the seams are cut in: one exemplar level's features ``(h, w, C)`` and wrap, and
-    whether the output ``tile``\ s, in the frame of the seams being cut (the transposed frame
-    for seams between columns)."""
+    """What the seams are cut in: one exemplar level's features ``(h, w, C)`` and the output's
+    ``canvas`` (whether it tiles, the exemplar's wrap), in the frame of the seams being cut (the
+    transposed frame for seams between columns)."""
 
-    def __init__(self, features: np.ndarray, wrap: tuple[bool, bool], tile: bool) -> None:
+    def __init__(self, features: np.ndarray, canvas: Canvas) -> None:
         self.features = np.ascontiguousarray(features, dtype=np.float32)
         self.shape = self.features.shape[:2]
+        self.canvas = canvas
+        wrap = canvas.exemplar_wrap or (False, False)
         self.wrap = (bool(wrap[0]), bool(wrap[1]))
-        self.tile = bool(tile)
+        self.tile = canvas.tile
 
     def transposed(self) -> _Frame:
-        return _Frame(self.features.transpose(1, 0, 2), (self.wrap[1], self.wrap[0]), self.tile)
+        turned = self.canvas.replace(shape=self.canvas.shape[::-1], exemplar_wrap=(self.wrap[1], self.wrap[0]))
+        return _Frame(self.features.transpose(1, 0, 2), turned)
 
 
 def _meander_cost(
@@ -194,7 +197,7 @@ def cut_straight_seams(
     refs = np.asarray(references)
     ry: np.ndarray = np.ascontiguousarray(refs[..., 0], dtype=np.int32)
     rx: np.ndarray = np.ascontiguousarray(refs[..., 1], dtype=np.int32)
-    ex = _Frame(features, canvas.exemplar_wrap or (False, False), canvas.tile)
+    ex = _Frame(features, canvas)
     ext = ex.transposed()
     allowed_t = None if allowed is None else (lambda ys, xs, ey, exx: allowed(xs, ys, exx, ey))
     for rnd in range(rounds):

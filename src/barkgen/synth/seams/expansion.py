@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from barkgen._shared.canvas import Canvas
+
 #: pieces smaller than this (pixels) get no move of their own (their neighbours' moves may
 #: still take them over)
 MIN_PIECE = 64
@@ -82,7 +84,7 @@ def expand_pieces(
     refs: np.ndarray,
     grid: tuple,
     features: np.ndarray,
-    tile: bool,
+    canvas: Canvas,
     forbid: np.ndarray,
     labels: tuple[np.ndarray, np.ndarray],
     *,
@@ -100,8 +102,8 @@ def expand_pieces(
         :attr:`barkgen.synth._analysis.LevelAnalysis.grid`).
     features : ndarray of float32, shape (h, w, C)
         What the seam cost compares (the exemplar's colour at this level).
-    tile : bool
-        The output wraps round.
+    canvas : Canvas
+        The output's: whether it tiles (wraps round).
     forbid : ndarray of int64, shape (H, W)
         Each pixel's forbidden offset code (-1: none), which no move gives it. A pixel whose
         reference the output has few copies of (:func:`rare_references`) keeps it.
@@ -127,6 +129,7 @@ def expand_pieces(
 
     import barkgen.synth.seams._kernels as XK
 
+    tile = canvas.tile
     refs = np.ascontiguousarray(refs, dtype=np.int32).copy()
     if band <= 0 or rounds <= 0:
         return refs

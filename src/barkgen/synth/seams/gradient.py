@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from barkgen._shared.arrays import Boundary
 from barkgen._shared.canvas import Canvas
 from barkgen.errors import InvalidInputError
 
@@ -72,13 +73,15 @@ def carried_gradients(
 
 
 def screened_poisson(
-    plain: np.ndarray, gy: np.ndarray, gx: np.ndarray, *, tile: bool, screening: float = SCREENING
+    plain: np.ndarray, gy: np.ndarray, gx: np.ndarray, boundary: Boundary, *, screening: float = SCREENING
 ) -> np.ndarray:
     """The ``u`` minimising ``|grad u - (gy, gx)|^2 + screening * |u - plain|^2`` over an
-    ``(H, W, C)`` map, forward differences; on the torus when ``tile``, else with a Neumann
-    border (the last row's ``gy`` and last column's ``gx`` are not used)."""
+    ``(H, W, C)`` map, forward differences; on the torus when the map's ``boundary`` wraps both
+    axes (FFT), else with a Neumann border (DCT; the last row's ``gy`` and last column's ``gx``
+    are not used)."""
     import scipy.fft as sfft
 
+    tile = boundary.wraps_both
     f = np.asarray(plain, dtype=np.float64)
     H, W = f.shape[:2]
     if tile:
@@ -116,7 +119,7 @@ def _integrate(
         sy, sx = exemplar_steps(source, wrap)
         gy = _integrate(sy, references, canvas, screening, False)
         gx = _integrate(sx, references, canvas, screening, False)
-    return screened_poisson(plain, gy, gx, tile=tile, screening=screening)
+    return screened_poisson(plain, gy, gx, Boundary(tile), screening=screening)
 
 
 def _exemplar_wrap(canvas: Canvas) -> tuple[bool, bool]:
