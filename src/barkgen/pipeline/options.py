@@ -169,12 +169,17 @@ class GenerateOptions:
         analysis=True,
         group="advanced",
     )
-    threads: int | None = option(None, "Worker threads (default: all cores).", kind=int, minimum=1, fronts=("cli",))
+    # the run's budget (threads, memory) moves no output: not in report.json, so a batch worker's
+    # one thread writes the same files as a run on every core
+    threads: int | None = option(
+        None, "Worker threads (default: all cores).", kind=int, minimum=1, fronts=("cli",), report=""
+    )
     max_memory: int | None = option(
         None,
         "Refuse jobs estimated to need more memory than this, e.g. 8G (default: what the machine has free).",
         parse=parse_memory,
         fronts=("cli",),
+        report="",
     )
     material: bool = option(
         False,
