@@ -198,7 +198,7 @@ HOUSE_TESTS = {
     "test_docs.py",
     "test_docs_site.py",
     "test_docs_names.py",
-    "test_guides.py",
+    "test_docs_guides.py",
     "test_wheel.py",
 }
 
