@@ -80,7 +80,9 @@ def start_batch(
     spec: Path, out: Path, *args: str, env: dict | None = None, own_group: bool = False
 ) -> subprocess.Popen:
     """``barkgen batch`` in the background; ``own_group``: in a process group of its own, as a
-    terminal runs it (its Ctrl-C then reaches the workers too)."""
+    terminal runs it (its Ctrl-C then reaches the workers too). Ctrl-C is given back its default
+    in the child: a suite started as a background job of a non-interactive shell inherits it
+    ignored, and the batch would never see it."""
     return subprocess.Popen(
         [sys.executable, "-m", "barkgen", "batch", str(spec), "-o", str(out), *args],
         stdout=subprocess.PIPE,
@@ -88,6 +90,7 @@ def start_batch(
         text=True,
         env={**os.environ, **(env or {})},
         start_new_session=own_group,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
 
 
