@@ -568,7 +568,7 @@ def test_cli_analyze_synth_tune_and_errors(tmp_path):
     garbage.write_bytes(b"not a model")
     cases = [
         (["bilayer", "analyze", str(photo), "-o", str(tmp_path / "x.npz"), "--tloc", "3"], "T_loc"),
-        (["bilayer", "analyze", str(photo), "-o", str(tmp_path / "x.npz"), "--k", "0"], "K"),
+        (["bilayer", "analyze", str(photo), "-o", str(tmp_path / "x.npz"), "--k", "0"], "--k"),
         (["bilayer", "synth", str(garbage), "-o", str(tmp_path / "x.png")], "not a barkgen bi-layer model"),
         (["bilayer", "synth", str(model), "-o", str(tmp_path / "x.png"), "--size", "0x10"], "positive"),
         (["bilayer", "synth", str(model), "-o", str(tmp_path / "x.png"), "--offset", "a,b"], "--offset"),
