@@ -495,9 +495,9 @@ def test_no_line_in_any_map_of_a_tiled_material_set(sample256):
 
 
 def test_colour_steps_little_more_across_seams_on_a_lit_structured_photo():
-    """The plated pine (plates parted by dark fissures, lit from one side): with the seams blended the
-    colour steps no more across the borders between pieces than inside them; copied exactly
-    it steps at least 1.3x as much as blended. The references are the same."""
+    """The plated pine (plates parted by dark fissures, lit from one side): with the seams
+    blended the colour steps no more across the borders between pieces than inside them;
+    copied exactly it steps at least 1.3x as much as blended. The references are the same."""
     from conftest import bark_exemplar
 
     photo = bark_exemplar("pine_plated_01", 192)
