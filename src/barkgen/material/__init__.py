@@ -4,7 +4,8 @@
 Arrays in, arrays out: :func:`make_material` for a photo, :func:`scanned_material` for a
 scanned set (its own maps), :func:`transfer_material` for a
 texture synthesized from it, :class:`HeightEditor` for self-similarity height editing; the
-files (ambientCG names) are written by :func:`barkgen.io.write_material` and the CLI. A run's
+files (ambientCG names) are encoded by :func:`barkgen.io.encode_material` and written by the
+front ends. A run's
 filters read the photo round its edges as its :class:`Boundary` says (where it wraps), built
 once by :func:`make_material` (or taken from a set, :attr:`MaterialSet.boundary`).
 """
