@@ -27,6 +27,28 @@ def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
     )
 
 
+def run_here(*args: str) -> subprocess.CompletedProcess:
+    """``barkgen ARGS`` in this process (:func:`barkgen.cli.main`, what the console script runs),
+    so that a test can patch what a refusal must never reach; returns what :func:`run` returns."""
+    import contextlib
+    import io
+    import signal
+
+    from barkgen.cli import main
+
+    err = io.StringIO()
+    status: object = 0
+    sigterm = signal.getsignal(signal.SIGTERM)  # (main sets its own)
+    try:
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+            main(list(args))
+    except SystemExit as exc:
+        status = exc.code
+    finally:
+        signal.signal(signal.SIGTERM, sigterm)
+    return subprocess.CompletedProcess(list(args), status, "", err.getvalue())
+
+
 def pytest_configure(config) -> None:
     """Tests (and the CLIs they start) never touch the user's own exemplar library."""
     import tempfile

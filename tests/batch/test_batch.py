@@ -456,11 +456,9 @@ def test_a_damaged_manifest_is_one_line(tmp_path):
 def run_without_dask(monkeypatch, *args: str) -> tuple[subprocess.CompletedProcess, list]:
     """``barkgen ARGS`` in this process (:func:`barkgen.cli.main`), the Dask client it asks for
     recorded and never made: ``(what run() returns, the clients asked for)``."""
-    import contextlib
-    import io
+    from conftest import run_here
 
     import barkgen.batch.runner
-    from barkgen.cli import main
 
     asked: list = []
 
@@ -469,17 +467,7 @@ def run_without_dask(monkeypatch, *args: str) -> tuple[subprocess.CompletedProce
         raise RuntimeError("a Dask client was asked for")
 
     monkeypatch.setattr(barkgen.batch.runner, "_client", no_client)
-    err = io.StringIO()
-    status: object = 0
-    sigterm = signal.getsignal(signal.SIGTERM)  # (main sets its own)
-    try:
-        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
-            main(list(args))
-    except SystemExit as exc:
-        status = exc.code
-    finally:
-        signal.signal(signal.SIGTERM, sigterm)
-    return subprocess.CompletedProcess(list(args), status, "", err.getvalue()), asked
+    return run_here(*args), asked
 
 
 def test_a_variant_folder_holding_the_users_files_is_refused_before_any_work(photos, tmp_path, monkeypatch):

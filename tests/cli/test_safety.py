@@ -14,30 +14,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import run
+from conftest import run, run_here
 
 from barkgen.io import read_image, write_files_atomic, write_png
-
-
-def run_here(*args: str) -> subprocess.CompletedProcess:
-    """``barkgen ARGS`` in this process (:func:`barkgen.cli.main`, what the console script runs),
-    so that a test can patch what a refusal must never reach; returns what :func:`run` returns."""
-    import contextlib
-    import io
-
-    from barkgen.cli import main
-
-    err = io.StringIO()
-    status: object = 0
-    sigterm = signal.getsignal(signal.SIGTERM)  # (main sets its own)
-    try:
-        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
-            main(list(args))
-    except SystemExit as exc:
-        status = exc.code
-    finally:
-        signal.signal(signal.SIGTERM, sigterm)
-    return subprocess.CompletedProcess(list(args), status, "", err.getvalue())
 
 
 @pytest.fixture

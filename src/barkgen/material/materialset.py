@@ -49,6 +49,14 @@ def _light_text(light: Light) -> str:
     return f"{light.azimuth:g},{light.elevation:g}"
 
 
+#: the help of the light equalisation, an option of the material set and of generate
+EQUALIZE_LIGHT_HELP = (
+    "How much of the photo's broad light (a trunk's curvature falloff, a light gradient, "
+    "dappled light) is taken out before anything learns from it: 1 all of it, 0 none (the "
+    "photo's light kept). Patches of another hue (moss, lichen) stay."
+)
+
+
 @dataclass(frozen=True)
 class MaterialOptions:
     """Parameters of :func:`make_material`, validated once here.
@@ -131,9 +139,7 @@ class MaterialOptions:
     seed: int = option(0, "Random seed (same seed, same bytes).", kind=int, minimum=0)
     equalize_light: float = option(
         1.0,
-        "How much of the photo's broad light (a trunk's curvature falloff, a light gradient, "
-        "dappled light) is taken out before anything learns from it: 1 all of it, 0 none (the "
-        "photo's light kept). Patches of another hue (moss, lichen) stay.",
+        EQUALIZE_LIGHT_HELP,
         kind=float,
         minimum=0,
         maximum=1,

@@ -13,6 +13,7 @@ from barkgen._shared.checks import parse_output_shape, parse_size
 from barkgen._shared.memory import check_budget_value, parse_memory
 from barkgen._shared.options import check_options, option
 from barkgen.errors import InvalidInputError
+from barkgen.material.materialset import EQUALIZE_LIGHT_HELP
 from barkgen.pipeline.rules import analysis_key as analysis_key
 from barkgen.pipeline.rules import check_combinations
 
@@ -211,9 +212,7 @@ class GenerateOptions:
     )
     equalize_light: float = option(
         1.0,
-        "How much of the photo's broad light (a trunk's curvature falloff, a light gradient, "
-        "dappled light) is taken out before anything learns from it: 1 all of it, 0 none (the "
-        "photo's light kept). Patches of another hue (moss, lichen) stay.",
+        EQUALIZE_LIGHT_HELP,
         kind=float,
         minimum=0,
         maximum=1,
