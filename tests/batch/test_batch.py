@@ -111,12 +111,12 @@ def wait_done(out: Path, count: int, proc: subprocess.Popen, timeout: float = 30
 
 
 def test_forest_on_default_local_cluster_then_rerun_does_nothing(photos):
-    spec = write_spec(photos, "512x512")
-    out = photos / "out512"
+    spec = write_spec(photos, "256x256")
+    out = photos / "out256"
     result = run("batch", str(spec), "-o", str(out))
     assert result.returncode == 0, result.stderr
     assert "Dask dashboard: http" in result.stderr and "made 16 variant(s)" in result.stderr
-    check_complete(out, (512, 512))
+    check_complete(out, (256, 256))
     # every seed its own bark
     textures = [read_image(out / "fir" / str(s) / "texture.png").astype(np.int16) for s in (0, 1)]
     assert np.mean(textures[0] != textures[1]) > 0.5
