@@ -395,6 +395,14 @@ BitsOption = Annotated[
     Optional[int], typer.Option("--bits", help="Bits per channel of the output (8 or 16). Default: the exemplar's.")
 ]
 QuietOption = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar.")]
+NoCacheOption = Annotated[
+    bool,
+    typer.Option(
+        "--no-cache",
+        help="Neither read nor write the photo analysis cache (by default another run on the same photo and "
+        "analysis options reuses the analysis: the same bytes, seconds sooner; barkgen cache show / clear).",
+    ),
+]
 LibraryOption = Annotated[
     Optional[Path],
     typer.Option(
