@@ -50,10 +50,12 @@ def run_here(*args: str) -> subprocess.CompletedProcess:
 
 
 def pytest_configure(config) -> None:
-    """Tests (and the CLIs they start) never touch the user's own exemplar library."""
+    """Tests (and the CLIs they start) never touch the user's own exemplar library or analysis
+    cache."""
     import tempfile
 
     os.environ["BARKGEN_LIBRARY"] = str(Path(tempfile.mkdtemp(prefix="barkgen-test-library-")) / "lib")
+    os.environ["BARKGEN_CACHE_DIR"] = tempfile.mkdtemp(prefix="barkgen-test-cache-")
 
 
 def bark_exemplar(name: str, size: int) -> np.ndarray:

@@ -62,12 +62,14 @@ def _photo_task(photo):
     return photo
 
 
-def _analyse_task(photo, labels, options, scan=None):
+def _analyse_task(photo, labels, options, scan=None, cache=True):
     """Worker side: the photo's analysis (:func:`barkgen.pipeline.analyze_photo`; a scanned
-    set's own maps make its material set)."""
-    from barkgen.pipeline import analyze_photo
+    set's own maps make its material set), from the worker machine's analysis cache when it
+    holds it, else made and kept there (:func:`barkgen.pipeline.cached_analysis`; ``cache``
+    false: neither)."""
+    from barkgen.pipeline import cached_analysis, open_store
 
-    return analyze_photo(photo, options, labels_in=labels, scan=scan)
+    return cached_analysis(photo, options, labels_in=labels, scan=scan, store=open_store(cache))
 
 
 def _variant_task(photo, analysis, options, source: str, job: ExemplarJob):
@@ -176,6 +178,7 @@ def run_batch(
     progress: Callable[[int, int], None] | None = None,
     log: Callable[[str], None] | None = None,
     client=None,
+    cache: bool = True,
 ) -> BatchReport:
     """Make every variant of ``spec`` that ``output_dir`` does not hold yet.
 
@@ -192,6 +195,8 @@ def run_batch(
         log: receives one-line messages (dashboard address, what is skipped).
         client: an existing ``distributed.Client`` to run on (left open), instead of
             ``scheduler`` / a new LocalCluster.
+        cache: each photo's analysis from the workers' analysis cache, or made and kept there
+            (:func:`barkgen.pipeline.cached_analysis`); False: neither (``--no-cache``).
     """
     from barkgen.io import check_replaceable, remove_staging, write_folder_atomic
 
@@ -257,7 +262,7 @@ def run_batch(
             report.workers = len(client.scheduler_info(n_workers=-1)["workers"])
             report.dashboard = client.dashboard_link
             say(f"Dask dashboard: {report.dashboard} ({report.workers} workers)")
-            _run(client, todo, inputs, output_dir, manifest, report, n_todo, progress, write_folder_atomic)
+            _run(client, todo, inputs, output_dir, manifest, report, n_todo, progress, write_folder_atomic, cache)
             for job, _ in todo:
                 remove_staging(output_dir / job.name)
     finally:
@@ -301,7 +306,16 @@ def _read_inputs(job: ExemplarJob):
 
 
 def _run(
-    client, todo, inputs, output_dir: Path, manifest: Manifest, report: BatchReport, n_todo: int, progress, write_folder
+    client,
+    todo,
+    inputs,
+    output_dir: Path,
+    manifest: Manifest,
+    report: BatchReport,
+    n_todo: int,
+    progress,
+    write_folder,
+    cache: bool = True,
 ) -> None:
     from distributed import as_completed
 
@@ -321,6 +335,7 @@ def _run(
             labels,
             job.options,
             scan,
+            cache,
             pure=False,
             key=f"barkgen-analyse-{job.name}-{os.urandom(4).hex()}",
         )

@@ -5,7 +5,7 @@ line on stderr (:func:`user_errors`) and the registration of the command groups,
 each: :mod:`.synth` (synth, tbn, apply-reference), :mod:`.labels` (labels, textons, merge),
 :mod:`.shapes`, :mod:`.generate` (generate, batch), :mod:`.material` (material, preview,
 export-glb), :mod:`.serve`, :mod:`.warmup` (warm-up), and the sub-commands of
-:mod:`.bilayer`, :mod:`.library` and :mod:`.branches`. What they share is in :mod:`._common`.
+:mod:`.bilayer`, :mod:`.library`, :mod:`.branches` and :mod:`.cache`. What they share is in :mod:`._common`.
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ import typer
 
 import barkgen.cli.bilayer as bilayer
 import barkgen.cli.branches as branches
+import barkgen.cli.cache as cache
 import barkgen.cli.evaluate as evaluate
 import barkgen.cli.generate as generate
 import barkgen.cli.labels as labels
@@ -59,7 +60,7 @@ TOP_LEVEL = (
 #: the modules that give those commands
 COMMAND_MODULES = (synth, labels, shapes, generate, tree, material, serve, warmup, evaluate)
 #: the groups of sub-commands (``barkgen bilayer analyze`` ...), in the order of ``--help``
-GROUPS = (("bilayer", bilayer), ("library", library), ("branches", branches))
+GROUPS = (("bilayer", bilayer), ("library", library), ("branches", branches), ("cache", cache))
 
 _TYPER_SETTINGS: dict[str, Any] = dict(
     add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False, rich_markup_mode=None

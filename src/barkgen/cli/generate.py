@@ -20,6 +20,7 @@ from barkgen.cli._common import (
     FlowScaleOption,
     LibraryOption,
     NameOption,
+    NoCacheOption,
     PresetOption,
     QuietOption,
     ResumeOption,
@@ -77,6 +78,7 @@ def generate_command(
     flow: FlowOption = None,
     flow_scale: FlowScaleOption = None,
     edits: EditsOption = None,
+    no_cache: NoCacheOption = False,
     quiet: QuietOption = False,
     *,
     options: GenerateOptions,
@@ -92,14 +94,18 @@ def generate_command(
     from barkgen.material.presets import check_preset
     from barkgen.pipeline import (
         adjusted_result,
+        cached_analysis,
         check_edit_list,
         encode_generate,
         generate,
+        open_store,
         parse_sizes,
         sized_options,
         sized_set_names,
         stage_at,
+        stage_span,
     )
+    from barkgen.pipeline.rules import PhotoInputs, check_run
 
     check_bits(bits)
     check_folder(output_dir, "output")
@@ -129,17 +135,37 @@ def generate_command(
     edit_list = read_edits(edits) if edits is not None else EditList()
     check_edit_list(edit_list, options.material)
     describe = functools.partial(stage_at, material=options.material)
+    canvas = Canvas(options.size, tile=options.tile, **fields) if fields else None
+    check_run(image, options, canvas, PhotoInputs(extras, label_map, scan), None, edited, edit_list.edits)
+    hit: list[float] = []
     with progress_bar(not quiet, "generating", describe) as progress:
+        # the photo's analysis from the cache (or made and stored): the same bytes either way;
+        # along a flow field the solvers analyse the photo's turned copies, so nothing is kept
+        analysis = None
+        store = open_store(not no_cache) if canvas is None else None
+        if store is not None:
+            share = stage_span("analysis", options.material)[1]
+            analysis = cached_analysis(
+                image,
+                options,
+                extra=extras,
+                labels_in=label_map,
+                scan=scan,
+                store=store,
+                progress=None if progress is None else _scaled(progress, share),
+                on_hit=hit.append,
+            )
         result = generate(
             image,
             options,
             extra=extras,
-            labels_in=label_map,
+            labels_in=label_map if analysis is None else None,
             resume=edited,
             progress=progress,
             scan=scan,
             edits=edit_list.edits,
-            canvas=Canvas(options.size, tile=options.tile, **fields) if fields else None,
+            canvas=canvas,
+            analysis=analysis,
         )
         result = adjusted_result(result, edit_list)  # the edit list's depth and light, after its edits
         files = encode_generate(
@@ -154,9 +180,15 @@ def generate_command(
         typer.echo(
             f"wrote {output_dir}/texture.png ({w}x{h}, seed {options.seed}"
             f"{', tileable' if options.tile else ''}) and its maps in "
-            f"{result.report['timings_s']['total']:.1f} s",
+            f"{result.report['timings_s']['total']:.1f} s"
+            f"{f' (the photo analysis from the cache, {hit[0]:.1f} s)' if hit else ''}",
             err=True,
         )
+
+
+def _scaled(progress, share: float):
+    """``progress`` of the analysis alone (its own ``done, total``) as the run's first ``share``."""
+    return lambda done, total: progress(round(1000 * share * done / max(total, 1)), 1000)
 
 
 def _run_targets(folder: Path, set_names: list[str], extras, stale, preset: str = "ambientcg") -> list[Path]:
@@ -224,6 +256,7 @@ def batch_command(
             help="Threads per variant (default: cores / workers locally, all cores of a worker with --scheduler).",
         ),
     ] = None,
+    no_cache: NoCacheOption = False,
     quiet: QuietOption = False,
     library: LibraryOption = None,
 ) -> None:
@@ -238,7 +271,14 @@ def batch_command(
     try:
         with progress_bar(not quiet, "variants") as progress:
             report = run_batch(
-                spec, output_dir, scheduler=scheduler, workers=workers, threads=threads, progress=progress, log=say
+                spec,
+                output_dir,
+                scheduler=scheduler,
+                workers=workers,
+                threads=threads,
+                progress=progress,
+                log=say,
+                cache=not no_cache,
             )
     except KeyboardInterrupt:
         raise fail(

@@ -6,7 +6,7 @@ from typing import Annotated
 
 import typer
 
-from barkgen.cli._common import LibraryOption
+from barkgen.cli._common import LibraryOption, NoCacheOption
 from barkgen.errors import InvalidInputError
 
 
@@ -21,6 +21,7 @@ def serve_command(
     library: LibraryOption = None,
     max_upload_mb: Annotated[int, typer.Option("--max-upload-mb", help="Largest upload in MB.")] = 25,
     max_upload_mp: Annotated[float, typer.Option("--max-upload-mp", help="Largest upload in megapixels.")] = 50,
+    no_cache: NoCacheOption = False,
 ) -> None:
     """Run the web app: pick or upload bark, generate with one click, paint labels, see it on a
     trunk, download the material set."""
@@ -37,6 +38,12 @@ def serve_command(
             raise InvalidInputError(f"{flag} must be a number above 0 (and at most 1000000), not {value}")
     lib = Library(library)
     _check_port_free(host, port)
+    if no_cache:  # read by the job worker, a process of its own (barkgen.pipeline.open_store)
+        import os
+
+        from barkgen.pipeline.analysis_cache import ENV_OFF
+
+        os.environ[ENV_OFF] = "1"
     limits = WebLimits(max_upload_bytes=max_upload_mb * 1024**2, max_upload_pixels=int(max_upload_mp * 1e6))
 
     from barkgen.web.app import is_loopback

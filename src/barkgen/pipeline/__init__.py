@@ -3,10 +3,12 @@ arrays out; :mod:`barkgen.pipeline.core`) and the files of one run, encoded
 (:func:`encode_generate`; :mod:`barkgen.pipeline.files`), which ``barkgen generate``,
 ``barkgen batch`` and the web app write, with an edit list's depth and light given to the set
 (:func:`adjusted_result`), and :func:`warm_up`, which compiles the numba kernels
-of a run ahead (:mod:`barkgen.pipeline.warmup`); :func:`make_tree`, bark for a whole tree mesh
+of a run ahead (:mod:`barkgen.pipeline.warmup`); :func:`cached_analysis`, a photo's analysis
+once per photo on disk (:class:`AnalysisStore`, :mod:`barkgen.pipeline.analysis_cache`); :func:`make_tree`, bark for a whole tree mesh
 (:mod:`barkgen.pipeline.tree`)."""
 
 from barkgen.pipeline.adjusted import adjusted_result, check_edit_list
+from barkgen.pipeline.analysis_cache import AnalysisStore, cached_analysis, open_store
 from barkgen.pipeline.core import (
     ANALYSIS_SEED,
     GenerateResult,
@@ -32,6 +34,9 @@ from barkgen.pipeline.warmup import warm_up
 __all__ = [
     "ANALYSIS_SEED",
     "adjusted_result",
+    "AnalysisStore",
+    "cached_analysis",
+    "open_store",
     "check_edit_list",
     "GENERATE_FILES",
     "check_generate_names",

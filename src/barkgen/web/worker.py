@@ -5,7 +5,9 @@ photo, its files encoded as ``barkgen generate`` writes them, and the photos' la
 It lives in its own process so that the server stays responsive while the solvers keep both
 cores busy, and so that cancelling a running job is immediate (the process is ended and a new
 one started). It keeps the last few :class:`~barkgen.pipeline.PhotoAnalysis` so that another
-seed of the same photo skips the per-photo analysis (same bytes either way).
+seed of the same photo skips the per-photo analysis (same bytes either way), and below them the
+analysis cache on disk that ``barkgen generate`` and ``batch`` share
+(:func:`barkgen.pipeline.cached_analysis`).
 """
 
 from __future__ import annotations
@@ -174,8 +176,9 @@ def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
         GenerateOptions,
         adjusted_result,
         analysis_key,
-        analyze_photo,
+        cached_analysis,
         generate,
+        open_store,
         stage_at,
         stage_span,
     )
@@ -203,15 +206,17 @@ def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
         key = (spec.photo_hash, scan is not None, analysis_key(options), digest)
         analysis = analyses.get(key)
         if analysis is None:
-            # generate() given an analysis reports from the end of its analysis stage on
+            # generate() given an analysis reports from the end of its analysis stage on; under
+            # the analyses kept here, the analysis cache on disk (barkgen serve --no-cache: none)
             share = stage_span("analysis", options.material)[1]
-            analysis = analyze_photo(
+            analysis = cached_analysis(
                 photo,
                 options,
                 labels_in=labels_in,
                 progress=lambda done, total: progress(round(1000 * share * done / max(total, 1)), 1000),
                 scan=scan,
                 cracks=cracks,
+                store=open_store(),
             )
             analyses[key] = analysis
             while len(analyses) > ANALYSES_KEPT:
