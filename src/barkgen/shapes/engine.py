@@ -182,11 +182,11 @@ def synthesize_codes(
     """
     joint = photo is not None
     out_shape, exemplar_wrap = canvas.shape, canvas.exemplar_wrap
-    features, config = _solver_inputs(codes, n_labels, photo, config, exemplar_wrap)
+    cache = budget.cache if budget.cache is not None else AnalysisCache()
+    features, config = _solver_inputs(codes, n_labels, photo, config, exemplar_wrap, cache)
     n_levels = engine_levels(codes.shape, out_shape, config)
     ex = codes.astype(np.uint8)[:, :, None]
     rng = np.random.default_rng([int(budget.seed), 1])
-    cache = budget.cache
     guidance = balance = None
     resume: tuple[int, np.ndarray] | None
     if start is not None:
@@ -200,7 +200,6 @@ def synthesize_codes(
             balance_weight = JOINT_BALANCE_WEIGHT if joint else BALANCE_WEIGHT
         balance = LabelBalance(shares=shares, fractions=fractions, weight=balance_weight)
         if joint:
-            cache = cache if cache is not None else AnalysisCache()
             resume, coarse_levels = _choose_coarse_start(ex, features, n_levels, config, balance, canvas, rng, cache)
             if on_level is not None:
                 for lvl, image in coarse_levels:
@@ -517,7 +516,7 @@ def analyse_codes(
     """The k-coherence analysis that :func:`synthesize_codes` needs for outputs of
     ``out_shape`` (with ``photo``: the joint strategy's), run into ``cache`` ahead of any
     synthesis."""
-    features, config = _solver_inputs(codes, n_labels, photo, config, exemplar_wrap)
+    features, config = _solver_inputs(codes, n_labels, photo, config, exemplar_wrap, cache)
     n_levels = engine_levels(codes.shape, out_shape, config)
     cache.analyse(
         features, n_levels, config, wrap=exemplar_wrap, finest=finest_level(n_levels, joint=photo is not None)
@@ -526,10 +525,20 @@ def analyse_codes(
 
 
 def _solver_inputs(
-    codes: np.ndarray, n_labels: int, photo: np.ndarray | None, config: SynthesisConfig | None, wrap: tuple[bool, bool]
+    codes: np.ndarray,
+    n_labels: int,
+    photo: np.ndarray | None,
+    config: SynthesisConfig | None,
+    wrap: tuple[bool, bool],
+    cache: AnalysisCache,
 ) -> tuple[np.ndarray, SynthesisConfig]:
     """What the solver matches and its configuration: the engine's (no ``photo``) or the joint
-    strategy's, unless ``config`` is given; round the exemplar's ``wrap``."""
+    strategy's, unless ``config`` is given; round the exemplar's ``wrap``; made once per
+    exemplar and kept in ``cache`` (every seed matches the same features)."""
     if photo is None:
-        return _features(codes, n_labels, wrap), config or LABEL_ENGINE_CONFIG
-    return joint_features(codes, n_labels, photo, wrap), config or JOINT_CONFIG
+        features = cache.features("engine", (codes, n_labels, wrap), lambda: _features(codes, n_labels, wrap))
+        return features, config or LABEL_ENGINE_CONFIG
+    features = cache.features(
+        "joint", (codes, n_labels, photo, wrap), lambda: joint_features(codes, n_labels, photo, wrap)
+    )
+    return features, config or JOINT_CONFIG

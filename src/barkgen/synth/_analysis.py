@@ -12,6 +12,7 @@ from __future__ import annotations
 import hashlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -160,21 +161,56 @@ class AnalysisCache:
 
     def __init__(self) -> None:
         self._entries: dict[str, list[LevelAnalysis | None]] = {}
+        # the seed-independent matching features made through :meth:`features`, by their
+        # inputs' digest; and the digest of each such array's bytes, by its identity
+        self._features: dict[str, Any] = {}
+        self._digests: dict[int, tuple[np.ndarray, str]] = {}
 
-    @staticmethod
+    def __getstate__(self) -> dict:
+        return {"_entries": self._entries, "_features": self._features}
+
+    def __setstate__(self, state: dict) -> None:
+        self._entries, self._features, self._digests = state["_entries"], state.get("_features", {}), {}
+        for value in self._features.values():
+            self._remember(value)
+
+    def features(self, name: str, inputs: tuple, make: Callable[[], Any]) -> Any:
+        """``make()``, made once for these ``inputs`` (arrays and plain values) and kept: the
+        matching features of an exemplar (and what comes with them) depend on the exemplar
+        alone, not on the seed, so every variant of one photo shares them. The arrays made are
+        read-only and their bytes' digest is kept with them, so :meth:`analyse` does not hash
+        them again on every solve."""
+        digest = hashlib.sha256(repr((name, _plain(inputs))).encode())
+        for value in inputs:
+            if isinstance(value, np.ndarray):
+                digest.update(np.ascontiguousarray(value).data.cast("B"))
+        key = digest.hexdigest()
+        if key not in self._features:
+            value = make()
+            for array in _arrays(value):
+                array.flags.writeable = False
+            self._features[key] = value
+            self._remember(value)
+        return self._features[key]
+
+    def _remember(self, value: Any) -> None:
+        for array in _arrays(value):
+            self._digests[id(array)] = (array, _bytes_digest(array))
+
     def key(
-        features: np.ndarray, n_levels: int, config: SynthesisConfig, wrap: tuple[bool, bool] = (False, False)
+        self, features: np.ndarray, n_levels: int, config: SynthesisConfig, wrap: tuple[bool, bool] = (False, False)
     ) -> str:
-        digest = hashlib.sha256()  # (OpenSSL's SHA-256: 2.3x blake2b's speed on SHA-NI CPUs)
+        """What an analysis of ``features`` depends on, as a digest: the features' bytes and
+        shape, the pyramid depth, the config's analysis fields and the exemplar's wrap."""
         # the schedules' neighbourhood sizes, not their iteration counts: those are all the
         # analysis depends on
         sizes = tuple(tuple(schedule_sizes(config, lvl, n_levels)) for lvl in range(n_levels))
         key: tuple = (features.shape, features.dtype.str, int(n_levels), config.k, config.pca_components, sizes)
-        if any(wrap):  # (the key of an exemplar that does not wrap is as it always was)
+        if any(wrap):
             key += (bool(wrap[0]), bool(wrap[1]))
-        digest.update(repr(key).encode())
-        digest.update(np.ascontiguousarray(features).data.cast("B"))
-        return digest.hexdigest()
+        known = self._digests.get(id(features))
+        data = known[1] if known is not None and known[0] is features else _bytes_digest(features)
+        return hashlib.sha256((repr(key) + data).encode()).hexdigest()
 
     def analyse(
         self,
@@ -212,3 +248,19 @@ class AnalysisCache:
                 total += sum(w.nbytes for w in la.kernel_weights.values())
                 total += sum(p.features.nbytes for p in la.projections.values())
         return total
+
+
+def _bytes_digest(array: np.ndarray) -> str:
+    """SHA-256 of an array's bytes (OpenSSL's SHA-256: 2.3x blake2b's speed on SHA-NI CPUs)."""
+    return hashlib.sha256(np.ascontiguousarray(array).data.cast("B")).hexdigest()
+
+
+def _arrays(value: Any) -> list[np.ndarray]:
+    """The arrays ``value`` is or holds (a tuple's items)."""
+    items = value if isinstance(value, tuple) else (value,)
+    return [item for item in items if isinstance(item, np.ndarray)]
+
+
+def _plain(inputs: tuple) -> tuple:
+    """``inputs`` with each array replaced by its shape and type (its bytes are hashed apart)."""
+    return tuple(("array", v.shape, v.dtype.str) if isinstance(v, np.ndarray) else v for v in inputs)

@@ -17,7 +17,7 @@ from barkgen._shared.checks import parse_output_shape
 from barkgen._shared.memory import check_memory_budget
 from barkgen.errors import InvalidInputError
 from barkgen.pyramid import count_levels
-from barkgen.synth._analysis import matching_features
+from barkgen.synth._analysis import AnalysisCache, matching_features
 from barkgen.synth._config import SynthesisConfig
 from barkgen.synth._edges import resolve_exemplar_wrap
 from barkgen.synth._solver import SolverInputs, SynthesisResult, solve
@@ -119,10 +119,25 @@ class Front:
         """Raise :class:`InvalidInputError` if the front's own inputs do not fit ``ex``."""
 
     def features(
-        self, ex: np.ndarray, extras: Mapping[str, np.ndarray], wrap: tuple[bool, bool], config: SynthesisConfig
+        self,
+        ex: np.ndarray,
+        extras: Mapping[str, np.ndarray],
+        wrap: tuple[bool, bool],
+        config: SynthesisConfig,
+        cache: AnalysisCache | None = None,
     ) -> np.ndarray:
-        """``(h, w, F)`` float32: what the solver matches."""
-        return matching_features(ex, extras, config.extra_weight)
+        """``(h, w, F)`` float32: what the solver matches (made once per exemplar and kept in
+        ``cache`` when given: every seed matches the same features)."""
+        if cache is None:
+            return matching_features(ex, extras, config.extra_weight)
+        inputs = (ex, config.extra_weight, *extra_inputs(extras))
+        return cache.features("colour", inputs, lambda: matching_features(ex, extras, config.extra_weight))
+
+
+def extra_inputs(extras: Mapping[str, np.ndarray]) -> tuple:
+    """The extra maps as a flat tuple of names and arrays (:meth:`AnalysisCache.features`'
+    inputs)."""
+    return tuple(item for name in sorted(extras) for item in (name, extras[name]))
 
 
 @dataclass(frozen=True)
@@ -177,7 +192,7 @@ def set_up(
     n_feat = colour_channels(ex) + front.added_channels + sum(e.shape[2] for e in extras.values())
     check_memory(ex, extras, out_shape, n_feat, config, guided=front.guided)
     wrap = resolve_exemplar_wrap(canvas.wrap_mode, ex)
-    feats = front.features(ex, extras, wrap, config)
+    feats = front.features(ex, extras, wrap, config, budget.cache)
     n_levels = count_levels(ex.shape[:2], out_shape, config.coarsest_exemplar)
     inputs = SolverInputs(ex, feats, n_levels, config, extras, seam_channels=colour_channels(ex))
     return SolveSetup(

@@ -33,7 +33,7 @@ from barkgen.pyramid import count_levels, gaussian_pyramid, level_shape
 from barkgen.synth._analysis import AnalysisCache, matching_features
 from barkgen.synth._config import SynthesisConfig
 from barkgen.synth._edges import resolve_exemplar_wrap
-from barkgen.synth._setup import Front, SolveSetup, set_up, validate_inputs
+from barkgen.synth._setup import Front, SolveSetup, extra_inputs, set_up, validate_inputs
 from barkgen.synth._solver import DebugCallback, SynthesisResult
 from barkgen.synth.guides.channels import (
     LabelMaps,
@@ -322,12 +322,24 @@ class _LabelFront(Front):
         self.labels = encode_label_maps(self.exemplar_labels, self.target, ex.shape[:2])
 
     def features(
-        self, ex: np.ndarray, extras: Mapping[str, np.ndarray], wrap: tuple[bool, bool], config: SynthesisConfig
+        self,
+        ex: np.ndarray,
+        extras: Mapping[str, np.ndarray],
+        wrap: tuple[bool, bool],
+        config: SynthesisConfig,
+        cache: AnalysisCache | None = None,
     ) -> np.ndarray:
-        assert self.labels is not None  # check runs first
-        feats, self.colour_variance = _matching_features(
-            ex, extras, self.labels.exemplar, self.feature_weight, config, wrap
-        )
+        labels = self.labels
+        assert labels is not None  # check runs first
+
+        def make() -> tuple[np.ndarray, float]:
+            return _matching_features(ex, extras, labels.exemplar, self.feature_weight, config, wrap)
+
+        if cache is None:
+            feats, self.colour_variance = make()
+        else:
+            inputs = (ex, labels.exemplar, self.feature_weight, config.extra_weight, wrap, *extra_inputs(extras))
+            feats, self.colour_variance = cache.features("labelled", inputs, make)
         return feats
 
 
