@@ -94,7 +94,6 @@ def generate_command(
     from barkgen.material.presets import check_preset
     from barkgen.pipeline import (
         adjusted_result,
-        cached_analysis,
         check_edit_list,
         encode_generate,
         generate,
@@ -103,7 +102,6 @@ def generate_command(
         sized_options,
         sized_set_names,
         stage_at,
-        stage_span,
     )
     from barkgen.pipeline.rules import PhotoInputs, check_run
 
@@ -141,20 +139,8 @@ def generate_command(
     with progress_bar(not quiet, "generating", describe) as progress:
         # the photo's analysis from the cache (or made and stored): the same bytes either way;
         # along a flow field the solvers analyse the photo's turned copies, so nothing is kept
-        analysis = None
         store = open_store(not no_cache) if canvas is None else None
-        if store is not None:
-            share = stage_span("analysis", options.material)[1]
-            analysis = cached_analysis(
-                image,
-                options,
-                extra=extras,
-                labels_in=label_map,
-                scan=scan,
-                store=store,
-                progress=None if progress is None else _scaled(progress, share),
-                on_hit=hit.append,
-            )
+        analysis = _analysis(image, options, extras, label_map, scan, store, progress, hit)
         result = generate(
             image,
             options,
@@ -176,19 +162,41 @@ def generate_command(
         levels = {save_levels / n: data for n, data in level_files(result.label_levels).items()}
     write_run(output_dir, files, stale, levels)
     if not quiet:
-        h, w = result.texture.shape[:2]
-        typer.echo(
-            f"wrote {output_dir}/texture.png ({w}x{h}, seed {options.seed}"
-            f"{', tileable' if options.tile else ''}) and its maps in "
-            f"{result.report['timings_s']['total']:.1f} s"
-            f"{f' (the photo analysis from the cache, {hit[0]:.1f} s)' if hit else ''}",
-            err=True,
-        )
+        _say_written(output_dir, options, result, hit)
 
 
-def _scaled(progress, share: float):
-    """``progress`` of the analysis alone (its own ``done, total``) as the run's first ``share``."""
-    return lambda done, total: progress(round(1000 * share * done / max(total, 1)), 1000)
+def _say_written(output_dir: Path, options, result, hit: list[float]) -> None:
+    """The run's one line on stderr: what it wrote, in how long, and whether the photo's
+    analysis came from the cache."""
+    h, w = result.texture.shape[:2]
+    typer.echo(
+        f"wrote {output_dir}/texture.png ({w}x{h}, seed {options.seed}"
+        f"{', tileable' if options.tile else ''}) and its maps in "
+        f"{result.report['timings_s']['total']:.1f} s"
+        f"{f' (the photo analysis from the cache, {hit[0]:.1f} s)' if hit else ''}",
+        err=True,
+    )
+
+
+def _analysis(image, options, extras, label_map, scan, store, progress, hit: list[float]):
+    """The photo's analysis through ``store`` (:func:`barkgen.pipeline.cached_analysis`; a hit's
+    seconds appended to ``hit``), reported as the run's analysis share; None without a store
+    (``--no-cache``: generate analyses the photo itself)."""
+    from barkgen.pipeline import cached_analysis, stage_span
+
+    if store is None:
+        return None
+    share = stage_span("analysis", options.material)[1]
+    return cached_analysis(
+        image,
+        options,
+        extra=extras,
+        labels_in=label_map,
+        scan=scan,
+        store=store,
+        progress=None if progress is None else lambda done, total: progress(round(1000 * share * done / total), 1000),
+        on_hit=hit.append,
+    )
 
 
 def _run_targets(folder: Path, set_names: list[str], extras, stale, preset: str = "ambientcg") -> list[Path]:

@@ -200,7 +200,9 @@ def synthesize_codes(
             balance_weight = JOINT_BALANCE_WEIGHT if joint else BALANCE_WEIGHT
         balance = LabelBalance(shares=shares, fractions=fractions, weight=balance_weight)
         if joint:
-            resume, coarse_levels = _choose_coarse_start(ex, features, n_levels, config, balance, canvas, rng, cache)
+            resume, coarse_levels = _choose_coarse_start(
+                ex, features, n_levels, config, balance, canvas, rng, budget.replace(cache=cache)
+            )
             if on_level is not None:
                 for lvl, image in coarse_levels:
                     on_level(lvl, image)
@@ -339,7 +341,7 @@ def _choose_coarse_start(
     balance: LabelBalance,
     canvas: Canvas,
     rng: np.random.Generator,
-    cache: AnalysisCache,
+    budget: Budget,
 ) -> tuple[tuple[int, np.ndarray] | None, list]:
     """The joint strategy's start: :data:`JOINT_CANDIDATES` runs of the coarsest levels down to
     :data:`JOINT_SELECT_DEPTH` below the coarsest, each from its own seed and with
@@ -349,31 +351,47 @@ def _choose_coarse_start(
     area term has not had to move whole regions (which costs coherence) to get there, and the
     score also prefers few seams and a well-covered exemplar. Returns ``(level, references)``
     (``None`` when the pyramid is too short to choose) and the chosen run's results of the
-    levels above it, coarsest first, as ``(level, codes)``."""
+    levels above it, coarsest first, as ``(level, codes)``.
+
+    The runs are independent (their own seeds, the analysis in ``budget.cache`` made first and
+    only read): they run side by side, one per core of ``budget.threads``, whose small levels
+    keep a core busy each better than one run keeps both; the choice is the same."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from barkgen._shared.threads import in_budget, thread_budget
+
     level = n_levels - 1 - JOINT_SELECT_DEPTH
     if level < 1:
         return None, []
     gentle = dataclasses.replace(balance, weight=balance.weight * JOINT_CANDIDATE_BALANCE)
-    best: tuple[float, np.ndarray, list] | None = None
-    for candidate_seed in rng.integers(0, 2**31, size=JOINT_CANDIDATES):
+    inputs = SolverInputs(ex, features, n_levels, config)
+    budget.cache.analyse(features, n_levels, config, wrap=canvas.exemplar_wrap, finest=level)
+
+    def candidate(seed: int) -> tuple[float, np.ndarray, list]:
         results: list = []
 
-        def keep(name: str, image: np.ndarray, results: list = results) -> None:
+        def keep(name: str, image: np.ndarray) -> None:
             if name.endswith("_result"):
                 results.append((int(name[5:-7]), image.astype(np.int32)))
 
         run = solve(
-            SolverInputs(ex, features, n_levels, config),
+            inputs,
             canvas.replace(links=None),
-            Budget(seed=int(candidate_seed), cache=cache, debug=keep),
+            Budget(seed=int(seed), cache=budget.cache, debug=keep),
             stop_level=level,
             balance=gentle,
         )
         references = run.references[..., 0] * run.exemplar_shape[1] + run.references[..., 1]
         score = start_score(references, run.exemplar_shape[1], balance.shares[level], balance.fractions)
-        if best is None or score < best[0]:
-            best = (score, references.astype(np.int32), results[:-1])
-    assert best is not None  # JOINT_CANDIDATES >= 1 runs
+        return score, references.astype(np.int32), results[:-1]
+
+    seeds = rng.integers(0, 2**31, size=JOINT_CANDIDATES)
+    with thread_budget(budget.threads) as cores:
+        workers = max(1, min(cores, len(seeds)))
+        per_run = max(1, cores // workers)
+        with ThreadPoolExecutor(max_workers=workers) as pool:
+            runs = list(pool.map(lambda seed: in_budget(per_run, candidate, seed), seeds))
+    best = min(runs, key=lambda run: run[0])  # the first of equal scores, as one after the other
     return (level, best[1]), best[2]
 
 
