@@ -187,6 +187,9 @@ def _analysis(image, options, extras, label_map, scan, store, progress, hit: lis
     if store is None:
         return None
     share = stage_span("analysis", options.material)[1]
+    within = (
+        None if progress is None else lambda done, total: progress(round(1000 * share * done / max(total, 1)), 1000)
+    )
     return cached_analysis(
         image,
         options,
@@ -194,7 +197,7 @@ def _analysis(image, options, extras, label_map, scan, store, progress, hit: lis
         labels_in=label_map,
         scan=scan,
         store=store,
-        progress=None if progress is None else lambda done, total: progress(round(1000 * share * done / total), 1000),
+        progress=within,
         on_hit=hit.append,
     )
 
