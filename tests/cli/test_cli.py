@@ -375,6 +375,7 @@ HELP_COMMANDS = [
     "bilayer",
     "library",
     "branches",
+    "cache",
 ]
 COMMAND_MODULES = [
     "_common",
@@ -389,6 +390,7 @@ COMMAND_MODULES = [
     "bilayer",
     "library",
     "branches",
+    "cache",
 ]
 
 
@@ -401,6 +403,7 @@ def test_help_lists_every_command_group_in_order():
         ("bilayer", ["analyze", "tune", "synth"]),
         ("library", ["add", "list", "show", "rm"]),
         ("branches", ["extract", "grow", "render", "stats"]),
+        ("cache", ["show", "clear"]),
     ):
         r = run(group, "--help")
         assert r.returncode == 0, r.stderr
