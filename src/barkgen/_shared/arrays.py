@@ -3,6 +3,7 @@ and images that wrap round (a photo that tiles along an axis is a torus along it
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, cast
@@ -85,9 +86,12 @@ class Boundary:
         other borders."""
         import cv2
 
+        from barkgen._shared.threads import ONE_THREAD_BLUR_SIGMA, opencv_one_thread
+
         image = np.asarray(image, np.float32)
         pad = int(np.ceil(4 * sigma)) + 1  # (numpy wraps again when the pad exceeds the image)
-        return self.torus(lambda im: cv2.GaussianBlur(im, (0, 0), sigma, borderType=cv2.BORDER_REFLECT), image, pad)
+        with opencv_one_thread() if sigma > ONE_THREAD_BLUR_SIGMA else contextlib.nullcontext():
+            return self.torus(lambda im: cv2.GaussianBlur(im, (0, 0), sigma, borderType=cv2.BORDER_REFLECT), image, pad)
 
     def gradient(self, image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Central differences ``(d/dx, d/drow)`` float32: wrapping along the axes that wrap,

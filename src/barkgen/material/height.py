@@ -36,11 +36,13 @@ too shallow, as a timid normal map errs least where its direction is uncertain).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 
 from barkgen._shared.arrays import Boundary
+from barkgen._shared.threads import side_by_side
 from barkgen.errors import InvalidInputError
 
 #: (octave scale in px, weight) of the luminance bands; luminance in units of its std
@@ -139,6 +141,11 @@ def texture_energy(lum: np.ndarray, scale: float, boundary: Boundary) -> np.ndar
     return (energy - energy.mean()) / max(float(energy.std()), 1e-9)
 
 
+def _energy_band(lum: np.ndarray, scale: float, boundary: Boundary) -> np.ndarray:
+    """The band-pass octave around ``scale`` of the luminance's texture energy."""
+    return band(texture_energy(lum, scale, boundary), scale, boundary)
+
+
 def height_features(
     photo: np.ndarray, label_map: np.ndarray | None, config: HeightConfig, boundary: Boundary
 ) -> list[tuple[float, np.ndarray]]:
@@ -149,9 +156,13 @@ def height_features(
     if std < 1e-6:
         return []
     lum = (lum - lum.mean()) / std
-    blurs: dict[float, np.ndarray] = {}
+    # the luminance's blurs (bands two octaves apart share one) and the energy bands, side by
+    # side (the wide blurs run on one thread each: :func:`barkgen._shared.arrays.Boundary.blur`)
+    sigmas = sorted({sigma for s, _ in config.bands for sigma in (s / 2, s * 2)}, reverse=True)
+    blurs = dict(zip(sigmas, side_by_side([functools.partial(boundary.blur, lum, sigma) for sigma in sigmas])))
     cues = [(w, band(lum, s, boundary, blurs)) for s, w in config.bands]
-    cues += [(w, band(texture_energy(lum, s, boundary), s, boundary)) for s, w in config.energy_bands]
+    energies = side_by_side([functools.partial(_energy_band, lum, s, boundary) for s, _ in config.energy_bands])
+    cues += [(w, energy) for (_, w), energy in zip(config.energy_bands, energies)]
     if label_map is not None:
         codes = np.asarray(label_map)
         if codes.shape != lum.shape:

@@ -9,10 +9,13 @@ tile too (the AO's photo cavities are carried like the colour).
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from barkgen._shared.arrays import Boundary
 from barkgen._shared.canvas import Canvas
+from barkgen._shared.threads import side_by_side
 from barkgen.material.maps import AO_RADIUS
 from barkgen.material.materialset import MaterialSet, derived_maps
 
@@ -65,27 +68,43 @@ def transfer_material(
     tile = canvas.tile
     refs = np.asarray(references)
 
-    def carry(image: np.ndarray) -> np.ndarray:
-        return resolve_continuous(image, refs, canvas)
+    def carry(image: np.ndarray | None) -> np.ndarray | None:
+        return None if image is None else resolve_continuous(image, refs, canvas)
 
-    # the height's slopes too, so the normals recomputed from it have no creases at the borders
-    height = resolve_continuous(source.height, refs, canvas, smooth_slopes=True)
-    scanned = _carry_scanned(source, refs, canvas)
-    cavities = None
-    if "normals" in scanned and "ao" in scanned:  # a scan's own: nothing to derive from the height
-        normals, ao = scanned["normals"], scanned["ao"]
-    else:
+    def relief() -> tuple[np.ndarray, dict, np.ndarray | None, np.ndarray | None]:
+        # the height's slopes too, so the normals recomputed from it have no creases at the borders
+        height = resolve_continuous(source.height, refs, canvas, smooth_slopes=True)
+        scanned = _carry_scanned(source, refs, canvas)
+        if "normals" in scanned and "ao" in scanned:  # a scan's own: nothing to derive from the height
+            return height, scanned, scanned["normals"], scanned["ao"]
         normals, ao = derived_maps(height, Boundary(tile), ao_radius=ao_radius)
-        if source.ao_cavities is not None:
-            cavities = carry(source.ao_cavities)
-            ao = np.clip(ao + cavities, 0.0, 1.0)
-    color = blend_seams(source.color, refs, canvas) if blend == "gradient" else apply_references(refs, source.color)
+        return height, scanned, normals, ao
+
+    def colour() -> np.ndarray:
+        return blend_seams(source.color, refs, canvas) if blend == "gradient" else apply_references(refs, source.color)
+
+    # the maps are independent of each other but for the height's own: side by side
+    def own(kind: str) -> bool:  # the scan's own map, carried as it is (:func:`_carry_scanned`)
+        return getattr(source, kind) is not None and kind in source.scanned
+
+    derived, carried_roughness = not (own("normals") and own("ao")), not own("roughness")
+    (height, scanned, normals, ao), color, cavities, roughness, illumination = side_by_side(
+        [
+            relief,
+            colour,
+            functools.partial(carry, source.ao_cavities if derived else None),
+            functools.partial(carry, source.roughness if carried_roughness else None),
+            functools.partial(carry, source.illumination),
+        ]
+    )
+    if cavities is not None and not ("normals" in scanned and "ao" in scanned):
+        ao = np.clip(ao + cavities, 0.0, 1.0)
     return MaterialSet(
         color=color,
         height=height,
         normals=scanned.get("normals", normals),
         ao=scanned.get("ao", ao),
-        roughness=scanned["roughness"] if "roughness" in scanned else carry(source.roughness),
+        roughness=scanned["roughness"] if "roughness" in scanned else roughness,
         tile=tile,
         light=source.light,
         shading_strength=source.shading_strength,
@@ -96,7 +115,7 @@ def transfer_material(
         bits=dict(source.bits),
         pixel_size_m=source.pixel_size_m,
         size_given=source.size_given,
-        illumination=None if source.illumination is None else carry(source.illumination),
+        illumination=illumination,
         equalization=source.equalization,
     )
 

@@ -43,11 +43,13 @@ the whole level's layout instead of about 50 %), while the boundaries take exemp
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Callable
 
 import numpy as np
 
 from barkgen._shared.canvas import Budget, Canvas
+from barkgen._shared.threads import side_by_side
 from barkgen.pyramid import count_levels, gaussian_pyramid, level_shape
 from barkgen.synth import (
     AnalysisCache,
@@ -356,10 +358,6 @@ def _choose_coarse_start(
     The runs are independent (their own seeds, the analysis in ``budget.cache`` made first and
     only read): they run side by side, one per core of ``budget.threads``, whose small levels
     keep a core busy each better than one run keeps both; the choice is the same."""
-    from concurrent.futures import ThreadPoolExecutor
-
-    from barkgen._shared.threads import in_budget, thread_budget
-
     level = n_levels - 1 - JOINT_SELECT_DEPTH
     if level < 1:
         return None, []
@@ -386,11 +384,7 @@ def _choose_coarse_start(
         return score, references.astype(np.int32), results[:-1]
 
     seeds = rng.integers(0, 2**31, size=JOINT_CANDIDATES)
-    with thread_budget(budget.threads) as cores:
-        workers = max(1, min(cores, len(seeds)))
-        per_run = max(1, cores // workers)
-        with ThreadPoolExecutor(max_workers=workers) as pool:
-            runs = list(pool.map(lambda seed: in_budget(per_run, candidate, seed), seeds))
+    runs = side_by_side([functools.partial(candidate, seed) for seed in seeds], budget.threads)
     best = min(runs, key=lambda run: run[0])  # the first of equal scores, as one after the other
     return (level, best[1]), best[2]
 

@@ -22,10 +22,13 @@ becomes an ordinary one.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from barkgen._shared.arrays import Boundary
 from barkgen._shared.canvas import Canvas
+from barkgen._shared.threads import side_by_side
 from barkgen.errors import InvalidInputError
 
 #: lambda of the screened Poisson equation: a step at a seam spreads over about
@@ -165,11 +168,14 @@ def blend_seams(
     src = np.asarray(source)
     if src.ndim == 2:
         return resolve_continuous(src, references, canvas, screening=screening)
-    # channel by channel: the solve's float64 transforms of one channel at a time
-    return np.stack(
-        [resolve_continuous(src[..., c], references, canvas, screening=screening) for c in range(src.shape[2])],
-        axis=-1,
+    # channel by channel (the solve's float64 transforms of one channel at a time), side by side
+    channels = side_by_side(
+        [
+            functools.partial(resolve_continuous, src[..., c], references, canvas, screening=screening)
+            for c in range(src.shape[2])
+        ]
     )
+    return np.stack(channels, axis=-1)
 
 
 def resolve_continuous(
