@@ -14,9 +14,7 @@ from __future__ import annotations
 import threading
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
-from typing import TypeVar
-
-T = TypeVar("T")
+from typing import Any
 
 
 def _cores() -> int:
@@ -75,7 +73,7 @@ def in_budget(threads: int | None, function, /, *args, **kwargs):
         return function(*args, **kwargs)
 
 
-def side_by_side(jobs: Sequence[Callable[[], T]], threads: int | None = None) -> list[T]:
+def side_by_side(jobs: Sequence[Callable[[], Any]], threads: int | None = None) -> list[Any]:
     """The results of independent ``jobs`` (callables without arguments, each reading only what
     it was given), run on a pool of at most ``threads`` threads (default: the cores numba may
     use in the calling thread), each under :func:`thread_budget` of its share of them; in the

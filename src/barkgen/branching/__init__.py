@@ -13,61 +13,14 @@
   delete a sub-branch) and a photo's perspective rectified before extraction (Fig. 8).
 """
 
-from barkgen.branching.edit import (
-    add_furcation,
-    delete_branch,
-    extend_branch,
-    nearest_branch,
-    rectify_perspective,
-)
-from barkgen.branching.extract import extract_structure, overlay_structure
-from barkgen.branching.grow import grow_structure
-from barkgen.branching.growth_options import GrowOptions, check_grow_size, estimate_grow_memory
-from barkgen.branching.mask import crack_mask
-from barkgen.branching.model import BranchModel, ModelOptions, fit_model
-from barkgen.branching.render import RenderOptions, RenderResult, render_branches
-from barkgen.branching.stats import (
-    StructureComparison,
-    compare_structures,
-    comparison_plot,
-    self_intersections,
-)
-from barkgen.branching.structure import (
-    STRUCTURE_VERSION,
-    Branch,
-    Structure,
-    rasterize,
-    resample_polyline,
-    turning_angles,
-)
+from barkgen._shared.lazy import lazy_getattr, stub_names
 
-__all__ = [
-    "STRUCTURE_VERSION",
-    "Branch",
-    "BranchModel",
-    "GrowOptions",
-    "ModelOptions",
-    "RenderOptions",
-    "RenderResult",
-    "Structure",
-    "StructureComparison",
-    "add_furcation",
-    "check_grow_size",
-    "compare_structures",
-    "comparison_plot",
-    "crack_mask",
-    "delete_branch",
-    "estimate_grow_memory",
-    "extend_branch",
-    "extract_structure",
-    "fit_model",
-    "grow_structure",
-    "nearest_branch",
-    "overlay_structure",
-    "rasterize",
-    "rectify_perspective",
-    "render_branches",
-    "resample_polyline",
-    "self_intersections",
-    "turning_angles",
-]
+# the names and their modules are in __init__.pyi; each module is imported on first use (the
+# CLI's start-up imports this package for its options, not its kernels)
+_LAZY = stub_names(__file__)
+__all__ = sorted(_LAZY)
+__getattr__ = lazy_getattr(__name__, _LAZY)
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

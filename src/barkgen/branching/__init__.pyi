@@ -1,0 +1,30 @@
+# The public names of barkgen.branching: the one list. Type checkers read it; __init__.py reads it
+# too and imports each name's module on first use (as barkgen's own stub).
+from barkgen.branching.edit import add_furcation as add_furcation
+from barkgen.branching.edit import delete_branch as delete_branch
+from barkgen.branching.edit import extend_branch as extend_branch
+from barkgen.branching.edit import nearest_branch as nearest_branch
+from barkgen.branching.edit import rectify_perspective as rectify_perspective
+from barkgen.branching.extract import extract_structure as extract_structure
+from barkgen.branching.extract import overlay_structure as overlay_structure
+from barkgen.branching.grow import grow_structure as grow_structure
+from barkgen.branching.growth_options import GrowOptions as GrowOptions
+from barkgen.branching.growth_options import check_grow_size as check_grow_size
+from barkgen.branching.growth_options import estimate_grow_memory as estimate_grow_memory
+from barkgen.branching.mask import crack_mask as crack_mask
+from barkgen.branching.model import BranchModel as BranchModel
+from barkgen.branching.model import ModelOptions as ModelOptions
+from barkgen.branching.model import fit_model as fit_model
+from barkgen.branching.render import RenderOptions as RenderOptions
+from barkgen.branching.render import RenderResult as RenderResult
+from barkgen.branching.render import render_branches as render_branches
+from barkgen.branching.stats import StructureComparison as StructureComparison
+from barkgen.branching.stats import compare_structures as compare_structures
+from barkgen.branching.stats import comparison_plot as comparison_plot
+from barkgen.branching.stats import self_intersections as self_intersections
+from barkgen.branching.structure import STRUCTURE_VERSION as STRUCTURE_VERSION
+from barkgen.branching.structure import Branch as Branch
+from barkgen.branching.structure import Structure as Structure
+from barkgen.branching.structure import rasterize as rasterize
+from barkgen.branching.structure import resample_polyline as resample_polyline
+from barkgen.branching.structure import turning_angles as turning_angles
