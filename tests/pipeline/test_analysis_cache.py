@@ -143,13 +143,14 @@ def test_an_upgraded_version_is_a_miss(tmp_path, photo, monkeypatch):
 
 
 def test_eviction_removes_the_least_recently_used(tmp_path, analysis):
-    size = len(b"".join(bytes(p) for p in analysis_cache._encode(analysis, {})))
+    size = len(b"".join(bytes(p) for p in analysis_cache._encode(analysis, {}))) + analysis_cache._HEADER.size
     store = AnalysisStore(tmp_path, max_bytes=int(2.5 * size))
     for age, key in ((300, "a"), (200, "b")):
         store.put(key, analysis)
         os.utime(store.path(key), (os.path.getmtime(store.path(key)) - age,) * 2)
     assert store.get("a") is not None  # a hit: "a" is now the most recently used
-    store.put("c", analysis)
+    assert store.put("c", analysis, wait=False)  # written on a thread
+    store.flush()
     assert sorted(e.key for e in store.entries()) == ["a", "c"]
     assert not AnalysisStore(tmp_path, max_bytes=size // 2).put("d", analysis)  # larger than the bound
     assert store.clear() == (2, 2 * size) and store.entries() == []

@@ -161,6 +161,8 @@ def generate_command(
     if save_levels is not None:
         levels = {save_levels / n: data for n, data in level_files(result.label_levels).items()}
     write_run(output_dir, files, stale, levels)
+    if store is not None:
+        store.flush()  # the analysis, written while the run went on
     if not quiet:
         _say_written(output_dir, options, result, hit)
 
@@ -199,6 +201,7 @@ def _analysis(image, options, extras, label_map, scan, store, progress, hit: lis
         store=store,
         progress=within,
         on_hit=hit.append,
+        wait=False,  # written on a thread while the run goes on
     )
 
 

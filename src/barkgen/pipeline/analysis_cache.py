@@ -34,6 +34,7 @@ import os
 import pickle
 import struct
 import tempfile
+import threading
 import time
 import zlib
 from collections.abc import Callable, Iterator, Mapping
@@ -219,6 +220,7 @@ class AnalysisStore:
 
     def __init__(self, folder: str | Path | None = None, max_bytes: int | None = None) -> None:
         self.folder = Path(folder).expanduser() if folder is not None else cache_folder()
+        self._writers: list[threading.Thread] = []
         self.max_bytes = int(max_bytes) if max_bytes is not None else _max_bytes_from_env()
         if self.max_bytes <= 0:
             raise InvalidInputError(f"the analysis cache's bound must be above 0 bytes, not {self.max_bytes}")
@@ -258,15 +260,33 @@ class AnalysisStore:
 
     # ---------------------------------------------------------------- writing
 
-    def put(self, key: str, analysis: PhotoAnalysis, description: dict | None = None) -> bool:
+    def put(self, key: str, analysis: PhotoAnalysis, description: dict | None = None, *, wait: bool = True) -> bool:
         """Store ``analysis`` under ``key`` (atomically: a unique temporary file, flushed to
         disk, renamed into place), then evict the least recently used entries beyond
         ``max_bytes``. False when it was not stored: larger than the bound, or the folder not
-        writable (the cache never fails a run)."""
+        writable (the cache never fails a run).
+
+        With ``wait=False`` the analysis is pickled now (its arrays are not copied: the caller
+        leaves them as they are, as :func:`~barkgen.pipeline.generate` does) and written on a
+        thread of its own while the run goes on (the 1024² quickstart's 230 MB: 0.9 s, mostly
+        the disk's); :meth:`flush` waits for it. Returns True then."""
         parts = _encode(analysis, description or {})
-        size = sum(len(p) for p in parts)
-        if size > self.max_bytes:
+        if _HEADER.size + sum(_length(p) for p in parts) > self.max_bytes:
             return False
+        if wait:
+            return self._write(key, parts)
+        writer = threading.Thread(target=self._write, args=(key, parts), name="barkgen-cache-write")
+        writer.start()
+        self._writers.append(writer)
+        return True
+
+    def flush(self) -> None:
+        """Wait for the writes that :meth:`put` left to a thread."""
+        while self._writers:
+            self._writers.pop().join()
+
+    def _write(self, key: str, parts: list) -> bool:
+        parts = [_header(parts), *parts]
         try:
             self.folder.mkdir(parents=True, exist_ok=True, mode=0o700)
             handle, temp = tempfile.mkstemp(prefix=f"{_TEMP_PREFIX}{key[:16]}-", suffix=".part", dir=self.folder)
@@ -358,8 +378,9 @@ class AnalysisStore:
 
 
 def _encode(analysis: PhotoAnalysis, description: dict) -> list[bytes | memoryview]:
-    """An entry's file in parts: header, description, buffer table, pickle and buffers, each
-    of the last two 64-byte aligned (an array read back is aligned as numba's kernels expect)."""
+    """An entry's payload in parts (:func:`_header` goes before them): description, buffer
+    table, pickle and buffers, each of the last two 64-byte aligned (an array read back is
+    aligned as numba's kernels expect)."""
     buffers: list[pickle.PickleBuffer] = []
     body = pickle.dumps(analysis, protocol=5, buffer_callback=buffers.append)
     raws = [b.raw() for b in buffers]
@@ -369,12 +390,21 @@ def _encode(analysis: PhotoAnalysis, description: dict) -> list[bytes | memoryvi
     parts: list[bytes | memoryview] = [about, table, b"\0" * _padding(head_len), body, b"\0" * _padding(len(body))]
     for raw in raws:
         parts += [raw, b"\0" * _padding(raw.nbytes)]
+    return parts
+
+
+def _length(part: bytes | memoryview) -> int:
+    return len(part) if isinstance(part, bytes) else part.nbytes
+
+
+def _header(parts: list[bytes | memoryview]) -> bytes:
+    """The header of an entry whose payload is ``parts`` (:func:`_encode`): its length and CRC-32."""
     crc = 0
     for part in parts:
         crc = zlib.crc32(part, crc)
-    payload = sum(len(p) if isinstance(p, bytes) else p.nbytes for p in parts)
-    header = _HEADER.pack(_MAGIC, CACHE_FORMAT, len(raws), len(about), payload, crc)
-    return [header, *parts]
+    about_len = len(parts[0])
+    n_buffers = len(parts[1]) // 8 - 1  # (the table: the pickle's length, then each buffer's)
+    return _HEADER.pack(_MAGIC, CACHE_FORMAT, n_buffers, about_len, sum(_length(p) for p in parts), crc)
 
 
 def _read_whole(handle) -> np.ndarray | None:
@@ -468,6 +498,7 @@ def cached_analysis(
     store: AnalysisStore | None = None,
     progress: ProgressCallback | None = None,
     on_hit: Callable[[float], None] | None = None,
+    wait: bool = True,
 ) -> PhotoAnalysis:
     """:func:`~barkgen.pipeline.analyze_photo` through ``store``: the stored analysis of the
     same inputs if there is one, else made and stored. Give it to
@@ -481,6 +512,9 @@ def cached_analysis(
         None: no cache (the analysis is made).
     on_hit : callable, optional
         ``on_hit(seconds)`` when the analysis came from the store.
+    wait : bool, default True
+        False: a new analysis is written on a thread while the caller goes on
+        (:meth:`AnalysisStore.put`; ``store.flush()`` waits for it).
 
     Returns
     -------
@@ -512,5 +546,5 @@ def cached_analysis(
         photo, options, extra=extra, labels_in=labels_in, progress=progress, scan=scan, solvers=solvers, cracks=cracks
     )
     if store is not None and key is not None:
-        store.put(key, analysis, _describe(photo, options, analysis.seconds))
+        store.put(key, analysis, _describe(photo, options, analysis.seconds), wait=wait)
     return analysis

@@ -217,6 +217,7 @@ def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
                 scan=scan,
                 cracks=cracks,
                 store=open_store(),
+                wait=False,  # written on a thread while the job goes on
             )
             analyses[key] = analysis
             while len(analyses) > ANALYSES_KEPT:
