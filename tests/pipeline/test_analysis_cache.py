@@ -194,3 +194,19 @@ def test_the_cache_command_prints_the_folder(tmp_path, monkeypatch, capsys):
     clear_command()
     out = capsys.readouterr().out
     assert f"folder: {Path(tmp_path)}" in out and "entries: 0" in out and "removed 0 entries" in out
+
+
+def test_an_entry_reads_back_whole_with_or_without_a_mapping(tmp_path, analysis, monkeypatch):
+    """Read mapped (Linux) or into memory (elsewhere): the same arrays, writable as they were
+    (a numba kernel types a read-only array apart, and would compile again)."""
+    import mmap
+
+    store = AnalysisStore(tmp_path)
+    store.put("k", analysis)
+    mapped = store.get("k")
+    monkeypatch.delattr(mmap, "MAP_POPULATE", raising=False)
+    read = store.get("k")
+    for found in (mapped, read):
+        assert np.array_equal(found.labels_in, analysis.labels_in) and found.labels_in.flags.writeable
+        assert found.labels_in.flags.aligned
+        assert np.array_equal(found.illumination, analysis.illumination)

@@ -407,7 +407,7 @@ def _header(parts: list[bytes | memoryview]) -> bytes:
     return _HEADER.pack(_MAGIC, CACHE_FORMAT, n_buffers, about_len, sum(_length(p) for p in parts), crc)
 
 
-def _read_whole(handle) -> np.ndarray | None:
+def _read_whole(handle) -> memoryview | None:
     """An entry's bytes as one writable array (a numba kernel types a read-only array apart):
     on Linux mapped copy-on-write from the page cache and faulted in with one call (no copy;
     a read into fresh memory faulted 200 MB page by page, 0.5 s), else read in one go."""
@@ -421,12 +421,12 @@ def _read_whole(handle) -> np.ndarray | None:
         mapped = mmap.mmap(
             handle.fileno(), size, flags=mmap.MAP_PRIVATE | populate, prot=mmap.PROT_READ | mmap.PROT_WRITE
         )
-        return np.frombuffer(mapped, np.uint8)
-    data = np.empty(size, np.uint8)
-    return data if handle.readinto(memoryview(data)) == size else None
+        return memoryview(mapped)
+    data = np.empty(size, np.uint8).data
+    return data if handle.readinto(data) == size else None
 
 
-def _decode(data: np.ndarray) -> PhotoAnalysis | None:
+def _decode(data: memoryview) -> PhotoAnalysis | None:
     """An entry's analysis from its file's bytes (its arrays views of ``data``), or None when
     the file is not whole, not this format's, or does not unpickle."""
     if len(data) < _HEADER.size:
@@ -434,18 +434,17 @@ def _decode(data: np.ndarray) -> PhotoAnalysis | None:
     magic, fmt, n_buffers, about_len, payload, crc = _HEADER.unpack_from(data, 0)
     if magic != _MAGIC or fmt != CACHE_FORMAT or len(data) != _HEADER.size + payload:
         return None
-    view = memoryview(data)
-    if zlib.crc32(view[_HEADER.size :]) != crc:
+    if zlib.crc32(data[_HEADER.size :]) != crc:
         return None
     at = _HEADER.size + about_len
     lengths = struct.unpack_from(f"<Q{n_buffers}Q", data, at)
     at += 8 * (n_buffers + 1)
     at += _padding(at)
-    body = view[at : at + lengths[0]]
+    body = data[at : at + lengths[0]]
     at += lengths[0] + _padding(lengths[0])
     buffers = []
     for n in lengths[1:]:
-        buffers.append(view[at : at + n])
+        buffers.append(data[at : at + n])
         at += n + _padding(n)
     if at != len(data):
         return None
