@@ -12,7 +12,7 @@ import typer
 from barkgen.cli._common import QuietOption
 
 #: :data:`barkgen.pipeline.warmup.STAGES` (not imported here: ``barkgen --help`` stays cheap)
-STAGES = ("synth", "generate", "preview")
+STAGES = ("synth", "generate", "preview", "cracks", "bilayer")
 
 
 def warm_up_command(
@@ -21,7 +21,9 @@ def warm_up_command(
     ] = ",".join(STAGES),
     quiet: QuietOption = False,
 ) -> None:
-    """Compile the kernels of synth, generate and preview once (the quickstart's set-up step)."""
+    """Compile the kernels every front end runs, once (the quickstart's set-up step): synth, generate
+    and its material set, the trunk preview and relief editor, crack networks and bi-layer textures;
+    in two processes on two cores or more."""
     from barkgen.errors import InvalidInputError
     from barkgen.pipeline.warmup import check_stages, warm_up
 
