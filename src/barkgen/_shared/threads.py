@@ -73,17 +73,24 @@ def in_budget(threads: int | None, function, /, *args, **kwargs):
         return function(*args, **kwargs)
 
 
-def side_by_side(jobs: Sequence[Callable[[], Any]], threads: int | None = None) -> list[Any]:
+#: jobs on maps larger than this (pixels) run one after the other in :func:`side_by_side`:
+#: each holds several float64 copies of its map (a screened Poisson solve of a 4096^2 map:
+#: about 1 GB), so side by side they would add up (4096^2 material set: peak 3.2 -> 4.5 GiB)
+SIDE_BY_SIDE_PIXELS = 2048 * 2048
+
+
+def side_by_side(jobs: Sequence[Callable[[], Any]], threads: int | None = None, pixels: int = 0) -> list[Any]:
     """The results of independent ``jobs`` (callables without arguments, each reading only what
     it was given), run on a pool of at most ``threads`` threads (default: the cores numba may
     use in the calling thread), each under :func:`thread_budget` of its share of them; in the
     jobs' order. Work whose parts are small or one-threaded (a coarse level, a numpy
     expression, an FFT of one channel) keeps two cores busy better so than each part alone;
-    every job computes what it would alone, to the byte."""
+    every job computes what it would alone, to the byte. Jobs on maps of more than
+    :data:`SIDE_BY_SIDE_PIXELS` ``pixels`` run one after the other (memory)."""
     import numba
 
     cores = min(threads or numba.get_num_threads(), _cores())
-    workers = max(1, min(cores, len(jobs)))
+    workers = 1 if pixels > SIDE_BY_SIDE_PIXELS else max(1, min(cores, len(jobs)))
     if workers == 1:
         return [job() for job in jobs]
     from concurrent.futures import ThreadPoolExecutor

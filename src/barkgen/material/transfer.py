@@ -95,7 +95,8 @@ def transfer_material(
             functools.partial(carry, source.ao_cavities if derived else None),
             functools.partial(carry, source.roughness if carried_roughness else None),
             functools.partial(carry, source.illumination),
-        ]
+        ],
+        pixels=refs.shape[0] * refs.shape[1],
     )
     if cavities is not None and not ("normals" in scanned and "ao" in scanned):
         ao = np.clip(ao + cavities, 0.0, 1.0)

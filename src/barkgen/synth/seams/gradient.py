@@ -173,7 +173,8 @@ def blend_seams(
         [
             functools.partial(resolve_continuous, src[..., c], references, canvas, screening=screening)
             for c in range(src.shape[2])
-        ]
+        ],
+        pixels=references.shape[0] * references.shape[1],
     )
     return np.stack(channels, axis=-1)
 
