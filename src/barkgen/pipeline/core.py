@@ -132,6 +132,11 @@ class PhotoAnalysis:
     illumination : ndarray of float32 or None
         The photo's broad light (:func:`barkgen.material.estimate_illumination`), of which
         ``equalization`` (0 to 1) was taken out of the photo before everything else.
+    steps : dict of str to float
+        Seconds of each step of the analysis: ``labels`` (the light out and the label map),
+        ``label_map`` and ``texture`` (the two solvers' analyses), ``material`` (the wait for
+        the photo's material set after them) and ``material_own`` (its own time, on the
+        second thread beside the solvers').
 
     References
     ----------
@@ -148,6 +153,7 @@ class PhotoAnalysis:
     tbn_labels_in: np.ndarray | None = None
     illumination: np.ndarray | None = None
     equalization: float = 0.0
+    steps: dict[str, float] = field(default_factory=dict)
 
 
 def analyze_photo(
@@ -247,9 +253,20 @@ def _analysis_stage(
     options, wrap, scan = run.options, run.canvas.exemplar_wrap, given.scan
     steps = share_spans(ANALYSIS_SHARES, options.material)
 
+    step_seconds: dict[str, float] = {}
+    mark = [time.perf_counter()]
+
     def report(step: str) -> None:  # the end of the step's share of the analysis, in 1000ths
+        now = time.perf_counter()
+        step_seconds[step], mark[0] = now - mark[0], now
         if progress and step in steps:
             progress(round(1000 * steps[step][1]), 1000)
+
+    def timed_material(*args) -> MaterialSet:  # the photo's material set, on its own thread
+        t = time.perf_counter()
+        made = in_budget(options.threads, photo_material, *args)
+        step_seconds["material_own"] = time.perf_counter() - t
+        return made
 
     # every pool sized, BLAS at one thread; a second thread for the photo's material set
     with thread_budget(options.threads), ThreadPoolExecutor(max_workers=1) as pool:
@@ -273,7 +290,7 @@ def _analysis_stage(
         # second thread while the two solvers analyse the photo, which keep 1.3 of 2 cores busy
         # (the quickstart's analysis without its label map: 5.3 s one after the other, 4.2 s so)
         material = (
-            pool.submit(in_budget, options.threads, photo_material, photo, labels_in, options, wrap, scan, illumination)
+            pool.submit(timed_material, photo, labels_in, options, wrap, scan, illumination)
             if options.material
             else None
         )
@@ -306,6 +323,7 @@ def _analysis_stage(
             tbn_labels_in=tbn_labels_in if options.edges else None,
             illumination=illumination,
             equalization=equalization,
+            steps=step_seconds,
         )
 
 
@@ -359,6 +377,7 @@ def generate(
         analysis = _analysis_stage(photo, run, given, not run.canvas.along, run.progress("analysis"))
     source = analysis.exemplar.image if analysis.exemplar is not None else photo  # what is copied
     timings, t1 = {"analysis": analysis.seconds}, time.perf_counter()
+    timings.update({f"analysis_{step}": seconds for step, seconds in analysis.steps.items()})
     with thread_budget(options.threads):  # every pool sized, BLAS at one thread
         labels = _label_stage(run, analysis, source, resume)
         timings["labels_out"] = time.perf_counter() - t1
