@@ -62,6 +62,8 @@ def test_a_hit_gives_the_same_bytes_for_another_seed(tmp_path, photo):
 
 
 def test_the_key_covers_what_the_analysis_depends_on_and_nothing_else(photo):
+    from barkgen.branching import Structure
+
     key = analysis_digest(photo, OPTIONS)
     # the seed and the run's budget play no part
     assert analysis_digest(photo, GenerateOptions(size=(96, 96), k=3, tile=True, material=True, seed=9)) == key
@@ -75,8 +77,10 @@ def test_the_key_covers_what_the_analysis_depends_on_and_nothing_else(photo):
         analysis_digest(photo, OPTIONS, labels_in=(photo[..., 0] > 128).astype(np.uint8)),
         analysis_digest(photo, OPTIONS, solvers=False),
         analysis_digest(photo.astype(np.uint16), OPTIONS),
+        analysis_digest(photo, OPTIONS, cracks=Structure(2.0, (96, 96))),
+        analysis_digest(photo, OPTIONS, cracks=Structure(2.0, (96, 96), periodic=True)),
     }
-    assert key not in others and len(others) == 6
+    assert key not in others and len(others) == 8
 
 
 def _put_many(folder: str, key: str, analysis, times: int) -> None:

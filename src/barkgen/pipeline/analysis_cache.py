@@ -530,9 +530,13 @@ def cached_analysis(
     t0 = time.perf_counter()
     key = None
     if store is not None:
-        key = analysis_digest(
-            photo, options, extra=extra, labels_in=labels_in, scan=scan, cracks=cracks, solvers=solvers
-        )
+        try:
+            key = analysis_digest(
+                photo, options, extra=extra, labels_in=labels_in, scan=scan, cracks=cracks, solvers=solvers
+            )
+        except TypeError:  # an input the key cannot cover: no cache (never a wrong hit)
+            store = None
+    if store is not None and key is not None:
         found = store.get(key)
         if found is not None:
             seconds = time.perf_counter() - t0
