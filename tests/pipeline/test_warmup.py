@@ -95,3 +95,39 @@ def test_in_two_processes_the_child_runs_the_solver_stages_and_this_one_the_rest
     monkeypatch.setattr(warmup, "_start_child", lambda stages, folder: Child(stages, 1))
     barkgen.warm_up(parallel=True)
     assert ran == ["networks"] + [(s, True) for s in warmup.STAGES]
+
+
+def test_a_kernel_compiled_in_both_processes_is_compiled_again_in_a_new_one(monkeypatch):
+    """Two processes that compile one kernel at once may each write its cache index whole (one
+    signature lost): its index is dropped and every stage runs again in a new process."""
+    ran, started, dropped = [], [], []
+    monkeypatch.setattr(warmup, "_crop", lambda: "crop")
+    monkeypatch.setattr(warmup, "_crack_networks", lambda: ran.append("networks"))
+    monkeypatch.setattr(warmup, "_run_stage", lambda stage, crop, folder, grown: ran.append(stage))
+    monkeypatch.setattr(warmup, "_drop_indexes", lambda names: dropped.extend(sorted(names)))
+
+    class Compiles:
+        names = {"barkgen.k.shared", "barkgen.k.mine"}
+
+        def close(self):
+            pass
+
+    class Child:
+        returncode = 0
+
+        def __init__(self, stages):
+            self.stages = stages
+            started.append(stages)
+
+        def communicate(self):
+            answer = {"seconds": {s: 1.0 for s in self.stages}, "compiled": ["barkgen.k.shared", "barkgen.k.theirs"]}
+            return json.dumps(answer) + "\n", ""
+
+        def poll(self):
+            return 0
+
+    monkeypatch.setattr(warmup, "_Compiles", Compiles)
+    monkeypatch.setattr(warmup, "_start_child", lambda stages, folder: Child(stages))
+    barkgen.warm_up(parallel=True)
+    assert dropped == ["barkgen.k.shared"]
+    assert started == [list(warmup.CHILD_STAGES), list(warmup.STAGES)] and ran == ["networks"]

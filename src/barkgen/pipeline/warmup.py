@@ -28,7 +28,7 @@ kernels, which the solver never calls), then runs what is left (``cracks`` and `
 whose solver kernels are cached by then). No kernel is compiled by both processes at once:
 numba's cache index of a kernel is rewritten whole by whoever compiles it, so two writers
 could drop each other's signatures; if they ever overlap, the overlapping kernels' indexes
-are dropped and the stages run again here, which compiles them once more.
+are dropped and every stage runs again in a new process, which compiles them once more.
 """
 
 from __future__ import annotations
@@ -241,8 +241,11 @@ def _in_two(wanted: list[str], folder: Path, report: Callable[[str, float], None
     stages left to run here, and whether the networks were grown. A child that fails leaves
     its stages to this process (which then raises what went wrong, with its traceback)."""
     child_stages = [s for s in CHILD_STAGES if s in wanted]
+    try:
+        child = _start_child(child_stages, folder)
+    except OSError:  # no interpreter to start (an embedded Python): all of it here
+        return list(wanted), False
     compiles = _Compiles()
-    child = _start_child(child_stages, folder)
     grown = "cracks" in wanted
     try:
         if grown:
@@ -261,9 +264,12 @@ def _in_two(wanted: list[str], folder: Path, report: Callable[[str, float], None
     for stage in child_stages:
         report(stage, answer["seconds"][stage])
     overlap = compiles.names & set(answer["compiled"])
-    if overlap:  # never by design (see the module's docstring); made good if it happens
+    if overlap:  # never by design (see the module's docstring); made good if it happens: in a
+        # new process, which holds none of them in memory, so that it compiles and saves them
         _drop_indexes(overlap)
-        return list(wanted), grown
+        again = _start_child(list(wanted), folder)
+        again.communicate()
+        return ([] if again.returncode == 0 else list(wanted)), grown
     return [s for s in wanted if s not in child_stages], grown
 
 
