@@ -55,7 +55,17 @@ def pytest_configure(config) -> None:
     import tempfile
 
     os.environ["BARKGEN_LIBRARY"] = str(Path(tempfile.mkdtemp(prefix="barkgen-test-library-")) / "lib")
-    os.environ["BARKGEN_CACHE_DIR"] = tempfile.mkdtemp(prefix="barkgen-test-cache-")
+    os.environ["BARKGEN_CACHE_DIR"] = _CACHE_DIR[0] = tempfile.mkdtemp(prefix="barkgen-test-cache-")
+    os.environ["BARKGEN_CACHE_MAX"] = "512M"
+
+
+#: the session's analysis cache folder (removed when the session ends: its entries are large)
+_CACHE_DIR: list[str] = [""]
+
+
+def pytest_unconfigure(config) -> None:
+    if _CACHE_DIR[0]:
+        shutil.rmtree(_CACHE_DIR[0], ignore_errors=True)
 
 
 def bark_exemplar(name: str, size: int) -> np.ndarray:
