@@ -23,6 +23,15 @@ is median over median. ``--sheets DIR`` writes the first seed's contact sheets.
 
 Speed: the bundled sample's 256x256 centre crop to 1024x1024, ``generate`` against plain
 ``synthesize`` in process, interleaved, medians over ``--runs`` (target <= 20 s).
+
+Stages (``--profile``; with ``--skip-labelmaps --skip-textures --skip-speed`` alone): the
+quickstart's run (tileable, material set) on the bundled sample and ``--profile-photos`` of the
+shared photos, each a centre crop of 512 and 1024 px to an output of its size: every step of
+the analysis (``report.json``'s ``analysis_*``: the light out and the label map, the two
+solvers' analyses, the material set on its thread) and of another seed given the analysis
+(labels out, texture, material), in a fresh interpreter per case, medians over ``--runs``
+seeds. ``--profile-base SRC`` runs every case with another checkout's ``src`` too, interleaved
+(``git worktree add /tmp/base COMMIT``), and prints the ratio of each step.
 """
 
 from __future__ import annotations
@@ -171,6 +180,67 @@ def speed(runs: int) -> dict:
     return {"generate": statistics.median(gen), "synthesize": statistics.median(plain), "runs": runs}
 
 
+#: one case of ``--profile``, in a fresh interpreter: the analysis' steps, then another seed's
+#: stages given it (medians over the seeds after a first, which loads the kernels)
+PROFILE_CASE = """
+import json, statistics, sys
+from barkgen.io import read_centre_crop
+from barkgen.pipeline import GenerateOptions, analyze_photo, generate
+path, size, runs = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+photo = read_centre_crop(path, size)
+options = GenerateOptions(size=(size, size), tile=True, material=True)
+analysis = analyze_photo(photo, options)
+steps = dict(getattr(analysis, "steps", {}), analysis=analysis.seconds)
+seeds = []
+for seed in range(runs + 1):
+    timings = generate(photo, GenerateOptions(size=(size, size), tile=True, material=True, seed=seed + 1), analysis=analysis).report["timings_s"]
+    seeds.append({k: v for k, v in timings.items() if not k.startswith("analysis")})
+per_seed = {k: statistics.median(s[k] for s in seeds[1:]) for k in seeds[1]}
+per_seed["seed"] = per_seed.pop("total") - analysis.seconds
+print(json.dumps({**steps, **per_seed}))
+"""
+
+
+def profile_case(src: Path, photo: Path, size: int, runs: int) -> dict:
+    import subprocess
+
+    env = {**os.environ, "PYTHONPATH": str(src)}
+    out = subprocess.run(
+        [sys.executable, "-c", PROFILE_CASE, str(photo), str(size), str(runs)],
+        check=True,
+        capture_output=True,
+        text=True,
+        env=env,
+    ).stdout
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def profile(photos: list[Path], sizes: list[int], runs: int, base: Path | None) -> list[dict]:
+    """Every step's seconds per case (and the base checkout's, interleaved), printed as a table."""
+    rows = []
+    for photo in photos:
+        for size in sizes:
+            row = {"photo": photo.stem, "size": size, "now": profile_case(REPO / "src", photo, size, runs)}
+            if base is not None:
+                row["base"] = profile_case(base, photo, size, runs)
+            rows.append(row)
+            print(f"  profiled {photo.stem} at {size}", file=sys.stderr, flush=True)
+    steps = [k for k in rows[0]["now"] if k != "analysis_material"]
+    print("| photo | size | " + " | ".join(steps) + " |")
+    print("|---|---|" + "---|" * len(steps))
+    for row in rows:
+        cells = []
+        for step in steps:
+            now = row["now"].get(step)
+            then = row.get("base", {}).get(step)
+            cell = "" if now is None else f"{now:.2f}"
+            if now is not None and then:
+                cell += f" ({now / then:.2f}x)"
+            cells.append(cell)
+        print(f"| {row['photo']} | {row['size']} | " + " | ".join(cells) + " |")
+    return rows
+
+
 def _worse(g: dict, p: dict, key: str) -> float:
     """How many times worse than plain synthesis (sharpness: distance from 1)."""
     if key == "sharpness_ratio":
@@ -189,6 +259,13 @@ def main() -> int:
     ap.add_argument("--strategy", default="joint", help="generate's label-map strategy for the textures")
     ap.add_argument("--sheets", type=Path, default=None, help="write each run's contact sheet here")
     ap.add_argument("--json", default=None, help="also write all figures to this file")
+    ap.add_argument("--profile", action="store_true", help="every step's seconds on four photos at 512 and 1024 px")
+    ap.add_argument(
+        "--profile-photos",
+        default="oak_furrowed_moss_01,pine_plated_01,willow_furrowed_01",
+        help="the shared photos profiled beside the bundled sample",
+    )
+    ap.add_argument("--profile-base", type=Path, default=None, help="another checkout's src, profiled alongside")
     ap.add_argument("--skip-labelmaps", action="store_true")
     ap.add_argument("--skip-textures", action="store_true")
     ap.add_argument("--skip-speed", action="store_true")
@@ -269,9 +346,24 @@ def main() -> int:
         print(f"| synthesize (plain), {sp['runs']} runs | {sp['synthesize']:.2f} s |")
         print(f"| generate (labels + label map + texture-by-numbers), {sp['runs']} runs | {sp['generate']:.2f} s |")
         print(f"| ratio | {sp['generate'] / sp['synthesize']:.2f}x |")
+    if a.profile:
+        from barkgen.data import sample_exemplar_path
+
+        shared = [_photo_path(name) for name in a.profile_photos.split(",") if name]
+        print()
+        out["profile"] = profile([Path(sample_exemplar_path()), *shared], [512, 1024], a.runs, a.profile_base)
     if a.json:
         Path(a.json).write_text(json.dumps(out, indent=1))
     return 0
+
+
+def _photo_path(name: str) -> Path:
+    """A shared photo by its name (any suffix)."""
+    for suffix in sorted(PHOTO_SUFFIXES):
+        path = SHARED / "data" / "bark" / f"{name}{suffix}"
+        if path.exists():
+            return path
+    raise SystemExit(f"no photo {name} in {SHARED / 'data' / 'bark'}")
 
 
 if __name__ == "__main__":
