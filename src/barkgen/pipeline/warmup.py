@@ -183,7 +183,7 @@ class _Compiles:
                 func = getattr(ev.data["dispatcher"], "py_func", None)
                 module = getattr(func, "__module__", "") or ""
                 if module.startswith("barkgen."):
-                    names.add(f"{module}.{func.__qualname__}")
+                    names.add(f"{module}.{getattr(func, '__qualname__', '')}")
 
             def on_end(self, ev) -> None:
                 pass
