@@ -26,7 +26,8 @@ Medians; ratio server / direct per seed after the first.
 (a) the bundled sample (1024²) uploaded -> its label map shown on the photo's page; (b) Generate
 clicked with the page's defaults (1024x1024; tileable and material off unless ``--tile`` /
 ``--material``) -> the result's texture shown; (c) another seed (the result's "New seed…" page,
-Generate) -> shown. Each run also splits (b) and (c) into the job's wait, its run in the worker
+Generate) -> shown. ``--think S``: the user's pause between the label map shown and Generate
+(the server makes the default settings' analysis meanwhile). Each run also splits (b) and (c) into the job's wait, its run in the worker
 (as the server records them) and the rest (the page, the transfer). Medians of ``--runs``.
 """
 
@@ -155,7 +156,7 @@ def _generate_and_show(page) -> float:
     return time.perf_counter() - t
 
 
-def browser_run(browser, photo: Path, tile: bool, material: bool) -> dict:
+def browser_run(browser, photo: Path, tile: bool, material: bool, think_s: float = 0.0) -> dict:
     """One run on a new server, library and analysis cache: the three figures in seconds and the
     server's record of the two jobs."""
     from bench_relief_editor import _serve
@@ -175,6 +176,7 @@ def browser_run(browser, photo: Path, tile: bool, material: bool) -> dict:
             page.get_by_test_id("param-tile").set_checked(tile)
             page.get_by_test_id("param-material").set_checked(material)
             size = page.get_by_test_id("param-size").input_value()
+            time.sleep(think_s)  # the user looks at the label map and the settings
             generate_s = _generate_and_show(page)
             page.get_by_test_id("another-seed").click()
             page.wait_for_url("**/exemplars/*")
@@ -217,7 +219,7 @@ def browser_main(args) -> None:
         browser = playwright.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
         try:
             for i in range(args.runs):
-                run = browser_run(browser, SAMPLE, args.tile, args.material)
+                run = browser_run(browser, SAMPLE, args.tile, args.material, args.think)
                 runs.append(run)
                 jobs = " | ".join(f"wait {j['wait_s']:.2f} run {j['run_s']:.2f}" for j in run["jobs"])
                 print(
@@ -238,7 +240,8 @@ def browser_main(args) -> None:
     size = runs[0]["size"]
     print(
         f"\nweb app in Chromium: sample 1024², {size}, tile {'on' if args.tile else 'off'}, "
-        f"material {'on' if args.material else 'off'}; medians of {len(runs)} runs"
+        f"material {'on' if args.material else 'off'}, {args.think:g} s between the label map and Generate; "
+        f"medians of {len(runs)} runs"
     )
     rows = [
         ("upload -> label map shown", med("upload_s"), BROWSER_TARGETS_S["upload"], None),
@@ -261,6 +264,9 @@ def main() -> None:
     parser.add_argument("--browser", action="store_true", help="the three figures a user sees, in Chromium")
     parser.add_argument("--runs", type=int, default=3, help="--browser: runs (medians)")
     parser.add_argument("--tile", action="store_true", help="--browser: tileable sets")
+    parser.add_argument(
+        "--think", type=float, default=0.0, help="--browser: seconds between the label map shown and Generate"
+    )
     parser.add_argument("--size", type=int, default=512)
     parser.add_argument("--seeds", type=int, default=4)
     parser.add_argument("--material", action="store_true", help="material sets too")

@@ -130,6 +130,9 @@ def serve(
     import uvicorn
 
     app = create_app(library, limits=limits, hosts=allowed_hosts(host))
+    # the worker starts with the server and makes a new photo's label map, then the analysis of
+    # the page's defaults, before they are asked for
+    app.state.barkgen.jobs.eager = True
     # open event streams must not hold a Ctrl-C: they are cut after 2 s
     config = uvicorn.Config(app, host=host, port=port, log_level="warning", timeout_graceful_shutdown=2)
     server = uvicorn.Server(config)

@@ -113,6 +113,10 @@ class JobManager:
 
     def __init__(self, library: Library) -> None:
         self.library = library
+        #: ``barkgen serve``'s way (:func:`barkgen.web.serve` sets it): the worker started with
+        #: the queue, and label jobs that carry the page's default analysis run it next
+        #: (:attr:`~barkgen.web.worker.LabelSpec.prefetch`)
+        self.eager = False
         self._jobs: dict[str, Job] = {}
         self._queue: deque[str] = deque()
         self._lock = threading.Condition()
@@ -171,11 +175,15 @@ class JobManager:
             self._lock.notify_all()
         return job
 
-    def submit_labels(self, exemplar_id: int, k: int, labels_key: dict, method: str = "color") -> Job:
+    def submit_labels(
+        self, exemplar_id: int, k: int, labels_key: dict, method: str = "color", prefetch: dict | None = None
+    ) -> Job:
         """Queue the making of a photo's label map of ``k`` labels, ahead of the waiting
         generate jobs (it takes seconds); the PNG is stored as the library analysis
         ``labels_in`` under ``labels_key``. A label job of the same photo and ``k`` that is
-        queued or running is returned instead of a second one."""
+        queued or running is returned instead of a second one. ``prefetch``: the
+        :class:`~barkgen.pipeline.GenerateOptions` keywords of the analysis the worker makes
+        next from this label map (with :attr:`eager`)."""
         with self._lock:
             for job in self._jobs.values():
                 if (
@@ -191,7 +199,7 @@ class JobManager:
                 id=secrets.token_hex(8),
                 exemplar_id=exemplar_id,
                 params={"k": k, "method": method},
-                spec={},
+                spec={"options": prefetch} if prefetch is not None else {},
                 labels_key=labels_key,
                 kind="labels",
                 order=next(self._counter),
@@ -356,6 +364,11 @@ class JobManager:
 
     # -- the dispatcher thread --------------------------------------------------------------
     def _run(self) -> None:
+        if self.eager:  # its start (a process, its imports) before the first job, not in it
+            try:
+                self._ensure_worker(load_ahead=True)
+            except OSError as exc:
+                _log.warning("the worker process did not start ahead (%s)", exc)
         while True:
             with self._lock:
                 while not self._queue and not self._stopping:
@@ -371,7 +384,12 @@ class JobManager:
                 spec: JobSpec | LabelSpec
                 if job.kind == "labels":
                     spec = LabelSpec(
-                        job_id=job.id, photo=photo, k=job.params["k"], method=job.params.get("method", "color")
+                        job_id=job.id,
+                        photo=photo,
+                        k=job.params["k"],
+                        method=job.params.get("method", "color"),
+                        prefetch=(fields or {}).get("options") if self.eager and not exemplar.maps else None,
+                        photo_hash=exemplar.image_hash,
                     )
                 else:  # (a job without its fields: the TypeError below)
                     set_files = self.library.set_files(exemplar.id) if exemplar.maps else None
@@ -394,13 +412,15 @@ class JobManager:
                 self._end_worker()
                 self._finish(job, state="failed", error=f"internal error ({type(exc).__name__}: {exc})")
 
-    def _ensure_worker(self) -> None:
+    def _ensure_worker(self, load_ahead: bool = False) -> None:
         if self._process is not None and self._process.is_alive():
             return
         self._end_worker()  # a worker that died between jobs: reap it, close its pipe
         context = multiprocessing.get_context("spawn")
         parent, child = context.Pipe()
-        self._process = context.Process(target=worker_main, args=(child,), daemon=True, name="barkgen-worker")
+        self._process = context.Process(
+            target=worker_main, args=(child, load_ahead), daemon=True, name="barkgen-worker"
+        )
         self._process.start()
         child.close()
         self._conn = parent

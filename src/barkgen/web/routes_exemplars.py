@@ -76,6 +76,11 @@ def store_upload(
             source="uploaded",
             max_pixels=limits.max_upload_pixels,
         )
+    if state.jobs.eager:  # the page asks for it next: its label job starts now
+        from barkgen.pipeline import GenerateOptions
+
+        defaults = GenerateOptions()
+        request_labels(state, exemplar.id, defaults.k, defaults.method)
     return {"id": exemplar.id, "existing": False}
 
 
@@ -153,7 +158,13 @@ def request_labels(state: AppState, exemplar_id: int, k: int, method: str = "col
     url = f"/api/exemplars/{exemplar_id}/labels.png?k={k}&method={method}"
     if state.library.analysis(exemplar_id, "labels_in", labels_key(k, method)) is not None:
         return {"k": k, "method": method, "url": url, "job": None}
-    job = state.jobs.submit_labels(exemplar_id, k, labels_key(k, method), method)
+    prefetch = None
+    if state.jobs.eager:  # the label map of the page's defaults: their analysis follows it
+        from barkgen.web.routes_jobs import page_default_options
+
+        defaults = page_default_options()
+        prefetch = defaults if (defaults["k"], defaults["method"]) == (k, method) else None
+    job = state.jobs.submit_labels(exemplar_id, k, labels_key(k, method), method, prefetch=prefetch)
     return {"k": k, "method": method, "url": url, "job": state.jobs.snapshot(job.id)}
 
 

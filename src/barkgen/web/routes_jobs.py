@@ -114,6 +114,12 @@ def request_options(request: BaseModel, options_class: type = GenerateOptions, *
     }
 
 
+def page_default_options() -> dict:
+    """The :class:`~barkgen.pipeline.GenerateOptions` keywords of a generate request with the
+    page's defaults (seed 0): the analysis most first jobs of a photo need."""
+    return request_options(JobRequest(exemplar_id=0), seed=0)
+
+
 def check_size(limits: WebLimits, text: str) -> tuple[int, int]:
     """``"WxH"`` as ``(height, width)``, within the server's largest output side."""
     height, width = parse_size(text)

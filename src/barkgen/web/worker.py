@@ -8,6 +8,12 @@ one started). It keeps the last few :class:`~barkgen.pipeline.PhotoAnalysis` so 
 seed of the same photo skips the per-photo analysis (same bytes either way), and below them the
 analysis cache on disk that ``barkgen generate`` and ``batch`` share
 (:func:`barkgen.pipeline.cached_analysis`).
+
+A label job may carry the options of the page's defaults (:attr:`LabelSpec.prefetch`): once the
+label map is sent, the worker goes on to make the photo's analysis for them from that label map,
+so that the Generate most users click next pays only for its seed. It is a guess: a job that
+arrives meanwhile with other analysis options stops it at its next step (a job with the same
+ones takes it over).
 """
 
 from __future__ import annotations
@@ -89,11 +95,20 @@ class LabelSpec:
     photo: bytes
     k: int
     method: str = "color"
+    #: the :class:`~barkgen.pipeline.GenerateOptions` keywords of the analysis to make next
+    #: (the page's defaults), from this label map; None: none
+    prefetch: dict | None = None
+    #: the photo's hash (the worker's analyses are kept under it)
+    photo_hash: str = ""
 
 
-def run_labels(spec: LabelSpec, send) -> None:
+class _Superseded(Exception):
+    """A job with other analysis options arrived while an analysis was made ahead."""
+
+
+def run_labels(spec: LabelSpec, send) -> np.ndarray | None:
     """Make one photo's label map, reporting :class:`Done` (``{"labels_in.png": PNG}``) or
-    :class:`Failed` through ``send``."""
+    :class:`Failed` through ``send``; the label map as its PNG reads (None when it failed)."""
     from barkgen.errors import BarkgenError
     from barkgen.io import decode_image, encode_png
     from barkgen.pipeline import GenerateOptions
@@ -114,8 +129,54 @@ def run_labels(spec: LabelSpec, send) -> None:
         return
     except MemoryError:
         send(Failed(spec.job_id, "out of memory while making the label map"))
-        return
+        return None
     send(Done(spec.job_id, {"labels_in.png": data}, {}))
+    return decode_image(data, "labels")  # as a generate job receives it (its analysis' key)
+
+
+def job_analysis_key(photo_hash: str, options, scan: bool = False, cracks_digest: str | None = None) -> tuple:
+    """The key of the worker's kept analyses: the photo, whether a scan makes its material
+    set, the options the analysis depends on and an edited crack network's digest."""
+    from barkgen.pipeline import analysis_key
+
+    return (photo_hash, scan, analysis_key(options), cracks_digest)
+
+
+def prefetch_analysis(spec: LabelSpec, label_map: np.ndarray, analyses: OrderedDict, conn) -> object | None:
+    """Make the analysis of ``spec.prefetch`` from the label map just made (into ``analyses``,
+    and the analysis cache on disk), watching ``conn``: a job received meanwhile is returned
+    for the caller to run next; the analysis is given up for it at its next step unless it
+    needs the same analysis. Any failure only ends the guess."""
+    from barkgen.io import decode_image
+    from barkgen.pipeline import GenerateOptions, cached_analysis, open_store
+
+    pending: list = []
+    try:
+        options = GenerateOptions(**(spec.prefetch or {}))
+        key = job_analysis_key(spec.photo_hash, options)
+        if key in analyses:
+            return None
+
+        def watch(done: int, total: int) -> None:
+            if pending or not conn.poll():
+                return
+            pending.append(conn.recv())
+            job = pending[0]
+            same = isinstance(job, JobSpec) and not job.set_files and not job.crack_structure
+            if not same or job_analysis_key(job.photo_hash, GenerateOptions(**job.options)) != key:
+                raise _Superseded
+
+        photo = decode_image(spec.photo, "photo")
+        analyses[key] = cached_analysis(
+            photo, options, labels_in=label_map, progress=watch, store=open_store(), wait=False
+        )
+        while len(analyses) > ANALYSES_KEPT:
+            analyses.popitem(last=False)
+    except _Superseded:
+        pass
+    except Exception:  # noqa: BLE001 - only a guess: the job that needs it makes it
+        traceback.print_exc()
+    return pending[0] if pending else None
 
 
 def encode_result(photo: np.ndarray, result, spec: JobSpec) -> dict[str, bytes]:
@@ -175,7 +236,6 @@ def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
     from barkgen.pipeline import (
         GenerateOptions,
         adjusted_result,
-        analysis_key,
         cached_analysis,
         generate,
         open_store,
@@ -203,7 +263,7 @@ def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
         if spec.set_files and options.material:
             scan = scanned_set_from_files(spec.set_files, where=spec.source)
         # an edited crack network is another analysis of the same photo
-        key = (spec.photo_hash, scan is not None, analysis_key(options), digest)
+        key = job_analysis_key(spec.photo_hash, options, scan is not None, digest)
         analysis = analyses.get(key)
         if analysis is None:
             # generate() given an analysis reports from the end of its analysis stage on; under
@@ -246,18 +306,78 @@ def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
         send(Failed(spec.job_id, f"could not send the result ({exc})"))
 
 
-def worker_main(conn) -> None:
-    """The worker process: run the jobs received on ``conn`` one after the other until it is
-    closed (or the process is ended)."""
-    analyses: OrderedDict = OrderedDict()
-    while True:
+def load_generate(spec: LabelSpec, conn) -> None:
+    """A small generate of a corner of the photo with ``spec.prefetch``'s options, so that the
+    first job of a new worker finds its kernels loaded and its modules imported (about 2 s of a
+    first generate's); given up as soon as a message waits on ``conn``."""
+    from barkgen.io import decode_image
+    from barkgen.pipeline import GenerateOptions, generate
+
+    def watch(done: int, total: int) -> None:
+        if conn.poll():
+            raise _Superseded
+
+    try:
+        corner = decode_image(spec.photo, "photo")[:96, :96]
+        options = GenerateOptions(**{**(spec.prefetch or {}), "size": (64, 64), "seed": 0})
+        generate(corner, options, progress=watch)
+    except _Superseded:
+        pass
+    except Exception:  # noqa: BLE001 - only a warm-up: the job reports its own errors
+        traceback.print_exc()
+
+
+def _load_modules() -> None:
+    """Import what the jobs run (the pipeline, the label maps' OpenCV and scikit-learn), so that
+    a worker started ahead of its first job (``barkgen serve``) spends none of it importing."""
+    import importlib
+
+    for name in (
+        "barkgen.pipeline",
+        "barkgen.pipeline.core",
+        "barkgen.pipeline.labelmaps",
+        "barkgen.labels",
+        "barkgen.material",
+        "barkgen.synth",
+        "barkgen.io",
+        "sklearn.cluster",
+        "PIL.Image",
+    ):
         try:
-            spec = conn.recv()
-        except (EOFError, OSError):
-            return
+            importlib.import_module(name)
+        except Exception:  # noqa: BLE001 - the job that needs it reports the error
+            pass
+
+
+def worker_main(conn, load_ahead: bool = False) -> None:
+    """The worker process: run the jobs received on ``conn`` one after the other until it is
+    closed (or the process is ended); ``load_ahead``: import the jobs' modules first (a worker
+    started before it has a job)."""
+    if load_ahead:
+        _load_modules()
+    analyses: OrderedDict = OrderedDict()
+    pending = None
+    loaded = False  # a generate has run in this process (its kernels are loaded)
+    while True:
+        if pending is not None:
+            spec, pending = pending, None
+        else:
+            try:
+                spec = conn.recv()
+            except (EOFError, OSError):
+                return
         if spec is None:
             return
         if isinstance(spec, LabelSpec):
-            run_labels(spec, conn.send)
+            label_map = run_labels(spec, conn.send)
+            if label_map is not None and spec.prefetch is not None:
+                try:
+                    pending = prefetch_analysis(spec, label_map, analyses, conn)
+                    if pending is None and not loaded:
+                        load_generate(spec, conn)
+                        loaded = True
+                except (EOFError, OSError):
+                    return
         else:
             run_job(spec, analyses, conn.send)
+            loaded = True
