@@ -90,7 +90,7 @@ def test_in_two_processes_the_child_runs_the_solver_stages_and_this_one_the_rest
     seconds = barkgen.warm_up(on_stage=lambda stage, s: seen.append(stage), parallel=True)
     assert ran == ["networks", ("cracks", True), ("bilayer", True)]
     assert list(seconds) == list(warmup.STAGES) and seconds["synth"] == 1.0
-    assert seen == ["cracks", "synth", "generate", "preview", "cracks", "bilayer"]
+    assert seen == list(warmup.STAGES)
     ran.clear()
     monkeypatch.setattr(warmup, "_start_child", lambda stages, folder: Child(stages, 1))
     barkgen.warm_up(parallel=True)

@@ -248,22 +248,23 @@ def _drop_indexes(names: Iterable[str]) -> None:
             os.remove(index)
 
 
-def _in_two(wanted: list[str], folder: Path, report: Callable[[str, float], None]) -> tuple[list[str], bool]:
+def _in_two(wanted: list[str], folder: Path, report: Callable[[str, float], None]) -> tuple[list[str], float | None]:
     """Run the child's stages in a child process while this one grows crack networks; the
-    stages left to run here, and whether the networks were grown. A child that fails leaves
-    its stages to this process (which then raises what went wrong, with its traceback)."""
+    stages left to run here, and the seconds the networks took (None: not grown). A child
+    that fails leaves its stages to this process (which then raises what went wrong, with its
+    traceback)."""
     child_stages = [s for s in CHILD_STAGES if s in wanted]
     try:
         child = _start_child(child_stages, folder)
     except OSError:  # no interpreter to start (an embedded Python): all of it here
-        return list(wanted), False
+        return list(wanted), None
     compiles = _Compiles()
-    grown = "cracks" in wanted
+    grown = None
     try:
-        if grown:
+        if "cracks" in wanted:
             t0 = time.perf_counter()
             _crack_networks()
-            report("cracks", time.perf_counter() - t0)
+            grown = time.perf_counter() - t0
         out, _ = child.communicate()
     finally:
         if child.poll() is None:
@@ -334,14 +335,16 @@ def warm_up(
     def report(stage: str, took: float) -> None:
         seconds[stage] = seconds.get(stage, 0.0) + took
         if on_stage is not None:
-            on_stage(stage, took)
+            on_stage(stage, seconds[stage])
 
     with tempfile.TemporaryDirectory(prefix="barkgen-warm-up-") as tmp, quiet():
         folder = Path(tmp) / "set"
-        here, grown = _in_two(wanted, folder, report) if parallel else (wanted, False)
+        here, grown = _in_two(wanted, folder, report) if parallel else (wanted, None)
+        if grown is not None:  # the cracks stage's first part (reported with the rest)
+            seconds["cracks"] = grown
         for stage in here:
             t0 = time.perf_counter()
-            _run_stage(stage, crop, folder, grown)
+            _run_stage(stage, crop, folder, grown is not None)
             report(stage, time.perf_counter() - t0)
     return {s: seconds[s] for s in STAGES if s in seconds}
 
