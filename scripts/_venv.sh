@@ -3,8 +3,8 @@
 # installers' log and one line, exit 1.
 # The installer is uv (`uv pip install`, from the same pyproject.toml; the install takes a third of
 # pip's time: benchmarks/README.md, "The set-up"): the uv on PATH, else the venv's own, which pip
-# installs into the venv first (one wheel, a few seconds). pip installs everything itself when uv
-# can't be had or fails, or with BARKGEN_INSTALLER=pip.
+# installs into the venv first (its wheel only, never a build: a few seconds). pip installs
+# everything itself when uv can't be had or fails, or with BARKGEN_INSTALLER=pip.
 VENV=${BARKGEN_VENV:-.venv}
 [ -x "$VENV/bin/python" ] || python3 -m venv "$VENV"
 log=$(mktemp)
@@ -12,7 +12,7 @@ uv_bin=""
 if [ "${BARKGEN_INSTALLER:-uv}" != pip ]; then
   if command -v uv >/dev/null; then
     uv_bin=$(command -v uv)
-  elif [ -x "$VENV/bin/uv" ] || "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check uv >"$log" 2>&1; then
+  elif [ -x "$VENV/bin/uv" ] || "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check --only-binary uv uv >"$log" 2>&1; then
     uv_bin=$VENV/bin/uv
   fi
 fi
