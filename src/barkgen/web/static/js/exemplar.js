@@ -28,7 +28,9 @@ const KINDS = {
 /** What the photo suits (GET .../kinds), once known. */
 let kinds = null;
 /** How often a label job is checked while the label map is made (ms). */
-const LABEL_POLL_MS = 300;
+const LABEL_POLL_MS = 100;
+/** The longest the kinds of bark wait for the first label map (ms). */
+const KINDS_AFTER_MS = 8000;
 
 const exemplarId = idFromPath();
 /** The crack view (shown for the kind "cracks"). */
@@ -105,13 +107,19 @@ function renderResults(results) {
 // ---------------------------------------------------------------------------
 // Input label map (reloaded when k changes)
 
+/** Follow the label maps the form asks for; resolves once the first is shown (or has failed). */
 function setupLabels() {
   const img = $("labels-in");
   const loading = $("labels-loading");
   const errorBox = $("labels-error");
   let shownK = null;
+  let settle;
+  const first = new Promise((resolve) => {
+    settle = resolve;
+  });
 
   const fail = (message) => {
+    settle();
     loading.hidden = true;
     showError(errorBox, message);
     shownK = null; // allow a retry with the same k
@@ -146,6 +154,7 @@ function setupLabels() {
     }
   };
   img.addEventListener("load", () => {
+    settle();
     loading.hidden = true;
     img.classList.remove("is-loading");
   });
@@ -167,6 +176,7 @@ function setupLabels() {
   });
   $("param-method").addEventListener("change", load);
   load();
+  return first;
 }
 
 // ---------------------------------------------------------------------------
@@ -534,8 +544,10 @@ async function main() {
     applyDefaults([]);
   }
   setupForm();
-  setupLabels();
-  loadKinds();
+  // what the photo suits (its crack network extracted in the server) once its label map is
+  // shown: the label map, which the page waits for, has the server's cores to itself
+  const labelsShown = setupLabels();
+  Promise.race([labelsShown, new Promise((resolve) => setTimeout(resolve, KINDS_AFTER_MS))]).then(loadKinds);
   try {
     const exemplar = await api.getExemplar(exemplarId);
     renderExemplar(exemplar);
