@@ -54,7 +54,7 @@ def test_a_job_of_the_same_analysis_takes_it_over_with_the_same_bytes(png, monke
     job = JobSpec("job", png, "hash", "photo", {**options, "seed": 5}, "set", labels_in=encode_png(label_map))
     analyses: OrderedDict = OrderedDict()
     # the job arrives while the analysis is made: it goes on, and the job comes back to be run
-    assert prefetch_analysis(spec, label_map, analyses, FakeConn(job)) is job
+    assert prefetch_analysis(spec, label_map, analyses, FakeConn(job)) == [job]
     from barkgen.pipeline import GenerateOptions
 
     assert list(analyses) == [job_analysis_key("hash", GenerateOptions(**options))]
@@ -69,7 +69,10 @@ def test_a_job_of_another_analysis_stops_it(png, monkeypatch):
     spec, label_map = _labels(png, options)
     other = JobSpec("job", png, "hash", "photo", {**options, "size": (48, 48)}, "set")
     analyses: OrderedDict = OrderedDict()
-    assert prefetch_analysis(spec, label_map, analyses, FakeConn(other)) is other
+    assert prefetch_analysis(spec, label_map, analyses, FakeConn(other)) == [other]
+    assert not analyses
+    # the worker told to end (None) ends it too, and is handed back
+    assert prefetch_analysis(spec, label_map, analyses, FakeConn(None)) == [None]
     assert not analyses
 
 

@@ -126,7 +126,7 @@ def run_labels(spec: LabelSpec, send) -> np.ndarray | None:
         data = encode_png(label_map)
     except BarkgenError as exc:
         send(Failed(spec.job_id, str(exc)))
-        return
+        return None
     except MemoryError:
         send(Failed(spec.job_id, "out of memory while making the label map"))
         return None
@@ -142,28 +142,34 @@ def job_analysis_key(photo_hash: str, options, scan: bool = False, cracks_digest
     return (photo_hash, scan, analysis_key(options), cracks_digest)
 
 
-def prefetch_analysis(spec: LabelSpec, label_map: np.ndarray, analyses: OrderedDict, conn) -> object | None:
+def prefetch_analysis(
+    spec: LabelSpec, label_map: np.ndarray, analyses: OrderedDict, conn
+) -> list[JobSpec | LabelSpec | None]:
     """Make the analysis of ``spec.prefetch`` from the label map just made (into ``analyses``,
-    and the analysis cache on disk), watching ``conn``: a job received meanwhile is returned
-    for the caller to run next; the analysis is given up for it at its next step unless it
+    and the analysis cache on disk), watching ``conn``: the message received meanwhile, if any,
+    is returned (in a list) for the caller to take next; the analysis is given up for it at its next step unless it
     needs the same analysis. Any failure only ends the guess."""
     from barkgen.io import decode_image
     from barkgen.pipeline import GenerateOptions, cached_analysis, open_store
 
-    pending: list = []
+    pending: list[JobSpec | LabelSpec | None] = []
     try:
         options = GenerateOptions(**(spec.prefetch or {}))
         key = job_analysis_key(spec.photo_hash, options)
         if key in analyses:
-            return None
+            return pending
 
         def watch(done: int, total: int) -> None:
             if pending or not conn.poll():
                 return
             pending.append(conn.recv())
             job = pending[0]
-            same = isinstance(job, JobSpec) and not job.set_files and not job.crack_structure
-            if not same or job_analysis_key(job.photo_hash, GenerateOptions(**job.options)) != key:
+            if not (
+                isinstance(job, JobSpec)
+                and not job.set_files
+                and not job.crack_structure
+                and job_analysis_key(job.photo_hash, GenerateOptions(**job.options)) == key
+            ):
                 raise _Superseded
 
         photo = decode_image(spec.photo, "photo")
@@ -176,7 +182,7 @@ def prefetch_analysis(spec: LabelSpec, label_map: np.ndarray, analyses: OrderedD
         pass
     except Exception:  # noqa: BLE001 - only a guess: the job that needs it makes it
         traceback.print_exc()
-    return pending[0] if pending else None
+    return pending
 
 
 def encode_result(photo: np.ndarray, result, spec: JobSpec) -> dict[str, bytes]:
@@ -356,11 +362,12 @@ def worker_main(conn, load_ahead: bool = False) -> None:
     if load_ahead:
         _load_modules()
     analyses: OrderedDict = OrderedDict()
-    pending = None
+    pending: list[JobSpec | LabelSpec | None] = []  # a message received while making a guess
     loaded = False  # a generate has run in this process (its kernels are loaded)
     while True:
-        if pending is not None:
-            spec, pending = pending, None
+        spec: JobSpec | LabelSpec | None
+        if pending:
+            spec = pending.pop()
         else:
             try:
                 spec = conn.recv()
@@ -373,7 +380,7 @@ def worker_main(conn, load_ahead: bool = False) -> None:
             if label_map is not None and spec.prefetch is not None:
                 try:
                     pending = prefetch_analysis(spec, label_map, analyses, conn)
-                    if pending is None and not loaded:
+                    if not pending and not loaded:
                         load_generate(spec, conn)
                         loaded = True
                 except (EOFError, OSError):
