@@ -26,8 +26,9 @@ Medians; ratio server / direct per seed after the first.
 (a) the bundled sample (1024²) uploaded -> its label map shown on the photo's page; (b) Generate
 clicked with the page's defaults (1024x1024; tileable and material off unless ``--tile`` /
 ``--material``) -> the result's texture shown; (c) another seed (the result's "New seed…" page,
-Generate) -> shown. ``--think S``: the user's pause between the label map shown and Generate
-(the server makes the default settings' analysis meanwhile). Each run also splits (b) and (c) into the job's wait, its run in the worker
+Generate) -> shown. ``--pick S``: the user's pause between the page opened and the upload
+(the server's job process starts meanwhile); ``--think S``: between the label map shown and
+Generate (the server makes the default settings' analysis meanwhile). Each run also splits (b) and (c) into the job's wait, its run in the worker
 (as the server records them) and the rest (the page, the transfer). Medians of ``--runs``.
 """
 
@@ -156,7 +157,7 @@ def _generate_and_show(page) -> float:
     return time.perf_counter() - t
 
 
-def browser_run(browser, photo: Path, tile: bool, material: bool, think_s: float = 0.0) -> dict:
+def browser_run(browser, photo: Path, tile: bool, material: bool, think_s: float = 0.0, pick_s: float = 0.0) -> dict:
     """One run on a new server, library and analysis cache: the three figures in seconds and the
     server's record of the two jobs."""
     from bench_relief_editor import _serve
@@ -167,6 +168,7 @@ def browser_run(browser, photo: Path, tile: bool, material: bool, think_s: float
         page = browser.new_page(viewport={"width": 1366, "height": 768})
         try:
             page.goto(server)
+            time.sleep(pick_s)  # the user picks the file
             page.get_by_test_id("upload-file").set_input_files(str(photo))
             t = time.perf_counter()
             page.get_by_test_id("upload-submit").click()
@@ -219,7 +221,7 @@ def browser_main(args) -> None:
         browser = playwright.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
         try:
             for i in range(args.runs):
-                run = browser_run(browser, SAMPLE, args.tile, args.material, args.think)
+                run = browser_run(browser, SAMPLE, args.tile, args.material, args.think, args.pick)
                 runs.append(run)
                 jobs = " | ".join(f"wait {j['wait_s']:.2f} run {j['run_s']:.2f}" for j in run["jobs"])
                 print(
@@ -240,7 +242,8 @@ def browser_main(args) -> None:
     size = runs[0]["size"]
     print(
         f"\nweb app in Chromium: sample 1024², {size}, tile {'on' if args.tile else 'off'}, "
-        f"material {'on' if args.material else 'off'}, {args.think:g} s between the label map and Generate; "
+        f"material {'on' if args.material else 'off'}, {args.pick:g} s to pick the photo, "
+        f"{args.think:g} s between the label map and Generate; "
         f"medians of {len(runs)} runs"
     )
     rows = [
@@ -264,6 +267,9 @@ def main() -> None:
     parser.add_argument("--browser", action="store_true", help="the three figures a user sees, in Chromium")
     parser.add_argument("--runs", type=int, default=3, help="--browser: runs (medians)")
     parser.add_argument("--tile", action="store_true", help="--browser: tileable sets")
+    parser.add_argument(
+        "--pick", type=float, default=0.0, help="--browser: seconds between the page opened and the upload"
+    )
     parser.add_argument(
         "--think", type=float, default=0.0, help="--browser: seconds between the label map shown and Generate"
     )
