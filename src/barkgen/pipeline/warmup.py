@@ -21,11 +21,11 @@ A signature is a kernel's argument types, the memory layout of each array includ
 that is sometimes a contiguous copy and sometimes a strided view (an exemplar that wraps is
 read through a view of its torus) is two signatures, each compiled once; the stages run both.
 
-Numba compiles one function at a time in a process (a global lock), so on a machine with
-idle cores the stages run in two processes at once: a child runs ``synth``, ``generate`` and
+Numba compiles one function at a time in a process (a global lock), so on two cores or more
+the stages run in two processes at once: a child runs ``synth``, ``generate`` and
 ``preview`` (the solver's kernels) while this process extracts and grows crack networks (the
 branching kernels, which the solver never calls), then runs what is left (``cracks`` and
-``bilayer``, whose solver kernels are cached by then); on a busy machine, in one. No kernel is compiled by both processes at once:
+``bilayer``, whose solver kernels are cached by then); on a very busy machine, in one. No kernel is compiled by both processes at once:
 numba's cache index of a kernel is rewritten whole by whoever compiles it, so two writers
 could drop each other's signatures; if they ever overlap, the overlapping kernels' indexes
 are dropped and every stage runs again in a new process, which compiles them once more.
@@ -48,9 +48,11 @@ from barkgen.errors import InvalidInputError
 STAGES = ("synth", "generate", "preview", "cracks", "bilayer")
 #: the stages run in the child process when the warm-up runs in two (the solver's kernels)
 CHILD_STAGES = ("synth", "generate", "preview")
-#: the idle cores a warm-up in two processes needs (fewer: one process, which then does not
-#: pay for a second interpreter's imports; two processes on one free core are no faster)
-PARALLEL_IDLE_CORES = 1.5
+#: a warm-up runs in one process when the load average is this many times the cores or more:
+#: its two processes then get no more CPU than one, and the second interpreter's imports are
+#: more work (2 cores, 2026-12-07: at a load of 2, 43 s in two processes against 63 s in one;
+#: at 5-7, 94 s against 78 s)
+BUSY_LOAD_PER_CORE = 2.0
 #: the size (height, width) of the crack networks grown (:func:`_crack_networks`)
 CRACKS_SIZE = (160, 224)
 
@@ -197,13 +199,12 @@ class _Compiles:
         event.unregister("numba:compile", self.listener)
 
 
-def _idle_cores() -> float:
-    """The cores not busy (the count less the last minute's load average)."""
+def _load() -> float:
+    """The last minute's load average (0 where there is none: Windows)."""
     try:
-        load = os.getloadavg()[0]
-    except (AttributeError, OSError):  # no load average (Windows)
-        load = 0.0
-    return (os.cpu_count() or 1) - load
+        return os.getloadavg()[0]
+    except (AttributeError, OSError):
+        return 0.0
 
 
 def _child_main(stages: list[str], folder: str) -> None:
@@ -305,9 +306,9 @@ def warm_up(
     on_stage : callable, optional
         ``on_stage(stage, seconds)`` after each stage.
     parallel : bool, optional
-        Run the stages in two processes at once (default: when the machine has
-        :data:`PARALLEL_IDLE_CORES` idle cores or more, and the stages asked for have kernels of
-        both kinds).
+        Run the stages in two processes at once (default: on two cores or more, unless the
+        machine is very busy (:data:`BUSY_LOAD_PER_CORE`), when the stages asked for have
+        kernels of both kinds).
 
     Returns
     -------
@@ -327,7 +328,8 @@ def warm_up(
         wanted.append("generate")
     wanted = [s for s in STAGES if s in wanted]
     if parallel is None:
-        parallel = _idle_cores() >= PARALLEL_IDLE_CORES
+        cores = os.cpu_count() or 1
+        parallel = cores >= 2 and _load() < BUSY_LOAD_PER_CORE * cores
     parallel = parallel and any(s in CHILD_STAGES for s in wanted) and any(s not in CHILD_STAGES for s in wanted)
     crop = _crop()
     seconds: dict[str, float] = {}
