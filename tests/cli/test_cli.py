@@ -445,23 +445,9 @@ def test_checks_left_to_the_api_are_one_line_exit_2(tmp_path):
         assert list(out.iterdir()) == []
 
 
-def test_warm_up_leaves_nothing_for_generate_to_compile(tmp_path):
-    """After ``barkgen warm-up``, a tiled generate with its material set and preview finds every
-    kernel in numba's cache: it writes no new cache file."""
-    import barkgen
-
-    src = Path(barkgen.__file__).parent
-    r = run("warm-up", "--quiet")
-    assert r.returncode == 0 and r.stderr == "", r.stderr
-    before = {p: p.stat().st_mtime_ns for p in src.rglob("*.nb[ic]")}
-    assert before
-    r = run(
-        "generate", "-o", str(tmp_path / "out"), "--size", "128x128", "--tile", "--material", "--seed", "3", "--quiet"
-    )
-    assert r.returncode == 0, r.stderr
-    assert run("preview", str(tmp_path / "out"), "-o", str(tmp_path / "trunk.png")).returncode == 0
-    after = {p: p.stat().st_mtime_ns for p in src.rglob("*.nb[ic]")}
-    assert after == before, sorted(str(p.relative_to(src)) for p in set(after) - set(before))
+def test_warm_up_refuses_an_unknown_stage():
+    """``barkgen warm-up --stages`` names its stages (that nothing compiles after it in any front
+    end: tests/pipeline/test_warmup_compiles.py)."""
     r = run("warm-up", "--stages", "nope")
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "unknown stage" in r.stderr
 

@@ -337,7 +337,7 @@ class _Grower:
         x0, y0 = float(tip.xyr[tip.n - 1, 0]), float(tip.xyr[tip.n - 1, 1])
         K.extension_candidates(
             (self.hist_a, self.hist_r, model.history_start, model.branch_end, model.angles, model.thickness),
-            (hist[:, 0], hist[:, 1]),
+            (np.ascontiguousarray(hist[:, 0]), np.ascontiguousarray(hist[:, 1])),  # one signature, whatever its length
             o.k,
             o.m,
             (
