@@ -275,7 +275,7 @@ class AnalysisStore:
             return False
         if wait:
             return self._write(key, parts)
-        writer = threading.Thread(target=self._write, args=(key, parts), name="barkgen-cache-write")
+        writer = threading.Thread(target=self._write_behind, args=(key, parts), name="barkgen-cache-write")
         writer.start()
         self._writers.append(writer)
         return True
@@ -284,6 +284,16 @@ class AnalysisStore:
         """Wait for the writes that :meth:`put` left to a thread."""
         while self._writers:
             self._writers.pop().join()
+
+    def _write_behind(self, key: str, parts: list) -> None:
+        """:meth:`_write` on its own thread, at the lowest priority (Linux: a thread's own nice
+        value): it takes what the run leaves of the cores instead of slowing the run (the
+        quickstart's new photo: 0.3 s of its 9.4 s at the run's priority)."""
+        try:
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), 19)
+        except (AttributeError, OSError):  # not Linux, or not allowed: as the run's
+            pass
+        self._write(key, parts)
 
     def _write(self, key: str, parts: list) -> bool:
         parts = [_header(parts), *parts]
