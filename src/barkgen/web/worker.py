@@ -333,9 +333,10 @@ def load_generate(spec: LabelSpec, conn) -> None:
         traceback.print_exc()
 
 
-def _load_modules() -> None:
+def _load_modules(conn) -> None:
     """Import what the jobs run (the pipeline, the label maps' OpenCV and scikit-learn), so that
-    a worker started ahead of its first job (``barkgen serve``) spends none of it importing."""
+    a worker started ahead of its first job (``barkgen serve``) spends none of it importing;
+    it stops as soon as a job waits on ``conn`` (the job imports what it needs)."""
     import importlib
 
     for name in (
@@ -349,6 +350,8 @@ def _load_modules() -> None:
         "sklearn.cluster",
         "PIL.Image",
     ):
+        if conn.poll():
+            return
         try:
             importlib.import_module(name)
         except Exception:  # noqa: BLE001 - the job that needs it reports the error
@@ -360,7 +363,7 @@ def worker_main(conn, load_ahead: bool = False) -> None:
     closed (or the process is ended); ``load_ahead``: import the jobs' modules first (a worker
     started before it has a job)."""
     if load_ahead:
-        _load_modules()
+        _load_modules(conn)
     analyses: OrderedDict = OrderedDict()
     pending: list[JobSpec | LabelSpec | None] = []  # a message received while making a guess
     loaded = False  # a generate has run in this process (its kernels are loaded)
