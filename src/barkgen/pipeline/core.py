@@ -289,7 +289,7 @@ def _analysis_stage(
         # the photo's material set needs only the photo and its labels: it is made on the
         # second thread while the two solvers analyse the photo, which keep 1.3 of 2 cores busy
         # (the quickstart's analysis without its label map: 5.3 s one after the other, 4.2 s so)
-        material = (
+        making = (
             pool.submit(timed_material, photo, labels_in, options, wrap, scan, illumination)
             if options.material
             else None
@@ -311,7 +311,7 @@ def _analysis_stage(
                 exemplar_wrap=wrap,
             )
         report("texture")
-        material = material.result() if material is not None else None
+        material = making.result() if making is not None else None
         report("material")
         return PhotoAnalysis(
             labels_in=labels_in,
