@@ -57,8 +57,9 @@ def test_a_job_of_the_same_analysis_takes_it_over_with_the_same_bytes(png, monke
     assert prefetch_analysis(spec, label_map, analyses, FakeConn(job)) == [job]
     from barkgen.pipeline import GenerateOptions
 
-    assert list(analyses) == [job_analysis_key("hash", GenerateOptions(**options))]
+    assert list(analyses) == [job_analysis_key("hash", GenerateOptions(**options), labels=label_map)]
     ahead, made = _files(job, analyses), _files(job, OrderedDict())
+    assert len(analyses) == 1  # the job took the analysis over (its label map, read back, is the same)
     del ahead["report.json"], made["report.json"]  # its timings differ (its digests are in the files)
     assert ahead == made
 
@@ -96,3 +97,16 @@ def test_served_an_upload_queues_its_label_map_with_the_page_defaults_analysis(p
         assert client.post(f"/api/exemplars/{exemplar}/labels?k=3").json()["job"]["id"] == job["id"]
         other = client.post(f"/api/exemplars/{exemplar}/labels?k=4").json()["job"]["id"]
         assert app.state.barkgen.jobs.get(other).spec == {}
+
+
+def test_another_label_map_of_the_same_photo_is_another_analysis(png, monkeypatch):
+    """The worker keeps analyses by photo, options and the label map given: a job with the
+    user's own label map does not take the analysis made from the photo's."""
+    monkeypatch.setenv("BARKGEN_NO_CACHE", "1")
+    options = {"size": (64, 64), "k": 3, "seed": 0}
+    spec, label_map = _labels(png, options)
+    analyses: OrderedDict = OrderedDict()
+    _files(JobSpec("a", png, "hash", "photo", options, "set", labels_in=encode_png(label_map)), analyses)
+    flipped = np.ascontiguousarray(label_map[:, ::-1])
+    _files(JobSpec("b", png, "hash", "photo", options, "set", labels_in=encode_png(flipped)), analyses)
+    assert len(analyses) == 2

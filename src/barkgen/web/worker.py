@@ -18,6 +18,7 @@ ones takes it over).
 
 from __future__ import annotations
 
+import hashlib
 import time
 import traceback
 from collections import OrderedDict
@@ -134,12 +135,23 @@ def run_labels(spec: LabelSpec, send) -> np.ndarray | None:
     return decode_image(data, "labels")  # as a generate job receives it (its analysis' key)
 
 
-def job_analysis_key(photo_hash: str, options, scan: bool = False, cracks_digest: str | None = None) -> tuple:
+def job_analysis_key(
+    photo_hash: str,
+    options,
+    scan: bool = False,
+    cracks_digest: str | None = None,
+    labels: np.ndarray | None = None,
+) -> tuple:
     """The key of the worker's kept analyses: the photo, whether a scan makes its material
-    set, the options the analysis depends on and an edited crack network's digest."""
+    set, the options the analysis depends on, an edited crack network's digest and the label
+    map given (its pixels' digest: another label map of one photo is another analysis)."""
     from barkgen.pipeline import analysis_key
 
-    return (photo_hash, scan, analysis_key(options), cracks_digest)
+    labels_digest = None
+    if labels is not None:
+        array = np.ascontiguousarray(labels)
+        labels_digest = hashlib.sha256(repr((array.shape, array.dtype.str)).encode() + array.tobytes()).hexdigest()
+    return (photo_hash, scan, analysis_key(options), cracks_digest, labels_digest)
 
 
 def prefetch_analysis(
@@ -155,7 +167,7 @@ def prefetch_analysis(
     pending: list[JobSpec | LabelSpec | None] = []
     try:
         options = GenerateOptions(**(spec.prefetch or {}))
-        key = job_analysis_key(spec.photo_hash, options)
+        key = job_analysis_key(spec.photo_hash, options, labels=label_map)
         if key in analyses:
             return pending
 
@@ -168,7 +180,11 @@ def prefetch_analysis(
                 isinstance(job, JobSpec)
                 and not job.set_files
                 and not job.crack_structure
-                and job_analysis_key(job.photo_hash, GenerateOptions(**job.options)) == key
+                and job.labels_in is not None
+                and job_analysis_key(
+                    job.photo_hash, GenerateOptions(**job.options), labels=decode_image(job.labels_in, "labels")
+                )
+                == key
             ):
                 raise _Superseded
 
@@ -269,7 +285,7 @@ def run_job(spec: JobSpec, analyses: OrderedDict, send) -> None:
         if spec.set_files and options.material:
             scan = scanned_set_from_files(spec.set_files, where=spec.source)
         # an edited crack network is another analysis of the same photo
-        key = job_analysis_key(spec.photo_hash, options, scan is not None, digest)
+        key = job_analysis_key(spec.photo_hash, options, scan is not None, digest, labels_in)
         analysis = analyses.get(key)
         if analysis is None:
             # generate() given an analysis reports from the end of its analysis stage on; under
