@@ -55,7 +55,16 @@ def test_generate_api_outputs_and_report(fir128):
     report = result.report
     assert report["size"] == [160, 96] and report["seed"] == 2 and report["k"] == 3
     assert report["strategy"] == "joint" and report["extras"] == ["height"]
-    assert set(report["timings_s"]) == {"analysis", "labels_out", "texture", "total"}
+    # the stages, and the analysis' own steps (the light out and the label map, the two solvers')
+    assert set(report["timings_s"]) == {
+        "analysis",
+        "analysis_labels",
+        "analysis_label_map",
+        "analysis_texture",
+        "labels_out",
+        "texture",
+        "total",
+    }
     fin, fout = report["label_fractions_in"], report["label_fractions_out"]
     assert set(fin) == set(fout) and abs(sum(fout.values()) - 1) < 1e-3
     sheet = preview_sheet(fir128, result)

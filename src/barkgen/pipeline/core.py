@@ -258,9 +258,10 @@ def _analysis_stage(
 
     def report(step: str) -> None:  # the end of the step's share of the analysis, in 1000ths
         now = time.perf_counter()
-        step_seconds[step], mark[0] = now - mark[0], now
-        if progress and step in steps:
-            progress(round(1000 * steps[step][1]), 1000)
+        if step in steps:  # (the material set's only with it)
+            step_seconds[step], mark[0] = now - mark[0], now
+            if progress:
+                progress(round(1000 * steps[step][1]), 1000)
 
     def timed_material(*args) -> MaterialSet:  # the photo's material set, on its own thread
         t = time.perf_counter()
