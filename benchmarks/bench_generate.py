@@ -190,13 +190,14 @@ path, size, runs = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
 photo = read_centre_crop(path, size)
 options = GenerateOptions(size=(size, size), tile=True, material=True)
 analysis = analyze_photo(photo, options)
-steps = dict(getattr(analysis, "steps", {}), analysis=analysis.seconds)
+steps = {f"analysis_{k}": v for k, v in getattr(analysis, "steps", {}).items()}
+steps["analysis"] = analysis.seconds
 seeds = []
 for seed in range(runs + 1):
     timings = generate(photo, GenerateOptions(size=(size, size), tile=True, material=True, seed=seed + 1), analysis=analysis).report["timings_s"]
     seeds.append({k: v for k, v in timings.items() if not k.startswith("analysis")})
-per_seed = {k: statistics.median(s[k] for s in seeds[1:]) for k in seeds[1]}
-per_seed["seed"] = per_seed.pop("total") - analysis.seconds
+per_seed = {f"seed_{k}": statistics.median(s[k] for s in seeds[1:]) for k in seeds[1] if k != "total"}
+per_seed["seed"] = statistics.median(s["total"] for s in seeds[1:]) - analysis.seconds
 print(json.dumps({**steps, **per_seed}))
 """
 
@@ -225,7 +226,7 @@ def profile(photos: list[Path], sizes: list[int], runs: int, base: Path | None) 
                 row["base"] = profile_case(base, photo, size, runs)
             rows.append(row)
             print(f"  profiled {photo.stem} at {size}", file=sys.stderr, flush=True)
-    steps = [k for k in rows[0]["now"] if k != "analysis_material"]
+    steps = [k for k in rows[0]["now"] if k != "analysis_material"]  # (the wait after the solvers': ~0)
     print("| photo | size | " + " | ".join(steps) + " |")
     print("|---|---|" + "---|" * len(steps))
     for row in rows:
