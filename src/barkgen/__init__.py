@@ -41,26 +41,22 @@ Examples
 
 from __future__ import annotations
 
-import ast
-from importlib import import_module
-from pathlib import Path
-from typing import Any
-
+from barkgen._shared.lazy import lazy_getattr, stub_names
 from barkgen._version import __version__
 
 
-def _read_stub() -> dict[str, str]:
-    """Public name -> its module, from ``__init__.pyi`` (the one list of public names)."""
-    tree = ast.parse((Path(__file__).parent / "__init__.pyi").read_text(encoding="utf-8"))
-    return {
-        alias.asname or alias.name: node.module
-        for node in tree.body
-        if isinstance(node, ast.ImportFrom) and node.module != "barkgen._version"
-        for alias in node.names
-    }
+def _watch_compiles() -> None:
+    """A word if the kernels of the module just imported compile (once numba is loaded)."""
+    import sys
+
+    if "numba" in sys.modules:
+        from barkgen._shared.compile_notice import watch
+
+        watch()
 
 
-_LAZY = _read_stub()
+#: public name -> its module, from ``__init__.pyi`` (the one list of public names)
+_LAZY = stub_names(__file__, skip=("barkgen._version",))
 
 __all__ = sorted(_LAZY) + ["__version__"]
 
@@ -69,14 +65,4 @@ def __dir__() -> list[str]:
     return sorted(set(globals()) | set(__all__))
 
 
-def __getattr__(name: str) -> Any:
-    if name in _LAZY:
-        import sys
-
-        value = getattr(import_module(_LAZY[name]), name)
-        if "numba" in sys.modules:  # its module has kernels: a word if they compile
-            from barkgen._shared.compile_notice import watch
-
-            watch()
-        return value
-    raise AttributeError(f"module 'barkgen' has no attribute {name!r}")
+__getattr__ = lazy_getattr(__name__, _LAZY, on_import=_watch_compiles)
