@@ -240,14 +240,23 @@ def test_a_scanned_set_is_kept_with_its_maps(tmp_path):
     assert exemplar.name == "Bark7" and exemplar.maps == ("roughness",) and exemplar.licence == "CC0"
     assert library.set_files(exemplar.id) == {"Bark7_Color.png": colour, "Bark7_Roughness.png": rough}
     assert library.photo_bytes(exemplar.id) == colour
-    # the same colour again, now with AO: the same exemplar with the new maps
+    # the same set again: its entry; the same colour with other maps: a set of its own, the first
+    # one kept as it was
+    assert library.add_scanned_set(files).id == exemplar.id
     again = library.add_scanned_set({"Bark7_Color.png": colour, "Bark7_AO.png": ao})
-    assert again.id == exemplar.id and again.maps == ("ao",)
-    assert library.find_exemplar(colour).maps == ("ao",)
-    assert not library.store.exists(content_hash(rough))  # the replaced map's file went
-    # a photo has no maps; removing the set removes its maps' files
-    assert library.set_files(library.add_exemplar(encode_png(np.zeros((32, 32, 3), np.uint8)), "p").id) == {}
+    assert again.id != exemplar.id and again.maps == ("ao",) and library.exemplar(exemplar.id).maps == ("roughness",)
+    assert library.photo_bytes(again.id) == colour and library.set_files(exemplar.id)["Bark7_Roughness.png"] == rough
+    # a set is never taken for a photo of its colour: the photo is an entry of its own, and the
+    # set zipped after the photo is one too
+    assert library.find_exemplar(colour) is None
+    photo = library.add_exemplar(colour, "the photo")
+    assert photo.id not in (exemplar.id, again.id) and photo.maps == () and library.set_files(photo.id) == {}
+    assert library.find_exemplar(colour).id == photo.id and library.photo_bytes(photo.id) == colour
+    # removing a set removes the maps' files nothing else uses (the colour stays for the others)
     library.remove_exemplar(exemplar.id)
+    assert not library.store.exists(content_hash(rough)) and library.store.exists(content_hash(colour))
+    library.remove_exemplar(again.id)
+    library.remove_exemplar(photo.id)
     assert not library.store.exists(content_hash(ao)) and not library.store.exists(content_hash(colour))
     with pytest.raises(InvalidInputError, match="differ in size"):
         library.add_scanned_set({"B_Color.png": colour, "B_AO.png": encode_png(np.zeros((16, 16, 1), np.uint8))})

@@ -311,11 +311,13 @@ def test_events_cancel_and_restart_keeps_results(library):
         assert {r["id"] for r in client.get("/api/results").json()} == before_restart
         for result_id in before_restart:
             download = client.get(f"/api/results/{result_id}/download")
-            assert re.search(r'filename="barkgen_a_seed\d+_96x96\.zip"', download.headers["content-disposition"])
+            named = re.search(r'filename="(a_seed\d+_96x96)\.zip"', download.headers["content-disposition"])
+            assert named, download.headers["content-disposition"]
             archive = zipfile.ZipFile(io.BytesIO(download.content))
-            assert {"texture.png", "report.json", "README.txt"} <= set(archive.namelist())
-            assert "level_0.png" not in archive.namelist()
-            assert "reference.png" in archive.read("README.txt").decode()
+            set_name = named.group(1)
+            assert {f"{set_name}_{n}" for n in ("texture.png", "report.json", "README.txt")} <= set(archive.namelist())
+            assert not any("level_" in n for n in archive.namelist())
+            assert f"{set_name}_reference.png" in archive.read(f"{set_name}_README.txt").decode()
 
 
 def test_label_maps_are_made_by_jobs_in_the_worker_never_in_a_request(library):
@@ -715,11 +717,11 @@ def test_cracks_and_bilayer_jobs_texton_labels_glb_and_a_zip_named_after_the_pho
     glb = client.get(f"/api/results/{jobs['cracks']}/files/trunk.glb")
     assert glb.status_code == 200 and glb.content[:4] == b"glTF"
     r = client.get(f"/api/results/{jobs['cracks']}/download")
-    assert 'filename="barkgen_dried-mud_seed5_96x80.zip"' in r.headers["content-disposition"]
+    assert 'filename="Dried-mud_seed5_96x80.zip"' in r.headers["content-disposition"]
     archive = zipfile.ZipFile(io.BytesIO(r.content))
-    readme = archive.read("README.txt").decode()
-    assert "Photo licence: CC0 (drawn by the tests)" in readme and "trunk.glb" in readme
-    assert any(n.startswith("dried-mud_seed5") for n in archive.namelist()), archive.namelist()
+    readme = archive.read("Dried-mud_seed5_96x80_README.txt").decode()
+    assert "Photo licence: CC0 (drawn by the tests)" in readme and "Dried-mud_seed5_96x80_trunk.glb" in readme
+    assert all(n.startswith("Dried-mud_seed5_96x80") for n in archive.namelist()), archive.namelist()
     # k beyond the pages' range, an unknown kind: one line, 4xx
     r = client.post("/api/jobs", json={"exemplar_id": ex, **SMALL, "k": 9})
     assert r.status_code in (400, 422) and "k" in r.text

@@ -56,6 +56,14 @@ def _checked_photo(data: bytes, name: str, max_pixels: int | None, **fields: str
     return name, image.shape
 
 
+def set_digest(maps: Mapping[str, bytes]) -> str:
+    """A scanned set's identity in the library (its entry's ``image_hash``): the SHA-256 of
+    its file names and their contents' hashes, so the same set is one entry and a set is
+    never taken for a photo of its colour."""
+    listing = json.dumps({name: content_hash(data) for name, data in sorted(maps.items())}, sort_keys=True)
+    return content_hash(b"barkgen scanned set\n" + listing.encode())
+
+
 def canonical_params(params: Mapping) -> str:
     """The one JSON text of a parameter dict (sorted keys), used as a key."""
     return json.dumps(dict(params), sort_keys=True, separators=(",", ":"))
@@ -205,8 +213,11 @@ class Library(Database):
         """Add a scanned material set: its colour map is the exemplar's photo, its other maps
         are kept beside it (:meth:`set_files`) and make the material of its results.
 
-        The same colour added before (as a photo or a set) gives the same exemplar, now with
-        these maps.
+        A set is its own entry, whatever else the library holds: a photo of the same colour or
+        another set with it stays as it is (their results, analyses and maps apart). The same
+        set added again (the same maps, byte for byte) gives its entry. The entry's
+        :attr:`~barkgen.library.Exemplar.image_hash` is the set's digest (:func:`set_digest`);
+        its photo is the set's colour file (:attr:`~barkgen.library.Exemplar.photo_hash`).
 
         Parameters
         ----------
@@ -248,17 +259,22 @@ class Library(Database):
         )
         scanned_set_from_files(maps, where=where)  # every map decodes, at the colour's size
         kind_of = {file_name: kind for kind, file_name in kinds.items()}
+        digest = set_digest(maps)
         with self._transaction() as conn:
-            exemplar_id = self._insert_exemplar(
-                conn, colour, name, species=species, bark_type=bark_type, licence=licence, source=source, shape=shape
-            )
-            conn.execute("DELETE FROM exemplar_maps WHERE exemplar_id = ?", (exemplar_id,))
-            for file_name, data in maps.items():
+            row = conn.execute("SELECT id FROM exemplars WHERE image_hash = ?", (digest,)).fetchone()
+            if row is not None:  # the same set again: its entry, as it is
+                return self.exemplar(row[0])
+            hashes = {file_name: self.store.put(data) for file_name, data in maps.items()}
+            exemplar_id = conn.execute(
+                "INSERT INTO exemplars (name, species, bark_type, licence, source, image_hash, width, height, "
+                "created) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                (name, species, bark_type, licence, source, digest, shape[1], shape[0], _now()),
+            ).lastrowid
+            for file_name, file_hash in hashes.items():
                 conn.execute(
                     "INSERT INTO exemplar_maps (exemplar_id, name, kind, file_hash) VALUES (?, ?, ?, ?)",
-                    (exemplar_id, file_name, kind_of[file_name], self.store.put(data)),
+                    (exemplar_id, file_name, kind_of[file_name], file_hash),
                 )
-            self._sweep(conn)  # the maps a set added again replaced
         return self.exemplar(exemplar_id)
 
     def set_files(self, exemplar_id: int) -> dict[str, bytes]:
@@ -331,7 +347,7 @@ class Library(Database):
 
     def photo_bytes(self, exemplar_id: int) -> bytes:
         """The exemplar's image file (bytes) as it was added."""
-        return self.store.get(self.exemplar(exemplar_id).image_hash)
+        return self.store.get(self.exemplar(exemplar_id).photo_hash)
 
     def photo(self, exemplar_id: int) -> np.ndarray:
         """The exemplar's photo, decoded (:func:`barkgen.io.decode_image`).
@@ -347,7 +363,7 @@ class Library(Database):
         from barkgen.io import decode_image
 
         exemplar = self.exemplar(exemplar_id)
-        return decode_image(self.store.get(exemplar.image_hash), exemplar.name)
+        return decode_image(self.store.get(exemplar.photo_hash), exemplar.name)
 
     def remove_exemplar(self, exemplar_id: int) -> None:
         """Remove an exemplar with its analyses and results (and the files nothing else uses).

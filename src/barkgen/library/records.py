@@ -11,7 +11,9 @@ __all__ = ["EXEMPLAR_SELECT", "Exemplar", "Result"]
 #: ``WHERE`` on ``e``
 EXEMPLAR_SELECT = (
     "SELECT e.*, (SELECT group_concat(m.kind, ',') FROM exemplar_maps m "
-    "WHERE m.exemplar_id = e.id AND m.kind != 'color') AS maps FROM exemplars e"
+    "WHERE m.exemplar_id = e.id AND m.kind != 'color') AS maps, "
+    "COALESCE((SELECT m.file_hash FROM exemplar_maps m WHERE m.exemplar_id = e.id AND m.kind = 'color'), "
+    "e.image_hash) AS photo_hash FROM exemplars e"
 )
 
 
@@ -27,12 +29,16 @@ class Exemplar:
     species, bark_type, licence, source : str or None
         What the user said about it.
     image_hash : str
-        SHA-256 of the image file's bytes (its name in ``objects/``).
+        Its identity: SHA-256 of the image file's bytes (its name in ``objects/``) for a photo,
+        the set's digest for a scanned set (:func:`barkgen.library.library.set_digest`).
     created : str
         When it was added (ISO 8601, UTC).
     maps : tuple of str
         The kinds of the maps beside the photo when it is a scanned material set (``normal_gl``,
         ``roughness``, ``ao``, ...; :func:`barkgen.io.recognise_set`), else empty.
+    photo_hash : str
+        SHA-256 of its photo's file (its name in ``objects/``): ``image_hash`` for a photo, the
+        set's colour file for a scanned set.
     """
 
     id: int
@@ -46,13 +52,15 @@ class Exemplar:
     height: int
     created: str
     maps: tuple[str, ...] = ()
+    photo_hash: str = ""
 
     @classmethod
     def from_row(cls, row) -> Exemplar:
         """The record of a row of :data:`EXEMPLAR_SELECT`."""
         fields = dict(row)
         kinds = fields.pop("maps", None)
-        return cls(**fields, maps=tuple(sorted(kinds.split(","))) if kinds else ())
+        photo_hash = fields.pop("photo_hash", None) or fields["image_hash"]
+        return cls(**fields, maps=tuple(sorted(kinds.split(","))) if kinds else (), photo_hash=photo_hash)
 
     def to_dict(self) -> dict:
         return {k: getattr(self, k) for k in self.__dataclass_fields__}

@@ -55,8 +55,8 @@ def store_upload(
     licence: str | None = None,
 ) -> dict:
     """Add an uploaded photo, or a zip of a scanned material set, to the library: ``{"id",
-    "existing"}``, ``existing`` true when the same photo (or set) is there already (its entry
-    is answered, nothing is added). The client's file name is only a default display name: it
+    "existing"}``, ``existing`` true when the same photo (or the same set) is there already (its
+    entry is answered, nothing is added); a set is never merged into a photo of its colour. The client's file name is only a default display name: it
     never touches the filesystem."""
     limits = state.limits
     if len(data) > limits.max_upload_bytes:
@@ -86,14 +86,15 @@ def store_upload(
 
 def _store_set(state: AppState, data: bytes, filename: str | None, *, name, species, licence) -> dict:
     """Add a zip of a scanned set (:meth:`~barkgen.library.Library.add_scanned_set`): named
-    after the set (``Bark001``) unless ``name`` is given."""
+    after the set (``Bark001``) unless ``name`` is given, an entry of its own even when a photo
+    (or another set) of the same colour is in the library; the same zip again is its entry."""
     from barkgen.io import read_set_zip
 
     where = Path(filename or "").name or "the zip"
     # a zip of images barely compresses: its images are allowed a few times the upload's bytes
     files = read_set_zip(data, max_unpacked_bytes=ZIP_UNPACK_FACTOR * state.limits.max_upload_bytes, where=where)
     with state.upload_lock:
-        before = {e.id: e.maps for e in state.library.exemplars()}
+        before = {e.id for e in state.library.exemplars()}
         exemplar = state.library.add_scanned_set(
             files,
             (name or "").strip()[:200] or None,
@@ -103,7 +104,7 @@ def _store_set(state: AppState, data: bytes, filename: str | None, *, name, spec
             max_pixels=state.limits.max_upload_pixels,
             where=where,
         )
-    return {"id": exemplar.id, "existing": before.get(exemplar.id) == exemplar.maps}
+    return {"id": exemplar.id, "existing": exemplar.id in before}
 
 
 def exemplar_details(state: AppState, exemplar_id: int) -> dict:

@@ -29,13 +29,14 @@ from barkgen._shared.checks import parse_size
 from barkgen._shared.options import OptionField, option_fields, option_schema
 from barkgen.errors import InvalidInputError
 from barkgen.io import AlphaDroppedWarning, decode_image
+from barkgen.io.asset_names import asset_slug, base_name, material_set_name, variant_name
 from barkgen.labels.preview import label_colours
 from barkgen.library import NotFoundError
 from barkgen.material.presets import PRESETS
 from barkgen.pipeline import GenerateOptions
 from barkgen.web.jobs import FINISHED
 from barkgen.web.routes_cracks import checked_structure
-from barkgen.web.state import WEB_K, AppState, State, WebLimits, labels_key, name_slug
+from barkgen.web.state import WEB_K, AppState, State, WebLimits, labels_key
 
 router = APIRouter()
 
@@ -58,9 +59,11 @@ class ReliefSaveRequest(BaseModel):
     light_equalization: float | None = None
 
 
-#: the web app's defaults where they are not GenerateOptions' own: the CLI's, but a seed of None
-#: (a random one)
-WEB_DEFAULTS = {"seed": None}
+#: the web app's defaults where they are not GenerateOptions' own (the CLI's), each on purpose:
+#: a seed of None (a random one: each Generate a new bark, where the CLI's 0 repeats one) and
+#: the material set on (the set is what the page is for, as ``scripts/quickstart.sh`` makes it
+#: with ``--material``); ``tests/web/test_web_names.py`` holds the form to exactly these
+WEB_DEFAULTS: dict[str, Any] = {"seed": None, "material": True}
 
 
 def job_request_model(options_class: type = GenerateOptions) -> type[BaseModel]:
@@ -213,6 +216,24 @@ def relief_edits(state: AppState, request: ReliefSaveRequest, exemplar_id: int, 
     )
 
 
+def set_names(
+    photo_name: str, seed: int, edits: dict | None = None, resume: tuple[int, np.ndarray] | None = None
+) -> tuple[str, str]:
+    """A web result's asset name and variant (:mod:`barkgen.io.asset_names`): the photo's name
+    made file-safe, and the seed, the relief edits' tag where it replays some (``seed7-edit3f9a1c``)
+    and a painted label map's (``-paint`` and six hex digits of the painted level's digest), so
+    that no two results of one photo share a name."""
+    import hashlib
+
+    variant = variant_name(seed, edits) or f"seed{seed}"
+    if resume is not None:
+        level, labels = resume
+        array = np.ascontiguousarray(labels)
+        digest = hashlib.sha256(f"{level}:{array.shape}:{array.dtype.str}:".encode() + array.tobytes())
+        variant += f"-paint{digest.hexdigest()[:6]}"
+    return asset_slug(photo_name), variant
+
+
 def start_job(state: AppState, request: JobRequest) -> dict:
     """Check a generate request and queue it: ``{"id": job id}``. A request without a seed gets
     a random one (the job's params say which)."""
@@ -272,9 +293,13 @@ def start_job(state: AppState, request: JobRequest) -> dict:
             raise InvalidInputError("crack_structure goes with structure 'cracks' only")
         cracks = checked_structure(state, exemplar.id, request.crack_structure).to_dict()
         params["crack_structure"] = {"edited": True, "branches": len(cracks["branches"])}
+    asset, variant = set_names(exemplar.name, seed, edits, resume)
+    params["set_name"] = material_set_name(base_name(asset, variant), (height, width))
     spec = {
         "source": exemplar.name,
-        "set_name": f"{name_slug(exemplar.name)}_seed{seed}",
+        "asset": asset,
+        "variant": variant,
+        "licence": exemplar.licence,
         "options": values,
         "labels_in": grey,
         "resume": resume,

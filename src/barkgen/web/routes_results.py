@@ -20,11 +20,12 @@ from fastapi import APIRouter
 from fastapi.responses import Response
 
 from barkgen.io import decode_image, encode_png
+from barkgen.io.asset_names import asset_slug, base_name, library_file_name, material_set_name
 from barkgen.labels import label_colour_map
 from barkgen.labels.preview import label_colours
 from barkgen.library import NotFoundError
 from barkgen.pipeline import GenerateOptions
-from barkgen.web.state import LABEL_METHOD, AppState, State, cached_response, name_slug
+from barkgen.web.state import LABEL_METHOD, AppState, State, cached_response
 
 router = APIRouter()
 
@@ -57,12 +58,36 @@ _FILE_NOTES = {
     "(barkgen apply-reference re-applies it to any map of the photo)",
     "preview.png": "contact sheet: photo, labels in, labels out, result",
     "report.json": "parameters, seed, label areas and timings of the run",
-    "edits.json": "the relief editor's height edits, depth and photo light (barkgen generate --material --edits "
-    "edits.json replays them)",
+    "edits.json": "the relief editor's height edits, depth and photo light that made this set from its parent "
+    "(barkgen generate --material --edits FILE replays them)",
     "illumination.png": "16-bit: the photo's broad light carried to the new bark (log2, mid-grey = 1; "
     "barkgen.material.decode_illumination)",
     "trunk.glb": "the bark on a trunk, glTF 2.0 binary with its material (Blender, three.js, game engines)",
+    "README.txt": "this file",
 }
+#: the run's own files of a result that are no download (its page's pictures)
+_PAGE_ONLY = ("thumbnail.jpg",)
+
+
+def set_name(result, exemplar) -> str:
+    """The name a result's downloads carry: its material set's (``ASSET_VARIANT_SIZE``,
+    :mod:`barkgen.io.asset_names`; a result without a set: the name its set would have). A
+    result made before the sets carried their size: its set's old name (``oak_seed7``), else
+    the photo's name, its seed and size."""
+    if result.params.get("set_name"):
+        return str(result.params["set_name"])
+    legacy = next((n[: -len("_Color.png")] for n in result.files if n.endswith("_Color.png")), None)
+    width, height = result.params["size"]
+    return legacy or material_set_name(base_name(asset_slug(exemplar.name), f"seed{result.seed}"), (height, width))
+
+
+def download_names(result, exemplar) -> dict[str, str]:
+    """Each downloaded file of a result (its own name -> its name in a download): every file
+    carries the set's name (:func:`set_name`; ``SET_texture.png``, ``SET_trunk.glb``, the set's
+    own files as they are), the page's pictures and label-map levels left out."""
+    name = set_name(result, exemplar)
+    kept = [n for n in sorted(result.files) if not n.startswith("level_") and n not in _PAGE_ONLY]
+    return {n: library_file_name(name, n) for n in kept}
 
 
 def result_summary(result) -> dict:
@@ -99,8 +124,10 @@ def _levels(state: AppState, result, base: str) -> list[dict]:
 
 
 def result_json(state: AppState, result) -> dict:
-    """A result as its page shows it: files, material maps, levels, palette and legend."""
+    """A result as its page shows it: files, material maps, levels, palette and legend, and its
+    downloads with the names they are saved under (``downloads``)."""
     base = f"/api/results/{result.id}"
+    exemplar = state.library.exemplar(result.exemplar_id)
     files = {name: f"{base}/files/{name}" for name in result.files}
     material_name = next((n[: -len("_Color.png")] for n in result.files if n.endswith("_Color.png")), None)
     maps = None
@@ -126,7 +153,21 @@ def result_json(state: AppState, result) -> dict:
         "palette": label_colours(values.size).tolist(),
         "label_looks": label_looks(state, result.exemplar_id, result.id, values),
         "download_url": f"{base}/download",
+        "set_name": set_name(result, exemplar),
+        "downloads": _downloads(result, exemplar, base),
     }
+
+
+def _downloads(result, exemplar, base: str) -> dict:
+    """The page's download buttons: the zip, the trunk (``SET_trunk.glb``) and the set with its
+    Blender set-up (a zip of the material set and ``SET_blender.py``), each ``{"url", "name"}``
+    (None where the result has no such file)."""
+    name = set_name(result, exemplar)
+    names = download_names(result, exemplar)
+    glb = {"url": f"{base}/files/trunk.glb", "name": names["trunk.glb"]} if "trunk.glb" in names else None
+    script = next((n for n in result.files if n.endswith("_blender.py")), None)
+    blender = {"url": f"{base}/download/blender", "name": f"{name}_blender.zip"} if script else None
+    return {"zip": {"url": f"{base}/download", "name": f"{name}.zip"}, "glb": glb, "blender": blender}
 
 
 def _material_record(result, meta: dict) -> dict:
@@ -189,9 +230,19 @@ def coloured_result_labels(state: AppState, result_id: int, name: str) -> bytes:
     return encode_png(label_colour_map(grey, values))
 
 
-def zip_readme(exemplar, result, names: list[str]) -> str:
-    """What each file of a downloaded result is, and the photo's licence and source as given at
-    its upload (the new bark is made of the photo's pixels: its licence goes with it)."""
+def _file_note(name: str) -> str:
+    """What a result's file (by its own name) is, for the README."""
+    if name in _FILE_NOTES:
+        return _FILE_NOTES[name]
+    if name.endswith(".json"):  # the set's NAME.json (the run's report and edits are named above)
+        return _FILE_NOTES[".json"]
+    return next((text for key, text in _FILE_NOTES.items() if key.startswith("_") and name.endswith(key)), "")
+
+
+def zip_readme(exemplar, result, names: dict[str, str]) -> str:
+    """What each file of a downloaded result is (``names``: its own name -> its name in the
+    zip), and the photo's licence and source as given at its upload (the new bark is made of
+    the photo's pixels: its licence goes with it)."""
     width, height = result.params["size"]
     lines = [
         f'barkgen result {result.id}: {width}x{height} px from "{exemplar.name}", seed {result.params["seed"]}'
@@ -200,34 +251,48 @@ def zip_readme(exemplar, result, names: list[str]) -> str:
     ]
     if exemplar.source:
         lines.append(f"Photo source: {exemplar.source}")
-    lines.append("")
-    for name in names:
-        note = next(
-            (
-                text
-                for key, text in _FILE_NOTES.items()
-                if name == key or (key.startswith(("_", ".")) and name.endswith(key) and name != "report.json")
-            ),
-            "",
+    relief = result.params.get("relief_from")
+    if relief:
+        lines.append(
+            f"Relief-edited from result {relief['result_id']}: its {_relief_name(names)} lists the edits, depth and light."
         )
-        lines.append(f"{name:40s} {note}".rstrip())
+    lines.append("")
+    column = max(40, *(len(n) + 1 for n in names.values()))
+    for own, name in names.items():
+        lines.append(f"{name:{column}s} {_file_note(own)}".rstrip())
     return "\n".join(lines) + "\n"
 
 
-def result_zip(state: AppState, result_id: int) -> tuple[str, bytes]:
-    """The result as a zip and its file name: the material set (ambientCG names) when it has
-    one, the texture, its label maps, reference map, contact sheet and report."""
+def _relief_name(names: dict[str, str]) -> str:
+    return names.get("edits.json", "edits.json")
+
+
+def result_zip(state: AppState, result_id: int, part: str = "all") -> tuple[str, bytes]:
+    """The result as a zip and its file name, every file named as an artist's library expects
+    (:func:`download_names`): ``SET.zip`` of the material set when it has one, the texture,
+    its label maps, reference map, contact sheet, report, trunk and README (``SET_README.txt``);
+    ``part="blender"``: ``SET_blender.zip``, the material set and its Blender set-up
+    (``SET_blender.py``, run where the maps are) with the README."""
     library = state.library
     result = library.result(result_id)
     exemplar = library.exemplar(result.exemplar_id)
-    names = [n for n in sorted(result.files) if not n.startswith("level_") and n != "thumbnail.jpg"]
+    name = set_name(result, exemplar)
+    names = download_names(result, exemplar)
+    if part == "blender":
+        names = {own: n for own, n in names.items() if n.startswith((f"{name}_", f"{name}.")) and n == own}
+        if not any(n.endswith("_blender.py") for n in names):
+            raise NotFoundError(f"result {result_id} has no material set with a Blender set-up")
+    names[_README] = library_file_name(name, _README)
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w", zipfile.ZIP_STORED) as archive:
-        for name in names:
-            archive.writestr(name, library.result_file(result_id, name))
-        archive.writestr("README.txt", zip_readme(exemplar, result, names))
-    width, height = result.params["size"]
-    return f"barkgen_{name_slug(exemplar.name)}_seed{result.params['seed']}_{width}x{height}.zip", buffer.getvalue()
+        for own, zipped in names.items():
+            if own != _README:
+                archive.writestr(zipped, library.result_file(result_id, own))
+        archive.writestr(names[_README], zip_readme(exemplar, result, names))
+    return f"{name}_blender.zip" if part == "blender" else f"{name}.zip", buffer.getvalue()
+
+
+_README = "README.txt"
 
 
 # -- endpoints ------------------------------------------------------------------------------
@@ -259,11 +324,21 @@ def result_labels(result_id: int, name: str, state: State):
     return cached_response(coloured_result_labels(state, result_id, name), "image/png")
 
 
-@router.get("/api/results/{result_id}/download")
-def download(result_id: int, state: State):
-    """The result as a zip: the material set (ambientCG names) when it has one, the texture,
-    its label maps, reference map, contact sheet and report."""
-    filename, data = result_zip(state, result_id)
+def _zip_response(filename: str, data: bytes) -> Response:
     return Response(
         data, media_type="application/zip", headers={"Content-Disposition": f'attachment; filename="{filename}"'}
     )
+
+
+@router.get("/api/results/{result_id}/download")
+def download(result_id: int, state: State):
+    """The result as ``SET.zip``: the material set when it has one, the texture, its label
+    maps, reference map, contact sheet, report and trunk, each named ``SET_...``."""
+    return _zip_response(*result_zip(state, result_id))
+
+
+@router.get("/api/results/{result_id}/download/blender")
+def download_blender(result_id: int, state: State):
+    """The material set with its Blender set-up as ``SET_blender.zip`` (unzip, then
+    ``blender --python SET_blender.py``)."""
+    return _zip_response(*result_zip(state, result_id, "blender"))

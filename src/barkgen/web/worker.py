@@ -59,6 +59,8 @@ WorkerMessage = Progress | Done | Failed
 
 #: photo analyses kept in the worker (each is tens of MB for a 1024 px photo)
 ANALYSES_KEPT = 3
+#: a result's thumbnail: at most this many px a side, in the result's aspect
+THUMBNAIL_SIDE = 320
 #: at most one progress message per this many seconds
 PROGRESS_INTERVAL_S = 0.1
 
@@ -72,7 +74,14 @@ class JobSpec:
     photo_hash: str
     source: str
     options: dict
-    set_name: str
+    #: the material set's asset name and variant (:mod:`barkgen.io.asset_names`): its files are
+    #: ``ASSET_VARIANT_SIZE_*``
+    asset: str = "bark"
+    variant: str | None = None
+    #: the photo's licence, recorded in the set's JSON
+    licence: str | None = None
+    #: a job queued before the sets carried their size: the whole set name (``oak_seed7``)
+    set_name: str | None = None
     labels_in: bytes | None = None
     resume: tuple[int, np.ndarray] | None = None
     #: the files of a scanned set whose colour is ``photo`` (by name), read when the job starts
@@ -203,8 +212,9 @@ def prefetch_analysis(
 
 def encode_result(photo: np.ndarray, result, spec: JobSpec) -> dict[str, bytes]:
     """Every file of a job's result: those of ``barkgen generate`` (:func:`barkgen.pipeline.encode_generate`,
-    with the material set named ``spec.set_name``), every level of the output label map as
-    ``level_N.png`` and a ``thumbnail.jpg`` of the texture."""
+    with the material set named ``ASSET_VARIANT_SIZE`` from ``spec``), every level of the output
+    label map as ``level_N.png`` and a ``thumbnail.jpg`` of the texture in its own aspect (at most
+    :data:`THUMBNAIL_SIDE` px a side: a 1024x512 result's is 320x160)."""
     import io
 
     from PIL import Image
@@ -219,7 +229,11 @@ def encode_result(photo: np.ndarray, result, spec: JobSpec) -> dict[str, bytes]:
         from barkgen.render import trunk_mesh
 
         also["trunk.glb"] = encode_glb(trunk_mesh(result.material), result.material)
-    files = encode_generate(photo, result, spec.source, name=spec.set_name, preset=spec.preset, also=also)
+    if spec.set_name is not None:  # (a job queued by an older server)
+        names = {"name": spec.set_name}
+    else:
+        names = {"name": spec.asset, "variant": spec.variant, "licence": spec.licence}
+    files = encode_generate(photo, result, spec.source, preset=spec.preset, also=also, **names)
     files.update(
         {f"level_{i}.png": encode_png(level) for i, level in enumerate(result.label_levels) if level is not None}
     )
@@ -228,7 +242,7 @@ def encode_result(photo: np.ndarray, result, spec: JobSpec) -> dict[str, bytes]:
 
         files["edits.json"] = (json.dumps(spec.edits, indent=1) + "\n").encode()
     thumb = Image.fromarray(as_uint8(result.texture).squeeze())
-    thumb.thumbnail((320, 320))
+    thumb.thumbnail((THUMBNAIL_SIDE, THUMBNAIL_SIDE))
     buffer = io.BytesIO()
     thumb.convert("RGB").save(buffer, "JPEG", quality=88)
     files["thumbnail.jpg"] = buffer.getvalue()
