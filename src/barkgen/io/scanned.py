@@ -1,30 +1,48 @@
 """Scanned material sets as exemplars: a folder of maps recognised by their file names.
 
-Artists own scanned PBR sets (ambientCG, Poly Haven, Megascans, their own photogrammetry) and
-want the *whole set* made bigger. The maps are told apart by the last word of their file names,
-case-insensitive, after any resolution or format tag (``_2K``, ``_4k``, ``_1K-PNG``, ``_2048``):
+Artists own scanned PBR sets (ambientCG, Poly Haven, Megascans, Substance exports, game packs,
+their own photogrammetry) and want the *whole set* made bigger. The maps are told apart as
+Blender's Node Wrangler tells a folder's textures apart: a file's name (without its extension)
+is cut into words at ``_ - .``, spaces and camelCase steps (``BaseColor`` -> ``Base Color``),
+case-insensitive; resolution and format tags (``1K``, ``2k``, ``4096``, ``2048px``, ``PNG``)
+are no words; the last word, or two or three words run together (``nor gl``, ``Ambient
+Occlusion``), that names a map says which (:data:`MAP_WORDS`), and the words before it are the
+set's name:
 
-========================  =============================================================
-map                       names (ambientCG / Poly Haven / Megascans and common others)
-========================  =============================================================
-colour                    ``Color``, ``diff``, ``Albedo``, ``BaseColor``, ``Diffuse``, ``col``
-normal, OpenGL            ``NormalGL``, ``nor_gl``, ``Normal`` and ``nor`` (see below)
-normal, DirectX           ``NormalDX``, ``nor_dx``
-height                    ``Displacement``, ``disp``, ``Height``
-roughness                 ``Roughness``, ``rough``; ``Gloss`` / ``Smoothness`` (1 - roughness)
-ambient occlusion         ``AmbientOcclusion``, ``ao``, ``Occlusion``
-metalness                 ``Metalness``, ``Metallic``, ``metal``
-opacity                   ``Opacity``, ``Alpha``
-AO, roughness, metalness  ``arm`` (Poly Haven's packed R, G, B)
-cavity                    ``Cavity`` (recognised; barkgen's AO stands for it)
-========================  =============================================================
+=================  ==========================================================================
+map                words (ambientCG / CC0 Textures, Poly Haven, Megascans / Quixel Bridge,
+                   Substance, game packs, Node Wrangler's defaults)
+=================  ==========================================================================
+colour             ``Color``, ``col``, ``diff``, ``Diffuse``, ``Albedo``, ``BaseColor``, ``cc``
+normal, OpenGL     ``NormalGL``, ``nor_gl``, ``Normal_OpenGL``
+normal, DirectX    ``NormalDX``, ``nor_dx``, ``Normal_DirectX``
+normal             ``Normal``, ``nor``, ``nrm``, ``nm`` (the convention: see below)
+height             ``Displacement``, ``disp``, ``Height``, ``hm``, ``bump`` (a second one left out)
+roughness          ``Roughness``, ``rough``, ``rgh``
+gloss              ``Gloss``, ``Glossiness``, ``Smoothness``: roughness = 1 - gloss
+specular           ``Specular``, ``spec``, ``sc``: roughness from its level
+                   (:func:`~barkgen.io.scanned_maps.specular_roughness`)
+ambient occlusion  ``AmbientOcclusion``, ``ao``, ``Occlusion``, ``Mixed_AO``
+metalness          ``Metalness``, ``Metallic``, ``metal``
+opacity            ``Opacity``, ``Alpha``
+packed             ``arm`` / ``ORM``: AO, roughness, metalness in R, G, B
+cavity             ``Cavity`` (recognised; barkgen's AO stands for it)
+=================  ==========================================================================
 
-A plain ``Normal`` is read as OpenGL (the glTF, Blender and Poly Haven convention) unless
-``normal_convention="dx"``. An image whose name carries no map word is the colour when the set
-has no colour map (``birch.jpg`` beside ``birch_normal.jpg``), and the set's preview otherwise
-(ambientCG's ``Bark001.png``; left out). Files that are not images (``.txt``, ``.mtlx``,
-``.usda``, ``.json``) are left out. Everything else — an image of no known map, two maps of one
-kind, maps of two sets, maps of different sizes — is refused in one line.
+The roughness is the set's roughness map, else the packed one's, else ``1 - gloss``, else the
+specular map's. The normals' green convention is told from the height where the set has both
+(:func:`~barkgen.io.scanned_maps.normal_convention_evidence`), else from the name (``GL``,
+``DX``), else ``normal_convention`` (OpenGL by default: glTF, Blender, Poly Haven); a name the
+height contradicts is said in one line. Maps of another size than the colour are resampled to
+it (:func:`~barkgen.io.scanned_maps.resample_map`), each wrapping where it tiles itself.
+
+An image whose name carries no map word is the colour when the set has no colour map
+(``birch.jpg`` beside ``birch_normal.jpg``), and the set's preview otherwise (ambientCG's
+``Bark001.png``; left out). Files that are not images (``.txt``, ``.mtlx``, ``.usda``,
+``.json``) are left out. An image that cannot be placed (a map barkgen does not read, of another
+set, a second map of one kind, of another aspect ratio) is named in one line
+(:class:`UnplacedFileWarning`) and the set made from the rest; only a set without a colour map,
+or with two, is refused.
 
 A set may come as a folder (:func:`read_scanned_set`) or as file bytes, a zip's
 (:func:`read_set_zip`, :func:`scanned_set_from_files`). This module only reads: :func:`barkgen.material.scanned_material` makes the set's
@@ -35,9 +53,12 @@ from __future__ import annotations
 
 import os
 import re
+import warnings
+from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
+from typing import Any
 
 import numpy as np
 
@@ -45,58 +66,137 @@ from barkgen.errors import ImageReadError, InvalidInputError
 
 #: the image files a set may hold
 IMAGE_EXTENSIONS = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".webp")
-#: map kinds, each with the (lower-case, separator-free) names that mean it
+#: map kinds, each with the (lower-case, separator-free) words that mean it, the preferred first
+#: (of two height maps, the displacement is kept and the bump left out)
 MAP_WORDS: dict[str, tuple[str, ...]] = {
-    "color": ("color", "colour", "diff", "diffuse", "albedo", "basecolor", "basecolour", "col", "basemap"),
-    "normal_gl": ("normalgl", "norgl", "normalopengl", "nrmgl"),
-    "normal_dx": ("normaldx", "nordx", "normaldirectx", "nrmdx"),
-    "normal": ("normal", "nor", "nrm", "normals", "norm"),
-    "height": ("displacement", "disp", "height", "heightmap", "bump"),
-    "roughness": ("roughness", "rough"),
-    "gloss": ("gloss", "glossiness", "smoothness"),
-    "ao": ("ambientocclusion", "ao", "occlusion", "occ"),
-    "metalness": ("metalness", "metallic", "metal"),
+    "color": ("color", "colour", "basecolor", "basecolour", "albedo", "diffuse", "diff", "col", "basemap", "cc"),
+    "normal_gl": ("normalgl", "norgl", "normalopengl", "nrmgl", "nmgl"),
+    "normal_dx": ("normaldx", "nordx", "normaldirectx", "nrmdx", "nmdx"),
+    "normal": ("normal", "normals", "nor", "nrm", "nrml", "norm", "normalmap", "nm"),
+    "height": ("displacement", "disp", "dsp", "height", "heightmap", "hm", "bump", "bmp"),
+    "roughness": ("roughness", "rough", "rgh"),
+    "gloss": ("gloss", "glossiness", "glossy", "smoothness"),
+    "specular": ("specular", "specularity", "spec", "spc", "sc"),
+    "ao": ("ambientocclusion", "ao", "occlusion", "occ", "mixedao"),
+    "metalness": ("metalness", "metallic", "metal", "mtl"),
     "opacity": ("opacity", "alpha"),
-    "arm": ("arm",),
+    "arm": ("arm", "orm"),
     "cavity": ("cavity",),
 }
 _WORD_KIND = {word: kind for kind, words in MAP_WORDS.items() for word in words}
-#: resolution and format tags that may follow or precede the map word
+#: resolution and format tags that are no words of a name
 _TAG = re.compile(r"^(\d+k|\d{3,5}(px)?|\d+x\d+|png|jpe?g|tiff?|exr|webp|hq|lq)$", re.IGNORECASE)
-_SPLIT = re.compile(r"[_\-\s.]+")
-#: map kinds read and how many channels they keep
+_WORD = re.compile(r"[^_\-\s.]+")
+_CAMEL = re.compile(r"(?<=[a-z])(?=[A-Z])|(?<=[A-Z])(?=[A-Z][a-z])")
+#: how a normal map named only ``Normal`` is read when the set has no height to tell
 NORMAL_CONVENTIONS = ("gl", "dx")
+
+
+class UnplacedFileWarning(UserWarning):
+    """An image of a scanned set's folder or zip that is none of its maps (one line naming it)."""
+
+
+def _words(stem: str) -> list[tuple[int, int, str]]:
+    """``(start, end, word)`` of a name's words: cut at ``_ - .``, spaces and camelCase steps."""
+    words = []
+    for token in _WORD.finditer(stem):
+        cuts = [0] + [m.start() for m in _CAMEL.finditer(token.group())] + [len(token.group())]
+        for a, b in zip(cuts[:-1], cuts[1:]):
+            if b > a:
+                words.append((token.start() + a, token.start() + b, token.group()[a:b]))
+    return words
+
+
+def _name_of(stem: str, words: list[tuple[int, int, str]]) -> str:
+    """The stem's text from its first word to its last that is no tag (``""``: none)."""
+    kept = [w for w in words if not _TAG.match(w[2])]
+    return stem[kept[0][0] : kept[-1][1]] if kept else ""
+
+
+def _key(name: str) -> str:
+    """A set name as compared: its words that are no tags, lower-case, run together."""
+    return "".join(w.lower() for _, _, w in _words(name) if not _TAG.match(w))
+
+
+def _match(filename: str) -> tuple[str, str | None, str]:
+    """``(set stem, map kind, the map's word)`` of a file name (see :func:`map_kind`)."""
+    stem = Path(filename).stem
+    words = _words(stem)
+    plain = [i for i, w in enumerate(words) if not _TAG.match(w[2])]
+    for end in range(len(plain), 0, -1):
+        for n in (3, 2, 1):  # the longest name first: "nor_gl" before "gl"
+            if end - n < 0:
+                continue
+            run = "".join(words[i][2] for i in plain[end - n : end]).lower()
+            if run in _WORD_KIND:
+                return _name_of(stem, words[: plain[end - n]]), _WORD_KIND[run], run
+    return _name_of(stem, words), None, ""
 
 
 def map_kind(filename: str) -> tuple[str, str | None]:
     """``(set stem, map kind)`` of a file name; kind ``None`` when no map word is found.
 
+    The last word, or two or three words run together (the longest first), that is one of
+    :data:`MAP_WORDS`' names the kind; the words before it name the set (tags left out).
+
     >>> map_kind("bark_willow_02_nor_gl_2k.png")
     ('bark_willow_02', 'normal_gl')
     >>> map_kind("Bark001_1K-PNG_Color.png")
     ('Bark001', 'color')
+    >>> map_kind("OakBarkBaseColor.png")
+    ('OakBark', 'color')
     >>> map_kind("birch_smooth_lenticels_01.jpg")
     ('birch_smooth_lenticels_01', None)
     """
-    stem = Path(filename).stem
-    tokens = [t for t in _SPLIT.split(stem) if t]
-    words = [t for t in tokens if not _TAG.match(t)]
-    for n in (3, 2, 1):  # the longest name first: "normal_gl" before "gl"
-        if len(words) > n - 1 and "".join(words[-n:]).lower() in _WORD_KIND:
-            kind = _WORD_KIND["".join(words[-n:]).lower()]
-            return "_".join(words[:-n]), kind
-    return "_".join(words), None
+    stem, kind, _ = _match(filename)
+    return stem, kind
+
+
+def _unplaced(where: str, name: str, why: str) -> None:
+    warnings.warn(f"{where}/{name}: left out, {why}", UnplacedFileWarning, stacklevel=3)
+
+
+def _colour_of(found: list[tuple[str, str, str | None, str]], folder: str) -> tuple[str, str]:
+    """``(set name, colour file)`` of the images' ``(file, stem, kind)``: the one colour map,
+    else the image with no map word named like the other maps (or the only such image)."""
+    colours = [(name, stem) for name, stem, kind, _ in found if kind == "color"]
+    if len(colours) > 1:
+        keys = sorted({_key(stem) for _, stem in colours})
+        if len(keys) > 1:
+            first, other = (next(s for _, s in colours if _key(s) == k) for k in keys[:2])
+            raise InvalidInputError(f"{folder}: holds maps of two sets ({first}, {other}); give a folder with one set")
+        raise InvalidInputError(f"{folder}: two color maps ({colours[0][0]}, {colours[1][0]}); keep one")
+    if colours:
+        return colours[0][1], colours[0][0]
+    bare = [(name, stem) for name, stem, kind, _ in found if kind is None]
+    counts = Counter(_key(stem) for _, stem, kind, _ in found if kind is not None)
+    if counts:
+        key = counts.most_common(1)[0][0]
+        match = [(name, stem) for name, stem in bare if _key(stem) == key]
+        if match:
+            return match[0][1], match[0][0]
+    elif len(bare) == 1:
+        return bare[0][1], bare[0][0]
+    elif len(bare) > 1:
+        raise InvalidInputError(
+            f"{folder}: holds maps of two sets ({bare[0][1]}, {bare[1][1]}); give a folder with one set"
+        )
+    raise InvalidInputError(f"{folder}: no colour map (NAME_Color, _diff, _Albedo, _BaseColor ...) found")
 
 
 def recognise_set(filenames, *, folder: str = "the set") -> tuple[str, dict[str, str]]:
     """The set's stem and its maps, ``kind -> file name``, from a folder's file names.
+
+    Images that are none of the set's maps (a map barkgen does not read, one of another set,
+    a second map of one kind) are named in one :class:`UnplacedFileWarning` line each and left
+    out; the preview picture named like the set (ambientCG's) silently.
 
     Parameters
     ----------
     filenames : iterable of str
         The folder's file names.
     folder : str
-        The folder, as named in errors.
+        The folder, as named in errors and warnings.
 
     Returns
     -------
@@ -107,48 +207,41 @@ def recognise_set(filenames, *, folder: str = "the set") -> tuple[str, dict[str,
     Raises
     ------
     InvalidInputError
-        An image of no known map, two maps of one kind, maps of two sets, or no colour map.
+        No colour map, or two (of one set or of two).
     """
-    kinds: dict[str, str] = {}
-    stems: dict[str, str] = {}
-    bare: list[tuple[str, str]] = []
+    found = []
     for name in sorted(filenames):
         if Path(name).suffix.lower() not in IMAGE_EXTENSIONS or name.startswith("."):
             continue
-        stem, kind = map_kind(name)
-        if kind is None:
-            bare.append((stem, name))
+        found.append((name, *_match(name)))
+    stem, colour = _colour_of(found, folder)
+    kinds: dict[str, str] = {"color": colour}
+    rank: dict[str, int] = {}
+    for name, file_stem, kind, word in found:
+        if name == colour:
             continue
+        if _key(file_stem) != _key(stem):
+            what = "names no map barkgen reads" if kind is None else f"a {kind} map of another set than {stem}"
+            _unplaced(folder, name, what)
+            continue
+        if kind is None:  # the set's preview picture (ambientCG's NAME.png)
+            continue
+        order = MAP_WORDS[kind].index(word)
         if kind in kinds:
-            raise InvalidInputError(f"{folder}: two {kind} maps ({kinds[kind]}, {name}); keep one")
-        kinds[kind] = name
-        stems[name] = stem
-    if len({s.lower() for s in stems.values()}) > 1:
-        first, other = sorted({s for s in stems.values()}, key=str.lower)[:2]
-        raise InvalidInputError(f"{folder}: holds maps of two sets ({first}, {other}); give a folder with one set")
-    stem = next(iter(stems.values()), bare[0][0] if bare else "")
-    for bare_stem, name in bare:
-        if bare_stem.lower() != stem.lower():
-            raise InvalidInputError(
-                f"{folder}/{name}: not a map of {stem or 'a set'} (its name "
-                "names no colour, normal, height, roughness, AO, metalness "
-                "or opacity map)"
-            )
-        if "color" not in kinds:
-            kinds["color"] = name
-        # else: the set's preview picture (ambientCG's NAME.png), left out
-    if "color" not in kinds:
-        raise InvalidInputError(f"{folder}: no colour map (NAME_Color, _diff, _Albedo ...) found")
+            kept, dropped = (name, kinds[kind]) if order < rank[kind] else (kinds[kind], name)
+            _unplaced(folder, dropped, f"a second {kind} map (kept {kept})")
+            if kept == kinds[kind]:
+                continue
+        kinds[kind], rank[kind] = name, order
     normals = [k for k in ("normal_gl", "normal_dx", "normal") if k in kinds]
-    if len(normals) > 1:  # both conventions of one map: the OpenGL one is read
-        for k in normals[1:]:
-            kinds.pop(k)
+    for k in normals[1:]:  # both conventions of one map: the OpenGL one is read
+        kinds.pop(k)
     return stem, kinds
 
 
 @dataclass
 class ScannedSet:
-    """The maps of a scanned set, decoded, all of one size.
+    """The maps of a scanned set, decoded, all of the colour's size.
 
     Attributes
     ----------
@@ -163,9 +256,18 @@ class ScannedSet:
     height : ndarray of float32, shape (h, w), or None
         The displacement in [0, 1] (0 = deepest), at its file's precision.
     roughness, ao, metalness, opacity : ndarray of float32, shape (h, w), or None
-        In [0, 1]; a gloss map is read as ``1 - gloss``.
+        In [0, 1]; from a gloss map ``1 - gloss``, from a specular map its level inverted.
     bits : dict of str to int
         Bits per channel of each map's file.
+    wraps : dict of str to (bool, bool)
+        ``(rows, columns)`` each map (of :attr:`maps`) tiles itself along, judged from its
+        own pixels at its file's size (:func:`~barkgen.io.scanned_maps.own_wraps`).
+    info : dict
+        How the set was read, for the output's metadata: ``sizes`` (each file's ``[w, h]``,
+        where it was resampled), ``normal_convention`` (``gl``/``dx``) and
+        ``normal_convention_from`` (``height``, ``name`` or ``default``) with the height's
+        ``normal_convention_correlation``, ``roughness_from`` (``roughness``, ``arm``,
+        ``gloss``, ``specular``).
     """
 
     name: str
@@ -178,6 +280,8 @@ class ScannedSet:
     metalness: np.ndarray | None = None
     opacity: np.ndarray | None = None
     bits: dict[str, int] = field(default_factory=dict)
+    wraps: dict[str, tuple[bool, bool]] = field(default_factory=dict)
+    info: dict[str, Any] = field(default_factory=dict)
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -196,9 +300,10 @@ def is_set_folder(path: str | os.PathLike) -> bool:
     return Path(path).is_dir()
 
 
-def _grey(image: np.ndarray) -> np.ndarray:
+def _levels(image: np.ndarray) -> np.ndarray:
+    """An image's channels as float32 in [0, 1], ``(h, w, C)``."""
     scale = 65535.0 if image.dtype == np.uint16 else 255.0
-    return image[..., 0].astype(np.float32) / scale
+    return image.astype(np.float32) / scale
 
 
 def read_scanned_set(folder: str | os.PathLike, *, normal_convention: str = "gl") -> ScannedSet:
@@ -209,7 +314,8 @@ def read_scanned_set(folder: str | os.PathLike, *, normal_convention: str = "gl"
     folder : str or PathLike
         The set's folder.
     normal_convention : {"gl", "dx"}, default "gl"
-        How a normal map named only ``Normal`` is read (``NormalGL`` / ``NormalDX`` say it).
+        How a normal map named only ``Normal`` is read when the set has no height to tell
+        (``NormalGL`` / ``NormalDX`` say it).
 
     Returns
     -------
@@ -220,7 +326,7 @@ def read_scanned_set(folder: str | os.PathLike, *, normal_convention: str = "gl"
     ImageReadError
         Not a folder, or an unreadable map.
     InvalidInputError
-        Unknown or mismatched files, maps of different sizes, a normal map that is not RGB.
+        No colour map or two, a normal map that is not RGB.
     """
     from barkgen.io.images import read_image_bytes
 
@@ -250,7 +356,7 @@ def scanned_set_files(files: Mapping[str, bytes], *, where: str = "the set") -> 
     Raises
     ------
     InvalidInputError
-        Unknown or mismatched files (:func:`recognise_set`).
+        No colour map or two (:func:`recognise_set`).
     """
     _, kinds = recognise_set(files, folder=where)
     return {name: files[name] for name in kinds.values()}
@@ -262,13 +368,18 @@ def scanned_set_from_files(
     """A scanned set from its files' bytes, by file name (what :func:`read_scanned_set` reads
     from a folder and :func:`read_set_zip` from a zip).
 
+    Every map is brought to the colour's size (:func:`~barkgen.io.scanned_maps.resample_map`:
+    area-averaged down, bicubic up, wrapping along the axes that map tiles along itself,
+    normals renormalised, in float so 16 bits stay 16); a map of another aspect ratio is left
+    out in one line.
+
     Parameters
     ----------
     files : mapping of str to bytes
         File name -> file bytes; files that are not maps are left out as
         :func:`recognise_set` says.
     normal_convention : {"gl", "dx"}, default "gl"
-        How a normal map named only ``Normal`` is read.
+        How a normal map named only ``Normal`` is read when the set has no height to tell.
     where : str
         What errors call the set.
 
@@ -281,49 +392,105 @@ def scanned_set_from_files(
     ImageReadError
         An unreadable map.
     InvalidInputError
-        Unknown or mismatched files, maps of different sizes, a normal map that is not RGB.
+        No colour map or two, a normal map that is not RGB.
     """
     from barkgen.io.images import decode_image
-    from barkgen.material.maps import decode_normals
+    from barkgen.io.scanned_maps import fits_aspect
 
     if normal_convention not in NORMAL_CONVENTIONS:
         raise InvalidInputError(f"normal convention must be gl or dx, not {normal_convention!r}")
     stem, kinds = recognise_set(files, folder=where)
     images = {kind: decode_image(files[name], f"{where}/{name}") for kind, name in kinds.items()}
-    sizes = {kind: im.shape[:2] for kind, im in images.items()}
-    if len(set(sizes.values())) > 1:
-        listing = ", ".join(f"{kinds[k]} {s[1]}x{s[0]}" for k, s in sizes.items())
-        raise InvalidInputError(f"{where}: the maps differ in size ({listing}); give maps of one size")
-    bits = {kind: 16 if im.dtype == np.uint16 else 8 for kind, im in images.items()}
     color = images.pop("color")
     if color.shape[2] == 1:
         color = np.repeat(color, 3, axis=2)
+    for kind, image in list(images.items()):
+        if not fits_aspect(image.shape[:2], color.shape[:2]):
+            h, w = image.shape[:2]
+            _unplaced(where, kinds[kind], f"{w}x{h} is not the shape of the colour's {color.shape[1]}x{color.shape[0]}")
+            del images[kind]
+            kinds.pop(kind)
+    bits = {kind: 16 if im.dtype == np.uint16 else 8 for kind, im in images.items()}
+    bits["color"] = 16 if color.dtype == np.uint16 else 8
     scan = ScannedSet(name=stem, files=kinds, color=color, bits=bits)
-    for kind in ("normal_gl", "normal_dx", "normal"):
-        if kind not in images:
-            continue
-        rgb = images.pop(kind)
-        if rgb.shape[2] < 3:
-            raise InvalidInputError(f"{where}/{kinds[kind]}: a normal map must be RGB")
-        normals = decode_normals(rgb)
-        if kind == "normal_dx" or (kind == "normal" and normal_convention == "dx"):
-            normals[..., 1] *= -1.0
-        scan.normals = normals
-    if "arm" in images:  # Poly Haven's packed R = AO, G = roughness, B = metalness
-        arm = images.pop("arm")
-        if arm.shape[2] >= 3:
-            for channel, kind in enumerate(("ao", "roughness", "metalness")):
-                if kind not in images and not (kind == "roughness" and "gloss" in images):
-                    images[kind] = arm[..., channel : channel + 1]
-    if "gloss" in images:
-        gloss = _grey(images.pop("gloss"))
-        if "roughness" not in images:
-            scan.roughness = 1.0 - gloss
-    images.pop("cavity", None)
-    for kind in ("height", "roughness", "ao", "metalness", "opacity"):
-        if kind in images:
-            setattr(scan, kind, _grey(images.pop(kind)))
+    sizes = {kinds[k]: [im.shape[1], im.shape[0]] for k, im in images.items() if im.shape[:2] != color.shape[:2]}
+    if sizes:
+        scan.info["sizes"] = sizes
+    _read_levels(scan, images, where)
+    _read_normals(scan, images, where, normal_convention)
     return scan
+
+
+def _placed(scan: ScannedSet, kind: str, image: np.ndarray, *, normals: bool = False) -> np.ndarray:
+    """A map's float pixels at the colour's size; its own wrap recorded as ``kind``'s."""
+    from barkgen.io.scanned_maps import own_wraps, resample_map
+
+    wraps = own_wraps(image)
+    scan.wraps[kind] = wraps
+    return resample_map(image, scan.shape, wraps=wraps, normals=normals)
+
+
+def _read_levels(scan: ScannedSet, images: dict[str, np.ndarray], where: str) -> None:
+    """The set's one-channel maps (height, roughness, AO, metalness, opacity) onto ``scan``:
+    the roughness from the roughness map, else the packed ``arm``'s green, else ``1 - gloss``,
+    else the specular map's level (:func:`~barkgen.io.scanned_maps.specular_roughness`)."""
+    from barkgen.io.scanned_maps import specular_roughness
+
+    levels = {k: _levels(images[k]) for k in images if not k.startswith("normal")}
+    arm = levels.pop("arm", None)
+    if arm is not None and arm.shape[2] >= 3:  # Poly Haven's packed R = AO, G = roughness, B = metalness
+        for channel, kind in enumerate(("ao", "roughness", "metalness")):
+            if kind not in levels:
+                levels[kind] = arm[..., channel : channel + 1]
+                scan.info.setdefault("from_arm", []).append(kind)
+    gloss, specular = levels.pop("gloss", None), levels.pop("specular", None)
+    levels.pop("cavity", None)
+    if "roughness" in levels:
+        scan.info["roughness_from"] = "arm" if "roughness" in scan.info.get("from_arm", ()) else "roughness"
+    elif gloss is not None:
+        levels["roughness"] = 1.0 - gloss[..., :1]
+        scan.info["roughness_from"] = "gloss"
+    elif specular is not None:
+        levels["roughness"] = specular_roughness(specular)[..., None]
+        scan.info["roughness_from"] = "specular"
+    for kind in ("height", "roughness", "ao", "metalness", "opacity"):
+        if kind in levels:
+            setattr(scan, kind, _placed(scan, kind, levels[kind][..., 0]))
+
+
+def _read_normals(scan: ScannedSet, images: dict[str, np.ndarray], where: str, default: str) -> None:
+    """The set's normal map onto ``scan`` as OpenGL unit vectors: its green's convention from
+    the height where the set has one, else its name, else ``default``; a name the height
+    contradicts said in one line."""
+    from barkgen.io.scanned_maps import normal_convention_evidence
+    from barkgen.material.maps import decode_normals
+
+    kind = next((k for k in ("normal_gl", "normal_dx", "normal") if k in images), None)
+    if kind is None:
+        return
+    rgb = images[kind]
+    if rgb.shape[2] < 3:
+        raise InvalidInputError(f"{where}/{scan.files[kind]}: a normal map must be RGB")
+    normals = _placed(scan, "normals", decode_normals(rgb), normals=True)
+    named = {"normal_gl": "gl", "normal_dx": "dx"}.get(kind)
+    convention, source = (named, "name") if named else (default, "default")
+    if scan.height is not None:
+        evidence, correlation = normal_convention_evidence(normals, scan.height)
+        scan.info["normal_convention_correlation"] = round(correlation, 3)
+        if evidence is not None:
+            if named and evidence != named:
+                warnings.warn(
+                    f"{where}/{scan.files[kind]}: named {named.upper()} but its green follows "
+                    f"{evidence.upper()} by the height (correlation {correlation:+.2f}); read as {evidence.upper()}",
+                    UserWarning,
+                    stacklevel=3,
+                )
+            convention, source = evidence, "height"
+    if convention == "dx":
+        normals[..., 1] *= -1.0
+    scan.normals = normals
+    scan.info["normal_convention"] = convention
+    scan.info["normal_convention_from"] = source
 
 
 def read_set_zip(data: bytes, *, max_unpacked_bytes: int, where: str = "the zip") -> dict[str, bytes]:

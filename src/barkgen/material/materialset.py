@@ -223,6 +223,12 @@ class MaterialSet:
     illumination : ndarray of float32, shape (h, w), or None
         The photo's broad light ``L`` (:func:`~barkgen.material.illumination.estimate_illumination`),
         carried with the maps: :meth:`relit_color` puts it back.
+    map_wraps : dict of str to (bool, bool)
+        A scanned set's maps (``height``, ``normals``, ``ao``, ...) that tile along fewer axes
+        than ``wrap``: the axes each wraps along (:func:`transfer_material` carries it so).
+    scan_info : dict
+        How a scanned set was read (resampled sizes, the normals' convention, where the
+        roughness came from): the metadata's ``scanned_info``.
     equalization : float
         How much of ``illumination`` was taken out of ``color`` (0 to 1).
     shape : tuple of int
@@ -256,6 +262,8 @@ class MaterialSet:
     size_given: bool = False
     illumination: np.ndarray | None = None
     equalization: float = 0.0
+    map_wraps: dict[str, tuple[bool, bool]] = field(default_factory=dict)
+    scan_info: dict = field(default_factory=dict)
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -428,6 +436,8 @@ class MaterialSet:
             meta.update(self.physical_size())
         if self.scanned:  # a scanned set's: which maps are the scan's own, carried, not estimated
             meta["scanned_maps"] = list(self.scanned)
+            if self.scan_info:
+                meta["scanned_info"] = self.scan_info
         meta.update(extra)
         return meta
 

@@ -15,6 +15,13 @@ scan's — and only what the set lacks is made:
 
 :func:`transfer_material` then carries the scan's maps through a synthesis's reference map as
 they are (:func:`barkgen.synth.resolve_local`) instead of recomputing them.
+
+Tiling is judged per map (:attr:`ScannedSet.wraps <barkgen.io.ScannedSet>`, from each map's own
+pixels), not from the colour alone: a map wraps along the axes the colour wraps along *and* it
+tiles along itself (:data:`MaterialSet.map_wraps <barkgen.material.MaterialSet>`). A height that
+does not tile while its colour does is carried with its last step where a piece runs on across
+the colour's edge, not with its step from last row to first (a straight line through the
+output's height, normals and AO), and integrated and scaled on its own boundary.
 """
 
 from __future__ import annotations
@@ -85,6 +92,7 @@ _BITS_OF = {
     "normal": "normals",
     "roughness": "roughness",
     "gloss": "roughness",
+    "specular": "roughness",
     "ao": "ao",
     "metalness": "metalness",
     "opacity": "opacity",
@@ -132,8 +140,10 @@ def scanned_material(
 
     wraps = (bool(wrap[0]), bool(wrap[1]))
     tile = wraps[0] and wraps[1]
-    # the scan's own height and normals are read on the torus only where it tiles both ways
-    boundary = Boundary(tile)
+    map_wraps = _map_wraps(scan, wraps)
+    # the scan's own height and normals are read on the torus only where they tile both ways
+    relief_kind = "height" if scan.height is not None else "normals"
+    boundary = Boundary(all(map_wraps.get(relief_kind, wraps)))
     color = check_image(scan.color)
     made: list[MaterialSet] = []
 
@@ -174,4 +184,31 @@ def scanned_material(
         scanned=tuple(dict.fromkeys(scanned)),
         bits=bits,
         pixel_size_m=ASSUMED_PHOTO_WIDTH_M / color.shape[1],
+        map_wraps=map_wraps,
+        scan_info=_scan_info(scan, wraps, map_wraps),
     )
+
+
+def _map_wraps(scan, wraps: tuple[bool, bool]) -> dict[str, tuple[bool, bool]]:
+    """The scan's maps that tile along fewer axes than the colour (``wraps``), with the axes
+    each does: along both the colour's and its own (:attr:`ScannedSet.wraps`). A normal map
+    derived from a height that does not tile wraps as the height does."""
+    own = dict(getattr(scan, "wraps", {}) or {})
+    if scan.normals is None and "height" in own:
+        own["normals"] = own["height"]
+    out = {}
+    for kind, axes in own.items():
+        both = (bool(wraps[0] and axes[0]), bool(wraps[1] and axes[1]))
+        if both != wraps:
+            out[kind] = both
+    return out
+
+
+def _scan_info(scan, wraps: tuple[bool, bool], map_wraps: dict[str, tuple[bool, bool]]) -> dict:
+    """The metadata's ``scanned_info``: how the set was read, and the maps not wrapped."""
+    info = dict(getattr(scan, "info", {}) or {})
+    if map_wraps:
+        info["not_wrapped"] = {
+            kind: "".join("yx"[i] for i in (0, 1) if wraps[i] and not axes[i]) for kind, axes in map_wraps.items()
+        }
+    return info

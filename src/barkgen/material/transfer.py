@@ -73,7 +73,7 @@ def transfer_material(
 
     def relief() -> tuple[np.ndarray, dict, np.ndarray | None, np.ndarray | None]:
         # the height's slopes too, so the normals recomputed from it have no creases at the borders
-        height = resolve_continuous(source.height, refs, canvas, smooth_slopes=True)
+        height = resolve_continuous(source.height, refs, _own_canvas(source, "height", canvas), smooth_slopes=True)
         scanned = _carry_scanned(source, refs, canvas)
         if "normals" in scanned and "ao" in scanned:  # a scan's own: nothing to derive from the height
             return height, scanned, scanned["normals"], scanned["ao"]
@@ -118,15 +118,26 @@ def transfer_material(
         size_given=source.size_given,
         illumination=illumination,
         equalization=source.equalization,
+        scan_info=dict(source.scan_info),
     )
+
+
+def _own_canvas(source: MaterialSet, kind: str, canvas: Canvas) -> Canvas:
+    """The ``canvas`` a map is carried on: the photo's wrap, less the axes a scan's map does
+    not tile along itself (``source.map_wraps``: across them a piece takes the map's last step
+    instead of its step from last row to first, which would draw a line)."""
+    own = source.map_wraps.get(kind)
+    if own is None or canvas.exemplar_wrap is None:
+        return canvas
+    wrap = (bool(canvas.exemplar_wrap[0] and own[0]), bool(canvas.exemplar_wrap[1] and own[1]))
+    return canvas if wrap == tuple(canvas.exemplar_wrap) else canvas.replace(exemplar_wrap=wrap)
 
 
 def _carry_scanned(source: MaterialSet, references: np.ndarray, canvas: Canvas) -> dict[str, np.ndarray]:
     """A scanned set's own local maps through the reference map as they are: exact inside the
     copied pieces, continuous across their borders (:func:`barkgen.synth.resolve_local`);
-    normals as unit vectors (carried per component, renormalised)."""
-    from barkgen.synth import resolve_local
-
+    normals as unit vectors (carried per component, renormalised); each map on its own
+    wrap (:func:`_own_canvas`)."""
     kinds = [
         kind
         for kind in ("normals", "ao", "roughness", "metalness", "opacity")
@@ -140,9 +151,25 @@ def _carry_scanned(source: MaterialSet, references: np.ndarray, canvas: Canvas) 
     # borders too: they vary little inside pieces, and a step between pieces stands out (the
     # scans' roughness: 1.63x the inside step without, 1.38x with)
     for group, smooth_slopes in ((("normals", "ao"), False), (("roughness", "metalness", "opacity"), True)):
-        members = [kind for kind in kinds if kind in group]
-        if not members:
-            continue
+        by_canvas: dict[tuple, list[str]] = {}  # maps that wrap alike are solved together
+        for kind in kinds:
+            if kind in group:
+                by_canvas.setdefault(tuple(_own_canvas(source, kind, canvas).exemplar_wrap or ()), []).append(kind)
+        for members in by_canvas.values():
+            carried.update(
+                _carry_group(source, members, references, _own_canvas(source, members[0], canvas), smooth_slopes)
+            )
+    return carried
+
+
+def _carry_group(
+    source: MaterialSet, members: list[str], references: np.ndarray, canvas: Canvas, smooth_slopes: bool
+) -> dict[str, np.ndarray]:
+    """:func:`_carry_scanned` of maps that wrap alike, their channels side by side."""
+    from barkgen.synth import resolve_local
+
+    carried: dict[str, np.ndarray] = {}
+    if members:
         layers = [np.asarray(getattr(source, kind), np.float32).reshape(source.shape + (-1,)) for kind in members]
         stacked = resolve_local(np.concatenate(layers, axis=2), references, canvas, smooth_slopes=smooth_slopes)
         start = 0
