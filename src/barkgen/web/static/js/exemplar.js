@@ -373,7 +373,7 @@ function updateKind() {
       ? "How many kinds of fine grain (noises), 2–8."
       : kind === "cracks"
         ? "Not used: the cracks and the bark between them are the two regions."
-        : `How many kinds of region (e.g. ridges, furrows, moss), ${K_MIN}–${K_MAX}.`;
+        : `Kinds of region (ridges, furrows, moss), ${K_MIN}–${K_MAX}.`;
 }
 
 /** Offer the kinds the photo suits; say why where it does not. */
@@ -537,7 +537,7 @@ async function main() {
     $("param-k").min = String(K_MIN);
     $("param-k").max = String(K_MAX);
     for (const side of ["param-width", "param-height"]) $(side).max = String(MAX_SIDE);
-    $("size-hint").textContent = `Any width × height up to ${MAX_SIDE} px a side (this server's limit); bigger takes longer.`;
+    $("size-hint").textContent = `Up to ${MAX_SIDE} px a side (this server's limit); bigger takes longer.`;
     applyDefaults(options.fields);
   } catch (err) {
     showError($("page-error"), `Could not load the settings: ${err.message}`);

@@ -54,14 +54,21 @@ function renderHeader(result) {
   bits.push(formatDate(result.created));
   $("result-params").textContent = " · " + bits.filter(Boolean).join(" · ");
 
-  const download = $("download");
-  download.href = result.download_url;
-  download.removeAttribute("download"); // the server names the zip after the photo
-  const glb = result.files && result.files["trunk.glb"];
-  $("download-glb").hidden = !glb;
-  if (glb) {
-    $("download-glb").href = glb;
-    $("download-glb").setAttribute("download", `barkgen-result-${result.id}-trunk.glb`);
+  // each download under the material set's name, as an artist's library sorts it
+  // (ASSET_VARIANT_SIZE.zip, ASSET_VARIANT_SIZE_trunk.glb, ASSET_VARIANT_SIZE_blender.zip)
+  const downloads = result.downloads || {};
+  for (const [testId, item] of [
+    ["download", downloads.zip || { url: result.download_url, name: "" }],
+    ["download-glb", downloads.glb],
+    ["download-blender", downloads.blender],
+  ]) {
+    const link = $(testId);
+    link.hidden = !item;
+    if (!item) continue;
+    link.href = item.url;
+    if (item.name) link.setAttribute("download", item.name);
+    else link.removeAttribute("download"); // (the server's name)
+    link.title = item.name ? `Saved as ${item.name}` : "";
   }
 
   // "Generate another seed": the exemplar page with these settings pre-filled.
