@@ -226,14 +226,15 @@ def _(tmp):
     sets, problem = material_set(tmp)
     if problem:
         return problem
-    colour = (sets / "bark_Color.png").read_bytes()
+    colour_map = sets / "p_seed5_48x48_Color.png"  # (the photo's name, the seed, the size)
+    colour = colour_map.read_bytes()
     return first_problem(
-        one_line(cli("preview", str(sets), "-o", str(sets / "bark_Color.png")), "bark_Color.png"),
-        None if (sets / "bark_Color.png").read_bytes() == colour else "the map changed",
+        one_line(cli("preview", str(sets), "-o", str(colour_map)), colour_map.name),
+        None if colour_map.read_bytes() == colour else "the map changed",
     )
 
 
-@case("data loss", "2 a re-run replaces the folder's set whole (no stale bark_* maps)", 40)
+@case("data loss", "2 a re-run replaces the folder's set whole (no stale p_seed5_* maps)", 40)
 def _(tmp):
     sets, problem = material_set(tmp)
     if problem:
@@ -241,7 +242,7 @@ def _(tmp):
     (sets / "notes.txt").write_text("mine")
     problem = ok(cli("generate", str(tmp / "p.png"), "-o", str(sets), "--size", "32x32", "--seed", "9", "-q"))
     names = sorted(p.name for p in sets.iterdir())
-    stale = [n for n in names if n.startswith("bark")]
+    stale = [n for n in names if n.startswith("p_seed")]
     return first_problem(
         problem,
         f"stale maps left: {stale}" if stale else None,
@@ -1137,19 +1138,29 @@ def _(tmp):
     return first_problem(r, None if not (tmp / "out").exists() else "OUT's set was written")
 
 
-@case("no loss", "56.3 material D/bark_Color.png -o D refused before the work")
+@case("no loss", "56.3 material D/bark_128x128_Color.png --name bark -o D refused before the work")
 def _(tmp):
-    photo(tmp, "bark_Color.png")
-    return _refused_untouched(tmp, "material", str(tmp / "bark_Color.png"), "-o", str(tmp), word="bark_Color.png")
+    photo(tmp, "bark_128x128_Color.png")
+    return _refused_untouched(
+        tmp,
+        "material",
+        str(tmp / "bark_128x128_Color.png"),
+        "--name",
+        "bark",
+        "-o",
+        str(tmp),
+        word="bark_128x128_Color.png",
+    )
 
 
-@case("no loss", "56.3 material P --edits D/bark.json -o D refused before the work")
+@case("no loss", "56.3 material P --edits D/bark_128x128.json --name bark -o D refused before the work")
 def _(tmp):
     d = tmp / "d"
     d.mkdir()
-    (d / "bark.json").write_text('{"version": 1, "edits": []}')
+    (d / "bark_128x128.json").write_text('{"version": 1, "edits": []}')
+    edits = str(d / "bark_128x128.json")
     return _refused_untouched(
-        d, "material", str(photo(tmp)), "--edits", str(d / "bark.json"), "-o", str(d), word="bark.json"
+        d, "material", str(photo(tmp)), "--edits", edits, "--name", "bark", "-o", str(d), word="bark_128x128.json"
     )
 
 

@@ -16,8 +16,8 @@ temporary folder; the files it wrote are then measured with :mod:`barkgen.evalua
   it wraps along (``report.json``'s ``exemplar_wrap`` for generate,
   ``barkgen.synth.exemplar_wraps`` of the exemplar for synth).
 
-Maps of ``generate --material``: texture, bark_Color (the albedo), bark_Displacement (16-bit),
-bark_NormalGL, bark_AmbientOcclusion, bark_Roughness; bark_NormalDX only when it is not
+Maps of ``generate --material``: texture, bark_1K_Color (the albedo), bark_1K_Displacement (16-bit),
+bark_1K_NormalGL, bark_1K_AmbientOcclusion, bark_1K_Roughness; bark_1K_NormalDX only when it is not
 NormalGL with its green flipped (then its figures are NormalGL's). Files with identical bytes
 are measured once. Cases:
 
@@ -84,11 +84,11 @@ TARGETS = {"line": 96, "seam": 48, "colour": 1.25, "maps": 1.5}
 # generate --material: short label -> file in the output folder (NormalDX is checked apart)
 GENERATE_MAPS = {
     "tex": "texture.png",
-    "color": "bark_Color.png",
-    "disp": "bark_Displacement.png",
-    "nGL": "bark_NormalGL.png",
-    "ao": "bark_AmbientOcclusion.png",
-    "rough": "bark_Roughness.png",
+    "color": "SET_Color.png",
+    "disp": "SET_Displacement.png",
+    "nGL": "SET_NormalGL.png",
+    "ao": "SET_AmbientOcclusion.png",
+    "rough": "SET_Roughness.png",
 }
 COLOUR_MAPS = ("tex", "color")
 
@@ -202,8 +202,9 @@ def execute(run: Run) -> dict:
         if run.kind == "generate":
             out = tmp / "out"
             ref = out / "reference.png"
-            files = {k: out / f for k, f in GENERATE_MAPS.items()}
-            dx = out / "bark_NormalDX.png"
+            set_name = next(out.glob("*_Color.png")).name[: -len("_Color.png")]  # (bark_1K: its size tag)
+            files = {k: out / f.replace("SET", set_name) for k, f in GENERATE_MAPS.items()}
+            dx = out / f"{set_name}_NormalDX.png"
             dx_flip = normal_dx_is_flip(files["nGL"], dx)
             if not dx_flip:
                 files["nDX"] = dx
@@ -344,8 +345,9 @@ def plan(case: str, quick: bool, cache: Path) -> list[Run]:
     if case == "extra":
         runs = []
         for mode in ["no"] if quick else ["no", "auto"]:
-            mat = ["material", "-o", "{tmp}/mat", *(["--exemplar-wraps", mode] if mode != "auto" else []), "-q"]
-            h = "{tmp}/mat/bark_Displacement.png"
+            wraps = ["--exemplar-wraps", mode] if mode != "auto" else []
+            mat = ["material", "-o", "{tmp}/mat", "--name", "bark", *wraps, "-q"]
+            h = "{tmp}/mat/bark_1K_Displacement.png"
             runs.append(
                 Run(
                     case,
@@ -354,7 +356,7 @@ def plan(case: str, quick: bool, cache: Path) -> list[Run]:
                     [mat, synth_cmd(None, 0, h)],
                     True,
                     sample,
-                    extra_own="mat/bark_Displacement.png",
+                    extra_own="mat/bark_1K_Displacement.png",
                 )
             )
         return runs

@@ -14,9 +14,10 @@ Run::
 
     python examples/06_material_and_trunk.py OUTDIR
 
-Writes ``OUTDIR/bark/`` (``bark_Color.png``, ``bark_NormalGL.png``, ``bark_NormalDX.png``,
-``bark_Displacement.png``, ``bark_Roughness.png``, ``bark_AmbientOcclusion.png``, ``bark.json``,
-``bark_blender.py``; 128x128), ``OUTDIR/trunk_preview.png`` (192x192) and ``OUTDIR/trunk.glb`` (with ``[gltf]``).
+Writes ``OUTDIR/bark/`` (the set named asset, variant and size as an artist's library expects,
+:mod:`barkgen.io.asset_names`: ``sample_bark_seed7_128x128_Color.png``, ``..._NormalGL.png``,
+``..._NormalDX.png``, ``..._Displacement.png``, ``..._Roughness.png``, ``..._AmbientOcclusion.png``,
+``sample_bark_seed7_128x128.json``, ``..._blender.py``), ``OUTDIR/trunk_preview.png`` (192x192) and ``OUTDIR/trunk.glb`` (with ``[gltf]``).
 """
 
 import sys
@@ -39,7 +40,8 @@ def main(out_dir: Path) -> None:
         synthesis.references,
         barkgen.Canvas(synthesis.references.shape[:2], tile=True, exemplar_wrap=synthesis.exemplar_wrap),
     )
-    files = barkgen.io.encode_material(material, "bark", seed=7, source_photo="sample_bark.jpg")
+    name = barkgen.io.material_set_name(barkgen.io.base_name("sample_bark", "seed7"), material.shape)
+    files = barkgen.io.encode_material(material, name, asset="sample_bark", seed=7, source_photo="sample_bark.jpg")
     barkgen.io.write_folder_atomic(out_dir / "bark", files)
 
     preview = barkgen.render_trunk(material, (192, 192))

@@ -92,13 +92,14 @@ def check_05(out: Path) -> None:
 
 def check_06(out: Path) -> None:
     suffixes = ("Color", "NormalGL", "NormalDX", "Displacement", "Roughness", "AmbientOcclusion")
-    maps = {s: read_image(out / "bark" / f"bark_{s}.png") for s in suffixes}
+    name = "sample_bark_seed7_128x128"  # asset, variant, size (barkgen.io.asset_names)
+    maps = {s: read_image(out / "bark" / f"{name}_{s}.png") for s in suffixes}
     assert {m.shape[:2] for m in maps.values()} == {(128, 128)}
     assert maps["Displacement"].dtype == np.uint16
     # OpenGL and DirectX normals differ exactly in green
     gl, dx = maps["NormalGL"].astype(int), maps["NormalDX"].astype(int)
     assert np.array_equal(gl[..., [0, 2]], dx[..., [0, 2]]) and not np.array_equal(gl[..., 1], dx[..., 1])
-    meta = json.loads((out / "bark" / "bark.json").read_text())
+    meta = json.loads((out / "bark" / f"{name}.json").read_text())
     assert meta["tileable"] is True and meta["seed"] == 7
     assert read_image(out / "trunk_preview.png").shape == (192, 192, 3)
     if find_spec("trimesh") is not None:

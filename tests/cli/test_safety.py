@@ -104,9 +104,10 @@ def test_an_output_that_is_an_input_is_refused_and_the_input_kept(tmp_path, phot
     # preview into its own set's files: refused; beside them: fine
     sets = tmp_path / "set"
     assert run("generate", str(src), "-o", str(sets), "--size", "32x32", "--material", "-q").returncode == 0
-    colour = (sets / "bark_Color.png").read_bytes()
-    _one_line(run("preview", str(sets), "-o", str(sets / "bark_Color.png")), "bark_Color.png")
-    assert (sets / "bark_Color.png").read_bytes() == colour
+    colour_map = sets / "p_seed0_32x32_Color.png"  # the photo's name, the seed, the size
+    colour = colour_map.read_bytes()
+    _one_line(run("preview", str(sets), "-o", str(colour_map)), colour_map.name)
+    assert colour_map.read_bytes() == colour
     assert run("preview", str(sets), "-o", str(sets / "trunk.png")).returncode == 0
 
 
@@ -116,7 +117,7 @@ def test_a_rerun_replaces_the_folders_set_as_a_whole(tmp_path, photo):
         run("generate", str(photo), "-o", str(out), "--size", "48x48", "--seed", "5", "--material", "-q").returncode
         == 0
     )
-    assert (out / "bark_Color.png").is_file()
+    assert (out / "p_seed5_48x48_Color.png").is_file()
     (out / "notes.txt").write_text("mine")  # not a run's file: stays
     assert run("generate", str(photo), "-o", str(out), "--size", "32x32", "--seed", "9", "-q").returncode == 0
     names = sorted(p.name for p in out.iterdir())
@@ -162,11 +163,11 @@ def test_a_run_removes_only_what_it_can_prove_a_run_wrote(tmp_path, photo):
     # a forged record naming the user's file with a wrong hash proves nothing either
     record = json.loads((out / "report.json").read_text())
     assert record["file_sha256"]["texture.png"] and "holiday.jpg" not in record["files"]
-    (out / "bark_Roughness.png").write_bytes(b"edited by the user")
+    (out / "p_seed0_32x32_Roughness.png").write_bytes(b"edited by the user")
     assert run("generate", str(photo), "-o", str(out), "--size", "32x32", "-q").returncode == 0
     names = {p.name for p in out.iterdir()}
-    assert {"holiday.jpg", "notes.txt", "bark_Roughness.png"} <= names  # the user's, kept
-    assert "bark_Color.png" not in names and "bark.json" not in names  # the last run's, removed
+    assert {"holiday.jpg", "notes.txt", "p_seed0_32x32_Roughness.png"} <= names  # the user's, kept
+    assert not {"p_seed0_32x32_Color.png", "p_seed0_32x32.json"} & names  # the last run's, removed
 
 
 def test_a_folder_is_replaced_whole_only_when_a_run_wrote_all_of_it(tmp_path, photo):
@@ -274,8 +275,17 @@ def test_every_file_a_command_will_write_is_checked_before_any_work(tmp_path, ph
             "--save-levels",
             str(d),
         ),
-        "material colour": ("material", str(d / "bark_Color.png"), "-o", str(d)),
-        "material edits": ("material", str(photo), "--edits", str(d / "bark.json"), "-o", str(d)),
+        "material colour": ("material", str(d / "bark_40x48_Color.png"), "--name", "bark", "-o", str(d)),
+        "material edits": (
+            "material",
+            str(photo),
+            "--edits",
+            str(d / "bark_40x48.json"),
+            "--name",
+            "bark",
+            "-o",
+            str(d),
+        ),
     }[case]
     named = {
         "extra is OUT_NAME": "o_height.png",
@@ -284,12 +294,12 @@ def test_every_file_a_command_will_write_is_checked_before_any_work(tmp_path, ph
         "debug dir": "feature_distance.png",
         "textons": "textons.png",
         "save-levels and resume": "level_1.png",
-        "material colour": "bark_Color.png",
-        "material edits": "bark.json",
+        "material colour": "bark_40x48_Color.png",  # (--name's set of the 40x48 photo)
+        "material edits": "bark_40x48.json",
     }[case]
     if named == "level_1.png":
         write_png(d / named, (read_image(photo)[::4, ::4, 0] > 128).astype(np.uint8) * 255)
-    elif named == "bark.json":
+    elif named == "bark_40x48.json":
         (d / named).write_text('{"version": 1, "edits": []}')
     else:
         (d / named).write_bytes(data)

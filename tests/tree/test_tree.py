@@ -98,7 +98,8 @@ def test_tree_command_end_to_end(tmp_path):
     done = run("tree", "-o", str(out), "--size", "256x256", "--photo", str(photo), "--k", "2", "-q")
     assert done.returncode == 0, done.stderr
     files = {p.name for p in out.iterdir()}
-    assert {"tree.glb", "tree_preview.png", "bark_Color.png", "bark_NormalGL.png", "report.json"} <= files
+    set_name = "oak_furrowed_moss_01_seed0_256x256"  # the photo's name, the seed, the atlas's size
+    assert {"tree.glb", "tree_preview.png", f"{set_name}_Color.png", f"{set_name}_NormalGL.png", "report.json"} <= files
     report = json.loads((out / "report.json").read_text())
     assert "tree.glb" in report["files"] and report["flow"]["copies"] >= 7
     checked = validate_glb(out / "tree.glb")

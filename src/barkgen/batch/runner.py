@@ -79,8 +79,17 @@ def _variant_task(photo, analysis, options, source: str, job: ExemplarJob):
 
     t0 = time.perf_counter()
     result = generate(photo, options, analysis=analysis)
+    asset, variant = job.set_base_name(options.seed)
     files = encode_generate(
-        photo, result, source, name=job.material_name, bits=job.bits, preset=job.preset, sizes=job.sizes
+        photo,
+        result,
+        source,
+        name=asset,
+        variant=variant,
+        licence=job.licence,
+        bits=job.bits,
+        preset=job.preset,
+        sizes=job.sizes,
     )
     try:
         from distributed import get_worker

@@ -37,7 +37,7 @@ FILE_KEYS = ("bits", "material_name", "preset", "sizes")
 #: FILE_KEYS
 OPTION_KEYS = tuple(f.name for f in option_fields(GenerateOptions, "batch")) + FILE_KEYS
 #: keys of an exemplar entry besides the options
-EXEMPLAR_KEYS = ("name", "path", "library", "labels", "seeds", "count", "seed_base")
+EXEMPLAR_KEYS = ("name", "path", "library", "labels", "seeds", "count", "seed_base", "licence")
 #: top-level keys besides the options
 TOP_KEYS = ("exemplars",)
 
@@ -54,7 +54,9 @@ MAX_EXEMPLARS = 10_000
 class ExemplarJob:
     """One exemplar of a batch: its output ``name`` (the folder under OUTDIR), the photo, an
     optional label map of it, the seeds of its variants, its :class:`GenerateOptions` (the
-    seed field aside), the material set's file ``material_name`` and the texture's ``bits``."""
+    seed field aside), the material set's asset name ``material_name`` (None: the exemplar's
+    ``name``, each set named with its seed, :mod:`barkgen.io.asset_names`), the photo's
+    ``licence`` and the texture's ``bits``."""
 
     name: str
     path: Path
@@ -62,10 +64,20 @@ class ExemplarJob:
     options: GenerateOptions
     labels: Path | None = None
     bits: int | None = None
-    material_name: str = "bark"
+    material_name: str | None = None
     preset: str = "ambientcg"
     sizes: tuple[int, ...] = ()
     source: str | None = None
+    licence: str | None = None
+
+    def set_base_name(self, seed: int) -> tuple[str, str | None]:
+        """The set's asset name and variant for ``seed``: ``material_name`` as given (with the
+        seed when the entry has several), else the exemplar's name and the seed."""
+        from barkgen.io import set_asset_name
+
+        if self.material_name is None:
+            return set_asset_name(self.name), f"seed{seed}"
+        return self.material_name, f"seed{seed}" if len(self.seeds) > 1 else None
 
     @property
     def source_name(self) -> str:
@@ -88,6 +100,7 @@ class ExemplarJob:
                 "labels": None if self.labels is None else str(self.labels),
                 "bits": self.bits,
                 "material_name": self.material_name,
+                **({"licence": self.licence} if self.licence is not None else {}),
                 # (only where set: the fingerprints of earlier batches stay as they were)
                 **({"preset": self.preset} if self.preset != "ambientcg" else {}),
                 **({"sizes": list(self.sizes)} if self.sizes else {}),
@@ -177,17 +190,27 @@ def _options(
         bits = values.get("bits")
         if bits is not None and (isinstance(bits, bool) or bits not in (8, 16)):
             raise InvalidInputError(f"bits must be 8 or 16, not {bits!r}")
-        name = values.get("material_name", "bark")
-        check_generate_names(str(name), words=("material_name", "extra"))
+        name = values.get("material_name")
+        if name is not None:
+            check_generate_names(str(name), words=("material_name", "extra"))
         preset = check_preset(str(values.get("preset", "ambientcg")))
         sizes = parse_sizes(values.get("sizes"), "sizes")
         options = sized_options(options_class(threads=threads, **kwargs), sizes)
-        return options, {"bits": bits, "material_name": str(name), "preset": preset, "sizes": tuple(sizes)}
+        material_name = None if name is None else str(name)
+        return options, {"bits": bits, "material_name": material_name, "preset": preset, "sizes": tuple(sizes)}
     except BarkgenError as exc:
         message = str(exc)
         if message.startswith(where):
             raise
         raise InvalidInputError(f"{where}: {message}") from None
+
+
+def _licence(where: str, entry: dict, library_licence: str | None) -> str | None:
+    """The entry's ``licence`` (one line of text), else its library exemplar's."""
+    licence = entry.get("licence", library_licence)
+    if licence is not None and (not isinstance(licence, str) or not licence.strip() or "\n" in licence):
+        raise InvalidInputError(f"{where}: licence must be one line of text (e.g. CC0-1.0), not {licence!r}")
+    return licence
 
 
 def _seeds(where: str, entry: dict) -> tuple[int, ...]:
@@ -231,8 +254,9 @@ def _path(root: Path, where: str, key: str, value, folder: bool = False) -> Path
     return path
 
 
-def _library_photo(where: str, entry: dict, library) -> tuple[Path, str, str]:
-    """``library: ID`` -> the exemplar's stored photo, its default output name and source."""
+def _library_photo(where: str, entry: dict, library) -> tuple[Path, str, str, str | None]:
+    """``library: ID`` -> the exemplar's stored photo, its default output name, source and
+    licence."""
     from barkgen.library import Library, NotFoundError
 
     if "path" in entry:
@@ -249,7 +273,8 @@ def _library_photo(where: str, entry: dict, library) -> tuple[Path, str, str]:
             f"{where}: no exemplar {exemplar_id} in the library at {library.path} (see barkgen library list)"
         ) from None
     name = re.sub(r"[^A-Za-z0-9._-]+", "-", exemplar.name).strip("-.")[:64] or f"library-{exemplar.id}"
-    return library.store.path(exemplar.image_hash), name, f"library:{exemplar.id} ({exemplar.name})"
+    source = f"library:{exemplar.id} ({exemplar.name})"
+    return library.store.path(exemplar.photo_hash), name, source, exemplar.licence
 
 
 def parse_spec(document, root: str | Path = ".", *, threads: int | None = None, library=None) -> BatchSpec:
@@ -284,9 +309,9 @@ def parse_spec(document, root: str | Path = ".", *, threads: int | None = None, 
                 f"{where}: expected a mapping such as {{name: oak, path: oak.jpg, seeds: [0, 1]}}, not {entry!r}"
             )
         _check_keys(where, entry, EXEMPLAR_KEYS + OPTION_KEYS)
-        source = None
+        source, licence = None, None
         if "library" in entry:
-            path, default_name, source = _library_photo(where, entry, library)
+            path, default_name, source, licence = _library_photo(where, entry, library)
         elif "path" not in entry:
             raise InvalidInputError(f"{where}: path (the bark photo) or library (an exemplar id) is missing")
         else:
@@ -317,6 +342,7 @@ def parse_spec(document, root: str | Path = ".", *, threads: int | None = None, 
                 options=options,
                 labels=labels,
                 source=source,
+                licence=_licence(where, entry, licence),
                 **files,
             )
         )

@@ -429,7 +429,21 @@ ExrHeightOption = Annotated[
     ),
 ]
 NameOption = Annotated[
-    str, typer.Option("--name", help="Material set name: files NAME_Color.png, NAME_NormalGL.png, ..., NAME.json.")
+    Optional[str],
+    typer.Option(
+        "--name",
+        help="The set's asset name: files NAME_2K_Color.png, NAME_2K_NormalGL.png, ..., NAME_2K.json (the size tag "
+        "in every file). Default: the photo's (or the scanned set's) file name and the variant, as "
+        "oak_seed7_2K_Color.png (the seed; an edit list's tag with --edits).",
+    ),
+]
+LicenceOption = Annotated[
+    Optional[str],
+    typer.Option(
+        "--licence",
+        help="The photo's licence (e.g. CC0-1.0, CC-BY-4.0), recorded in the set's JSON as source_licence (the "
+        "new bark is made of the photo's pixels). Default: the bundled sample's, else not recorded.",
+    ),
 ]
 SaveLevelsOption = Annotated[
     Optional[Path],

@@ -19,6 +19,7 @@ from barkgen.cli._common import (
     FlowOption,
     FlowScaleOption,
     LibraryOption,
+    LicenceOption,
     NameOption,
     NoCacheOption,
     PresetOption,
@@ -62,7 +63,8 @@ def generate_command(
     save_levels: SaveLevelsOption = None,
     resume: ResumeOption = None,
     bits: BitsOption = None,
-    name: NameOption = "bark",
+    name: NameOption = None,
+    licence: LicenceOption = None,
     preset: PresetOption = "ambientcg",
     exr_height: ExrHeightOption = False,
     sizes: Annotated[
@@ -89,7 +91,8 @@ def generate_command(
     into the output folder."""
     from barkgen import Canvas
     from barkgen.data import sample_exemplar_path
-    from barkgen.io import read_image, read_scanned_set
+    from barkgen.io import base_name, check_material_name, material_set_names, read_image, read_scanned_set
+    from barkgen.io.asset_names import SAMPLE_LICENCE
     from barkgen.material import EditList
     from barkgen.material.presets import check_preset
     from barkgen.pipeline import (
@@ -100,7 +103,6 @@ def generate_command(
         open_store,
         parse_sizes,
         sized_options,
-        sized_set_names,
         stage_at,
     )
     from barkgen.pipeline.rules import PhotoInputs, check_run
@@ -114,24 +116,26 @@ def generate_command(
             raise InvalidInputError(f"{output_dir} is the scanned set's folder; write the new set to another")
     widths = parse_sizes(sizes, "--sizes")
     options = sized_options(options, widths)
-    _check_generate_names(name, options.material)
+    if name is not None:
+        check_material_name(name)
     check_preset(preset)
     if save_levels is not None:
         check_folder(save_levels, "--save-levels")
         refuse_input_folder(save_levels, "--save-levels")
     extra_paths = _extra_paths(extra)
-    stale = previous_run_files(output_dir)
-    set_names = sized_set_names(name, widths) if options.material else []
-    refuse_inputs(_run_targets(output_dir, set_names, extra_paths, stale, preset))
+    edit_list = read_edits(edits) if edits is not None else EditList()
+    check_edit_list(edit_list, options.material)
     src = photo if photo is not None else sample_exemplar_path()
     scan = read_scanned_set(set_folder) if set_folder is not None else None
+    asset, variant = set_base_name(name, scan.name if scan is not None else src, options.seed, edit_list)
+    stale = previous_run_files(output_dir)
+    set_names = material_set_names(base_name(asset, variant), options.size, widths) if options.material else []
+    refuse_inputs(_run_targets(output_dir, set_names, extra_paths, stale, preset))
     image = scan.color if scan is not None else read_image(src)
     extras = {name: read_image(p) for name, p in extra_paths.items()}
     label_map = read_image(labels) if labels is not None else None
     edited = read_resume(resume) if resume is not None else None
     fields = read_fields(flow, flow_scale)
-    edit_list = read_edits(edits) if edits is not None else EditList()
-    check_edit_list(edit_list, options.material)
     describe = functools.partial(stage_at, material=options.material)
     canvas = Canvas(options.size, tile=options.tile, **fields) if fields else None
     check_run(image, options, canvas, PhotoInputs(extras, label_map, scan), None, edited, edit_list.edits)
@@ -155,7 +159,16 @@ def generate_command(
         )
         result = adjusted_result(result, edit_list)  # the edit list's depth and light, after its edits
         files = encode_generate(
-            image, result, str(src), name=name, bits=bits, preset=preset, sizes=widths, exr_height=exr_height
+            image,
+            result,
+            str(src),
+            name=asset,
+            variant=variant,
+            licence=licence if licence is not None or photo is not None else SAMPLE_LICENCE,
+            bits=bits,
+            preset=preset,
+            sizes=widths,
+            exr_height=exr_height,
         )
     levels: dict[Path, bytes] = {}
     if save_levels is not None:
@@ -222,16 +235,22 @@ def _run_targets(folder: Path, set_names: list[str], extras, stale, preset: str 
     return [folder / n for n in sorted(names)]
 
 
-def _check_generate_names(name: str, material: bool) -> None:
-    """The name generate's run cannot judge before it ends: the material set's (its files must
-    not take one of generate's)."""
-    from barkgen.io import check_material_name
-    from barkgen.pipeline import check_generate_names
+def set_base_name(name: str | None, source, seed: int, edit_list) -> tuple[str, str | None]:
+    """The set's asset name and variant (:mod:`barkgen.io.asset_names`): ``--name`` as given
+    (no variant), else the photo's or the scanned set's name (``source``: a path or a stem) with
+    the seed and the edit list's tag."""
+    from barkgen.io import photo_asset_name, set_asset_name, variant_name
+    from barkgen.material import edits_document
 
-    if material:
-        check_generate_names(name, words=("--name", "--extra name"))
-    else:
-        check_material_name(name)
+    if name is not None:
+        return name, None
+    asset = photo_asset_name(source) if isinstance(source, Path) else set_asset_name(str(source))
+    document = (
+        edits_document(edit_list.edits, relief=edit_list.relief, light_equalization=edit_list.light_equalization)
+        if edit_list.edits or edit_list.adjusts
+        else None
+    )
+    return asset, variant_name(seed, document)
 
 
 def _extra_paths(extra: list[str] | None) -> dict[str, Path]:

@@ -14,6 +14,7 @@ from barkgen._shared.checks import parse_size
 from barkgen.cli._common import (
     EditsOption,
     ExrHeightOption,
+    LicenceOption,
     NameOption,
     OutputOption,
     PresetOption,
@@ -47,7 +48,8 @@ GlbRepeat = Annotated[
 def material_command(
     photo: Annotated[Optional[Path], typer.Argument(help="Bark photo. Default: the bundled sample.")] = None,
     output_dir: Annotated[Path, typer.Option("-o", "--output", help="Output folder.")] = Path("material"),
-    name: NameOption = "bark",
+    name: NameOption = None,
+    licence: LicenceOption = None,
     preset: PresetOption = "ambientcg",
     exr_height: ExrHeightOption = False,
     edits: EditsOption = None,
@@ -63,20 +65,25 @@ def material_command(
     import time
 
     from barkgen.data import sample_exemplar_path
-    from barkgen.io import check_material_name, encode_material, read_image
+    from barkgen.io import base_name, check_material_name, encode_material, image_size, material_set_name, read_image
+    from barkgen.io.asset_names import SAMPLE_LICENCE
     from barkgen.io.material import material_file_names
     from barkgen.material import EditList, adjust_material, make_material
     from barkgen.material.presets import check_preset
 
-    check_material_name(name)
+    if name is not None:
+        check_material_name(name)
     check_preset(preset)
     check_folder(output_dir, "output")
-    refuse_targets({f"output {n}": output_dir / n for n in material_file_names(name, preset)})
     # the options: MaterialOptions (the flags); edits outside the photo: the height editor
     if tile:
         options = dataclasses.replace(options, exemplar_wrap="yes")
     edit_list = read_edits(edits) if edits is not None else EditList()
     src = photo if photo is not None else sample_exemplar_path()
+    w, h = image_size(src)
+    asset, variant = _asset_and_variant(name, src, edit_list)
+    set_name = material_set_name(base_name(asset, variant), (h, w))
+    refuse_targets({f"output {n}": output_dir / n for n in material_file_names(set_name, preset)})
     image = read_image(src)
     h, w = image.shape[:2]
     start = time.perf_counter()
@@ -88,11 +95,14 @@ def material_command(
             progress(1, 1)
     files = encode_material(
         material,
-        name,
+        set_name,
         preset,
         exr_height=exr_height,
+        asset=asset,
+        variant=variant,
         seed=options.seed,
         source_photo=str(src),
+        source_licence=licence if licence is not None or photo is not None else SAMPLE_LICENCE,
         edits=len(edit_list.edits),
         exemplar_wrap_mode=options.exemplar_wrap,
     )
@@ -101,11 +111,26 @@ def material_command(
         lt = material.light
         assert lt is not None  # make_material sets the light it used
         typer.echo(
-            f"wrote {output_dir}/{name}_*.png ({w}x{h}; light {lt.azimuth:g},{lt.elevation:g}; "
+            f"wrote {output_dir}/{set_name}_*.png ({w}x{h}; light {lt.azimuth:g},{lt.elevation:g}; "
             f"depth {material.depth:.1f} px = {1000 * material.physical_size()['displacement_depth_m']:.1f} mm"
             f"{_wrap_note(material.wraps)}) in {time.perf_counter() - start:.1f} s",
             err=True,
         )
+
+
+def _asset_and_variant(name: str | None, src: Path, edit_list) -> tuple[str, str | None]:
+    """The set's asset name and variant (:mod:`barkgen.io.asset_names`): ``--name`` as given,
+    else the photo's name, with the edit list's tag when it has edits (a photo has one set
+    of its own; an edited one is another)."""
+    from barkgen.io import photo_asset_name, variant_name
+    from barkgen.material import edits_document
+
+    if name is not None:
+        return name, None
+    if not (edit_list.edits or edit_list.adjusts):
+        return photo_asset_name(src), None
+    document = edits_document(edit_list.edits, relief=edit_list.relief, light_equalization=edit_list.light_equalization)
+    return photo_asset_name(src), variant_name(None, document)
 
 
 def _wrap_note(wraps: tuple[bool, bool]) -> str:
@@ -135,18 +160,24 @@ def preview_command(
 
 def export_glb_command(
     folder: Annotated[Path, typer.Argument(help="Material set folder.")],
-    output: Annotated[Path, typer.Option("-o", "--output", help="Output .glb.")] = Path("trunk.glb"),
+    output: Annotated[
+        Optional[Path], typer.Option("-o", "--output", help="Output .glb. Default: SET_trunk.glb (the set's name).")
+    ] = None,
     repeat: GlbRepeat = None,
     displacement: ViewDisplacement = 1.0,
     segments: Annotated[int, typer.Option("--segments", help="Vertices around the trunk.")] = 256,
 ) -> None:
     """Write a glTF 2.0 trunk: the relief in the geometry (in metres at the set's real size),
     colour, normal and occlusion-roughness-metallic textures."""
-    from barkgen.io import encode_glb, read_material
+    from barkgen.io import encode_glb, find_material, library_file_name, read_material
     from barkgen.render import TrunkView, trunk_mesh
 
-    check_file_name(output, ".glb", "output")
+    if output is not None:
+        check_file_name(output, ".glb", "output")
     view = TrunkView(repeat=repeat, displacement=displacement)
+    if output is None:  # named as the set is (oak_seed7_2K_trunk.glb), in the current folder
+        output = Path(library_file_name(find_material(folder)[0], "trunk.glb"))
+        check_file_name(output, ".glb", "output")
     material, _ = read_material(folder)
     write_outputs({output: encode_glb(trunk_mesh(material, segments=segments, view=view), material)})
 

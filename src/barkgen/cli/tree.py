@@ -11,6 +11,7 @@ import typer
 
 from barkgen.cli._common import (
     BitsOption,
+    LicenceOption,
     NameOption,
     PresetOption,
     QuietOption,
@@ -58,7 +59,8 @@ def tree_command(
         typer.Option("--scale-with-radius", help="Wider plates where the branch is thicker (the built-in tree)."),
     ] = False,
     bits: BitsOption = None,
-    name: NameOption = "bark",
+    name: NameOption = None,
+    licence: LicenceOption = None,
     preset: PresetOption = "ambientcg",
     quiet: QuietOption = False,
     *,
@@ -70,7 +72,15 @@ def tree_command(
     tileable), its material set, tree.glb (the mesh with the set's textures) and
     tree_preview.png (four views) into the output folder."""
     from barkgen.data import sample_exemplar_path
-    from barkgen.io import read_image
+    from barkgen.io import (
+        base_name,
+        check_material_name,
+        material_set_name,
+        photo_asset_name,
+        read_image,
+        variant_name,
+    )
+    from barkgen.io.asset_names import SAMPLE_LICENCE
     from barkgen.material.presets import check_preset
     from barkgen.pipeline import encode_tree, make_tree, stage_at
     from barkgen.tree import read_tree_mesh
@@ -79,9 +89,13 @@ def tree_command(
     check_folder(output_dir, "output")
     check_preset(preset)
     options = dataclasses.replace(options, material=True, tile=False)
-    stale = previous_run_files(output_dir)
-    refuse_inputs(_targets(output_dir, name, preset, stale))
+    if name is not None:
+        check_material_name(name)
     src = photo if photo is not None else sample_exemplar_path()
+    asset, variant = (name, None) if name is not None else (photo_asset_name(src), variant_name(options.seed))
+    set_name = material_set_name(base_name(asset, variant), options.size)
+    stale = previous_run_files(output_dir)
+    refuse_inputs(_targets(output_dir, set_name, preset, stale))
     image = read_image(src)
     tree_mesh = read_tree_mesh(mesh, resolution=max(options.size)) if mesh is not None else None
     describe = functools.partial(stage_at, material=True)
@@ -94,7 +108,10 @@ def tree_command(
             scale_with_radius=scale_with_radius,
             progress=progress,
         )
-        files = encode_tree(image, tree, str(src), name=name, bits=bits, preset=preset)
+        licence = licence if licence is not None or photo is not None else SAMPLE_LICENCE
+        files = encode_tree(
+            image, tree, str(src), name=asset, variant=variant, licence=licence, bits=bits, preset=preset
+        )
     write_run(output_dir, files, stale)
     if not quiet:
         h, w = tree.result.texture.shape[:2]

@@ -1,6 +1,18 @@
 """Codecs and file writes: images, reference maps, material sets, bi-layer models and folders
 written as one step (the only place where barkgen touches files)."""
 
+from barkgen.io.asset_names import (
+    asset_slug,
+    base_name,
+    edit_tag,
+    library_file_name,
+    material_set_name,
+    material_set_names,
+    photo_asset_name,
+    set_asset_name,
+    size_tag,
+    variant_name,
+)
 from barkgen.io.bilayer import encode_bilayer_model, read_bilayer_model, write_bilayer_model
 from barkgen.io.blender import blender_setup_script
 from barkgen.io.fields import read_field
@@ -55,6 +67,16 @@ from barkgen.io.staging import (
 )
 
 __all__ = [
+    "asset_slug",
+    "base_name",
+    "edit_tag",
+    "library_file_name",
+    "material_set_name",
+    "material_set_names",
+    "photo_asset_name",
+    "set_asset_name",
+    "size_tag",
+    "variant_name",
     "IMAGE_EXTENSIONS",
     "ScannedSet",
     "is_set_folder",

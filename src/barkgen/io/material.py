@@ -27,7 +27,8 @@ MAP_SUFFIXES = ("Color", "NormalGL", "NormalDX", "Displacement", "Roughness", "A
 
 
 def check_material_name(name: str) -> str:
-    """Check a set name: letters, digits, ``_`` or ``-``, at most 64 (it becomes file names).
+    """Check a set name: letters, digits, ``_`` or ``-``, at most 100 (it becomes file names:
+    ``ASSET_VARIANT_SIZE``, :mod:`barkgen.io.asset_names`).
 
     Parameters
     ----------
@@ -44,8 +45,8 @@ def check_material_name(name: str) -> str:
     InvalidInputError
         Any other name.
     """
-    if not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_-]{0,63}", name):
-        raise InvalidInputError(f"--name must be letters, digits, _ or - (at most 64), not {name!r}")
+    if not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_-]{0,99}", name):
+        raise InvalidInputError(f"--name must be letters, digits, _ or - (at most 100), not {name!r}")
     return name
 
 
@@ -86,7 +87,9 @@ def encode_material(
         Also ``NAME_Displacement.exr``: the displacement as 32-bit float (0 = deepest, 1 =
         highest, as the 16-bit PNG, without its rounding; the ``[exr]`` extra).
     **metadata
-        Added to ``NAME.json`` (seed, source photo, ...).
+        Added to ``NAME.json`` (asset, variant, seed, source photo, its licence, ...). The record
+        always states the width and height in pixels (``width_px``, ``height_px``) and, where
+        the pixel size is known, in metres (``width_m``, ``height_m``), and the ``preset``.
 
     Returns
     -------
@@ -111,8 +114,9 @@ def encode_material(
     images = preset_images(material, name, preset)
     files = encode_concurrently({fname: partial(encode_png, pixels) for fname, pixels in images.items()})
     meta = material.metadata(name=name, **metadata)
-    if preset != "ambientcg":  # (an ambientCG set's record is as it always was)
-        meta["preset"] = preset
+    meta["width_px"], meta["height_px"] = meta["size"]
+    meta["preset"] = preset
+    if preset != "ambientcg":
         meta["normal_convention"] = NORMAL_FILES[preset]
         if preset in PACKING:
             meta["packing"] = PACKING[preset]

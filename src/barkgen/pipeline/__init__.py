@@ -21,9 +21,7 @@ from barkgen.pipeline.files import (
     check_generate_names,
     encode_generate,
     parse_sizes,
-    size_tag,
     sized_options,
-    sized_set_names,
 )
 from barkgen.pipeline.options import LABEL_METHODS, GenerateOptions, analysis_key
 from barkgen.pipeline.progress import stage_at, stage_span
@@ -53,9 +51,7 @@ __all__ = [
     "make_tree",
     "parse_sizes",
     "preview_sheet",
-    "size_tag",
     "sized_options",
-    "sized_set_names",
     "stage_at",
     "stage_span",
     "warm_up",

@@ -11,6 +11,7 @@ import numpy as np
 
 from barkgen._version import __version__
 from barkgen.errors import InvalidInputError
+from barkgen.io.asset_names import base_name, material_set_name, sized_shapes
 from barkgen.io.folders import RECORD_HASHES, file_record
 from barkgen.io.images import encode_concurrently, encode_png
 from barkgen.io.material import check_material_name, encode_material, utf8_text
@@ -53,6 +54,8 @@ def encode_generate(
     source: str,
     *,
     name: str = "bark",
+    variant: str | None = None,
+    licence: str | None = None,
     bits: int | None = None,
     preset: str = "ambientcg",
     sizes: Sequence[int] = (),
@@ -62,8 +65,9 @@ def encode_generate(
     """Every file of a :class:`~barkgen.pipeline.GenerateResult`, encoded.
 
     ``texture.png``, ``labels_in.png``, ``labels_out.png``, ``reference.png``, ``preview.png``,
-    one ``NAME.png`` per extra map, the material set as ``name``
-    (:func:`~barkgen.io.encode_material`) when there is one, and ``report.json`` (version, the
+    one ``NAME.png`` per extra map, the material set when there is one, named as an artist's
+    library expects (``ASSET_VARIANT_2K_Color.png``, :mod:`barkgen.io.asset_names`;
+    :func:`~barkgen.io.encode_material`), and ``report.json`` (version, the
     ``source`` photo, the run's report, the list of files and each one's SHA-256, by which a
     later run proves which files of the folder are barkgen's, :func:`barkgen.io.owned_files`):
     the bytes ``barkgen generate``, ``barkgen batch`` and the web app write.
@@ -77,15 +81,22 @@ def encode_generate(
     source : str
         The photo's name or path, as recorded in ``report.json``.
     name : str, default "bark"
-        The material set's ``NAME``.
+        The set's asset name (:func:`barkgen.io.photo_asset_name` of the photo, or the user's).
+    variant : str, optional
+        What tells this set apart from the photo's others (:func:`barkgen.io.variant_name`:
+        ``seed7``, ``seed7-edit3f9a1c``); every file of the set is named
+        ``ASSET_VARIANT_SIZE_*`` (``ASSET_SIZE_*`` without one).
+    licence : str, optional
+        The source photo's licence, recorded in the set's JSON (``source_licence``).
     bits : {8, 16}, optional
         Bit depth of ``texture.png`` (default: the photo's).
     preset : {"ambientcg", "blender", "unreal", "unity", "gltf"}, default "ambientcg"
         The material set's layout (:mod:`barkgen.material.presets`).
     sizes : sequence of int, optional
-        Widths of the material set to write, each as ``NAME_<tag>`` (``bark_2K_Color.png``,
-        :func:`size_tag`): the same bark resampled (:meth:`~barkgen.material.MaterialSet.resampled`),
-        not re-synthesized. Default: one set, the output's size, untagged.
+        Widths of the material set to write, each tagged with its size (``oak_seed7_2K_Color.png``,
+        :func:`barkgen.io.size_tag`): the same bark resampled
+        (:meth:`~barkgen.material.MaterialSet.resampled`), not re-synthesized. Default: one set,
+        the output's size.
     exr_height : bool, default False
         Also each set's displacement as 32-bit float EXR (:func:`~barkgen.io.encode_material`).
     also : mapping of str to bytes, optional
@@ -121,15 +132,18 @@ def encode_generate(
     files = encode_concurrently(jobs)
     if result.material is not None:
         material_files = {}
-        for set_name, material in _sized_sets(result.material, name, sizes):
+        for set_name, material in _sized_sets(result.material, base_name(name, variant), sizes):
             material_files.update(
                 encode_material(
                     material,
                     set_name,
                     preset,
                     exr_height=exr_height,
+                    asset=name,
+                    variant=variant,
                     seed=result.report["seed"],
                     source_photo=source,
+                    source_licence=licence,
                 )
             )
         clash = sorted(set(material_files) & (set(files) | {"report.json"}))
@@ -173,22 +187,7 @@ def sized_options(options, widths: Sequence[int]):
     return dataclasses.replace(options, material=True, size=(max(1, round(h * widths[-1] / w)), widths[-1]))
 
 
-def size_tag(width: int) -> str:
-    """A set's resolution tag, as ambientCG and Poly Haven write it: ``1K`` for 1024 px, ``2K``,
-    ...; ``768px`` for a width that is no multiple of 1024."""
-    return f"{width // 1024}K" if width % 1024 == 0 else f"{width}px"
-
-
-def sized_set_names(name: str, sizes: Sequence[int]) -> list[str]:
-    """The names of the sets :func:`encode_generate` writes for ``sizes`` (``[name]`` without)."""
-    return [f"{name}_{size_tag(w)}" for w in sorted(set(sizes))] if sizes else [name]
-
-
-def _sized_sets(material, name: str, sizes: Sequence[int]):
-    """``(set name, set)`` for each requested width, the height in proportion."""
-    if not sizes:
-        yield name, material
-        return
-    h, w = material.shape
-    for width, set_name in zip(sorted(set(sizes)), sized_set_names(name, sizes), strict=True):
-        yield set_name, material.resampled((max(1, round(h * width / w)), width))
+def _sized_sets(material, base: str, sizes: Sequence[int]):
+    """``(set name, set)`` for each requested width (or the set's own), the height in proportion."""
+    for shape in sized_shapes(material.shape, sizes):
+        yield material_set_name(base, shape), material.resampled(shape)
