@@ -639,16 +639,23 @@ def test_a_zipped_scanned_set_is_an_exemplar_whose_maps_make_the_material(client
     assert inside.mean() > 0.1 and np.mean(out[inside] == carried[inside]) > 0.95
     # bad sets: one line each, 400, nothing added
     count = len(client.get("/api/exemplars").json())
-    for payload, said in (
-        (b"PK\x03\x04 not really a zip", "not a zip"),
-        (_set_zip(**{"Bark099_Sheen.png": _photo_png(96)})[0], "set.zip/Bark099_Sheen.png: not a map of Bark099"),
-        (_set_zip(**{"Other_Roughness.png": _photo_png(96)})[0], "two roughness maps"),
-        (_set_zip(**{"Bark099_AO.png": _photo_png(64)})[0], "differ in size"),
-    ):
+    for payload, said in ((b"PK\x03\x04 not really a zip", "not a zip"),):
         r = client.post("/api/exemplars", files={"file": ("set.zip", payload)})
         assert r.status_code == 400 and said in r.json()["detail"], r.text
         assert "\n" not in r.json()["detail"]
     assert len(client.get("/api/exemplars").json()) == count
+    # files it cannot place: one line each, the set made from the others (here: the same set)
+    for extra, said in (
+        ({"Bark099_Sheen.png": _photo_png(96)}, "set.zip/Bark099_Sheen.png: left out"),
+        ({"Other_Roughness.png": _photo_png(96)}, "set.zip/Other_Roughness.png: left out"),
+    ):
+        r = client.post("/api/exemplars", files={"file": ("set.zip", _set_zip(**extra)[0])})
+        assert r.json()["id"] == exemplar["id"] and r.json()["existing"] is True, r.text
+        assert len(r.json()["left_out"]) == 1 and said in r.json()["left_out"][0], r.text
+    # a map of another size is resampled: another set of its own
+    r = client.post("/api/exemplars", files={"file": ("set.zip", _set_zip(**{"Bark099_AO.png": _photo_png(64)})[0])})
+    assert r.status_code == 201 and r.json()["id"] != exemplar["id"] and "left_out" not in r.json()
+    assert client.get(f"/api/exemplars/{r.json()['id']}").json()["maps"] == ["ao", "normal_gl", "roughness"]
 
 
 def test_the_form_has_the_clis_defaults_and_every_web_option(client):

@@ -11,6 +11,7 @@ answers with their HTTP codes.
 from __future__ import annotations
 
 import io
+import warnings
 from pathlib import Path
 
 from fastapi import APIRouter, File, Form, UploadFile
@@ -87,13 +88,15 @@ def store_upload(
 def _store_set(state: AppState, data: bytes, filename: str | None, *, name, species, licence) -> dict:
     """Add a zip of a scanned set (:meth:`~barkgen.library.Library.add_scanned_set`): named
     after the set (``Bark001``) unless ``name`` is given, an entry of its own even when a photo
-    (or another set) of the same colour is in the library; the same zip again is its entry."""
+    (or another set) of the same colour is in the library; the same zip again is its entry.
+    ``left_out``: a line for each file of the zip the set is made without, where there are any."""
     from barkgen.io import read_set_zip
 
     where = Path(filename or "").name or "the zip"
     # a zip of images barely compresses: its images are allowed a few times the upload's bytes
     files = read_set_zip(data, max_unpacked_bytes=ZIP_UNPACK_FACTOR * state.limits.max_upload_bytes, where=where)
-    with state.upload_lock:
+    with state.upload_lock, warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
         before = {e.id for e in state.library.exemplars()}
         exemplar = state.library.add_scanned_set(
             files,
@@ -104,7 +107,9 @@ def _store_set(state: AppState, data: bytes, filename: str | None, *, name, spec
             max_pixels=state.limits.max_upload_pixels,
             where=where,
         )
-    return {"id": exemplar.id, "existing": exemplar.id in before}
+    # one line per file of the zip the set was made without (the page shows them)
+    left_out = [str(w.message) for w in said if issubclass(w.category, UserWarning)]
+    return {"id": exemplar.id, "existing": exemplar.id in before, **({"left_out": left_out} if left_out else {})}
 
 
 def exemplar_details(state: AppState, exemplar_id: int) -> dict:

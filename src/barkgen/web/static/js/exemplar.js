@@ -551,15 +551,24 @@ async function main() {
   try {
     const exemplar = await api.getExemplar(exemplarId);
     renderExemplar(exemplar);
-    // an upload of a photo the library already had lands here: say so
+    // an upload of a photo (or set) the library already had lands here: say so, and which
+    // files of a set's zip it was made without
     const query = new URLSearchParams(location.search);
+    const notes = [];
+    const what = exemplar.maps && exemplar.maps.length ? "set" : "photo";
     if (query.get("existing") === "1") {
-      const notice = $("exemplar-notice");
-      notice.textContent = `This photo was already in your library as “${exemplar.name}”, so here it is (with its earlier results).`;
-      notice.hidden = false;
+      notes.push(`This ${what} was already in your library as “${exemplar.name}”, so here it is (with its earlier results).`);
       query.delete("existing");
       const rest = query.toString();
       history.replaceState(null, "", location.pathname + (rest ? `?${rest}` : ""));
+    }
+    const leftOutKey = `barkgen-left-out-${exemplarId}`;
+    const leftOut = JSON.parse(sessionStorage.getItem(leftOutKey) || "[]");
+    sessionStorage.removeItem(leftOutKey);
+    if (leftOut.length) notes.push(`Made without: ${leftOut.join("; ")}.`);
+    if (notes.length) {
+      $("exemplar-notice").textContent = notes.join(" ");
+      $("exemplar-notice").hidden = false;
     }
   } catch (err) {
     showError($("page-error"), err.status === 404 ? "This bark photo does not exist (any more)." : err.message);

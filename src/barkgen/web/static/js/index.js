@@ -94,6 +94,8 @@ function setupUpload() {
         status.textContent = fraction < 1 ? `Uploading… ${Math.round(fraction * 100)} %` : `Checking the ${file.name.toLowerCase().endsWith(".zip") ? "set" : "photo"}…`;
       });
       status.textContent = answer.existing ? "Already in the library — opening it…" : "Uploaded — opening…";
+      // the files of a set's zip it was made without: its page says which
+      if (answer.left_out) sessionStorage.setItem(`barkgen-left-out-${answer.id}`, JSON.stringify(answer.left_out));
       location.assign(`/exemplars/${answer.id}${answer.existing ? "?existing=1" : ""}`);
     } catch (err) {
       showError(errorBox, err.message);
