@@ -155,8 +155,7 @@ def test_upload_generate_view_paint_continue_download(server, browser, tmp_path)
     )
     page.get_by_test_id("param-size").select_option("512x512")
     page.get_by_test_id("param-seed").fill("3")
-    assert not page.get_by_test_id("param-material").is_checked()  # the CLI's default
-    page.get_by_test_id("param-material").check()
+    assert page.get_by_test_id("param-material").is_checked()  # the form's default (the quickstart's)
     _shot(page, "2_exemplar")
 
     # generate: the progress moves, then the result page shows the texture
@@ -186,15 +185,17 @@ def test_upload_generate_view_paint_continue_download(server, browser, tmp_path)
     assert np.abs(relit - trunk).mean() > 1.0, "moving the light changed nothing"
     _shot(page, "3_result", full_page=True)
 
-    # download the material set: ambientCG names inside
+    # download the material set: ambientCG names inside, each file named after the set
     with page.expect_download() as download_info:
         page.get_by_test_id("download").click()
+    set_name = "oak-in-the-browser_seed3_512x512"
+    assert download_info.value.suggested_filename == f"{set_name}.zip"
     archive = tmp_path / "set.zip"
     download_info.value.save_as(archive)
     names = zipfile.ZipFile(archive).namelist()
     for suffix in ("Color", "NormalGL", "NormalDX", "Displacement", "Roughness", "AmbientOcclusion"):
-        assert any(n.endswith(f"_{suffix}.png") for n in names), (suffix, names)
-    assert "texture.png" in names and "report.json" in names
+        assert f"{set_name}_{suffix}.png" in names, (suffix, names)
+    assert f"{set_name}_texture.png" in names and f"{set_name}_report.json" in names
 
     # paint one stroke of label 0 across the chosen level, then continue synthesis from it
     canvas = page.get_by_test_id("paint-canvas")
@@ -364,17 +365,26 @@ def test_cracks_and_bilayer_from_the_form_with_every_control(server, browser, tm
     assert "not painted" in page.get_by_test_id("painter").text_content()
     glb_link = page.get_by_test_id("download-glb")
     assert glb_link.is_visible()
+    set_name = "Dried-mud_seed11_192x128"  # every download named after the set (issue 66)
     with page.expect_download() as info:
         glb_link.click()
+    assert info.value.suggested_filename == f"{set_name}_trunk.glb"
     glb = tmp_path / "trunk.glb"
     info.value.save_as(glb)
     assert glb.read_bytes()[:4] == b"glTF"
     with page.expect_download() as info:
         page.get_by_test_id("download").click()
-    assert info.value.suggested_filename == "barkgen_dried-mud_seed11_192x128.zip"
+    assert info.value.suggested_filename == f"{set_name}.zip"
     archive = tmp_path / "set.zip"
     info.value.save_as(archive)
-    assert "Photo licence: CC0" in zipfile.ZipFile(archive).read("README.txt").decode()
+    assert "Photo licence: CC0" in zipfile.ZipFile(archive).read(f"{set_name}_README.txt").decode()
+    # the set with its Blender set-up (gltf preset: its script reads the set's packed maps)
+    with page.expect_download() as info:
+        page.get_by_test_id("download-blender").click()
+    assert info.value.suggested_filename == f"{set_name}_blender.zip"
+    blender = tmp_path / "blender.zip"
+    info.value.save_as(blender)
+    assert f"{set_name}_blender.py" in zipfile.ZipFile(blender).namelist()
     _shot(page, "web_cracks_result_1366x768", full_page=True)
 
     # a bi-layer texture of the same photo, k = 8 noises at most
