@@ -610,6 +610,7 @@ def test_the_form_builds_its_fields_from_the_options_the_server_offers(server, b
         assert page.get_by_test_id(testid).get_attribute("data-option") is None, testid
     for testid in ("param-rotations", "param-label-weight", "param-blend", "param-light"):
         assert page.get_by_test_id(testid).get_attribute("data-option") == "built", testid
+    page.get_by_test_id("param-material").uncheck()  # (on by default)
     assert page.get_by_test_id("param-light").is_disabled()  # it needs the material maps
     control.fill("1.25")
     page.get_by_test_id("generate").click()
