@@ -443,7 +443,9 @@ def test_photo_light_and_width_from_the_form_reach_the_set_and_come_back(server,
     assert light.input_value() == "100" and page.get_by_test_id("equalize-light-value").text_content() == "100 % out"
     assert light.get_attribute("title") == fields["equalize_light"]["help"]
     assert width.get_attribute("title") == fields["width_m"]["help"]
-    assert light.is_enabled() and width.is_disabled() and width.input_value() == ""
+    assert light.is_enabled() and width.is_enabled() and width.input_value() == ""  # material on by default
+    page.get_by_test_id("param-material").uncheck()
+    assert light.is_enabled() and width.is_disabled()  # the width only with material maps
     assert width.get_attribute("placeholder") == "0.5 (assumed)"
     page.get_by_test_id("param-size").select_option("custom")
     page.get_by_test_id("param-width").fill("96")
