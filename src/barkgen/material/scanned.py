@@ -194,8 +194,10 @@ def _map_wraps(scan, wraps: tuple[bool, bool]) -> dict[str, tuple[bool, bool]]:
     each does: along both the colour's and its own (:attr:`ScannedSet.wraps`). A normal map
     derived from a height that does not tile wraps as the height does."""
     own = dict(getattr(scan, "wraps", {}) or {})
-    if scan.normals is None and "height" in own:
+    if scan.normals is None and "height" in own:  # the normals are the height's slopes
         own["normals"] = own["height"]
+    if scan.height is None and "normals" in own:  # the height is the normals integrated
+        own["height"] = own["normals"]
     out = {}
     for kind, axes in own.items():
         both = (bool(wraps[0] and axes[0]), bool(wraps[1] and axes[1]))
