@@ -667,7 +667,7 @@ def test_the_form_has_the_clis_defaults_and_every_web_option(client):
     answer = client.get("/api/options").json()
     fields = {f["name"]: f for f in answer["fields"]}
     for f in option_fields(GenerateOptions, "cli"):
-        if f.name in fields and f.name != "seed":
+        if f.name in fields and f.name not in ("seed", "material"):  # (WEB_DEFAULTS: test_web_names.py)
             assert fields[f.name]["default"] == f.default_text, f.name
     for name in ("size", "k", "method", "strategy", "relief", "tile", "material", "structure", "model", "seed"):
         assert name in fields, name
@@ -676,6 +676,7 @@ def test_the_form_has_the_clis_defaults_and_every_web_option(client):
     bad = client.post("/api/jobs", json={"exemplar_id": 1, **SMALL, "material": True, "width_m": -1})
     assert bad.status_code == 422 and bad.json()["detail"][0]["loc"][-1] == "width_m"
     assert fields["seed"]["default"] is None  # the page rolls one
+    assert fields["material"]["default"] is True  # the material set, as the quickstart makes it
     assert fields["structure"]["choices"] == ["labels", "cracks"] and fields["model"]["choices"] == [
         "patches",
         "bilayer",
