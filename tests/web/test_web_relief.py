@@ -130,6 +130,9 @@ def test_saved_edits_depth_and_light_make_a_result_the_cli_replays_byte_for_byte
     assert replay.returncode == 0, replay.stderr
     for suffix in ("Displacement", "NormalGL", "Color", "AmbientOcclusion"):
         assert next(out.glob(f"*_{suffix}.png")).read_bytes() == client.get(edited["maps"][suffix]).content, suffix
+    # under the same name: the photo's, the seed and the edits' tag (issue 66)
+    assert edited["set_name"].startswith("photo_seed3-edit") and edited["set_name"].endswith("_128x128")
+    assert next(out.glob("*_Color.png")).name == f"{edited['set_name']}_Color.png"
     cli_record = json.loads(next(p for p in out.glob("*.json") if p.name != "report.json").read_text())
     assert cli_record["displacement_depth_m"] == _record(client, edited)["displacement_depth_m"]
     # sculpting the saved result again and saving 2x deeper: its edits first, then the new ones
