@@ -18,7 +18,7 @@ from barkgen.library.errors import LibraryError, NotFoundError, _ReadOnly
 from barkgen.library.jobs import JobTable
 from barkgen.library.records import EXEMPLAR_SELECT, Exemplar, Result
 from barkgen.library.schema import SCHEMA_VERSION
-from barkgen.library.store import ObjectStore, content_hash, default_library_path
+from barkgen.library.store import ObjectStore, content_hash, default_library_path, set_digest
 
 __all__ = ["Exemplar", "Library", "LibraryError", "NotFoundError", "Result", "default_library_path", "SCHEMA_VERSION"]
 
@@ -54,14 +54,6 @@ def _checked_photo(data: bytes, name: str, max_pixels: int | None, **fields: str
             f"{name}: {image.shape[1]}x{image.shape[0]} px; a bark photo needs at least {MIN_SIDE} px on each side"
         )
     return name, image.shape
-
-
-def set_digest(maps: Mapping[str, bytes]) -> str:
-    """A scanned set's identity in the library (its entry's ``image_hash``): the SHA-256 of
-    its file names and their contents' hashes, so the same set is one entry and a set is
-    never taken for a photo of its colour."""
-    listing = json.dumps({name: content_hash(data) for name, data in sorted(maps.items())}, sort_keys=True)
-    return content_hash(b"barkgen scanned set\n" + listing.encode())
 
 
 def canonical_params(params: Mapping) -> str:

@@ -30,7 +30,7 @@ class Exemplar:
         What the user said about it.
     image_hash : str
         Its identity: SHA-256 of the image file's bytes (its name in ``objects/``) for a photo,
-        the set's digest for a scanned set (:func:`barkgen.library.library.set_digest`).
+        the set's digest for a scanned set (:func:`barkgen.library.store.set_digest`).
     created : str
         When it was added (ISO 8601, UTC).
     maps : tuple of str

@@ -6,13 +6,23 @@ under a real name."""
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import tempfile
+from collections.abc import Mapping
 from pathlib import Path
 
 
 def _is_digest(text: str) -> bool:
     return len(text) == 64 and all(c in "0123456789abcdef" for c in text)
+
+
+def set_digest(maps: Mapping[str, bytes]) -> str:
+    """A scanned set's identity in the library (its entry's ``image_hash``): the SHA-256 of
+    its file names and their contents' hashes, so the same set is one entry and a set is
+    never taken for a photo of its colour."""
+    listing = json.dumps({name: content_hash(data) for name, data in sorted(maps.items())}, sort_keys=True)
+    return content_hash(b"barkgen scanned set\n" + listing.encode())
 
 
 def content_hash(data: bytes) -> str:
