@@ -229,11 +229,11 @@ def encode_result(photo: np.ndarray, result, spec: JobSpec) -> dict[str, bytes]:
         from barkgen.render import trunk_mesh
 
         also["trunk.glb"] = encode_glb(trunk_mesh(result.material), result.material)
-    if spec.set_name is not None:  # (a job queued by an older server)
-        names = {"name": spec.set_name}
-    else:
-        names = {"name": spec.asset, "variant": spec.variant, "licence": spec.licence}
-    files = encode_generate(photo, result, spec.source, preset=spec.preset, also=also, **names)
+    # (a job queued by an older server: its whole set name, no variant)
+    name, variant = (spec.set_name, None) if spec.set_name is not None else (spec.asset, spec.variant)
+    files = encode_generate(
+        photo, result, spec.source, name=name, variant=variant, licence=spec.licence, preset=spec.preset, also=also
+    )
     files.update(
         {f"level_{i}.png": encode_png(level) for i, level in enumerate(result.label_levels) if level is not None}
     )
