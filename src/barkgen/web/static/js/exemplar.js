@@ -452,7 +452,27 @@ function readParams() {
   return body;
 }
 
+/** Keep the settings panel (sticky beside the photo on a wide screen) within the window from
+ * wherever it starts, so Generate at its foot is in view without scrolling the page, More
+ * settings open or not; on a narrow screen the panel is in the flow and Generate at the
+ * window's foot (app.css). */
+function fitPanel() {
+  const panel = document.querySelector(".params");
+  if (!panel) return;
+  if (getComputedStyle(panel).position !== "sticky") {
+    panel.style.maxHeight = "";
+    return;
+  }
+  const top = Math.max(panel.getBoundingClientRect().top, 12);
+  panel.style.maxHeight = `${Math.max(window.innerHeight - top - 12, 240)}px`;
+}
+
 function setupForm() {
+  fitPanel();
+  window.addEventListener("scroll", fitPanel, { passive: true });
+  window.addEventListener("resize", fitPanel);
+  // and whenever the page above it changes (the photo's details, a notice, an error)
+  new ResizeObserver(fitPanel).observe(document.querySelector("main"));
   const form = $("params-form");
   const generate = $("generate");
   const errorBox = $("generate-error");
