@@ -39,8 +39,10 @@ of three sizes (colour 1/1, normal and roughness 1/4, height and AO 1/8), a spec
 gloss map, a DirectX normal named only ``Normal`` (told from the height) and a height that does
 not tile (it climbs 40 % down the rows) beside a colour that does. Each set made tileable at
 twice its size, seed 0; per output map the longest straight line
-(:func:`barkgen.evaluate.longest_line`, px, tiled) against the input set's own (the scan's map
-at the colour's size as the run uses it, tiled). ``--save DIR`` writes every map of both (16-bit
+(:func:`barkgen.evaluate.longest_line`, px, tiled) against the input set's own at the output's
+size (the scan's map at the colour's size as the run uses it, repeated 2x2, tiled: a line of
+the input's own runs on across its copies, as it may across the output's pieces; a map that does
+not tile shows its edge there). ``--save DIR`` writes every map of both (16-bit
 PNG) for the team's referee.
 """
 
@@ -366,7 +368,9 @@ def measure_case(case: str, size: int, root: Path, save: Path | None) -> dict:
     material = result.material
     lines = {}
     for kind in ("color", "height", "normals", "ao", "roughness"):
-        lines[kind] = (longest_line(getattr(material, kind), tile=True), longest_line(getattr(source, kind), tile=True))
+        own = getattr(source, kind)
+        repeated = np.tile(own, (2, 2) + (1,) * (own.ndim - 2))  # the input's own, at the output's size
+        lines[kind] = (longest_line(getattr(material, kind), tile=True), longest_line(repeated, tile=True))
     if save is not None:
         from barkgen.io import write_png
 
@@ -389,7 +393,7 @@ def measure_case(case: str, size: int, root: Path, save: Path | None) -> dict:
         "not wrapped": ", ".join(f"{k} {v}" for k, v in not_wrapped.items()) or "-",
         "left out": len([w for w in said if "left out" in str(w.message)]),
         "s": seconds,
-        **{f"{kind} out/in": f"{o}/{i}" for kind, (o, i) in lines.items()},
+        **{f"{kind} out/in": f"{o}/{i}" + (" !" if o > i else "") for kind, (o, i) in lines.items()},
         "worst out-in": max(o - i for o, i in lines.values()),
     }
 
@@ -448,7 +452,10 @@ def cases(args) -> None:
             print(f"{case}: done", file=sys.stderr)
     keys = list(rows[0])
     size = args.case_size
-    print(f"scanned sets of every naming style, {size}² colour -> {2 * size}² tileable, seed 0; longest line px")
+    print(
+        f"scanned sets of every naming style, {size}² colour -> {2 * size}² tileable, seed 0; longest line px, "
+        "output / the input's own repeated 2x2 (! longer)"
+    )
     print("| " + " | ".join(keys) + " |")
     print("|" + "---|" * len(keys))
     for row in rows:

@@ -565,7 +565,8 @@ def test_a_scanned_set_folder_with_a_preset_and_sizes_makes_generates_files(tmp_
     batch = out / "pineset" / "2"
     names = sorted(p.name for p in gen.iterdir())
     assert names == sorted(p.name for p in batch.iterdir())
-    assert "bark_64px_ORM.png" in names and "bark_128px_NormalDX.png" in names
+    # the scanned set's own name, the seed, each size (64x48: no power of two)
+    assert "pine_plated_01_seed2_64x48_ORM.png" in names and "pine_plated_01_seed2_128x96_NormalDX.png" in names
     for name in names:
         if name.endswith(".png"):
             assert (gen / name).read_bytes() == (batch / name).read_bytes(), name

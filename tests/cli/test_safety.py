@@ -451,7 +451,7 @@ def test_records_of_a_non_utf8_path_are_valid_json(tmp_path, photo):
     src.write_bytes(photo.read_bytes())
     out = tmp_path / "out"
     assert run("generate", str(src), "-o", str(out), "--size", "32x32", "--material", "-q").returncode == 0
-    for record in ("report.json", "bark.json"):
+    for record in ("report.json", "p_seed0_32x32.json"):
         text = (out / record).read_bytes().decode("utf-8")  # strict UTF-8
         data = json.loads(text)
         assert "\\ud" not in text and all(not 0xD800 <= ord(c) <= 0xDFFF for c in json.dumps(data, ensure_ascii=False))

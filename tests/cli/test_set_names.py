@@ -77,7 +77,7 @@ def test_batch_names_each_variant_by_exemplar_and_seed(tmp_path, photo):
     spec.write_text(
         json.dumps(
             {
-                "size": [64, 64],
+                "size": "64x64",
                 "k": 2,
                 "material": True,
                 "exemplars": [{"name": "oak", "path": str(photo), "seeds": [3, 4], "licence": "CC-BY-4.0"}],
@@ -88,5 +88,6 @@ def test_batch_names_each_variant_by_exemplar_and_seed(tmp_path, photo):
     assert done.returncode == 0, done.stderr
     for seed in (3, 4):
         folder = next(p for p in (tmp_path / "out" / "oak").iterdir() if p.is_dir() and str(seed) in p.name)
-        meta = json.loads((folder / f"oak_seed{seed}_64x64.json").read_text())
+        # the photo's own name, as generate names it (the entry's name is its folder's)
+        meta = json.loads((folder / f"Oak-bark-1_seed{seed}_64x64.json").read_text())
         assert meta["source_licence"] == "CC-BY-4.0" and meta["variant"] == f"seed{seed}"

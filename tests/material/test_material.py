@@ -41,9 +41,15 @@ from barkgen.material import (
 )
 from barkgen.render import TrunkView, render_trunk, trunk_mesh
 
-SET_FILES = {
-    f"bark_{s}.png" for s in ("Color", "NormalGL", "NormalDX", "Displacement", "Roughness", "AmbientOcclusion")
-} | {"bark.json", "bark_blender.py"}
+MAP_NAMES = ("Color", "NormalGL", "NormalDX", "Displacement", "Roughness", "AmbientOcclusion")
+
+
+def set_files(name: str = "bark") -> set[str]:
+    """The files of an ambientCG set called ``name``."""
+    return {f"{name}_{s}.png" for s in MAP_NAMES} | {f"{name}.json", f"{name}_blender.py"}
+
+
+SET_FILES = set_files()
 
 
 def bumps(n: int = 96, period: int = 16) -> np.ndarray:
@@ -454,13 +460,16 @@ def test_cli_material_preview_and_glb(tmp_path, pine_png):
         "2",
     )
     assert r.returncode == 0, r.stderr
-    assert {p.name for p in (tmp_path / "set").iterdir()} == SET_FILES
-    meta = json.loads((tmp_path / "set" / "bark.json").read_text())
+    # the photo's own set, the edit list's tag, the size (barkgen.io.asset_names)
+    name = next((tmp_path / "set").glob("*.json")).stem
+    assert name.startswith("pine_edit") and name.endswith("_128x128")
+    assert {p.name for p in (tmp_path / "set").iterdir()} == set_files(name)
+    meta = json.loads((tmp_path / "set" / f"{name}.json").read_text())
     assert meta["size"] == [128, 128] and meta["seed"] == 4 and meta["edits"] == 1
     assert meta["light"]["azimuth"] == 120 and meta["tileable"] is False and "barkgen_version" in meta
     assert meta["displacement_depth_px"] > 0 and meta["source_photo"].endswith("pine.png")
-    gl = read_image(tmp_path / "set" / "bark_NormalGL.png")
-    dx = read_image(tmp_path / "set" / "bark_NormalDX.png")
+    gl = read_image(tmp_path / "set" / f"{name}_NormalGL.png")
+    dx = read_image(tmp_path / "set" / f"{name}_NormalDX.png")
     assert np.array_equal(gl[..., [0, 2]], dx[..., [0, 2]]) and np.array_equal(255 - gl[..., 1], dx[..., 1])
     r = run(
         "preview",
@@ -498,12 +507,12 @@ def test_cli_generate_material_set_matches_the_texture(tmp_path, pine_png):
     assert r.returncode == 0, r.stderr
     out = tmp_path / "out"
     for suffix in ("Color", "NormalGL", "NormalDX", "Displacement", "Roughness", "AmbientOcclusion"):
-        assert read_image(out / f"pine_{suffix}.png").shape[:2] == (80, 96)
-    meta = json.loads((out / "pine.json").read_text())
+        assert read_image(out / f"pine_96x80_{suffix}.png").shape[:2] == (80, 96)
+    meta = json.loads((out / "pine_96x80.json").read_text())
     assert meta["tileable"] is True and meta["size"] == [96, 80]
     report = json.loads((out / "report.json").read_text())
     assert report["material"] is True and report["relief"] == 1.0 and len(report["light"]) == 2
-    assert "pine_NormalGL.png" in report["files"]
+    assert "pine_96x80_NormalGL.png" in report["files"]
 
 
 @pytest.mark.parametrize(
@@ -516,7 +525,7 @@ def test_cli_generate_material_set_matches_the_texture(tmp_path, pine_png):
         (["material", "{photo}", "-o", "{out}", "--edits", "{outside}"], "outside"),
         (["material", "{photo}", "-o", "{out}", "--name", "../x"], "--name"),
         (["material", "{photo}", "-o", "{out}", "--relief", "0"], "relief"),
-        (["generate", "{photo}", "-o", "{out}", "--material", "--name", "report"], "--name"),
+        (["generate", "{photo}", "-o", "{out}", "--material", "--name", "a b"], "--name"),
         (["generate", "{photo}", "-o", "{out}", "--light", "10,40"], "--material"),
         (["material", "{photo}", "-o", "{out}", "--edits", "{floaty}"], "integers"),
         (["preview", "{badjson}", "-o", "{out}/p.png"], "finite number"),
@@ -607,11 +616,12 @@ def test_material_cli_records_the_wrap(tmp_path):
     """``barkgen material`` on a photo that tiles asks the photo (auto) and says so in NAME.json."""
     run("material", "-o", str(tmp_path / "auto"), "-q")  # the bundled sample tiles
     run("material", "-o", str(tmp_path / "no"), "--exemplar-wraps", "no", "-q")
-    auto = json.loads((tmp_path / "auto" / "bark.json").read_text())
+    name = "sample_bark_1K"  # the photo's name and size: the photo's own set has no seed
+    auto = json.loads((tmp_path / "auto" / f"{name}.json").read_text())
     assert auto["wraps"] == [True, True] and auto["tileable"] and auto["exemplar_wrap_mode"] == "auto"
-    assert json.loads((tmp_path / "no" / "bark.json").read_text())["wraps"] == [False, False]
-    height = read_image(tmp_path / "auto" / "bark_Displacement.png").astype(np.float64)
-    flat = read_image(tmp_path / "no" / "bark_Displacement.png").astype(np.float64)
+    assert json.loads((tmp_path / "no" / f"{name}.json").read_text())["wraps"] == [False, False]
+    height = read_image(tmp_path / "auto" / f"{name}_Displacement.png").astype(np.float64)
+    flat = read_image(tmp_path / "no" / f"{name}_Displacement.png").astype(np.float64)
     # the displacement steps from its last column to its first about as the photo does across
     # its own wrap (1.5x its inner step on the sample), and ten times more when the photo
     # is taken as a rectangle

@@ -102,7 +102,7 @@ def test_the_ambientcg_preset_is_todays_set_and_opacity_rides_in_alpha():
         "bark_Roughness.png",
         "bark_blender.py",
     ]
-    assert "preset" not in json.loads(files["bark.json"])
+    assert json.loads(files["bark.json"])["preset"] == "ambientcg"  # (every record states its preset)
     base = pixels(encode_material(material, "bark", "gltf")["bark_BaseColor.png"])
     assert base.shape[2] == 4
     np.testing.assert_array_equal(base[..., 3], pixels(files["bark_Opacity.png"]))
@@ -173,9 +173,9 @@ def test_cli_sizes_writes_one_tagged_set_per_width(tmp_path):
     from barkgen.io import read_image
 
     assert read_image(out / "texture.png").shape[:2] == (256, 512)  # as wide as the largest
-    assert read_image(out / "bark_128px_Color.png").shape[:2] == (64, 128)
-    assert read_image(out / "bark_512px_NormalGL.png").shape[:2] == (256, 512)
-    assert not (out / "bark_Color.png").exists()
+    assert read_image(out / "sample_bark_seed0_128x64_Color.png").shape[:2] == (64, 128)
+    assert read_image(out / "sample_bark_seed0_512x256_NormalGL.png").shape[:2] == (256, 512)
+    assert not list(out.glob("*_Color.png"))[2:]  # two sets, no untagged one
     r = run("generate", "-o", str(out), "--sizes", "2x", "-q")
     assert r.returncode == 2 and "--sizes" in r.stderr and len(r.stderr.splitlines()) == 1
 
@@ -193,6 +193,6 @@ def test_the_exr_height_is_the_displacement_in_float(tmp_path):
     png = pixels(files["bark_Displacement.png"]).astype(np.float64) / 65535
     assert np.abs(png - values).max() <= 0.5 / 65535 + 1e-7
     assert "bark_Displacement.exr" in json.loads(files["bark.json"])["files"]
-    r = run("material", "-o", str(tmp_path / "m"), "--exr-height", "-q")
+    r = run("material", "-o", str(tmp_path / "m"), "--exr-height", "--name", "bark", "-q")
     assert r.returncode == 0, r.stderr
-    assert (tmp_path / "m" / "bark_Displacement.exr").stat().st_size > 0
+    assert (tmp_path / "m" / "bark_1K_Displacement.exr").stat().st_size > 0  # (the 1024 px sample)

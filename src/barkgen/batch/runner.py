@@ -328,6 +328,8 @@ def _run(
 ) -> None:
     from distributed import as_completed
 
+    from barkgen.io import set_asset_name
+
     futures = {}
     remaining: dict[str, int] = {}
     shared: dict[str, list] = {}
@@ -351,6 +353,7 @@ def _run(
         shared[job.name] = [photo_f, analysis_f]
         remaining[job.name] = len(seeds)
         fingerprint = job.fingerprint()
+        named = job if scan is None else dataclasses.replace(job, asset=set_asset_name(scan.name))
         for seed in seeds:
             future = client.submit(
                 _variant_task,
@@ -358,7 +361,7 @@ def _run(
                 analysis_f,
                 job.options_for(seed),
                 job.source_name,
-                job,
+                named,
                 pure=False,
                 key=f"barkgen-variant-{job.name}-{seed}-{os.urandom(4).hex()}",
             )

@@ -69,14 +69,17 @@ class ExemplarJob:
     sizes: tuple[int, ...] = ()
     source: str | None = None
     licence: str | None = None
+    asset: str | None = None
 
     def set_base_name(self, seed: int) -> tuple[str, str | None]:
         """The set's asset name and variant for ``seed``: ``material_name`` as given (with the
-        seed when the entry has several), else the exemplar's name and the seed."""
+        seed when the entry has several), else the photo's own name (``asset``: its file's,
+        its library exemplar's, its scanned set's; the entry's ``name`` when unknown) and
+        the seed, as ``barkgen generate`` names it."""
         from barkgen.io import set_asset_name
 
         if self.material_name is None:
-            return set_asset_name(self.name), f"seed{seed}"
+            return self.asset or set_asset_name(self.name), f"seed{seed}"
         return self.material_name, f"seed{seed}" if len(self.seeds) > 1 else None
 
     @property
@@ -288,6 +291,8 @@ def parse_spec(document, root: str | Path = ".", *, threads: int | None = None, 
         InvalidInputError: one line naming the entry and the key at fault: unknown keys,
             missing photos, bad sizes or options, duplicate output names or seeds.
     """
+    from barkgen.io import photo_asset_name, set_asset_name
+
     root = Path(root)
     if not isinstance(document, dict):
         raise InvalidInputError(f"spec: expected a mapping with an 'exemplars' list, not {type(document).__name__}")
@@ -312,11 +317,13 @@ def parse_spec(document, root: str | Path = ".", *, threads: int | None = None, 
         source, licence = None, None
         if "library" in entry:
             path, default_name, source, licence = _library_photo(where, entry, library)
+            asset: str | None = set_asset_name(default_name)
         elif "path" not in entry:
             raise InvalidInputError(f"{where}: path (the bark photo) or library (an exemplar id) is missing")
         else:
             path = _path(root, where, "path", entry["path"], folder=True)
             default_name = path.name if path.is_dir() else path.stem
+            asset = None if path.is_dir() else photo_asset_name(path)  # (a scanned set's: when it is read)
         name = entry.get("name", default_name)
         if not isinstance(name, str) or not _NAME_RE.match(name) or name in (".", ".."):
             raise InvalidInputError(
@@ -343,6 +350,7 @@ def parse_spec(document, root: str | Path = ".", *, threads: int | None = None, 
                 labels=labels,
                 source=source,
                 licence=_licence(where, entry, licence),
+                asset=asset,
                 **files,
             )
         )

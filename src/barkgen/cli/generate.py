@@ -90,9 +90,7 @@ def generate_command(
     report.json and preview.png (+ NAME.png per --extra, + the material set with --material)
     into the output folder."""
     from barkgen import Canvas
-    from barkgen.data import sample_exemplar_path
-    from barkgen.io import base_name, check_material_name, material_set_names, read_image, read_scanned_set
-    from barkgen.io.asset_names import SAMPLE_LICENCE
+    from barkgen.io import base_name, material_set_names, read_image, read_scanned_set
     from barkgen.material import EditList
     from barkgen.material.presets import check_preset
     from barkgen.pipeline import (
@@ -116,21 +114,20 @@ def generate_command(
             raise InvalidInputError(f"{output_dir} is the scanned set's folder; write the new set to another")
     widths = parse_sizes(sizes, "--sizes")
     options = sized_options(options, widths)
-    if name is not None:
-        check_material_name(name)
     check_preset(preset)
     if save_levels is not None:
         check_folder(save_levels, "--save-levels")
         refuse_input_folder(save_levels, "--save-levels")
     extra_paths = _extra_paths(extra)
-    edit_list = read_edits(edits) if edits is not None else EditList()
-    check_edit_list(edit_list, options.material)
-    src = photo if photo is not None else sample_exemplar_path()
-    scan = read_scanned_set(set_folder) if set_folder is not None else None
-    asset, variant = set_base_name(name, scan.name if scan is not None else src, options.seed, edit_list)
+    src, naming, edit_list = _set_naming(name, licence, photo, set_folder, options.seed, edits)
     stale = previous_run_files(output_dir)
-    set_names = material_set_names(base_name(asset, variant), options.size, widths) if options.material else []
+    base = base_name(naming["name"], naming["variant"])
+    set_names = material_set_names(base, options.size, widths) if options.material else []
     refuse_inputs(_run_targets(output_dir, set_names, extra_paths, stale, preset))
+    if edit_list is None:
+        edit_list = read_edits(edits) if edits is not None else EditList()
+    check_edit_list(edit_list, options.material)
+    scan = read_scanned_set(set_folder) if set_folder is not None else None
     image = scan.color if scan is not None else read_image(src)
     extras = {name: read_image(p) for name, p in extra_paths.items()}
     label_map = read_image(labels) if labels is not None else None
@@ -159,16 +156,7 @@ def generate_command(
         )
         result = adjusted_result(result, edit_list)  # the edit list's depth and light, after its edits
         files = encode_generate(
-            image,
-            result,
-            str(src),
-            name=asset,
-            variant=variant,
-            licence=licence if licence is not None or photo is not None else SAMPLE_LICENCE,
-            bits=bits,
-            preset=preset,
-            sizes=widths,
-            exr_height=exr_height,
+            image, result, str(src), **naming, bits=bits, preset=preset, sizes=widths, exr_height=exr_height
         )
     levels: dict[Path, bytes] = {}
     if save_levels is not None:
@@ -235,7 +223,41 @@ def _run_targets(folder: Path, set_names: list[str], extras, stale, preset: str 
     return [folder / n for n in sorted(names)]
 
 
-def set_base_name(name: str | None, source, seed: int, edit_list) -> tuple[str, str | None]:
+def _set_naming(name, licence, photo, set_folder, seed: int, edits):
+    """The photo's path (the bundled sample's without one), the set's naming keywords of
+    :func:`barkgen.pipeline.encode_generate` (``name``, ``variant``, ``licence``) and the edit
+    list when the name needed it (:mod:`barkgen.io.asset_names`). The edit list is read before
+    the refusals only then: a named set's files are refused first, whatever the list holds."""
+    from barkgen.data import sample_exemplar_path
+    from barkgen.io import check_material_name
+    from barkgen.io.asset_names import SAMPLE_LICENCE
+    from barkgen.material import EditList
+
+    if name is not None:
+        check_material_name(name)
+    edit_list = read_edits(edits) if edits is not None and name is None else None
+    src = photo if photo is not None else sample_exemplar_path()
+    named_from = _set_stem(set_folder) if set_folder is not None else src
+    asset, variant = _set_base_name(name, named_from, seed, edit_list or EditList())
+    if licence is None and photo is None:
+        licence = SAMPLE_LICENCE
+    return src, {"name": asset, "variant": variant, "licence": licence}, edit_list
+
+
+def _set_stem(folder: Path) -> str:
+    """A scanned set's name from its files' names alone (nothing decoded; the files it cannot
+    place are named when it is read)."""
+    import os
+    import warnings
+
+    from barkgen.io import recognise_set
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return recognise_set(os.listdir(folder), folder=str(folder))[0]
+
+
+def _set_base_name(name: str | None, source, seed: int, edit_list) -> tuple[str, str | None]:
     """The set's asset name and variant (:mod:`barkgen.io.asset_names`): ``--name`` as given
     (no variant), else the photo's or the scanned set's name (``source``: a path or a stem) with
     the seed and the edit list's tag."""

@@ -78,12 +78,16 @@ def material_command(
     # the options: MaterialOptions (the flags); edits outside the photo: the height editor
     if tile:
         options = dataclasses.replace(options, exemplar_wrap="yes")
-    edit_list = read_edits(edits) if edits is not None else EditList()
+    # the edit list before the refusals only when the set's name needs its tag (a named set's
+    # files are refused first, whatever the list holds)
+    edit_list = read_edits(edits) if edits is not None and name is None else None
     src = photo if photo is not None else sample_exemplar_path()
     w, h = image_size(src)
-    asset, variant = _asset_and_variant(name, src, edit_list)
+    asset, variant = _asset_and_variant(name, src, edit_list or EditList())
     set_name = material_set_name(base_name(asset, variant), (h, w))
     refuse_targets({f"output {n}": output_dir / n for n in material_file_names(set_name, preset)})
+    if edit_list is None:
+        edit_list = read_edits(edits) if edits is not None else EditList()
     image = read_image(src)
     h, w = image.shape[:2]
     start = time.perf_counter()
