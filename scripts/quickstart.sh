@@ -25,4 +25,4 @@ except SystemExit as exc:
 img = read_image("out/texture.png")
 write_png("out/texture_2x2_preview.png", np.tile(img, (2, 2, 1))[::2, ::2])
 PY
-echo "outputs in $(pwd)/out: texture.png, labels_in.png, labels_out.png, reference.png, report.json, preview.png, texture_2x2_preview.png, the material set bark_*.png + bark.json, trunk_preview.png"
+echo "outputs in $(pwd)/out: texture.png, labels_in.png, labels_out.png, reference.png, report.json, preview.png, texture_2x2_preview.png, the material set sample_bark_seed0_1K_*.png + sample_bark_seed0_1K.json, trunk_preview.png"
