@@ -66,6 +66,28 @@ def test_name_and_licence_are_the_users(tmp_path, photo):
     assert (tmp_path / "Bark042_64x64_trunk.glb").read_bytes()[:4] == b"glTF"
 
 
+def test_the_library_layout_keeps_runs_side_by_side_in_one_folder(tmp_path, photo):
+    """--layout library: the run's own files named after its set too, so that several runs
+    share a folder; a run again of one set replaces that set's files, and no other's."""
+    lib = tmp_path / "lib"
+    args = ["-o", str(lib), "--size", "64x64", "--k", "2", "--material", "--layout", "library", "-q"]
+    for seed in ("1", "2"):
+        assert run("generate", str(photo), *args, "--seed", seed).returncode == 0
+    names = {p.name for p in lib.iterdir()}
+    for seed in ("1", "2"):
+        set_name = f"Oak-bark-1_seed{seed}_64x64"
+        assert {f"{set_name}_texture.png", f"{set_name}_report.json", f"{set_name}_Color.png"} <= names
+    assert all(n.startswith("Oak-bark-1_seed") for n in names), names  # every file: asset, variant, size
+    # seed 1 again, without its material: its set's maps go, seed 2's stay
+    plain = ["-o", str(lib), "--size", "64x64", "--k", "2", "--layout", "library", "-q"]
+    done = run("generate", str(photo), *plain, "--seed", "1")
+    assert done.returncode == 0, done.stderr
+    after = {p.name for p in lib.iterdir()}
+    assert "Oak-bark-1_seed1_64x64_Color.png" not in after and "Oak-bark-1_seed1_64x64_texture.png" in after
+    assert {n for n in names if "seed2" in n} <= after
+    assert run("generate", str(photo), "-o", str(lib), "--layout", "shelf", "-q").returncode == 2
+
+
 def test_material_names_the_photos_own_set(tmp_path, photo):
     out = tmp_path / "m"
     assert run("material", str(photo), "-o", str(out), "--k", "2", "-q").returncode == 0

@@ -18,6 +18,7 @@ from barkgen.cli._common import (
     ExtraOption,
     FlowOption,
     FlowScaleOption,
+    LayoutOption,
     LibraryOption,
     LicenceOption,
     NameOption,
@@ -67,6 +68,7 @@ def generate_command(
     licence: LicenceOption = None,
     preset: PresetOption = "ambientcg",
     exr_height: ExrHeightOption = False,
+    layout: LayoutOption = "run",
     sizes: Annotated[
         Optional[str],
         typer.Option(
@@ -90,7 +92,7 @@ def generate_command(
     report.json and preview.png (+ NAME.png per --extra, + the material set with --material)
     into the output folder."""
     from barkgen import Canvas
-    from barkgen.io import base_name, material_set_names, read_image, read_scanned_set
+    from barkgen.io import read_image, read_scanned_set
     from barkgen.material import EditList
     from barkgen.material.presets import check_preset
     from barkgen.pipeline import (
@@ -120,10 +122,7 @@ def generate_command(
         refuse_input_folder(save_levels, "--save-levels")
     extra_paths = _extra_paths(extra)
     src, naming, edit_list = _set_naming(name, licence, photo, set_folder, options.seed, edits)
-    stale = previous_run_files(output_dir)
-    base = base_name(naming["name"], naming["variant"])
-    set_names = material_set_names(base, options.size, widths) if options.material else []
-    refuse_inputs(_run_targets(output_dir, set_names, extra_paths, stale, preset))
+    stale = _refuse_targets(output_dir, naming, options, widths, extra_paths, preset, layout)
     if edit_list is None:
         edit_list = read_edits(edits) if edits is not None else EditList()
     check_edit_list(edit_list, options.material)
@@ -156,11 +155,17 @@ def generate_command(
         )
         result = adjusted_result(result, edit_list)  # the edit list's depth and light, after its edits
         files = encode_generate(
-            image, result, str(src), **naming, bits=bits, preset=preset, sizes=widths, exr_height=exr_height
+            image,
+            result,
+            str(src),
+            **naming,
+            bits=bits,
+            preset=preset,
+            sizes=widths,
+            exr_height=exr_height,
+            layout=layout,
         )
-    levels: dict[Path, bytes] = {}
-    if save_levels is not None:
-        levels = {save_levels / n: data for n, data in level_files(result.label_levels).items()}
+    levels = {} if save_levels is None else {save_levels / n: d for n, d in level_files(result.label_levels).items()}
     write_run(output_dir, files, stale, levels)
     if store is not None:
         store.flush()  # the analysis, written while the run went on
@@ -206,14 +211,14 @@ def _analysis(image, options, extras, label_map, scan, store, progress, hit: lis
     )
 
 
-def _run_targets(folder: Path, set_names: list[str], extras, stale, preset: str = "ambientcg") -> list[Path]:
-    """The files of ``folder`` a run will write or remove (its own, the material set's, each
-    extra's, and the previous run's): none may be an input."""
+def _run_targets(folder: Path, set_names: list[str], extras, stale, preset: str, prefix: str | None) -> list[Path]:
+    """The files of ``folder`` a run will write or remove (its own, named after ``prefix`` in
+    the library layout; the material set's, each extra's, and the previous run's): none may be
+    an input."""
     from barkgen.io.material import material_file_names
-    from barkgen.pipeline import GENERATE_FILES
+    from barkgen.pipeline import run_file_names
 
-    names = {f"{n}.png" for n in GENERATE_FILES} | {"report.json"} | {f"{n}.png" for n in extras}
-    names |= set(stale)
+    names = set(run_file_names(extras, prefix)) | set(stale)
     for set_name in set_names:
         names |= set(material_file_names(set_name, preset))
         if folder.is_dir():
@@ -242,6 +247,23 @@ def _set_naming(name, licence, photo, set_folder, seed: int, edits):
     if licence is None and photo is None:
         licence = SAMPLE_LICENCE
     return src, {"name": asset, "variant": variant, "licence": licence}, edit_list
+
+
+def _refuse_targets(output_dir: Path, naming: dict, options, widths, extras, preset: str, layout: str) -> list[str]:
+    """Refuse a run whose files (its own, named after the output's set in the library layout;
+    its sets'; the previous run's) take an input, before any work; the previous run's files
+    (:func:`previous_run_files` of its record, ``report.json`` or ``SET_report.json``)."""
+    from barkgen.io import base_name, material_set_name, material_set_names
+    from barkgen.pipeline import LAYOUTS, run_file_names
+
+    if layout not in LAYOUTS:
+        raise InvalidInputError(f"--layout must be one of {', '.join(LAYOUTS)}, not {layout!r}")
+    base = base_name(naming["name"], naming["variant"])
+    prefix = material_set_name(base, options.size) if layout == "library" else None
+    stale = previous_run_files(output_dir, run_file_names(prefix=prefix)[-1])
+    set_names = material_set_names(base, options.size, widths) if options.material else []
+    refuse_inputs(_run_targets(output_dir, set_names, extras, stale, preset, prefix))
+    return stale
 
 
 def _set_stem(folder: Path) -> str:

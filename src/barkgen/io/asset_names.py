@@ -74,8 +74,7 @@ def size_tag(width: int, height: int) -> str:
 
 def edit_tag(edits) -> str:
     """A short, stable tag of a list of relief edits (``edit3f9a1c``): the first six hex digits
-    of the SHA-256 of their JSON (:meth:`barkgen.material.EditList.to_dict`-like records or
-    anything JSON can write)."""
+    of the SHA-256 of their JSON document (:func:`barkgen.material.edits_document`)."""
     text = json.dumps(edits, sort_keys=True, separators=(",", ":"), default=repr)
     return "edit" + hashlib.sha256(text.encode()).hexdigest()[:6]
 

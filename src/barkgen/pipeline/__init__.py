@@ -18,9 +18,11 @@ from barkgen.pipeline.core import (
 )
 from barkgen.pipeline.files import (
     GENERATE_FILES,
+    LAYOUTS,
     check_generate_names,
     encode_generate,
     parse_sizes,
+    run_file_names,
     sized_options,
 )
 from barkgen.pipeline.options import LABEL_METHODS, GenerateOptions, analysis_key
@@ -30,6 +32,8 @@ from barkgen.pipeline.tree import TreeResult, encode_tree, make_tree
 from barkgen.pipeline.warmup import warm_up
 
 __all__ = [
+    "LAYOUTS",
+    "run_file_names",
     "ANALYSIS_SEED",
     "adjusted_result",
     "AnalysisStore",

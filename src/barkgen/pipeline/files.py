@@ -11,7 +11,7 @@ import numpy as np
 
 from barkgen._version import __version__
 from barkgen.errors import InvalidInputError
-from barkgen.io.asset_names import base_name, material_set_name, sized_shapes
+from barkgen.io.asset_names import base_name, library_file_name, material_set_name, sized_shapes
 from barkgen.io.folders import RECORD_HASHES, file_record
 from barkgen.io.images import encode_concurrently, encode_png
 from barkgen.io.material import check_material_name, encode_material, utf8_text
@@ -21,6 +21,11 @@ from barkgen.pipeline.report import preview_sheet
 
 #: the files every run writes (their stems are not free for --extra or the material name)
 GENERATE_FILES = ("texture", "labels_in", "labels_out", "reference", "preview", "report", "illumination")
+#: how a run's own files are named (:func:`encode_generate`): ``run``, as they are
+#: (``texture.png``, ``report.json``: a folder per run); ``library``, each carrying the set's
+#: name (``oak_seed7_1K_texture.png``, ``oak_seed7_1K_report.json``: runs side by side in one
+#: folder, as an artist's library keeps its sets)
+LAYOUTS = ("run", "library")
 #: the photo's broad light as carried to the output (:func:`barkgen.material.encode_illumination`):
 #: what the web app's light slider puts back
 ILLUMINATION_FILE = "illumination.png"
@@ -61,6 +66,7 @@ def encode_generate(
     sizes: Sequence[int] = (),
     exr_height: bool = False,
     also: Mapping[str, bytes] | None = None,
+    layout: str = "run",
 ) -> dict[str, bytes]:
     """Every file of a :class:`~barkgen.pipeline.GenerateResult`, encoded.
 
@@ -101,6 +107,9 @@ def encode_generate(
         Also each set's displacement as 32-bit float EXR (:func:`~barkgen.io.encode_material`).
     also : mapping of str to bytes, optional
         More files of the run (a tree's ``tree.glb``), recorded with generate's own.
+    layout : {"run", "library"}, default "run"
+        The run's own files as they are, or each named after the output's set (:data:`LAYOUTS`,
+        :func:`run_file_names`).
 
     Returns
     -------
@@ -130,8 +139,8 @@ def encode_generate(
     if result.material is not None and result.material.illumination is not None:
         jobs[ILLUMINATION_FILE] = partial(encode_png, encode_illumination(result.material.illumination))
     files = encode_concurrently(jobs)
+    material_files: dict[str, bytes] = {}
     if result.material is not None:
-        material_files = {}
         for set_name, material in _sized_sets(result.material, base_name(name, variant), sizes):
             material_files.update(
                 encode_material(
@@ -151,11 +160,24 @@ def encode_generate(
             raise InvalidInputError(f"--name {name!r} makes {clash[0]}, which is taken; pick another")
         files.update(material_files)
     files.update(also or {})
-    report["files"] = sorted(files) + ["report.json"]
+    record = "report.json"
+    if layout == "library":  # the run's own files named after the output's set (its maps are)
+        prefix = material_set_name(base_name(name, variant), result.texture.shape[:2])
+        files = {(n if n in material_files else library_file_name(prefix, n)): data for n, data in files.items()}
+        record = library_file_name(prefix, record)
+    report["files"] = sorted(files) + [record]
     # what barkgen may later replace or remove of this folder: only these files, unchanged
     report[RECORD_HASHES] = file_record(files)
-    files["report.json"] = (json.dumps(report, indent=2) + "\n").encode()
+    files[record] = (json.dumps(report, indent=2) + "\n").encode()
     return files
+
+
+def run_file_names(extras=(), prefix: str | None = None) -> list[str]:
+    """The names of a run's own files (its set's aside), the record ``report.json`` last: as
+    they are, or in the library layout (:data:`LAYOUTS`) each after ``prefix``, the output's
+    set name (``oak_seed7_1K_texture.png``, ... ``oak_seed7_1K_report.json``)."""
+    names = [f"{n}.png" for n in GENERATE_FILES] + [f"{n}.png" for n in extras] + ["report.json"]
+    return names if prefix is None else [library_file_name(prefix, n) for n in names]
 
 
 def parse_sizes(value, where: str = "sizes") -> list[int]:
