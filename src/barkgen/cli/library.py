@@ -54,7 +54,8 @@ def add_command(
             source=source or str(photo),
             where=str(photo),
         )
-        typer.echo(f"{exemplar.id}\t{exemplar.name}\t(a scanned set: colour + {', '.join(exemplar.maps)})")
+        maps = " + ".join(["colour", *exemplar.maps])
+        typer.echo(f"{exemplar.id}\t{exemplar.name}\t(a scanned set: {maps})")
         return
     data = read_image_bytes(photo)
     existing = lib.find_exemplar(data)
