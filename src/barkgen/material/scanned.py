@@ -142,8 +142,10 @@ def scanned_material(
     tile = wraps[0] and wraps[1]
     map_wraps = _map_wraps(scan, wraps)
     # the scan's own height and normals are read on the torus only where they tile both ways
-    relief_kind = "height" if scan.height is not None else "normals"
-    boundary = Boundary(all(map_wraps.get(relief_kind, wraps)))
+    # (normals that do not tile are integrated on the torus all the same where the colour tiles:
+    # with a border, their inconsistency at the edge left a straight band along it, which the
+    # pieces carried 600 px long through a 1024 px height and AO)
+    boundary = Boundary(all(map_wraps.get("height", wraps)))
     color = check_image(scan.color)
     made: list[MaterialSet] = []
 
@@ -196,8 +198,6 @@ def _map_wraps(scan, wraps: tuple[bool, bool]) -> dict[str, tuple[bool, bool]]:
     own = dict(getattr(scan, "wraps", {}) or {})
     if scan.normals is None and "height" in own:  # the normals are the height's slopes
         own["normals"] = own["height"]
-    if scan.height is None and "normals" in own:  # the height is the normals integrated
-        own["height"] = own["normals"]
     out = {}
     for kind, axes in own.items():
         both = (bool(wraps[0] and axes[0]), bool(wraps[1] and axes[1]))
