@@ -137,6 +137,7 @@ def resample_map(
     src = src[:, :, None] if flat else src
     h, w = src.shape[:2]
     th, tw = int(size[0]), int(size[1])
+    out: np.ndarray
     if (h, w) == (th, tw):
         out = src.copy()
     elif th <= h and tw <= w:
@@ -184,7 +185,7 @@ def normal_convention_evidence(normals: np.ndarray, height: np.ndarray) -> tuple
     h = np.asarray(height, np.float64)
     n = np.asarray(normals, np.float64)
     nz = np.maximum(n[..., 2], 0.05)
-    slope_rows, slope_cols = np.gradient(h)
+    slope_rows, slope_cols = (np.asarray(g) for g in np.gradient(h))
 
     def correlation(a: np.ndarray, b: np.ndarray) -> float:
         a, b = a.ravel() - a.mean(), b.ravel() - b.mean()
