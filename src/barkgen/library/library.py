@@ -230,7 +230,8 @@ class Library(Database):
         Raises
         ------
         InvalidInputError
-            Unknown or mismatched maps, maps of different sizes, a bad name or field.
+            No colour map, or two; a bad name or field (maps of other sizes are resampled to
+            the colour's, files that are no map are left out with a warning).
         ImageReadError
             A map that is not a readable image.
         """
