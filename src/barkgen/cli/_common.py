@@ -441,7 +441,7 @@ LayoutOption = Annotated[
     str,
     typer.Option(
         "--layout",
-        metavar="run|library",
+        metavar="{run,library}",
         help="run: the run's own files as texture.png, report.json, ... (a folder per run); library: each named "
         "after the set (oak_seed7_1K_texture.png, ..._report.json), so that runs of several photos, seeds and "
         "sizes share one folder, as an artist's library keeps its sets.",

@@ -46,17 +46,21 @@ from barkgen.errors import InvalidInputError
 from barkgen.pipeline import GenerateOptions
 
 
+#: generate's photo argument
+PHOTO_HELP = (
+    "Bark photo (PNG/JPEG/TIFF/WebP), or a folder holding a scanned material set (ambientCG, Poly "
+    "Haven, Megascans, Substance or game-pack names: NAME_Color/_diff/_Albedo/_BaseColor/_cc, "
+    "_NormalGL/_nor_gl/_nrm/_nm, _Height/_disp/_bump/_hm, _Roughness/_Gloss/_Specular, _AO, _arm; maps of "
+    "other sizes are resampled, files it cannot place are named and left out): its own maps are carried "
+    "into the new set (--material is then on), named after it. Default: the bundled sample."
+)
+
+
 @with_options(GenerateOptions)
 def generate_command(
     photo: Annotated[
         Optional[Path],
-        typer.Argument(
-            help="Bark photo (PNG/JPEG/TIFF/WebP), or a folder holding a scanned material set (ambientCG, Poly "
-            "Haven, Megascans, Substance or game-pack names: NAME_Color/_diff/_Albedo/_BaseColor/_cc, "
-            "_NormalGL/_nor_gl/_nrm/_nm, _Height/_disp/_bump/_hm, _Roughness/_Gloss/_Specular, _AO, _arm; maps of "
-            "other sizes are resampled, files it cannot place are named and left out): its own maps are carried "
-            "into the new set (--material is then on), named after it. Default: the bundled sample."
-        ),
+        typer.Argument(help=PHOTO_HELP),
     ] = None,
     output_dir: Annotated[Path, typer.Option("-o", "--output", help="Output folder.")] = Path("out"),
     labels: Annotated[
