@@ -111,7 +111,8 @@ def web_rows(photo: Path, tmp: Path) -> tuple[list[tuple[str, str, list[str]]], 
                 names = zipfile.ZipFile(io.BytesIO(response.content)).namelist()
                 rows.append((f"web {kind}", case, [name, *(f"  {n}" for n in sorted(names))]))
             rows.append(("web glb", case, [result["downloads"]["glb"]["name"]]))
-    return rows, asset_slug(exemplar["name"])
+        name = client.get(f"/api/exemplars/{exemplar['id']}").json()["name"]
+    return rows, asset_slug(name)
 
 
 def wait(client, job_id: str, timeout: float = 600) -> dict:
