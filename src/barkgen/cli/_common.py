@@ -299,6 +299,28 @@ def write_files(folder: Path, files: dict[str, bytes]) -> None:
     write_outputs({folder / name: data for name, data in files.items()})
 
 
+def set_variant(seed: int | None, edit_list) -> str | None:
+    """A set's variant (:func:`barkgen.io.variant_name`): the seed, and the tag of an edit list
+    that changes anything (its JSON document, :func:`barkgen.material.edits_document`, as the
+    web app's relief editor saves it: a replay is named as the web's result)."""
+    from barkgen.io import variant_name
+    from barkgen.material import edits_document
+
+    changes = edit_list.edits or edit_list.adjusts
+    relief, light = edit_list.relief, edit_list.light_equalization
+    return variant_name(
+        seed, edits_document(edit_list.edits, relief=relief, light_equalization=light) if changes else None
+    )
+
+
+def photo_licence(licence: str | None, photo: Path | None) -> str | None:
+    """The licence a set records (``--licence``): the user's, else the bundled sample's when
+    the run is of it (no photo given), else none."""
+    from barkgen.io.asset_names import SAMPLE_LICENCE
+
+    return licence if licence is not None or photo is not None else SAMPLE_LICENCE
+
+
 def previous_run_files(folder: Path, record: str = "report.json") -> list[str]:
     """The files of ``folder`` that the run which last wrote it provably made: those its
     ``record`` (generate's ``report.json``) lists whose content still has the recorded SHA-256

@@ -32,6 +32,7 @@ from barkgen.cli._common import (
     fail,
     level_files,
     parse_extras,
+    photo_licence,
     previous_run_files,
     progress_bar,
     read_edits,
@@ -39,12 +40,12 @@ from barkgen.cli._common import (
     read_resume,
     refuse_input_folder,
     refuse_inputs,
+    set_variant,
     write_run,
 )
 from barkgen.cli._options import with_options
 from barkgen.errors import InvalidInputError
 from barkgen.pipeline import GenerateOptions
-
 
 #: generate's photo argument
 PHOTO_HELP = (
@@ -241,7 +242,6 @@ def _set_naming(name, licence, photo, set_folder, seed: int, edits):
     the refusals only then: a named set's files are refused first, whatever the list holds."""
     from barkgen.data import sample_exemplar_path
     from barkgen.io import check_material_name
-    from barkgen.io.asset_names import SAMPLE_LICENCE
     from barkgen.material import EditList
 
     if name is not None:
@@ -250,9 +250,7 @@ def _set_naming(name, licence, photo, set_folder, seed: int, edits):
     src = photo if photo is not None else sample_exemplar_path()
     named_from = _set_stem(set_folder) if set_folder is not None else src
     asset, variant = _set_base_name(name, named_from, seed, edit_list or EditList())
-    if licence is None and photo is None:
-        licence = SAMPLE_LICENCE
-    return src, {"name": asset, "variant": variant, "licence": licence}, edit_list
+    return src, {"name": asset, "variant": variant, "licence": photo_licence(licence, photo)}, edit_list
 
 
 def _refuse_targets(output_dir: Path, naming: dict, options, widths, extras, preset: str, layout: str) -> list[str]:
@@ -289,18 +287,12 @@ def _set_base_name(name: str | None, source, seed: int, edit_list) -> tuple[str,
     """The set's asset name and variant (:mod:`barkgen.io.asset_names`): ``--name`` as given
     (no variant), else the photo's or the scanned set's name (``source``: a path or a stem) with
     the seed and the edit list's tag."""
-    from barkgen.io import photo_asset_name, set_asset_name, variant_name
-    from barkgen.material import edits_document
+    from barkgen.io import photo_asset_name, set_asset_name
 
     if name is not None:
         return name, None
     asset = photo_asset_name(source) if isinstance(source, Path) else set_asset_name(str(source))
-    document = (
-        edits_document(edit_list.edits, relief=edit_list.relief, light_equalization=edit_list.light_equalization)
-        if edit_list.edits or edit_list.adjusts
-        else None
-    )
-    return asset, variant_name(seed, document)
+    return asset, set_variant(seed, edit_list)
 
 
 def _extra_paths(extra: list[str] | None) -> dict[str, Path]:

@@ -23,9 +23,11 @@ from barkgen.cli._common import (
     check_folder,
     check_target,
     parse_light,
+    photo_licence,
     progress_bar,
     read_edits,
     refuse_targets,
+    set_variant,
     write_files,
     write_outputs,
 )
@@ -66,7 +68,6 @@ def material_command(
 
     from barkgen.data import sample_exemplar_path
     from barkgen.io import base_name, check_material_name, encode_material, image_size, material_set_name, read_image
-    from barkgen.io.asset_names import SAMPLE_LICENCE
     from barkgen.io.material import material_file_names
     from barkgen.material import EditList, adjust_material, make_material
     from barkgen.material.presets import check_preset
@@ -106,7 +107,7 @@ def material_command(
         variant=variant,
         seed=options.seed,
         source_photo=str(src),
-        source_licence=licence if licence is not None or photo is not None else SAMPLE_LICENCE,
+        source_licence=photo_licence(licence, photo),
         edits=len(edit_list.edits),
         exemplar_wrap_mode=options.exemplar_wrap,
     )
@@ -126,15 +127,9 @@ def _asset_and_variant(name: str | None, src: Path, edit_list) -> tuple[str, str
     """The set's asset name and variant (:mod:`barkgen.io.asset_names`): ``--name`` as given,
     else the photo's name, with the edit list's tag when it has edits (a photo has one set
     of its own; an edited one is another)."""
-    from barkgen.io import photo_asset_name, variant_name
-    from barkgen.material import edits_document
+    from barkgen.io import photo_asset_name
 
-    if name is not None:
-        return name, None
-    if not (edit_list.edits or edit_list.adjusts):
-        return photo_asset_name(src), None
-    document = edits_document(edit_list.edits, relief=edit_list.relief, light_equalization=edit_list.light_equalization)
-    return photo_asset_name(src), variant_name(None, document)
+    return (name, None) if name is not None else (photo_asset_name(src), set_variant(None, edit_list))
 
 
 def _wrap_note(wraps: tuple[bool, bool]) -> str:

@@ -17,6 +17,7 @@ from barkgen.cli._common import (
     QuietOption,
     check_bits,
     check_folder,
+    photo_licence,
     previous_run_files,
     progress_bar,
     refuse_inputs,
@@ -80,7 +81,6 @@ def tree_command(
         read_image,
         variant_name,
     )
-    from barkgen.io.asset_names import SAMPLE_LICENCE
     from barkgen.material.presets import check_preset
     from barkgen.pipeline import encode_tree, make_tree, stage_at
     from barkgen.tree import read_tree_mesh
@@ -108,7 +108,7 @@ def tree_command(
             scale_with_radius=scale_with_radius,
             progress=progress,
         )
-        licence = licence if licence is not None or photo is not None else SAMPLE_LICENCE
+        licence = photo_licence(licence, photo)
         files = encode_tree(
             image, tree, str(src), name=asset, variant=variant, licence=licence, bits=bits, preset=preset
         )
