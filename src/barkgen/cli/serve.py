@@ -14,17 +14,37 @@ def serve_command(
     host: Annotated[
         str,
         typer.Option(
-            "--host", help="Address to listen on (127.0.0.1: this machine only; 0.0.0.0 opens it to your network)."
+            "--host",
+            help="Address to listen on (127.0.0.1: this machine only; any other, 0.0.0.0 above all: every "
+            "machine that reaches the port, which then needs the key printed in the address; no TLS: "
+            "beyond a trusted network, use an SSH tunnel or a reverse proxy with TLS).",
         ),
     ] = "127.0.0.1",
     port: Annotated[int, typer.Option("--port", help="Port to listen on.")] = 8000,
+    token: Annotated[
+        str | None,
+        typer.Option(
+            "--token",
+            envvar="BARKGEN_TOKEN",
+            show_envvar=True,
+            help="The key every request must carry (16-256 URL-safe characters). Beyond 127.0.0.1 a "
+            "random one is made when none is given; on 127.0.0.1 none is asked unless given.",
+        ),
+    ] = None,
+    read_only: Annotated[
+        bool,
+        typer.Option(
+            "--read-only", help="Refuse every change (uploads, jobs, deletes, paints): a library shared to viewers."
+        ),
+    ] = False,
     library: LibraryOption = None,
     max_upload_mb: Annotated[int, typer.Option("--max-upload-mb", help="Largest upload in MB.")] = 25,
     max_upload_mp: Annotated[float, typer.Option("--max-upload-mp", help="Largest upload in megapixels.")] = 50,
     no_cache: NoCacheOption = False,
 ) -> None:
     """Run the web app: pick or upload bark, generate with one click, paint labels, see it on a
-    trunk, download the material set."""
+    trunk, download the material set. Open the printed address; beyond 127.0.0.1 it holds the
+    key every request needs (docs: "Who can reach it")."""
     from barkgen.library import Library
     from barkgen.web import WebLimits, serve
 
@@ -36,6 +56,9 @@ def serve_command(
     for flag, value in (("--max-upload-mb", max_upload_mb), ("--max-upload-mp", max_upload_mp)):
         if not math.isfinite(value) or not 0 < value <= 1e6:
             raise InvalidInputError(f"{flag} must be a number above 0 (and at most 1000000), not {value}")
+    from barkgen.web.state import WebAccess
+
+    access = WebAccess(host, token=token, read_only=read_only)  # the bind decides whether a key is asked
     lib = Library(library)
     _check_port_free(host, port)
     if no_cache:  # read by the job worker, a process of its own (barkgen.pipeline.open_store)
@@ -46,8 +69,8 @@ def serve_command(
         os.environ[ENV_OFF] = "1"
     limits = WebLimits(max_upload_bytes=max_upload_mb * 1024**2, max_upload_pixels=int(max_upload_mp * 1e6))
 
-    from barkgen.web.app import is_loopback
     from barkgen.web.assets import missing_warning
+    from barkgen.web.state import is_loopback
 
     def ready(url: str) -> None:
         typer.echo(f"barkgen is running at {url}  (library: {lib.path}; Ctrl-C stops it)", err=True)
@@ -55,13 +78,15 @@ def serve_command(
             typer.echo(missing, err=True)
         if not is_loopback(host):
             typer.echo(
-                f"barkgen: warning: listening on {host}: anyone who can reach this machine "
-                "can use this server and its library (there is no login)",
+                f"barkgen: warning: listening on {host}: whoever has the address with its key can use this "
+                "server and its library; the key and the photos cross the network in clear (no TLS)",
                 err=True,
             )
+        if read_only:
+            typer.echo("barkgen: read-only: uploads, jobs, deletes and edits are refused", err=True)
 
     try:
-        serve(lib, host=host, port=port, limits=limits, on_ready=ready)
+        serve(lib, host=host, port=port, limits=limits, access=access, on_ready=ready)
     except KeyboardInterrupt:  # Ctrl-C is how a server is stopped: not an error
         pass
     typer.echo("barkgen: server stopped", err=True)

@@ -15,7 +15,8 @@ process) and :mod:`barkgen.io`.
 from __future__ import annotations
 
 import asyncio
-import ipaddress
+import logging
+import sys
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI, Request
@@ -26,25 +27,29 @@ from fastapi.staticfiles import StaticFiles
 from barkgen.errors import BarkgenError, ImageTooLargeError
 from barkgen.library import Library, NotFoundError
 from barkgen.web.jobs import JobManager, QueueFullError
-from barkgen.web.middleware import BodyLimit, BodyTooLarge, SameOrigin
+from barkgen.web.middleware import ACCESS_LOG, AccessKey, BodyLimit, BodyTooLarge, SameOrigin
 from barkgen.web.relief import router as relief_routes
 from barkgen.web.routes_cracks import router as crack_routes
 from barkgen.web.routes_exemplars import router as exemplar_routes
 from barkgen.web.routes_jobs import router as job_routes
 from barkgen.web.routes_pages import router as page_routes
 from barkgen.web.routes_results import router as result_routes
-from barkgen.web.state import STATIC, AppState, WebLimits
+from barkgen.web.state import STATIC, AppState, WebAccess, WebLimits, is_loopback
 
 __all__ = [
+    "AccessKey",
     "AppState",
     "BodyLimit",
     "BodyTooLarge",
     "SameOrigin",
+    "WebAccess",
     "WebLimits",
     "allowed_hosts",
+    "build_server",
     "create_app",
     "is_loopback",
     "serve",
+    "served_address",
 ]
 
 #: barkgen's errors as HTTP status codes (the most specific class that matches wins)
@@ -59,11 +64,13 @@ def allowed_hosts(host: str) -> list[str] | None:
     return sorted({"127.0.0.1", "localhost", "::1", host.strip("[]")})
 
 
-def is_loopback(host: str) -> bool:
-    try:
-        return ipaddress.ip_address(host.strip("[]")).is_loopback
-    except ValueError:
-        return host == "localhost"
+def served_address(host: str, port: int, token: str | None = None) -> str:
+    """The address ``barkgen serve`` prints: this machine's for a server on every address,
+    with ``?token=KEY`` when it has a key (as Jupyter's; the first visit moves the key to a
+    cookie)."""
+    shown = "127.0.0.1" if host in ("0.0.0.0", "::", "") else host.strip("[]")
+    shown = f"[{shown}]" if ":" in shown else shown
+    return f"http://{shown}:{port}/" + (f"?token={token}" if token else "")
 
 
 def _answer_error(status: int):
@@ -82,12 +89,19 @@ async def _answer_invalid_request(request, exc) -> JSONResponse:
 
 
 def create_app(
-    library: Library, *, limits: WebLimits | None = None, run_jobs: bool = True, hosts: list[str] | None = None
+    library: Library,
+    *,
+    limits: WebLimits | None = None,
+    run_jobs: bool = True,
+    hosts: list[str] | None = None,
+    access: WebAccess | None = None,
 ) -> FastAPI:
     """The app on ``library``. ``run_jobs=False`` queues jobs without running them (tests);
     ``hosts``: the Host names it answers (None: any; :func:`serve` passes
-    :func:`allowed_hosts`)."""
-    state = AppState(library=library, jobs=JobManager(library), limits=limits or WebLimits())
+    :func:`allowed_hosts`); ``access``: its key and read-only mode (default: on loopback, no
+    key; :func:`serve` passes ``WebAccess(host, ...)``, so the bind decides)."""
+    access = access or WebAccess()
+    state = AppState(library=library, jobs=JobManager(library), limits=limits or WebLimits(), access=access)
 
     @asynccontextmanager
     async def lifespan(app: FastAPI):
@@ -114,6 +128,13 @@ def create_app(
     body_limit = state.limits.max_upload_bytes * 4 // 3 + 1024**2
     app.add_middleware(BodyLimit, limit=body_limit, detail=state.limits.upload_too_large)
     app.add_middleware(SameOrigin, hosts=hosts)
+    app.add_middleware(AccessKey, access=access)  # the outermost: no key, nothing else is read
+
+    @app.get("/api/server")
+    def server_settings() -> dict:
+        """What the pages adapt to: ``read_only`` (they hide what would be refused)."""
+        return {"read_only": access.read_only}
+
     for error, status in ERROR_STATUS.items():
         app.add_exception_handler(error, _answer_error(status))
     app.add_exception_handler(RequestValidationError, _answer_invalid_request)
@@ -123,20 +144,37 @@ def create_app(
     return app
 
 
-def serve(
-    library: Library, host: str = "127.0.0.1", port: int = 8000, *, limits: WebLimits | None = None, on_ready=None
-) -> None:
-    """Run the app with uvicorn until interrupted. ``on_ready(url)`` is called once it listens."""
+def build_server(
+    library: Library,
+    host: str = "127.0.0.1",
+    port: int = 8000,
+    *,
+    limits: WebLimits | None = None,
+    access: WebAccess | None = None,
+    on_ready=None,
+):
+    """The uvicorn server of :func:`serve`, not yet started. ``access``: defaults to
+    ``WebAccess(host)`` (a random key beyond loopback). uvicorn's own access log is off (it
+    writes the query, where a key may be): the app's access lines go to ``barkgen.web.access``,
+    shown on stderr."""
     import uvicorn
 
-    app = create_app(library, limits=limits, hosts=allowed_hosts(host))
+    access = access or WebAccess(host)
+    app = create_app(library, limits=limits, hosts=allowed_hosts(host), access=access)
     # the worker starts with the server and makes a new photo's label map, then the analysis of
     # the page's defaults, before they are asked for
     app.state.barkgen.jobs.eager = True
     # open event streams must not hold a Ctrl-C: they are cut after 2 s
-    config = uvicorn.Config(app, host=host, port=port, log_level="warning", timeout_graceful_shutdown=2)
+    config = uvicorn.Config(
+        app, host=host, port=port, log_level="warning", access_log=False, timeout_graceful_shutdown=2
+    )
     server = uvicorn.Server(config)
     app.state.barkgen.should_exit = lambda: server.should_exit
+    if not ACCESS_LOG.handlers:
+        shown = logging.StreamHandler(sys.stderr)
+        shown.setFormatter(logging.Formatter("barkgen: %(asctime)s %(message)s", "%Y-%m-%dT%H:%M:%S%z"))
+        ACCESS_LOG.addHandler(shown)
+        ACCESS_LOG.setLevel(logging.INFO)
 
     if on_ready is not None:
         original = server.startup
@@ -144,9 +182,24 @@ def serve(
         async def startup(sockets=None):
             await original(sockets=sockets)
             if server.started:
-                shown = "127.0.0.1" if host in ("0.0.0.0", "::", "") else host
-                shown = f"[{shown}]" if ":" in shown else shown
-                on_ready(f"http://{shown}:{port}/")
+                bound = port or next(
+                    (s.getsockname()[1] for srv in getattr(server, "servers", []) for s in srv.sockets), port
+                )
+                on_ready(served_address(host, bound, access.token))
 
         server.startup = startup  # type: ignore[method-assign]  # wrapped: uvicorn has no on-listening hook
-    asyncio.run(server.serve())
+    return server
+
+
+def serve(
+    library: Library,
+    host: str = "127.0.0.1",
+    port: int = 8000,
+    *,
+    limits: WebLimits | None = None,
+    access: WebAccess | None = None,
+    on_ready=None,
+) -> None:
+    """Run the app with uvicorn until interrupted (:func:`build_server`). ``on_ready(url)`` is
+    called once it listens, with the address to open (its key included)."""
+    asyncio.run(build_server(library, host, port, limits=limits, access=access, on_ready=on_ready).serve())

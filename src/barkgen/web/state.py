@@ -1,5 +1,6 @@
-"""What the web app's routes share: its limits (:class:`WebLimits`), its state (:class:`AppState`:
-the library, the job queue, the limits), the FastAPI dependency that hands the state to an
+"""What the web app's routes share: its limits (:class:`WebLimits`), who may use it
+(:class:`WebAccess`: the key and read-only mode), its state (:class:`AppState`: the library, the
+job queue, the limits, the access), the FastAPI dependency that hands the state to an
 endpoint (:func:`get_state`) and the few settings every route module reads.
 
 The routes' plain functions take an :class:`AppState` as their first argument, so tests can call
@@ -8,6 +9,9 @@ them without a server: ``AppState(library, JobManager(library))``.
 
 from __future__ import annotations
 
+import ipaddress
+import re
+import secrets
 import threading
 from collections import OrderedDict
 from collections.abc import Callable
@@ -19,6 +23,7 @@ from fastapi import Depends, Request
 from fastapi.responses import Response
 
 from barkgen._shared.checks import MAX_PHOTO_PIXELS
+from barkgen.errors import InvalidInputError
 from barkgen.library import Library
 from barkgen.pipeline import ANALYSIS_SEED
 from barkgen.web.jobs import JobManager
@@ -48,15 +53,59 @@ class WebLimits:
         return f"the upload is larger than the limit of {self.max_upload_bytes // 1024**2} MB"
 
 
+#: a key is URL-safe (it travels in the printed address) and long enough not to be guessed
+KEY_PATTERN = re.compile(r"[A-Za-z0-9_.~-]{16,256}")
+
+
+def is_loopback(host: str) -> bool:
+    """Whether a server bound to ``host`` is reachable from this machine only (127.0.0.0/8,
+    ::1, ``localhost``); any other host, ``0.0.0.0`` and ``::`` above all, reaches a network."""
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:
+        return host == "localhost"
+
+
+@dataclass(frozen=True)
+class WebAccess:
+    """Who may use the server: the key every request must carry (``token``; None: none) and
+    whether it refuses every change (``read_only``: a library shared to viewers).
+
+    The bind decides: a server on a host beyond loopback (:func:`is_loopback`) always has a
+    key, a random one (``secrets.token_urlsafe``) unless ``token`` is given; on loopback it
+    has one only when ``token`` is given. A ``token`` must be 16-256 URL-safe characters.
+    """
+
+    host: str = "127.0.0.1"
+    token: str | None = None
+    read_only: bool = False
+
+    def __post_init__(self) -> None:
+        token = self.token or None  # an empty BARKGEN_TOKEN is no token
+        if token is not None and not KEY_PATTERN.fullmatch(token):
+            raise InvalidInputError(
+                "--token (or BARKGEN_TOKEN) must be 16-256 letters, digits or '-', '_', '.', '~' "
+                f"(it goes in the address), not one of {len(token)} characters"
+            )
+        if token is None and not is_loopback(self.host):
+            token = secrets.token_urlsafe(32)
+        object.__setattr__(self, "token", token)
+
+    def __repr__(self) -> str:  # the key never shows in a log or a traceback
+        return f"WebAccess(host={self.host!r}, key={'yes' if self.token else 'no'}, read_only={self.read_only})"
+
+
 @dataclass
 class AppState:
-    """The app's shared state: its library, its job queue and its limits. ``should_exit``:
+    """The app's shared state: its library, its job queue, its limits and who may use it
+    (``access``). ``should_exit``:
     true once the server is asked to stop (event streams end then; set by
     :func:`barkgen.web.serve`)."""
 
     library: Library
     jobs: JobManager
     limits: WebLimits = field(default_factory=WebLimits)
+    access: WebAccess = field(default_factory=WebAccess)
     should_exit: Callable[[], bool] = lambda: False
     #: uploads look up and add their photo under it, so one photo uploaded ten times at once
     #: is added once and nine answers say it was there

@@ -128,6 +128,16 @@ export const api = {
 };
 
 // ---------------------------------------------------------------------------
+// The server's settings: on a read-only server (`barkgen serve --read-only`) the page hides
+// what would be refused (elements marked `data-changes`, see app.css).
+
+/** Resolves with {read_only}; a server that cannot say is taken as a writable one. */
+export const serverSettings = getJSON("/api/server").catch(() => ({ read_only: false }));
+serverSettings.then((settings) => {
+  if (settings && settings.read_only) document.documentElement.classList.add("read-only");
+});
+
+// ---------------------------------------------------------------------------
 // Small shared page helpers.
 
 /** The last numeric path segment, e.g. 12 for "/exemplars/12". */

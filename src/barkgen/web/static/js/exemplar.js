@@ -2,7 +2,7 @@
 // the photo's crack network to edit), the parameter form, the job panel and the earlier
 // results of this photo.
 
-import { api, el, idFromPath, showError, formatDate, describeParams } from "./api.js";
+import { api, el, idFromPath, serverSettings, showError, formatDate, describeParams } from "./api.js";
 import { crackViewIn } from "./crackview.js";
 import { jobPanelIn, jobIdFromUrl } from "./jobs.js";
 
@@ -138,7 +138,11 @@ function setupLabels() {
     loading.hidden = false;
     img.classList.add("is-loading");
     try {
-      const answer = await api.requestLabels(exemplarId, k, method);
+      // a read-only server makes no label map: it shows the one made before, if any
+      const readOnly = (await serverSettings).read_only;
+      const answer = readOnly
+        ? { url: `/api/exemplars/${exemplarId}/labels.png?k=${k}&method=${encodeURIComponent(method)}`, job: null }
+        : await api.requestLabels(exemplarId, k, method);
       let job = answer.job;
       while (job && job.state !== "done") {
         if (job.state === "failed" || job.state === "cancelled") {
