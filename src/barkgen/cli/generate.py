@@ -135,7 +135,7 @@ def generate_command(
     check_edit_list(edit_list, options.material)
     scan = read_scanned_set(set_folder) if set_folder is not None else None
     image = scan.color if scan is not None else read_image(src)
-    extras = {name: read_image(p) for name, p in extra_paths.items()}
+    extras = {name: read_image(p, linear=True) for name, p in extra_paths.items()}  # (a map: kept linear)
     label_map = read_image(labels) if labels is not None else None
     edited = read_resume(resume) if resume is not None else None
     fields = read_fields(flow, flow_scale)

@@ -63,7 +63,7 @@ def synth_command(
     _check_outputs(output, save_reference, bits, extra_paths)
     src = exemplar if exemplar is not None else sample_exemplar_path()
     image = read_image(src)
-    extras = {name: read_image(p) for name, p in extra_paths.items()}
+    extras = {name: read_image(p, linear=True) for name, p in extra_paths.items()}  # (a map: kept linear)
     fields = read_fields(flow, flow_scale)
     with progress_bar(not quiet, "synthesizing") as progress:
         result = synthesize(
@@ -128,7 +128,7 @@ def tbn_command(
     target_map = read_image(target)
     if edges:
         label_map, target_map = _with_edges(image, label_map, target_map, edges, tile, exemplar_wrap)
-    extras = {name: read_image(p) for name, p in extra_paths.items()}
+    extras = {name: read_image(p, linear=True) for name, p in extra_paths.items()}  # (a map: kept linear)
     with progress_bar(not quiet, "texture-by-numbers") as progress:
         result = texture_by_numbers(
             image,
