@@ -194,6 +194,13 @@ def _check_pixels(path: Path) -> None:
         )
 
 
+def _is_pipe(path: Path) -> bool:
+    """``-`` (the standard input), a pipe or a character device: read as a stream."""
+    from barkgen.io.image_formats import is_stream
+
+    return is_stream(path)
+
+
 def _named_paths(kwargs: Mapping[str, object]) -> Iterator[tuple[str, Path]]:
     """``(argument, path)`` of every path among a command's arguments (``--extra NAME=PATH``
     items included)."""
@@ -261,6 +268,8 @@ def guard_paths(kwargs: Mapping[str, object]) -> Callable[[], None]:
         if path.is_file():
             inputs.append(path)
             _check_pixels(path)  # by its content, whatever its name (.dat, .raw, no suffix)
+        elif _is_pipe(path):  # (``-``, /dev/stdin) read once, up to the reader's byte limit
+            _check_pixels(path)
         elif path.is_dir():
             inputs.extend(_set_files(path))
     token = _INPUTS.set(tuple(inputs))

@@ -1,7 +1,9 @@
-"""Reading and writing images: PNG/JPEG/TIFF/WebP in, 8- or 16-bit PNG out, atomically.
+"""Reading and writing images: PNG/JPEG/TIFF/WebP/GIF/BMP, PPM/PGM, TGA, OpenEXR and Radiance
+HDR in (:mod:`barkgen.io.image_formats`), from a file or a pipe; 8- or 16-bit PNG out, atomically.
 
 Images are numpy arrays of shape ``(H, W, C)`` with ``C`` = 1 (grey) or 3 (RGB) and dtype
-``uint8`` or ``uint16``. Alpha channels are dropped with a warning. Every write goes to a
+``uint8`` or ``uint16``: a floating-point picture (EXR, HDR) is tone-mapped as a photo and kept
+linear as a map (``linear=True``). Alpha channels are dropped with a warning. Every write goes to a
 temporary file in the destination folder that is renamed into place, so an interrupted or failed
 write never leaves a half-written file under the requested name.
 """
@@ -19,6 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from barkgen.errors import ImageReadError, ImageTooLargeError, InvalidInputError
+from barkgen.io import image_formats as formats
+from barkgen.io.image_formats import FORMAT_NAMES, ImageContentWarning
 from barkgen.io.staging import write_bytes_atomic
 
 _TIFF_MAGIC = (b"II*\x00", b"MM\x00*")
@@ -27,11 +31,6 @@ _PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 class AlphaDroppedWarning(UserWarning):
     """An input image had an alpha channel, which barkgen ignores (a ``UserWarning``)."""
-
-
-class ImageContentWarning(UserWarning):
-    """An input image was read with a loss its user should know of: an animation's later frames,
-    floating-point values outside 0-1 (a ``UserWarning``)."""
 
 
 #: the EXIF tag of the camera's orientation (1 = as stored)
@@ -44,13 +43,23 @@ MAX_IMAGE_BYTES = 1 << 30
 #: the first bytes of the formats barkgen reads (WebP: ``RIFF....WEBP``, checked apart)
 _IMAGE_MAGICS = (_PNG_MAGIC, b"\xff\xd8\xff", *_TIFF_MAGIC, b"GIF87a", b"GIF89a", b"BM")
 #: how much of a file is read to tell whether it is an image at all
-_SNIFF_BYTES = 16
+_SNIFF_BYTES = 32
 #: how much of a file :func:`image_size` reads first for the image's size
 _HEADER_BYTES = 1 << 16
 
 
-def _is_image_start(head: bytes) -> bool:
+def _known_start(head: bytes) -> bool:
     return head.startswith(_IMAGE_MAGICS) or (head[:4] == b"RIFF" and head[8:12] == b"WEBP")
+
+
+def _other_format(data: bytes, size: int | None = None) -> str | None:
+    """``pnm``, ``tga``, ``exr`` or ``hdr`` (:mod:`~barkgen.io.image_formats`) for a file of
+    ``size`` bytes (default: ``data``'s) that is none of Pillow's and tifffile's formats."""
+    return None if _known_start(data) else formats.sniff_format(data, len(data) if size is None else size)
+
+
+def _is_image_start(head: bytes, size: int) -> bool:
+    return _known_start(head) or _other_format(head, size) is not None
 
 
 def _open_checked(path: Path):
@@ -69,7 +78,7 @@ def _open_checked(path: Path):
     if stat.S_ISDIR(info.st_mode):
         raise ImageReadError(f"{path}: is a directory, not an image")
     if not stat.S_ISREG(info.st_mode):
-        raise ImageReadError(f"{path}: not a regular file (a device, a pipe or a socket)")
+        raise ImageReadError(f"{path}: not a regular file (a block device)")
     if info.st_size == 0:
         raise ImageReadError(f"{path}: file is empty (0 bytes)")
     if info.st_size > MAX_IMAGE_BYTES:
@@ -81,14 +90,16 @@ def _open_checked(path: Path):
         fh = open(path, "rb")
     except OSError as exc:
         raise ImageReadError(f"{path}: cannot read ({exc.strerror or exc})") from None
-    if not _is_image_start(fh.read(_SNIFF_BYTES)):
+    if not _is_image_start(fh.read(_SNIFF_BYTES), info.st_size):
         fh.close()
-        raise ImageReadError(f"{path}: not an image (PNG, JPEG, TIFF, WebP, GIF or BMP by its content)")
+        raise ImageReadError(f"{path}: not an image ({FORMAT_NAMES} by its content)")
     fh.seek(0)
     return fh, info.st_size
 
 
-def _check_file(path: Path) -> bytes:
+def _check_file(path: Path, keep: bool = False) -> bytes:
+    if formats.is_stream(path):  # a pipe (``-``, /dev/stdin): read once, up to the same limit
+        return formats.read_stream(path, MAX_IMAGE_BYTES, _SNIFF_BYTES, _is_image_start, keep=keep)
     fh, size = _open_checked(path)
     with fh:
         try:
@@ -133,6 +144,9 @@ def _normalise(arr: np.ndarray, path, has_alpha: bool) -> np.ndarray:
         arr = np.round(np.clip(np.nan_to_num(arr), 0.0, 1.0) * 65535.0).astype(np.uint16)
     elif arr.dtype == np.bool_:
         arr = arr.astype(np.uint8) * 255
+    elif arr.dtype in (np.uint32, np.int32):  # a 32-bit integer TIFF: its range onto 16 bits
+        top = 2**32 - 1 if arr.dtype == np.uint32 else 2**31 - 1
+        arr = np.round(np.clip(arr.astype(np.float64), 0, top) * (65535 / top)).astype(np.uint16)
     elif arr.dtype not in (np.uint8, np.uint16):
         raise ImageReadError(f"{path}: unsupported pixel type {arr.dtype} (use 8- or 16-bit)")
     if arr.ndim == 2:
@@ -154,16 +168,20 @@ def _png_bit_depth(data: bytes) -> int:
     return data[24] if len(data) > 25 and data.startswith(_PNG_MAGIC) else 8
 
 
-def read_image(path: str | os.PathLike) -> np.ndarray:
+def read_image(path: str | os.PathLike, *, linear: bool = False) -> np.ndarray:
     """Read an image file into an ``(H, W, C)`` uint8/uint16 array (C = 1 or 3).
 
-    Supports PNG, JPEG, TIFF and WebP, 8 and 16 bits per channel, grey, RGB and RGBA (alpha is
-    dropped with an :class:`AlphaDroppedWarning`).
+    Supports PNG, JPEG, TIFF (8, 16 and 32 bits), WebP, GIF, BMP, PPM/PGM, TGA, OpenEXR and
+    Radiance HDR, grey, RGB and RGBA (alpha is dropped with an :class:`AlphaDroppedWarning`);
+    ``-``, a pipe or ``/dev/stdin`` is read up to :data:`MAX_IMAGE_BYTES`.
 
     Parameters
     ----------
     path : str or PathLike
         The file; its content decides the format, not its name.
+    linear : bool, default False
+        How an EXR or HDR's floating-point values are read (:func:`decode_image`): False for a
+        photo (tone-mapped), True for a map of values (a height, an ``--extra``: kept linear).
 
     Returns
     -------
@@ -182,11 +200,14 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     ((1024, 1024, 3), 'uint8')
     """
     path = Path(path)
-    return decode_image(_check_file(path), path)
+    return decode_image(_check_file(path), path, linear=linear)
 
 
-def _image_size(data: bytes, name) -> tuple[int, int]:
-    """``(width, height)`` from the image's header, without decoding its pixels."""
+def _image_size(data: bytes, name, size: int | None = None) -> tuple[int, int]:
+    """``(width, height)`` from the image's header (``data``: at least its first bytes, of a
+    file of ``size`` bytes), without decoding its pixels."""
+    if _other_format(data, size) is not None:
+        return formats.header_size(data, len(data) if size is None else size, name)
     if data[:4] in _TIFF_MAGIC:
         import tifffile
 
@@ -230,18 +251,22 @@ def image_size(path: str | os.PathLike) -> tuple[int, int]:
         A missing, empty or unreadable file, or not an image.
     """
     path = Path(path)
+    if formats.is_stream(path):  # read once (kept for the read that follows), up to the limit
+        return _image_size(_check_file(path, keep=True), path)
     fh, size = _open_checked(path)
     with fh:  # the header is enough: a 117 KB file may declare a huge image
         head = fh.read(min(size, _HEADER_BYTES))
     try:
-        return _image_size(head, path)
+        return _image_size(head, path, size)
     except ImageReadError:
         if size <= _HEADER_BYTES:
             raise
     return _image_size(_check_file(path), path)  # a header past the first bytes (EXIF, TIFF IFD)
 
 
-def decode_image(data: bytes, name: str | os.PathLike = "image", *, max_pixels: int | None = None) -> np.ndarray:
+def decode_image(
+    data: bytes, name: str | os.PathLike = "image", *, max_pixels: int | None = None, linear: bool = False
+) -> np.ndarray:
     """Decode the bytes of an image file (what :func:`read_image` reads).
 
     The content decides the format, never a file name.
@@ -249,12 +274,19 @@ def decode_image(data: bytes, name: str | os.PathLike = "image", *, max_pixels: 
     Parameters
     ----------
     data : bytes
-        The file's bytes (PNG, JPEG, TIFF or WebP).
+        The file's bytes (any format :func:`read_image` reads).
     name : str or PathLike, default "image"
         What error messages call it.
     max_pixels : int, optional
         Refuse larger images with :class:`ImageTooLargeError`, read from the header before any
         pixel is decoded.
+    linear : bool, default False
+        An EXR or HDR (scene-linear light) is tone-mapped when False, as a photo is
+        (:func:`barkgen.io.image_formats.tone_map`: the 99.5th percentile of the brightest
+        channel is white, then the sRGB curve, 16 bits); kept linear when True, as a height or
+        an extra map is (:func:`barkgen.io.image_formats.linear_unit`: 0-1 as 0-65535, a map
+        outside 0-1 scaled from its own range with a warning). A 32-bit float TIFF is read
+        as its values 0-1 either way (clipped outside, with a warning).
 
     Returns
     -------
@@ -277,6 +309,9 @@ def decode_image(data: bytes, name: str | os.PathLike = "image", *, max_pixels: 
                 f"{name}: {width}x{height} px is {width * height / 1e6:.1f} "
                 f"megapixels, more than the limit of {max_pixels / 1e6:g}"
             )
+    other = _other_format(data)
+    if other is not None:
+        return _decode_other(other, data, path, linear)
     arr: np.ndarray | None
     if data[:4] in _TIFF_MAGIC:
         import tifffile
@@ -338,6 +373,21 @@ def decode_image(data: bytes, name: str | os.PathLike = "image", *, max_pixels: 
             dec = dec[:, :, [2, 1, 0, 3][: dec.shape[2]]] if dec.shape[2] == 4 else dec[:, :, ::-1]
         arr = dec
     return _normalise(np.asarray(arr), path, has_alpha)
+
+
+def _decode_other(kind: str, data: bytes, path, linear: bool) -> np.ndarray:
+    """A PPM/PGM, TGA, EXR or HDR decoded (:mod:`~barkgen.io.image_formats`)."""
+    if kind == "pnm":
+        return _normalise(formats.decode_pnm(data, path), path, has_alpha=False)
+    if kind == "tga":
+        pixels, tga_alpha = formats.decode_tga(data, path)
+        return _normalise(pixels, path, tga_alpha)
+    values = formats.decode_exr(data, path) if kind == "exr" else formats.decode_hdr(data, path)
+    has_alpha = values.shape[2] in (2, 4)
+    if has_alpha:
+        values = values[:, :, :-1]
+    pixels = formats.linear_unit(values, path) if linear else formats.tone_map(values)
+    return _normalise(pixels, path, has_alpha)
 
 
 def to_bits(image: np.ndarray, bits: int) -> np.ndarray:

@@ -65,7 +65,7 @@ import numpy as np
 from barkgen.errors import ImageReadError, InvalidInputError
 
 #: the image files a set may hold
-IMAGE_EXTENSIONS = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".webp")
+IMAGE_EXTENSIONS = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".webp", ".tga", ".exr", ".hdr", ".ppm", ".pgm")
 #: map kinds, each with the (lower-case, separator-free) words that mean it, the preferred first
 #: (of two height maps, the displacement is kept and the bump left out)
 MAP_WORDS: dict[str, tuple[str, ...]] = {
@@ -400,7 +400,10 @@ def scanned_set_from_files(
     if normal_convention not in NORMAL_CONVENTIONS:
         raise InvalidInputError(f"normal convention must be gl or dx, not {normal_convention!r}")
     stem, kinds = recognise_set(files, folder=where)
-    images = {kind: decode_image(files[name], f"{where}/{name}") for kind, name in kinds.items()}
+    # a map of values (a height in an EXR) is read linear; the colour, tone-mapped if it is HDR
+    images = {
+        kind: decode_image(files[name], f"{where}/{name}", linear=kind != "color") for kind, name in kinds.items()
+    }
     color = images.pop("color")
     if color.shape[2] == 1:
         color = np.repeat(color, 3, axis=2)
@@ -537,7 +540,7 @@ def read_set_zip(data: bytes, *, max_unpacked_bytes: int, where: str = "the zip"
             if Path(name).suffix.lower() in IMAGE_EXTENSIONS:
                 members.append((name, info))
         if not members:
-            raise InvalidInputError(f"{where}: holds no image (PNG, JPEG, TIFF or WebP)")
+            raise InvalidInputError(f"{where}: holds no image (PNG, JPEG, TIFF, WebP, TGA, EXR, HDR, PPM or PGM)")
         total = sum(info.file_size for _, info in members)
         if total > max_unpacked_bytes:
             raise InvalidInputError(
