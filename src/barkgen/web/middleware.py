@@ -136,7 +136,7 @@ def _log(scope, outcome: str, made: str = "", key: bytes | None = None) -> None:
     client = (scope.get("client") or ("-", 0))[0]
     path = scope["path"]
     touched = _ID_IN_PATH.match(path)
-    ids = " ".join(part for part in (f"{touched[1][:-1]}={touched[2]}" if touched else "", made) if part)
+    ids = " ".join(dict.fromkeys(part for part in (f"{touched[1][:-1]}={touched[2]}" if touched else "", made) if part))
     line = f"{client} {scope['method']} {_printable(path)} {outcome}" + (f" {_printable(ids)}" if ids else "")
     if key:  # a key typed into the path by mistake is not written either
         line = line.replace(key.decode(), "[key]")

@@ -85,7 +85,7 @@ class WebAccess:
         if token is not None and not KEY_PATTERN.fullmatch(token):
             raise InvalidInputError(
                 "--token (or BARKGEN_TOKEN) must be 16-256 letters, digits or '-', '_', '.', '~' "
-                f"(it goes in the address), not one of {len(token)} characters"
+                f"(it goes in the address); this one has {len(token)} characters"
             )
         if token is None and not is_loopback(self.host):
             token = secrets.token_urlsafe(32)
