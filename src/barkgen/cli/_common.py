@@ -168,7 +168,10 @@ _INPUTS: ContextVar[tuple[Path, ...]] = ContextVar("barkgen_cli_inputs", default
 #: the largest input image a command reads, in pixels (``barkgen --max-pixels``)
 MAX_INPUT_PIXELS: ContextVar[int | None] = ContextVar("barkgen_cli_max_pixels", default=None)
 #: the file types whose size in pixels is checked before they are read
-_IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".webp", ".gif", ".bmp")
+_IMAGE_SUFFIXES = (
+    *(".png", ".jpg", ".jpeg", ".tif", ".tiff", ".webp", ".gif", ".bmp"),
+    *(".ppm", ".pgm", ".tga", ".exr", ".hdr"),
+)
 
 
 def _check_pixels(path: Path) -> None:

@@ -20,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
+import barkgen.io.image_formats as formats
 from barkgen.errors import ImageReadError, ImageTooLargeError, InvalidInputError
-from barkgen.io import image_formats as formats
 from barkgen.io.image_formats import FORMAT_NAMES, ImageContentWarning
 from barkgen.io.staging import write_bytes_atomic
 
