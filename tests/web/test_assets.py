@@ -40,7 +40,7 @@ def test_serve_warns_at_start_only_when_three_js_is_missing(tmp_path, monkeypatc
     vendor.mkdir()
     monkeypatch.setattr(assets, "VENDOR", _vendor(vendor) if present else vendor)
     monkeypatch.setattr(
-        barkgen.web, "serve", lambda lib, host, port, limits, on_ready: on_ready(f"http://{host}:{port}/")
+        barkgen.web, "serve", lambda lib, host, port, limits, on_ready, **_: on_ready(f"http://{host}:{port}/")
     )
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
