@@ -291,9 +291,15 @@ def read_stream(path: Path, limit: int, sniff: int, is_image, keep: bool = False
         raise ImageReadError(f"{path}: not a regular file and not an image ({FORMAT_NAMES} by its content)")
     if len(data) > limit:
         raise ImageTooLargeError(
-            f"{path}: more than the {limit / 2**30:.3g} GiB an image may be (read from a pipe; stopped there)"
+            f"{path}: more than the {_amount(limit)} an image may be (read from a pipe; stopped there)"
         )
     return data
+
+
+def _amount(count: int) -> str:
+    """A count of bytes in the unit that reads best (``1 GiB``, ``64 KiB``)."""
+    unit = next(u for u in (3, 2, 1, 0) if count >= 1024**u)
+    return f"{count / 1024**unit:g} {('bytes', 'KiB', 'MiB', 'GiB')[unit]}"
 
 
 def _read_bounded(fd: int, limit: int, sniff: int, is_image) -> bytes:
