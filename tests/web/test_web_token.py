@@ -330,3 +330,67 @@ def test_serve_prints_the_key(tmp_path, monkeypatch, argv, env, keyed):
     assert ("in clear (no TLS)" in result.output) == ("0.0.0.0" in argv)
     refused = CliRunner().invoke(app, ["serve", *argv, "--token", "short"], env=env)
     assert refused.exit_code == 2 and "--token (or BARKGEN_TOKEN) must be 16-256" in refused.output
+
+
+def _start(tmp_path, port: int, *flags: str):
+    """``barkgen serve`` on 127.0.0.1 with ``flags``, as a user starts it; its process and log."""
+    import subprocess
+    import sys
+
+    log = open(tmp_path / f"serve{port}.log", "w+")
+    argv = [sys.executable, "-m", "barkgen", "serve", "--port", str(port), "--library", str(tmp_path / "lib"), *flags]
+    process = subprocess.Popen(argv, stdout=log, stderr=subprocess.STDOUT)
+    deadline = time.monotonic() + 60
+    while "barkgen is running at" not in (tmp_path / f"serve{port}.log").read_text():
+        assert process.poll() is None and time.monotonic() < deadline, (tmp_path / f"serve{port}.log").read_text()
+        time.sleep(0.2)
+    return process, log
+
+
+@pytest.mark.parametrize("read_only", [False, True])
+def test_a_browser_opens_the_printed_address(tmp_path, read_only):
+    """Chromium on the printed address (127.0.0.1, a key given): the key leaves the address bar,
+    the page's fetches and images carry the cookie (the library, a thumbnail, a label map made by
+    a job); read-only, the upload form and Generate are hidden. Without the key: 401."""
+    from test_web_browser import CHROMIUM, CHROMIUM_ARGS
+
+    if not CHROMIUM.exists():
+        pytest.skip("needs Debian's chromium at /usr/bin/chromium")
+    from playwright.sync_api import sync_playwright
+
+    port = _free_port()
+    process, log = _start(tmp_path, port, "--token", KEY, *(["--read-only"] if read_only else []))
+    base = f"http://127.0.0.1:{port}"
+    try:
+        with sync_playwright() as playwright:
+            chromium = playwright.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
+            page = chromium.new_page()
+            assert page.goto(f"{base}/").status == 401
+            assert page.goto(f"{base}/?token={KEY}").status == 200 and page.url == f"{base}/"
+            card = page.get_by_test_id("exemplar-card").first
+            card.wait_for(timeout=20000)
+            page.wait_for_function(
+                "() => [...document.querySelectorAll('.card img')].some(i => i.complete && i.naturalWidth > 0)",
+                timeout=20000,
+            )
+            assert page.locator("section.upload").is_visible() is not read_only
+            card.click()
+            page.wait_for_url(f"{base}/exemplars/**")
+            page.wait_for_selector("html.read-only" if read_only else "[data-testid=generate]", state="attached")
+            assert page.get_by_test_id("generate").is_visible() is not read_only
+            if not read_only:  # a label job, followed by polling, then its picture: all with the cookie
+                page.wait_for_function(
+                    "() => { const i = document.querySelector('[data-testid=labels-in]');"
+                    " return i.complete && i.naturalWidth > 0; }",
+                    timeout=120000,
+                )
+            cookies = page.context.cookies()
+            assert [(c["name"], c["httpOnly"], c["sameSite"]) for c in cookies] == [
+                (f"barkgen_token_{port}", True, "Strict")
+            ]
+            chromium.close()
+    finally:
+        process.terminate()
+        process.wait(timeout=30)
+        log.close()
+    assert KEY not in (tmp_path / f"serve{port}.log").read_text().replace(f"?token={KEY}", "", 1)
