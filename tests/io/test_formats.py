@@ -126,7 +126,9 @@ def test_barkgen_own_displacement_exr_is_read_back_linear(tmp_path):
     height = RNG.random((12, 17)).astype(np.float32)
     (tmp_path / "h.exr").write_bytes(encode_exr(height))
     back = read_image(tmp_path / "h.exr", linear=True)
-    assert back.shape == (12, 17, 1) and np.array_equal(back[..., 0], np.round(height * 65535.0).astype(np.uint16))
+    assert back.shape == (12, 17, 1) and np.array_equal(
+        back[..., 0], np.round(height.astype(np.float64) * 65535).astype(np.uint16)
+    )
 
 
 def test_an_exr_height_outside_0_1_is_scaled_from_its_range_with_a_warning(tmp_path):
@@ -326,3 +328,23 @@ def test_a_pipe_over_the_byte_limit_is_refused_once_past_it_not_read_whole(photo
         thread.join(10)
     assert "\n" not in str(refused.value)
     assert sum(written) < len(payload)  # (the pipe's buffer holds 64 KiB: the rest was never read)
+
+
+def test_generate_takes_an_exr_extra_as_the_16_bit_png_of_its_values(tmp_path):
+    """``generate --extra height=h.exr`` (barkgen's own ``NAME_Displacement.exr``) makes what
+    the 16-bit PNG of the same heights makes: kept linear, not tone-mapped."""
+    pytest.importorskip("OpenEXR")
+    from barkgen.io import write_png
+    from barkgen.io.material import encode_exr
+
+    height = RNG.random((48, 48)).astype(np.float32)
+    (tmp_path / "h.exr").write_bytes(encode_exr(height))
+    write_png(tmp_path / "h.png", np.round(height.astype(np.float64) * 65535).astype(np.uint16))
+    photo = tmp_path / "photo.png"
+    Image.fromarray(RNG.integers(0, 256, (48, 48, 3), dtype=np.uint8)).save(photo)
+    for name in ("exr", "png"):
+        extra = f"height={tmp_path / f'h.{name}'}"
+        r = run("generate", str(photo), "--extra", extra, "-o", str(tmp_path / name), "--size", "48x48", "-q")
+        assert r.returncode == 0, r.stderr
+    for output in ("texture.png", "height.png"):
+        assert np.array_equal(read_image(tmp_path / "exr" / output), read_image(tmp_path / "png" / output))
