@@ -328,6 +328,8 @@ def test_serve_prints_the_key(tmp_path, monkeypatch, argv, env, keyed):
         assert token == keyed if keyed != "random" else len(token) >= 40
         assert f"running at http://127.0.0.1:8000/?token={token}  (" in result.output
     assert ("in clear (no TLS)" in result.output) == ("0.0.0.0" in argv)
+    other = f"from another machine: http://{socket.gethostname()}:8000/?token={token}\n"
+    assert (other in result.output) == ("0.0.0.0" in argv)
     refused = CliRunner().invoke(app, ["serve", *argv, "--token", "short"], env=env)
     assert refused.exit_code == 2 and "--token (or BARKGEN_TOKEN) must be 16-256" in refused.output
 

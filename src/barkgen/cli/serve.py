@@ -69,6 +69,7 @@ def serve_command(
         os.environ[ENV_OFF] = "1"
     limits = WebLimits(max_upload_bytes=max_upload_mb * 1024**2, max_upload_pixels=int(max_upload_mp * 1e6))
 
+    from barkgen.web.app import served_address
     from barkgen.web.assets import missing_warning
     from barkgen.web.state import is_loopback
 
@@ -77,6 +78,11 @@ def serve_command(
         if (missing := missing_warning()) is not None:
             typer.echo(missing, err=True)
         if not is_loopback(host):
+            if host in ("0.0.0.0", "::", ""):  # the address to give the other machines (no look-up)
+                import socket
+
+                other = served_address(socket.gethostname(), port, access.token)
+                typer.echo(f"from another machine: {other}", err=True)
             typer.echo(
                 f"barkgen: warning: listening on {host}: whoever has the address with its key can use this "
                 "server and its library; the key and the photos cross the network in clear (no TLS)",
