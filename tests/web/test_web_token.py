@@ -134,6 +134,9 @@ def test_every_route_needs_the_key(library, queued_job, host):
                 status, body = _send(keyed, method, path, headers=headers)
                 assert status == 401, (method, path, headers)
                 refusals.add(body)
+            status, body = _send(keyed, method, path + "?token=%E2%82%AC" + token)  # not even latin-1
+            assert status == 401
+            refusals.add(body)
             status, body = _send(keyed, method, path + "?token=" + token.upper())
             assert status == 401 and keyed.cookies.get("barkgen_token_8000") is None
             refusals.add(body)

@@ -57,7 +57,7 @@ class AccessKey:
         if self.key is not None:
             cookie_name = f"barkgen_token_{(scope.get('server') or ('', 0))[1]}".encode()
             query = parse_qsl(scope.get("query_string", b"").decode("latin-1"), keep_blank_values=True)
-            by_query = next((value.encode("latin-1") for name, value in query if name == "token"), None)
+            by_query = next((value.encode("utf-8", "replace") for name, value in query if name == "token"), None)
             presented = _presented_keys(scope["headers"], cookie_name)
             matched = False
             for candidate in (*presented, by_query):  # each compared: no early way out to time
