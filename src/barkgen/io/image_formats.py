@@ -218,13 +218,21 @@ def tone_map(linear: np.ndarray) -> np.ndarray:
     white; brighter is clipped), negative and non-finite values 0, then the sRGB transfer curve
     (IEC 61966-2-1: ``12.92 v`` below 0.0031308, else ``1.055 v^(1/2.4) - 0.055``), rounded to
     0-65535."""
-    values = np.nan_to_num(linear.astype(np.float64), nan=0.0, posinf=0.0, neginf=0.0).clip(0.0, None)
-    white = float(np.percentile(values.max(axis=2), TONE_MAP_PERCENTILE)) if values.size else 0.0
+    values = np.nan_to_num(linear.astype(np.float64), copy=False, nan=0.0, posinf=0.0, neginf=0.0)
+    np.maximum(values, 0.0, out=values)
+    brightest = np.max(values, axis=2) if values.size else values
+    white = float(np.percentile(brightest, TONE_MAP_PERCENTILE)) if values.size else 0.0
     if white <= 0:
         white = float(values.max()) if values.size and values.max() > 0 else 1.0
-    v = np.clip(values / white, 0.0, 1.0)
-    encoded = np.where(v <= 0.0031308, 12.92 * v, 1.055 * np.power(v, 1 / 2.4) - 0.055)
-    return np.round(encoded * 65535.0).astype(np.uint16)
+    values /= white
+    np.minimum(values, 1.0, out=values)
+    dark = values <= 0.0031308
+    encoded = np.power(values, 1 / 2.4)
+    encoded *= 1.055
+    encoded -= 0.055
+    encoded[dark] = values[dark] * 12.92
+    encoded *= 65535.0
+    return np.round(encoded, out=encoded).astype(np.uint16)
 
 
 def linear_unit(values: np.ndarray, name) -> np.ndarray:
