@@ -65,8 +65,9 @@ def _is_image_start(head: bytes, size: int) -> bool:
 def _open_checked(path: Path):
     """``path`` opened for reading once it is known to be a regular, non-empty file of at most
     :data:`MAX_IMAGE_BYTES` that starts as an image does (by its content, whatever its name):
-    a device (``/dev/zero``), a pipe, a 2 GB file of zeros named ``.png`` are refused before
-    more than its first bytes are read. Returns ``(file, size)``."""
+    a 2 GB file of zeros named ``.png`` is refused before more than its first bytes are read (a
+    pipe or a device is read by :func:`~barkgen.io.image_formats.read_stream`, bounded alike).
+    Returns ``(file, size)``."""
     import stat
 
     try:
