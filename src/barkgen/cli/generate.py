@@ -49,7 +49,7 @@ from barkgen.pipeline import GenerateOptions
 
 #: generate's photo argument
 PHOTO_HELP = (
-    "Bark photo (PNG/JPEG/TIFF/WebP), or a folder holding a scanned material set (ambientCG, Poly "
+    "Bark photo (PNG, JPEG, TIFF, WebP, TGA, EXR, HDR, PPM, ...; - reads it from a pipe), or a folder holding a scanned material set (ambientCG, Poly "
     "Haven, Megascans, Substance or game-pack names: NAME_Color/_diff/_Albedo/_BaseColor/_cc, "
     "_NormalGL/_nor_gl/_nrm/_nm, _Height/_disp/_bump/_hm, _Roughness/_Gloss/_Specular, _AO, _arm; maps of "
     "other sizes are resampled, files it cannot place are named and left out): its own maps are carried "

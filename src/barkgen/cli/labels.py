@@ -26,7 +26,7 @@ from barkgen.pipeline import GenerateOptions
 
 @option_flags(GenerateOptions)  # (the photo's label map as generate makes it)
 def labels_command(
-    photo: Annotated[Path, typer.Argument(help="Bark photo (PNG/JPEG/TIFF/WebP).")],
+    photo: Annotated[Path, typer.Argument(help="Bark photo (PNG, JPEG, TIFF, WebP, TGA, EXR, HDR, PPM, ...).")],
     output: OutputOption,
     *,
     k: int,
@@ -84,7 +84,7 @@ def labels_command(
 
 @option_flags(GenerateOptions)
 def textons_command(
-    photo: Annotated[Path, typer.Argument(help="Bark photo (PNG/JPEG/TIFF/WebP).")],
+    photo: Annotated[Path, typer.Argument(help="Bark photo (PNG, JPEG, TIFF, WebP, TGA, EXR, HDR, PPM, ...).")],
     output_dir: Annotated[Path, typer.Option("-o", "--output", help="Output folder.")],
     n_textons: Annotated[int, typer.Option("--textons", help="Number of textons (2-64).")] = 25,
     *,

@@ -28,7 +28,7 @@ def add_command(
     photo: Annotated[
         Path,
         typer.Argument(
-            help="Bark photo (PNG, JPEG, TIFF, WebP), or a scanned material set: its folder or its zip "
+            help="Bark photo (PNG, JPEG, TIFF, WebP, TGA, EXR, HDR, PPM, ...), or a scanned material set: its folder or its zip "
             "(ambientCG, Poly Haven or Megascans names; its maps make the material of every result)."
         ),
     ],

@@ -37,7 +37,9 @@ from barkgen.synth import TBN_CONFIG, SynthesisConfig
 def synth_command(
     exemplar: Annotated[
         Optional[Path],
-        typer.Argument(help="Bark photo to learn from (PNG/JPEG/TIFF/WebP). Default: the bundled sample."),
+        typer.Argument(
+            help="Bark photo to learn from (PNG, JPEG, TIFF, WebP, TGA, EXR, HDR, PPM, ...; - reads it from a pipe). Default: the bundled sample."
+        ),
     ] = None,
     output: OutputOption = Path("barkgen.png"),
     *,
