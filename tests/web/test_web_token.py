@@ -241,7 +241,7 @@ def test_an_access_line_per_change_and_the_key_in_none(library, caplog):
     lines = [record.getMessage() for record in caplog.records]
     assert lines and not [line for line in lines if KEY in line]
     assert KEY not in caplog.text
-    access = [r for r in caplog.records if r.name == "barkgen.web.access"]
+    access = [r for r in caplog.records if r.name == "barkgen.web.middleware"]
     said = [r.getMessage() for r in access]
     assert f"testclient POST /api/exemplars/{exemplar}/labels 200 exemplar={exemplar} job={job}" in said
     assert f"testclient POST /api/exemplars 201 exemplar={upload}" in said

@@ -155,7 +155,7 @@ def build_server(
 ):
     """The uvicorn server of :func:`serve`, not yet started. ``access``: defaults to
     ``WebAccess(host)`` (a random key beyond loopback). uvicorn's own access log is off (it
-    writes the query, where a key may be): the app's access lines go to ``barkgen.web.access``,
+    writes the query, where a key may be): the app's access lines go to :mod:`barkgen.web.middleware`'s logger,
     shown on stderr."""
     import uvicorn
 

@@ -16,7 +16,7 @@ from fastapi.responses import JSONResponse, RedirectResponse
 from barkgen.web.state import WebAccess
 
 #: who did what, when: one line per change (upload, job, delete, paint, relief) and per refused key
-ACCESS_LOG = logging.getLogger("barkgen.web.access")
+ACCESS_LOG = logging.getLogger(__name__)  # barkgen.web.middleware: the access lines
 #: the methods that change nothing (read-only mode lets them through)
 READING_METHODS = frozenset({"GET", "HEAD", "OPTIONS"})
 #: the one answer to a missing or wrong key: the same for both, with no hint
@@ -35,7 +35,7 @@ class AccessKey:
     """ASGI middleware: the key (``access.token``: every request must carry it, as
     ``Authorization: Bearer KEY``, an ``X-Barkgen-Token`` header, the cookie this middleware
     sets, or ``?token=KEY``, compared in constant time), read-only mode (every
-    POST/PUT/PATCH/DELETE refused, 403) and the access log (a line on ``barkgen.web.access``
+    POST/PUT/PATCH/DELETE refused, 403) and the access log (a line on this module's logger
     per change: client address, method, path, status, the id it touched or made; never the
     key, never the query).
 
