@@ -214,6 +214,8 @@ class User(threading.Thread):
         self.results: dict[int, int] = {}  # result id -> its exemplar id
         self.pending: str | None = None
         self.pending_body: dict | None = None
+        self.unanswered: tuple[dict, bool] | None = None  # a submit that got no answer
+        self.refused_upload: bytes | None = None  # a photo answered 429, to send again
         self.client = httpx.Client(headers={"X-Barkgen-Token": server.token}, timeout=REQUEST_TIMEOUT_S)
 
     def call(self, kind: str, method: str, path: str, **kwargs) -> httpx.Response | None:
@@ -230,6 +232,8 @@ class User(threading.Thread):
     def run(self) -> None:
         try:
             while not self.stop_event.is_set():
+                if self.unanswered is not None and not self.rec.down.is_set():
+                    self.find_unanswered()
                 if self.pending is not None:
                     self.poll()
                 action = self.choose()
@@ -247,7 +251,7 @@ class User(threading.Thread):
             weights = {"upload": 1.0, "list": 0.5}
         if len(self.exemplars) >= 3:
             weights["upload"] = 0.1
-        if self.pending is not None:
+        if self.pending is not None or self.unanswered is not None:
             weights["generate"] = weights["paint"] = 0.0
         if not self.results:
             for name in ("paint", "view", "download", "file"):
@@ -259,15 +263,25 @@ class User(threading.Thread):
 
     # -- the actions -----------------------------------------------------------------------
     def upload(self) -> None:
-
-        side = self.rng.randrange(128, 257)
-        x, y = self.rng.randrange(0, self.photo.width - side), self.rng.randrange(0, self.photo.height - side)
-        buffer = io.BytesIO()
-        self.photo.crop((x, y, x + side, y + side)).save(buffer, "PNG")
-        files = {"file": (f"bark-u{self.number}.png", buffer.getvalue(), "image/png")}
+        data, self.refused_upload = self.refused_upload, None  # a refused photo is sent again
+        retried = data is not None
+        if data is None:
+            side = self.rng.randrange(128, 257)
+            x, y = self.rng.randrange(0, self.photo.width - side), self.rng.randrange(0, self.photo.height - side)
+            buffer = io.BytesIO()
+            self.photo.crop((x, y, x + side, y + side)).save(buffer, "PNG")
+            data = buffer.getvalue()
+        files = {"file": (f"bark-u{self.number}.png", data, "image/png")}
         response = self.call("upload", "POST", "/api/exemplars", files=files)
+        if response is not None and response.status_code == 429:
+            self.refused_upload = data
+            self.stop_event.wait(self.rng.uniform(2, 5))  # the user waits, then tries again
         if response is not None and response.status_code in (200, 201):
-            exemplar_id = response.json()["id"]
+            answer = response.json()
+            if answer["existing"] and retried:
+                with self.rec.lock:  # refused as busy, yet kept
+                    self.rec.counts["upload refused, yet kept"] += 1
+            exemplar_id = answer["id"]
             if exemplar_id not in self.exemplars:
                 self.exemplars.append(exemplar_id)
             self.call("labels", "POST", f"/api/exemplars/{exemplar_id}/labels?k=3")  # as the page asks
@@ -287,9 +301,42 @@ class User(threading.Thread):
         if response is not None and response.status_code == 201:
             job_id = response.json()["id"]
             with self.rec.lock:
-                self.rec.jobs[job_id] = JobRecord(self.number, "paint" if "resume" in body else "generate", time.time())
-                self.rec.jobs[job_id].retried = retried
+                kind = "paint" if "resume" in body else "generate"
+                self.rec.jobs[job_id] = JobRecord(self.number, kind, time.time(), retried=retried)
             self.pending, self.pending_body = job_id, body
+        elif response is not None and response.status_code == 429:
+            self.stop_event.wait(self.rng.uniform(2, 5))  # the queue is full: the user waits
+        elif response is None:  # the server went down: was the job queued before?
+            self.unanswered = (body, retried)
+
+    def find_unanswered(self) -> None:
+        """After a submit with no answer, look for its job in the server's list (a page's job
+        panel shows it): follow it if it is there, else it was never queued."""
+        response = self.call("list", "GET", "/api/jobs")
+        if response is None or response.status_code != 200:
+            return
+        assert self.unanswered is not None  # (the caller's condition)
+        body, retried = self.unanswered
+        width, height = (int(n) for n in body["size"].split("x"))
+        resumed = body["resume"]["result_id"] if "resume" in body else None
+        with self.rec.lock:
+            for job in response.json():
+                if (
+                    job["id"] not in self.rec.jobs
+                    and job["kind"] == "generate"
+                    and job["exemplar_id"] == body["exemplar_id"]
+                    and job["params"]["seed"] == body["seed"]
+                    and job["params"]["size"] == [width, height]
+                    and (job["params"].get("resumed_from") or {}).get("result_id") == resumed
+                ):
+                    record = JobRecord(self.number, "paint" if resumed else "generate", time.time(), retried=retried)
+                    self.rec.jobs[job["id"]] = record
+                    self.rec.counts["unanswered, queued"] += 1
+                    self.pending, self.pending_body = job["id"], body
+                    break
+            else:
+                self.rec.counts["unanswered, not queued"] += 1
+        self.unanswered = None
 
     def poll(self) -> None:
         response = self.call("poll", "GET", f"/api/jobs/{self.pending}")
@@ -461,12 +508,12 @@ def _check_library(server: Server, recorder: Recorder, headers: dict) -> dict:
     done: dict[int, list[tuple[str, dict]]] = defaultdict(list)  # result id -> the jobs that made it
     lost = []
     for job_id, record in recorder.jobs.items():
-        now = served.get(job_id)
-        if now is None or record.final is None or now["state"] not in ("done", "failed", "cancelled"):
+        now = served.get(job_id)  # (None: finished long ago, beyond the jobs the server keeps)
+        if record.final is None or (now is not None and now["state"] not in ("done", "failed", "cancelled")):
             lost.append(job_id)
             continue
         if record.final["state"] == "done":
-            if now["state"] != "done" or now["result_id"] != record.final["result_id"]:
+            if now is not None and (now["state"] != "done" or now["result_id"] != record.final["result_id"]):
                 problems.append(f"job {job_id} was done with result {record.final['result_id']}, now {now}")
             done[record.final["result_id"]].append((job_id, record.final))
     # ids of deleted results come again (SQLite's rowid): a job made a listed result when its id,
@@ -482,6 +529,7 @@ def _check_library(server: Server, recorder: Recorder, headers: dict) -> dict:
         "lost": lost,
         "results_of_two_jobs": doubled,
         "results_of_no_job": orphans,
+        "jobs_no_longer_kept": sum(1 for job_id in recorder.jobs if job_id not in served),
     }
 
 
@@ -534,6 +582,9 @@ def _summary(recorder: Recorder, users: int) -> dict:
         "cancelled": sum(f.get("state") == "cancelled" for f in finals),
         "retried": recorder.counts["retried"],
         "seen_done_then_not": recorder.counts["run twice"],
+        "uploads_refused_yet_kept": recorder.counts["upload refused, yet kept"],
+        "unanswered_submits_queued": recorder.counts["unanswered, queued"],
+        "unanswered_submits_not_queued": recorder.counts["unanswered, not queued"],
         "per_user": per_user,
     }
 
@@ -661,6 +712,11 @@ def table(report: dict) -> str:
         ("done / cancelled", f"{jobs['done']} / {jobs['cancelled']}"),
         ("failed: interrupted (retried)", f"{jobs['failed_interrupted']} ({jobs['retried']})"),
         ("failed: other", len(jobs["failed_other"])),
+        ("uploads refused busy (429) yet kept", jobs["uploads_refused_yet_kept"]),
+        (
+            "submits unanswered: queued / not",
+            f"{jobs['unanswered_submits_queued']} / {jobs['unanswered_submits_not_queued']}",
+        ),
         (
             "lost / run twice",
             f"{len(library['lost'])} / {len(library['results_of_two_jobs']) + jobs['seen_done_then_not']}",
