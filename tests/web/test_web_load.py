@@ -12,8 +12,10 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import time
 from pathlib import Path
 
+import numpy as np
 import psutil
 
 SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_load.py"
@@ -58,3 +60,36 @@ def _processes_of(folder) -> list[int]:
         except psutil.Error:
             pass
     return found
+
+
+def test_a_job_whose_result_was_stored_before_the_kill_is_done_not_run_again(tmp_path):
+    """A kill between the library's write of a result and the job's ``done``: after the restart
+    the job is done with that result (started again, it would be made twice); a job with no
+    stored result is failed as interrupted, as before."""
+    from barkgen.io import encode_png
+    from barkgen.library import Library
+    from barkgen.web.jobs import INTERRUPTED, JobManager
+
+    library = Library(tmp_path / "lib")
+    photo = np.random.default_rng(0).integers(0, 255, (64, 64, 3), dtype=np.uint8)
+    exemplar = library.add_exemplar(encode_png(photo), "oak")
+    params = {"size": [64, 64], "k": 3, "tile": False, "seed": 5, "material": False, "resumed_from": None}
+    manager = JobManager(library)  # not started: the jobs stay as they are saved
+    stored = manager.submit(exemplar.id, params, {})
+    twin = manager.submit(exemplar.id, dict(params), {})  # the same request, its result not stored
+    other = manager.submit(exemplar.id, {**params, "seed": 6}, {})
+    began = time.time()
+    for job in (stored, twin, other):  # the server was killed while they "ran"
+        record = next(r for r in library.jobs.saved() if r["id"] == job.id)
+        library.jobs.save({**record, "state": "running", "started": began})
+    result = library.add_result(exemplar.id, params, 5, {"texture.png": encode_png(photo)})
+    restored = JobManager(Library(library.path))
+    done = restored.snapshot(stored.id)
+    assert done["state"] == "done" and done["result_id"] == result.id
+    for job in (twin, other):
+        assert restored.snapshot(job.id)["state"] == "failed"
+        assert restored.snapshot(job.id)["error"] == INTERRUPTED
+    # a result older than the job is not its own
+    record = next(r for r in library.jobs.saved() if r["id"] == other.id)
+    library.jobs.save({**record, "state": "running", "started": began + 5, "params": params})
+    assert JobManager(Library(library.path)).snapshot(other.id)["state"] == "failed"

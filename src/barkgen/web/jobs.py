@@ -9,8 +9,9 @@ its result id), ``failed`` (with a one-line error) or ``cancelled``. The queue i
 library database (table ``jobs``) on every change of state, so a page reload or a restarted
 server finds its job again: jobs that were waiting wait again, in order, and a job that was
 running when the server stopped (Ctrl-C, a crash, a kill) is ``failed`` with the error
-:data:`INTERRUPTED`. Results live in the library too. Cancelling a running job ends the worker
-process at once; the next job starts a new one.
+:data:`INTERRUPTED`, unless its result reached the library before the stop (then it is ``done``
+with it: started again, it would be made twice). Results live in the library too. Cancelling a
+running job ends the worker process at once; the next job starts a new one.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ import threading
 import time
 from collections import deque
 from dataclasses import dataclass, field
+from datetime import UTC, datetime
 from multiprocessing.connection import Connection
 from multiprocessing.process import BaseProcess
 from typing import cast
@@ -356,11 +358,37 @@ class JobManager:
                 order=record["number"],
             )
             self._jobs[job.id] = job
-            if job.state == "running":
+        for job in [j for j in self._jobs.values() if j.state == "running"]:
+            made = self._stored_result(job)
+            if made is not None:  # stored, then the server stopped before the job said so
+                self._set(job, state="done", progress=1.0, result_id=made, spec=None, finished=time.time())
+            else:
                 self._set(job, state="failed", error=INTERRUPTED, spec=None, finished=time.time())
         waiting = [j for j in self._jobs.values() if j.state == "queued"]
         self._queue.extend(j.id for j in sorted(waiting, key=lambda j: (j.kind != "labels", j.order)))
         self._counter = itertools.count(max((j.order for j in self._jobs.values()), default=0) + 1)
+
+    def _stored_result(self, job: Job) -> int | None:
+        """The result a job that was running when its server stopped had stored already (the
+        stop fell between the library's write and the job's ``done``), else None: a result of
+        its photo with its parameters, recorded since the job started and claimed by no other
+        job (one job runs at a time, so nothing else made it)."""
+        if job.kind != "generate" or job.started is None:
+            return None
+        claimed = {j.result_id for j in self._jobs.values() if j.result_id is not None}
+        since = datetime.fromtimestamp(int(job.started), UTC)  # results are recorded to the second
+        try:
+            results = self.library.results(job.exemplar_id)
+        except (LibraryError, sqlite3.Error):
+            return None
+        for result in results:
+            if (
+                result.id not in claimed
+                and result.params == job.params
+                and datetime.fromisoformat(result.created) >= since
+            ):
+                return result.id
+        return None
 
     # -- the dispatcher thread --------------------------------------------------------------
     def _run(self) -> None:
