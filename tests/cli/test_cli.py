@@ -420,6 +420,23 @@ def test_each_command_module_imports_alone(module):
     assert loaded <= {f"barkgen.cli.{module}", "barkgen.cli._common", "barkgen.cli._options"}, loaded
 
 
+def test_a_refusal_comes_before_the_kernels_load(tmp_path):
+    """The CLI's start-up and its refusals load no numba, no kernels and no solver (issue 67:
+    under load, a refusal after those imports took 2-4 s): a bad input is refused before them."""
+    code = (
+        "import sys\nfrom barkgen.cli import main\n"
+        "try:\n    main(['generate', sys.argv[1], '-o', sys.argv[2], '-q'])\nexcept SystemExit as exc:\n"
+        "    print(exc.code)\n"
+        "print(sorted(m for m in sys.modules if m == 'numba' or m.endswith('_kernels') or m == 'faiss'))"
+    )
+    missing = str(tmp_path / "missing.png")
+    r = subprocess.run([sys.executable, "-c", code, missing, str(tmp_path / "out")], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    status, loaded = r.stdout.strip().splitlines()[-2:]
+    assert status == "2" and "no such file" in r.stderr
+    assert loaded == "[]", loaded
+
+
 def test_checks_left_to_the_api_are_one_line_exit_2(tmp_path):
     """Where the CLI leaves a check to the API (an extraction step's range, a label map's size,
     a height edit outside the photo), the API's error is the one line, exit 2, nothing written."""

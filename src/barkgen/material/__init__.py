@@ -10,71 +10,18 @@ filters read the photo round its edges as its :class:`Boundary` says (where it w
 once by :func:`make_material` (or taken from a set, :attr:`MaterialSet.boundary`).
 """
 
-from barkgen._shared.arrays import Boundary
-from barkgen.material.edited import adjust_material, edit_material
-from barkgen.material.editor import EditList, HeightEdit, HeightEditor, edits_document, parse_edit_list, parse_edits
-from barkgen.material.height import HeightConfig, estimate_height
-from barkgen.material.illumination import (
-    decode_illumination,
-    encode_illumination,
-    equalize_light,
-    estimate_illumination,
-)
-from barkgen.material.maps import (
-    ambient_occlusion,
-    decode_normals,
-    encode_normals,
-    flip_green,
-    normal_map,
-    photo_cavities,
-    roughness_map,
-    to_directx,
-)
-from barkgen.material.materialset import (
-    MaterialOptions,
-    MaterialSet,
-    derived_maps,
-    make_material,
-)
-from barkgen.material.scanned import integrate_normals, scanned_material
-from barkgen.material.shading import Light, estimate_light, parse_light, remove_shading, shading, shape_from_shading
-from barkgen.material.transfer import transfer_material
+from barkgen._shared.lazy import lazy_getattr, stub_names
 
-__all__ = [
-    "Boundary",
-    "adjust_material",
-    "EditList",
-    "HeightConfig",
-    "HeightEdit",
-    "HeightEditor",
-    "Light",
-    "MaterialOptions",
-    "MaterialSet",
-    "ambient_occlusion",
-    "decode_normals",
-    "derived_maps",
-    "edit_material",
-    "edits_document",
-    "encode_normals",
-    "estimate_height",
-    "estimate_light",
-    "flip_green",
-    "integrate_normals",
-    "make_material",
-    "normal_map",
-    "parse_edit_list",
-    "parse_edits",
-    "parse_light",
-    "photo_cavities",
-    "remove_shading",
-    "roughness_map",
-    "scanned_material",
-    "shading",
-    "shape_from_shading",
-    "to_directx",
-    "transfer_material",
-    "equalize_light",
-    "encode_illumination",
-    "decode_illumination",
-    "estimate_illumination",
-]
+# the names and their modules are in __init__.pyi; each module is imported on first use (the
+# CLI's start-up imports this package for its options, not its kernels)
+_LAZY = stub_names(__file__)
+__all__ = sorted(_LAZY)
+__getattr__ = lazy_getattr(__name__, _LAZY)
+
+# ``shading`` is also its module's name: bound now, or the module's first import (by any of the
+# names above) would leave the package's ``shading`` the module, not the function
+from barkgen.material.shading import shading as shading  # noqa: E402
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -24,7 +24,6 @@ import numpy as np
 
 from barkgen._shared.arrays import Boundary
 from barkgen.errors import InvalidInputError
-from barkgen.material._kernels import neighbourhood_distance
 from barkgen.material.height import luminance
 from barkgen.material.illumination import check_strength
 
@@ -346,6 +345,8 @@ class HeightEditor:
         pad = int(np.abs(offsets).max())
         padded = self.boundary.pad(lum, pad)
         ref = np.ascontiguousarray(padded[ly + pad + offsets[:, 0], lx + pad + offsets[:, 1]], np.float32)
+        from barkgen.material._kernels import neighbourhood_distance  # (numba loads with the first edit)
+
         dist = neighbourhood_distance(np.ascontiguousarray(padded, np.float32), ref, offsets.astype(np.int64), pad)
         weight: np.ndarray = np.clip(1.0 - dist / threshold, 0.0, 1.0)
         if factor > 1:

@@ -11,7 +11,6 @@ from __future__ import annotations
 import numpy as np
 
 from barkgen._shared.arrays import Boundary
-from barkgen.material._kernels import horizon_occlusion
 
 #: directions and reach (px) of the horizon-based ambient occlusion
 AO_DIRECTIONS = 8
@@ -182,6 +181,8 @@ def ambient_occlusion(
     angles = np.arange(directions) * (2 * np.pi / directions)
     dirs = np.stack([np.sin(angles), np.cos(angles)], axis=1).astype(np.float64)
     wy, wx = (boundary or Boundary()).wrap
+    from barkgen.material._kernels import horizon_occlusion  # (numba loads with the first map made)
+
     return horizon_occlusion(np.ascontiguousarray(height, dtype=np.float32), dirs, int(radius), wy, wx)
 
 

@@ -1,0 +1,29 @@
+# The public names of barkgen.pipeline: the one list. Type checkers read it; __init__.py reads it
+# too and imports each name's module on first use (as barkgen's own stub).
+from barkgen.pipeline.adjusted import adjusted_result as adjusted_result
+from barkgen.pipeline.adjusted import check_edit_list as check_edit_list
+from barkgen.pipeline.analysis_cache import AnalysisStore as AnalysisStore
+from barkgen.pipeline.analysis_cache import cached_analysis as cached_analysis
+from barkgen.pipeline.analysis_cache import open_store as open_store
+from barkgen.pipeline.core import ANALYSIS_SEED as ANALYSIS_SEED
+from barkgen.pipeline.core import GenerateResult as GenerateResult
+from barkgen.pipeline.core import PhotoAnalysis as PhotoAnalysis
+from barkgen.pipeline.core import analyze_photo as analyze_photo
+from barkgen.pipeline.core import generate as generate
+from barkgen.pipeline.files import GENERATE_FILES as GENERATE_FILES
+from barkgen.pipeline.files import LAYOUTS as LAYOUTS
+from barkgen.pipeline.files import check_generate_names as check_generate_names
+from barkgen.pipeline.files import encode_generate as encode_generate
+from barkgen.pipeline.files import parse_sizes as parse_sizes
+from barkgen.pipeline.files import run_file_names as run_file_names
+from barkgen.pipeline.files import sized_options as sized_options
+from barkgen.pipeline.options import LABEL_METHODS as LABEL_METHODS
+from barkgen.pipeline.options import GenerateOptions as GenerateOptions
+from barkgen.pipeline.options import analysis_key as analysis_key
+from barkgen.pipeline.progress import stage_at as stage_at
+from barkgen.pipeline.progress import stage_span as stage_span
+from barkgen.pipeline.report import preview_sheet as preview_sheet
+from barkgen.pipeline.tree import TreeResult as TreeResult
+from barkgen.pipeline.tree import encode_tree as encode_tree
+from barkgen.pipeline.tree import make_tree as make_tree
+from barkgen.pipeline.warmup import warm_up as warm_up
