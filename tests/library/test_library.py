@@ -108,6 +108,22 @@ def test_analyses_results_and_removal(tmp_path):
     assert lib.store.digests() == {b.image_hash, content_hash(b"t3")}
 
 
+def test_library_add_derives_one_clean_line_from_any_file_name(tmp_path, capsys, monkeypatch):
+    """A file name with a newline or bytes that are no UTF-8 gives a clean entry name and
+    source (issue 67: it was refused as "not one line of printable text")."""
+    import os
+
+    monkeypatch.setenv("BARKGEN_LIBRARY", str(tmp_path / "lib"))
+    for raw, name in ((b"old\noak.png", "old oak"), (b"caf\xe9 bark.png", "caf\ufffd bark")):
+        photo = tmp_path / os.fsdecode(raw)
+        photo.write_bytes(_png(len(raw)))
+        code, out, err = run(["library", "add", str(photo)], capsys)
+        assert code in (0, None), err
+        assert out.split("\t")[1].strip() == name
+        shown = json.loads(run(["library", "show", out.split("\t")[0]], capsys)[1])
+        assert "\n" not in shown["source"] and shown["name"] == name
+
+
 def test_library_cli(tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("BARKGEN_LIBRARY", str(tmp_path / "envlib"))
     photo = tmp_path / "old oak.png"

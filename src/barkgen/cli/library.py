@@ -51,7 +51,7 @@ def add_command(
             species=species,
             bark_type=bark_type,
             licence=licence,
-            source=source or str(photo),
+            source=source or one_line(str(photo)),
             where=str(photo),
         )
         maps = " + ".join(["colour", *exemplar.maps])
@@ -60,10 +60,25 @@ def add_command(
     data = read_image_bytes(photo)
     existing = lib.find_exemplar(data)
     exemplar = existing or lib.add_exemplar(
-        data, name or photo.stem, species=species, bark_type=bark_type, licence=licence, source=source or str(photo)
+        data,
+        name or one_line(photo.stem),
+        species=species,
+        bark_type=bark_type,
+        licence=licence,
+        source=source or one_line(str(photo)),
     )
     note = "" if existing is None else " (already in the library)"
     typer.echo(f"{exemplar.id}\t{exemplar.name}{note}")
+
+
+def one_line(text: str) -> str:
+    """A file name or path as one line of printable text, for an entry's name or source when
+    the user gave none: bytes that are no UTF-8 (kept by Python as lone surrogates) become
+    U+FFFD, and each run of control characters and spaces (a newline, a tab) one space."""
+    import re
+
+    text = text.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
+    return re.sub(r"\s+", " ", "".join(c if c.isprintable() else " " for c in text)).strip() or "photo"
 
 
 def _set_files(path: Path) -> dict[str, bytes]:
