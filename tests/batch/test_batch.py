@@ -366,6 +366,8 @@ BAD_SPECS = [
         "120000 variants or more",
     ),
     ({"size": "99999x99999"}, "more than the limit"),
+    # issue 67: the manifest's name is no exemplar's (refused before the cluster, not after it)
+    ({"exemplars": [{"name": "manifest.sqlite", "path": "photos/fir.png", "seeds": [1]}]}, "the batch's manifest"),
 ]
 
 
@@ -489,6 +491,22 @@ def test_a_variant_folder_holding_the_users_files_is_refused_before_any_work(pho
     assert len(result.stderr.strip().splitlines()) == 1 and asked == []
     assert sorted(p.name for p in mine.iterdir()) == ["fir.jpg", "notes.txt"]
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["fir"]
+
+
+def test_a_manifest_that_is_no_file_is_refused_before_the_cluster(photos, tmp_path, monkeypatch):
+    """OUT/manifest.sqlite a folder: one line before any Dask client is asked for (issue 67: it
+    was refused after the cluster had started, 4.2 s)."""
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(
+        json.dumps(
+            {"size": "64x64", "exemplars": [{"name": "fir", "path": str(photos / "photos" / "fir.png"), "seeds": [0]}]}
+        )
+    )
+    (tmp_path / "out" / "manifest.sqlite").mkdir(parents=True)
+    result, asked = run_without_dask(monkeypatch, "batch", str(spec), "-o", str(tmp_path / "out"))
+    assert result.returncode == 2 and "manifest is not a file" in result.stderr, result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1 and asked == []
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["manifest.sqlite"]
 
 
 @pytest.mark.parametrize(

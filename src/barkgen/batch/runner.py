@@ -229,6 +229,8 @@ def run_batch(
     report = BatchReport(total=spec.n_variants)
     todo: list[tuple[ExemplarJob, list[int]]] = []
     manifest_path = output_dir / MANIFEST_NAME
+    if manifest_path.exists() and not manifest_path.is_file():  # (refused before the cluster starts)
+        raise InvalidInputError(f"{manifest_path}: the batch's manifest is not a file; move it away or pick another -o")
     done_before = Manifest(manifest_path) if manifest_path.is_file() else None
     try:
         for job in spec.exemplars:

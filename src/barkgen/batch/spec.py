@@ -27,6 +27,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from barkgen._shared.options import OptionField, option_fields
+from barkgen.batch.manifest import MANIFEST_NAME
 from barkgen.errors import BarkgenError, InvalidInputError
 from barkgen.pipeline import GenerateOptions
 
@@ -331,6 +332,8 @@ def parse_spec(document, root: str | Path = ".", *, threads: int | None = None, 
                 "'.', '_' or '-' (at most 64, not starting with a dot)"
             )
         where = f"spec: exemplars[{i}] ({name})"
+        if name.lower() == MANIFEST_NAME:
+            raise InvalidInputError(f"{where}: {MANIFEST_NAME} is the batch's manifest; name the exemplar otherwise")
         if name.lower() in names:
             raise InvalidInputError(
                 f"{where}: the name {name!r} is also exemplars[{names[name.lower()]}]'s; "
