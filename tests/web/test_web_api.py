@@ -166,6 +166,11 @@ def test_hosts_and_cross_site_requests_are_refused(library):
             for i in range(MAX_QUEUED + 1)
         ]
         assert codes == [201] * MAX_QUEUED + [429]
+        # a full queue refuses a job, never an upload (its label job is asked for again by its
+        # page; issue 67: the photo was stored and the upload answered 429)
+        client.app.state.barkgen.jobs.eager = True  # (the server's: an upload queues its label map)
+        r = client.post("/api/exemplars", files={"file": ("b.png", _photo_png(seed=9))})
+        assert r.status_code == 201 and r.json()["existing"] is False, r.text
 
 
 def test_unknown_ids_are_404(client):

@@ -79,9 +79,13 @@ def store_upload(
         )
     if state.jobs.eager:  # the page asks for it next: its label job starts now
         from barkgen.pipeline import GenerateOptions
+        from barkgen.web.jobs import QueueFullError
 
         defaults = GenerateOptions()
-        request_labels(state, exemplar.id, defaults.k, defaults.method)
+        try:
+            request_labels(state, exemplar.id, defaults.k, defaults.method)
+        except QueueFullError:  # the photo is stored: the upload succeeded; its page asks again
+            pass
     return {"id": exemplar.id, "existing": False}
 
 
