@@ -550,7 +550,8 @@ def _ctrl_c_on_the_server(tmp: Path, kind: str) -> str | None:
             rng = np.random.default_rng(1)
             big = np.clip(rng.normal(120, 40, (2400, 2400, 3)), 0, 255).astype(np.uint8)
             added = httpx.post(f"{base}/api/exemplars", files={"file": ("big.png", png_bytes(big))}, timeout=60)
-            job = httpx.post(f"{base}/api/exemplars/{added.json()['id']}/labels?k=5").json()["job"]
+            # the label job its upload queued (the page's k; one of another k waits behind it)
+            job = httpx.post(f"{base}/api/exemplars/{added.json()['id']}/labels?k=3").json()["job"]
         else:
             job = httpx.post(f"{base}/api/jobs", json={"exemplar_id": 1, "size": "2048x2048", "seed": 1}).json()
         deadline = time.monotonic() + 10
@@ -720,8 +721,8 @@ def _(tmp):
             client.post("/api/jobs", json={"exemplar_id": 1, "size": "64x64", "seed": s}).json()["id"] for s in (1, 2)
         ]
     library = Library(tmp / "lib")
-    record = next(r for r in library.saved_jobs() if r["id"] == ids[0])
-    library.save_job({**record, "state": "running"})  # as a killed server leaves it
+    record = next(r for r in library.jobs.saved() if r["id"] == ids[0])
+    library.jobs.save({**record, "state": "running"})  # as a killed server leaves it
     manager = JobManager(Library(tmp / "lib"))
     first, second = manager.snapshot(ids[0]), manager.snapshot(ids[1])
     return first_problem(
