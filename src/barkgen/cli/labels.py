@@ -51,7 +51,7 @@ def labels_command(
     quiet: QuietOption = False,
 ) -> None:
     """Make the label map of a bark photo (input of texture-by-numbers)."""
-    from barkgen.io import encode_png, read_image
+    from barkgen.io import encode_png, image_size, read_image
     from barkgen.labels import add_edge_label, label_preview
     from barkgen.pipeline.labelmaps import photo_label_map
     from barkgen.synth import resolve_exemplar_wrap
@@ -64,6 +64,12 @@ def labels_command(
     if preview is not None:
         check_target(preview, "--preview")
         refuse_targets({"output": output, "--preview": preview})
+    if edges:  # a band as wide as the photo covers it whole: refused before the label map is made
+        width, height = image_size(photo)
+        if edge_width // 2 >= max(width, height):
+            raise InvalidInputError(
+                f"an edge band {edge_width} px wide covers the whole {width}x{height} photo; give a narrower edge width"
+            )
     image = read_image(photo)
     wrap = resolve_exemplar_wrap(exemplar_wrap, image)
     with progress_bar(not quiet, "labelling"):
