@@ -42,16 +42,15 @@ def _reflect(i, n):
 
 
 @njit(parallel=True, cache=True)
-def joint_bilateral(image, guide, radius, sigma_space, sigma_range):
-    """One pass of a joint (cross) bilateral filter: ``image`` (H, W, C) averaged over a
-    ``2 radius + 1`` square with Gaussian weights in space and in the distance between the
-    ``guide`` vectors (H, W, D); borders reflect."""
+def joint_bilateral(image, guide, radius, sigma_space, sigma_range, out, row_start, row_stop):
+    """Rows ``row_start:row_stop`` of one pass of a joint (cross) bilateral filter, into ``out``:
+    ``image`` (H, W, C) averaged over a ``2 radius + 1`` square with Gaussian weights in space
+    and in the distance between the ``guide`` vectors (H, W, D); borders reflect."""
     h, w, c = image.shape
     d = guide.shape[2]
-    out = np.empty_like(image)
     inv_s = -0.5 / (sigma_space * sigma_space)
     inv_r = -0.5 / (sigma_range * sigma_range)
-    for y in prange(h):
+    for y in prange(row_start, row_stop):
         acc = np.zeros(c, np.float64)
         for x in range(w):
             acc[:] = 0.0
@@ -70,7 +69,6 @@ def joint_bilateral(image, guide, radius, sigma_space, sigma_range):
                         acc[k] += wgt * image[yy, xx, k]
             for k in range(c):
                 out[y, x, k] = acc[k] / total
-    return out
 
 
 @njit(cache=True)

@@ -40,12 +40,21 @@ def extract_structure(
     """``P``: the image iterated through a joint bilateral filter whose range kernel compares
     local spectra (guingo2017 §5): pixels are averaged only with pixels of similar spectral
     content, so structure borders stay sharp while the noise inside each region is removed."""
+    from barkgen._shared.bands import row_bands
     from barkgen.bilayer._kernels import joint_bilateral
 
     guide = _reduce(spectra, 8, rng)
     structure = np.ascontiguousarray(image, dtype=np.float32)
+    height, width, channels = structure.shape
+    taps = (2 * options.radius + 1) ** 2
+    bands = row_bands(height, width * taps * (guide.shape[2] + channels))
     for _ in range(options.iterations):
-        structure = joint_bilateral(structure, guide, options.radius, options.radius / 2.0, options.sigma_range)
+        filtered = np.empty_like(structure)
+        for start, stop in bands:  # Ctrl-C is heard between bands
+            joint_bilateral(
+                structure, guide, options.radius, options.radius / 2.0, options.sigma_range, filtered, start, stop
+            )
+        structure = filtered
     return structure
 
 

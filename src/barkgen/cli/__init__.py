@@ -8,8 +8,10 @@ COMMAND --help)``, not the parser's three-line usage.
 
 from __future__ import annotations
 
+import os
 import signal
 import sys
+import threading
 from typing import Any, NoReturn
 
 
@@ -17,6 +19,22 @@ def _terminate(signum, frame) -> None:
     """SIGTERM (``kill``, a service manager, a batch scheduler) ends a run as Ctrl-C does: files
     half-staged are removed, nothing is left under a final name, exit status 130."""
     raise KeyboardInterrupt
+
+
+def _leave(status: int) -> NoReturn:
+    """Exit with ``status``. An interrupted run (130) whose work left threads still computing
+    (a pool's running jobs, :func:`barkgen._shared.threads.worker_pool`; the analysis cache's
+    write behind, whose temporary the next write removes) ends at once instead of waiting for
+    them: its own files are already cleaned up, and they hold nothing else to keep."""
+    if status == 130 and any(
+        thread.is_alive() and not thread.daemon
+        for thread in threading.enumerate()
+        if thread is not threading.main_thread()
+    ):
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(130)
+    sys.exit(status)
 
 
 def main(argv: list[str] | None = None) -> NoReturn:
@@ -51,8 +69,8 @@ def main(argv: list[str] | None = None) -> NoReturn:
         sys.exit(2)
     except typer.Abort:
         print("barkgen: error: interrupted", file=sys.stderr)
-        sys.exit(130)
-    sys.exit(status if isinstance(status, int) else 0)
+        _leave(130)
+    _leave(status if isinstance(status, int) else 0)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -487,12 +487,12 @@ def encode_concurrently(jobs: dict[str, Callable[[], bytes]]) -> dict[str, bytes
     """Run file encoders (``name -> job()``, e.g. :func:`encode_png` of one map) on a pool of
     threads, one per core (zlib and OpenCV's encoder let go of the interpreter while they
     compress, and a run writes a dozen maps); returns ``name -> bytes`` in the jobs' order."""
-    from concurrent.futures import ThreadPoolExecutor
+    from barkgen._shared.threads import worker_pool
 
     workers = max(1, min(len(jobs), os.cpu_count() or 1))
     if workers == 1:
         return {name: job() for name, job in jobs.items()}
-    with ThreadPoolExecutor(max_workers=workers) as pool:
+    with worker_pool(workers) as pool:
         futures = {name: pool.submit(job) for name, job in jobs.items()}
         return {name: future.result() for name, future in futures.items()}
 

@@ -30,9 +30,17 @@ def _sample(height: np.ndarray, y: int, x: int, wrap_y: bool, wrap_x: bool) -> f
 
 @njit(parallel=True, cache=True)
 def horizon_occlusion(
-    height: np.ndarray, directions: np.ndarray, radius: int, wrap_y: bool, wrap_x: bool
-) -> np.ndarray:
-    """Horizon-based ambient occlusion of a height field (heights in pixels).
+    height: np.ndarray,
+    directions: np.ndarray,
+    radius: int,
+    wrap_y: bool,
+    wrap_x: bool,
+    out: np.ndarray,
+    row_start: int,
+    row_stop: int,
+) -> None:
+    """Rows ``row_start:row_stop`` of the horizon-based ambient occlusion of a height field
+    (heights in pixels), into ``out``.
 
     For each pixel and each unit ``direction`` ``(dy, dx)``, the horizon is the steepest
     elevation ``(h(p + t d) - h(p)) / t`` for ``t = 1..radius``; the pixel's visibility in that
@@ -49,8 +57,7 @@ def horizon_occlusion(
         for t in range(1, radius + 1):
             step_y[d, t - 1] = int(round(directions[d, 0] * t))
             step_x[d, t - 1] = int(round(directions[d, 1] * t))
-    out = np.empty((h, w), np.float32)
-    for y in prange(h):
+    for y in prange(row_start, row_stop):
         for x in range(w):
             h0 = height[y, x]
             total = 0.0
@@ -64,7 +71,6 @@ def horizon_occlusion(
                         best = slope
                 total += best / np.sqrt(1.0 + best * best)
             out[y, x] = 1.0 - total / n_dir
-    return out
 
 
 @njit(parallel=True, cache=True)

@@ -181,9 +181,14 @@ def ambient_occlusion(
     angles = np.arange(directions) * (2 * np.pi / directions)
     dirs = np.stack([np.sin(angles), np.cos(angles)], axis=1).astype(np.float64)
     wy, wx = (boundary or Boundary()).wrap
+    from barkgen._shared.bands import row_bands
     from barkgen.material._kernels import horizon_occlusion  # (numba loads with the first map made)
 
-    return horizon_occlusion(np.ascontiguousarray(height, dtype=np.float32), dirs, int(radius), wy, wx)
+    height = np.ascontiguousarray(height, dtype=np.float32)
+    out = np.empty(height.shape, np.float32)
+    for start, stop in row_bands(height.shape[0], height.shape[1] * directions * radius):
+        horizon_occlusion(height, dirs, int(radius), wy, wx, out, start, stop)  # Ctrl-C between bands
+    return out
 
 
 def photo_cavities(

@@ -85,20 +85,19 @@ def select_spread_neighbours(knn, width, k, radius):  # pragma: no cover - compi
 
 @nb.njit(parallel=True, cache=True, fastmath=True)
 def refine_child_sets(
-    parent_sets, coarse_w, coarse_h, features, height, width, k, radius
+    parent_sets, coarse_w, coarse_h, features, height, width, k, radius, out, row_start, row_stop
 ):  # pragma: no cover - compiled
-    """k-coherence sets of a pyramid level from those of the next coarser level.
+    """Rows ``row_start:row_stop`` of the k-coherence sets (into ``out``, ``(height * width, k)``)
+    of a pyramid level from those of the next coarser level.
 
     For each pixel, every entry of its parent's k-coherence set proposes its child with the same
     sub-pixel offset; the best of that child and its 3x3 neighbours (by appearance distance) is
     the proposal. Proposals are kept nearest first, spread apart by more than ``radius`` pixels
     (from the pixel and from each other) as in :func:`select_spread_neighbours`.
     """
-    n = height * width
     kp = parent_sets.shape[1]
     D = features.shape[1]
-    out = np.empty((n, k), np.int32)
-    for y in nb.prange(height):
+    for y in nb.prange(row_start, row_stop):
         cand = np.empty(kp, np.int32)
         dist = np.empty(kp, np.float32)
         for x in range(width):
@@ -138,19 +137,18 @@ def refine_child_sets(
                     dist[m] = dbest
                     m += 1
             _keep_nearest_spread(out, i, cand, dist, m, width, k, radius)
-    return out
 
 
 @nb.njit(parallel=True, cache=True, fastmath=True)
-def propagate_sets(sets, features, height, width, radius):  # pragma: no cover - compiled
-    """One pass of k-coherence propagation (Tong et al. 2002) over a level's sets: each pixel
-    takes the best spread ``k`` of its own set and its 8 neighbours' sets shifted back by the
-    neighbour's offset (a neighbour's match, one step over, matches this pixel). Reads
-    ``sets``, writes a new array (the same result whatever the thread order)."""
-    n, k = sets.shape
+def propagate_sets(sets, features, height, width, radius, out, row_start, row_stop):  # pragma: no cover - compiled
+    """Rows ``row_start:row_stop`` of one pass of k-coherence propagation (Tong et al. 2002)
+    over a level's sets: each pixel takes the best spread ``k`` of its own set and its 8
+    neighbours' sets shifted back by the neighbour's offset (a neighbour's match, one step
+    over, matches this pixel). Reads ``sets``, writes ``out`` (shaped as ``sets``; the same
+    result whatever the thread order)."""
+    k = sets.shape[1]
     D = features.shape[1]
-    out = np.empty((n, k), np.int32)
-    for y in nb.prange(height):
+    for y in nb.prange(row_start, row_stop):
         cand = np.empty(9 * k, np.int32)
         dist = np.empty(9 * k, np.float32)
         for x in range(width):
@@ -181,4 +179,3 @@ def propagate_sets(sets, features, height, width, radius):  # pragma: no cover -
                         dist[m] = d2
                         m += 1
             _keep_nearest_spread(out, i, cand, dist, m, width, k, radius)
-    return out

@@ -85,18 +85,27 @@ def k_coherence_sets_from_parent(
     similar pixels and their 3x3 neighbours). Far cheaper than a fresh search on large levels,
     with the same result wherever the coarse level already found the right region.
     """
+    from barkgen._shared.bands import row_bands
     from barkgen.nnf._kernels import refine_child_sets
 
-    sets = refine_child_sets(
-        np.ascontiguousarray(parent_sets, dtype=np.int32),
-        np.int32(parent_shape[1]),
-        np.int32(parent_shape[0]),
-        np.ascontiguousarray(features, dtype=np.float32),
-        np.int32(shape[0]),
-        np.int32(shape[1]),
-        np.int32(k),
-        np.int32(radius),
-    )
+    parent_sets = np.ascontiguousarray(parent_sets, dtype=np.int32)
+    features = np.ascontiguousarray(features, dtype=np.float32)
+    sets = np.empty((shape[0] * shape[1], k), np.int32)
+    # a child and its 3x3 neighbours per parent entry, one distance each
+    for start, stop in row_bands(shape[0], shape[1] * parent_sets.shape[1] * 9 * features.shape[1]):
+        refine_child_sets(
+            parent_sets,
+            np.int32(parent_shape[1]),
+            np.int32(parent_shape[0]),
+            features,
+            np.int32(shape[0]),
+            np.int32(shape[1]),
+            np.int32(k),
+            np.int32(radius),
+            sets,
+            np.int32(start),
+            np.int32(stop),
+        )
     return sets, _scale(features, sets)
 
 
@@ -106,15 +115,25 @@ def propagate_k_coherence(
     """k-coherence sets improved by ``passes`` of propagation (Tong et al. 2002: a pixel's
     neighbour's similar pixels, shifted back, are candidates for the pixel): the sets of a
     level refined from a parent's come near a direct search's at a small part of its cost."""
+    from barkgen._shared.bands import row_bands
     from barkgen.nnf._kernels import propagate_sets
 
     features = np.ascontiguousarray(features, dtype=np.float32)
+    sets = np.ascontiguousarray(sets, dtype=np.int32)
+    # the 9 sets around a pixel, one distance per entry
+    bands = row_bands(shape[0], shape[1] * 9 * sets.shape[1] * features.shape[1])
     for _ in range(passes):
-        sets = propagate_sets(
-            np.ascontiguousarray(sets, dtype=np.int32),
-            features,
-            np.int32(shape[0]),
-            np.int32(shape[1]),
-            np.int32(radius),
-        )
+        propagated = np.empty_like(sets)
+        for start, stop in bands:
+            propagate_sets(
+                sets,
+                features,
+                np.int32(shape[0]),
+                np.int32(shape[1]),
+                np.int32(radius),
+                propagated,
+                np.int32(start),
+                np.int32(stop),
+            )
+        sets = propagated
     return sets, _scale(features, sets)

@@ -26,7 +26,6 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Iterable, Mapping
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -34,7 +33,7 @@ import numpy as np
 
 from barkgen._shared.arrays import ProgressCallback
 from barkgen._shared.canvas import Budget, Canvas
-from barkgen._shared.threads import in_budget, thread_budget
+from barkgen._shared.threads import in_budget, thread_budget, worker_pool
 from barkgen.pipeline.labelmaps import with_edge_labels
 from barkgen.pipeline.materials import output_material, photo_material
 from barkgen.pipeline.options import GenerateOptions
@@ -270,7 +269,7 @@ def _analysis_stage(
         return made
 
     # every pool sized, BLAS at one thread; a second thread for the photo's material set
-    with thread_budget(options.threads), ThreadPoolExecutor(max_workers=1) as pool:
+    with thread_budget(options.threads), worker_pool(1) as pool:
         t0 = time.perf_counter()
         # the photo's broad light out before anything learns from it (a scan's colour is its
         # albedo already); every analysis of the photo runs across its edges where it tiles

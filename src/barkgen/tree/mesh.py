@@ -7,6 +7,7 @@ UVs follow glTF: (0, 0) is the texture's top-left corner, ``v`` grows down the i
 
 from __future__ import annotations
 
+import io
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -72,25 +73,27 @@ def unwrap(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A UV atlas by xatlas: ``(vertex_map, faces, uv)``, the vertices split along the charts'
     borders (``vertices[vertex_map]`` are the new ones), uv in [0, 1] (glTF), charts packed with
-    a gutter of a few texels at ``resolution`` (needs the ``[tree]`` extra)."""
+    a gutter of a few texels at ``resolution`` (needs the ``[tree]`` extra).
+
+    xatlas runs in a child process (:mod:`barkgen.tree._unwrap`, 0.2 s more): it holds the
+    interpreter for its whole call (the built-in tree: 2.5 s), and Ctrl-C stops a child at once.
+    """
+    import subprocess
+    import sys
+
     from barkgen._shared.extras import require_extra
 
     require_extra("tree", "unwrapping a mesh")
-    import xatlas
-
-    atlas = xatlas.Atlas()
-    atlas.add_mesh(np.ascontiguousarray(vertices, np.float32), np.ascontiguousarray(faces, np.uint32))
-    charts = xatlas.ChartOptions()
-    charts.max_iterations = 1
-    charts.normal_deviation_weight = 0.5  # bark charts may curve round a branch: fewer, larger charts
-    charts.normal_seam_weight = 0.0
-    pack = xatlas.PackOptions()
-    pack.resolution = int(resolution)
-    pack.padding = max(4, int(resolution) // 256)
-    pack.bilinear = True
-    atlas.generate(chart_options=charts, pack_options=pack)
-    vertex_map, new_faces, uv = atlas[0]
-    return vertex_map.astype(np.int64), new_faces.astype(np.int64), uv.astype(np.float32)
+    given = io.BytesIO()
+    np.savez(given, vertices=np.asarray(vertices, np.float32), faces=np.asarray(faces, np.int64), resolution=resolution)
+    # the module's file as a script (its folder not on the path): numpy and xatlas, not barkgen
+    script = Path(__file__).with_name("_unwrap.py")
+    child = subprocess.run([sys.executable, "-P", str(script)], input=given.getvalue(), capture_output=True)
+    if child.returncode != 0:
+        lines = child.stderr.decode(errors="replace").strip().splitlines() or [f"exit status {child.returncode}"]
+        raise InvalidInputError(f"xatlas could not unwrap the mesh: {lines[-1]}")
+    made = np.load(io.BytesIO(child.stdout))
+    return made["vertex_map"].astype(np.int64), made["faces"].astype(np.int64), made["uv"].astype(np.float32)
 
 
 def default_tree_mesh(seed: int = 0, *, cell: float | None = None, resolution: int = 2048) -> TreeMesh:
