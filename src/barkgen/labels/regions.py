@@ -16,8 +16,8 @@ import warnings
 import numpy as np
 
 from barkgen._shared.arrays import Boundary, Wrap
-from barkgen._shared.threads import worker_pool
 from barkgen._shared.checks import MAX_K, check_image, check_k, check_seed
+from barkgen._shared.threads import worker_pool
 from barkgen.errors import InvalidInputError
 
 #: a label covering less of the photo than this is grown to it (then tiny regions go)
