@@ -147,12 +147,15 @@ def preview_command(
     displacement: ViewDisplacement = 1.0,
 ) -> None:
     """Render the set on a trunk (displaced cylinder, normal-mapped, lit; CPU only)."""
-    from barkgen.io import encode_png, read_material
-    from barkgen.render import TrunkView, render_trunk
+    from barkgen.io import encode_png, find_material, read_material
 
     out_shape = parse_size(size)
     check_target(output, "output")
-    view = TrunkView(repeat=repeat, displacement=displacement, light=parse_light(light))
+    parsed_light = parse_light(light)
+    find_material(folder)  # a wrong folder refused before the renderer's kernels load
+    from barkgen.render import TrunkView, render_trunk
+
+    view = TrunkView(repeat=repeat, displacement=displacement, light=parsed_light)
     material, _ = read_material(folder)
     write_outputs({output: encode_png(render_trunk(material, out_shape, view))})
 
@@ -169,14 +172,16 @@ def export_glb_command(
     """Write a glTF 2.0 trunk: the relief in the geometry (in metres at the set's real size),
     colour, normal and occlusion-roughness-metallic textures."""
     from barkgen.io import encode_glb, find_material, library_file_name, read_material
-    from barkgen.render import TrunkView, trunk_mesh
 
     if output is not None:
         check_file_name(output, ".glb", "output")
-    view = TrunkView(repeat=repeat, displacement=displacement)
+    set_name = find_material(folder)[0]  # a wrong folder refused before the renderer's kernels load
     if output is None:  # named as the set is (oak_seed7_2K_trunk.glb), in the current folder
-        output = Path(library_file_name(find_material(folder)[0], "trunk.glb"))
+        output = Path(library_file_name(set_name, "trunk.glb"))
         check_file_name(output, ".glb", "output")
+    from barkgen.render import TrunkView, trunk_mesh
+
+    view = TrunkView(repeat=repeat, displacement=displacement)
     material, _ = read_material(folder)
     write_outputs({output: encode_glb(trunk_mesh(material, segments=segments, view=view), material)})
 

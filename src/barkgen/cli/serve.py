@@ -45,17 +45,18 @@ def serve_command(
     """Run the web app: pick or upload bark, generate with one click, paint labels, see it on a
     trunk, download the material set. Open the printed address; beyond 127.0.0.1 it holds the
     key every request needs (docs: "Who can reach it")."""
-    from barkgen.library import Library
-    from barkgen.web import WebLimits, serve
-
-    # neither serve() nor WebLimits checks these: uvicorn would fail with a traceback
-    if not 0 < port < 65536:
-        raise InvalidInputError(f"--port must be 1-65535, not {port}")
     import math
 
+    # neither serve() nor WebLimits checks these: uvicorn would fail with a traceback (and
+    # before the web app's imports: a refusal in a fraction of a second)
+    if not 0 < port < 65536:
+        raise InvalidInputError(f"--port must be 1-65535, not {port}")
     for flag, value in (("--max-upload-mb", max_upload_mb), ("--max-upload-mp", max_upload_mp)):
         if not math.isfinite(value) or not 0 < value <= 1e6:
             raise InvalidInputError(f"{flag} must be a number above 0 (and at most 1000000), not {value}")
+    from barkgen.library import Library
+    from barkgen.web import WebLimits, serve
+
     from barkgen.web.state import WebAccess
 
     access = WebAccess(host, token=token, read_only=read_only)  # the bind decides whether a key is asked

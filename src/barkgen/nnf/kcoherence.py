@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from barkgen._shared.bands import BAND_STEPS, row_bands
+
 _BRUTE_LIMIT = 4_096  # exact numpy search up to this many exemplar pixels
 _FLAT_LIMIT = 24_000  # exact faiss search up to this many, IVF beyond
 
@@ -67,7 +69,11 @@ def k_coherence_sets(
 
 def _scale(features: np.ndarray, sets: np.ndarray) -> float:
     first = sets[:, 0].astype(np.int64)
-    d2 = np.sum((features - features[first]) ** 2, axis=1)
+    d2 = np.empty(len(features), features.dtype)
+    rows = max(1, BAND_STEPS // 10 // max(1, features.shape[1]))  # numpy's steps are dearer than a kernel's
+    for start in range(0, len(features), rows):  # Ctrl-C is heard between chunks
+        part = slice(start, start + rows)
+        d2[part] = np.sum((features[part] - features[first[part]]) ** 2, axis=1)
     scale = float(np.median(d2)) if d2.size else 1.0
     return max(scale, 1e-6)
 
@@ -85,7 +91,6 @@ def k_coherence_sets_from_parent(
     similar pixels and their 3x3 neighbours). Far cheaper than a fresh search on large levels,
     with the same result wherever the coarse level already found the right region.
     """
-    from barkgen._shared.bands import row_bands
     from barkgen.nnf._kernels import refine_child_sets
 
     parent_sets = np.ascontiguousarray(parent_sets, dtype=np.int32)
@@ -115,7 +120,6 @@ def propagate_k_coherence(
     """k-coherence sets improved by ``passes`` of propagation (Tong et al. 2002: a pixel's
     neighbour's similar pixels, shifted back, are candidates for the pixel): the sets of a
     level refined from a parent's come near a direct search's at a small part of its cost."""
-    from barkgen._shared.bands import row_bands
     from barkgen.nnf._kernels import propagate_sets
 
     features = np.ascontiguousarray(features, dtype=np.float32)

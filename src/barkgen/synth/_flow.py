@@ -117,6 +117,21 @@ def _bins(flow: np.ndarray, flow_scale: np.ndarray, angle_step: float) -> tuple[
     return angle_bin, scale_bin
 
 
+def _bin_pairs(angle_bin: np.ndarray, scale_bin: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct ``(angle bin, scale bin)`` pairs of the pixels, ``(n, 2)`` in
+    ``np.unique(..., axis=0)``'s order, and each pixel's pair (flat), as ``np.unique``'s
+    ``return_inverse`` gives it: one integer key per pixel, counted (``np.unique`` of a 4 MP
+    field's rows: 0.8-3 s in one call, out of Ctrl-C's reach; this: 0.05 s)."""
+    angles, scales = angle_bin.ravel(), scale_bin.ravel()
+    first_angle, first_scale = int(angles.min()), int(scales.min())
+    span = int(scales.max()) - first_scale + 1
+    keys = (angles - first_angle) * span + (scales - first_scale)
+    counts = np.bincount(keys)
+    present = np.flatnonzero(counts)
+    pair_of_key = np.cumsum(counts > 0) - 1
+    return np.stack([present // span + first_angle, present % span + first_scale], axis=1), pair_of_key[keys]
+
+
 @dataclass(frozen=True)
 class OrientedExemplar:
     """The exemplar's turned and scaled copies, one above the other in an atlas.
@@ -275,9 +290,7 @@ class OrientedExemplar:
             (round(a / self.angle_step), round(math.log(s) / math.log(SCALE_STEP))): i
             for i, (a, s) in enumerate(zip(self.angles, self.scales, strict=True))
         }
-        pairs, inverse = np.unique(
-            np.stack([angle_bin.ravel(), scale_bin.ravel()], axis=1), axis=0, return_inverse=True
-        )
+        pairs, inverse = _bin_pairs(angle_bin, scale_bin)
         try:
             index = np.array([copies[(int(a), int(s))] for a, s in pairs], np.int32)
         except KeyError:
@@ -408,7 +421,7 @@ def orient_exemplar(
     """
     for step in (ANGLE_STEP, *COARSER_ANGLE_STEPS):
         angle_bin, scale_bin = _bins(flow, flow_scale, step)
-        pairs = np.unique(np.stack([angle_bin.ravel(), scale_bin.ravel()], axis=1), axis=0)
+        pairs, _ = _bin_pairs(angle_bin, scale_bin)
         if len(pairs) <= max_copies:
             break
     else:
