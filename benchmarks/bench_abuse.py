@@ -72,6 +72,8 @@ CLI_TIMEOUT_S = 60
 
 #: (exit status, peak resident memory in MB or None) of every command the running case started
 COMMANDS_RUN: list[tuple[int, float | None]] = []
+#: what the running case measured, printed after its verdict
+NOTES: list[str] = []
 #: ``python -m barkgen`` that writes its peak resident memory (Linux's VmHWM, its own since the
 #: exec, not the forking benchmark's) in KiB to the file named by its first argument at exit
 _LAUNCHER = """
@@ -967,6 +969,7 @@ def run_case(item: Case, start_mb: float) -> tuple[float, float | None, str | No
     check, its time budget, and, when it is a refusal (every command it ran exited 2), its
     memory budget (:data:`REFUSE_EXTRA_MB` over ``start_mb``)."""
     COMMANDS_RUN.clear()
+    NOTES.clear()
     with tempfile.TemporaryDirectory(prefix="barkgen-abuse-") as folder:
         t = time.perf_counter()
         try:
@@ -1331,6 +1334,168 @@ def _(tmp):
     return ok(cli("synth", str(photo(tmp)), "-o", str(tmp / ("n" * 240 + ".png")), "--size", "32x32", "-q"))
 
 
+# -- issue 67: refusals before the heavy imports, Ctrl-C within a second ------------------------
+QUICK_REFUSAL_S = 0.5  # a bad argument or input refused, whole command (Python's start included), quiet
+CTRL_C_S = 1.0  # from Ctrl-C to the process gone, at any stage, quiet
+BUSY_FACTOR = 2.0  # both bounds beside one other CPU-heavy job
+#: one refusal per command and kind of first check, ``{photo}`` and ``{tmp}`` filled in
+QUICK_REFUSALS: list[list[str]] = [
+    ["generate", "{tmp}/missing.jpg", "-o", "{tmp}/out"],
+    ["generate", "{photo}", "-o", "{tmp}/out", "--size", "0x5"],
+    ["labels", "{tmp}/notes.txt", "-o", "{tmp}/l.png"],
+    ["material", "{photo}", "-o", "{photo}"],
+    ["synth", "{photo}", "-o", "{tmp}/s.png", "--size", "99999x99999"],
+    ["tbn", "{photo}", "-o", "{tmp}/t.png", "--labels", "{tmp}/notes.txt", "--target", "{tmp}/notes.txt"],
+    ["tree", "-o", "{tmp}/tree", "--photo", "{tmp}/missing.jpg"],
+    ["batch", "{tmp}/missing.yaml", "-o", "{tmp}/b"],
+    ["serve", "--port", "99999"],
+    ["preview", "{tmp}/missing", "-o", "{tmp}/p.png"],
+    ["export-glb", "{tmp}/missing", "-o", "{tmp}/x.glb"],
+    ["bilayer", "analyze", "{tmp}/notes.txt", "-o", "{tmp}/m.npz"],
+    ["library", "add", "{tmp}/notes.txt", "--library", "{tmp}/lib"],
+]
+#: the commands Ctrl-C is sent to, ``{sample}`` and ``{out}`` filled in: the main job at 2048²,
+#: the other long runs at the sizes people make
+INTERRUPTED: dict[str, list[str]] = {
+    "generate 2048² --tile --material": [
+        "generate",
+        "{sample}",
+        "-o",
+        "{out}",
+        "--size",
+        "2048x2048",
+        "--tile",
+        "--material",
+        "--no-cache",
+    ],
+    "generate --model bilayer 1024² --material": [
+        "generate",
+        "{sample}",
+        "-o",
+        "{out}",
+        "--model",
+        "bilayer",
+        "--size",
+        "1024x1024",
+        "--material",
+        "--no-cache",
+    ],
+    "labels": ["labels", "{sample}", "-o", "{out}/labels.png"],
+    "material": ["material", "{sample}", "-o", "{out}"],
+    "tree 1024²": ["tree", "-o", "{out}", "--photo", "{sample}", "--size", "1024x1024"],
+}
+#: Ctrl-C at this many points evenly through each run
+CTRL_C_POINTS = 6
+#: one other CPU-heavy job: a process multiplying matrices on every core
+_HEAVY_JOB = (
+    "import numpy as np\na = np.random.default_rng(0).random((1500, 1500))\n"
+    "while True:\n    a = a @ a\n    a /= np.abs(a).max()\n"
+)
+
+
+class one_heavy_job:
+    """Within the block, :data:`_HEAVY_JOB` runs beside the case (from a second before it)."""
+
+    def __enter__(self):
+        self.process = subprocess.Popen([sys.executable, "-c", _HEAVY_JOB], env=ENV)
+        time.sleep(1.0)
+        return self
+
+    def __exit__(self, *exc):
+        self.process.kill()
+        self.process.wait()
+
+
+def _median(values: list[float]) -> float:
+    return float(np.median(values)) if values else float("nan")
+
+
+def _quick_refusals(tmp: Path, bound: float) -> str | None:
+    (tmp / "notes.txt").write_text("not an image\n")
+    p = photo(tmp)
+    seconds, problems = [], []
+    for args in QUICK_REFUSALS:
+        filled = [a.format(photo=p, tmp=tmp) for a in args]
+        t = time.perf_counter()
+        r = cli(*filled, "-q") if filled[0] not in ("serve", "library", "bilayer") else cli(*filled)
+        seconds.append(time.perf_counter() - t)
+        problem = one_line(r)
+        if problem:
+            problems.append(f"{args[0]}: {problem}")
+        elif seconds[-1] > bound:
+            problems.append(f"{args[0]} refused after {seconds[-1]:.2f} s")
+    worst = int(np.argmax(seconds))
+    NOTES.append(
+        f"{len(seconds)} refusals: median {_median(seconds):.2f} s, slowest {seconds[worst]:.2f} s ({QUICK_REFUSALS[worst][0]})"
+    )
+    return first_problem(*problems)
+
+
+def _ctrl_c_latencies(tmp: Path, name: str, bound: float) -> str | None:
+    """Ctrl-C at :data:`CTRL_C_POINTS` points evenly through a run of ``name``: each gone within
+    ``bound`` s, exit 130, one line, nothing left in its folder."""
+    from barkgen.data import sample_exemplar_path
+
+    def command(out: Path) -> list[str]:
+        filled = [a.format(sample=sample_exemplar_path(), out=out) for a in INTERRUPTED[name]]
+        return [sys.executable, "-m", "barkgen", *filled, "-q"]
+
+    env = {**ENV, "BARKGEN_NO_CACHE": "1"}
+    t = time.perf_counter()
+    whole = subprocess.run(command(tmp / "whole"), capture_output=True, text=True, env=env, timeout=600)
+    run_s = time.perf_counter() - t
+    if whole.returncode != 0:
+        return f"the whole run: exit {whole.returncode} {whole.stderr.strip()[-160:]!r}"
+    latencies, problems = [], []
+    for k in range(1, CTRL_C_POINTS + 1):
+        out = tmp / f"out{k}"
+        at = run_s * k / (CTRL_C_POINTS + 1)
+        proc = subprocess.Popen(command(out), stderr=subprocess.PIPE, text=True, env=env)
+        time.sleep(at)
+        sent = time.perf_counter()
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+        latencies.append(time.perf_counter() - sent)
+        left = sorted(q.name for q in out.rglob("*") if q.is_file()) if out.exists() else []
+        problems.append(
+            first_problem(
+                None if proc.returncode == 130 else f"at {at:.1f} s: exit {proc.returncode}",
+                None if err.strip() == "barkgen: error: interrupted" else f"at {at:.1f} s: {err.strip()[-120:]!r}",
+                f"at {at:.1f} s: left {left}" if left else None,
+                f"at {at:.1f} s: gone after {latencies[-1]:.2f} s" if latencies[-1] > bound else None,
+            )
+        )
+    NOTES.append(
+        f"run {run_s:.1f} s; Ctrl-C at {CTRL_C_POINTS} points: median {_median(latencies):.2f} s, "
+        f"slowest {max(latencies):.2f} s"
+    )
+    return first_problem(*problems)
+
+
+@case("timing", f"67 a bad argument or input refused within {QUICK_REFUSAL_S:g} s (13 commands)", 20)
+def _(tmp):
+    return _quick_refusals(tmp, QUICK_REFUSAL_S)
+
+
+@case("timing", f"67 ... and within {BUSY_FACTOR * QUICK_REFUSAL_S:g} s beside one other CPU-heavy job", 30)
+def _(tmp):
+    with one_heavy_job():
+        return _quick_refusals(tmp, BUSY_FACTOR * QUICK_REFUSAL_S)
+
+
+for _name in INTERRUPTED:
+
+    def _quiet(tmp, name=_name):
+        return _ctrl_c_latencies(tmp, name, CTRL_C_S)
+
+    def _busy(tmp, name=_name):
+        with one_heavy_job():
+            return _ctrl_c_latencies(tmp, name, BUSY_FACTOR * CTRL_C_S)
+
+    case("timing", f"67 Ctrl-C on {_name}: gone within {CTRL_C_S:g} s at every stage", 300)(_quiet)
+    case("timing", f"67 ... beside one other CPU-heavy job: within {BUSY_FACTOR * CTRL_C_S:g} s", 450)(_busy)
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--only", help="run the cases whose name holds this word")
@@ -1359,11 +1524,13 @@ def main() -> int:
                 "mb_over_start": None if over_mb is None else round(over_mb, 1),
                 "held": problem is None,
                 "problem": problem,
+                "measured": "; ".join(NOTES),
             }
         )
+        verdict = "held" if problem is None else "NO: " + problem
         print(
             f"| {item.group} | {item.name} | {seconds:.2f} | {item.budget_s:g} | "
-            f"{'' if over_mb is None else f'{over_mb:.0f}'} | {'held' if problem is None else 'NO: ' + problem} |",
+            f"{'' if over_mb is None else f'{over_mb:.0f}'} | {verdict}{' (' + '; '.join(NOTES) + ')' if NOTES else ''} |",
             flush=True,
         )
     held = sum(r["held"] for r in rows)

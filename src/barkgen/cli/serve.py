@@ -56,7 +56,6 @@ def serve_command(
             raise InvalidInputError(f"{flag} must be a number above 0 (and at most 1000000), not {value}")
     from barkgen.library import Library
     from barkgen.web import WebLimits, serve
-
     from barkgen.web.state import WebAccess
 
     access = WebAccess(host, token=token, read_only=read_only)  # the bind decides whether a key is asked

@@ -19,7 +19,6 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
 from barkgen._shared.arrays import Boundary
@@ -338,6 +337,8 @@ class HeightEditor:
         while radius // factor > MAX_LEVEL_RADIUS and min(h, w) // (factor * 2) >= 16:
             factor *= 2
         lum = self._lum
+        import cv2  # (here: the CLI's start-up imports this module, and a refusal needs no OpenCV)
+
         if factor > 1:
             lum = cv2.resize(lum, (w // factor, h // factor), interpolation=cv2.INTER_AREA)
         offsets = _disc_offsets(max(1, radius // factor))

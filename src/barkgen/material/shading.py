@@ -29,7 +29,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
 from barkgen._shared.arrays import Boundary
@@ -234,6 +233,8 @@ def _reduced(image: np.ndarray) -> np.ndarray:
     if scale >= 1:
         return np.asarray(image, np.float32)
     size = (max(1, round(cols * scale)), max(1, round(rows * scale)))
+    import cv2  # (here: the CLI's start-up imports this module, and a refusal needs no OpenCV)
+
     return cv2.resize(np.asarray(image, np.float32), size, interpolation=cv2.INTER_AREA)
 
 

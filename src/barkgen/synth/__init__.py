@@ -17,72 +17,14 @@ expansion moves, the gradient-domain blend; kwatra2003) and :mod:`.guides` (text
 guide channels, guidance, initialisation).
 """
 
-from barkgen._shared.canvas import Budget, Canvas
-from barkgen.synth._analysis import AnalysisCache, LevelAnalysis, analyse_exemplar, matching_features
-from barkgen.synth._config import SynthesisConfig
-from barkgen.synth._edges import check_wrap_mode, exemplar_wraps, resolve_exemplar_wrap
-from barkgen.synth._flow import FLOW_SCALE_RANGE, OrientedExemplar, check_flow, orient_exemplar
-from barkgen.synth._links import OutputLinks
-from barkgen.synth._occurrence import LabelBalance
-from barkgen.synth._setup import estimate_memory
-from barkgen.synth._solver import DebugCallback, SolverInputs, SynthesisResult, solve, upsample_references
-from barkgen.synth._synthesize import apply_references, synthesize
-from barkgen.synth._tbn import TBN_CONFIG, analyse_texture_by_numbers, texture_by_numbers
-from barkgen.synth.guides.channels import MAX_LABELS, guide_channels, label_pyramid, level_guide
-from barkgen.synth.guides.guidance import Guidance
-from barkgen.synth.guides.initialization import smart_initialization
-from barkgen.synth.seams.cuts import cut_straight_seams
-from barkgen.synth.seams.expansion import exemplar_grid, expand_pieces
-from barkgen.synth.seams.gradient import (
-    blend_seams,
-    check_blend,
-    piece_borders,
-    resolve_continuous,
-    resolve_local,
-    screened_poisson,
-)
+from barkgen._shared.lazy import lazy_getattr, stub_names
 
-__all__ = [
-    "FLOW_SCALE_RANGE",
-    "MAX_LABELS",
-    "TBN_CONFIG",
-    "AnalysisCache",
-    "Budget",
-    "Canvas",
-    "DebugCallback",
-    "Guidance",
-    "LabelBalance",
-    "LevelAnalysis",
-    "OrientedExemplar",
-    "OutputLinks",
-    "SolverInputs",
-    "SynthesisConfig",
-    "SynthesisResult",
-    "analyse_exemplar",
-    "analyse_texture_by_numbers",
-    "apply_references",
-    "blend_seams",
-    "check_blend",
-    "check_flow",
-    "check_wrap_mode",
-    "cut_straight_seams",
-    "estimate_memory",
-    "exemplar_grid",
-    "exemplar_wraps",
-    "expand_pieces",
-    "guide_channels",
-    "label_pyramid",
-    "level_guide",
-    "matching_features",
-    "orient_exemplar",
-    "piece_borders",
-    "resolve_continuous",
-    "resolve_local",
-    "screened_poisson",
-    "resolve_exemplar_wrap",
-    "smart_initialization",
-    "solve",
-    "synthesize",
-    "texture_by_numbers",
-    "upsample_references",
-]
+# the names and their modules are in __init__.pyi; each module is imported on first use (the
+# CLI's start-up imports this package for its options, not its solver)
+_LAZY = stub_names(__file__)
+__all__ = sorted(_LAZY)
+__getattr__ = lazy_getattr(__name__, _LAZY)
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -194,3 +194,21 @@ class SynthesisConfig:
         if level == 0:
             return self.schedule_finest
         return self.schedule_middle
+
+
+#: solver defaults for texture-by-numbers: label structure needs a coarsest level where the
+#: label regions still exist, so the pyramid stops at 32 px instead of 16; the initialisation
+#: and the guide already set the layout, so fewer and smaller iterations per level and 6
+#: appearance dimensions give the same quality (measured on the bark set, benchmarks/bench_tbn.py);
+#: label boundaries break its seams into short stretches, so stretches from 8 px are re-cut
+#: (the texture's step ratio across seams on the sample, seeds 0/1: 1.54/1.47 -> 1.51/1.45);
+#: no expansion moves: the labels pin most borders (generate's texture step ratio, sample seed
+#: 0: 1.43 with them, 1.40 without, once the label map's own seams have had them)
+TBN_CONFIG = SynthesisConfig(
+    coarsest_exemplar=32,
+    schedule_coarsest=((9, 3), (7, 2), (5, 2)),
+    schedule_middle=((7, 1), (5, 1)),
+    pca_components=6,
+    seam_cut_run=8,
+    seam_expansion_band=0,
+)

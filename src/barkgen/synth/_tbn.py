@@ -31,7 +31,7 @@ from barkgen._shared.canvas import Budget, Canvas
 from barkgen.errors import InvalidInputError
 from barkgen.pyramid import count_levels, gaussian_pyramid, level_shape
 from barkgen.synth._analysis import AnalysisCache, matching_features
-from barkgen.synth._config import SynthesisConfig
+from barkgen.synth._config import TBN_CONFIG, SynthesisConfig
 from barkgen.synth._edges import resolve_exemplar_wrap
 from barkgen.synth._setup import Front, SolveSetup, extra_inputs, set_up, validate_inputs
 from barkgen.synth._solver import DebugCallback, SynthesisResult
@@ -47,23 +47,6 @@ from barkgen.synth.guides.guidance import Guidance
 from barkgen.synth.guides.initialization import random_initialization, smart_initialization
 
 INITIALIZATIONS = ("smart", "random")
-
-#: solver defaults for texture-by-numbers: label structure needs a coarsest level where the
-#: label regions still exist, so the pyramid stops at 32 px instead of 16; the initialisation
-#: and the guide already set the layout, so fewer and smaller iterations per level and 6
-#: appearance dimensions give the same quality (measured on the bark set, benchmarks/bench_tbn.py);
-#: label boundaries break its seams into short stretches, so stretches from 8 px are re-cut
-#: (the texture's step ratio across seams on the sample, seeds 0/1: 1.54/1.47 -> 1.51/1.45);
-#: no expansion moves: the labels pin most borders (generate's texture step ratio, sample seed
-#: 0: 1.43 with them, 1.40 without, once the label map's own seams have had them)
-TBN_CONFIG = SynthesisConfig(
-    coarsest_exemplar=32,
-    schedule_coarsest=((9, 3), (7, 2), (5, 2)),
-    schedule_middle=((7, 1), (5, 1)),
-    pca_components=6,
-    seam_cut_run=8,
-    seam_expansion_band=0,
-)
 
 #: a reference map given as ``init`` is taken up at this pyramid level (0 = finest) unless a pair
 #: ``(references, level)`` says otherwise: its coarser structure is kept, the solver refines the
