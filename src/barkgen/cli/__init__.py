@@ -11,7 +11,6 @@ from __future__ import annotations
 import os
 import signal
 import sys
-import threading
 from typing import Any, NoReturn
 
 
@@ -22,15 +21,15 @@ def _terminate(signum, frame) -> None:
 
 
 def _leave(status: int) -> NoReturn:
-    """Exit with ``status``. An interrupted run (130) whose work left threads still computing
-    (a pool's running jobs, :func:`barkgen._shared.threads.worker_pool`; the analysis cache's
-    write behind, whose temporary the next write removes) ends at once instead of waiting for
-    them: its own files are already cleaned up, and they hold nothing else to keep."""
-    if status == 130 and any(
-        thread.is_alive() and not thread.daemon
-        for thread in threading.enumerate()
-        if thread is not threading.main_thread()
-    ):
+    """Exit with ``status``. An interrupted run (130) ends at once: its files were cleaned up as
+    the interrupt unwound, and what is left of the process holds nothing to keep, though it
+    can take long to wind down (threads still computing, :func:`barkgen._shared.threads.worker_pool`;
+    the analysis cache's write behind, whose temporary the next write removes; the libraries'
+    thread pools and the interpreter's own teardown: 1-14 s beside a CPU-heavy job)."""
+    if status == 130:
+        import logging
+
+        logging.shutdown()
         sys.stdout.flush()
         sys.stderr.flush()
         os._exit(130)
