@@ -82,8 +82,6 @@ def tree_command(
         variant_name,
     )
     from barkgen.material.presets import check_preset
-    from barkgen.pipeline import encode_tree, make_tree, stage_at
-    from barkgen.tree import read_tree_mesh
 
     check_bits(bits)
     check_folder(output_dir, "output")
@@ -97,6 +95,10 @@ def tree_command(
     stale = previous_run_files(output_dir)
     refuse_inputs(_targets(output_dir, set_name, preset, stale))
     image = read_image(src)
+    # (the pipeline's and the mesh's imports after the checks: a refusal needs neither)
+    from barkgen.pipeline import encode_tree, make_tree, stage_at
+    from barkgen.tree import read_tree_mesh
+
     tree_mesh = read_tree_mesh(mesh, resolution=max(options.size)) if mesh is not None else None
     describe = functools.partial(stage_at, material=True)
     with progress_bar(not quiet, "growing bark", describe) as progress:

@@ -31,7 +31,6 @@ tens of milliseconds for a 1024x1024 photo.
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 
 from barkgen._shared.arrays import Boundary, unit_float
@@ -99,6 +98,8 @@ def estimate_illumination(photo: np.ndarray, *, boundary: Boundary | None = None
     >>> bool(light[:, -1].mean() > 2 * light[:, 0].mean())
     True
     """
+    import cv2  # (here: the CLI's start-up imports this module, and a refusal needs no OpenCV)
+
     boundary = boundary or Boundary()
     linear = _linear_rgb(photo)
     h, w = linear.shape[:2]
@@ -152,6 +153,8 @@ def _significance(signal_var: float, noise_var: float) -> float:
 def _box(values: np.ndarray, side: float, boundary: Boundary) -> np.ndarray:
     """The mean of ``values`` over a square of ``side`` px round each pixel (across the edges it
     wraps along, mirrored at the others): every block's mean, whatever the blocks' offset."""
+    import cv2
+
     size = max(int(round(side)), 1)
     pad = min(size, max(values.shape))
     return boundary.torus(
@@ -254,6 +257,8 @@ def _as_dtype(values: np.ndarray, dtype: np.dtype) -> np.ndarray:
 
 
 def _gaussian(image: np.ndarray, sigma: float, boundary: Boundary) -> np.ndarray:
+    import cv2
+
     pad = min(int(np.ceil(3 * sigma)) + 1, max(image.shape[:2]))
     return boundary.torus(lambda im: cv2.GaussianBlur(im, (0, 0), sigma, borderType=cv2.BORDER_REFLECT), image, pad)
 
@@ -285,6 +290,8 @@ def _weighted_trend(values: np.ndarray, weight: np.ndarray, boundary: Boundary) 
 
 def _resized(values: np.ndarray, shape: tuple[int, int], boundary: Boundary) -> np.ndarray:
     """A smooth field resampled to ``shape`` (bilinear; across the edge where it wraps)."""
+    import cv2
+
     h, w = shape
     if values.shape == (h, w):
         return values
