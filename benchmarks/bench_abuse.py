@@ -14,8 +14,9 @@ memory: its commands' peak resident memory at most 32 MB over ``barkgen --versio
 64 MP PNG's header check once decoded it: +62 MB). A case holds when its check passes within
 its budgets. Prints the targets, then one row per case (group, case, seconds, budget, MB over
 barkgen's start, held or what went wrong) and ``cases tried / held``; exits 1 when a case did
-not hold. About 5 minutes on 2 cores; run it on a quiet machine (the budgets are the unit
-tests' old wall-clock bounds, which a shared machine broke).
+not hold. About 21 minutes on 2 cores (the timing group of issue 67, 19 of them: ``--only 67``);
+run it on a quiet machine (the budgets are the unit tests' old wall-clock bounds, which a shared
+machine broke).
 """
 
 from __future__ import annotations
