@@ -47,6 +47,9 @@ def serve_command(
     key every request needs (docs: "Who can reach it")."""
     import math
 
+    from barkgen._shared.extras import require_extra
+
+    require_extra("web", "the web app (barkgen serve)")  # first: what to install, whatever the flags
     # neither serve() nor WebLimits checks these: uvicorn would fail with a traceback (and
     # before the web app's imports: a refusal in a fraction of a second)
     if not 0 < port < 65536:
