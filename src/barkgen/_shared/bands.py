@@ -15,6 +15,9 @@ from __future__ import annotations
 #: about 0.1 s on two cores (a joint bilateral tap of 8 guide and 3 colour channels: 0.1 s
 #: for 110 million)
 BAND_STEPS = 100_000_000
+#: a numpy expression's step (one element of one operation, with its temporaries) costs about
+#: this many of a kernel's: work done by numpy counts its element operations times this
+NUMPY_STEP = 10
 
 
 def row_bands(height: int, steps_per_row: float, steps: int = BAND_STEPS) -> list[tuple[int, int]]:

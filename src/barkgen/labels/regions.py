@@ -16,6 +16,7 @@ import warnings
 import numpy as np
 
 from barkgen._shared.arrays import Boundary, Wrap
+from barkgen._shared.bands import row_bands
 from barkgen._shared.checks import MAX_K, check_image, check_k, check_seed
 from barkgen._shared.threads import worker_pool
 from barkgen.errors import InvalidInputError
@@ -104,9 +105,7 @@ def nl_means(rgb: np.ndarray, strength: float = 10.0) -> np.ndarray:
     height = u8.shape[0]
     # in bands of rows, each with the rows it reaches on either side: the same bytes as one
     # call, and Ctrl-C is heard between bands (a 1024² photo: 0.9 s in one call, out of reach)
-    rows = max(NL_MEANS_REACH, NL_MEANS_BAND_PIXELS // max(1, u8.shape[1]))
-    for top in range(0, height, rows):
-        bottom = min(height, top + rows)
+    for top, bottom in row_bands(height, u8.shape[1], NL_MEANS_BAND_PIXELS):
         start, stop = max(0, top - NL_MEANS_REACH), min(height, bottom + NL_MEANS_REACH)
         band = cv2.fastNlMeansDenoisingColored(
             u8[start:stop], None, h=strength, hColor=strength, templateWindowSize=7, searchWindowSize=21

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from barkgen._shared.bands import BAND_STEPS, row_bands
+from barkgen._shared.bands import NUMPY_STEP, row_bands
 
 _BRUTE_LIMIT = 4_096  # exact numpy search up to this many exemplar pixels
 _FLAT_LIMIT = 24_000  # exact faiss search up to this many, IVF beyond
@@ -70,10 +70,8 @@ def k_coherence_sets(
 def _scale(features: np.ndarray, sets: np.ndarray) -> float:
     first = sets[:, 0].astype(np.int64)
     d2 = np.empty(len(features), features.dtype)
-    rows = max(1, BAND_STEPS // 10 // max(1, features.shape[1]))  # numpy's steps are dearer than a kernel's
-    for start in range(0, len(features), rows):  # Ctrl-C is heard between chunks
-        part = slice(start, start + rows)
-        d2[part] = np.sum((features[part] - features[first[part]]) ** 2, axis=1)
+    for start, stop in row_bands(len(features), features.shape[1] * NUMPY_STEP):  # Ctrl-C between bands
+        d2[start:stop] = np.sum((features[start:stop] - features[first[start:stop]]) ** 2, axis=1)
     scale = float(np.median(d2)) if d2.size else 1.0
     return max(scale, 1e-6)
 

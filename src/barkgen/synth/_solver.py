@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from barkgen._shared.arrays import as_uint8
-from barkgen._shared.bands import row_bands
+from barkgen._shared.bands import NUMPY_STEP, row_bands
 from barkgen._shared.canvas import Budget, Canvas
 from barkgen._shared.threads import thread_budget
 from barkgen.errors import InvalidInputError
@@ -260,8 +260,8 @@ def upsample_references(
     out = np.empty((*out_shape, 2), np.int32)
     xs = np.arange(out_shape[1])[None, :]
     # a band of rows at a time (Ctrl-C is heard between bands: a 4096² level in one go held
-    # the interpreter for 1.2 s); numpy's steps are dearer than a kernel's
-    for start, stop in row_bands(out_shape[0], out_shape[1] * 100):
+    # the interpreter for 1.2 s); about ten numpy operations per pixel
+    for start, stop in row_bands(out_shape[0], out_shape[1] * 10 * NUMPY_STEP):
         ys = np.arange(start, stop)[:, None]
         parent = refs[ys // 2, xs // 2]
         fy = 2 * parent[..., 0] + (ys & 1)
