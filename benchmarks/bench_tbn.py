@@ -10,7 +10,7 @@ CIELAB, 3x3 mode filter; laitoch2018 §3.5) and target label maps made of the cr
 cut into 64-px blocks, shuffled, flipped and assembled to each size. Scored with the team's
 ``texeval`` (``--labels-in A --labels-out B``) against the unguided synthesis of the same size in
 the same run: label_fidelity_ratio (>= 0.9), label_fidelity_balanced (>= 0.85), sharpness_ratio
-(0.9-1.1), coherence / unguided coherence (<= 1.25); and the same photo with random
+(0.9-1.1; beside it the same references copied exactly, `blend="none"`), coherence / unguided coherence (<= 1.25); and the same photo with random
 initialisation (at the first size) for the smart-vs-random comparison. The known answer (the
 exemplar's own pixels arranged like the target's blocks) is scored alongside: it shows what the
 metrics allow on each case.
@@ -62,10 +62,13 @@ def quality(names: list[str] | None, sizes: list[int]) -> list[dict]:
                 b = shuffled_blocks(a, size, seed=1)
                 # the known answer: the exemplar's own blocks in the target's arrangement (the
                 # same generator draws, so the same shuffle and flips)
+                smart = texture_by_numbers(ex, a, b, budget=Budget(seed=0))
                 runs = {
                     "answer": shuffled_blocks(ex, size, seed=1),
                     "unguided": synthesize(ex, size, seed=0).image,
-                    "smart": texture_by_numbers(ex, a, b, budget=Budget(seed=0)).image,
+                    "smart": smart.image,
+                    # the same references, the colour copied exactly (``blend="none"``)
+                    "unblended": ex[smart.references[..., 0], smart.references[..., 1]],
                 }
                 if i == 0:
                     runs["random"] = texture_by_numbers(ex, a, b, budget=Budget(seed=0), init="random").image
@@ -90,6 +93,7 @@ def quality(names: list[str] | None, sizes: list[int]) -> list[dict]:
                 print(
                     f"  {path.stem:28s} {n_labels} labels {size:5d}: fidelity {s['label_fidelity_ratio']:.3f}"
                     f" balanced {s['label_fidelity_balanced']:.3f} sharp {s['sharpness_ratio']:.3f}"
+                    f" (unblended {row['unblended']['sharpness_ratio']:.3f})"
                     f" coherence {s['coherence']:.2f} / unguided {u['coherence']:.2f}"
                     f" = {s['coherence'] / u['coherence']:.2f}x",
                     file=sys.stderr,
@@ -134,8 +138,8 @@ def main() -> int:
     if not a.skip_quality:
         out["quality"] = rows = quality(names, sizes)
         print(
-            "| photo | labels | size | fidelity ratio | balanced | sharpness | coherence (x unguided)"
-            " | random init: fidelity / coherence | known answer: fidelity / balanced / coherence |"
+            "| photo | labels | size | fidelity ratio | balanced | sharpness (unblended) | coherence (x unguided)"
+            " | random init: fidelity / coherence | known answer: fidelity / balanced / coherence / sharpness |"
         )
         print("|---|---|---|---|---|---|---|---|---|")
         for r in rows:
@@ -145,11 +149,12 @@ def main() -> int:
             k = r["answer"]
             ktxt = (
                 f"{k['label_fidelity_ratio']:.3f} / {k['label_fidelity_balanced']:.3f} / "
-                f"{k['coherence']:.2f} ({k['coherence'] / u['coherence']:.2f}x)"
+                f"{k['coherence']:.2f} ({k['coherence'] / u['coherence']:.2f}x) / {k['sharpness_ratio']:.3f}"
             )
             print(
                 f"| {r['photo']} | {r['labels']} | {r['size']} | {s['label_fidelity_ratio']:.3f} | "
-                f"{s['label_fidelity_balanced']:.3f} | {s['sharpness_ratio']:.3f} | "
+                f"{s['label_fidelity_balanced']:.3f} | {s['sharpness_ratio']:.3f}"
+                f" ({r['unblended']['sharpness_ratio']:.3f}) | "
                 f"{s['coherence']:.2f} ({s['coherence'] / u['coherence']:.2f}x) | {rtxt} | {ktxt} |"
             )
         n = len(rows)

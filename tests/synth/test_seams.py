@@ -497,7 +497,7 @@ def test_no_line_in_any_map_of_a_tiled_material_set(sample256):
 def test_colour_steps_little_more_across_seams_on_a_lit_structured_photo():
     """The plated pine (plates parted by dark fissures, lit from one side): with the seams
     blended the colour steps no more across the borders between pieces than inside them;
-    copied exactly it steps at least 1.3x as much as blended. The references are the same."""
+    copied exactly it steps at least 1.2x as much as blended. The references are the same."""
     from conftest import bark_exemplar
 
     photo = bark_exemplar("pine_plated_01", 192)
@@ -506,5 +506,57 @@ def test_colour_steps_little_more_across_seams_on_a_lit_structured_photo():
     assert np.array_equal(blended.references, exact.references)
     ratio = evaluate.border_step_ratio(blended.image, blended.references)
     before = evaluate.border_step_ratio(exact.image, exact.references)
-    # measured 0.88 blended, 1.22 copied exactly (the lichen 0.86 / 1.21, the oak 0.96 / 1.19)
-    assert ratio <= 1.0 and before >= 1.3 * ratio, (ratio, before)
+    # measured 0.96 blended, 1.22 copied exactly (the blend leaves the part of each step up to
+    # half the photo's own mean step)
+    assert ratio <= 1.0 and before >= 1.2 * ratio, (ratio, before)
+
+
+def _two_pieces(photo: np.ndarray, row_shift: int, column_jump: int) -> np.ndarray:
+    """The ``(32, 32, 2)`` references of two pieces of ``photo`` side by side: the left copies
+    its columns 0-15, the right its columns ``16 + column_jump`` on, ``row_shift`` rows down."""
+    ry, rx = np.mgrid[0:32, 0:32]
+    right = rx >= 16
+    ry = np.where(right, ry + row_shift, ry)
+    rx = np.where(right, rx + column_jump, rx)
+    return np.stack([ry, rx], axis=-1).astype(np.int32)
+
+
+def test_the_colour_blend_spreads_a_large_step_over_a_few_pixels_and_keeps_the_rest():
+    """Two pieces of a lit photo meet with a step of over 12x the photo's mean step: the blend
+    spreads it over the few columns either side of the border, each step there under
+    ``SPREAD_STEPS`` of the photo's own; every other pixel stays the photo's, and the level
+    on either side of the ramp does not move."""
+    from barkgen.synth import blend_seams
+    from barkgen.synth.seams.gradient import SPREAD_STEPS
+
+    rng = np.random.default_rng(3)
+    columns = np.arange(64, dtype=float)[None, :, None]
+    photo = np.clip(60 + 2.0 * columns + rng.normal(0, 2, (64, 64, 3)), 0, 255).astype(np.uint8)
+    refs = _two_pieces(photo, 0, 24)
+    copy = photo[refs[..., 0], refs[..., 1]].astype(float)
+    blended = blend_seams(photo, refs, Canvas((32, 32))).astype(float)
+    changed = np.flatnonzero(np.any(blended != copy, axis=(0, 2)))
+    assert changed.min() >= 12 and changed.max() <= 19 and {15, 16} <= set(changed), changed
+    own_step = np.linalg.norm(np.diff(photo.astype(float), axis=1), axis=-1).mean()
+    steps_copied, steps_blended = (np.linalg.norm(np.diff(m, axis=1), axis=-1).mean(axis=0) for m in (copy, blended))
+    # measured: 87 copied at the border, the photo's own 5.6; blended 15-19 over seven columns
+    assert steps_copied[15] > 12.0 * own_step and steps_blended.max() < SPREAD_STEPS * own_step, steps_blended
+    assert steps_blended[12:19].min() > 2.0 * own_step  # spread, not left at the border
+
+
+def test_the_colour_blend_leaves_a_step_the_photo_could_have_taken():
+    """A border whose step is off the photo's own by less than half the photo's mean step is
+    left as it is: the blend is the exact copy (here grey and 16-bit); beyond that, only the excess is
+    taken out."""
+    from barkgen.synth import blend_seams
+
+    rows, columns = np.mgrid[0:64, 0:64]
+    photo = (4000 + 400 * columns + 100 * rows).astype(np.uint16)  # steps 400 across, 100 down
+    refs = _two_pieces(photo, 1, 0)  # the right piece a row lower: 100 more than the photo's 400
+    copy = photo[refs[..., 0], refs[..., 1]]
+    assert np.array_equal(blend_seams(photo, refs, Canvas((32, 32))), copy)
+    steeper = _two_pieces(photo, 3, 0)  # 300 more: the 100 beyond half the photo's 400 is spread
+    steps = np.diff(blend_seams(photo, steeper, Canvas((32, 32))).astype(float), axis=1)
+    assert np.all((steps[:, 15] >= 600) & (steps[:, 15] <= 650)), steps[:, 15]  # 700 copied
+    assert np.all((steps[:, [14, 16]] >= 400) & (steps[:, [14, 16]] <= 450)), steps[:, [14, 16]]
+    assert np.allclose(steps[:, 13:18].sum(axis=1), 2300), steps[:, 13:18]  # nothing drifts
