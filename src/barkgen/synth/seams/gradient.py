@@ -270,16 +270,24 @@ def blend_seams(
     sy, sx = exemplar_steps(s3, _exemplar_wrap(canvas))
     own_steps = [float(np.mean(np.sqrt(np.einsum("...c,...c->...", s, s)))) for s in (sy, sx)]
     dy, dx = _shrink(dy, threshold * own_steps[0]), _shrink(dx, threshold * own_steps[1])
-    # a mismatch of k of the photo's own steps is spread over about k / SPREAD_STEPS steps
-    reach = np.zeros(plain.shape[:2], np.int64)
-    for axis, d, own in ((0, dy, own_steps[0]), (1, dx, own_steps[1])):
-        length = np.sqrt(np.einsum("...c,...c->...", d, d))
-        r = np.where(length > 0.0, np.ceil((length / (SPREAD_STEPS * max(own, 1e-12)) - 1.0) / 2.0), 0).clip(0, MAX_REACH - 1) + 1
-        r = np.where(length > 0.0, r, 0).astype(np.int64)
-        reach = np.maximum(reach, np.maximum(r, np.roll(r, 1, axis=axis)))
+    reach = _reach(dy, dx, own_steps)
     u = plain + seam_correction(dy, dx, correction_region(reach, canvas.tile), canvas.tile)
     out = _as_source_dtype(u, src)
     return out[:, :, 0] if src.ndim == 2 else out
+
+
+def _reach(dy: np.ndarray, dx: np.ndarray, own_steps: list[float]) -> np.ndarray:
+    """``(H, W)`` int: how far (px) the correction of the mismatches ``(dy, dx)`` reaches from
+    each pixel (0: not beside a mismatch): a mismatch of ``k`` of the photo's mean steps along
+    its axis (``own_steps``) is spread over about ``k / SPREAD_STEPS`` steps, half either side."""
+    reach = np.zeros(dy.shape[:2], np.int64)
+    for axis, d, own in ((0, dy, own_steps[0]), (1, dx, own_steps[1])):
+        length = np.sqrt(np.einsum("...c,...c->...", d, d))
+        steps = length / (SPREAD_STEPS * max(own, 1e-12))
+        r = np.clip(np.ceil((steps - 1.0) / 2.0), 0, MAX_REACH - 1).astype(np.int64) + 1
+        r[length == 0.0] = 0
+        reach = np.maximum(reach, np.maximum(r, np.roll(r, 1, axis=axis)))
+    return reach
 
 
 def _as_source_dtype(u: np.ndarray, src: np.ndarray) -> np.ndarray:
