@@ -14,7 +14,9 @@ temporary folder; the files it wrote are then measured with :mod:`barkgen.evalua
   every map's step ratio (:func:`~barkgen.evaluate.border_step_ratio`: mean step across piece
   borders over mean step inside pieces; a photo has 1.0), the exemplar wrapping along the axes
   it wraps along (``report.json``'s ``exemplar_wrap`` for generate,
-  ``barkgen.synth.exemplar_wraps`` of the exemplar for synth).
+  ``barkgen.synth.exemplar_wraps`` of the exemplar for synth), and the share of the border
+  pairs that stack two pieces of one photo column or row
+  (:func:`~barkgen.evaluate.stacked_pieces`: the photo's straight edge there runs on).
 
 Maps of ``generate --material``: texture, bark_1K_Color (the albedo), bark_1K_Displacement (16-bit),
 bark_1K_NormalGL, bark_1K_AmbientOcclusion, bark_1K_Roughness; bark_1K_NormalDX only when it is not
@@ -70,7 +72,13 @@ sys.path.insert(0, str(REPO / "src"))
 
 import barkgen.evaluate  # noqa: E402, RUF100
 from barkgen.data import sample_exemplar_path  # noqa: E402, RUF100
-from barkgen.evaluate import border_step_ratio, longest_line, longest_seam, piece_borders  # noqa: E402, RUF100
+from barkgen.evaluate import (  # noqa: E402, RUF100
+    border_step_ratio,
+    longest_line,
+    longest_seam,
+    piece_borders,
+    stacked_pieces,
+)
 from barkgen.io import read_centre_crop, read_image, read_reference, write_png  # noqa: E402, RUF100
 from barkgen.synth import exemplar_wraps  # noqa: E402, RUF100
 
@@ -233,6 +241,9 @@ def execute(run: Run) -> dict:
             "longest": longest_seam(references, **wraps),
             "where": None,
             "seam_share": float((across_rows.mean() + across_cols.mean()) / 2),
+            # border pairs that stack two pieces of one photo column or row (the photo's straight
+            # edge there runs on across them), of all border pairs
+            "stacked": stacked_pieces(references, **wraps),
         }
         maps = {}
         for k, p in files.items():
@@ -399,7 +410,7 @@ def table(case: str, rows: list[dict]) -> None:
     for r in rows:
         labels += [k for k in r["maps"] if k not in labels]
     own = any("own" in r for r in rows)
-    header = ("case", "s", "seam", "photo", *(["own"] if own else []), *labels)
+    header = ("case", "s", "seam", "stack", "photo", *(["own"] if own else []), *labels)
     body = []
     for r in rows:
         body.append(
@@ -407,6 +418,7 @@ def table(case: str, rows: list[dict]) -> None:
                 r["name"],
                 f"{r['seconds']:.1f}",
                 str(r["seam"]["longest"]),
+                stacked_share(r),
                 str(r["photo"]["lines"]),
                 *([str(r["own"]["lines"])] if own else []),
                 *(cell(r["maps"][k]) if k in r["maps"] else "" for k in labels),
@@ -416,7 +428,10 @@ def table(case: str, rows: list[dict]) -> None:
     print("  ".join(h.ljust(w) if i == 0 else h.rjust(w) for i, (h, w) in enumerate(zip(header, widths))))
     for x in body:
         print("  ".join(v.ljust(w) if i == 0 else v.rjust(w) for i, (v, w) in enumerate(zip(x, widths))))
-    print("(seam, photo, own: longest px; map cells: longest line px / step ratio across seams)")
+    print(
+        "(seam, photo, own: longest px; stack: share of the border pairs stacking two pieces of one"
+        " photo column or row; map cells: longest line px / step ratio across seams)"
+    )
     for r in rows:
         if r.get("own_maps"):
             print(
@@ -424,6 +439,12 @@ def table(case: str, rows: list[dict]) -> None:
                 + "  ".join(f"{k} {m['lines']}" for k, m in r["own_maps"].items())
             )
     summary(rows)
+
+
+def stacked_share(row: dict) -> str:
+    """The row's share of stacked border pairs (:func:`barkgen.evaluate.stacked_pieces`), in %."""
+    stacked = row["seam"].get("stacked")  # rows cached before the count was kept have none
+    return f"{100.0 * stacked[0] / max(stacked[1], 1):.1f}%" if stacked else "-"
 
 
 def stats(rows: list[dict], metric: str):

@@ -327,3 +327,20 @@ def test_the_command_says_what_is_wrong_in_one_line(folder, args, words):
     assert r.returncode == 2
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("barkgen: error: ") and words in lines[0], r.stderr
+
+
+def test_stacked_pieces_count_the_borders_that_continue_a_photo_column():
+    """Two pieces one above the other copying the same photo columns, rows apart: every border
+    pair stacks them; one column to the side instead: none does. Round a tiled output, the
+    borders across its edges count too."""
+    from barkgen.evaluate import stacked_pieces
+
+    ry, rx = np.mgrid[0:20, 0:10]
+    top = ry < 10
+    stacked = np.stack([np.where(top, ry, ry + 7), rx + 5], axis=-1)
+    assert stacked_pieces(stacked) == (10, 10)
+    beside = np.stack([np.where(top, ry, ry + 7), np.where(top, rx + 5, rx + 6)], axis=-1)
+    assert stacked_pieces(beside) == (0, 10)
+    # round the torus: the last row against the first (the same columns) and the last column
+    # against the first (the same rows, 10 columns back) stack too
+    assert stacked_pieces(stacked, tile=True) == (40, 40)

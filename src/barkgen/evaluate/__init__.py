@@ -7,8 +7,9 @@ wants to know of a synthesised bark texture (``barkgen evaluate OUT --photo P``)
 - :func:`sharpness_ratio` and :func:`colour_distance`: as sharp as the photo, the same colours;
 - from a reference map: :func:`largest_copy` (the largest piece pasted whole),
   :func:`seam_mask`, :func:`longest_seam` (the longest straight border between pieces),
-  :func:`border_step_ratio` (how visible the borders are in an image or map) and
-  :func:`border_distance`;
+  :func:`border_step_ratio` (how visible the borders are in an image or map),
+  :func:`border_distance` and :func:`stacked_pieces` (borders that stack two pieces of one
+  photo column or row, so the photo's straight edges there run on);
 - from the pixels alone: :func:`longest_line`, the longest straight line in any image or map,
   and :func:`wrap_step_ratio`, how visible a tiling image's border is when it repeats;
 - :func:`evaluate` and :func:`evaluate_folder`: all of them at once, as an :class:`Evaluation`.
@@ -36,6 +37,7 @@ from barkgen.evaluate.seams import (
     piece_borders,
     piece_labels,
     seam_mask,
+    stacked_pieces,
 )
 
 __all__ = [
@@ -61,5 +63,6 @@ __all__ = [
     "read_folder",
     "seam_mask",
     "sharpness_ratio",
+    "stacked_pieces",
     "wrap_step_ratio",
 ]

@@ -128,6 +128,29 @@ def longest_seam(
     return max(longest_run(across_rows, wrap=tile), longest_run(across_cols.T, wrap=tile))
 
 
+def stacked_pieces(
+    references: np.ndarray, *, tile: bool = False, exemplar_wrap: tuple[int, int] | None = None
+) -> tuple[int, int]:
+    """``(stacked, borders)``: of the neighbour pairs on a border between copied pieces
+    (:func:`piece_borders`), how many stack two pieces of one photo column (one pixel above the
+    other, both copying the same column of the photo, its rows jumping) or of one photo row (side
+    by side, the same row, its columns jumping), and how many there are in all.
+
+    A stacked border continues whatever straight edge the photo has along that column or row
+    across it: the photo's own line, copied twice, becomes one twice as long. Parameters as
+    :func:`piece_borders`.
+    """
+    ry, rx = _check_references(references)
+    ph, pw = exemplar_wrap if exemplar_wrap else (None, None)
+    borders = piece_borders(references, tile=tile, exemplar_wrap=exemplar_wrap)
+    stacked = 0
+    for axis, (along, period) in enumerate(((rx, pw), (ry, ph))):
+        # across rows (axis 0) the column must stay; across columns the row
+        step = np.roll(along, -1, axis) - along if tile else np.diff(along, axis=axis)
+        stacked += int(np.count_nonzero(borders[axis] & (_gap(step, period) == 0)))
+    return stacked, int(borders[0].sum() + borders[1].sum())
+
+
 def piece_labels(
     references: np.ndarray, *, tile: bool = False, exemplar_wrap: tuple[int, int] | None = None
 ) -> np.ndarray:

@@ -35,15 +35,21 @@ SCREENING = 1e-3
 #: ``blend`` settings of the colour: ``gradient`` (:func:`blend_seams`) or ``none`` (the exact copy)
 BLEND_MODES = ("none", "gradient")
 
-#: the colour's seam blending leaves alone the part of a step between two pieces up to this share
-#: of the photo's own mean step along that axis (:func:`blend_seams`). Measured on the ten shared
-#: photos (256^2 -> 1024^2 tiled, texeval): 0 / 0.5 took the completeness median 0.020 -> 0.018
-#: and peeling's border step ratio 1.08 -> 1.22 (the plain copy's is 1.91)
-BLEND_THRESHOLD = 0.5
+#: the colour's seam blend leaves alone the part of a step between two pieces up to this share of
+#: the step the piece itself takes there, plus BLEND_FLOOR of the photo's mean step
+#: (:func:`excess_steps`)
+BLEND_THRESHOLD = 0.75
+
+#: see BLEND_THRESHOLD
+BLEND_FLOOR = 0.1
 
 #: screening of the seam blend's correction: only a safeguard (every correction touches the pixels
 #: kept as they are, which anchor it), far below the 1-4 of a pixel's own neighbours
 BLEND_ANCHOR = 1e-2
+
+#: weight of a step across a border in the colour's seam blend against 1 for the steps beside it:
+#: the border's own step is kept closer to the photo's, the steps beside it take more of the ramp
+BORDER_WEIGHT = 2.0
 
 #: the farthest (px) from a border the colour's seam blend reaches: a step of 2 x MAX_REACH of
 #: the photo's own steps and more is spread over that width
@@ -153,29 +159,37 @@ def check_blend(mode: str) -> str:
     return mode
 
 
-def seam_mismatches(
-    plain: np.ndarray, source: np.ndarray, references: np.ndarray, canvas: Canvas
+def _length(vectors: np.ndarray) -> np.ndarray:
+    """``(H, W)``: the length of each ``(H, W, C)`` vector."""
+    return np.sqrt(np.einsum("...c,...c->...", vectors, vectors))
+
+
+def excess_steps(
+    plain: np.ndarray, source: np.ndarray, references: np.ndarray, canvas: Canvas, *, threshold: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """``(dy, dx)``, each ``(H, W, C)`` float64: how far each step of the copied map ``plain``
-    down and to the right is from the step its piece would take there (:func:`carried_gradients`):
-    zero inside a piece, the mismatch of two pieces across their border; zero on the steps
-    across the output's edges when the ``canvas`` does not tile."""
-    gy, gx = carried_gradients(source, references, _exemplar_wrap(canvas))
-    mismatches = []
-    for axis, carried in ((0, gy), (1, gx)):
-        d = np.roll(plain, -1, axis=axis) - plain - carried
+    """``(dy, dx)``, each ``(H, W, C)`` float64: by how much each step of the copied map
+    ``plain`` down and to the right goes beyond a step the photo could have taken there.
+
+    The mismatch is the step less the one its piece would take (:func:`carried_gradients`):
+    zero inside a piece, the two pieces' difference across their border (none across the
+    output's edges when the ``canvas`` does not tile). Of it, what is shorter than ``threshold``
+    times the length of the piece's own step there plus :data:`BLEND_FLOOR` of the photo's mean
+    step along that axis is left (a step the photo could have taken; short in a smooth part
+    of the photo, long on an edge); the rest is the excess.
+    """
+    wrap = _exemplar_wrap(canvas)
+    carried = carried_gradients(source, references, wrap)
+    own = exemplar_steps(source, wrap)
+    excess = []
+    for axis in (0, 1):
+        g = carried[axis]
+        d = np.roll(plain, -1, axis=axis) - plain - g
         if not canvas.tile:
             d[(slice(None),) * axis + (-1,)] = 0.0
-        mismatches.append(d)
-    return mismatches[0], mismatches[1]
-
-
-def _shrink(mismatch: np.ndarray, threshold: float) -> np.ndarray:
-    """The ``(H, W, C)`` mismatch less ``threshold`` in length (to zero where it is shorter)."""
-    if threshold <= 0.0:
-        return mismatch
-    length = np.sqrt(np.einsum("...c,...c->...", mismatch, mismatch))[..., None]
-    return mismatch * np.maximum(0.0, 1.0 - threshold / np.maximum(length, 1e-12))
+        allowed = threshold * _length(g) + BLEND_FLOOR * float(np.mean(_length(own[axis])))
+        length = _length(d)
+        excess.append(d * np.maximum(0.0, 1.0 - allowed / np.maximum(length, 1e-12))[..., None])
+    return excess[0], excess[1]
 
 
 def correction_region(reach: np.ndarray, tile: bool) -> np.ndarray:
@@ -195,14 +209,21 @@ def correction_region(reach: np.ndarray, tile: bool) -> np.ndarray:
 
 
 def seam_correction(
-    dy: np.ndarray, dx: np.ndarray, region: np.ndarray, tile: bool, *, anchor: float = BLEND_ANCHOR
+    dy: np.ndarray,
+    dx: np.ndarray,
+    region: np.ndarray,
+    tile: bool,
+    *,
+    border_weight: float = BORDER_WEIGHT,
+    anchor: float = BLEND_ANCHOR,
 ) -> np.ndarray:
     """The ``(H, W, C)`` correction ``c`` that takes the mismatches ``(dy, dx)`` out of the steps,
     on the pixels of the ``region`` (:func:`correction_region`) only, every other pixel held at 0:
 
-        minimise  sum_steps (c_q - c_p + d_pq)^2 + anchor * sum c^2  over the region,
+        minimise  sum_steps w_pq (c_q - c_p + d_pq)^2 + anchor * sum c^2  over the region,
 
-    a screened Poisson equation on bands along the seams with a Dirichlet border (Pérez et al.
+    ``w`` being ``border_weight`` on a step with a mismatch (across a border) and 1 elsewhere: a
+    screened Poisson equation on bands along the seams with a Dirichlet border (Pérez et al.
     2003's seamless cloning, its region the seams), solved by conjugate gradients (scipy).
     """
     import scipy.sparse as sparse
@@ -214,6 +235,33 @@ def seam_correction(
     n = int(free.sum())
     if n == 0:
         return correction
+    index = np.full((H, W), -1, np.int64)
+    index[free] = np.arange(n)
+    degree = np.full((H, W), anchor)
+    rhs = np.zeros((H, W, C))
+    rows, cols, weights = [], [], []
+    for axis, d in ((0, dy), (1, dx)):
+        # the weight of the step from each pixel to the next along the axis (none off the edge)
+        w = np.where(np.any(d != 0.0, axis=-1), border_weight, 1.0)
+        if not tile:
+            w[(slice(None),) * axis + (-1,)] = 0.0
+        degree += w + np.roll(w, 1, axis=axis)
+        wd = w[..., None] * d  # d_pq pulls c_p up and c_q down
+        rhs += wd - np.roll(wd, 1, axis=axis)
+        pair = free & np.roll(free, -1, axis=axis) & (w > 0.0)
+        rows.append(index[pair])
+        cols.append(np.roll(index, -1, axis=axis)[pair])
+        weights.append(w[pair])
+    i, j, w = np.concatenate(rows), np.concatenate(cols), np.concatenate(weights)
+    off = sparse.coo_matrix((-np.concatenate([w, w]), (np.concatenate([i, j]), np.concatenate([j, i]))), shape=(n, n))
+    diagonal = degree[free]
+    system = (off + sparse.diags(diagonal)).tocsr()
+    preconditioner = sparse.diags(1.0 / diagonal)
+    solved = np.empty((n, C))
+    for c in range(C):
+        solved[:, c], _ = sparse_linalg.cg(system, rhs[free][:, c], M=preconditioner, rtol=1e-6, atol=1e-4, maxiter=200)
+    correction[free] = solved
+    return correction
     index = np.full((H, W), -1, np.int64)
     index[free] = np.arange(n)
     degree = np.full((H, W), 4.0)
@@ -249,12 +297,13 @@ def blend_seams(
 
     The copy of every pixel's reference keeps whatever low-frequency mismatch two pieces have
     (light falloff, a shadow, a colour cast) as a step at their border. Each step between two
-    pieces is compared with the step its piece would take there (:func:`seam_mismatches`); of
-    the mismatch, the part beyond ``threshold`` times the photo's mean step along that axis is
-    taken out, on the two pixels either side of the border only (:func:`seam_correction`:
-    Pérez et al. 2003's cloning on the seams, as Kwatra et al. 2003 suggest for the seams a cut
-    leaves). Every other pixel stays the photo's own, so the patches of the photo stay whole in
-    the output, and the colour does not drift. Same dtype and shape; integer maps are rounded
+    pieces is compared with the step its piece would take there; what goes beyond a step the
+    photo could have taken (:func:`excess_steps`, ``threshold``) is taken out, on the pixels
+    beside the border only: the two either side, more for a larger excess
+    (:data:`SPREAD_STEPS`), by :func:`seam_correction` (Pérez et al. 2003's cloning on the
+    seams, as Kwatra et al. 2003 suggest for the seams a cut leaves). Every other pixel stays
+    the photo's own, so the patches of the photo stay whole in the output, and the colour does
+    not drift. Same dtype and shape; integer maps are rounded
     and clipped to their range, float maps in [0, 1] stay in it.
 
     References
@@ -266,10 +315,8 @@ def blend_seams(
     refs = np.asarray(references)
     s3 = src[:, :, None] if src.ndim == 2 else src
     plain = s3.astype(np.float64)[refs[..., 0], refs[..., 1]]
-    dy, dx = seam_mismatches(plain, s3, refs, canvas)
-    sy, sx = exemplar_steps(s3, _exemplar_wrap(canvas))
-    own_steps = [float(np.mean(np.sqrt(np.einsum("...c,...c->...", s, s)))) for s in (sy, sx)]
-    dy, dx = _shrink(dy, threshold * own_steps[0]), _shrink(dx, threshold * own_steps[1])
+    dy, dx = excess_steps(plain, s3, refs, canvas, threshold=threshold)
+    own_steps = [float(np.mean(_length(s))) for s in exemplar_steps(s3, _exemplar_wrap(canvas))]
     reach = _reach(dy, dx, own_steps)
     u = plain + seam_correction(dy, dx, correction_region(reach, canvas.tile), canvas.tile)
     out = _as_source_dtype(u, src)
@@ -282,7 +329,7 @@ def _reach(dy: np.ndarray, dx: np.ndarray, own_steps: list[float]) -> np.ndarray
     its axis (``own_steps``) is spread over about ``k / SPREAD_STEPS`` steps, half either side."""
     reach = np.zeros(dy.shape[:2], np.int64)
     for axis, d, own in ((0, dy, own_steps[0]), (1, dx, own_steps[1])):
-        length = np.sqrt(np.einsum("...c,...c->...", d, d))
+        length = _length(d)
         steps = length / (SPREAD_STEPS * max(own, 1e-12))
         r = np.clip(np.ceil((steps - 1.0) / 2.0), 0, MAX_REACH - 1).astype(np.int64) + 1
         r[length == 0.0] = 0
