@@ -163,9 +163,10 @@ def test_label_fidelity_and_sharpness_on_bark(bark_case):
     # measured: 0.91 of the classifier's own accuracy on the exemplar, 0.86 balanced
     assert fidelity["ratio"] >= 0.9
     assert fidelity["balanced"] >= 0.85
-    # the seams' colour steps blended away cost some sharpness on this label map of small
-    # blocks (dense seams): measured 0.86
-    assert 0.85 <= evaluate.sharpness_ratio(smart, ex) <= 1.1
+    # the seams' colour steps beyond the photo's own taken out cost some sharpness on this label
+    # map of small blocks (dense seams): measured 0.85, 0.96 copied exactly (the steps at the
+    # seams made it look sharper; the pieces themselves are smoother than the photo)
+    assert 0.84 <= evaluate.sharpness_ratio(smart, ex) <= 1.1
     unguided = synthesize(ex, 512, seed=0).image
     assert label_fidelity(ex, a, unguided, b)["ratio"] < fidelity["ratio"] - 0.15  # measured 0.59
     # coherence: a label map of small flipped blocks costs much of it (measured 3.9 against the

@@ -43,6 +43,12 @@ BLEND_THRESHOLD = 0.75
 #: see BLEND_THRESHOLD
 BLEND_FLOOR = 0.1
 
+#: over-relaxation factor of the seam blend's Gauss-Seidel sweeps, its stop (the largest change
+#: of a sweep, a share of the photo's mean step) and its most sweeps
+RELAXATION = 1.5
+RELAXATION_TOLERANCE = 1e-3
+MAX_SWEEPS = 500
+
 #: screening of the seam blend's correction: only a safeguard (every correction touches the pixels
 #: kept as they are, which anchor it), far below the 1-4 of a pixel's own neighbours
 BLEND_ANCHOR = 1e-2
@@ -164,34 +170,6 @@ def _length(vectors: np.ndarray) -> np.ndarray:
     return np.sqrt(np.einsum("...c,...c->...", vectors, vectors))
 
 
-def excess_steps(
-    plain: np.ndarray, source: np.ndarray, references: np.ndarray, canvas: Canvas, *, threshold: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """``(dy, dx)``, each ``(H, W, C)`` float64: by how much each step of the copied map
-    ``plain`` down and to the right goes beyond a step the photo could have taken there.
-
-    The mismatch is the step less the one its piece would take (:func:`carried_gradients`):
-    zero inside a piece, the two pieces' difference across their border (none across the
-    output's edges when the ``canvas`` does not tile). Of it, what is shorter than ``threshold``
-    times the length of the piece's own step there plus :data:`BLEND_FLOOR` of the photo's mean
-    step along that axis is left (a step the photo could have taken; short in a smooth part
-    of the photo, long on an edge); the rest is the excess.
-    """
-    wrap = _exemplar_wrap(canvas)
-    carried = carried_gradients(source, references, wrap)
-    own = exemplar_steps(source, wrap)
-    excess = []
-    for axis in (0, 1):
-        g = carried[axis]
-        d = np.roll(plain, -1, axis=axis) - plain - g
-        if not canvas.tile:
-            d[(slice(None),) * axis + (-1,)] = 0.0
-        allowed = threshold * _length(g) + BLEND_FLOOR * float(np.mean(_length(own[axis])))
-        length = _length(d)
-        excess.append(d * np.maximum(0.0, 1.0 - allowed / np.maximum(length, 1e-12))[..., None])
-    return excess[0], excess[1]
-
-
 def correction_region(reach: np.ndarray, tile: bool) -> np.ndarray:
     """``(H, W)`` bool: the pixels closer than ``reach`` px (Euclidean) to a pixel of that
     ``reach`` (an ``(H, W)`` int array, 0: no seam there), the pixels with a reach included;
@@ -208,89 +186,13 @@ def correction_region(reach: np.ndarray, tile: bool) -> np.ndarray:
     return region
 
 
-def seam_correction(
-    dy: np.ndarray,
-    dx: np.ndarray,
-    region: np.ndarray,
-    tile: bool,
-    *,
-    border_weight: float = BORDER_WEIGHT,
-    anchor: float = BLEND_ANCHOR,
-) -> np.ndarray:
-    """The ``(H, W, C)`` correction ``c`` that takes the mismatches ``(dy, dx)`` out of the steps,
-    on the pixels of the ``region`` (:func:`correction_region`) only, every other pixel held at 0:
-
-        minimise  sum_steps w_pq (c_q - c_p + d_pq)^2 + anchor * sum c^2  over the region,
-
-    ``w`` being ``border_weight`` on a step with a mismatch (across a border) and 1 elsewhere: a
-    screened Poisson equation on bands along the seams with a Dirichlet border (Pérez et al.
-    2003's seamless cloning, its region the seams), solved by conjugate gradients (scipy).
-    """
-    import scipy.sparse as sparse
-    import scipy.sparse.linalg as sparse_linalg
-
-    H, W, C = dy.shape
-    free = region
-    correction = np.zeros((H, W, C))
-    n = int(free.sum())
-    if n == 0:
-        return correction
-    index = np.full((H, W), -1, np.int64)
-    index[free] = np.arange(n)
-    degree = np.full((H, W), anchor)
-    rhs = np.zeros((H, W, C))
-    rows, cols, weights = [], [], []
-    for axis, d in ((0, dy), (1, dx)):
-        # the weight of the step from each pixel to the next along the axis (none off the edge)
-        w = np.where(np.any(d != 0.0, axis=-1), border_weight, 1.0)
-        if not tile:
-            w[(slice(None),) * axis + (-1,)] = 0.0
-        degree += w + np.roll(w, 1, axis=axis)
-        wd = w[..., None] * d  # d_pq pulls c_p up and c_q down
-        rhs += wd - np.roll(wd, 1, axis=axis)
-        pair = free & np.roll(free, -1, axis=axis) & (w > 0.0)
-        rows.append(index[pair])
-        cols.append(np.roll(index, -1, axis=axis)[pair])
-        weights.append(w[pair])
-    i, j, w = np.concatenate(rows), np.concatenate(cols), np.concatenate(weights)
-    off = sparse.coo_matrix((-np.concatenate([w, w]), (np.concatenate([i, j]), np.concatenate([j, i]))), shape=(n, n))
-    diagonal = degree[free]
-    system = (off + sparse.diags(diagonal)).tocsr()
-    preconditioner = sparse.diags(1.0 / diagonal)
-    solved = np.empty((n, C))
-    for c in range(C):
-        solved[:, c], _ = sparse_linalg.cg(system, rhs[free][:, c], M=preconditioner, rtol=1e-6, atol=1e-4, maxiter=200)
-    correction[free] = solved
-    return correction
-    index = np.full((H, W), -1, np.int64)
-    index[free] = np.arange(n)
-    degree = np.full((H, W), 4.0)
-    if not tile:  # the pixels on the output's edges have fewer neighbours
-        degree[[0, -1], :] -= 1.0
-        degree[:, [0, -1]] -= 1.0
-    rows, cols = [], []
-    for axis in (0, 1):
-        pair = free & np.roll(free, -1, axis=axis)
-        if not tile:
-            pair[(slice(None),) * axis + (-1,)] = False
-        rows.append(index[pair])
-        cols.append(np.roll(index, -1, axis=axis)[pair])
-    i, j = np.concatenate(rows), np.concatenate(cols)
-    off = sparse.coo_matrix((-np.ones(2 * i.size), (np.concatenate([i, j]), np.concatenate([j, i]))), shape=(n, n))
-    diagonal = degree[free] + anchor
-    system = (off + sparse.diags(diagonal)).tocsr()
-    # d_pq pulls c_p up and c_q down: the divergence of the mismatches
-    rhs = (dy - np.roll(dy, 1, axis=0) + dx - np.roll(dx, 1, axis=1))[free]
-    preconditioner = sparse.diags(1.0 / diagonal)
-    solved = np.empty((n, C))
-    for c in range(C):
-        solved[:, c], _ = sparse_linalg.cg(system, rhs[:, c], M=preconditioner, rtol=1e-6, atol=1e-4, maxiter=200)
-    correction[free] = solved
-    return correction
-
-
 def blend_seams(
-    source: np.ndarray, references: np.ndarray, canvas: Canvas, *, threshold: float = BLEND_THRESHOLD
+    source: np.ndarray,
+    references: np.ndarray,
+    canvas: Canvas,
+    *,
+    threshold: float = BLEND_THRESHOLD,
+    border_weight: float = BORDER_WEIGHT,
 ) -> np.ndarray:
     """The colour (or any local map) of the exemplar through a reference map, the steps between
     copied pieces corrected where they are larger than the photo's own.
@@ -298,10 +200,13 @@ def blend_seams(
     The copy of every pixel's reference keeps whatever low-frequency mismatch two pieces have
     (light falloff, a shadow, a colour cast) as a step at their border. Each step between two
     pieces is compared with the step its piece would take there; what goes beyond a step the
-    photo could have taken (:func:`excess_steps`, ``threshold``) is taken out, on the pixels
-    beside the border only: the two either side, more for a larger excess
-    (:data:`SPREAD_STEPS`), by :func:`seam_correction` (Pérez et al. 2003's cloning on the
-    seams, as Kwatra et al. 2003 suggest for the seams a cut leaves). Every other pixel stays
+    photo could have taken there (``threshold`` times that step plus :data:`BLEND_FLOOR` of the
+    photo's mean step) is taken out, on the pixels beside the border only: the two either side,
+    more for a larger excess (:data:`SPREAD_STEPS`, :func:`correction_region`). The correction
+    minimises ``sum_steps w (c_q - c_p + e_pq)^2`` (``e`` the excess, ``w`` ``border_weight``
+    on a step across a border, 1 beside it) with every other pixel held: Pérez et al. 2003's
+    cloning on the seams, as Kwatra et al. 2003 suggest for the seams a cut leaves, by
+    red-black over-relaxation (numba). Every other pixel stays
     the photo's own, so the patches of the photo stay whole in the output, and the colour does
     not drift. Same dtype and shape; integer maps are rounded
     and clipped to their range, float maps in [0, 1] stay in it.
@@ -311,30 +216,61 @@ def blend_seams(
     .. [1] perez2003 (Poisson image editing, seamless cloning).
     .. [2] kwatra2003, §3 (gradient-domain blending of residual seams).
     """
+    from barkgen.synth.seams import _blend_kernels as K
+
     src = np.asarray(source)
-    refs = np.asarray(references)
+    refs = np.ascontiguousarray(references, dtype=np.int32)
     s3 = src[:, :, None] if src.ndim == 2 else src
-    plain = s3.astype(np.float64)[refs[..., 0], refs[..., 1]]
-    dy, dx = excess_steps(plain, s3, refs, canvas, threshold=threshold)
-    own_steps = [float(np.mean(_length(s))) for s in exemplar_steps(s3, _exemplar_wrap(canvas))]
-    reach = _reach(dy, dx, own_steps)
-    u = plain + seam_correction(dy, dx, correction_region(reach, canvas.tile), canvas.tile)
-    out = _as_source_dtype(u, src)
+    exemplar = np.ascontiguousarray(s3, dtype=np.float64)
+    wrap = _exemplar_wrap(canvas)
+    mean_steps = [float(np.mean(_length(s))) for s in exemplar_steps(exemplar, wrap)]
+    H, W = refs.shape[:2]
+    excess = (np.empty((H, W, s3.shape[2]), np.float32), np.empty((H, W, s3.shape[2]), np.float32))
+    reach_y, reach_x = np.empty((H, W), np.int32), np.empty((H, W), np.int32)
+    limits = (
+        float(threshold),
+        BLEND_FLOOR * mean_steps[0],
+        BLEND_FLOOR * mean_steps[1],
+        SPREAD_STEPS * max(mean_steps[0], 1e-12),
+        SPREAD_STEPS * max(mean_steps[1], 1e-12),
+        MAX_REACH,
+    )
+    K.excess_steps(exemplar, refs, (bool(wrap[0]), bool(wrap[1]), bool(canvas.tile)), limits, *excess, reach_y, reach_x)
+    # a pixel's reach: the farthest of its four steps' (the steps off an untiled output's last
+    # row and column have none, so the rolls bring none round)
+    reach = np.maximum(
+        np.maximum(reach_y, np.roll(reach_y, 1, axis=0)), np.maximum(reach_x, np.roll(reach_x, 1, axis=1))
+    )
+    out = s3[refs[..., 0], refs[..., 1]]
+    free = correction_region(reach, canvas.tile)
+    if free.any():
+        ys, xs, colour_start = _red_black(free, canvas.tile)
+        index = np.full((H, W), -1, np.int32)
+        index[ys, xs] = np.arange(ys.size, dtype=np.int32)
+        correction = np.zeros((ys.size, s3.shape[2]))
+        settings = (bool(canvas.tile), float(border_weight), BLEND_ANCHOR, RELAXATION)
+        stop = (RELAXATION_TOLERANCE * max(min(mean_steps), 1e-12), MAX_SWEEPS)
+        K.relax_band(correction, (ys, xs, colour_start), index, excess, settings, stop)
+        out[ys, xs] = _as_source_dtype(out[ys, xs].astype(np.float64) + correction, src)
     return out[:, :, 0] if src.ndim == 2 else out
 
 
-def _reach(dy: np.ndarray, dx: np.ndarray, own_steps: list[float]) -> np.ndarray:
-    """``(H, W)`` int: how far (px) the correction of the mismatches ``(dy, dx)`` reaches from
-    each pixel (0: not beside a mismatch): a mismatch of ``k`` of the photo's mean steps along
-    its axis (``own_steps``) is spread over about ``k / SPREAD_STEPS`` steps, half either side."""
-    reach = np.zeros(dy.shape[:2], np.int64)
-    for axis, d, own in ((0, dy, own_steps[0]), (1, dx, own_steps[1])):
-        length = _length(d)
-        steps = length / (SPREAD_STEPS * max(own, 1e-12))
-        r = np.clip(np.ceil((steps - 1.0) / 2.0), 0, MAX_REACH - 1).astype(np.int64) + 1
-        r[length == 0.0] = 0
-        reach = np.maximum(reach, np.maximum(r, np.roll(r, 1, axis=axis)))
-    return reach
+def _red_black(free: np.ndarray, tile: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(ys, xs, colour_start)``: the ``free`` pixels, red (``y + x`` even) first, then black,
+    then those of neither (``colour_start[2]`` on): on a tiled output of an odd side, the last
+    column or row, whose wrap-round neighbour has its own colour."""
+    H, W = free.shape
+    yy, xx = np.nonzero(free)
+    neither = np.zeros(yy.size, bool)
+    if tile and W % 2:
+        neither |= xx == W - 1
+    if tile and H % 2:
+        neither |= yy == H - 1
+    colour = np.where(neither, 2, (yy + xx) % 2)
+    order = np.argsort(colour, kind="stable")
+    counts = np.bincount(colour, minlength=3)
+    colour_start = np.array([0, counts[0], counts[0] + counts[1]], np.int64)
+    return yy[order].astype(np.int64), xx[order].astype(np.int64), colour_start
 
 
 def _as_source_dtype(u: np.ndarray, src: np.ndarray) -> np.ndarray:
