@@ -11,7 +11,9 @@ numbers: L1 of the turning-angle and thickness histograms, 0 = equal, 2 = disjoi
 not recorded as a merge, counted on the torus; free ends per megapixel, grown over the photo's);
 coherence (:func:`barkgen.evaluate.coherence`) over that of the core engine's plain tileable synthesis of the same photo, size
 and seed in the same run (the ratio the branching issue measured at 3.2-12.8x for fragment
-renders); the material's mean height in the cracks over outside (below 0: cracks are low).
+renders); the material's mean height in the cracks over outside (below 0: cracks are low); the
+crack share: of the new network's pixels, those filled with crack pixels of the photo (its label
+map's, through the reference map).
 With ``--render``: the fragment render (sibbing2010 §5) of the same grown network, untiled (it
 has no torus), and its coherence ratio beside.
 
@@ -98,6 +100,10 @@ def run_cracks(path: Path, size: int, seed: int, render: bool) -> dict:
         "free_ends_ratio": cmp.target_free_end_density / max(cmp.source_free_end_density, 1e-9),
         "coherence_ratio": coherence(result.texture, photo, wrap=True) / plain,
         "crack_height": float((height[crack].mean() - height[~crack].mean()) / max(float(height.std()), 1e-9)),
+        # the new network's pixels filled with crack pixels of the photo (its label map's)
+        "crack_share": float(
+            np.mean(result.labels_in[result.references[..., 0], result.references[..., 1]][crack] == 0)
+        ),
     }
     if render:
         from barkgen.branching import render_branches
@@ -154,7 +160,8 @@ def main() -> None:
         print(f"cracks, tiled, {size}x{size}, seed {args.seed}")
         print(
             f"{'image':28} {'s':>6} {'seam':>6} {'angle L1':>8} {'thick L1':>8} {'cross':>5} "
-            f"{'free ends':>9} {'coh/plain':>9} {'crack h':>8}" + ("  render coh/plain" if args.render else "")
+            f"{'free ends':>9} {'coh/plain':>9} {'crack h':>8} {'share':>6}"
+            + ("  render coh/plain" if args.render else "")
         )
         for path in chosen(CRACKS):
             r = run_cracks(path, size, args.seed, args.render)
@@ -162,7 +169,7 @@ def main() -> None:
             print(
                 f"{r['image']:28} {r['seconds']:6.1f} {r['seam_ratio']:6.3f} {r['angle_l1']:8.3f} "
                 f"{r['thickness_l1']:8.3f} {r['crossings']:5d} {r['free_ends_ratio']:8.2f}x "
-                f"{r['coherence_ratio']:8.2f}x {r['crack_height']:+8.2f}"
+                f"{r['coherence_ratio']:8.2f}x {r['crack_height']:+8.2f} {100 * r['crack_share']:5.1f}%"
                 + (f"  {r['render_coherence_ratio']:.2f}x" if args.render else ""),
                 flush=True,
             )
