@@ -497,7 +497,7 @@ def test_no_line_in_any_map_of_a_tiled_material_set(sample256):
 def test_colour_steps_little_more_across_seams_on_a_lit_structured_photo():
     """The plated pine (plates parted by dark fissures, lit from one side): with the seams
     blended the colour steps no more across the borders between pieces than inside them;
-    copied exactly it steps at least 1.2x as much as blended. The references are the same."""
+    copied exactly it steps at least 1.3x as much as blended. The references are the same."""
     from conftest import bark_exemplar
 
     photo = bark_exemplar("pine_plated_01", 192)
@@ -506,9 +506,9 @@ def test_colour_steps_little_more_across_seams_on_a_lit_structured_photo():
     assert np.array_equal(blended.references, exact.references)
     ratio = evaluate.border_step_ratio(blended.image, blended.references)
     before = evaluate.border_step_ratio(exact.image, exact.references)
-    # measured 0.96 blended, 1.22 copied exactly (the blend leaves the part of each step up to
-    # half the photo's own mean step)
-    assert ratio <= 1.0 and before >= 1.2 * ratio, (ratio, before)
+    # measured 0.84 blended, 1.22 copied exactly (the blend leaves the part of each step the photo
+    # could have taken there)
+    assert ratio <= 1.0 and before >= 1.3 * ratio, (ratio, before)
 
 
 def _two_pieces(photo: np.ndarray, row_shift: int, column_jump: int) -> np.ndarray:

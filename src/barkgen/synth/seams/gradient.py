@@ -35,9 +35,11 @@ SCREENING = 1e-3
 #: ``blend`` settings of the colour: ``gradient`` (:func:`blend_seams`) or ``none`` (the exact copy)
 BLEND_MODES = ("none", "gradient")
 
-#: the colour's seam blend leaves alone the part of a step between two pieces up to this share of
-#: the step the piece itself takes there, plus BLEND_FLOOR of the photo's mean step
-#: (:func:`excess_steps`)
+#: the colour's seam blend (:func:`blend_seams`) leaves alone the part of a step between two
+#: pieces up to this share of the step the piece itself takes there, plus BLEND_FLOOR of the
+#: photo's mean step. Measured on the ten shared photos (256^2 -> 1024^2 tiled, texeval, the
+#: same references): 0.5 / 0.75 took the completeness median 0.0205 -> 0.019 and the border
+#: step ratio of the peeling crop's synthesis (512^2 -> 1024^2) 1.16 -> 1.22 (copied exactly: 2.96)
 BLEND_THRESHOLD = 0.75
 
 #: see BLEND_THRESHOLD
@@ -206,10 +208,9 @@ def blend_seams(
     minimises ``sum_steps w (c_q - c_p + e_pq)^2`` (``e`` the excess, ``w`` ``border_weight``
     on a step across a border, 1 beside it) with every other pixel held: Pérez et al. 2003's
     cloning on the seams, as Kwatra et al. 2003 suggest for the seams a cut leaves, by
-    red-black over-relaxation (numba). Every other pixel stays
-    the photo's own, so the patches of the photo stay whole in the output, and the colour does
-    not drift. Same dtype and shape; integer maps are rounded
-    and clipped to their range, float maps in [0, 1] stay in it.
+    red-black over-relaxation (numba). Every other pixel stays the photo's own, so the patches
+    of the photo stay whole in the output, and the colour does not drift. Same dtype and shape;
+    integer maps are rounded and clipped to their range, float maps in [0, 1] stay in it.
 
     References
     ----------
