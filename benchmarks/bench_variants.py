@@ -13,7 +13,9 @@ coherence (:func:`barkgen.evaluate.coherence`) over that of the core engine's pl
 and seed in the same run (the ratio the branching issue measured at 3.2-12.8x for fragment
 renders); the material's mean height in the cracks over outside (below 0: cracks are low); the
 crack share: of the new network's pixels, those filled with crack pixels of the photo (its label
-map's, through the reference map).
+map's, through the reference map, :func:`barkgen.evaluate.label_share`) and how the copied
+cracks run against the new network's (:func:`barkgen.evaluate.direction_agreement`: 1 parallel,
+0 unrelated).
 With ``--render``: the fragment render (sibbing2010 §5) of the same grown network, untiled (it
 has no torus), and its coherence ratio beside.
 
@@ -75,7 +77,7 @@ def material_steps(result, exemplar_shape) -> dict[str, float]:
 
 def run_cracks(path: Path, size: int, seed: int, render: bool) -> dict:
     from barkgen.branching import compare_structures, extract_structure, self_intersections
-    from barkgen.evaluate import coherence, wrap_step_ratio
+    from barkgen.evaluate import coherence, direction_agreement, label_share, wrap_step_ratio
     from barkgen.io import read_image
     from barkgen.pipeline import GenerateOptions, analyze_photo, generate
 
@@ -101,9 +103,9 @@ def run_cracks(path: Path, size: int, seed: int, render: bool) -> dict:
         "coherence_ratio": coherence(result.texture, photo, wrap=True) / plain,
         "crack_height": float((height[crack].mean() - height[~crack].mean()) / max(float(height.std()), 1e-9)),
         # the new network's pixels filled with crack pixels of the photo (its label map's)
-        "crack_share": float(
-            np.mean(result.labels_in[result.references[..., 0], result.references[..., 1]][crack] == 0)
-        ),
+        "crack_share": label_share(result.labels_in, result.labels_out, result.references, 0),
+        # the copied cracks run the way the new network's do (1: parallel, 0: unrelated)
+        "crack_direction": direction_agreement(result.labels_in, result.labels_out, result.references, 0, tile=True),
     }
     if render:
         from barkgen.branching import render_branches
@@ -160,7 +162,7 @@ def main() -> None:
         print(f"cracks, tiled, {size}x{size}, seed {args.seed}")
         print(
             f"{'image':28} {'s':>6} {'seam':>6} {'angle L1':>8} {'thick L1':>8} {'cross':>5} "
-            f"{'free ends':>9} {'coh/plain':>9} {'crack h':>8} {'share':>6}"
+            f"{'free ends':>9} {'coh/plain':>9} {'crack h':>8} {'share':>6} {'dir':>5}"
             + ("  render coh/plain" if args.render else "")
         )
         for path in chosen(CRACKS):
@@ -169,7 +171,7 @@ def main() -> None:
             print(
                 f"{r['image']:28} {r['seconds']:6.1f} {r['seam_ratio']:6.3f} {r['angle_l1']:8.3f} "
                 f"{r['thickness_l1']:8.3f} {r['crossings']:5d} {r['free_ends_ratio']:8.2f}x "
-                f"{r['coherence_ratio']:8.2f}x {r['crack_height']:+8.2f} {100 * r['crack_share']:5.1f}%"
+                f"{r['coherence_ratio']:8.2f}x {r['crack_height']:+8.2f} {100 * r['crack_share']:5.1f}% {r['crack_direction']:5.2f}"
                 + (f"  {r['render_coherence_ratio']:.2f}x" if args.render else ""),
                 flush=True,
             )

@@ -11,7 +11,14 @@ import pytest
 
 from barkgen import Canvas
 from barkgen.errors import InvalidInputError
-from barkgen.synth.guides.channels import boundary_distance, encode_label_maps, label_pyramid
+from barkgen.pyramid import gaussian_pyramid
+from barkgen.synth.guides.channels import (
+    boundary_distance,
+    encode_label_maps,
+    label_pyramid,
+    thin_codes,
+    thin_label_channels,
+)
 from barkgen.synth.guides.initialization import random_initialization, smart_initialization
 
 
@@ -56,6 +63,33 @@ def test_label_pyramid_keeps_the_majority():
     assert [lv.shape for lv in levels] == [(16, 16), (8, 8), (4, 4)]
     assert (levels[1][:, :4] == 0).all() and (levels[1][:, 6:] == 1).all()
     assert (levels[2][:, 0] == 0).all() and (levels[2][:, 3] == 1).all()
+
+
+def test_a_thin_line_keeps_its_place_and_direction_where_the_label_pyramid_loses_it():
+    """A 1 px line vanishes from the label pyramid's coarse levels; its proximity channel
+    still peaks on it there, and its direction channels say horizontal (-1, 0) or vertical
+    (1, 0) as the doubled angle, round the map's wrap."""
+    codes = np.zeros((64, 64), np.int32)
+    codes[20, :] = 1  # a horizontal line
+    codes[:, 45] = 1  # a vertical one
+    thin = np.array([1], np.int32)
+    channels = thin_label_channels(codes, thin)
+    assert channels.shape == (64, 64, 3) and channels.dtype == np.float32
+    assert channels[20, 5, 0] == pytest.approx(1.0) and channels[22, 5, 0] == pytest.approx(np.exp(-1.0), abs=0.02)
+    assert channels[20, 5, 1] < -0.9 and abs(channels[20, 5, 2]) < 0.1
+    assert channels[50, 45, 1] > 0.9 and abs(channels[50, 45, 2]) < 0.1
+    assert label_pyramid(codes, 2, 4)[3].max() == 0  # the lines are lost to the majority vote
+    coarse = gaussian_pyramid(channels, 4)[3]
+    assert int(np.argmax(coarse[:, 0, 0])) in (2, 3) and coarse[:, 0, 0].max() > 2 * np.median(coarse[:, 0, 0])
+    # round the wrap: a line on row 0 is near the last row
+    edge = np.zeros((32, 32), np.int32)
+    edge[0] = 1
+    assert thin_label_channels(edge, thin, wrap=True)[31, 9, 0] == pytest.approx(np.exp(-0.5), abs=0.02)
+    assert thin_label_channels(edge, thin)[31, 9, 0] < 1e-5
+    palette = encode_label_maps(np.array([[0, 255]], np.uint8), np.array([[0]], np.uint8)).palette
+    assert list(thin_codes(palette, [255])) == [1]
+    with pytest.raises(InvalidInputError, match="thin label 7 is not a label"):
+        thin_codes(palette, [7])
 
 
 def test_boundary_distance_is_close_to_euclidean():

@@ -10,6 +10,9 @@ wants to know of a synthesised bark texture (``barkgen evaluate OUT --photo P``)
   :func:`border_step_ratio` (how visible the borders are in an image or map),
   :func:`border_distance` and :func:`stacked_pieces` (borders that stack two pieces of one
   photo column or row, so the photo's straight edges there run on);
+- from a reference map and both label maps: :func:`label_share` (a label's pixels filled from
+  that label of the photo) and :func:`direction_agreement` (copied thin lines, a crack
+  network's, run the way the target's do);
 - from the pixels alone: :func:`longest_line`, the longest straight line in any image or map,
   and :func:`wrap_step_ratio`, how visible a tiling image's border is when it repeats;
 - :func:`evaluate` and :func:`evaluate_folder`: all of them at once, as an :class:`Evaluation`.
@@ -17,6 +20,7 @@ wants to know of a synthesised bark texture (``barkgen evaluate OUT --photo P``)
 The guide is ``docs/guide/evaluate.md``.
 """
 
+from barkgen.evaluate.labels import direction_agreement, label_share
 from barkgen.evaluate.lines import line_mask, longest_line, wrap_step_ratio
 from barkgen.evaluate.patches import (
     as_lab,
@@ -49,9 +53,11 @@ __all__ = [
     "coherence",
     "colour_distance",
     "completeness",
+    "direction_agreement",
     "evaluate",
     "evaluate_folder",
     "gradient_energy",
+    "label_share",
     "largest_copy",
     "line_mask",
     "longest_line",

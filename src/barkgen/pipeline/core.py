@@ -434,6 +434,7 @@ def _texture_stage(run: Run, analysis: PhotoAnalysis, source: np.ndarray, labels
         label_weight=options.label_weight,
         feature_weight=options.feature_weight,
         init="smart" if references is None else (references, level),
+        thin_labels=() if along else run.structure.thin_labels,
         extra=extra,
         config=config,
         canvas=run.canvas,

@@ -112,6 +112,9 @@ class PhotoLabels:
     """``structure="labels"``: the photo's label map, and an output label map synthesized from
     it by ``options.strategy`` (:func:`barkgen.shapes.synthesize_label_map`, laitoch2018 §3.6)."""
 
+    #: no label is a thin line: texture-by-numbers matches the labels' areas only
+    thin_labels: tuple = ()
+
     def exemplar(self, photo: np.ndarray, labels_in: np.ndarray | None, cracks: Any = None) -> Exemplar:
         """The photo as it is, with the user's label map if any."""
         return Exemplar(photo, labels_in)
@@ -155,7 +158,11 @@ class PhotoLabels:
 class Cracks:
     """``structure="cracks"``: the photo's crack network is extracted (sibbing2010 §3), its
     statistics fitted (§4.1) and a new network grown at the output size (§4.2-4.5), on the
-    torus when the output tiles; its raster is the output label map."""
+    torus when the output tiles; its raster is the output label map, its lines matched at
+    every level by their proximity and direction too (``thin_labels``)."""
+
+    #: the crack label is a 1-3 px line: texture-by-numbers matches its proximity and direction
+    thin_labels = (CRACK_VALUE,)
 
     def exemplar(self, photo: np.ndarray, labels_in: np.ndarray | None, cracks: Any = None) -> Exemplar:
         """The crack network's statistics (learned from ``cracks``, the user's edited network,

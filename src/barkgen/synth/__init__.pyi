@@ -31,6 +31,7 @@ from barkgen.synth.guides.channels import MAX_LABELS as MAX_LABELS
 from barkgen.synth.guides.channels import guide_channels as guide_channels
 from barkgen.synth.guides.channels import label_pyramid as label_pyramid
 from barkgen.synth.guides.channels import level_guide as level_guide
+from barkgen.synth.guides.channels import thin_label_channels as thin_label_channels
 from barkgen.synth.guides.guidance import Guidance as Guidance
 from barkgen.synth.guides.initialization import smart_initialization as smart_initialization
 from barkgen.synth.seams.cuts import cut_straight_seams as cut_straight_seams

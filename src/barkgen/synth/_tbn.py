@@ -21,7 +21,7 @@ Nothing is averaged: outputs are resolved from references, so they are as sharp 
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -36,12 +36,15 @@ from barkgen.synth._edges import resolve_exemplar_wrap
 from barkgen.synth._setup import Front, SolveSetup, extra_inputs, set_up, validate_inputs
 from barkgen.synth._solver import DebugCallback, SynthesisResult
 from barkgen.synth.guides.channels import (
+    THIN_LABEL_WEIGHT,
     LabelMaps,
     boundary_distance,
     encode_label_maps,
     guide_channels,
     label_pyramid,
     level_guide,
+    thin_codes,
+    thin_label_channels,
 )
 from barkgen.synth.guides.guidance import Guidance
 from barkgen.synth.guides.initialization import random_initialization, smart_initialization
@@ -106,6 +109,7 @@ def texture_by_numbers(
     label_weight: float = 20.0,
     feature_weight: float = 8.0,
     init: str | np.ndarray | tuple[np.ndarray, int] = "smart",
+    thin_labels: Sequence = (),
     extra: Mapping[str, np.ndarray] | None = None,
     config: SynthesisConfig | None = None,
     canvas: Canvas | None = None,
@@ -137,6 +141,12 @@ def texture_by_numbers(
         at pyramid level :data:`REFERENCE_START_LEVEL`, or a pair ``(references, level)`` that
         says the level (0 = finest; the coarsest when the pyramid is shorter): the solver
         refines it there and below.
+    thin_labels : sequence of label values, optional
+        Labels drawn as thin lines, 1-3 px wide (a crack network's raster): each pyramid level
+        also matches their proximity and direction
+        (:func:`~barkgen.synth.guides.channels.thin_label_channels`, weighted
+        :data:`~barkgen.synth.guides.channels.THIN_LABEL_WEIGHT` of a label mismatch), which
+        survive the down-sampling that loses the lines themselves. Not along a flow field.
     extra : mapping of str to ndarray, optional
         Named maps aligned with the exemplar (height, ...), synthesized along.
     config : SynthesisConfig, optional
@@ -181,6 +191,9 @@ def texture_by_numbers(
     target = _check_arguments(target_labels, init, label_weight, feature_weight)
     canvas = _target_canvas(canvas, target)
     budget = budget or Budget()
+    thin_labels = tuple(thin_labels)
+    if canvas.along and thin_labels:
+        raise InvalidInputError("thin_labels are not matched along a flow field; leave them out there")
     if canvas.along:
         return along_flow(
             exemplar,
@@ -196,25 +209,28 @@ def texture_by_numbers(
     config = config or TBN_CONFIG
     front = _LabelFront(exemplar_labels, target, feature_weight)
     setup = set_up(exemplar, extra, config, canvas, budget, front=front)
-    guidance, start = _guidance(front, setup, label_weight, init)
+    guidance, start = _guidance(front, setup, label_weight, init, thin_labels)
     return setup.solve(guidance=guidance, start=start)
 
 
-def _guidance(front: _LabelFront, setup: SolveSetup, label_weight: float, init) -> tuple[Guidance, Any]:
+def _guidance(
+    front: _LabelFront, setup: SolveSetup, label_weight: float, init, thin_labels: tuple = ()
+) -> tuple[Guidance, Any]:
     """The solver's guide from both label maps (laitoch2018 eq. 3.2's label channels and their
-    pyramids) and the start a given ``init`` makes (else None; §3.4)."""
+    pyramids, and the ``thin_labels``' proximity and direction) and the start a given ``init``
+    makes (else None; §3.4)."""
     labels, colour_variance = front.labels, front.colour_variance
     assert labels is not None  # set_up checked the exemplar: front.check encoded the maps
     wrap, n_levels, tile, debug = setup.wrap, setup.inputs.n_levels, setup.canvas.tile, setup.budget.debug
     # a pixel whose soft label differs completely costs label_weight x the colour variance
+    scale = np.sqrt(label_weight * colour_variance / 2.0)
     guide_a, guide_b = guide_channels(
-        labels.exemplar,
-        labels.target,
-        labels.n_labels,
-        np.sqrt(label_weight * colour_variance / 2.0),
-        exemplar_wrap=wrap,
-        target_wrap=tile,
+        labels.exemplar, labels.target, labels.n_labels, scale, exemplar_wrap=wrap, target_wrap=tile
     )
+    if thin_labels:
+        thin, weight = thin_codes(labels.palette, thin_labels), np.float32(THIN_LABEL_WEIGHT * scale)
+        guide_a = np.concatenate([guide_a, thin_label_channels(labels.exemplar, thin, wrap=wrap) * weight], axis=2)
+        guide_b = np.concatenate([guide_b, thin_label_channels(labels.target, thin, wrap=tile) * weight], axis=2)
     pyr_a = label_pyramid(labels.exemplar, labels.n_labels, n_levels)
     pyr_b = label_pyramid(labels.target, labels.n_labels, n_levels)
     guides = [level_guide(a, b, labels.n_labels) for a, b in zip(pyr_a, pyr_b)]
