@@ -224,6 +224,11 @@ def test_tbn_writes_output_reference_and_debug_images(tmp_path, tbn_files):
         == 0
     )
     assert again.read_bytes() == out.read_bytes()
+    # the dark label as a thin label: matched by its proximity and direction too, so other bytes
+    thin = tmp_path / "thin.png"
+    args = ["tbn", str(d / "ex.png"), "--labels", str(d / "a.png"), "--target", str(d / "b.png")]
+    assert run(*args, "-o", str(thin), "--seed", "2", "--init", "random", "--thin-label", "0", "-q").returncode == 0
+    assert read_image(thin).shape == (48, 48, 3) and thin.read_bytes() != out.read_bytes()
 
 
 def _bad_tbn_inputs(d: Path, tmp: Path) -> dict[str, list[str]]:
@@ -242,6 +247,8 @@ def _bad_tbn_inputs(d: Path, tmp: Path) -> dict[str, list[str]]:
         "missing target": [ex, "--labels", a, "--target", str(tmp / "nope.png")],
         "bad init": [ex, "--labels", a, "--target", b, "--init", "clever"],
         "negative weight": [ex, "--labels", a, "--target", b, "--label-weight", "-1"],
+        "thin label absent": [ex, "--labels", a, "--target", b, "--thin-label", "77"],
+        "thin label not a value": [ex, "--labels", a, "--target", b, "--thin-label", "dark"],
     }
 
 
@@ -255,6 +262,8 @@ def _bad_tbn_inputs(d: Path, tmp: Path) -> dict[str, list[str]]:
         "missing target",
         "bad init",
         "negative weight",
+        "thin label absent",
+        "thin label not a value",
     ],
 )
 def test_tbn_bad_input_one_line_exit_2_no_output(tmp_path, tbn_files, case):

@@ -92,6 +92,14 @@ def tbn_command(
     target: Annotated[Path, typer.Option("--target", help="Label map of the wanted output; sets the output size.")],
     output: OutputOption = Path("barkgen.png"),
     init: Annotated[str, typer.Option("--init", help="Initialisation: smart or random.")] = "smart",
+    thin_label: Annotated[
+        Optional[list[str]],
+        typer.Option(
+            "--thin-label",
+            help="A label drawn as thin lines, 1-3 px (a crack network's): matched by its proximity "
+            "and direction at every level too. Its grey value or r,g,b; repeat for more.",
+        ),
+    ] = None,
     *,
     label_weight: float,
     feature_weight: float,
@@ -121,6 +129,7 @@ def tbn_command(
     from barkgen.synth import Budget, Canvas, texture_by_numbers
 
     extra_paths = parse_extras(extra)
+    thin_labels = [_label_value(v) for v in thin_label or ()]
     _check_outputs(output, save_reference, bits, extra_paths)
     if debug_dir is not None:
         check_folder(debug_dir, "--debug-dir")
@@ -139,6 +148,7 @@ def tbn_command(
             label_weight=label_weight,
             feature_weight=feature_weight,
             init=init,
+            thin_labels=thin_labels,
             extra=extras,
             config=config,
             canvas=Canvas(
@@ -147,6 +157,16 @@ def tbn_command(
             budget=Budget(seed=seed, progress=progress, debug=_debug_writer(debug_dir)),
         )
     _write_result(result, output, bits, save_reference, quiet)
+
+
+def _label_value(text: str) -> int | tuple[int, ...]:
+    """A label's value as ``--thin-label`` gives it: a grey value (``0``) or a colour
+    (``200,10,10``)."""
+    parts = [p.strip() for p in text.split(",")]
+    if len(parts) not in (1, 3) or not all(p.isdigit() for p in parts):
+        raise InvalidInputError(f"--thin-label must be a grey value or r,g,b, not {text!r}")
+    values = tuple(int(p) for p in parts)
+    return values[0] if len(values) == 1 else values
 
 
 def _with_edges(image, label_map, target_map, width: int, tile: bool, exemplar_wraps: str):
