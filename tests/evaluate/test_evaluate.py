@@ -344,3 +344,17 @@ def test_stacked_pieces_count_the_borders_that_continue_a_photo_column():
     # round the torus: the last row against the first (the same columns) and the last column
     # against the first (the same rows, 10 columns back) stack too
     assert stacked_pieces(stacked, tile=True) == (40, 40)
+
+
+def test_grid_step_ratio_sees_a_grid_of_cells_and_not_an_even_image():
+    from barkgen.evaluate import grid_step_ratio
+
+    rng = np.random.default_rng(0)
+    noise = rng.integers(60, 200, (256, 256, 3)).astype(np.uint8)
+    assert 0.9 < grid_step_ratio(noise, 64, tile=True) < 1.1
+    cells = np.repeat(np.repeat(rng.integers(0, 255, (4, 4, 3)), 64, axis=0), 64, axis=1).astype(np.uint8)
+    smooth = np.clip(cells.astype(int) + rng.integers(-3, 4, cells.shape), 0, 255).astype(np.uint8)
+    assert grid_step_ratio(smooth, 64, tile=True) > 5
+    assert grid_step_ratio(smooth, 64) > 5  # the three inner boundaries per axis, no wrap
+    with pytest.raises(InvalidInputError, match="no larger than one 300 px cell"):
+        grid_step_ratio(noise, 300)

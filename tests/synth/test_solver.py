@@ -133,10 +133,10 @@ def _level(synthetic_exemplar, config):
 def _context(la, config, rng, tile, seam_channels):
     """Level 1 of 2 of a 40x48 output (20x24 at that level), unguided."""
     from barkgen.synth import Canvas, SolverInputs
-    from barkgen.synth._solver import _level_context
+    from barkgen.synth._level import level_context
 
     inputs = SolverInputs(np.zeros((1, 1, 1)), np.zeros((1, 1, 1), np.float32), 2, config, seam_channels=seam_channels)
-    return _level_context(la, 1, inputs, Canvas((40, 48), tile=tile), rng, None)
+    return level_context(la, 1, inputs, Canvas((40, 48), tile=tile), rng, None)
 
 
 def test_a_level_context_carries_the_level_and_cannot_be_changed(synthetic_exemplar):
@@ -144,7 +144,7 @@ def test_a_level_context_carries_the_level_and_cannot_be_changed(synthetic_exemp
     seam image is the level's first ``seam_channels`` feature channels as an image; it is frozen."""
     import dataclasses
 
-    from barkgen.synth._solver import LevelContext
+    from barkgen.synth._level import LevelContext
 
     config = SynthesisConfig(coarsest_exemplar=8)
     levels = _level(synthetic_exemplar, config)
@@ -164,12 +164,12 @@ def test_a_level_context_carries_the_level_and_cannot_be_changed(synthetic_exemp
 def test_the_coarsest_state_draws_from_the_contexts_generator(synthetic_exemplar):
     """Unguided, the coarsest level starts from references drawn uniformly over the level's
     exemplar by the solve's one generator (so the same seed gives the same start)."""
-    from barkgen.synth._solver import _initial_state
+    from barkgen.synth._level import initial_state
 
     config = SynthesisConfig(coarsest_exemplar=8)
     la = _level(synthetic_exemplar, config)[1]
     ctx = _context(la, config, np.random.default_rng(5), False, None)
-    refs = _initial_state(ctx, None)
+    refs = initial_state(ctx, None)
     expected = np.random.default_rng(5).integers(0, la.height * la.width, size=(20, 24), dtype=np.int32)
     assert refs.dtype == np.int32 and np.array_equal(refs, expected)
     assert ctx.seam_image.shape[2] == la.features.shape[1]  # seam_channels None: all channels

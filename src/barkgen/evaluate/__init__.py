@@ -14,14 +14,15 @@ wants to know of a synthesised bark texture (``barkgen evaluate OUT --photo P``)
   that label of the photo) and :func:`direction_agreement` (copied thin lines, a crack
   network's, run the way the target's do);
 - from the pixels alone: :func:`longest_line`, the longest straight line in any image or map,
-  and :func:`wrap_step_ratio`, how visible a tiling image's border is when it repeats;
+  :func:`wrap_step_ratio`, how visible a tiling image's border is when it repeats, and
+  :func:`grid_step_ratio`, how visible a grid of windows or tiles is;
 - :func:`evaluate` and :func:`evaluate_folder`: all of them at once, as an :class:`Evaluation`.
 
 The guide is ``docs/guide/evaluate.md``.
 """
 
 from barkgen.evaluate.labels import direction_agreement, label_share
-from barkgen.evaluate.lines import line_mask, longest_line, wrap_step_ratio
+from barkgen.evaluate.lines import grid_step_ratio, line_mask, longest_line, wrap_step_ratio
 from barkgen.evaluate.patches import (
     as_lab,
     coherence,
@@ -57,6 +58,7 @@ __all__ = [
     "evaluate",
     "evaluate_folder",
     "gradient_energy",
+    "grid_step_ratio",
     "label_share",
     "largest_copy",
     "line_mask",

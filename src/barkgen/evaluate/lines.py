@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
+from barkgen.errors import InvalidInputError
 from barkgen.evaluate.patches import as_lab, as_unit_image
 from barkgen.evaluate.seams import longest_run
 
@@ -134,3 +135,29 @@ def wrap_step_ratio(image: np.ndarray) -> float:
         across.append(np.sqrt(np.sum(edge**2, axis=2)).ravel())
         inside.append(steps.ravel())
     return float(np.concatenate(across).mean() / max(float(np.concatenate(inside).mean()), 1e-12))
+
+
+def grid_step_ratio(image: np.ndarray, side: int, *, tile: bool = False) -> float:
+    """How visible a grid of ``side`` px cells is in an image (the windows a large output was
+    solved in, the tiles of a UDIM row laid side by side): the mean step (as
+    :func:`wrap_step_ratio` measures it) across the boundaries between cells, every ``side``-th
+    row and column, over the mean step across every other boundary between neighbouring rows
+    and columns. ``tile``: the image wraps round, so its last row and column border its first.
+
+    1 means the cells meet as seamlessly as the image's own pixels; 1.25 and more shows the grid.
+    """
+    img = as_unit_image(image)
+    if img.shape[2] == 3:
+        img = as_lab(image).astype(np.float64)
+    on_grid, off_grid = [], []
+    for axis in (0, 1):
+        nxt = np.roll(img, -1, axis=axis) if tile else np.delete(img, 0, axis=axis)
+        cur = img if tile else np.delete(img, -1, axis=axis)
+        steps = np.sqrt(np.sum((nxt - cur) ** 2, axis=2)).mean(axis=1 - axis)
+        border = np.arange(len(steps)) % side == side - 1
+        on_grid.append(steps[border])
+        off_grid.append(steps[~border])
+    grid = np.concatenate(on_grid)
+    if grid.size == 0:
+        raise InvalidInputError(f"the image is no larger than one {side} px cell: no boundary to measure")
+    return float(grid.mean() / max(float(np.concatenate(off_grid).mean()), 1e-12))

@@ -15,14 +15,14 @@ from barkgen.synth._flow import FLOW_SCALE_RANGE as FLOW_SCALE_RANGE
 from barkgen.synth._flow import OrientedExemplar as OrientedExemplar
 from barkgen.synth._flow import check_flow as check_flow
 from barkgen.synth._flow import orient_exemplar as orient_exemplar
+from barkgen.synth._level import SolverInputs as SolverInputs
+from barkgen.synth._level import upsample_references as upsample_references
 from barkgen.synth._links import OutputLinks as OutputLinks
 from barkgen.synth._occurrence import LabelBalance as LabelBalance
 from barkgen.synth._setup import estimate_memory as estimate_memory
 from barkgen.synth._solver import DebugCallback as DebugCallback
-from barkgen.synth._solver import SolverInputs as SolverInputs
 from barkgen.synth._solver import SynthesisResult as SynthesisResult
 from barkgen.synth._solver import solve as solve
-from barkgen.synth._solver import upsample_references as upsample_references
 from barkgen.synth._synthesize import apply_references as apply_references
 from barkgen.synth._synthesize import synthesize as synthesize
 from barkgen.synth._tbn import analyse_texture_by_numbers as analyse_texture_by_numbers

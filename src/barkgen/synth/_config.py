@@ -76,6 +76,10 @@ class SynthesisConfig:
     max_memory
         refuse jobs whose estimated peak memory exceeds this many bytes (None: what the
         machine has free when the job starts).
+    window
+        levels larger than a window of this side (px) plus its halo are solved window by
+        window, each core with a frozen halo of its neighbours (:mod:`barkgen.synth._windows`);
+        0: every level whole.
     """
 
     k: int = option(6, "Size of each k-coherence set (Tong 2002).", kind=int, minimum=1, maximum=32, fronts=())
@@ -139,6 +143,9 @@ class SynthesisConfig:
         fronts=("cli",),
     )
     threads: int | None = option(None, "Worker threads (default: all cores).", kind=int, minimum=1, fronts=("cli",))
+    window: int = option(
+        0, "Side, px, of the windows large levels are solved in; 0: whole.", kind=int, minimum=0, fronts=()
+    )
     max_memory: int | None = option(
         None,
         "Refuse jobs estimated to need more memory than this, e.g. 8G (default: what the machine has free).",
@@ -164,6 +171,8 @@ class SynthesisConfig:
                     raise InvalidInputError(f"{name}: iterations must be >= 0")
         if not 1 <= self.vote_radius <= 7:
             raise InvalidInputError("vote_radius must be between 1 and 7")
+        if self.window != 0 and self.window < 64:
+            raise InvalidInputError(f"window must be 0 (whole levels) or at least 64 px, not {self.window}")
         for name in ("kset_cost", "occurrence_weight", "jitter", "extra_weight"):
             if getattr(self, name) < 0:
                 raise InvalidInputError(f"{name} must be >= 0")

@@ -20,7 +20,8 @@ from barkgen.pyramid import count_levels
 from barkgen.synth._analysis import AnalysisCache, matching_features
 from barkgen.synth._config import SynthesisConfig
 from barkgen.synth._edges import resolve_exemplar_wrap
-from barkgen.synth._solver import SolverInputs, SynthesisResult, solve
+from barkgen.synth._level import SolverInputs
+from barkgen.synth._solver import SynthesisResult, solve
 
 #: smallest exemplar side accepted
 MIN_EXEMPLAR_SIDE = 16

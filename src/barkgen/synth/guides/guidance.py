@@ -105,7 +105,7 @@ def level_guidance(
 def enforce_labels(refs: np.ndarray, ctx, passes: int) -> np.ndarray:
     r"""Texture-by-numbers' label clean-up after the finest level
     (``guides._kernels.enforce_labels``), at most ``passes`` passes; ``ctx``: the solver's level
-    (:class:`barkgen.synth._solver.LevelContext`: its exemplar ``analysis.grid``, its ``guide``
+    (:class:`barkgen.synth._level.LevelContext`: its exemplar ``analysis.grid``, its ``guide``
     and whether it ``tile``\ s)."""
     import barkgen.synth.guides._kernels as K
 

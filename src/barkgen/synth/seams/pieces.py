@@ -48,7 +48,7 @@ def limit_copies(refs: np.ndarray, ctx, forbid: np.ndarray) -> int:
     through each one's centroid, so the next iterations cut it in up to four. The band's two
     lines meander (random phase and period per piece, drawn from the solve's generator):
     straight, they would leave two straight seams, which the seam cuts would close again.
-    ``ctx``: the solver's level (:class:`barkgen.synth._solver.LevelContext`: its analysis,
+    ``ctx``: the solver's level (:class:`barkgen.synth._level.LevelContext`: its analysis,
     config, generator and tile). Returns the number of regions cut.
 
     The discrete solver left alone grows whole-exemplar copies wherever nothing stops coherence
@@ -168,16 +168,22 @@ def roll_state(refs: np.ndarray, forbid: np.ndarray, shift: tuple[int, int]) -> 
     """Toroidal shift of the output state; forbidden offsets are re-expressed for the pixels'
     new positions."""
     H, W = refs.shape
-    dy, dx = offset_parts(forbid)
-    ys = np.arange(H)[:, None]
-    xs = np.arange(W)[None, :]
+    ys, xs = np.arange(H), np.arange(W)
     # an offset is relative to the position; after the shift the position is (y + sy) mod H
-    moved = offset_codes(dy - ((ys + shift[0]) % H - ys), dx - ((xs + shift[1]) % W - xs))
-    moved = np.where(forbid >= 0, moved, -1)
+    moved = moved_offsets(forbid, (ys + shift[0]) % H - ys, (xs + shift[1]) % W - xs)
     return (
         np.ascontiguousarray(np.roll(refs, shift, axis=(0, 1))),
         np.ascontiguousarray(np.roll(moved, shift, axis=(0, 1))),
     )
+
+
+def moved_offsets(forbid: np.ndarray, row_moves: np.ndarray, col_moves: np.ndarray) -> np.ndarray:
+    """Forbidden offset codes (reference - position; -1: none) re-expressed for pixels whose
+    row moves by ``row_moves[i]`` (one per row) and column by ``col_moves[j]`` (one per column):
+    the same exemplar pixel, seen from the new position."""
+    dy, dx = offset_parts(forbid)
+    moved = offset_codes(dy - np.asarray(row_moves)[:, None], dx - np.asarray(col_moves)[None, :])
+    return np.where(forbid >= 0, moved, -1)
 
 
 def cut_seams(refs: np.ndarray, ctx, min_run: int) -> np.ndarray:

@@ -1,0 +1,97 @@
+"""Benchmark of the windowed fine levels (issue 69): tileable synthesis of the bundled sample,
+solved whole and window by window (``SynthesisConfig(window=...)``), each in a process of its
+own so its peak memory is its own.
+
+    .venv/bin/python benchmarks/bench_windows.py [--sizes 2048 4096] [--window 1024] [--seed 0]
+                                                 [--quick] [--json F]
+
+Per size and mode: seconds of the synthesis, the process's peak resident memory, coherence
+(:func:`barkgen.evaluate.coherence`, over the wrap) of the output's top-left 1024² crop against
+the photo, the longest straight seam between copied pieces (:func:`barkgen.evaluate.longest_seam`),
+the colour's step ratio across the pieces' borders (:func:`barkgen.evaluate.border_step_ratio`)
+and across the window cores' borders over the steps elsewhere
+(:func:`barkgen.evaluate.grid_step_ratio`: 1 = no trace of the windows).
+``--quick``: 1024² with 256 px windows.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+
+def run_case(size: int, window: int, seed: int, trace: int) -> dict:
+    """One synthesis in this process: its figures (``trace``: the window side whose borders are
+    measured, the same for the whole solve)."""
+    from barkgen.data import sample_exemplar_path
+    from barkgen.evaluate import border_step_ratio, coherence, grid_step_ratio, longest_seam
+    from barkgen.io import read_image
+    from barkgen.synth import SynthesisConfig, synthesize
+
+    photo = read_image(sample_exemplar_path())
+    t0 = time.perf_counter()
+    result = synthesize(photo, size, tile=True, seed=seed, config=SynthesisConfig(window=window))
+    seconds = time.perf_counter() - t0
+    image = result.image
+    crop = min(size, 1024)
+    return {
+        "size": size,
+        "window": window,
+        "seconds": round(seconds, 2),
+        "peak_mib": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
+        "coherence": coherence(image[:crop, :crop], photo, wrap=crop == size),
+        "longest_seam": longest_seam(
+            result.references,
+            tile=True,
+            exemplar_wrap=tuple(side if wraps else 0 for side, wraps in zip(photo.shape[:2], result.exemplar_wrap)),
+        ),
+        "step_ratio": border_step_ratio(image.astype(np.float32), result.references, tile=True),
+        "window_border_step": grid_step_ratio(image, trace, tile=True),
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--sizes", type=int, nargs="+", default=[2048, 4096])
+    parser.add_argument("--window", type=int, default=1024)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--json")
+    parser.add_argument("--case", nargs=3, type=int, help=argparse.SUPPRESS)  # size window trace: one run
+    args = parser.parse_args()
+    if args.case:
+        print(json.dumps(run_case(*args.case[:2], args.seed, args.case[2])))
+        return
+    sizes, window = ([1024], 256) if args.quick else (args.sizes, args.window)
+    rows = []
+    print(f"tileable synthesis of the bundled sample, seed {args.seed}, windows of {window} px")
+    print(f"{'size':>6} {'mode':>9} {'s':>7} {'peak MiB':>9} {'coh':>6} {'seam':>5} {'step':>6} {'win step':>8}")
+    for size in sizes:
+        for mode, w in (("whole", 0), ("windowed", window)):
+            cmd = [sys.executable, __file__, "--case", str(size), str(w), str(window), "--seed", str(args.seed)]
+            out = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
+            r = json.loads(out.strip().splitlines()[-1])
+            rows.append({"mode": mode, **r})
+            print(
+                f"{size:6d} {mode:>9} {r['seconds']:7.1f} {r['peak_mib']:9.0f} {r['coherence']:6.3f} "
+                f"{r['longest_seam']:5d} {r['step_ratio']:6.3f} {r['window_border_step']:8.3f}",
+                flush=True,
+            )
+        whole, windowed = rows[-2], rows[-1]
+        print(
+            f"{'':6} {'ratio':>9} {windowed['seconds'] / whole['seconds']:7.2f}x "
+            f"{windowed['peak_mib'] / whole['peak_mib']:8.2f}x {windowed['coherence'] / whole['coherence']:5.2f}x"
+        )
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(rows, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()
