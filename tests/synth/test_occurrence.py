@@ -24,6 +24,19 @@ def test_even_use_costs_nothing_overuse_costs_and_unused_regions_are_favoured():
     assert np.all(occurrence_penalty(crowded, level, 0.0, 1) == 0)  # weight 0: no cost at all
 
 
+def test_a_window_is_costed_as_part_of_its_level():
+    """A window's cost with the rest of the level's use given (``outside``) is the whole level's
+    cost; on its own the window would look under-used and get bonuses instead."""
+    level = _level(16, 16)
+    rng = np.random.default_rng(0)
+    refs = rng.integers(0, 256, (64, 64), dtype=np.int32)
+    window = refs[:24, :24]
+    rest = np.bincount(refs.ravel(), minlength=256) - np.bincount(window.ravel(), minlength=256)
+    whole = occurrence_penalty(refs, level, 1.0, 1)
+    assert np.allclose(occurrence_penalty(window, level, 1.0, 1, outside=(rest.astype(np.float32), refs.size)), whole)
+    assert not np.allclose(occurrence_penalty(window, level, 1.0, 1), whole)
+
+
 def test_a_label_the_target_does_not_want_gets_neither_cost_nor_bonus():
     level = _level(8, 8)
     expected = np.ones(64, np.float32)

@@ -73,6 +73,10 @@ class LevelContext:
     frozen
         ``(mask, references)``: pixels that keep those references whatever the steps do (a
         window's halo, :mod:`barkgen.synth._windows`), or None.
+    outside
+        for a window of a level, how often the rest of the level references each exemplar
+        pixel and the level's pixel count (the occurrence cost's,
+        :func:`~barkgen.synth._occurrence.occurrence_penalty`), or None.
     """
 
     analysis: LevelAnalysis
@@ -86,6 +90,7 @@ class LevelContext:
     seam_image: np.ndarray
     links: OutputLinks | None = None
     frozen: tuple[np.ndarray, np.ndarray] | None = None
+    outside: tuple[np.ndarray, int] | None = None
 
     def relink(self, refs: np.ndarray) -> np.ndarray:
         """``refs`` with every linked pixel given its source's reference and every frozen pixel
@@ -297,13 +302,14 @@ def _refine_seams(ctx: LevelContext, refs: np.ndarray, forbid: np.ndarray) -> np
     return refs
 
 
-def move_seams(ctx: LevelContext, refs: np.ndarray, forbid: np.ndarray) -> np.ndarray:
+def move_seams(ctx: LevelContext, refs: np.ndarray, forbid: np.ndarray, *, expansion: bool = True) -> np.ndarray:
     """The level's seams moved onto low-error paths: local sweeps, at the finest level the
-    pieces' expansion moves (:mod:`barkgen.synth.seams.expansion`), and at the finest levels the
-    graph cuts of the straight stretches left (:mod:`barkgen.synth.seams.cuts`)."""
+    pieces' expansion moves (:mod:`barkgen.synth.seams.expansion`; not without ``expansion``),
+    and at the finest levels the graph cuts of the straight stretches left
+    (:mod:`barkgen.synth.seams.cuts`)."""
     la, lvl, config, guide, tile = ctx.analysis, ctx.level, ctx.config, ctx.guide, ctx.tile
     refs = ctx.hold(_refine_seams(ctx, refs, forbid))
-    if config.seam_expansion_band and lvl == 0:
+    if config.seam_expansion_band and lvl == 0 and expansion:
         refs = expand_pieces(
             refs,
             la.grid,
@@ -332,7 +338,7 @@ def solve_level(
     la, lvl, config = ctx.analysis, ctx.level, ctx.config
 
     def occurrence(refs: np.ndarray) -> np.ndarray:
-        cost = occurrence_penalty(refs, la, config.occurrence_weight, 3, ctx.guide.expected)
+        cost = occurrence_penalty(refs, la, config.occurrence_weight, 3, ctx.guide.expected, ctx.outside)
         if balance is not None:
             cost += balance.penalty(refs, lvl, la.scale)
         return cost

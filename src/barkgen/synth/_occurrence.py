@@ -29,19 +29,32 @@ def jitter_references(refs: np.ndarray, level: LevelAnalysis, amplitude: int, rn
 
 
 def occurrence_penalty(
-    refs: np.ndarray, level: LevelAnalysis, weight: float, radius: int, expected_use: np.ndarray | None = None
+    refs: np.ndarray,
+    level: LevelAnalysis,
+    weight: float,
+    radius: int,
+    expected_use: np.ndarray | None = None,
+    outside: tuple[np.ndarray, int] | None = None,
 ) -> np.ndarray:
     """Cost per exemplar pixel from how much more (or less) often its region is referenced than a
     uniform use of the exemplar would give (occurrence map, Kaspar et al. 2015 §5). With a guide,
-    ``expected_use`` gives each exemplar pixel's uniform share (per label)."""
+    ``expected_use`` gives each exemplar pixel's uniform share (per label). ``outside``: when
+    ``refs`` is one window of a level (:mod:`barkgen.synth._windows`), how often the rest of the
+    level references each exemplar pixel and how many pixels the whole level has: the window
+    is costed as part of the level, not as an output of its own."""
     n = level.height * level.width
     if weight <= 0:
         return np.zeros(n, np.float32)
-    counts = np.bincount(refs.ravel(), minlength=n).astype(np.float32).reshape(level.height, level.width)
+    counts = np.bincount(refs.ravel(), minlength=n).astype(np.float32)
+    pixels = refs.size
+    if outside is not None:
+        counts += outside[0]
+        pixels = outside[1]
+    counts = counts.reshape(level.height, level.width)
     k = 2 * radius + 1
     regional = box_blur(counts, k, level.wrap)
     if expected_use is None:
-        expected = max(1.0, refs.size / n)
+        expected = max(1.0, pixels / n)
         # > 0 for regions used more than their share, down to -1 (a bonus) for unused ones: small
         # outputs then still cover the whole exemplar (completeness)
         excess = regional / expected - 1.0

@@ -49,7 +49,7 @@ class Window:
     core: tuple[slice, slice]
 
     @property
-    def target(self) -> tuple[np.ndarray, np.ndarray]:
+    def target(self) -> tuple[np.ndarray, ...]:
         return np.ix_(self.rows[self.core[0]], self.cols[self.core[1]])
 
 
@@ -87,18 +87,16 @@ def is_windowed(ctx: LevelContext) -> bool:
     return bool(side) and min(ctx.shape) > side + 2 * WINDOW_HALO and ctx.links is None
 
 
-def window_guide(guide: LevelGuidance, grid: tuple[np.ndarray, np.ndarray], share: float) -> LevelGuidance:
+def window_guide(guide: LevelGuidance, grid: tuple[np.ndarray, ...]) -> LevelGuidance:
     """A level's texture-by-numbers guide (:class:`LevelGuidance`) for one window: its target
-    labels and guide neighbourhoods read at the window's ``grid``, each exemplar pixel's
-    expected use scaled to the window's ``share`` of the level (the occurrence cost compares
-    the window's own counts with it)."""
+    labels and guide neighbourhoods read at the window's ``grid`` (each exemplar pixel's
+    expected use stays the level's: the window's occurrence cost counts the whole level)."""
     if not guide.guided:
         return guide
     return dataclasses.replace(
         guide,
         target=np.ascontiguousarray(guide.target[grid]),
         guide_out={size: np.ascontiguousarray(channels[grid]) for size, channels in guide.guide_out.items()},
-        expected=None if guide.expected is None else guide.expected * np.float32(share),
     )
 
 
@@ -125,16 +123,26 @@ def solve_windowed_level(
     def solve(window_ctx: LevelContext, local: np.ndarray, local_forbid: np.ndarray) -> np.ndarray:
         return solve_level(window_ctx, local, local_forbid, balance, cleanup_passes, lambda: None)
 
+    # how often the whole level uses each exemplar pixel, kept up to date window by window: each
+    # window's occurrence cost sees the level's use, as a whole solve does
+    n = ctx.analysis.height * ctx.analysis.width
+    counts = np.bincount(refs.ravel(), minlength=n).astype(np.float32)
     for i, window in enumerate(windows):
-        _solve_window(ctx, refs, forbid, window, solve)
+        _solve_window(ctx, refs, forbid, window, solve, counts=counts)
         for _ in range((i + 1) * n_ticks // len(windows) - i * n_ticks // len(windows)):
             tick()
     for window in window_grid(ctx.shape, side, ctx.tile, offset=side // 2):
         near = (_border_distance(window.rows, side)[:, None] < SEAM_BAND) | (
             _border_distance(window.cols, side)[None, :] < SEAM_BAND
         )
-        _solve_window(ctx, refs, forbid, window, move_seams, near)
+        _solve_window(ctx, refs, forbid, window, _recut, near)
     return refs
+
+
+def _recut(ctx: LevelContext, refs: np.ndarray, forbid: np.ndarray) -> np.ndarray:
+    """The second pass's seam moves: the local sweeps and the straight seams' graph cuts (the
+    expansion moves ran in the first pass; the band they could still move is a few pixels)."""
+    return move_seams(ctx, refs, forbid, expansion=False)
 
 
 def _border_distance(positions: np.ndarray, side: int) -> np.ndarray:
@@ -151,12 +159,16 @@ def _solve_window(
     window: Window,
     solve: Callable[[LevelContext, np.ndarray, np.ndarray], np.ndarray],
     free: np.ndarray | None = None,
+    counts: np.ndarray | None = None,
 ) -> None:
     """``solve(window's context, its references, its forbidden offsets)`` on one window of the
     level, its halo frozen (and, given ``free``, every pixel it does not mark); its core
-    written back into ``refs`` and ``forbid``."""
+    written back into ``refs`` and ``forbid``. ``counts``: the level's use of each exemplar
+    pixel, which the window's occurrence cost reads and the new core updates."""
     grid = np.ix_(window.rows, window.cols)
     local = np.ascontiguousarray(refs[grid])
+    n = counts.size if counts is not None else 0
+    outside = None if counts is None else (counts - np.bincount(local.ravel(), minlength=n), refs.size)
     row_moves = np.arange(len(window.rows)) - window.rows
     col_moves = np.arange(len(window.cols)) - window.cols
     local_forbid = np.ascontiguousarray(moved_offsets(forbid[grid], row_moves, col_moves))
@@ -168,9 +180,13 @@ def _solve_window(
         ctx,
         shape=local.shape,
         tile=False,
-        guide=window_guide(ctx.guide, grid, local.size / refs.size),
+        guide=window_guide(ctx.guide, grid),
         frozen=(halo, local.copy()),
+        outside=outside,
     )
     solved = solve(window_ctx, local, local_forbid)
+    if counts is not None:
+        counts += np.bincount(solved[window.core].ravel(), minlength=n)
+        counts -= np.bincount(refs[window.target].ravel(), minlength=n)
     refs[window.target] = solved[window.core]
     forbid[window.target] = moved_offsets(local_forbid, -row_moves, -col_moves)[window.core]
