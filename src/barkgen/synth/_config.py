@@ -77,9 +77,9 @@ class SynthesisConfig:
         refuse jobs whose estimated peak memory exceeds this many bytes (None: what the
         machine has free when the job starts).
     window
-        levels larger than a window of this side (px) plus its halo are solved window by
-        window, each core with a frozen halo of its neighbours (:mod:`barkgen.synth._windows`);
-        0: every level whole.
+        the finest levels larger than a window of this side (px) plus its halo are solved
+        window by window, each core with a frozen halo of its neighbours
+        (:mod:`barkgen.synth._windows`); 0: every level whole.
     """
 
     k: int = option(6, "Size of each k-coherence set (Tong 2002).", kind=int, minimum=1, maximum=32, fronts=())

@@ -32,6 +32,11 @@ from barkgen.synth.seams.pieces import moved_offsets
 #: px of frozen halo round a window's core: the largest neighbourhood's radius (7 for 15x15),
 #: the E-step's vote radius (at most 7) and the M-step's forward shift, with room to spare
 WINDOW_HALO = 16
+#: only this many of the finest levels are ever windowed: the coarser ones lay out the output's
+#: large-scale structure and are solved whole (4096² from the 1024² sample, 512 px windows:
+#: coherence of six 1024² crops 1.18x the whole solve's with its third level windowed too, 1.01x
+#: with 1024 px windows, where only the two finest are)
+WINDOWED_LEVELS = 2
 #: px either side of the first windows' borders that the second, half-shifted windows may move
 #: (twice the band the graph cuts reroute a straight seam in, :data:`barkgen.synth.seams.cuts.BAND`,
 #: so their moves stay clear of its edge)
@@ -80,11 +85,12 @@ def window_grid(
 
 def is_windowed(ctx: LevelContext) -> bool:
     """Whether the level of ``ctx`` is solved window by window: a window is set
-    (``config.window``), the level is larger than a window and its halo on both sides, and no
-    output pixel takes another's references (linked pixels, a texture atlas's gutters, may
-    span the level: such a level is solved whole)."""
+    (``config.window``), the level is one of the :data:`WINDOWED_LEVELS` finest and larger than
+    a window and its halo on both sides, and no output pixel takes another's references
+    (linked pixels, a texture atlas's gutters, may span the level: such a level is solved
+    whole)."""
     side = ctx.config.window
-    return bool(side) and min(ctx.shape) > side + 2 * WINDOW_HALO and ctx.links is None
+    return bool(side) and ctx.level < WINDOWED_LEVELS and min(ctx.shape) > side + 2 * WINDOW_HALO and ctx.links is None
 
 
 def window_guide(guide: LevelGuidance, grid: tuple[np.ndarray, ...]) -> LevelGuidance:
