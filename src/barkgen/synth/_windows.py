@@ -8,7 +8,8 @@ up-sampled to elsewhere; round the torus when the output tiles) and frozen: ever
 level (M-step / E-step iterations, seam sweeps and cuts, expansion moves) runs on the window,
 then the halo's references are put back (:meth:`barkgen.synth._level.LevelContext.hold`), so a
 core continues into its neighbours' pieces as a whole solve would, and only its core is written
-back. The coarse levels, smaller than a window, are solved whole as before.
+back. Only the :data:`WINDOWED_LEVELS` finest levels are windowed; the coarser ones are solved
+whole as before.
 
 The kernels need no change: a window is a small output that does not tile, its neighbourhoods
 clamped at its own edge, which the halo keeps away from the core. Forbidden offsets (reference
@@ -33,9 +34,9 @@ from barkgen.synth.seams.pieces import moved_offsets
 #: the E-step's vote radius (at most 7) and the M-step's forward shift, with room to spare
 WINDOW_HALO = 16
 #: only this many of the finest levels are ever windowed: the coarser ones lay out the output's
-#: large-scale structure and are solved whole (4096² from the 1024² sample, 512 px windows:
-#: coherence of six 1024² crops 1.18x the whole solve's with its third level windowed too, 1.01x
-#: with 1024 px windows, where only the two finest are)
+#: large-scale structure and are solved whole (4096² from the 1024² sample, 512 px windows: the
+#: mean coherence of six 1024² crops 1.18x the whole solve's with the third level windowed too,
+#: 1.00x with the two finest only; 8192², 1024 px windows: 1.28x and 1.03x)
 WINDOWED_LEVELS = 2
 #: px either side of the first windows' borders that the second, half-shifted windows may move
 #: (twice the band the graph cuts reroute a straight seam in, :data:`barkgen.synth.seams.cuts.BAND`,
@@ -119,8 +120,8 @@ def solve_windowed_level(
     moved again (:func:`barkgen.synth._level.move_seams`) in windows shifted by half a window,
     whose cores hold the first windows' borders, so a seam left straight along a frozen border
     is cut like any other: only the pixels within :data:`SEAM_BAND` px of those borders move, so
-    where the second windows' own borders cross that band a straight seam is at most twice
-    as long. ``tick`` is called as often as a whole solve would, spread over the
+    a straight seam along the second windows' own borders, where they cross that band, is at
+    most ``2 * SEAM_BAND`` long. ``tick`` is called as often as a whole solve would, spread over the
     windows. Returns the level's reference map (``refs`` and ``forbid`` are updated in place)."""
     side = ctx.config.window
     n_ticks = sum(it for _, it in ctx.config.schedule_for(ctx.level, ctx.n_levels))
