@@ -37,6 +37,7 @@ from barkgen.pyramid import level_shape
 from barkgen.synth._analysis import AnalysisCache
 from barkgen.synth._edges import map_wraps
 from barkgen.synth._level import (
+    LevelContext,
     SolverInputs,
     initial_state,
     level_context,
@@ -166,6 +167,11 @@ def solve(
         levels = cache.analyse(inputs.features, n_levels, config, progress=tick, wrap=wrap, finest=stop_level)
         t1 = time.perf_counter()
 
+        passes = guidance.cleanup_passes if guidance is not None else 0
+
+        def solve_this(c: LevelContext, r: np.ndarray, f: np.ndarray, t: Callable[[], None]) -> np.ndarray:
+            return solve_level(c, r, f, balance, passes, t)
+
         refs = forbid = None
         for lvl in reversed(range(stop_level, n_levels)):
             la = levels[lvl]
@@ -193,10 +199,11 @@ def solve(
                 coarser = levels[lvl + 1]
                 assert forbid is not None and coarser is not None  # set with refs, on the level above
                 refs, forbid = upsampled_state(ctx, refs, forbid, coarser)
-            solver = solve_windowed_level if is_windowed(ctx) else solve_level
-            refs = solver(
-                ctx, ctx.relink(refs), forbid, balance, guidance.cleanup_passes if guidance is not None else 0, tick
-            )
+            refs = ctx.relink(refs)
+            if is_windowed(ctx):
+                refs = solve_windowed_level(ctx, refs, forbid, solve_this, tick)
+            else:
+                refs = solve_this(ctx, refs, forbid, tick)
             if debug is not None:
                 debug(f"level{lvl}_result", level_image(ex, refs, lvl))
         timings = {"analysis": t1 - t0, "synthesis": time.perf_counter() - t1}

@@ -25,8 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from barkgen.synth._level import LevelContext, move_seams, solve_level
-from barkgen.synth._occurrence import LabelBalance
+from barkgen.synth._level import LevelContext, move_seams
 from barkgen.synth.guides.guidance import LevelGuidance
 from barkgen.synth.seams.pieces import moved_offsets
 
@@ -111,31 +110,33 @@ def solve_windowed_level(
     ctx: LevelContext,
     refs: np.ndarray,
     forbid: np.ndarray,
-    balance: LabelBalance | None,
-    cleanup_passes: int,
+    solve: Callable[[LevelContext, np.ndarray, np.ndarray, Callable[[], None]], np.ndarray],
     tick: Callable[[], None],
 ) -> np.ndarray:
     """The level of ``ctx`` from its starting state, window by window (:func:`window_grid`,
-    each core with its frozen halo) by :func:`barkgen.synth._level.solve_level`; then the seams
+    each core with its frozen halo), by ``solve(context, references, forbidden offsets,
+    tick)``: the whole level's solve (:func:`barkgen.synth._level.solve_level`) run on a
+    window. Then the seams are
     moved again (:func:`barkgen.synth._level.move_seams`) in windows shifted by half a window,
     whose cores hold the first windows' borders, so a seam left straight along a frozen border
     is cut like any other: only the pixels within :data:`SEAM_BAND` px of those borders move, so
     a straight seam along the second windows' own borders, where they cross that band, is at
-    most ``2 * SEAM_BAND`` long. ``tick`` is called as often as a whole solve would, spread over the
-    windows. Returns the level's reference map (``refs`` and ``forbid`` are updated in place)."""
+    most ``2 * SEAM_BAND`` long. ``tick`` is called as often as a whole solve would, spread over
+    the windows. Returns the level's reference map (``refs`` and ``forbid`` are updated in
+    place)."""
     side = ctx.config.window
     n_ticks = sum(it for _, it in ctx.config.schedule_for(ctx.level, ctx.n_levels))
     windows = window_grid(ctx.shape, side, ctx.tile)
 
-    def solve(window_ctx: LevelContext, local: np.ndarray, local_forbid: np.ndarray) -> np.ndarray:
-        return solve_level(window_ctx, local, local_forbid, balance, cleanup_passes, lambda: None)
+    def solve_window(window_ctx: LevelContext, local: np.ndarray, local_forbid: np.ndarray) -> np.ndarray:
+        return solve(window_ctx, local, local_forbid, lambda: None)
 
     # how often the whole level uses each exemplar pixel, kept up to date window by window: each
     # window's occurrence cost sees the level's use, as a whole solve does
     n = ctx.analysis.height * ctx.analysis.width
     counts = np.bincount(refs.ravel(), minlength=n).astype(np.float32)
     for i, window in enumerate(windows):
-        _solve_window(ctx, refs, forbid, window, solve, counts=counts)
+        _solve_window(ctx, refs, forbid, window, solve_window, counts=counts)
         for _ in range((i + 1) * n_ticks // len(windows) - i * n_ticks // len(windows)):
             tick()
     for window in window_grid(ctx.shape, side, ctx.tile, offset=side // 2):
