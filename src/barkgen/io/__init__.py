@@ -65,6 +65,7 @@ from barkgen.io.staging import (
     write_bytes_atomic,
     write_files_atomic,
 )
+from barkgen.io.streaming import ExrStream, PngStream
 
 __all__ = [
     "asset_slug",
@@ -125,5 +126,7 @@ __all__ = [
     "stage_files",
     "write_files_atomic",
     "write_png",
+    "PngStream",
+    "ExrStream",
     "write_reference",
 ]
