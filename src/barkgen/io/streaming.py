@@ -346,13 +346,13 @@ class PngStream(_BandStream):
         self._pending = bytearray()
         self._digest = hashlib.sha256()
         self._temporary: _Temporary | None = None
-        if hasattr(target, "write"):
-            if staged is not None:
-                raise InvalidInputError("a PNG stream stages a file by its path, not an open file")
-            self._file: IO[bytes] = target  # type: ignore[assignment]
+        if isinstance(target, str | os.PathLike):
+            self._temporary = _Temporary(target, staged)
+            self._file: IO[bytes] = os.fdopen(self._temporary.fd, "wb")
+        elif staged is not None:
+            raise InvalidInputError("a PNG stream stages a file by its path, not an open file")
         else:
-            self._temporary = _Temporary(target, staged)  # type: ignore[arg-type]
-            self._file = os.fdopen(self._temporary.fd, "wb")
+            self._file = target
         self._guarded(self._emit, header)
 
     def _write(self, rows: np.ndarray) -> None:
@@ -361,11 +361,11 @@ class PngStream(_BandStream):
         self._count(band)
         if self.bits == 16:
             band = band.astype(">u2", copy=False)
-        data = np.ascontiguousarray(band).view(np.uint8).reshape(len(band), -1)
+        data = np.ascontiguousarray(band).view(np.uint8).reshape(len(band), self.width * self._bpp)
         step = max(1, FILTER_PIECE_BYTES // data.shape[1])
         for start in range(0, len(data), step):
             piece = data[start : start + step]
-            self._pending += self._deflate.compress(filter_rows(piece, self._previous, self._bpp))
+            self._pending += self._deflate.compress(filter_rows(piece, self._previous, self._bpp).data)
             self._previous = piece[-1].copy()
             self._emit_idat(final=False)
         self.rows_written += len(band)
