@@ -70,6 +70,11 @@ def report(obj):
         "modifiers": modifiers,
         "alpha_modes": {n.image.name: n.image.alpha_mode for n in tree.nodes if n.type == "TEX_IMAGE"},
         "colour_spaces": {n.image.name: n.image.colorspace_settings.name for n in tree.nodes if n.type == "TEX_IMAGE"},
+        "tiles": {
+            n.image.name: [t.number for t in n.image.tiles] if n.image.source == "TILED" else None
+            for n in tree.nodes
+            if n.type == "TEX_IMAGE"
+        },
         "wired": {
             name: upstream(tree, principled, name)
             for name in ("Base Color", "Normal", "Roughness", "Metallic", "Alpha")

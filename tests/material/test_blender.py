@@ -112,7 +112,9 @@ def script_values(text: str) -> dict:
     return {
         node.targets[0].id: ast.literal_eval(node.value)
         for node in tree.body
-        if isinstance(node, ast.Assign) and node.targets[0].id.isupper() and not isinstance(node.value, ast.Name)
+        if isinstance(node, ast.Assign)
+        and node.targets[0].id.isupper()
+        and not isinstance(node.value, (ast.Name, ast.IfExp))
     }
 
 
@@ -230,3 +232,48 @@ def test_the_blender_script_can_leave_the_displacement_to_cycles(tmp_path):
     assert report["displacement"]["method"] == "BOTH" and "DISPLACE" not in report["modifiers"]
     assert report["heights"]["min"] == report["heights"]["max"] == 0.0
     assert saved.stat().st_size > 0
+
+
+def test_a_udim_set_is_one_tiled_image_a_map_on_a_plane_over_its_tiles(tmp_path):
+    """A set in 2 x 1 UDIM tiles (issue 69): each map one tiled image holding tiles 1001 and
+    1002, on a plane of the set's own size whose UVs run 0..2 x 0..1, displaced by the material
+    alone (the Displace modifier reads one tile; Cycles' bump draws a line along the tile
+    border); the render, aimed at the tiles' border, is written."""
+    folder = tmp_path / "set"
+    folder.mkdir()
+    files = encode_material(relief_set(), "bark", udim=(2, 1))
+    for file, data in files.items():
+        write_bytes_atomic(folder / file, data)
+    meta = json.loads(files["bark.json"])
+    render = tmp_path / "render.png"
+    args = ["--python", str(folder / "bark_blender.py"), "--python", str(CHECK)]
+    (report,) = run_blender(
+        *args, "--", "--render", str(render), "--resolution", "48", "--samples", "2", "--focus", "1,0.5"
+    )
+    assert report["displacement"]["method"] == "DISPLACEMENT" and "DISPLACE" not in report["modifiers"]
+    assert report["uv"] == [0.0, 2.0, 0.0, 1.0]
+    assert report["plane"]["width"] == pytest.approx(meta["width_m"], rel=1e-6)
+    assert report["plane"]["height"] == pytest.approx(meta["height_m"], rel=1e-6)
+    assert set(report["tiles"]) == {f"bark_{m}.1001.png" for m in ("Color", "NormalGL", "Displacement", "Roughness")}
+    assert all(tiles == [1001, 1002] for tiles in report["tiles"].values())
+    from barkgen.io import read_image
+
+    assert read_image(render).std() > 5
+    _, error = run_blender_failing(folder / "bark_blender.py", "--displacement", "modifier")
+    assert "a UDIM set is displaced by the material" in error
+
+
+def run_blender_failing(script: Path, *options: str) -> tuple[int, str]:
+    """A set's script run by Blender with ``options``, expected to refuse them: its exit code
+    and what it printed."""
+    blender = shutil.which("blender")
+    if blender is None:
+        pytest.skip("needs Blender (Debian package blender; scripts/test.sh installs it where apt can)")
+    out = subprocess.run(
+        [blender, "-b", "--factory-startup", "--python-exit-code", "1", "--python", str(script), "--", *options],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert out.returncode != 0
+    return out.returncode, out.stdout + out.stderr

@@ -56,6 +56,29 @@ PHOTO_HELP = (
     "into the new set (--material is then on), named after it. Default: the bundled sample."
 )
 
+#: generate's --sizes: one set at several widths
+SizesOption = Annotated[
+    Optional[str],
+    typer.Option(
+        "--sizes",
+        metavar="1k,2k,4k",
+        help="Write the material set at several widths from one run, each as NAME_1K_*, NAME_2K_*, ...: the "
+        "same bark resampled, not re-synthesized. The output is as wide as the largest (--size gives the "
+        "aspect). Implies --material.",
+    ),
+]
+#: generate's --udim: the set in UDIM tiles (issue 69)
+UdimOption = Annotated[
+    Optional[str],
+    typer.Option(
+        "--udim",
+        metavar="COLSxROWS",
+        help="Write the material set as a grid of UDIM tiles, each --size (NAME_Color.1001.png, 1002, ...; "
+        "Mari, Blender and Substance read them as one image): the bark synthesized as one canvas, so every "
+        "tile continues into its neighbours (and round the trunk with --tile). Implies --material.",
+    ),
+]
+
 
 @with_options(GenerateOptions)
 def generate_command(
@@ -76,16 +99,8 @@ def generate_command(
     preset: PresetOption = "ambientcg",
     exr_height: ExrHeightOption = False,
     layout: LayoutOption = "run",
-    sizes: Annotated[
-        Optional[str],
-        typer.Option(
-            "--sizes",
-            metavar="1k,2k,4k",
-            help="Write the material set at several widths from one run, each as NAME_1K_*, NAME_2K_*, ...: the "
-            "same bark resampled, not re-synthesized. The output is as wide as the largest (--size gives the "
-            "aspect). Implies --material.",
-        ),
-    ] = None,
+    sizes: SizesOption = None,
+    udim: UdimOption = None,
     flow: FlowOption = None,
     flow_scale: FlowScaleOption = None,
     edits: EditsOption = None,
@@ -108,8 +123,6 @@ def generate_command(
         encode_generate,
         generate,
         open_store,
-        parse_sizes,
-        sized_options,
         stage_at,
     )
     from barkgen.pipeline.rules import PhotoInputs, check_run
@@ -121,15 +134,14 @@ def generate_command(
         options = dataclasses.replace(options, material=True)
         if output_dir.resolve() == set_folder.resolve():
             raise InvalidInputError(f"{output_dir} is the scanned set's folder; write the new set to another")
-    widths = parse_sizes(sizes, "--sizes")
-    options = sized_options(options, widths)
+    options, widths, grid = _set_sizes(options, sizes, udim)
     check_preset(preset)
     if save_levels is not None:
         check_folder(save_levels, "--save-levels")
         refuse_input_folder(save_levels, "--save-levels")
     extra_paths = _extra_paths(extra)
     src, naming, edit_list = _set_naming(name, licence, photo, set_folder, options.seed, edits)
-    stale = _refuse_targets(output_dir, naming, options, widths, extra_paths, preset, layout)
+    stale = _refuse_targets(output_dir, naming, options, widths, extra_paths, preset, layout, grid)
     if edit_list is None:
         edit_list = read_edits(edits) if edits is not None else EditList()
     check_edit_list(edit_list, options.material)
@@ -171,6 +183,7 @@ def generate_command(
             sizes=widths,
             exr_height=exr_height,
             layout=layout,
+            udim=grid,
         )
     levels = {} if save_levels is None else {save_levels / n: d for n, d in level_files(result.label_levels).items()}
     write_run(output_dir, files, stale, levels)
@@ -178,6 +191,20 @@ def generate_command(
         store.flush()  # the analysis, written while the run went on
     if not quiet:
         _say_written(output_dir, options, result, hit)
+
+
+def _set_sizes(options, sizes: str | None, udim: str | None):
+    """The run's options for ``--sizes`` (the output as wide as the largest) or ``--udim`` (the
+    output the whole grid of tiles, each ``--size``), the widths and the grid
+    (``(columns, rows)`` or None); the two go apart."""
+    from barkgen.io import parse_udim
+    from barkgen.pipeline import parse_sizes, sized_options, udim_options
+
+    widths = parse_sizes(sizes, "--sizes")
+    grid = parse_udim(udim, "--udim")
+    if grid is not None and widths:
+        raise InvalidInputError("--udim writes the set at the output's size: leave out --sizes")
+    return udim_options(sized_options(options, widths), grid), widths, grid
 
 
 def _say_written(output_dir: Path, options, result, hit: list[float]) -> None:
@@ -218,16 +245,18 @@ def _analysis(image, options, extras, label_map, scan, store, progress, hit: lis
     )
 
 
-def _run_targets(folder: Path, set_names: list[str], extras, stale, preset: str, prefix: str | None) -> list[Path]:
+def _run_targets(
+    folder: Path, set_names: list[str], extras, stale, preset: str, prefix: str | None, udim=None
+) -> list[Path]:
     """The files of ``folder`` a run will write or remove (its own, named after ``prefix`` in
-    the library layout; the material set's, each extra's, and the previous run's): none may be
-    an input."""
+    the library layout; the material set's, in ``udim``'s tiles if given, each extra's, and the
+    previous run's): none may be an input."""
     from barkgen.io.material import material_file_names
     from barkgen.pipeline import run_file_names
 
     names = set(run_file_names(extras, prefix)) | set(stale)
     for set_name in set_names:
-        names |= set(material_file_names(set_name, preset))
+        names |= set(material_file_names(set_name, preset, udim))
         if folder.is_dir():
             names |= {
                 p.name for p in folder.iterdir() if p.name.startswith(f"{set_name}_") or p.name == f"{set_name}.json"
@@ -253,20 +282,25 @@ def _set_naming(name, licence, photo, set_folder, seed: int, edits):
     return src, {"name": asset, "variant": variant, "licence": photo_licence(licence, photo)}, edit_list
 
 
-def _refuse_targets(output_dir: Path, naming: dict, options, widths, extras, preset: str, layout: str) -> list[str]:
+def _refuse_targets(
+    output_dir: Path, naming: dict, options, widths, extras, preset: str, layout: str, udim=None
+) -> list[str]:
     """Refuse a run whose files (its own, named after the output's set in the library layout;
-    its sets'; the previous run's) take an input, before any work; the previous run's files
-    (:func:`previous_run_files` of its record, ``report.json`` or ``SET_report.json``)."""
-    from barkgen.io import base_name, material_set_name, material_set_names
+    its sets', in ``udim``'s tiles (``(columns, rows)``) if given; the previous run's) take an
+    input, before any work; the previous run's files (:func:`previous_run_files` of its
+    record, ``report.json`` or ``SET_report.json``)."""
+    from barkgen.io import base_name, material_set_name, material_set_names, udim_grid
     from barkgen.pipeline import LAYOUTS, run_file_names
 
     if layout not in LAYOUTS:
         raise InvalidInputError(f"--layout must be one of {', '.join(LAYOUTS)}, not {layout!r}")
     base = base_name(naming["name"], naming["variant"])
-    prefix = material_set_name(base, options.size) if layout == "library" else None
+    grid = None if udim is None else udim_grid(options.size, udim)
+    set_shape = options.size if grid is None else grid.tile
+    prefix = material_set_name(base, set_shape) if layout == "library" else None
     stale = previous_run_files(output_dir, run_file_names(prefix=prefix)[-1])
-    set_names = material_set_names(base, options.size, widths) if options.material else []
-    refuse_inputs(_run_targets(output_dir, set_names, extras, stale, preset, prefix))
+    set_names = material_set_names(base, set_shape, widths) if options.material else []
+    refuse_inputs(_run_targets(output_dir, set_names, extras, stale, preset, prefix, grid))
     return stale
 
 

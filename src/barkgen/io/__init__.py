@@ -66,6 +66,7 @@ from barkgen.io.staging import (
     write_files_atomic,
 )
 from barkgen.io.streaming import ExrStream, PngStream
+from barkgen.io.udim import UdimGrid, parse_udim, udim_file_name, udim_grid, udim_number
 
 __all__ = [
     "asset_slug",
@@ -129,4 +130,9 @@ __all__ = [
     "PngStream",
     "ExrStream",
     "write_reference",
+    "UdimGrid",
+    "parse_udim",
+    "udim_file_name",
+    "udim_grid",
+    "udim_number",
 ]

@@ -7,14 +7,17 @@ Non-Color; the OpenGL normal map through a Normal Map node, a DirectX one with i
 flipped first; a packed map's channels through a Separate Color node; the displacement through
 a Displacement node whose Scale is the depth in metres and Midlevel where height 0 lies) and a
 plane twice the set's width and height whose UVs run 0..2, so the set tiles 2 x 2 at its real
-size.
+size. A set in UDIM tiles (:mod:`barkgen.io.udim`) is read as one tiled image a map, on a plane
+of the set's size whose UVs run over its tiles.
 
 The plane is displaced once: by default a Displace modifier (strength = the depth in metres,
 mid level = the midlevel, the displacement map in UV coordinates) after a simple Subdivision
 moves its vertices, so the viewport, EEVEE and Cycles all show the relief, and the material's
 own displacement is bump only (``'BUMP'``). With ``-- --displacement shader`` there is no
 Displace modifier and Cycles displaces by the material (``'BOTH'``: displacement and bump), as
-the material alone does on any subdivided mesh it is given.
+the material alone does on any subdivided mesh it is given. A UDIM set is always displaced so:
+Blender's Displace modifier (and a geometry-nodes image texture) reads a tiled image's first
+tile only (Blender 3.4, measured).
 
 The values are the set's ``NAME.json``'s (``width_m``, ``height_m``, ``displacement_depth_m``,
 ``displacement_midlevel``), written into the script as literals; a set whose real-world size is
@@ -27,6 +30,7 @@ import json
 from collections.abc import Iterable
 
 from barkgen.errors import InvalidInputError
+from barkgen.io.udim import UDIM_TOKEN, UdimGrid, udim_file_name
 from barkgen.material.presets import MAP_SOURCES, check_preset
 
 
@@ -58,7 +62,9 @@ def blender_values(material) -> dict[str, float | str]:
     }
 
 
-def blender_setup_script(material, name: str, files: Iterable[str], preset: str = "ambientcg") -> str:
+def blender_setup_script(
+    material, name: str, files: Iterable[str], preset: str = "ambientcg", *, udim: UdimGrid | None = None
+) -> str:
     """The text of ``NAME_blender.py`` for a set (see the module).
 
     Parameters
@@ -72,6 +78,9 @@ def blender_setup_script(material, name: str, files: Iterable[str], preset: str 
         The names of the set's image files (``NAME_Color.png`` ...), as ``preset`` writes them.
     preset : {"ambientcg", "blender", "unreal", "unity", "gltf"}, default "ambientcg"
         Their layout (:mod:`barkgen.material.presets`).
+    udim : UdimGrid, optional
+        The set is written in these UDIM tiles (``files`` are then the whole maps' names, each
+        read as ``NAME_Color.<UDIM>.png``).
 
     Returns
     -------
@@ -91,6 +100,8 @@ def blender_setup_script(material, name: str, files: Iterable[str], preset: str 
     missing = sorted({file for file, _ in maps.values()} - present)
     if missing:
         raise InvalidInputError(f"the Blender set-up of {name} reads {', '.join(missing)}, which the set lacks")
+    if udim is not None:
+        maps = {key: (udim_file_name(file, UDIM_TOKEN), read) for key, (file, read) in maps.items()}
     # an image whose alpha holds data, not the colour's opacity, keeps its channels apart
     packed = sorted({file for key, (file, read) in maps.items() if read in ("A", "1-A") and key != "opacity"})
     values = blender_values(material)
@@ -110,6 +121,8 @@ def blender_setup_script(material, name: str, files: Iterable[str], preset: str 
         + "#: where height 0 lies in the displacement map, 0..1\n"
         + f"MIDLEVEL = {values['midlevel']!r}\n"
         + f"REAL_SIZE = {q(values['real_size'])}\n"
+        + "#: the set's UDIM tiles, [columns, rows] (each map one tiled image); None: one image a map\n"
+        + f"UDIM = {None if udim is None else [udim.columns, udim.rows]!r}\n"
         + "#: map -> (file beside this script, how its value is read: RGB colour, V grey value,\n"
         + "#: R/G/B/A one channel, 1-A one minus alpha; the normal map's convention)\n"
         + "MAPS = {\n"
@@ -136,21 +149,29 @@ folder this file is in (keep it beside them). It makes
   depth in metres; Midlevel = MIDLEVEL) into the Material Output's Displacement;
 - object NAME: a plane 2 x WIDTH_M by 2 x HEIGHT_M metres whose UVs run 0..2 (the set 2 x 2
   at its real size), with a Subdivision modifier (simple) and a Displace modifier driven by the
-  displacement map in UV coordinates (Strength = DEPTH_M, Midlevel = MIDLEVEL).
+  displacement map in UV coordinates (Strength = DEPTH_M, Midlevel = MIDLEVEL). A set in UDIM
+  tiles: a plane WIDTH_M by HEIGHT_M whose UVs run over its tiles, each map one tiled image.
 
 The plane is displaced once: by the Displace modifier (the viewport, EEVEE and Cycles all show
 it), the material's own displacement left at Bump Only. With `--displacement shader` there is
 no Displace modifier and Cycles displaces by the material (Displacement and Bump), as the
-material alone does on any subdivided mesh you give it.
+material alone does on any subdivided mesh you give it. A UDIM set is always displaced by the
+material: the Displace modifier reads one tile of a tiled image (and without bump: Cycles' bump
+draws a line along each tile border; the normal map carries the fine relief).
 
 Options after `--`: --save PATH.blend (save the file), --render PATH.png (a Cycles render;
---resolution PX, --samples N), --displacement {modifier,shader}.
+--resolution PX, --samples N, --focus U,V: aimed at that UV point, one tile in view),
+--displacement {modifier,shader}.
 """
 '''
 
 # the script's code, plain Python for Blender 3.x and 4.x (Python 3.7 and later; tested with 3.4); a plain
 # string, not an f-string: its braces are the script's own
 _BODY = '''UV_MAP = "UVMap"
+#: times the set repeats along each side of the plane (a UDIM set: once, its UVs over its tiles)
+REPEAT = 2 if UDIM is None else 1
+#: the UV square the plane spans, (u, v)
+UV_RANGE = (REPEAT, REPEAT) if UDIM is None else tuple(UDIM)
 #: the plane's grid: cells along its longer side, then a simple Subdivision to about a vertex a
 #: pixel, at most this many segments along the longer side in the viewport and in renders
 CELLS = 8
@@ -168,12 +189,17 @@ def set_folder():
     texts += [t for t in bpy.data.texts if SCRIPT in (t.name, os.path.basename(t.filepath))]
     candidates += [os.path.dirname(bpy.path.abspath(t.filepath)) for t in texts if t is not None and t.filepath]
     for folder in candidates:
-        if os.path.isfile(os.path.join(folder, MAPS["displacement"][0])):
+        if os.path.isfile(os.path.join(folder, first_tile(MAPS["displacement"][0]))):
             return folder
     raise RuntimeError(
-        f"{SCRIPT}: {MAPS['displacement'][0]} is not beside this script; keep the script in the set's "
+        f"{SCRIPT}: {first_tile(MAPS['displacement'][0])} is not beside this script; keep the script in the set's "
         f"folder and run it from there (blender --python {SCRIPT}, or open it in the Text Editor and Run Script)"
     )
+
+
+def first_tile(file):
+    """The file of a map's first UDIM tile (1001), or the map's own file."""
+    return file.replace("<UDIM>", "1001")
 
 
 def node_kind(new, old):
@@ -202,7 +228,9 @@ class Nodes:
         """The Image Texture node of a map: sRGB for the colour, else Non-Color."""
         if file not in self.images:
             node = self.new("ShaderNodeTexImage", -1000, 400 - 300 * len(self.images))
-            node.image = bpy.data.images.load(os.path.join(self.folder, file), check_existing=True)
+            node.image = bpy.data.images.load(os.path.join(self.folder, first_tile(file)), check_existing=True)
+            if UDIM is not None:  # finds the other tiles beside it: NAME_Color.<UDIM>.png
+                node.image.source = "TILED"
             node.image.colorspace_settings.name = "sRGB" if file == MAPS["color"][0] else "Non-Color"
             if file in CHANNEL_PACKED:
                 node.image.alpha_mode = "CHANNEL_PACKED"
@@ -287,27 +315,29 @@ def build_material(folder, displacement):
     node.inputs["Midlevel"].default_value = MIDLEVEL
     nodes.link(nodes.value("displacement"), node.inputs["Height"])
     nodes.link(node.outputs["Displacement"], output.inputs["Displacement"])
-    set_displacement_method(material, "BUMP" if displacement == "modifier" else "BOTH")
+    # a UDIM set's height bumps no more: Cycles' bump reads a step across a tile border (a dark
+    # line along it, measured in Blender 3.4); its normal map carries the fine relief
+    set_displacement_method(material, "BUMP" if displacement == "modifier" else "BOTH" if UDIM is None else "DISPLACEMENT")
     return material, nodes.image(MAPS["displacement"][0]).image
 
 
 def subdivision_level(segments):
-    """Simple subdivisions of the base grid to about a vertex a pixel of the set 2 x 2, at most
-    ``segments`` along the longer side."""
+    """Simple subdivisions of the base grid to about a vertex a pixel of the set REPEAT x
+    REPEAT, at most ``segments`` along the longer side."""
     level = 0
-    while CELLS * 2**level < min(2 * max(SIZE_PX), segments):
+    while CELLS * 2**level < min(REPEAT * max(SIZE_PX), segments):
         level += 1
     return level
 
 
 def plane_mesh(material):
-    """A plane 2 x WIDTH_M by 2 x HEIGHT_M metres, centred, UVs 0..2, smooth, a grid of about
-    square cells (CELLS along its longer side)."""
+    """A plane REPEAT x WIDTH_M by REPEAT x HEIGHT_M metres, centred, its UVs over UV_RANGE,
+    smooth, a grid of about square cells (CELLS along its longer side)."""
     width, height = SIZE_PX
     nx = CELLS if width >= height else max(1, round(CELLS * width / height))
     ny = CELLS if height >= width else max(1, round(CELLS * height / width))
     corners = [(i, j) for j in range(ny + 1) for i in range(nx + 1)]
-    vertices = [((i / nx - 0.5) * 2 * WIDTH_M, (j / ny - 0.5) * 2 * HEIGHT_M, 0.0) for i, j in corners]
+    vertices = [((i / nx - 0.5) * REPEAT * WIDTH_M, (j / ny - 0.5) * REPEAT * HEIGHT_M, 0.0) for i, j in corners]
     row = nx + 1
     faces = [
         (j * row + i, j * row + i + 1, (j + 1) * row + i + 1, (j + 1) * row + i) for j in range(ny) for i in range(nx)
@@ -317,7 +347,7 @@ def plane_mesh(material):
     uv = mesh.uv_layers.new(name=UV_MAP)
     for loop in mesh.loops:
         i, j = corners[loop.vertex_index]
-        uv.data[loop.index].uv = (2 * i / nx, 2 * j / ny)
+        uv.data[loop.index].uv = (UV_RANGE[0] * i / nx, UV_RANGE[1] * j / ny)
     for polygon in mesh.polygons:
         polygon.use_smooth = True
     mesh.materials.append(material)
@@ -350,16 +380,22 @@ def build_plane(material, image, displacement):
     return obj
 
 
-def render(obj, path, resolution, samples):
+def render(obj, path, resolution, samples, focus=None):
     """A Cycles render of the plane alone, seen from 50 degrees up under a low sun, to ``path``
-    (a scene of its own, removed afterwards)."""
+    (a scene of its own, removed afterwards): the whole plane, or aimed at UV point ``focus``
+    with one tile (one set) in view."""
     scene = bpy.data.scenes.new(NAME + "_render")
     scene.collection.objects.link(obj)
-    span = 2 * max(WIDTH_M, HEIGHT_M)
+    span = REPEAT * max(WIDTH_M, HEIGHT_M)
+    target = obj.location.copy()
+    if focus is not None:
+        u, v = focus
+        target += Vector(((u / UV_RANGE[0] - 0.5) * REPEAT * WIDTH_M, (v / UV_RANGE[1] - 0.5) * REPEAT * HEIGHT_M, 0))
+        span = max(REPEAT * WIDTH_M / UV_RANGE[0], REPEAT * HEIGHT_M / UV_RANGE[1])
     camera = bpy.data.objects.new(NAME + "_camera", bpy.data.cameras.new(NAME + "_camera"))
     elevation = math.radians(50)
-    camera.location = obj.location + Vector((0, -math.cos(elevation), math.sin(elevation))) * 1.6 * span
-    camera.rotation_euler = (obj.location - camera.location).to_track_quat("-Z", "Y").to_euler()
+    camera.location = target + Vector((0, -math.cos(elevation), math.sin(elevation))) * 1.6 * span
+    camera.rotation_euler = (target - camera.location).to_track_quat("-Z", "Y").to_euler()
     sun = bpy.data.objects.new(NAME + "_sun", bpy.data.lights.new(NAME + "_sun", "SUN"))
     sun.data.energy = 4.0
     sun.rotation_euler = (math.radians(65), 0.0, math.radians(40))
@@ -394,16 +430,29 @@ def arguments(argv):
     parser.add_argument("--render", metavar="PATH.png", help="render the plane there (Cycles)")
     parser.add_argument("--resolution", type=int, default=512, metavar="PX", help="the render's width and height")
     parser.add_argument("--samples", type=int, default=32, metavar="N", help="the render's samples a pixel")
+    parser.add_argument("--focus", metavar="U,V", help="aim the render at this UV point, one tile in view")
     parser.add_argument(
         "--displacement",
         choices=("modifier", "shader"),
-        default="modifier",
+        default="modifier" if UDIM is None else "shader",
         help="modifier: a Displace modifier moves the plane (viewport, EEVEE, Cycles), the material bumps only; "
-        "shader: Cycles displaces by the material",
+        "shader: Cycles displaces by the material (a UDIM set's only way: the modifier reads one tile)",
     )
     args = parser.parse_args(argv)
     if args.resolution < 1 or args.samples < 1:
         parser.error("--resolution and --samples must be at least 1")
+    if UDIM is not None and args.displacement == "modifier":
+        parser.error(
+            "a UDIM set is displaced by the material (--displacement shader): Blender's Displace modifier "
+            "reads one tile of a tiled image"
+        )
+    if args.focus is not None:
+        try:
+            args.focus = tuple(float(x) for x in args.focus.split(","))
+        except ValueError:
+            args.focus = ()
+        if len(args.focus) != 2:
+            parser.error("--focus takes a UV point U,V (e.g. 1,0.5)")
     return args
 
 
@@ -416,13 +465,15 @@ def main(argv):
         bpy.context.view_layer.objects.active = obj
     done = []
     if args.render:
-        render(obj, args.render, args.resolution, args.samples)
+        render(obj, args.render, args.resolution, args.samples, args.focus)
         done.append("rendered " + args.render)
     if args.save:
         bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(args.save))
         done.append("saved " + args.save)
     how = "its Displace modifier" if args.displacement == "modifier" else "the material (Cycles)"
     size = f"{2 * WIDTH_M:g} x {2 * HEIGHT_M:g} m: the set 2 x 2 at {WIDTH_M:g} x {HEIGHT_M:g} m ({REAL_SIZE})"
+    if UDIM is not None:
+        size = f"{WIDTH_M:g} x {HEIGHT_M:g} m: the set's {UDIM[0]} x {UDIM[1]} UDIM tiles ({REAL_SIZE})"
     relief = f"its relief {1000 * DEPTH_M:.4g} mm deep (midlevel {MIDLEVEL:.4g}) displaced by {how}"
     made = f"{SCRIPT}: material {material.name} and plane {obj.name}, {size}, {relief}, from {folder}"
     print(made + "".join("; " + d for d in done))

@@ -5,7 +5,8 @@ A set folder holds ``NAME_Color.png`` (sRGB), ``NAME_NormalGL.png`` / ``NAME_Nor
 ``NAME_Displacement.png`` (16-bit, 0 = deepest), ``NAME_Roughness.png``,
 ``NAME_AmbientOcclusion.png`` (linear), ``NAME.json`` (size, tileable, seed, source photo,
 displacement depth scale, real-world size, barkgen version) and ``NAME_blender.py`` (the set
-set up in Blender at its real-world size, :mod:`barkgen.io.blender`).
+set up in Blender at its real-world size, :mod:`barkgen.io.blender`); a set in UDIM tiles
+has each map once a tile, ``NAME_Color.1001.png`` ... (:mod:`barkgen.io.udim`).
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ import numpy as np
 from barkgen.errors import ImageReadError, InvalidInputError
 from barkgen.io.blender import blender_script_name, blender_setup_script
 from barkgen.io.images import encode_concurrently, encode_png, read_image
+from barkgen.io.udim import UDIM_TOKEN, UdimGrid, udim_file_name, udim_grid
 
 #: the map suffixes of a set, in the order they are listed
 MAP_SUFFIXES = ("Color", "NormalGL", "NormalDX", "Displacement", "Roughness", "AmbientOcclusion")
@@ -57,19 +59,28 @@ def utf8_text(text: str) -> str:
     return text.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
 
 
-def material_file_names(name: str, preset: str = "ambientcg") -> list[str]:
+def material_file_names(name: str, preset: str = "ambientcg", udim: UdimGrid | None = None) -> list[str]:
     """The files a set called ``name`` may have in ``preset``'s layout (:func:`encode_material`
     writes these, the metalness and opacity maps only where the set has them, the EXR only
-    with ``exr_height``; every set has its ``NAME_blender.py``), known before
-    the set is made: a command refuses, before any work, to write one that is an input."""
+    with ``exr_height``, each map once a tile of ``udim``; every set has its
+    ``NAME_blender.py``), known before the set is made: a command refuses, before any work,
+    to write one that is an input."""
     from barkgen.material.presets import preset_file_names
 
-    extra = [f"{name}_Displacement.exr", blender_script_name(name)]  # (the EXR with --exr-height)
-    return preset_file_names(name, preset) + extra + [f"{name}.json"]
+    maps = preset_file_names(name, preset) + [f"{name}_Displacement.exr"]  # (the EXR with --exr-height)
+    if udim is not None:
+        maps = [udim_file_name(file, number) for file in maps for number in udim.numbers]
+    return maps + [blender_script_name(name), f"{name}.json"]
 
 
 def encode_material(
-    material, name: str, preset: str = "ambientcg", *, exr_height: bool = False, **metadata
+    material,
+    name: str,
+    preset: str = "ambientcg",
+    *,
+    exr_height: bool = False,
+    udim: tuple[int, int] | None = None,
+    **metadata,
 ) -> dict[str, bytes]:
     """Every file of a :class:`~barkgen.material.MaterialSet`, encoded before any is written.
 
@@ -86,6 +97,11 @@ def encode_material(
     exr_height : bool, default False
         Also ``NAME_Displacement.exr``: the displacement as 32-bit float (0 = deepest, 1 =
         highest, as the 16-bit PNG, without its rounding; the ``[exr]`` extra).
+    udim : (int, int), optional
+        ``(columns, rows)``: each map written as that grid of UDIM tiles
+        (``NAME_Color.1001.png``, ``NAME_Color.1002.png``, ...; :mod:`barkgen.io.udim`), the
+        set's size cut into equal tiles; ``NAME.json`` lists them (``udim``), the MaterialX
+        document and the Blender set-up read them as one tiled image.
     **metadata
         Added to ``NAME.json`` (asset, variant, seed, source photo, its licence, ...). The record
         always states the width and height in pixels (``width_px``, ``height_px``) and, where
@@ -111,8 +127,9 @@ def encode_material(
     check_material_name(name)
     check_preset(preset)
     metadata = {k: utf8_text(v) if isinstance(v, str) else v for k, v in metadata.items()}
+    grid = None if udim is None else udim_grid(material.shape, udim)
     images = preset_images(material, name, preset)
-    files = encode_concurrently({fname: partial(encode_png, pixels) for fname, pixels in images.items()})
+    files = encode_concurrently({fname: partial(encode_png, pixels) for fname, pixels in _tiled(images, grid).items()})
     meta = material.metadata(name=name, **metadata)
     meta["width_px"], meta["height_px"] = meta["size"]
     meta["preset"] = preset
@@ -120,11 +137,15 @@ def encode_material(
         meta["normal_convention"] = NORMAL_FILES[preset]
         if preset in PACKING:
             meta["packing"] = PACKING[preset]
+    if grid is not None:
+        meta["udim"] = grid.to_dict()
     if preset == "blender":
-        files[f"{name}.mtlx"] = _mtlx(material, name, images)
-    files[blender_script_name(name)] = blender_setup_script(material, name, images, preset).encode()
+        files[f"{name}.mtlx"] = _mtlx(material, name, images, grid)
+    script = blender_setup_script(material, name, images, preset, udim=grid)
+    files[blender_script_name(name)] = script.encode()
     if exr_height:
-        files[f"{name}_Displacement.exr"] = encode_exr(material.displacement().astype(np.float32))
+        height = {f"{name}_Displacement.exr": material.displacement().astype(np.float32)}
+        files.update({file: encode_exr(values) for file, values in _tiled(height, grid).items()})
     meta["files"] = sorted(files)
     files[f"{name}.json"] = (json.dumps(meta, indent=2) + "\n").encode()
     return files
@@ -149,7 +170,19 @@ def encode_exr(values: np.ndarray) -> bytes:
             return f.read()
 
 
-def _mtlx(material, name: str, images: dict) -> bytes:
+def _tiled(images: dict[str, np.ndarray], grid: UdimGrid | None) -> dict[str, np.ndarray]:
+    """The images as they are written: each cut into ``grid``'s UDIM tiles (named
+    ``NAME_Color.1001.png`` ...), or whole without one."""
+    if grid is None:
+        return images
+    return {
+        udim_file_name(file, number): np.ascontiguousarray(tile)
+        for file, image in images.items()
+        for number, tile in grid.tiles(image).items()
+    }
+
+
+def _mtlx(material, name: str, images: dict, grid: UdimGrid | None = None) -> bytes:
     """The Blender preset's ``NAME.mtlx`` wiring the set's images."""
     from barkgen.io.materialx import encode_mtlx
 
@@ -162,6 +195,8 @@ def _mtlx(material, name: str, images: dict) -> bytes:
         "opacity": "Opacity",
     }
     files = {key: f"{name}_{suffix}.png" for key, suffix in suffixes.items() if f"{name}_{suffix}.png" in images}
+    if grid is not None:  # (MaterialX reads a tiled image through the <UDIM> token)
+        files = {key: udim_file_name(file, UDIM_TOKEN) for key, file in files.items()}
     # in metres on a surface as wide as the set where its real-world size is known (else in
     # texture widths: a surface one unit wide per repeat)
     depth = material.physical_size().get("displacement_depth_m", material.depth / material.shape[1])

@@ -17,6 +17,7 @@ from barkgen.pipeline.files import encode_generate as encode_generate
 from barkgen.pipeline.files import parse_sizes as parse_sizes
 from barkgen.pipeline.files import run_file_names as run_file_names
 from barkgen.pipeline.files import sized_options as sized_options
+from barkgen.pipeline.files import udim_options as udim_options
 from barkgen.pipeline.options import LABEL_METHODS as LABEL_METHODS
 from barkgen.pipeline.options import GenerateOptions as GenerateOptions
 from barkgen.pipeline.options import analysis_key as analysis_key

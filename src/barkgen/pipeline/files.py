@@ -16,6 +16,7 @@ from barkgen.io.folders import RECORD_HASHES, file_record
 from barkgen.io.images import encode_concurrently, encode_png
 from barkgen.io.material import check_material_name, encode_material, utf8_text
 from barkgen.io.references import encode_reference
+from barkgen.io.udim import udim_grid
 from barkgen.material.illumination import encode_illumination
 from barkgen.pipeline.report import preview_sheet
 
@@ -67,6 +68,7 @@ def encode_generate(
     exr_height: bool = False,
     also: Mapping[str, bytes] | None = None,
     layout: str = "run",
+    udim: tuple[int, int] | None = None,
 ) -> dict[str, bytes]:
     """Every file of a :class:`~barkgen.pipeline.GenerateResult`, encoded.
 
@@ -110,6 +112,10 @@ def encode_generate(
     layout : {"run", "library"}, default "run"
         The run's own files as they are, or each named after the output's set (:data:`LAYOUTS`,
         :func:`run_file_names`).
+    udim : (int, int), optional
+        ``(columns, rows)``: the material set's maps written as that grid of UDIM tiles
+        (``ASSET_VARIANT_4K_Color.1001.png`` ..., :mod:`barkgen.io.udim`), the set named after
+        a tile's size; the run's own files stay whole. Not with ``sizes``.
 
     Returns
     -------
@@ -119,8 +125,12 @@ def encode_generate(
     Raises
     ------
     InvalidInputError
-        A material name whose files clash with the run's own.
+        A material name whose files clash with the run's own; ``udim`` with ``sizes``, or a grid
+        that does not cut the output into equal tiles.
     """
+    if udim is not None and sizes:
+        raise InvalidInputError("--udim writes the set at the output's size: leave out --sizes")
+    grid = None if udim is None else udim_grid(result.texture.shape[:2], udim)
     source = utf8_text(source)
     report = {"barkgen": __version__, "photo": source, **result.report}
     jobs: dict[str, Callable[[], bytes]] = {
@@ -141,13 +151,20 @@ def encode_generate(
     files = encode_concurrently(jobs)
     material_files: dict[str, bytes] = {}
     if result.material is not None:
-        for set_name, material in _sized_sets(result.material, base_name(name, variant), sizes):
+        base = base_name(name, variant)
+        sets = (
+            _sized_sets(result.material, base, sizes)
+            if grid is None
+            else [(material_set_name(base, grid.tile), result.material)]
+        )
+        for set_name, material in sets:
             material_files.update(
                 encode_material(
                     material,
                     set_name,
                     preset,
                     exr_height=exr_height,
+                    udim=udim,
                     asset=name,
                     variant=variant,
                     seed=result.report["seed"],
@@ -162,7 +179,7 @@ def encode_generate(
     files.update(also or {})
     record = "report.json"
     if layout == "library":  # the run's own files named after the output's set (its maps are)
-        prefix = material_set_name(base_name(name, variant), result.texture.shape[:2])
+        prefix = material_set_name(base_name(name, variant), result.texture.shape[:2] if grid is None else grid.tile)
         files = {(n if n in material_files else library_file_name(prefix, n)): data for n, data in files.items()}
         record = library_file_name(prefix, record)
     report["files"] = sorted(files) + [record]
@@ -207,6 +224,18 @@ def sized_options(options, widths: Sequence[int]):
 
     h, w = options.size
     return dataclasses.replace(options, material=True, size=(max(1, round(h * widths[-1] / w)), widths[-1]))
+
+
+def udim_options(options, udim: tuple[int, int] | None):
+    """The options of a run that writes its set as ``udim`` (``(columns, rows)``) tiles, each
+    of ``options.size``: the output the whole grid, one canvas (so every tile continues into
+    its neighbours, and round the torus with ``tile``), with the material set on."""
+    if udim is None:
+        return options
+    import dataclasses
+
+    h, w = options.size
+    return dataclasses.replace(options, material=True, size=(h * udim[1], w * udim[0]))
 
 
 def _sized_sets(material, base: str, sizes: Sequence[int]):
