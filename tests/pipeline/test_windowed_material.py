@@ -1,0 +1,146 @@
+"""The windowed resolve pass (:mod:`barkgen.pipeline.windowed`): a tiled output's colour and
+material set made window by window match the whole output's, across the windows' borders and
+round the torus, to within a last bit of each file."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import bark_exemplar
+
+from barkgen._shared.canvas import Canvas
+from barkgen.errors import InvalidInputError
+from barkgen.pipeline.windowed import (
+    MATERIAL_HALO,
+    HeightRange,
+    encoded_window,
+    material_in_windows,
+    read_references,
+    resolve_windows,
+)
+
+SIZE, BLOCK, WINDOW = 384, 48, 128
+
+
+def shuffled_blocks(exemplar_side: int, seed: int = 0) -> np.ndarray:
+    """A tiled ``(SIZE, SIZE, 2)`` reference map of square pieces of the exemplar at random
+    places, rolled so that pieces run across the torus' edges and across every window border."""
+    rng = np.random.default_rng(seed)
+    n = SIZE // BLOCK
+    offsets = rng.integers(0, exemplar_side - BLOCK, size=(n, n, 2))
+    local = np.arange(SIZE) % BLOCK
+    block = np.arange(SIZE) // BLOCK
+    ry = offsets[block[:, None], block[None, :], 0] + local[:, None]
+    rx = offsets[block[:, None], block[None, :], 1] + local[None, :]
+    refs = np.stack([ry, rx], axis=-1).astype(np.int32)
+    return np.roll(refs, (BLOCK // 2 + 5, BLOCK // 2 - 7), axis=(0, 1))
+
+
+@pytest.fixture(scope="module")
+def whole_and_windowed():
+    from barkgen.material import MaterialOptions, make_material, transfer_material
+    from barkgen.material.presets import encoded_maps
+    from barkgen.synth import blend_seams, resolve_continuous
+
+    photo = bark_exemplar("fir_scaly_01", 128)
+    source = make_material(photo, MaterialOptions(exemplar_wrap="no"))
+    refs = shuffled_blocks(photo.shape[0])
+    canvas = Canvas((SIZE, SIZE), tile=True, exemplar_wrap=(False, False))
+    whole = transfer_material(source, refs, canvas)
+    files = encoded_maps(whole)
+    files["texture"] = blend_seams(photo, refs, canvas)
+    relief = (photo.astype(np.uint16).sum(axis=2) * 80).astype(np.uint16)  # an extra map
+    files["relief"] = resolve_continuous(relief[:, :, None], refs, canvas)
+
+    # the references through a reader, as a caller keeping them on disk gives them
+    windows = list(
+        material_in_windows(
+            source,
+            lambda rows, cols: refs[np.ix_(rows, cols)],
+            canvas,
+            window=WINDOW,
+            halo=MATERIAL_HALO,
+            texture_source=photo,
+            extras={"relief": relief},
+        )
+    )
+    height_range = HeightRange()
+    for maps in windows:
+        height_range = height_range.add(maps.material.height)
+    pieces = {}
+    for maps in windows:
+        encoded = encoded_window(maps.material, height_range)
+        encoded["texture"], encoded["relief"] = maps.texture, maps.extras["relief"]
+        for name, pixels in encoded.items():
+            if pixels is not None:
+                pieces.setdefault(name, np.zeros(files[name].shape, files[name].dtype))[maps.target] = pixels
+    return whole, files, height_range, pieces, len(windows)
+
+
+def test_every_map_made_in_windows_matches_the_whole_output(whole_and_windowed):
+    whole, files, height_range, pieces, n_windows = whole_and_windowed
+    assert n_windows == (SIZE // WINDOW) ** 2
+    assert set(pieces) == {name for name, pixels in files.items() if pixels is not None}
+    # the displacement's range is the whole output's (only it is normalised over the output)
+    assert height_range.low == pytest.approx(float(whole.height.min()), abs=1e-4 * whole.depth)
+    assert height_range.high == pytest.approx(float(whole.height.max()), abs=1e-4 * whole.depth)
+    assert height_range.depth == pytest.approx(whole.depth, rel=1e-4)
+    assert height_range.midlevel == pytest.approx(whole.midlevel, abs=1e-4)
+    # 8-bit maps within a last bit, the 16-bit displacement within a few, everywhere: the
+    # windows' borders and the torus' edges (the outermost rows and columns) included
+    for name, expected in files.items():
+        if expected is None:
+            continue
+        diff = np.abs(pieces[name].astype(np.int64) - expected.astype(np.int64))
+        # (measured: 1 LSB at most; 2.7 % of the displacement's pixels and 0.001 % of the 8-bit
+        # maps' off by one, the whole solve's and the windows' rounding)
+        limit, share = (2, 0.05) if name == "displacement" else (1, 0.01)
+        assert diff.max() <= limit, (name, int(diff.max()))
+        assert diff.mean() < share, (name, float(diff.mean()))
+        edges = np.concatenate([diff[:2].ravel(), diff[-2:].ravel(), diff[:, :2].ravel(), diff[:, -2:].ravel()])
+        assert edges.max() <= limit, name
+
+
+def test_a_short_halo_leaves_the_displacement_off_near_the_core_borders(whole_and_windowed):
+    """What the halo buys: with a tenth of it the height's solve is cut short."""
+    from barkgen.material import MaterialOptions, make_material
+
+    whole = whole_and_windowed[0]
+    photo = bark_exemplar("fir_scaly_01", 128)
+    source = make_material(photo, MaterialOptions(exemplar_wrap="no"))
+    canvas = Canvas((SIZE, SIZE), tile=True, exemplar_wrap=(False, False))
+    heights = np.zeros(whole.shape, np.float32)
+    for maps in material_in_windows(source, shuffled_blocks(128), canvas, window=WINDOW, halo=MATERIAL_HALO // 10):
+        heights[maps.target] = maps.material.height
+    assert np.abs(heights - whole.height).max() / whole.depth * 65535 > 4
+
+
+def test_the_windows_cover_the_output_once_round_the_torus_or_clipped():
+    tiled = resolve_windows((300, 200), 128, 16, tile=True)
+    assert len(tiled) == 3 * 2
+    cover = np.zeros((300, 200), int)
+    for win in tiled:
+        cover[win.target] += 1
+        assert np.array_equal(win.rows[win.core[0]], np.arange(300)[win.target[0]])
+        assert win.shape == (
+            win.target[0].stop - win.target[0].start + 32,
+            win.target[1].stop - win.target[1].start + 32,
+        )
+    assert (cover == 1).all()
+    assert tiled[0].rows[0] == 300 - 16 and tiled[-1].cols[-1] == 15  # read round the torus
+    clipped = resolve_windows((300, 200), 128, 16, tile=False)
+    assert clipped[0].rows[0] == 0 and clipped[0].core[0] == slice(0, 128)
+    assert clipped[-1].rows[-1] == 299 and clipped[-1].cols[-1] == 199
+    assert clipped[-1].inner(8) == (slice(8, 300 - 256 + 16), slice(8, 200 - 128 + 16))
+
+
+def test_a_reference_reader_gives_the_rectangle_asked_for():
+    refs = np.arange(6 * 5 * 2).reshape(6, 5, 2)
+    rows, cols = np.array([5, 0, 1]), np.array([4, 0])
+    expected = refs[np.ix_(rows, cols)]
+    assert np.array_equal(read_references(refs, rows, cols), expected)
+    assert np.array_equal(read_references(lambda r, c: refs[np.ix_(r, c)], rows, cols), expected)
+    with pytest.raises(InvalidInputError, match="block"):
+        read_references(lambda r, c: refs[: r.size], rows, cols)
+    with pytest.raises(InvalidInputError, match="flow"):
+        next(material_in_windows(None, refs, Canvas((6, 5), exemplar_wrap=(False, False), flow=np.zeros((6, 5)))))
