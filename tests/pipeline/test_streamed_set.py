@@ -132,7 +132,7 @@ def test_an_error_after_the_first_band_leaves_no_file(run, tmp_path, monkeypatch
     import barkgen.pipeline.streamed as streamed
 
     source, refs, canvas, _ = run
-    real = streamed.band_images
+    real = streamed.write_band
     bands = []
 
     def failing(*args, **kwargs):
@@ -141,7 +141,7 @@ def test_an_error_after_the_first_band_leaves_no_file(run, tmp_path, monkeypatch
             raise KeyboardInterrupt
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(streamed, "band_images", failing)
+    monkeypatch.setattr(streamed, "write_band", failing)
     folder = tmp_path / "new" / "set"
     (tmp_path / "keep.txt").write_text("mine")
     with pytest.raises(KeyboardInterrupt):

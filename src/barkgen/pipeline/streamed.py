@@ -25,7 +25,7 @@ import hashlib
 import json
 import os
 import tempfile
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -237,33 +237,42 @@ class TiledFile:
         self.open.clear()
 
 
-def core_rows(windows: Iterable[WindowMaps]) -> Iterator[list[WindowMaps]]:
-    """The window cores in raster order gathered a row of cores (a band) at a time."""
-    row: list[WindowMaps] = []
-    for maps in windows:
-        if row and maps.target[0] != row[0].target[0]:
-            yield row
-            row = []
-        row.append(maps)
-    if row:
-        yield row
+@dataclass
+class BandBuffer:
+    """One band of the output (a row of window cores, ``rows``, ``width`` px across) of every
+    image of the preset and of the height, filled core by core as the cores come
+    (:meth:`add`): a pixel's file value depends on its own values alone
+    (:func:`~barkgen.material.presets.preset_images`), so the cores' pixels laid side by side
+    are the band of the whole set's images; the displacement's hold the cores' own
+    normalisation (the second pass rewrites them).
 
+    Attributes
+    ----------
+    rows : slice
+        The band's rows in the output.
+    width : int
+        The output's width.
+    images : dict of str to ndarray
+        File name -> the band's pixels.
+    heights : ndarray of float32 or None
+        The band's height (px).
+    """
 
-def band_images(cores: list[WindowMaps], name: str, preset: str, width: int) -> dict[str, np.ndarray]:
-    """One band of every image of ``preset``: each core's pixels encoded
-    (:func:`~barkgen.material.presets.preset_images`, a pixel's file value depends on its own
-    values alone) and laid side by side; the displacement's images hold the cores' own
-    normalisation (the second pass rewrites them)."""
-    from barkgen.material.presets import preset_images
+    rows: slice
+    width: int
+    images: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
+    heights: np.ndarray | None = None
 
-    band: dict[str, np.ndarray] = {}
-    for maps in cores:
-        assert maps.material is not None
-        for file, pixels in preset_images(maps.material, name, preset).items():
-            if file not in band:
-                band[file] = np.empty((pixels.shape[0], width) + pixels.shape[2:], pixels.dtype)
-            band[file][:, maps.target[1]] = pixels
-    return band
+    def add(self, columns: slice, images: dict[str, np.ndarray], height: np.ndarray) -> None:
+        """A core's encoded ``images`` and ``height`` at ``columns``."""
+        n = self.rows.stop - self.rows.start
+        for file, pixels in images.items():
+            if file not in self.images:
+                self.images[file] = np.empty((n, self.width) + pixels.shape[2:], pixels.dtype)
+            self.images[file][:, columns] = pixels
+        if self.heights is None:
+            self.heights = np.empty((n, self.width), np.float32)
+        self.heights[:, columns] = height
 
 
 def write_material_streamed(
@@ -398,39 +407,49 @@ def _first_pass(
     total: int,
     progress: Callable[[int, int], None] | None,
 ) -> tuple[OutputOutline, list[str], DisplacementPlan]:
-    """Every band's images written but the displacement's; its heights (and the other channels
-    of an image packing the displacement) spilled into ``spills`` (made here). Returns the
-    output's outline, the preset's image names and the :class:`DisplacementPlan`."""
-    height_range, first, plan, done = HeightRange(), None, None, 0
-    shape, images = (0, 0), {}
-    for cores in core_rows(windows):
-        materials = [maps.material for maps in cores]
+    """Every band's images written but the displacement's, core by core (no core kept once
+    encoded); its heights (and the other channels of an image packing the displacement)
+    spilled into ``spills`` (made here). Returns the output's outline, the preset's image
+    names and the :class:`DisplacementPlan`."""
+    from barkgen.material.presets import preset_images
+
+    height_range, first, plan, band, done = HeightRange(), None, None, None, 0
+    shape = target[4]
+    for maps in windows:
+        material = maps.material
+        assert material is not None
         if first is None:
-            first = materials[0]
-            assert first is not None
-            plan = displacement_plan(first, name, preset)
+            first = output_outline(material, shape, HeightRange())  # (a pixel of each map: kept)
+            plan = displacement_plan(material, name, preset)
             for i, kind in enumerate(["height", *plan.packed]):
                 spills[kind] = SpillFile(spill_dir, f"spill{i}")
         assert plan is not None
-        shape = (int(cores[0].target[0].stop), max(int(maps.target[1].stop) for maps in cores))
-        heights = np.empty((shape[0] - int(cores[0].target[0].start), shape[1]), np.float32)
-        for maps, material in zip(cores, materials, strict=True):
-            assert material is not None
-            heights[:, maps.target[1]] = material.height
-            height_range = height_range.add(material.height)
-        spills["height"].append(heights)
-        images = band_images(cores, name, preset, shape[1])
-        for file, pixels in images.items():
-            if file in plan.packed:
-                spills[file].append(pixels)
-            elif file not in plan.alone:
-                _writer(target, file).write(pixels)
-        done += len(cores)
+        if band is not None and band.rows != maps.target[0]:
+            write_band(band, plan, spills, target)
+        if band is None or band.rows != maps.target[0]:
+            band = BandBuffer(maps.target[0], int(shape[1]))
+        band.add(maps.target[1], preset_images(material, name, preset), material.height)
+        height_range = height_range.add(material.height)
+        del maps, material  # (not held while the next window is solved)
+        done += 1
         if progress is not None:
             progress(done, total)
-    if first is None or plan is None:
+    if first is None or plan is None or band is None:
         raise InvalidInputError("the output has no windows")
-    return output_outline(first, shape, height_range), sorted(images), plan
+    write_band(band, plan, spills, target)
+    return output_outline(first, shape, height_range), sorted(band.images), plan
+
+
+def write_band(band: BandBuffer, plan: DisplacementPlan, spills: dict[str, SpillFile], target: tuple) -> None:
+    """A finished band's images written to their files but the displacement's; its heights (and
+    the images packing the displacement) spilled for the second pass."""
+    assert band.heights is not None
+    spills["height"].append(band.heights)
+    for file, pixels in band.images.items():
+        if file in plan.packed:
+            spills[file].append(pixels)
+        elif file not in plan.alone:
+            _writer(target, file).write(pixels)
 
 
 def _second_pass(
