@@ -98,34 +98,84 @@ def test_the_streamed_set_is_the_whole_encoding(run, tmp_path, preset, udim):
     assert got["files"] == sorted(set(expected) - {"bark.json"})
 
 
-def test_the_records_are_encode_materials_for_the_set_made_in_windows(run, tmp_path, monkeypatch):
-    """With the very heights of the windows, NAME.json, the Blender set-up and NAME.mtlx are
-    byte for byte encode_material's (the set glued from the window cores)."""
+@pytest.fixture(scope="module")
+def windowed(run):
+    """The window cores (solved once for the tests that replay them) and the set glued from
+    them: the very set the streamed files hold."""
     import dataclasses
 
-    import barkgen.pipeline.streamed as streamed
-    from barkgen.io import encode_material
     from barkgen.pipeline.windowed import material_in_windows
 
-    pytest.importorskip("MaterialX")
     source, refs, canvas, whole = run
     cores = list(material_in_windows(source, refs, canvas, window=WINDOW))
-    monkeypatch.setattr(streamed, "material_in_windows", lambda *args, **kwargs: iter(cores))  # (solved once)
     glued = {kind: np.zeros_like(getattr(whole, kind)) for kind in ("color", "height", "normals", "ao", "roughness")}
     for maps in cores:
         for kind, values in glued.items():
             values[maps.target] = getattr(maps.material, kind)
-    made = dataclasses.replace(whole, **glued)
-    hashes = streamed.write_material_streamed(
-        source, refs, canvas, tmp_path, "bark", "blender", width_m=0.8, window=WINDOW
-    )
-    expected = encode_material(made, "bark", "blender")
+    return cores, dataclasses.replace(whole, **glued)
+
+
+def streamed_replaying(run, windowed, monkeypatch, folder, preset, **options):
+    import barkgen.pipeline.streamed as streamed
+
+    source, refs, canvas, _ = run
+    monkeypatch.setattr(streamed, "material_in_windows", lambda *args, **kwargs: iter(windowed[0]))
+    return streamed.write_material_streamed(source, refs, canvas, folder, "bark", preset, window=WINDOW, **options)
+
+
+def test_the_records_are_encode_materials_for_the_set_made_in_windows(run, windowed, tmp_path, monkeypatch):
+    """With the very heights of the windows, NAME.json, the Blender set-up and NAME.mtlx are
+    byte for byte encode_material's (for the set glued from the window cores), the EXR's
+    values and every image's pixels equal."""
+    from barkgen.io import encode_material
+
+    pytest.importorskip("MaterialX")
+    pytest.importorskip("OpenEXR")
+    hashes = streamed_replaying(run, windowed, monkeypatch, tmp_path, "blender", width_m=0.8, exr_height=True)
+    expected = encode_material(windowed[1], "bark", "blender", exr_height=True)
     for file in ("bark.json", "bark_blender.py", "bark.mtlx"):
         assert (tmp_path / file).read_bytes() == expected[file], file
     for file, data in expected.items():
         if file.endswith(".png"):  # the same set: the same pixels exactly
             assert np.array_equal(pixels((tmp_path / file).read_bytes()), pixels(data)), file
+    from barkgen.io.images import decode_image
+
+    exr = tmp_path / "bark_Displacement.exr"
+    assert np.array_equal(
+        decode_image(exr.read_bytes(), linear=True), decode_image(expected["bark_Displacement.exr"], linear=True)
+    )
     assert sorted(hashes) == sorted(expected)
+
+
+def test_an_image_packing_the_displacement_is_written_from_the_spill(run, windowed, tmp_path, monkeypatch):
+    """A preset that packs the displacement with another map (none does yet): its other
+    channels spilled with the heights, the displacement's put in after the last window."""
+    import barkgen.material.presets as presets
+    from barkgen.io import encode_material
+
+    real = presets.preset_images
+
+    def with_pack(material, name, preset="ambientcg"):
+        files = real(material, name, preset)
+        maps = presets.encoded_maps(material)
+        files[f"{name}_RoughDisp.png"] = presets.pack_channels(maps["roughness"], maps["displacement"], maps["ao"])
+        return files
+
+    monkeypatch.setattr(presets, "preset_images", with_pack)
+    assert streamed_plan(windowed).packed == {"bark_RoughDisp.png": (1,)}
+    streamed_replaying(run, windowed, monkeypatch, tmp_path, "gltf", width_m=0.8, udim=(2, 1))
+    expected = encode_material(windowed[1], "bark", "gltf", udim=(2, 1))
+    assert "bark_RoughDisp.1002.png" in expected
+    for file, data in expected.items():
+        if file.endswith(".png"):
+            assert np.array_equal(pixels((tmp_path / file).read_bytes()), pixels(data)), file
+    assert (tmp_path / "bark.json").read_bytes() == expected["bark.json"]
+
+
+def streamed_plan(windowed):
+    from barkgen.pipeline.streamed import displacement_plan
+
+    return displacement_plan(windowed[0][0].material, "bark", "gltf")
 
 
 def test_an_error_after_the_first_band_leaves_no_file(run, tmp_path, monkeypatch):

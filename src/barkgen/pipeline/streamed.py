@@ -28,7 +28,7 @@ import tempfile
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -45,6 +45,9 @@ from barkgen.pipeline.windowed import (
     material_in_windows,
     resolve_windows,
 )
+
+if TYPE_CHECKING:
+    from barkgen.io.streaming import ExrStream, PngStream
 
 #: a stream's staged ``(temporary, target)`` pairs (:mod:`barkgen.io.staging`)
 Staged = list[tuple[str, Path]]
@@ -110,11 +113,6 @@ class DisplacementPlan:
 
     alone: tuple[str, ...]
     packed: dict[str, tuple[int, ...]]
-
-    @property
-    def files(self) -> set[str]:
-        """Every image written in the second pass."""
-        return set(self.alone) | set(self.packed)
 
 
 def displacement_plan(core: MaterialSet, name: str, preset: str) -> DisplacementPlan:
@@ -192,7 +190,7 @@ class TiledFile:
     def __init__(self, folder: Path, file: str, shape: tuple[int, int], grid: UdimGrid | None, staged: Staged) -> None:
         self.folder, self.file, self.grid, self.staged = folder, file, grid, staged
         self.tile = grid.tile if grid is not None else (int(shape[0]), int(shape[1]))
-        self.open: dict[str, object] = {}
+        self.open: dict[str, PngStream | ExrStream] = {}
         self.hashes: dict[str, str] = {}
         self.top = 0
 
@@ -214,7 +212,7 @@ class TiledFile:
             for column in range(band.shape[1] // tile_w):
                 name = self.name(row, column)
                 stream = self.open.get(name)
-                if stream is None:
+                if stream is None:  # (a tile's first rows)
                     target = self.folder / name
                     if name.endswith(".exr"):
                         stream = ExrStream(target, tile_w, tile_h, staged=self.staged)
@@ -223,17 +221,18 @@ class TiledFile:
                         bits = 16 if band.dtype == np.uint16 else 8
                         stream = PngStream(target, tile_w, tile_h, channels=channels, bits=bits, staged=self.staged)
                     self.open[name] = stream
-                stream.write(band[rows, column * tile_w : (column + 1) * tile_w])  # type: ignore[attr-defined]
-                if stream.rows_written == tile_h:  # type: ignore[attr-defined]
-                    stream.close()  # type: ignore[attr-defined]
-                    self.hashes[name] = stream.sha256  # type: ignore[attr-defined]
+                stream.write(band[rows, column * tile_w : (column + 1) * tile_w])
+                if stream.rows_written == tile_h:
+                    stream.close()
+                    assert stream.sha256 is not None
+                    self.hashes[name] = stream.sha256
                     del self.open[name]
         self.top = stop
 
     def abort(self) -> None:
         """Drop every stream still open (their temporaries removed)."""
         for stream in self.open.values():
-            stream.abort()  # type: ignore[attr-defined]
+            stream.abort()
         self.open.clear()
 
 
@@ -351,12 +350,17 @@ def write_material_streamed(
         (an interrupt included) no file of the set is left: each is written to a staged
         temporary, all renamed into place after the last.
     """
+    from barkgen._shared.extras import require_extra
     from barkgen.io.material import check_material_name
     from barkgen.io.staging import commit_staged, discard_staged
     from barkgen.material.presets import check_preset
 
     check_material_name(name)
     check_preset(preset)
+    if exr_height:  # (refused before any work, not at the second pass)
+        require_extra("exr", "32-bit EXR maps")
+    if preset == "blender":
+        require_extra("materialx", "the Blender preset's MaterialX document")
     grid = None if udim is None else udim_grid(canvas.shape, udim)
     folder = Path(folder)
     staged: Staged = []
