@@ -42,6 +42,7 @@ from barkgen.io.material import (
     MAP_SUFFIXES,
     check_material_name,
     encode_material,
+    encode_set_records,
     find_material,
     read_material,
 )
@@ -105,6 +106,7 @@ __all__ = [
     "add_tangents",
     "vertex_tangents",
     "encode_material",
+    "encode_set_records",
     "blender_setup_script",
     "find_material",
     "read_material",

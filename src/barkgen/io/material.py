@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import os
 import re
+from collections.abc import Iterable
 from functools import partial
 from pathlib import Path
 
@@ -122,14 +123,37 @@ def encode_material(
     MissingExtraError
         ``blender`` without the ``[materialx]`` extra.
     """
-    from barkgen.material.presets import NORMAL_FILES, PACKING, check_preset, preset_images
+    from barkgen.material.presets import check_preset, preset_images
 
     check_material_name(name)
     check_preset(preset)
-    metadata = {k: utf8_text(v) if isinstance(v, str) else v for k, v in metadata.items()}
     grid = None if udim is None else udim_grid(material.shape, udim)
     images = preset_images(material, name, preset)
     files = encode_concurrently({fname: partial(encode_png, pixels) for fname, pixels in _tiled(images, grid).items()})
+    if exr_height:
+        height = {f"{name}_Displacement.exr": material.displacement().astype(np.float32)}
+        files.update({file: encode_exr(values) for file, values in _tiled(height, grid).items()})
+    files.update(encode_set_records(material, name, preset, images, list(files), udim=grid, **metadata))
+    return files
+
+
+def encode_set_records(
+    material, name: str, preset: str, images: Iterable[str], written: Iterable[str], *, udim=None, **metadata
+) -> dict[str, bytes]:
+    """The records of a set whose image files are ``written`` (each map's or each UDIM tile's,
+    the EXR): ``NAME.json`` (listing them and the records), ``NAME_blender.py`` and, for the
+    ``blender`` preset, ``NAME.mtlx``, as :func:`encode_material` writes them.
+
+    ``material`` gives the set's record (its :meth:`~barkgen.material.MaterialSet.metadata`,
+    shape, depth and midlevel: the whole set, or an outline of it whose maps were written
+    window by window, :mod:`barkgen.pipeline.streamed`); ``images`` the whole maps' file names
+    (``NAME_Color.png`` ...), ``udim`` the :class:`~barkgen.io.UdimGrid` they were cut into,
+    ``metadata`` as :func:`encode_material`'s.
+    """
+    from barkgen.material.presets import NORMAL_FILES, PACKING
+
+    images = list(images)
+    metadata = {k: utf8_text(v) if isinstance(v, str) else v for k, v in metadata.items()}
     meta = material.metadata(name=name, **metadata)
     meta["width_px"], meta["height_px"] = meta["size"]
     meta["preset"] = preset
@@ -137,18 +161,15 @@ def encode_material(
         meta["normal_convention"] = NORMAL_FILES[preset]
         if preset in PACKING:
             meta["packing"] = PACKING[preset]
-    if grid is not None:
-        meta["udim"] = grid.to_dict()
+    if udim is not None:
+        meta["udim"] = udim.to_dict()
+    records: dict[str, bytes] = {}
     if preset == "blender":
-        files[f"{name}.mtlx"] = _mtlx(material, name, images, grid)
-    script = blender_setup_script(material, name, images, preset, udim=grid)
-    files[blender_script_name(name)] = script.encode()
-    if exr_height:
-        height = {f"{name}_Displacement.exr": material.displacement().astype(np.float32)}
-        files.update({file: encode_exr(values) for file, values in _tiled(height, grid).items()})
-    meta["files"] = sorted(files)
-    files[f"{name}.json"] = (json.dumps(meta, indent=2) + "\n").encode()
-    return files
+        records[f"{name}.mtlx"] = _mtlx(material, name, images, udim)
+    records[blender_script_name(name)] = blender_setup_script(material, name, images, preset, udim=udim).encode()
+    meta["files"] = sorted([*written, *records])
+    records[f"{name}.json"] = (json.dumps(meta, indent=2) + "\n").encode()
+    return records
 
 
 def encode_exr(values: np.ndarray) -> bytes:
@@ -182,7 +203,7 @@ def _tiled(images: dict[str, np.ndarray], grid: UdimGrid | None) -> dict[str, np
     }
 
 
-def _mtlx(material, name: str, images: dict, grid: UdimGrid | None = None) -> bytes:
+def _mtlx(material, name: str, images: Iterable[str], grid: UdimGrid | None = None) -> bytes:
     """The Blender preset's ``NAME.mtlx`` wiring the set's images."""
     from barkgen.io.materialx import encode_mtlx
 

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import json
 import os
 import tempfile
 from collections.abc import Callable, Iterator
@@ -494,26 +493,9 @@ def _record_files(
     """``NAME.json``, ``NAME_blender.py`` (and ``NAME.mtlx``) staged as
     :func:`barkgen.io.encode_material` makes them for the whole set (its ``outline`` here),
     ``written`` the image files; returns their SHA-256."""
-    from barkgen.io.blender import blender_script_name, blender_setup_script
-    from barkgen.io.material import _mtlx, utf8_text
+    from barkgen.io.material import encode_set_records
     from barkgen.io.staging import stage_files
-    from barkgen.material.presets import NORMAL_FILES, PACKING
 
-    metadata = {k: utf8_text(v) if isinstance(v, str) else v for k, v in metadata.items()}
-    meta = outline.metadata(name=name, **metadata)
-    meta["width_px"], meta["height_px"] = meta["size"]
-    meta["preset"] = preset
-    if preset != "ambientcg":
-        meta["normal_convention"] = NORMAL_FILES[preset]
-        if preset in PACKING:
-            meta["packing"] = PACKING[preset]
-    if grid is not None:
-        meta["udim"] = grid.to_dict()
-    files: dict[str, bytes] = {}
-    if preset == "blender":
-        files[f"{name}.mtlx"] = _mtlx(outline, name, dict.fromkeys(images), grid)
-    files[blender_script_name(name)] = blender_setup_script(outline, name, images, preset, udim=grid).encode()
-    meta["files"] = sorted([*written, *files])
-    files[f"{name}.json"] = (json.dumps(meta, indent=2) + "\n").encode()
+    files = encode_set_records(outline, name, preset, images, written, udim=grid, **metadata)
     stage_files(folder, files, staged)
     return {file: hashlib.sha256(data).hexdigest() for file, data in files.items()}
