@@ -11,7 +11,7 @@ straight line on the border (:func:`barkgen.evaluate.line_mask`, the boundaries 
 it), each beside the same figures at the middle of either tile, where the canvas was not cut:
 what the bark itself gives at any one column. From the reference map: the longest straight seam
 along each tile border (a run of rows whose pixels either side copy no neighbouring photo
-pixels) beside the same a third of a tile in. The run's seconds and peak resident memory are its own
+pixels), its rank among all the output's column boundaries and their 99th percentile. The run's seconds and peak resident memory are its own
 process's. ``--from``: measure a set already made (nothing is run). ``--render``: the set's
 Blender set-up renders its first tile border (``--focus 1,0.5``; Debian ``blender``).
 ``--quick``: 2x1 tiles of 512 px.
@@ -59,49 +59,55 @@ def column_steps(image: np.ndarray) -> np.ndarray:
     return np.sqrt(np.sum(np.diff(img, axis=1) ** 2, axis=2)).mean(axis=0)
 
 
-def line_at(image: np.ndarray, column: int) -> int:
-    """The longest straight vertical line within :data:`BORDER_REACH` px of the boundary after
-    ``column`` (measured on a band of columns round it, :func:`barkgen.evaluate.line_mask`)."""
-    from barkgen.evaluate import line_mask
-    from barkgen.evaluate.seams import longest_run
-
-    first = max(column - 16, 0)
-    across_cols, _ = line_mask(image[:, first : column + 18])
-    local = column - first
-    return longest_run(across_cols[:, local - BORDER_REACH : local + BORDER_REACH + 1].T)
+def longest_runs(mask: np.ndarray) -> np.ndarray:
+    """Each column's longest run of True down a 2-D mask."""
+    on = mask.astype(np.int32)
+    count = np.cumsum(on, axis=0)
+    last_break = np.maximum.accumulate(np.where(on == 0, count, 0), axis=0)
+    return (count - last_break).max(axis=0)
 
 
-def seam_along(references: np.ndarray, column: int, exemplar: tuple[int, int], wraps: tuple[bool, bool]) -> int:
-    """The longest straight seam along the boundary after output ``column`` (round the
-    output's width): the longest run of rows whose two pixels either side copy no neighbouring
-    photo pixels (``exemplar``: the photo's ``(h, w)``, ``wraps``: its axes that wrap)."""
-    from barkgen.evaluate.seams import longest_run
-
-    left, right = references[:, column], references[:, (column + 1) % references.shape[1]]
-    dy, dx = right[:, 0] - left[:, 0], right[:, 1] - left[:, 1]
+def column_seams(references: np.ndarray, exemplar: tuple[int, int], wraps: tuple[bool, bool]) -> np.ndarray:
+    """For each boundary between output columns (the last against the first), the longest
+    straight seam along it: the longest run of rows whose two pixels either side copy no
+    neighbouring photo pixels (``exemplar``: the photo's ``(h, w)``, ``wraps``: its axes that
+    wrap)."""
+    right = np.roll(references, -1, axis=1)
+    dy, dx = right[..., 0] - references[..., 0], right[..., 1] - references[..., 1]
     if wraps[0]:
         dy %= exemplar[0]
     if wraps[1]:
         dx %= exemplar[1]
-    return longest_run(((dy != 0) | (dx != 1))[None, :])
+    return longest_runs((dy != 0) | (dx != 1))
+
+
+def column_lines(image: np.ndarray) -> np.ndarray:
+    """For each boundary between neighbouring columns, the longest straight vertical line
+    within :data:`BORDER_REACH` px of it (:func:`barkgen.evaluate.line_mask`), px."""
+    from scipy.ndimage import maximum_filter1d
+
+    from barkgen.evaluate import line_mask
+
+    across_cols, _ = line_mask(image)
+    return maximum_filter1d(longest_runs(across_cols), 2 * BORDER_REACH + 1, mode="nearest")
 
 
 def pair_figures(left: np.ndarray, right: np.ndarray) -> dict:
     """Two tiles joined side by side (``left``'s right edge against ``right``'s left): the step
-    across their border and the longest line on it, and the same at the middle of each tile
-    (where the canvas was not cut: what the bark itself gives), each step over the pair's
-    median step across a column boundary."""
+    across their border (over the pair's median step across a column boundary) and the longest
+    line on it, each with its rank among every column boundary of the pair (the share of
+    columns below it: a border no different from the bark's other columns ranks anywhere), and
+    the pair's median and 99th-percentile line."""
     joined = np.concatenate((left, right), axis=1)
-    width = left.shape[1]
-    steps = column_steps(joined)
-    typical = float(np.median(steps))
-    # (a third of a tile in: no column a power of two from a border, where pieces may repeat)
-    inside = (width // 3 - 1, width + width // 3 - 1)
+    border = left.shape[1] - 1
+    steps, lines = column_steps(joined), column_lines(joined)
     return {
-        "step": round(float(steps[width - 1]) / typical, 3),
-        "inside_step": round(max(float(steps[c]) for c in inside) / typical, 3),
-        "border_line": line_at(joined, width - 1),
-        "inside_line": max(line_at(joined, c) for c in inside),
+        "step": round(float(steps[border] / np.median(steps)), 3),
+        "step_rank": round(float((steps < steps[border]).mean()), 3),
+        "border_line": int(lines[border]),
+        "line_rank": round(float((lines < lines[border]).mean()), 3),
+        "line_p50": int(np.percentile(lines, 50)),
+        "line_p99": int(np.percentile(lines, 99)),
     }
 
 
@@ -116,14 +122,16 @@ def measure(folder: Path) -> list[dict]:
     report = json.loads((folder / "report.json").read_text())
     width, wraps = udim["tile_width_px"], tuple(report["exemplar_wrap"])
     rows = []
+    seams = column_seams(references, exemplar, wraps)
     for number in range(1, udim["columns"] + 1):  # the straight seams along each tile border
-        border, inside = number * width - 1, number * width - 1 - width // 3
+        border = number * width - 1
         rows.append(
             {
                 "map": "reference",
                 "pair": f"{1000 + number}|{1001 + number % udim['columns']}",
-                "seam": seam_along(references, border, exemplar, wraps),
-                "inside_seam": seam_along(references, inside, exemplar, wraps),
+                "seam": int(seams[border]),
+                "seam_rank": round(float((seams < seams[border]).mean()), 3),
+                "seam_p99": int(np.percentile(seams, 99)),
             }
         )
     maps = sorted({Path(p).name.split(".")[0][len(stem) + 1 :] for p in glob.glob(str(folder / f"{stem}_*.1001.png"))})
@@ -176,21 +184,21 @@ def main() -> None:
     print(f"UDIM {args.grid} of the bundled sample, tileable, seed {args.seed}", end="")
     print(f": {run['seconds']} s, peak {run['peak_mib']} MiB" if run else f" (from {folder})")
     seams, rows = [r for r in rows if r["map"] == "reference"], [r for r in rows if r["map"] != "reference"]
-    print(f"{'tile border':>18} {'seam':>6} {'inside':>7}   (the longest straight seam along it, px)")
+    print(f"{'tile border':>18} {'seam':>6} {'rank':>6} {'p99':>5}   (the longest straight seam along it, px)")
     for r in seams:
-        print(f"{r['pair']:>18} {r['seam']:>6} {r['inside_seam']:>7}")
-    print(f"{'map':>18} {'pair':>10} {'step':>6} {'inside':>7} {'border line':>12} {'inside line':>12}")
+        print(f"{r['pair']:>18} {r['seam']:>6} {r['seam_rank']:>6.2f} {r['seam_p99']:>5}")
+    print(f"{'map':>18} {'pair':>10} {'step':>6} {'rank':>6} {'line':>5} {'rank':>6} {'p50':>4} {'p99':>4}")
     for r in rows:
         print(
-            f"{r['map']:>18} {r['pair']:>10} {r['step']:>6.3f} {r['inside_step']:>7.3f} "
-            f"{r['border_line']:>12} {r['inside_line']:>12}"
+            f"{r['map']:>18} {r['pair']:>10} {r['step']:>6.3f} {r['step_rank']:>6.2f} "
+            f"{r['border_line']:>5} {r['line_rank']:>6.2f} {r['line_p50']:>4} {r['line_p99']:>4}"
         )
-    for key, label in (("step", "step"), ("border_line", "line")):
-        inside = "inside_step" if key == "step" else "inside_line"
-        print(
-            f"largest {label} at a tile border {max(r[key] for r in rows)}, "
-            f"in the middle of a tile {max(r[inside] for r in rows)}"
-        )
+    print(
+        f"largest step at a tile border {max(r['step'] for r in rows)}, longest line {max(r['border_line'] for r in rows)} px "
+        f"(the pairs' 99th-percentile column: {max(r['line_p99'] for r in rows)} px); "
+        f"mean rank of the borders among the columns: steps {np.mean([r['step_rank'] for r in rows]):.2f}, "
+        f"lines {np.mean([r['line_rank'] for r in rows]):.2f}"
+    )
     if args.json:
         args.json.write_text(json.dumps({"run": run, "seams": seams, "pairs": rows}, indent=2) + "\n")
 
