@@ -246,17 +246,18 @@ def _analysis(image, options, extras, label_map, scan, store, progress, hit: lis
 
 
 def _run_targets(
-    folder: Path, set_names: list[str], extras, stale, preset: str, prefix: str | None, udim=None
+    folder: Path, set_names: list[str], extras, stale, preset: str, prefix: str | None, grid=None
 ) -> list[Path]:
     """The files of ``folder`` a run will write or remove (its own, named after ``prefix`` in
-    the library layout; the material set's, in ``udim``'s tiles if given, each extra's, and the
-    previous run's): none may be an input."""
+    the library layout; the material set's, in the UDIM tiles of ``grid``, a
+    :class:`~barkgen.io.UdimGrid`, if given; each extra's, and the previous run's): none may
+    be an input."""
     from barkgen.io.material import material_file_names
     from barkgen.pipeline import run_file_names
 
     names = set(run_file_names(extras, prefix)) | set(stale)
     for set_name in set_names:
-        names |= set(material_file_names(set_name, preset, udim))
+        names |= set(material_file_names(set_name, preset, grid))
         if folder.is_dir():
             names |= {
                 p.name for p in folder.iterdir() if p.name.startswith(f"{set_name}_") or p.name == f"{set_name}.json"
