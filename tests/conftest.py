@@ -75,6 +75,20 @@ def bark_exemplar(name: str, size: int) -> np.ndarray:
     return read_centre_crop(next(BARK.glob(name + ".*")), size)
 
 
+def shuffled_blocks(shape: tuple[int, int], exemplar_side: int, block: int, seed: int = 0) -> np.ndarray:
+    """A tiled ``(H, W, 2)`` reference map of square ``block`` px pieces of an exemplar at random
+    places, rolled so that pieces run across the torus' edges and across window borders: a
+    reference map whose right answer is known, for the passes that resolve maps from one."""
+    rng = np.random.default_rng(seed)
+    height, width = shape
+    offsets = rng.integers(0, exemplar_side - block, size=(height // block, width // block, 2))
+    by, bx = np.arange(height) // block, np.arange(width) // block
+    ry = offsets[by[:, None], bx[None, :], 0] + (np.arange(height) % block)[:, None]
+    rx = offsets[by[:, None], bx[None, :], 1] + (np.arange(width) % block)[None, :]
+    refs = np.stack([ry, rx], axis=-1).astype(np.int32)
+    return np.roll(refs, (block // 2 + 5, block // 2 - 7), axis=(0, 1))
+
+
 @pytest.fixture(scope="session")
 def pine64() -> np.ndarray:
     return bark_exemplar("pine_plated_01", 64)

@@ -9,24 +9,12 @@ import json
 
 import numpy as np
 import pytest
-from conftest import bark_exemplar
+from conftest import bark_exemplar, shuffled_blocks
 
 from barkgen._shared.canvas import Canvas
 
 HEIGHT, WIDTH, BLOCK, WINDOW = 192, 256, 32, 64
 META = {"seed": 7, "source_photo": "fir_scaly_01.jpg", "source": "a key as generate might add"}
-
-
-def shuffled_blocks(exemplar_side: int, seed: int = 3) -> np.ndarray:
-    """A tiled ``(HEIGHT, WIDTH, 2)`` reference map of square exemplar pieces at random places,
-    rolled so that pieces run across the torus' edges and the window borders."""
-    rng = np.random.default_rng(seed)
-    offsets = rng.integers(0, exemplar_side - BLOCK, size=(HEIGHT // BLOCK, WIDTH // BLOCK, 2))
-    by, bx = np.arange(HEIGHT) // BLOCK, np.arange(WIDTH) // BLOCK
-    ry = offsets[by[:, None], bx[None, :], 0] + (np.arange(HEIGHT) % BLOCK)[:, None]
-    rx = offsets[by[:, None], bx[None, :], 1] + (np.arange(WIDTH) % BLOCK)[None, :]
-    refs = np.stack([ry, rx], axis=-1).astype(np.int32)
-    return np.roll(refs, (BLOCK // 2 + 5, BLOCK // 2 - 7), axis=(0, 1))
 
 
 @pytest.fixture(scope="module")
@@ -35,7 +23,7 @@ def run():
 
     photo = bark_exemplar("fir_scaly_01", 128)
     source = make_material(photo, MaterialOptions(exemplar_wrap="no"))
-    refs = shuffled_blocks(photo.shape[0])
+    refs = shuffled_blocks((HEIGHT, WIDTH), photo.shape[0], BLOCK, seed=3)
     canvas = Canvas((HEIGHT, WIDTH), tile=True, exemplar_wrap=(False, False))
     whole = transfer_material(source, refs, canvas).with_width_m(0.8)
     return source, refs, canvas, whole

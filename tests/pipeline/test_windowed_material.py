@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import bark_exemplar
+from conftest import bark_exemplar, shuffled_blocks
 
 from barkgen._shared.canvas import Canvas
 from barkgen.errors import InvalidInputError
@@ -22,20 +22,6 @@ from barkgen.pipeline.windowed import (
 SIZE, BLOCK, WINDOW = 384, 48, 128
 
 
-def shuffled_blocks(exemplar_side: int, seed: int = 0) -> np.ndarray:
-    """A tiled ``(SIZE, SIZE, 2)`` reference map of square pieces of the exemplar at random
-    places, rolled so that pieces run across the torus' edges and across every window border."""
-    rng = np.random.default_rng(seed)
-    n = SIZE // BLOCK
-    offsets = rng.integers(0, exemplar_side - BLOCK, size=(n, n, 2))
-    local = np.arange(SIZE) % BLOCK
-    block = np.arange(SIZE) // BLOCK
-    ry = offsets[block[:, None], block[None, :], 0] + local[:, None]
-    rx = offsets[block[:, None], block[None, :], 1] + local[None, :]
-    refs = np.stack([ry, rx], axis=-1).astype(np.int32)
-    return np.roll(refs, (BLOCK // 2 + 5, BLOCK // 2 - 7), axis=(0, 1))
-
-
 @pytest.fixture(scope="module")
 def whole_and_windowed():
     from barkgen.material import MaterialOptions, make_material, transfer_material
@@ -44,7 +30,7 @@ def whole_and_windowed():
 
     photo = bark_exemplar("fir_scaly_01", 128)
     source = make_material(photo, MaterialOptions(exemplar_wrap="no"))
-    refs = shuffled_blocks(photo.shape[0])
+    refs = shuffled_blocks((SIZE, SIZE), photo.shape[0], BLOCK, seed=0)
     canvas = Canvas((SIZE, SIZE), tile=True, exemplar_wrap=(False, False))
     whole = transfer_material(source, refs, canvas)
     files = encoded_maps(whole)
@@ -110,7 +96,9 @@ def test_a_short_halo_leaves_the_displacement_off_near_the_core_borders(whole_an
     source = make_material(photo, MaterialOptions(exemplar_wrap="no"))
     canvas = Canvas((SIZE, SIZE), tile=True, exemplar_wrap=(False, False))
     heights = np.zeros(whole.shape, np.float32)
-    for maps in material_in_windows(source, shuffled_blocks(128), canvas, window=WINDOW, halo=MATERIAL_HALO // 10):
+    for maps in material_in_windows(
+        source, shuffled_blocks((SIZE, SIZE), 128, BLOCK, seed=0), canvas, window=WINDOW, halo=MATERIAL_HALO // 10
+    ):
         heights[maps.target] = maps.material.height
     assert np.abs(heights - whole.height).max() / whole.depth * 65535 > 4
 
