@@ -93,7 +93,9 @@ def test_concurrent_writers_leave_a_whole_entry(tmp_path, analysis):
     """Two processes and two threads write one key at once while this one reads it: every read
     is a miss or a whole analysis, and the last file loads."""
     store, key = AnalysisStore(tmp_path), "k" * 64
-    context = multiprocessing.get_context("fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn")
+    # (spawned, not forked: a fork of this many-threaded process (numba, Dask's offload thread)
+    # can hang in the child before it runs, which once held a whole test run)
+    context = multiprocessing.get_context("spawn")
     writers = [context.Process(target=_put_many, args=(str(tmp_path), key, analysis, 4)) for _ in range(2)]
     writers += [threading.Thread(target=_put_many, args=(str(tmp_path), key, analysis, 4)) for _ in range(2)]
     for writer in writers:
