@@ -102,6 +102,13 @@ class Server:
             time.sleep(0.2)
         raise RuntimeError(f"barkgen serve did not answer within {timeout_s:.0f} s")
 
+    def print_log_tail(self, lines: int = 40) -> None:
+        """The end of the server's log, on stderr."""
+        log = self.folder / "serve.log"
+        if log.exists():
+            tail = log.read_text(errors="replace").splitlines()[-lines:]
+            print("bench_load: the end of serve.log:", *tail, sep="\n  ", file=sys.stderr)
+
     def sample_memory(self) -> None:
         """Note the server's and its children's RSS (peaks in MB)."""
         if self.process is None:
@@ -481,11 +488,29 @@ def _drain(server: Server, recorder: Recorder, headers: dict, limit_s: float) ->
         client.close()
 
 
+class _Rereading:
+    """GETs of a client, each asked once more on a new connection when the one it went out on was
+    closed under it (reset, or no answer): what HTTP/1.1 clients may do for idempotent requests
+    (RFC 9112, section 9.3.1). A server that is down still fails the second try."""
+
+    def __init__(self, client: httpx.Client) -> None:
+        self.client, self.reasked = client, []
+
+    def get(self, url: str) -> httpx.Response:
+        try:
+            return self.client.get(url)
+        except httpx.TransportError as exc:
+            self.reasked.append(f"GET {url}: {type(exc).__name__}: {exc}")
+            time.sleep(0.5)
+            return self.client.get(url)
+
+
 def _check_library(server: Server, recorder: Recorder, headers: dict) -> dict:
     """Every exemplar and result the API lists has its files; the jobs the server lists agree
     with what the users saw; no result without the job that made it."""
     problems: list[str] = []
-    with httpx.Client(base_url=server.base, headers=headers, timeout=REQUEST_TIMEOUT_S) as client:
+    with httpx.Client(base_url=server.base, headers=headers, timeout=REQUEST_TIMEOUT_S) as plain:
+        client = _Rereading(plain)
         exemplars = client.get("/api/exemplars").json()
         for exemplar in exemplars:
             for url in (exemplar["photo_url"], exemplar["thumbnail_url"]):
@@ -505,6 +530,7 @@ def _check_library(server: Server, recorder: Recorder, headers: dict) -> dict:
                 if response.status_code != 200 or not response.content:
                     problems.append(f"result {summary['id']}: {url} answered {response.status_code}")
         served = {j["id"]: j for j in client.get("/api/jobs").json()}
+        reasked = client.reasked
     done: dict[int, list[tuple[str, dict]]] = defaultdict(list)  # result id -> the jobs that made it
     lost = []
     for job_id, record in recorder.jobs.items():
@@ -522,6 +548,7 @@ def _check_library(server: Server, recorder: Recorder, headers: dict) -> dict:
     doubled = [rid for rid, ids in made_by.items() if len(ids) > 1]
     orphans = [rid for rid, ids in made_by.items() if not ids]
     return {
+        "asked_again": reasked,
         "exemplars": len(exemplars),
         "results": len(results),
         "files_checked": files,
@@ -643,6 +670,9 @@ def run(
             library = _check_library(server, recorder, headers)
             server.stop()
             library["integrity_check"] = _integrity(server.library)
+        except Exception:
+            server.print_log_tail()  # (the folder goes with this block)
+            raise
         finally:
             done.set()
             server.kill()
@@ -733,6 +763,7 @@ def table(report: dict) -> str:
             f"{library['exemplars']}, {library['results']}, {library['files_checked']}",
         ),
         ("library problems / integrity_check", f"{len(library['problems'])} / {library['integrity_check']}"),
+        ("check's GETs asked again", f"{len(library['asked_again'])} {library['asked_again'][:2]}"),
     ]
     lines += [f"{name:<38} {value}" for name, value in rows]
     wrong = clean(report)
