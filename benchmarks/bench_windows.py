@@ -12,6 +12,13 @@ the colour's step ratio across the pieces' borders (:func:`barkgen.evaluate.bord
 and across the window cores' borders over the steps elsewhere
 (:func:`barkgen.evaluate.grid_step_ratio`: 1 = no trace of the windows).
 ``--quick``: 1024² with 256 px windows.
+
+    .venv/bin/python benchmarks/bench_windows.py --material [--sizes 4096] [--quick]
+
+``--material``: the whole ``barkgen generate --tile --material`` of each size instead, its set made
+whole and window by window (``--material-windows no`` / ``yes``), each in a process of its own:
+seconds, peak resident memory, and the windowed set's maps against the whole set's (the share of
+samples equal, the largest difference). ``--quick``: 1024².
 """
 
 from __future__ import annotations
@@ -56,6 +63,66 @@ def run_case(size: int, window: int, seed: int, trace: int) -> dict:
     }
 
 
+def material_case(size: int, mode: str, seed: int, folder: str) -> dict:
+    """One ``barkgen generate --tile --material`` in this process: seconds and peak memory."""
+    from barkgen.cli import main as barkgen
+    from barkgen.data import sample_exemplar_path
+
+    t0 = time.perf_counter()
+    args = ["generate", str(sample_exemplar_path()), "-o", folder, "--size", str(size), "--tile", "--material"]
+    try:
+        barkgen([*args, "--material-windows", mode, "--seed", str(seed), "--no-cache", "-q"])
+    except SystemExit as exc:
+        if exc.code:
+            raise
+    return {
+        "seconds": round(time.perf_counter() - t0, 2),
+        "peak_mib": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
+    }
+
+
+def compare_sets(whole: str, windowed: str) -> tuple[float, int]:
+    """The share of the material maps' samples equal in both folders, and the largest difference."""
+    from pathlib import Path
+
+    import cv2
+
+    equal = total = largest = 0
+    for path in sorted(Path(whole).glob("*_*K_*.png")):
+        a = cv2.imread(str(path), cv2.IMREAD_UNCHANGED).astype(np.int64)
+        b = cv2.imread(str(Path(windowed) / path.name), cv2.IMREAD_UNCHANGED).astype(np.int64)
+        diff = np.abs(a - b)
+        equal, total, largest = equal + int((diff == 0).sum()), total + diff.size, max(largest, int(diff.max()))
+    return equal / max(total, 1), largest
+
+
+def material_table(sizes: list[int], seed: int) -> list[dict]:
+    """The ``--material`` table: each size whole and windowed, and their ratios."""
+    import tempfile
+
+    rows = []
+    print(f"barkgen generate --tile --material of the bundled sample, seed {seed}: the set whole and in windows")
+    print(f"{'size':>6} {'set':>9} {'s':>7} {'peak MiB':>9} {'equal':>8} {'max diff':>8}")
+    for size in sizes:
+        with tempfile.TemporaryDirectory() as folder:
+            got = {}
+            for mode in ("no", "yes"):
+                out = f"{folder}/{mode}"
+                cmd = [sys.executable, __file__, "--material-case", str(size), mode, out, "--seed", str(seed)]
+                done = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
+                got[mode] = json.loads(done.strip().splitlines()[-1])
+            share, largest = compare_sets(f"{folder}/no", f"{folder}/yes")
+        for mode, label in (("no", "whole"), ("yes", "windowed")):
+            r = got[mode]
+            rows.append({"size": size, "set": label, **r, "equal": share, "max_diff": largest})
+            print(
+                f"{size:6d} {label:>9} {r['seconds']:7.1f} {r['peak_mib']:9.0f} {share:8.5f} {largest:8d}", flush=True
+            )
+        ratio_s, ratio_m = got["yes"]["seconds"] / got["no"]["seconds"], got["yes"]["peak_mib"] / got["no"]["peak_mib"]
+        print(f"{'':6} {'ratio':>9} {ratio_s:7.2f}x {ratio_m:8.2f}x")
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[2048, 4096])
@@ -63,10 +130,22 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--json")
+    parser.add_argument("--material", action="store_true", help="barkgen generate's set, whole and in windows")
     parser.add_argument("--case", nargs=3, type=int, help=argparse.SUPPRESS)  # size window trace: one run
+    parser.add_argument("--material-case", nargs=3, help=argparse.SUPPRESS)  # size mode folder: one run
     args = parser.parse_args()
     if args.case:
         print(json.dumps(run_case(*args.case[:2], args.seed, args.case[2])))
+        return
+    if args.material_case:
+        size, mode, folder = args.material_case
+        print(json.dumps(material_case(int(size), mode, args.seed, folder)))
+        return
+    if args.material:
+        rows = material_table([1024] if args.quick else args.sizes, args.seed)
+        if args.json:
+            with open(args.json, "w") as f:
+                json.dump(rows, f, indent=1)
         return
     sizes, window = ([1024], 256) if args.quick else (args.sizes, args.window)
     rows = []

@@ -31,24 +31,36 @@ def fail(message: str, status: int = 2) -> typer.Exit:
 
 
 @contextmanager
-def progress_bar(enabled: bool, description: str, describe: Callable[[float], str] | None = None) -> Iterator:
+def progress_bar(
+    enabled: bool, description: str, describe: Callable[[float], str] | None = None, counted: bool = False
+) -> Iterator:
     """A rich progress bar on stderr when it is a terminal, else a no-op callback. With
     ``describe``, the bar's text follows the run: ``describe(done / total)`` names what is
-    running (e.g. :func:`barkgen.pipeline.stage_at`)."""
+    running (e.g. :func:`barkgen.pipeline.stage_at`). ``counted``: the steps are alike (a large
+    set's windows): the bar shows ``done/total`` and the time left."""
     if not enabled or not sys.stderr.isatty():
         yield None
         return
     from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
 
-    with Progress(
+    columns = [
         TextColumn("{task.description}"),
         BarColumn(),
         TextColumn("{task.percentage:>3.0f}%"),
         TimeElapsedColumn(),
-        console=Console(stderr=True),
-        transient=True,
-    ) as bar:
+    ]
+    if counted:
+        columns[2:2] = [MofNCompleteColumn()]
+        columns.append(TimeRemainingColumn())
+    with Progress(*columns, console=Console(stderr=True), transient=True) as bar:
         task = bar.add_task(describe(0.0) if describe else description, total=None)
 
         def update(done: int, total: int) -> None:
@@ -344,31 +356,43 @@ def previous_run_files(folder: Path, record: str = "report.json") -> list[str]:
 
 
 def write_run(
-    folder: Path, files: dict[str, bytes], stale: Iterable[str], also: dict[Path, bytes] | None = None
+    folder: Path,
+    files: dict[str, bytes],
+    stale: Iterable[str],
+    also: dict[Path, bytes] | None = None,
+    staged: list | None = None,
 ) -> None:
     """Write a run's files into ``folder``, and ``also`` (e.g. its pyramid levels elsewhere), as
-    one step (:func:`write_outputs`), then remove the files of the run before it (``stale``,
-    from :func:`previous_run_files` read before the run) that this run did not write: a folder
-    never holds a mix of two runs' sets (a new texture beside an old run's material maps that
-    ``preview`` would then pick up)."""
-    write_outputs({folder / name: data for name, data in files.items()} | dict(also or {}))
-    for name in set(stale) - set(files):
+    one step with the files already ``staged`` in it (a windowed material set's,
+    :func:`barkgen.pipeline.write_windowed_material`; :func:`write_outputs`), then remove the
+    files of the run before it (``stale``, from :func:`previous_run_files` read before the run)
+    that this run did not write: a folder never holds a mix of two runs' sets (a new texture
+    beside an old run's material maps that ``preview`` would then pick up)."""
+    staged = staged or []
+    write_outputs({folder / name: data for name, data in files.items()} | dict(also or {}), staged)
+    written = set(files) | {Path(target).name for _, target in staged if Path(target).parent == folder}
+    for name in set(stale) - written:
         path = folder / name
         if path.is_file() and not any(_same_file(path, p) for p in _INPUTS.get()):
             path.unlink(missing_ok=True)
 
 
-def write_outputs(files: dict[Path, bytes]) -> None:
+def write_outputs(files: dict[Path, bytes], staged: list | None = None) -> None:
     """Write every encoded output as one step, whatever folders they go to: nothing is written
     before all are encoded, and nothing renamed into place before all are staged in full (a
-    full disk leaves none of them, :func:`barkgen.io.stage_files`)."""
+    full disk leaves none of them, :func:`barkgen.io.stage_files`); ``staged``: files staged
+    already (:mod:`barkgen.io.staging`), committed with them (or discarded)."""
     from barkgen.io import commit_staged, discard_staged, stage_files
 
-    refuse_inputs(list(files))
+    staged = staged if staged is not None else []
+    try:
+        refuse_inputs(list(files))
+    except BaseException:
+        discard_staged(staged)
+        raise
     by_folder: dict[Path, dict[str, bytes]] = {}
     for path, data in files.items():
         by_folder.setdefault(path.parent, {})[path.name] = data
-    staged: list = []
     try:
         for folder, group in by_folder.items():
             stage_files(folder, group, staged)

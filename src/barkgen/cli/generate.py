@@ -145,6 +145,7 @@ def generate_command(
     if edit_list is None:
         edit_list = read_edits(edits) if edits is not None else EditList()
     check_edit_list(edit_list, options.material)
+    options = _whole_set_where_needed(options, widths, edit_list)
     scan = read_scanned_set(set_folder) if set_folder is not None else None
     image = scan.color if scan is not None else read_image(src)
     extras = {name: read_image(p, linear=True) for name, p in extra_paths.items()}  # (a map: kept linear)
@@ -173,24 +174,45 @@ def generate_command(
             analysis=analysis,
         )
         result = adjusted_result(result, edit_list)  # the edit list's depth and light, after its edits
-        files = encode_generate(
-            image,
-            result,
-            str(src),
-            **naming,
-            bits=bits,
-            preset=preset,
-            sizes=widths,
-            exr_height=exr_height,
-            layout=layout,
-            udim=grid,
-        )
+    set_files = dict(naming, preset=preset, exr_height=exr_height, layout=layout, udim=grid)
+    staged: list = []
+    try:
+        streamed = _write_windowed_set(result, output_dir, str(src), set_files, staged, quiet)
+        files = encode_generate(image, result, str(src), **set_files, bits=bits, sizes=widths, streamed=streamed)
+    except BaseException:
+        from barkgen.io import discard_staged
+
+        discard_staged(staged)
+        raise
     levels = {} if save_levels is None else {save_levels / n: d for n, d in level_files(result.label_levels).items()}
-    write_run(output_dir, files, stale, levels)
+    write_run(output_dir, files, stale, levels, staged)
     if store is not None:
         store.flush()  # the analysis, written while the run went on
     if not quiet:
         _say_written(output_dir, options, result, hit)
+
+
+def _whole_set_where_needed(options, widths, edit_list):
+    """``--material-windows auto`` makes the set whole where ``--sizes`` resamples it or the edit
+    list scales its relief or relights it; ``yes`` is refused there."""
+    needs = "--sizes" if widths else ("the edit list's relief and light" if edit_list.adjusts else None)
+    if needs is None or options.material_windows == "no":
+        return options
+    if options.material_windows == "yes":
+        raise InvalidInputError(f"{needs} needs the whole material set: leave out --material-windows yes")
+    return dataclasses.replace(options, material_windows="no")
+
+
+def _write_windowed_set(result, output_dir: Path, source: str, set_files: dict, staged: list, quiet: bool):
+    """A windowed material set's files (``GenerateOptions.material_windows``), staged in
+    ``output_dir`` window by window with a bar of the windows and the time left; their SHA-256
+    (None for a whole set)."""
+    from barkgen.pipeline import WindowedMaterial, write_windowed_material
+
+    if not isinstance(result.material, WindowedMaterial):
+        return None
+    with progress_bar(not quiet, "writing the material set, window by window", counted=True) as progress:
+        return write_windowed_material(result, output_dir, source, staged=staged, progress=progress, **set_files)
 
 
 def _set_sizes(options, sizes: str | None, udim: str | None):

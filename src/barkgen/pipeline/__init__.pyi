@@ -18,12 +18,15 @@ from barkgen.pipeline.files import parse_sizes as parse_sizes
 from barkgen.pipeline.files import run_file_names as run_file_names
 from barkgen.pipeline.files import sized_options as sized_options
 from barkgen.pipeline.files import udim_options as udim_options
+from barkgen.pipeline.files import write_windowed_material as write_windowed_material
+from barkgen.pipeline.materials import WindowedMaterial as WindowedMaterial
 from barkgen.pipeline.options import LABEL_METHODS as LABEL_METHODS
 from barkgen.pipeline.options import GenerateOptions as GenerateOptions
 from barkgen.pipeline.options import analysis_key as analysis_key
 from barkgen.pipeline.progress import stage_at as stage_at
 from barkgen.pipeline.progress import stage_span as stage_span
 from barkgen.pipeline.report import preview_sheet as preview_sheet
+from barkgen.pipeline.streamed import write_material_streamed as write_material_streamed
 from barkgen.pipeline.tree import TreeResult as TreeResult
 from barkgen.pipeline.tree import encode_tree as encode_tree
 from barkgen.pipeline.tree import make_tree as make_tree

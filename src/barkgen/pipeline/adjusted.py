@@ -10,6 +10,7 @@ import dataclasses
 from barkgen.errors import InvalidInputError
 from barkgen.material import EditList, adjust_material
 from barkgen.pipeline.core import GenerateResult
+from barkgen.pipeline.materials import WindowedMaterial
 
 
 def check_edit_list(edit_list: EditList, material: bool) -> None:
@@ -49,6 +50,8 @@ def adjusted_result(result: GenerateResult, edit_list: EditList) -> GenerateResu
     material = result.material
     check_edit_list(edit_list, material is not None)
     assert material is not None  # (checked)
+    if isinstance(material, WindowedMaterial):  # (a large set: scaled and relit whole)
+        material = material.whole()
     if edit_list.relief != 1.0 and {"height", "normals"} & set(material.scanned):
         raise InvalidInputError("the depth of a scanned set's relief is the scan's own: leave relief at 1")
     adjusted = adjust_material(material, relief=edit_list.relief, equalization=edit_list.light_equalization)

@@ -35,7 +35,7 @@ from barkgen._shared.arrays import ProgressCallback
 from barkgen._shared.canvas import Budget, Canvas
 from barkgen._shared.threads import in_budget, thread_budget, worker_pool
 from barkgen.pipeline.labelmaps import with_edge_labels
-from barkgen.pipeline.materials import output_material, photo_material
+from barkgen.pipeline.materials import WindowedMaterial, output_material, photo_material, windows_material
 from barkgen.pipeline.options import GenerateOptions
 from barkgen.pipeline.progress import ANALYSIS_SHARES, share_spans
 from barkgen.pipeline.report import run_report
@@ -72,8 +72,10 @@ class GenerateResult:
         Every level of the output label map, finest first.
     report : dict
         JSON-ready parameters, label areas and timings.
-    material : MaterialSet or None
-        With ``options.material``, the output's :class:`~barkgen.material.MaterialSet`.
+    material : MaterialSet, WindowedMaterial or None
+        With ``options.material``, the output's :class:`~barkgen.material.MaterialSet`; a
+        :class:`~barkgen.pipeline.WindowedMaterial` under ``options.material_windows`` (a large
+        output's: made as its files are written, or whole by its ``whole()``).
     orientation : OrientedExemplar or None
         Along a flow field, the atlas of the photo's turned copies that ``references`` point
         into (:class:`barkgen.synth.OrientedExemplar`).
@@ -91,7 +93,7 @@ class GenerateResult:
     extras: dict
     label_levels: list
     report: dict = field(default_factory=dict)
-    material: MaterialSet | None = None
+    material: MaterialSet | WindowedMaterial | None = None
     orientation: Any = None
     cracks: Any = None
     layers: dict = field(default_factory=dict)
@@ -383,7 +385,8 @@ def generate(
         timings["labels_out"] = time.perf_counter() - t1
         result = _texture_stage(run, analysis, source, labels, extra)
         timings["texture"] = time.perf_counter() - t1 - timings["labels_out"]
-        material = _material_stage(run, analysis, source, scan, result, timings)
+        windowed = windows_material(options, run.canvas.along, bool(edits))
+        material = _material_stage(run, analysis, source, scan, result, timings, windowed)
     # the analysis' own cost counts whether it ran here or was shared
     timings["total"] = analysis.seconds + time.perf_counter() - t1
     return _finished(run, analysis, source, labels, result, material, edits, timings)
@@ -442,13 +445,15 @@ def _texture_stage(run: Run, analysis: PhotoAnalysis, source: np.ndarray, labels
     )
 
 
-def _material_stage(run: Run, analysis: PhotoAnalysis, source, scan, result, timings: dict) -> MaterialSet | None:
+def _material_stage(
+    run: Run, analysis: PhotoAnalysis, source, scan, result, timings: dict, windowed: bool
+) -> MaterialSet | WindowedMaterial | None:
     """The output's material set (wang2003 §3.3-3.4), with ``options.material``: the photo's
-    carried through the texture's reference map."""
+    carried through the texture's reference map (``windowed``: as its files are written)."""
     if not run.options.material:
         return None
     t0 = time.perf_counter()
-    material = output_material(source, run.options, run.canvas, scan, analysis, result)
+    material = output_material(source, run.options, run.canvas, scan, analysis, result, windowed)
     timings["material"] = time.perf_counter() - t0
     if run.budget.progress:
         run.budget.progress(1000, 1000)

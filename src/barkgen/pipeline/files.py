@@ -18,6 +18,8 @@ from barkgen.io.material import check_material_name, encode_material, utf8_text
 from barkgen.io.references import encode_reference
 from barkgen.io.udim import udim_grid
 from barkgen.material.illumination import encode_illumination
+from barkgen.material.materialset import MaterialSet
+from barkgen.pipeline.materials import WindowedMaterial
 from barkgen.pipeline.report import preview_sheet
 
 #: the files every run writes (their stems are not free for --extra or the material name)
@@ -69,6 +71,7 @@ def encode_generate(
     also: Mapping[str, bytes] | None = None,
     layout: str = "run",
     udim: tuple[int, int] | None = None,
+    streamed: Mapping[str, str] | None = None,
 ) -> dict[str, bytes]:
     """Every file of a :class:`~barkgen.pipeline.GenerateResult`, encoded.
 
@@ -116,6 +119,11 @@ def encode_generate(
         ``(columns, rows)``: the material set's maps written as that grid of UDIM tiles
         (``ASSET_VARIANT_4K_Color.1001.png`` ..., :mod:`barkgen.io.udim`), the set named after
         a tile's size; the run's own files stay whole. Not with ``sizes``.
+    streamed : mapping of str to str, optional
+        The files of the run's :class:`~barkgen.pipeline.WindowedMaterial` already written
+        (:func:`write_windowed_material`, with the same naming keywords) -> their SHA-256:
+        recorded in ``report.json``, not encoded again. Without it, such a set is made whole here
+        (:meth:`~barkgen.pipeline.WindowedMaterial.whole`).
 
     Returns
     -------
@@ -130,6 +138,11 @@ def encode_generate(
     """
     if udim is not None and sizes:
         raise InvalidInputError("--udim writes the set at the output's size: leave out --sizes")
+    material = result.material
+    if streamed is not None and (not isinstance(material, WindowedMaterial) or sizes):
+        raise InvalidInputError("streamed files are those of a windowed material set, at the output's size")
+    if isinstance(material, WindowedMaterial) and streamed is None:
+        material = material.whole()
     grid = None if udim is None else udim_grid(result.texture.shape[:2], udim)
     source = utf8_text(source)
     report = {"barkgen": __version__, "photo": source, **result.report}
@@ -146,47 +159,96 @@ def encode_generate(
         "preview.png": lambda: encode_png(preview_sheet(photo, result)),
     }
     jobs.update({f"{extra}.png": partial(encode_png, arr) for extra, arr in result.extras.items()})
-    if result.material is not None and result.material.illumination is not None:
-        jobs[ILLUMINATION_FILE] = partial(encode_png, encode_illumination(result.material.illumination))
+    if isinstance(material, MaterialSet) and material.illumination is not None:
+        jobs[ILLUMINATION_FILE] = partial(encode_png, encode_illumination(material.illumination))
     files = encode_concurrently(jobs)
     material_files: dict[str, bytes] = {}
-    if result.material is not None:
+    if isinstance(material, MaterialSet):
         base = base_name(name, variant)
-        sets = (
-            _sized_sets(result.material, base, sizes)
-            if grid is None
-            else [(material_set_name(base, grid.tile), result.material)]
-        )
-        for set_name, material in sets:
+        sets = _sized_sets(material, base, sizes) if grid is None else [(material_set_name(base, grid.tile), material)]
+        for set_name, one_set in sets:
             material_files.update(
                 encode_material(
-                    material,
+                    one_set,
                     set_name,
                     preset,
                     exr_height=exr_height,
                     udim=udim,
-                    asset=name,
-                    variant=variant,
-                    seed=result.report["seed"],
-                    source_photo=source,
-                    source_licence=licence,
+                    **_set_record(result, source, name, variant, licence),
                 )
             )
-        clash = sorted(set(material_files) & (set(files) | {"report.json"}))
-        if clash:
-            raise InvalidInputError(f"--name {name!r} makes {clash[0]}, which is taken; pick another")
-        files.update(material_files)
+    clash = sorted((set(material_files) | set(streamed or {})) & (set(files) | {"report.json"}))
+    if clash:
+        raise InvalidInputError(f"--name {name!r} makes {clash[0]}, which is taken; pick another")
+    files.update(material_files)
     files.update(also or {})
     record = "report.json"
     if layout == "library":  # the run's own files named after the output's set (its maps are)
-        prefix = material_set_name(base_name(name, variant), result.texture.shape[:2] if grid is None else grid.tile)
+        prefix = _set_name(result.texture.shape[:2], name, variant, grid)
         files = {(n if n in material_files else library_file_name(prefix, n)): data for n, data in files.items()}
         record = library_file_name(prefix, record)
-    report["files"] = sorted(files) + [record]
+    report["files"] = sorted([*files, *(streamed or {})]) + [record]
     # what barkgen may later replace or remove of this folder: only these files, unchanged
-    report[RECORD_HASHES] = file_record(files)
+    report[RECORD_HASHES] = dict(sorted({**file_record(files), **(streamed or {})}.items()))
     files[record] = (json.dumps(report, indent=2) + "\n").encode()
     return files
+
+
+def write_windowed_material(
+    result,
+    folder,
+    source: str,
+    *,
+    staged: list,
+    name: str = "bark",
+    variant: str | None = None,
+    licence: str | None = None,
+    preset: str = "ambientcg",
+    exr_height: bool = False,
+    layout: str = "run",
+    udim: tuple[int, int] | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> dict[str, str]:
+    """The files of a run's :class:`~barkgen.pipeline.WindowedMaterial`, written into
+    ``folder`` as its windows are finished (:func:`~barkgen.pipeline.write_material_streamed`;
+    issue 69): the set under the name :func:`encode_generate` gives it, and the run's
+    ``illumination.png``. They are added to ``staged`` (:mod:`barkgen.io.staging`), for the
+    caller to commit with the files :func:`encode_generate` makes with ``streamed=`` what this
+    returns: every file -> its SHA-256. The keywords are :func:`encode_generate`'s
+    (``progress(windows_done, windows)`` after each window)."""
+    material = result.material
+    if not isinstance(material, WindowedMaterial):
+        raise InvalidInputError("the run's material set is not a windowed one (GenerateOptions.material_windows)")
+    grid = None if udim is None else udim_grid(material.shape, udim)
+    set_name = _set_name(material.shape, name, variant, grid)
+    illumination = ILLUMINATION_FILE if layout == "run" else library_file_name(set_name, ILLUMINATION_FILE)
+    return material.write(
+        folder,
+        set_name,
+        preset,
+        exr_height=exr_height,
+        udim=udim,
+        illumination=illumination,
+        staged=staged,
+        progress=progress,
+        **_set_record(result, utf8_text(source), name, variant, licence),
+    )
+
+
+def _set_name(shape: tuple[int, int], name: str, variant: str | None, grid) -> str:
+    """The output's set name (``ASSET_VARIANT_4K``): a UDIM tile's size with a grid."""
+    return material_set_name(base_name(name, variant), shape if grid is None else grid.tile)
+
+
+def _set_record(result, source: str, name: str, variant: str | None, licence: str | None) -> dict:
+    """What the set's ``NAME.json`` says of the run (:func:`barkgen.io.encode_material`'s metadata)."""
+    return {
+        "asset": name,
+        "variant": variant,
+        "seed": result.report["seed"],
+        "source_photo": source,
+        "source_licence": licence,
+    }
 
 
 def run_file_names(extras=(), prefix: str | None = None) -> list[str]:

@@ -3,6 +3,7 @@ the output's, carried through the texture's reference map."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -13,13 +14,98 @@ from barkgen.pipeline.variants import ANALYSIS_SEED
 if TYPE_CHECKING:
     from barkgen._shared.canvas import Canvas
     from barkgen.io import ScannedSet
-    from barkgen.material import MaterialOptions
+    from barkgen.material import MaterialOptions, MaterialSet
 
 
-def output_material(photo, options: GenerateOptions, canvas: Canvas, scan, analysis, result):
+#: outputs of more than this many pixels have their material set made window by window under
+#: ``material_windows="auto"``: the whole set's maps of a 4096² output already take about 0.8 GB
+#: over the texture's solve (issue 69)
+WINDOWED_MATERIAL_PIXELS = 4096 * 4096
+
+
+@dataclass(frozen=True)
+class WindowedMaterial:
+    """The output's material set before it is made: the photo's set, the reference map and the
+    canvas that :func:`barkgen.pipeline.write_material_streamed` resolves window by window as it
+    writes the set's files (issue 69; laitoch2018 §3.3.1, the maps carried through the reference
+    map; wang2003 §3.4), so that no map of the output's size is held. :func:`generate`'s
+    ``material`` under ``GenerateOptions(material_windows=...)``.
+
+    Attributes
+    ----------
+    source : MaterialSet
+        The photo's set (along a flow field, cut as its turned copies).
+    references : ndarray of int32, shape (H, W, 2)
+        The output's reference map.
+    canvas : Canvas
+        The output's (``shape``, ``tile``, the resolved ``exemplar_wrap``).
+    blend : {"gradient", "none"}
+        How the colour is carried (``GenerateOptions.blend``).
+    width_m : float or None
+        The set's real-world width in metres (``GenerateOptions.width_m``).
+    """
+
+    source: MaterialSet
+    references: np.ndarray
+    canvas: Canvas
+    blend: str = "gradient"
+    width_m: float | None = None
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """The output's ``(H, W)``."""
+        return self.canvas.shape
+
+    @property
+    def light(self):
+        """The light the photo's shading was taken out for (the output's set keeps it)."""
+        return self.source.light
+
+    def whole(self) -> MaterialSet:
+        """The whole set in memory, as ``material_windows="no"`` makes it."""
+        from barkgen.material import transfer_material
+
+        material = transfer_material(self.source, self.references, self.canvas, blend=self.blend)
+        return material.with_width_m(self.width_m)
+
+    def write(self, folder, /, name: str, preset: str = "ambientcg", **options) -> dict[str, str]:
+        """Its files written into ``folder``: :func:`~barkgen.pipeline.write_material_streamed`
+        (``options`` are its keywords); every file -> its SHA-256."""
+        from barkgen.pipeline.streamed import write_material_streamed
+
+        return write_material_streamed(
+            self.source,
+            self.references,
+            self.canvas,
+            folder,
+            name,
+            preset,
+            blend=self.blend,
+            width_m=self.width_m,
+            **options,
+        )
+
+
+def windows_material(options: GenerateOptions, along: bool, edits: bool) -> bool:
+    """Whether the run's material set is a :class:`WindowedMaterial` (``options.material_windows``:
+    ``auto`` for an output of more than :data:`WINDOWED_MATERIAL_PIXELS` whose run needs no
+    whole set, :func:`~barkgen.pipeline.rules.whole_set_needs`; ``yes`` is refused with those by
+    :func:`~barkgen.pipeline.rules.check_run`)."""
+    from barkgen.pipeline.rules import whole_set_needs
+
+    if not options.material or options.material_windows == "no":
+        return False
+    if options.material_windows == "yes":
+        return True
+    h, w = options.size
+    return whole_set_needs(options, along, edits) is None and h * w > WINDOWED_MATERIAL_PIXELS
+
+
+def output_material(photo, options: GenerateOptions, canvas: Canvas, scan, analysis, result, windowed: bool = False):
     """The output's material set: the photo's (from its ``analysis``, or made now) carried
     through the texture's reference map onto the ``canvas``; along a flow field, the photo's
-    maps cut as its turned copies first."""
+    maps cut as its turned copies first. ``windowed``: a :class:`WindowedMaterial`, made as its
+    files are written."""
     from barkgen.material import transfer_material
 
     source, wrap = analysis.material, canvas.exemplar_wrap
@@ -27,7 +113,10 @@ def output_material(photo, options: GenerateOptions, canvas: Canvas, scan, analy
         source = photo_material(photo, analysis.labels_in, options, wrap, scan, analysis.illumination)
     if result.orientation is not None:
         source, wrap = source.oriented(result.orientation), (False, False)
-    material = transfer_material(source, result.references, canvas.replace(exemplar_wrap=wrap), blend=options.blend)
+    canvas = canvas.replace(exemplar_wrap=wrap)
+    if windowed:
+        return WindowedMaterial(source, result.references, canvas, options.blend, options.width_m)
+    material = transfer_material(source, result.references, canvas, blend=options.blend)
     return material.with_width_m(options.width_m)
 
 

@@ -141,10 +141,29 @@ def check_run(
     _check_variant(options, fields is not None and fields.along, resume is not None)
     if edits and (not options.material or given.scan is not None):
         raise InvalidInputError("height edits apply to an estimated material set: turn material on, give no scan")
+    _check_windows(options, fields is not None and fields.along, bool(edits))
     if analysis is None:
         check_photo_inputs(photo, options, given, memory=False)
     else:
         _check_analysis(analysis, photo, options, given)
+
+
+def whole_set_needs(options: Options, along: bool, edits: bool) -> str | None:
+    """What of a run needs its material set whole (not window by window,
+    :class:`~barkgen.pipeline.WindowedMaterial`), or None."""
+    if along:
+        return "a flow field"
+    if options.model == "bilayer":
+        return "a bi-layer texture"
+    return "height edits" if edits else None
+
+
+def _check_windows(options: Options, along: bool, edits: bool) -> None:
+    """``material_windows="yes"`` only where the set may be made window by window."""
+    if options.material and options.material_windows == "yes":
+        needs = whole_set_needs(options, along, edits)
+        if needs is not None:
+            raise InvalidInputError(f"{needs} needs the whole material set: leave out --material-windows yes")
 
 
 def check_photo_inputs(photo: np.ndarray, options: Options, given: PhotoInputs, memory: bool = True) -> None:

@@ -290,6 +290,8 @@ def write_material_streamed(
     halo: int = MATERIAL_HALO,
     spill_folder: str | os.PathLike | None = None,
     progress: Callable[[int, int], None] | None = None,
+    illumination: str | None = None,
+    staged: Staged | None = None,
     **metadata,
 ) -> dict[str, str]:
     """Write the output's material set into ``folder`` as its windows are finished.
@@ -334,6 +336,14 @@ def write_material_streamed(
         output pixel. Default: beside the files, in ``folder``.
     progress : callable, optional
         Called ``progress(windows_done, windows)`` after each window.
+    illumination : str, optional
+        Also the photo's broad light as carried to the output, under this file name
+        (:func:`barkgen.material.encode_illumination`; whole, never in UDIM tiles), when the set
+        has it.
+    staged : list, optional
+        The caller's staged files (:mod:`barkgen.io.staging`): the set's are added to them and
+        left for the caller to commit with its own; on an error here, the set's are discarded.
+        Default: the set's files are committed at the end.
     **metadata
         Added to ``NAME.json``, as :func:`barkgen.io.encode_material`'s.
 
@@ -362,14 +372,14 @@ def write_material_streamed(
         require_extra("materialx", "the Blender preset's MaterialX document")
     grid = None if udim is None else udim_grid(canvas.shape, udim)
     folder = Path(folder)
-    staged: Staged = []
+    mine: Staged = []
     writers: dict[str, TiledFile] = {}
     spills: dict[str, SpillFile] = {}
-    target = (folder, grid, staged, writers, canvas.shape)
+    target = (folder, grid, mine, writers, canvas.shape, illumination)
     try:
         missing = [f for f in (folder, *folder.parents) if not f.exists()]
         folder.mkdir(parents=True, exist_ok=True)
-        staged.extend(("", f) for f in reversed(missing))  # made here: removed again on a failure
+        mine.extend(("", f) for f in reversed(missing))  # made here: removed again on a failure
         with tempfile.TemporaryDirectory(prefix=".barkgen-spill-", dir=spill_folder or folder) as spill_dir:
             try:
                 windows = material_in_windows(source, references, canvas, window=window, halo=halo, blend=blend)
@@ -381,22 +391,27 @@ def write_material_streamed(
                 for spill in spills.values():
                     spill.close()
         hashes = {file: digest for writer in writers.values() for file, digest in writer.hashes.items()}
-        hashes.update(_record_files(whole, name, preset, images, sorted(hashes), grid, folder, staged, metadata))
-        commit_staged(staged)
+        written = sorted(file for file in hashes if file != illumination)
+        hashes.update(_record_files(whole, name, preset, images, written, grid, folder, mine, metadata))
+        if staged is None:
+            commit_staged(mine)
     except BaseException:
         for writer in writers.values():
             writer.abort()
-        discard_staged(staged)
+        discard_staged(mine)
         raise
+    if staged is not None:
+        staged.extend(mine)
     return hashes
 
 
 def _writer(target: tuple, file: str) -> TiledFile:
     """The :class:`TiledFile` of ``file`` (made at its first band): ``target`` is
-    ``(folder, grid, staged, writers, the output's shape)``."""
-    folder, grid, staged, writers, shape = target
+    ``(folder, grid, staged, writers, the output's shape, the illumination's file)``; the
+    illumination is a run's file, never in tiles."""
+    folder, grid, staged, writers, shape, illumination = target
     if file not in writers:
-        writers[file] = TiledFile(folder, file, shape, grid, staged)
+        writers[file] = TiledFile(folder, file, shape, None if file == illumination else grid, staged)
     return writers[file]
 
 
@@ -414,10 +429,11 @@ def _first_pass(
     encoded); its heights (and the other channels of an image packing the displacement)
     spilled into ``spills`` (made here). Returns the output's outline, the preset's image
     names and the :class:`DisplacementPlan`."""
+    from barkgen.material.illumination import encode_illumination
     from barkgen.material.presets import preset_images
 
     height_range, first, plan, band, done = HeightRange(), None, None, None, 0
-    shape = target[4]
+    shape, illumination = target[4], target[5]
     for maps in windows:
         material = maps.material
         assert material is not None
@@ -431,7 +447,10 @@ def _first_pass(
             write_band(band, plan, spills, target)
         if band is None or band.rows != maps.target[0]:
             band = BandBuffer(maps.target[0], int(shape[1]))
-        band.add(maps.target[1], preset_images(material, name, preset), material.height)
+        images = preset_images(material, name, preset)
+        if illumination is not None and material.illumination is not None:
+            images[illumination] = encode_illumination(material.illumination)
+        band.add(maps.target[1], images, material.height)
         height_range = height_range.add(material.height)
         del maps, material  # (not held while the next window is solved)
         done += 1
@@ -440,7 +459,7 @@ def _first_pass(
     if first is None or plan is None or band is None:
         raise InvalidInputError("the output has no windows")
     write_band(band, plan, spills, target)
-    return output_outline(first, shape, height_range), sorted(band.images), plan
+    return output_outline(first, shape, height_range), sorted(set(band.images) - {illumination}), plan
 
 
 def write_band(band: BandBuffer, plan: DisplacementPlan, spills: dict[str, SpillFile], target: tuple) -> None:

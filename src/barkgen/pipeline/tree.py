@@ -14,6 +14,7 @@ import numpy as np
 from barkgen._shared.arrays import ProgressCallback
 from barkgen._shared.canvas import Canvas
 from barkgen.pipeline.core import GenerateResult, generate
+from barkgen.pipeline.materials import WindowedMaterial
 from barkgen.pipeline.options import GenerateOptions
 from barkgen.tree import TexelMap, TreeMesh, default_tree_mesh, level_charts, texel_map
 
@@ -80,6 +81,7 @@ def make_tree(
     )
     fields = Canvas(options.size, tile=options.tile, flow=texels.flow, flow_scale=texels.scale, links=texels.links)
     result = generate(photo, options, canvas=fields, progress=progress)
+    assert not isinstance(result.material, WindowedMaterial)  # (along a flow field the set is whole)
     if result.material is not None:  # the charts' heights brought to one level on the surface
         result.material = dataclasses.replace(result.material, height=level_charts(result.material.height, texels))
     return TreeResult(mesh, texels, result)
@@ -94,6 +96,7 @@ def encode_tree(photo: np.ndarray, tree: TreeResult, source: str, **encode) -> d
     from barkgen.render.mesh import four_views
 
     material = tree.result.material
+    assert not isinstance(material, WindowedMaterial)  # (made whole by make_tree)
     also = {}
     if material is not None:
         also = {

@@ -18,6 +18,7 @@ ones takes it over).
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import time
 import traceback
@@ -221,8 +222,10 @@ def encode_result(photo: np.ndarray, result, spec: JobSpec) -> dict[str, bytes]:
 
     from barkgen._shared.arrays import as_uint8
     from barkgen.io import encode_png
-    from barkgen.pipeline import encode_generate
+    from barkgen.pipeline import WindowedMaterial, encode_generate
 
+    if isinstance(result.material, WindowedMaterial):  # (a server whose outputs exceed 4096²: the set whole)
+        result = dataclasses.replace(result, material=result.material.whole())
     also = {}
     if result.material is not None:  # the bark on a trunk, for any glTF viewer or engine
         from barkgen.io import encode_glb
