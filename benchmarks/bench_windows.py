@@ -69,7 +69,7 @@ def material_case(size: int, mode: str, seed: int, folder: str) -> dict:
     from barkgen.data import sample_exemplar_path
 
     t0 = time.perf_counter()
-    args = ["generate", str(sample_exemplar_path()), "-o", folder, "--size", str(size), "--tile", "--material"]
+    args = ["generate", str(sample_exemplar_path()), "-o", folder, "--size", f"{size}x{size}", "--tile", "--material"]
     try:
         barkgen([*args, "--material-windows", mode, "--seed", str(seed), "--no-cache", "-q"])
     except SystemExit as exc:

@@ -367,6 +367,32 @@ def test_expansion_moves_a_staircase_border_onto_a_cheaper_path():
     )
 
 
+def test_the_expansion_buffers_grow_to_the_largest_piece_with_the_same_result(monkeypatch):
+    """A move's graph buffers start small and double when a piece needs more (memory follows
+    the largest piece, not the output): the same reference map as buffers of the output's size,
+    on a tiled output of many pieces, some running round it."""
+    import barkgen.synth.seams.expansion as expansion
+
+    rng = np.random.default_rng(3)
+    feat = cv2.GaussianBlur(rng.normal(0, 20, (96, 96, 3)).astype(np.float32), (0, 0), 2)
+    grid = expansion.exemplar_grid((96, 96), (True, True))
+    yy, xx = np.mgrid[0:80, 0:120]
+    blocks = rng.integers(0, 96, (5, 6, 2))[yy // 16, xx // 20]  # 30 pieces, the edge ones wrap
+    flat = np.ascontiguousarray(((yy + blocks[..., 0]) % 96) * 96 + (xx + blocks[..., 1]) % 96, dtype=np.int32)
+    unguided = (np.zeros(1, np.int32), np.zeros((1, 1), np.int32))
+    forbid = np.full(flat.shape, -1, np.int64)
+
+    def expanded(first: int) -> np.ndarray:
+        monkeypatch.setattr(expansion, "FIRST_NODES", first)
+        return expansion.expand_pieces(
+            flat, grid, feat, Canvas(flat.shape, tile=True), forbid, unguided, band=6, rounds=2
+        )
+
+    whole, grown = expanded(flat.size), expanded(8)
+    assert (whole != flat).sum() > 100  # the moves did move borders
+    assert np.array_equal(grown, whole)
+
+
 def test_expansion_keeps_forbidden_offsets_and_labels():
     """A pixel never takes its forbidden offset (the copy-size control's cuts), and when guided a
     pixel of the wanted label never takes a wrong one."""

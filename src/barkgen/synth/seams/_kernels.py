@@ -496,7 +496,8 @@ def expansion_nodes(output, codes, piece, exemplar, keep, labels, band, node_of,
     each node's index, ``-2`` on the pixels looked at that are not nodes; ``out = (node_y,
     node_x, node_ref, touched)`` receive the nodes' positions, their continued references and
     the flat indices of every pixel marked (so the caller can reset ``node_of``). Returns
-    ``(n_nodes, n_touched)``."""
+    ``(n_nodes, n_touched)``; ``(-1, n_touched)`` when more pixels are marked than ``touched``
+    holds (the caller resets those, grows the buffers and asks again)."""
     refs, tile = output
     alpha, members = piece
     ex_y, ex_x, ex_h, ex_w, wrap_y, wrap_x = exemplar
@@ -528,6 +529,8 @@ def expansion_nodes(output, codes, piece, exemplar, keep, labels, band, node_of,
                     continue
                 if node_of[qy, qx] != _UNSEEN:
                     continue
+                if n_touched == touched.shape[0]:  # the buffers are full: the caller grows them
+                    return -1, n_touched
                 touched[n_touched] = qy * W + qx
                 n_touched += 1
                 node_of[qy, qx] = _FIXED

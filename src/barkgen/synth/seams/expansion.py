@@ -35,6 +35,44 @@ CHEAP_BORDER = 0.5
 RARE_RADIUS = 3
 #: an exemplar square copied less than this share of the uniform expectation is rare
 RARE_SHARE = 0.5
+#: nodes a move's graph buffers hold at first; they double when a piece's move needs more (a
+#: move's nodes lie within ``band`` of one piece, so the buffers follow the largest piece, not
+#: the output: 72 bytes a node, 18 MB for 2^18)
+FIRST_NODES = 1 << 18
+
+
+class _MoveBuffers:
+    """The graph buffers of one expansion move (:func:`~barkgen.synth.seams._kernels.expansion_nodes`,
+    :func:`~barkgen.synth.seams._kernels.expansion_terms`): ``capacity`` nodes, twice as many
+    directed edges."""
+
+    def __init__(self, capacity: int) -> None:
+        self.capacity = capacity
+        self.node_y, self.node_x, self.node_ref, self.touched = (np.empty(capacity, np.int32) for _ in range(4))
+        self.unary = np.empty(capacity)
+        self.edge_i, self.edge_j = np.empty(2 * capacity, np.int32), np.empty(2 * capacity, np.int32)
+        self.edge_cap, self.partner = np.empty(2 * capacity), np.empty(2 * capacity)
+
+    @property
+    def nodes(self) -> tuple:
+        return self.node_y, self.node_x, self.node_ref, self.touched
+
+    @property
+    def terms(self) -> tuple:
+        return self.unary, self.edge_i, self.edge_j, self.edge_cap, self.partner
+
+
+def _pieces(codes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(order, codes, start, count)``: the output's flat indices sorted by their offset code
+    (stable), and each code's first position in that order and its number of pixels (what
+    ``np.unique(codes[order], return_index=True, return_counts=True)`` gives, without its
+    second sort and copies of an output-sized array)."""
+    flat = codes.ravel()
+    order = np.argsort(flat, kind="stable").astype(np.int32)
+    in_order = flat[order]
+    start = np.concatenate(([0], np.flatnonzero(in_order[1:] != in_order[:-1]) + 1))
+    count = np.diff(np.append(start, flat.size))
+    return order, in_order[start], start, count
 
 
 def exemplar_grid(shape: tuple[int, int], wrap: tuple[bool, bool]) -> tuple:
@@ -125,8 +163,6 @@ def expand_pieces(
     .. [1] kwatra2003, §3 (the seam cost).
     .. [2] boykov2001 (expansion moves).
     """
-    import maxflow
-
     import barkgen.synth.seams._kernels as XK
 
     tile = canvas.tile
@@ -136,11 +172,7 @@ def expand_pieces(
     H, W = refs.shape
     feat = np.ascontiguousarray(features, dtype=np.float32)
     node_of = np.full((H, W), -1, np.int32)
-    node_y, node_x, node_ref = (np.empty(H * W, np.int32) for _ in range(3))
-    touched = np.empty(H * W, np.int32)
-    unary = np.empty(H * W)
-    edge_i, edge_j = np.empty(2 * H * W, np.int32), np.empty(2 * H * W, np.int32)
-    edge_cap, partner = np.empty(2 * H * W), np.empty(2 * H * W)
+    buffers = _MoveBuffers(min(FIRST_NODES, H * W))
     border_cost = np.empty((H, W))
     for _ in range(rounds):
         rare = rare_references(refs, grid)
@@ -150,49 +182,58 @@ def expand_pieces(
         if on_border.size == 0:
             break
         least = max(float(np.quantile(on_border, CHEAP_BORDER)), 1e-12)
-        flat = codes.ravel()
-        order = np.argsort(flat, kind="stable").astype(np.int32)
-        uniq, start, count = np.unique(flat[order], return_index=True, return_counts=True)
+        order, uniq, start, count = _pieces(codes)
         big = np.flatnonzero(count >= MIN_PIECE)
         big = big[np.lexsort((uniq[big], -count[big]))]  # largest first, ties by code
         moved = 0
         for k in big:
             alpha = uniq[k]
             members = order[start[k] : start[k] + count[k]]
-            n, n_touched = XK.expansion_nodes(
-                (refs, tile),
-                codes,
-                (alpha, members),
-                grid,
-                (forbid, rare, border_cost, least),
-                labels,
-                band,
-                node_of,
-                (node_y, node_x, node_ref, touched),
-            )
-            if n:
-                m = XK.expansion_terms(
+            while True:
+                n, n_touched = XK.expansion_nodes(
                     (refs, tile),
-                    node_of,
-                    (node_y, node_x, node_ref),
-                    n,
-                    feat,
+                    codes,
+                    (alpha, members),
                     grid,
-                    (unary, edge_i, edge_j, edge_cap, partner),
+                    (forbid, rare, border_cost, least),
+                    labels,
+                    band,
+                    node_of,
+                    buffers.nodes,
                 )
-                graph = maxflow.Graph[float](n, m)
-                ids = graph.add_nodes(n)
-                # a node on the sink side (choice 1) pays its source capacity
-                graph.add_grid_tedges(ids, np.maximum(unary[:n], 0.0), np.maximum(-unary[:n], 0.0))
-                if m:
-                    graph.add_edges(edge_i[:m], edge_j[:m], edge_cap[:m], np.zeros(m))
-                graph.maxflow()
-                take = np.flatnonzero(graph.get_grid_segments(ids))
-                ty, tx = node_y[take], node_x[take]
-                refs[ty, tx] = node_ref[take]
-                codes[ty, tx] = alpha
-                moved += take.size
-            node_of.ravel()[touched[:n_touched]] = -1
+                if n >= 0:
+                    break
+                node_of.ravel()[buffers.touched[:n_touched]] = -1  # the move again, on larger buffers
+                buffers = _MoveBuffers(min(2 * buffers.capacity, H * W))
+            if n:
+                moved += _move(refs, codes, alpha, (tile, node_of, n), feat, grid, buffers)
+            node_of.ravel()[buffers.touched[:n_touched]] = -1
         if moved == 0:
             break
     return refs
+
+
+def _move(refs: np.ndarray, codes: np.ndarray, alpha, move: tuple, feat: np.ndarray, grid: tuple, buffers) -> int:
+    """One expansion move of the piece ``alpha`` over its ``n`` nodes (``move = (tile,
+    node_of, n)``, in ``buffers``): its graph's minimum cut (PyMaxflow), the nodes on the sink
+    side given the piece continued (``refs`` and ``codes`` updated). Returns how many."""
+    import maxflow
+
+    import barkgen.synth.seams._kernels as XK
+
+    tile, node_of, n = move
+    node_y, node_x, node_ref, _ = buffers.nodes
+    unary, edge_i, edge_j, edge_cap, _ = buffers.terms
+    m = XK.expansion_terms((refs, tile), node_of, (node_y, node_x, node_ref), n, feat, grid, buffers.terms)
+    graph = maxflow.Graph[float](n, m)
+    ids = graph.add_nodes(n)
+    # a node on the sink side (choice 1) pays its source capacity
+    graph.add_grid_tedges(ids, np.maximum(unary[:n], 0.0), np.maximum(-unary[:n], 0.0))
+    if m:
+        graph.add_edges(edge_i[:m], edge_j[:m], edge_cap[:m], np.zeros(m))
+    graph.maxflow()
+    take = np.flatnonzero(graph.get_grid_segments(ids))
+    ty, tx = node_y[take], node_x[take]
+    refs[ty, tx] = node_ref[take]
+    codes[ty, tx] = alpha
+    return int(take.size)
