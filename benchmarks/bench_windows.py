@@ -16,7 +16,7 @@ and across the window cores' borders over the steps elsewhere
     .venv/bin/python benchmarks/bench_windows.py --material [--sizes 4096] [--quick]
 
 ``--material``: the whole ``barkgen generate --tile --material`` of each size instead, its set made
-whole and window by window (``--material-windows no`` / ``yes``), each in a process of its own:
+whole and window by window (``--windowed no`` / ``yes``), each in a process of its own:
 seconds, peak resident memory, and the windowed set's maps against the whole set's (the share of
 samples equal, the largest difference). ``--quick``: 1024².
 """
@@ -71,7 +71,7 @@ def material_case(size: int, mode: str, seed: int, folder: str) -> dict:
     t0 = time.perf_counter()
     args = ["generate", str(sample_exemplar_path()), "-o", folder, "--size", f"{size}x{size}", "--tile", "--material"]
     try:
-        barkgen([*args, "--material-windows", mode, "--seed", str(seed), "--no-cache", "-q"])
+        barkgen([*args, "--windowed", mode, "--seed", str(seed), "--no-cache", "-q"])
     except SystemExit as exc:
         if exc.code:
             raise

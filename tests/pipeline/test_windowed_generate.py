@@ -1,5 +1,5 @@
-"""A run's material set made window by window as its files are written (issue 69,
-``GenerateOptions.material_windows``): :func:`generate` gives a
+"""A run made window by window (issue 69, ``GenerateOptions.windowed``): its material set
+made as its files are written: :func:`generate` gives a
 :class:`~barkgen.pipeline.WindowedMaterial`, ``barkgen generate`` writes it as its windows are
 finished, and the folder is what the whole set's run writes (the same files, each map within a
 last bit, ``report.json`` recording every file), never half of it."""
@@ -24,11 +24,11 @@ def runs():
     from barkgen.pipeline import WindowedMaterial, analyze_photo, generate
 
     photo = bark_exemplar("fir_scaly_01", 128)
-    options = GenerateOptions(size=SIZE, tile=True, material=True, seed=2, material_windows="yes")
+    options = GenerateOptions(size=SIZE, tile=True, material=True, seed=2, windowed="yes")
     analysis = analyze_photo(photo, options)
     windowed = generate(photo, options, analysis=analysis)
     assert isinstance(windowed.material, WindowedMaterial) and windowed.material.shape == SIZE
-    whole = generate(photo, GenerateOptions(**{**vars(options), "material_windows": "no"}), analysis=analysis)
+    whole = generate(photo, GenerateOptions(**{**vars(options), "windowed": "no"}), analysis=analysis)
     return photo, windowed, whole
 
 
@@ -59,7 +59,7 @@ def test_the_windowed_run_writes_the_whole_runs_folder(runs, tmp_path):
     assert seen[-1][0] == seen[-1][1] >= 2  # the windows counted
     assert sorted({*owned_files(tmp_path, "report.json"), "report.json"}) == sorted(expected)  # every file recorded
     report = json.loads((tmp_path / "report.json").read_text())
-    assert report["material_windows"] == "yes"
+    assert report["windowed"] == "yes"
     for name, data in expected.items():
         written = (tmp_path / name).read_bytes()
         assert name == "report.json" or report["file_sha256"][name] == hashlib.sha256(written).hexdigest()
@@ -89,14 +89,14 @@ def test_encode_generate_makes_a_windowed_set_whole_without_its_files(runs):
     ("flags", "needs"),
     [
         (["--sizes", "512"], "--sizes needs the whole material set"),
-        (["--model", "bilayer"], "a bi-layer texture needs the whole material set"),
+        (["--model", "bilayer"], "a bi-layer texture is made whole"),
     ],
 )
 def test_yes_is_refused_where_the_set_must_be_whole(tmp_path, flags, needs):
     from barkgen.data import sample_exemplar_path
 
     done = run_here(
-        "generate", str(sample_exemplar_path()), "-o", str(tmp_path / "out"), "--material", "--material-windows", "yes",
+        "generate", str(sample_exemplar_path()), "-o", str(tmp_path / "out"), "--material", "--windowed", "yes",
         *flags,
     )  # fmt: skip
     assert done.returncode != 0 and needs in done.stderr and "Traceback" not in done.stderr
@@ -111,7 +111,7 @@ def test_the_cli_writes_a_windowed_set_and_leaves_nothing_on_a_failure(tmp_path,
     photo = tmp_path / "bark.png"
     cv2.imwrite(str(photo), bark_exemplar("fir_scaly_01", 128)[..., ::-1])
     args = ["generate", str(photo), "--size", f"{SIZE[1]}x{SIZE[0]}", "--tile", "--material", "--seed", "1"]
-    done = run(*args, "-o", str(tmp_path / "out"), "--material-windows", "yes")
+    done = run(*args, "-o", str(tmp_path / "out"), "--windowed", "yes")
     assert done.returncode == 0, done.stderr
     written = sorted(p.name for p in (tmp_path / "out").iterdir())
     assert "bark_seed1_1152x160_Color.png" in written and "illumination.png" in written
@@ -121,6 +121,6 @@ def test_the_cli_writes_a_windowed_set_and_leaves_nothing_on_a_failure(tmp_path,
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr("barkgen.pipeline.encode_generate", full_disk)  # (the set's maps staged by then)
-    failed = run_here(*args, "-o", str(tmp_path / "failed"), "--material-windows", "yes", "--no-cache")
+    failed = run_here(*args, "-o", str(tmp_path / "failed"), "--windowed", "yes", "--no-cache")
     assert failed.returncode != 0 and "No space left" in failed.stderr, failed.stderr
     assert not (tmp_path / "failed").exists()  # no map, no temporary, no folder

@@ -132,3 +132,19 @@ def test_a_reference_reader_gives_the_rectangle_asked_for():
         read_references(lambda r, c: refs[: r.size], rows, cols)
     with pytest.raises(InvalidInputError, match="flow"):
         next(material_in_windows(None, refs, Canvas((6, 5), exemplar_wrap=(False, False), flow=np.zeros((6, 5)))))
+
+
+def test_the_seam_blend_in_windows_is_the_whole_blend(whole_and_windowed):
+    """The texture stage's colour blended core by core (what a windowed run does) is the whole
+    blend's within a last bit, at the windows' borders and round the torus; and it blends."""
+    from barkgen.synth import apply_references, blend_seams_in_windows
+
+    files = whole_and_windowed[1]
+    photo = bark_exemplar("fir_scaly_01", 128)
+    refs = shuffled_blocks((SIZE, SIZE), photo.shape[0], BLOCK, seed=0)
+    canvas = Canvas((SIZE, SIZE), tile=True, exemplar_wrap=(False, False))
+    windowed = blend_seams_in_windows(photo, refs, canvas, WINDOW)
+    assert windowed.dtype == files["texture"].dtype and windowed.shape == files["texture"].shape
+    diff = np.abs(windowed.astype(np.int64) - files["texture"])
+    assert diff.max() <= 1 and diff.mean() < 0.01, (int(diff.max()), float(diff.mean()))
+    assert (windowed != apply_references(refs, photo)).mean() > 0.01  # the seams were blended

@@ -193,18 +193,18 @@ def generate_command(
 
 
 def _whole_set_where_needed(options, widths, edit_list):
-    """``--material-windows auto`` makes the set whole where ``--sizes`` resamples it or the edit
+    """``--windowed auto`` makes the set whole where ``--sizes`` resamples it or the edit
     list scales its relief or relights it; ``yes`` is refused there."""
     needs = "--sizes" if widths else ("the edit list's relief and light" if edit_list.adjusts else None)
-    if needs is None or options.material_windows == "no":
+    if needs is None or options.windowed == "no":
         return options
-    if options.material_windows == "yes":
-        raise InvalidInputError(f"{needs} needs the whole material set: leave out --material-windows yes")
-    return dataclasses.replace(options, material_windows="no")
+    if options.windowed == "yes":
+        raise InvalidInputError(f"{needs} needs the whole material set: leave out --windowed yes")
+    return dataclasses.replace(options, windowed="no")
 
 
 def _write_windowed_set(result, output_dir: Path, source: str, set_files: dict, staged: list, quiet: bool):
-    """A windowed material set's files (``GenerateOptions.material_windows``), staged in
+    """A windowed material set's files (``GenerateOptions.windowed``), staged in
     ``output_dir`` window by window with a bar of the windows and the time left; their SHA-256
     (None for a whole set)."""
     from barkgen.pipeline import WindowedMaterial, write_windowed_material

@@ -35,7 +35,7 @@ from barkgen._shared.arrays import ProgressCallback
 from barkgen._shared.canvas import Budget, Canvas
 from barkgen._shared.threads import in_budget, thread_budget, worker_pool
 from barkgen.pipeline.labelmaps import with_edge_labels
-from barkgen.pipeline.materials import WindowedMaterial, output_material, photo_material, windows_material
+from barkgen.pipeline.materials import WindowedMaterial, output_material, photo_material, windowed_run
 from barkgen.pipeline.options import GenerateOptions
 from barkgen.pipeline.progress import ANALYSIS_SHARES, share_spans
 from barkgen.pipeline.report import run_report
@@ -74,8 +74,8 @@ class GenerateResult:
         JSON-ready parameters, label areas and timings.
     material : MaterialSet, WindowedMaterial or None
         With ``options.material``, the output's :class:`~barkgen.material.MaterialSet`; a
-        :class:`~barkgen.pipeline.WindowedMaterial` under ``options.material_windows`` (a large
-        output's: made as its files are written, or whole by its ``whole()``).
+        :class:`~barkgen.pipeline.WindowedMaterial` in a windowed run (``options.windowed``, a
+        large output's: made as its files are written, or whole by its ``whole()``).
     orientation : OrientedExemplar or None
         Along a flow field, the atlas of the photo's turned copies that ``references`` point
         into (:class:`barkgen.synth.OrientedExemplar`).
@@ -381,11 +381,11 @@ def generate(
     timings, t1 = {"analysis": analysis.seconds}, time.perf_counter()
     timings.update({f"analysis_{step}": seconds for step, seconds in analysis.steps.items()})
     with thread_budget(options.threads):  # every pool sized, BLAS at one thread
+        windowed = windowed_run(options, run.canvas.along, bool(edits))
         labels = _label_stage(run, analysis, source, resume)
         timings["labels_out"] = time.perf_counter() - t1
-        result = _texture_stage(run, analysis, source, labels, extra)
+        result = _texture_stage(run, analysis, source, labels, extra, windowed)
         timings["texture"] = time.perf_counter() - t1 - timings["labels_out"]
-        windowed = windows_material(options, run.canvas.along, bool(edits))
         material = _material_stage(run, analysis, source, scan, result, timings, windowed)
     # the analysis' own cost counts whether it ran here or was shared
     timings["total"] = analysis.seconds + time.perf_counter() - t1
@@ -412,9 +412,13 @@ def _label_stage(run: Run, analysis: PhotoAnalysis, source: np.ndarray, resume) 
     return _Labels(result, grown, tbn_in, tbn_out)
 
 
-def _texture_stage(run: Run, analysis: PhotoAnalysis, source: np.ndarray, labels: _Labels, extra) -> SynthesisResult:
+def _texture_stage(
+    run: Run, analysis: PhotoAnalysis, source: np.ndarray, labels: _Labels, extra, windowed: bool
+) -> SynthesisResult:
     """The texture (or a bi-layer texture's structure layer): texture-by-numbers from the
-    photo's label map onto the output's (laitoch2018 §3.3-3.4)."""
+    photo's label map onto the output's (laitoch2018 §3.3-3.4); ``windowed``: its finest levels
+    solved and its colour blended window by window (:data:`~barkgen.pipeline.windowed.WINDOW`)."""
+    from barkgen.pipeline.windowed import WINDOW
     from barkgen.synth import TBN_CONFIG, texture_by_numbers
 
     options, along, label_result = run.options, run.canvas.along, labels.result
@@ -424,7 +428,11 @@ def _texture_stage(run: Run, analysis: PhotoAnalysis, source: np.ndarray, labels
         # cost as much again and only re-made what the map already follows)
         return label_result.synthesis
     config = dataclasses.replace(
-        TBN_CONFIG, threads=options.threads, max_memory=options.max_memory, blend=options.blend
+        TBN_CONFIG,
+        threads=options.threads,
+        max_memory=options.max_memory,
+        blend=options.blend,
+        window=WINDOW if windowed else 0,
     )
     # the engines' label maps copy exemplar label pieces: the same pieces of the photo are a
     # label-exact, coherent start for texture-by-numbers (else its smart initialisation)

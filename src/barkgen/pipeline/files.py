@@ -218,7 +218,7 @@ def write_windowed_material(
     (``progress(windows_done, windows)`` after each window)."""
     material = result.material
     if not isinstance(material, WindowedMaterial):
-        raise InvalidInputError("the run's material set is not a windowed one (GenerateOptions.material_windows)")
+        raise InvalidInputError("the run's material set is not a windowed one (GenerateOptions.windowed)")
     grid = None if udim is None else udim_grid(material.shape, udim)
     set_name = _set_name(material.shape, name, variant, grid)
     illumination = ILLUMINATION_FILE if layout == "run" else library_file_name(set_name, ILLUMINATION_FILE)

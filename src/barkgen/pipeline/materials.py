@@ -17,10 +17,9 @@ if TYPE_CHECKING:
     from barkgen.material import MaterialOptions, MaterialSet
 
 
-#: outputs of more than this many pixels have their material set made window by window under
-#: ``material_windows="auto"``: the whole set's maps of a 4096² output already take about 0.8 GB
-#: over the texture's solve (issue 69)
-WINDOWED_MATERIAL_PIXELS = 4096 * 4096
+#: outputs of more than this many pixels are made window by window under ``windowed="auto"``
+#: (issue 69): a 4096² run already peaks at 3 GB whole
+WINDOWED_PIXELS = 4096 * 4096
 
 
 @dataclass(frozen=True)
@@ -29,7 +28,7 @@ class WindowedMaterial:
     canvas that :func:`barkgen.pipeline.write_material_streamed` resolves window by window as it
     writes the set's files (issue 69; laitoch2018 §3.3.1, the maps carried through the reference
     map; wang2003 §3.4), so that no map of the output's size is held. :func:`generate`'s
-    ``material`` under ``GenerateOptions(material_windows=...)``.
+    ``material`` in a windowed run (``GenerateOptions(windowed=...)``).
 
     Attributes
     ----------
@@ -62,7 +61,7 @@ class WindowedMaterial:
         return self.source.light
 
     def whole(self) -> MaterialSet:
-        """The whole set in memory, as ``material_windows="no"`` makes it."""
+        """The whole set in memory, as ``windowed="no"`` makes it."""
         from barkgen.material import transfer_material
 
         material = transfer_material(self.source, self.references, self.canvas, blend=self.blend)
@@ -86,19 +85,19 @@ class WindowedMaterial:
         )
 
 
-def windows_material(options: GenerateOptions, along: bool, edits: bool) -> bool:
-    """Whether the run's material set is a :class:`WindowedMaterial` (``options.material_windows``:
-    ``auto`` for an output of more than :data:`WINDOWED_MATERIAL_PIXELS` whose run needs no
-    whole set, :func:`~barkgen.pipeline.rules.whole_set_needs`; ``yes`` is refused with those by
-    :func:`~barkgen.pipeline.rules.check_run`)."""
-    from barkgen.pipeline.rules import whole_set_needs
+def windowed_run(options: GenerateOptions, along: bool, edits: bool) -> bool:
+    """Whether the run is made window by window (``options.windowed``; issue 69): its finest
+    levels solved and its colour blended in windows (``SynthesisConfig.window``), its material
+    set a :class:`WindowedMaterial`. ``auto``: for an output of more than
+    :data:`WINDOWED_PIXELS` whose run needs nothing whole
+    (:func:`~barkgen.pipeline.rules.whole_run_needs`); ``yes`` is refused with those by
+    :func:`~barkgen.pipeline.rules.check_run`."""
+    from barkgen.pipeline.rules import whole_run_needs
 
-    if not options.material or options.material_windows == "no":
-        return False
-    if options.material_windows == "yes":
-        return True
+    if options.windowed != "auto":
+        return options.windowed == "yes"
     h, w = options.size
-    return whole_set_needs(options, along, edits) is None and h * w > WINDOWED_MATERIAL_PIXELS
+    return whole_run_needs(options, along, edits) is None and h * w > WINDOWED_PIXELS
 
 
 def output_material(photo, options: GenerateOptions, canvas: Canvas, scan, analysis, result, windowed: bool = False):

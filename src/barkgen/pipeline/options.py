@@ -88,14 +88,14 @@ class GenerateOptions:
         The material set's real-world width in metres, which gives its displacement's depth
         in metres (``None``: the photo is assumed
         :data:`~barkgen.material.realsize.ASSUMED_PHOTO_WIDTH_M` wide).
-    material_windows : {"auto", "yes", "no"}, default "auto"
-        ``yes``: :func:`generate`'s ``material`` is a
-        :class:`~barkgen.pipeline.WindowedMaterial`, the set resolved from the reference map and
-        written window by window when its files are written
-        (:func:`barkgen.pipeline.write_material_streamed`; issue 69): memory bounded by a band of
-        windows, not the output. ``auto``: so for outputs of more than
-        :data:`~barkgen.pipeline.materials.WINDOWED_MATERIAL_PIXELS` when nothing needs the whole
-        set (height edits, a flow field, a bi-layer texture).
+    windowed : {"auto", "yes", "no"}, default "auto"
+        ``yes``: the output made window by window (issue 69): its finest levels solved with a
+        frozen halo (``SynthesisConfig.window``, :mod:`barkgen.synth._windows`), its colour
+        blended per window (:func:`barkgen.synth.blend_seams_in_windows`), and :func:`generate`'s
+        ``material`` a :class:`~barkgen.pipeline.WindowedMaterial`, written window by window
+        (:func:`barkgen.pipeline.write_windowed_material`). ``auto``: so for outputs of more than
+        :data:`~barkgen.pipeline.materials.WINDOWED_PIXELS` whose run needs nothing whole
+        (height edits, a flow field, a bi-layer texture).
     exemplar_wrap : {"auto", "yes", "no"}, default "auto"
         ``auto``: the photo is used as a torus along each axis it tiles along
         (:func:`barkgen.synth.exemplar_wraps`).
@@ -239,15 +239,15 @@ class GenerateOptions:
         group="more",
         needs="material",
     )
-    material_windows: str = option(
+    windowed: str = option(
         "auto",
-        "The material set resolved and written window by window as its windows are finished, "
-        "never whole in memory: auto for outputs over 4096x4096 px (16.8 megapixels); yes / no: "
-        "force it. Not with height edits, a flow field or a bi-layer texture; needs material.",
+        "Make the output window by window: its finest levels solved, its colour blended and its "
+        "material set written as each window is finished, never whole in memory. auto: for "
+        "outputs over 4096x4096 px (16.8 megapixels); yes / no: force it. Not with height "
+        "edits, a flow field or a bi-layer texture.",
         choices=("auto", "yes", "no"),
         fronts=_NOT_WEB,
         group="advanced",
-        needs="material",
     )
     exemplar_wrap: str = option(
         "auto",

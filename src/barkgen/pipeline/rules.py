@@ -148,9 +148,9 @@ def check_run(
         _check_analysis(analysis, photo, options, given)
 
 
-def whole_set_needs(options: Options, along: bool, edits: bool) -> str | None:
-    """What of a run needs its material set whole (not window by window,
-    :class:`~barkgen.pipeline.WindowedMaterial`), or None."""
+def whole_run_needs(options: Options, along: bool, edits: bool) -> str | None:
+    """What of a run needs it made whole (not window by window, ``GenerateOptions.windowed``:
+    its solver's levels, its colour blend, its material set), or None."""
     if along:
         return "a flow field"
     if options.model == "bilayer":
@@ -159,11 +159,11 @@ def whole_set_needs(options: Options, along: bool, edits: bool) -> str | None:
 
 
 def _check_windows(options: Options, along: bool, edits: bool) -> None:
-    """``material_windows="yes"`` only where the set may be made window by window."""
-    if options.material and options.material_windows == "yes":
-        needs = whole_set_needs(options, along, edits)
+    """``windowed="yes"`` only where the run may be made window by window."""
+    if options.windowed == "yes":
+        needs = whole_run_needs(options, along, edits)
         if needs is not None:
-            raise InvalidInputError(f"{needs} needs the whole material set: leave out --material-windows yes")
+            raise InvalidInputError(f"{needs} is made whole: leave out --windowed yes")
 
 
 def check_photo_inputs(photo: np.ndarray, options: Options, given: PhotoInputs, memory: bool = True) -> None:

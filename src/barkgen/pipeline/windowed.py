@@ -30,8 +30,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from barkgen._shared.canvas import Canvas
+from barkgen._shared.windows import ResolveWindow as ResolveWindow
+from barkgen._shared.windows import resolve_windows as resolve_windows
 from barkgen.errors import InvalidInputError
 from barkgen.material.maps import AO_RADIUS
+from barkgen.synth import BLEND_HALO
 
 if TYPE_CHECKING:
     from barkgen.material import MaterialSet
@@ -40,9 +43,8 @@ if TYPE_CHECKING:
 #: (``SCREENING`` = 1e-3 decays as exp(-r / 31.6): 384 px leave less than 1 / 65535), the
 #: recomputed AO's reach (``AO_RADIUS``) and the normals' one pixel
 MATERIAL_HALO = 416
-#: px of halo round a core for the colour's seam blend (its ``MAX_REACH`` of 16 px and the
-#: decay of its anchor's correction, about 10 px, with room to spare)
-COLOUR_HALO = 64
+#: px of halo round a core for the colour's seam blend (:data:`barkgen.synth.seams.gradient.BLEND_HALO`)
+COLOUR_HALO = BLEND_HALO
 #: default side (px) of a window's core
 WINDOW = 1024
 #: the arrays of a :class:`~barkgen.material.MaterialSet` of the output's size, cropped to a core
@@ -52,80 +54,6 @@ _SET_MAPS = ("color", "height", "normals", "ao", "roughness", "ao_cavities", "me
 #: function ``(rows, cols) -> (len(rows), len(cols), 2)`` int array of those output rows and
 #: columns (both int arrays, taken round the torus already), e.g. one reading a file on disk
 References = np.ndarray | Callable[[np.ndarray, np.ndarray], np.ndarray]
-
-
-@dataclass(frozen=True)
-class ResolveWindow:
-    """One window of the resolve pass: the output ``rows`` and ``cols`` (int arrays, modulo
-    the output's size) it reads, core and halo, and where its core lies in them (``core``).
-
-    Attributes
-    ----------
-    rows, cols : ndarray of int
-        The output rows and columns read, in order.
-    core : (slice, slice)
-        The core within the window.
-    target : (slice, slice)
-        The core in the output.
-    """
-
-    rows: np.ndarray
-    cols: np.ndarray
-    core: tuple[slice, slice]
-    target: tuple[slice, slice]
-
-    @property
-    def shape(self) -> tuple[int, int]:
-        """``(h, w)`` of the window read."""
-        return (int(self.rows.size), int(self.cols.size))
-
-    def inner(self, halo: int) -> tuple[slice, slice]:
-        """The part of the window within ``halo`` px of its core (clipped at the window's
-        edges): a smaller halo for a pass that reaches less far."""
-        return tuple(
-            slice(max(core.start - halo, 0), min(core.stop + halo, n))
-            for core, n in zip(self.core, self.shape, strict=True)
-        )  # type: ignore[return-value]
-
-
-def _axis_spans(n: int, side: int, halo: int, tile: bool) -> list[tuple[np.ndarray, slice, slice]]:
-    """Along one axis of ``n`` px: each core's positions with its halo (round the torus when
-    ``tile``, clipped otherwise), the core within them and the core in the axis."""
-    spans = []
-    for start in range(0, n, side):
-        stop = min(start + side, n)
-        first, last = (start - halo, stop + halo) if tile else (max(start - halo, 0), min(stop + halo, n))
-        spans.append((np.arange(first, last) % n, slice(start - first, stop - first), slice(start, stop)))
-    return spans
-
-
-def resolve_windows(shape: tuple[int, int], window: int, halo: int, tile: bool) -> list[ResolveWindow]:
-    """The windows of an output of ``shape`` with square cores of ``window`` px (the last row and
-    column of cores shorter) and ``halo`` px round them, in raster order.
-
-    Parameters
-    ----------
-    shape : (int, int)
-        The output's ``(H, W)``.
-    window : int
-        Side of a core in px, at least 1.
-    halo : int
-        Px read round a core, at least 0 (taken round the torus when ``tile``; a halo wider than
-        the output reads some of it twice, as the torus repeats it).
-    tile : bool
-        The output tiles.
-
-    Returns
-    -------
-    list of ResolveWindow
-    """
-    if int(window) < 1 or int(halo) < 0:
-        raise InvalidInputError(
-            f"a resolve window needs a core of at least 1 px and a halo of 0 or more, not {window} and {halo}"
-        )
-    rows = _axis_spans(int(shape[0]), int(window), int(halo), tile)
-    cols = _axis_spans(int(shape[1]), int(window), int(halo), tile)
-    return [ResolveWindow(r, c, (rc, cc), (rt, ct)) for r, rc, rt in rows for c, cc, ct in cols]
 
 
 def read_references(references: References, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:

@@ -37,7 +37,9 @@ from barkgen.synth.guides.initialization import smart_initialization as smart_in
 from barkgen.synth.seams.cuts import cut_straight_seams as cut_straight_seams
 from barkgen.synth.seams.expansion import exemplar_grid as exemplar_grid
 from barkgen.synth.seams.expansion import expand_pieces as expand_pieces
+from barkgen.synth.seams.gradient import BLEND_HALO as BLEND_HALO
 from barkgen.synth.seams.gradient import blend_seams as blend_seams
+from barkgen.synth.seams.gradient import blend_seams_in_windows as blend_seams_in_windows
 from barkgen.synth.seams.gradient import check_blend as check_blend
 from barkgen.synth.seams.gradient import piece_borders as piece_borders
 from barkgen.synth.seams.gradient import resolve_continuous as resolve_continuous

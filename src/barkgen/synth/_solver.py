@@ -47,7 +47,7 @@ from barkgen.synth._level import (
 from barkgen.synth._occurrence import LabelBalance
 from barkgen.synth._windows import is_windowed, solve_windowed_level
 from barkgen.synth.guides.guidance import Guidance
-from barkgen.synth.seams.gradient import blend_seams, resolve_continuous
+from barkgen.synth.seams.gradient import BLEND_HALO, blend_seams, blend_seams_in_windows, resolve_continuous
 
 
 @dataclass
@@ -239,7 +239,10 @@ def _result(
     ry, rx = levels[0].coords_y[refs], levels[0].coords_x[refs]
     references = np.stack([ry, rx], axis=-1).astype(np.int32)
     t0 = time.perf_counter()
-    if blend == "gradient":  # the colour's seams blended in the gradient domain
+    window = inputs.config.window
+    if blend == "gradient" and window and min(out_shape) > window + 2 * BLEND_HALO:  # (memory: a window's)
+        image = blend_seams_in_windows(ex, references, canvas, window)
+    elif blend == "gradient":  # the colour's seams blended in the gradient domain
         image = blend_seams(ex, references, canvas)
     else:
         image = ex.reshape(h * w, ex.shape[2])[refs].reshape(out_shape + (ex.shape[2],))

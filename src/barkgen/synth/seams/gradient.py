@@ -67,6 +67,10 @@ MAX_REACH = 16
 #: this many of the photo's own mean steps
 SPREAD_STEPS = 4.0
 
+#: px of halo round a window's core for the seam blend (:func:`blend_seams_in_windows`): its
+#: :data:`MAX_REACH` and the decay of its anchor's correction (about 10 px), with room to spare
+BLEND_HALO = 64
+
 
 def exemplar_steps(source: np.ndarray, wrap: tuple[bool, bool] = (False, False)) -> tuple[np.ndarray, np.ndarray]:
     """``(sy, sx)``, each ``(h, w, C)`` float64: the exemplar map's forward steps down and to the
@@ -254,6 +258,27 @@ def blend_seams(
         K.relax_band(correction, (ys, xs, colour_start), index, excess, settings, stop)
         out[ys, xs] = _as_source_dtype(out[ys, xs].astype(np.float64) + correction, src)
     return out[:, :, 0] if src.ndim == 2 else out
+
+
+def blend_seams_in_windows(source: np.ndarray, references: np.ndarray, canvas: Canvas, window: int) -> np.ndarray:
+    """:func:`blend_seams` core by core: each square core of ``window`` px blended on a window
+    of :data:`BLEND_HALO` px more round it (round the torus when ``canvas.tile``) that does not
+    tile, and only its core kept. The blend is local (it reaches :data:`MAX_REACH` px from a
+    border, its anchor's correction decays within a few more), so the result is the whole
+    blend's to a last bit, and its working arrays are a window's, not the output's (issue 69;
+    perez2003)."""
+    from barkgen._shared.windows import resolve_windows
+
+    refs = np.asarray(references)
+    out: np.ndarray | None = None
+    for win in resolve_windows(refs.shape[:2], window, BLEND_HALO, canvas.tile):
+        local = Canvas(win.shape, tile=False, exemplar_wrap=canvas.exemplar_wrap)
+        core = blend_seams(source, refs[np.ix_(win.rows, win.cols)], local)[win.core]
+        if out is None:
+            out = np.empty(refs.shape[:2] + core.shape[2:], core.dtype)
+        out[win.target] = core
+    assert out is not None  # (an output has a window)
+    return out
 
 
 def _red_black(free: np.ndarray, tile: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
