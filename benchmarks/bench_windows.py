@@ -15,10 +15,10 @@ and across the window cores' borders over the steps elsewhere
 
     .venv/bin/python benchmarks/bench_windows.py --material [--sizes 4096] [--quick]
 
-``--material``: the whole ``barkgen generate --tile --material`` of each size instead, its set made
-whole and window by window (``--windowed no`` / ``yes``), each in a process of its own:
-seconds, peak resident memory, and the windowed set's maps against the whole set's (the share of
-samples equal, the largest difference). ``--quick``: 1024².
+``--material``: the whole ``barkgen generate --tile --material`` of each size instead, made whole
+and window by window (``--windowed no`` / ``yes``: the finest levels, the colour blend and the
+material set), each in a process of its own: seconds, peak resident memory, the coherence of the
+texture's top-left 1024² and the longest straight seam of its reference map. ``--quick``: 1024².
 """
 
 from __future__ import annotations
@@ -64,7 +64,8 @@ def run_case(size: int, window: int, seed: int, trace: int) -> dict:
 
 
 def material_case(size: int, mode: str, seed: int, folder: str) -> dict:
-    """One ``barkgen generate --tile --material`` in this process: seconds and peak memory."""
+    """One ``barkgen generate --tile --material`` in this process: seconds, peak memory and
+    the output's quality (:func:`output_quality`)."""
     from barkgen.cli import main as barkgen
     from barkgen.data import sample_exemplar_path
 
@@ -75,51 +76,54 @@ def material_case(size: int, mode: str, seed: int, folder: str) -> dict:
     except SystemExit as exc:
         if exc.code:
             raise
+    seconds = round(time.perf_counter() - t0, 2)
+    peak = round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1)
+    return {"seconds": seconds, "peak_mib": peak, **output_quality(folder)}
+
+
+def output_quality(folder: str) -> dict:
+    """The run's texture's coherence (top-left 1024² against the photo) and its reference map's
+    longest straight seam."""
+    from pathlib import Path
+
+    from barkgen.data import sample_exemplar_path
+    from barkgen.evaluate import coherence, longest_seam
+    from barkgen.io import read_image, read_reference
+
+    photo = read_image(sample_exemplar_path())
+    texture = read_image(Path(folder) / "texture.png")
+    references, _ = read_reference(Path(folder) / "reference.png")
+    wraps = json.loads((Path(folder) / "report.json").read_text())["exemplar_wrap"]
+    crop = min(texture.shape[0], 1024)
     return {
-        "seconds": round(time.perf_counter() - t0, 2),
-        "peak_mib": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
+        "coherence": coherence(texture[:crop, :crop], photo, wrap=crop == texture.shape[0]),
+        "longest_seam": longest_seam(
+            references, tile=True, exemplar_wrap=tuple(n if w else 0 for n, w in zip(photo.shape[:2], wraps))
+        ),
     }
 
 
-def compare_sets(whole: str, windowed: str) -> tuple[float, int]:
-    """The share of the material maps' samples equal in both folders, and the largest difference."""
-    from pathlib import Path
-
-    import cv2
-
-    equal = total = largest = 0
-    for path in sorted(Path(whole).glob("*_*K_*.png")):
-        a = cv2.imread(str(path), cv2.IMREAD_UNCHANGED).astype(np.int64)
-        b = cv2.imread(str(Path(windowed) / path.name), cv2.IMREAD_UNCHANGED).astype(np.int64)
-        diff = np.abs(a - b)
-        equal, total, largest = equal + int((diff == 0).sum()), total + diff.size, max(largest, int(diff.max()))
-    return equal / max(total, 1), largest
-
-
 def material_table(sizes: list[int], seed: int) -> list[dict]:
-    """The ``--material`` table: each size whole and windowed, and their ratios."""
+    """The ``--material`` table: each size whole and windowed (measured before the run's folder
+    goes), and their ratios."""
     import tempfile
 
     rows = []
-    print(f"barkgen generate --tile --material of the bundled sample, seed {seed}: the set whole and in windows")
-    print(f"{'size':>6} {'set':>9} {'s':>7} {'peak MiB':>9} {'equal':>8} {'max diff':>8}")
+    print(f"barkgen generate --tile --material of the bundled sample, seed {seed}: whole and in windows")
+    print(f"{'size':>6} {'run':>9} {'s':>7} {'peak MiB':>9} {'coh':>6} {'seam':>5}")
     for size in sizes:
-        with tempfile.TemporaryDirectory() as folder:
-            got = {}
-            for mode in ("no", "yes"):
-                out = f"{folder}/{mode}"
-                cmd = [sys.executable, __file__, "--material-case", str(size), mode, out, "--seed", str(seed)]
-                done = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
-                got[mode] = json.loads(done.strip().splitlines()[-1])
-            share, largest = compare_sets(f"{folder}/no", f"{folder}/yes")
+        got = {}
         for mode, label in (("no", "whole"), ("yes", "windowed")):
-            r = got[mode]
-            rows.append({"size": size, "set": label, **r, "equal": share, "max_diff": largest})
-            print(
-                f"{size:6d} {label:>9} {r['seconds']:7.1f} {r['peak_mib']:9.0f} {share:8.5f} {largest:8d}", flush=True
-            )
-        ratio_s, ratio_m = got["yes"]["seconds"] / got["no"]["seconds"], got["yes"]["peak_mib"] / got["no"]["peak_mib"]
-        print(f"{'':6} {'ratio':>9} {ratio_s:7.2f}x {ratio_m:8.2f}x")
+            with tempfile.TemporaryDirectory() as folder:
+                cmd = [sys.executable, __file__, "--material-case", str(size), mode, folder, "--seed", str(seed)]
+                done = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
+            r = got[mode] = json.loads(done.strip().splitlines()[-1])
+            rows.append({"size": size, "run": label, **r})
+            line = f"{size:6d} {label:>9} {r['seconds']:7.1f} {r['peak_mib']:9.0f} {r['coherence']:6.3f}"
+            print(f"{line} {r['longest_seam']:5d}", flush=True)
+        yes, no = got["yes"], got["no"]
+        ratios = (yes["seconds"] / no["seconds"], yes["peak_mib"] / no["peak_mib"], yes["coherence"] / no["coherence"])
+        print(f"{'':6} {'ratio':>9} {ratios[0]:7.2f}x {ratios[1]:8.2f}x {ratios[2]:5.2f}x")
     return rows
 
 
