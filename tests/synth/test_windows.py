@@ -100,3 +100,24 @@ def test_windowed_texture_by_numbers_follows_its_labels(exemplar):
 def test_a_window_too_small_is_refused():
     with pytest.raises(InvalidInputError, match="window must be 0"):
         SynthesisConfig(window=32)
+
+
+@pytest.mark.parametrize("tile", [True, False])
+def test_a_windows_guide_is_projected_on_the_window_as_the_whole_levels(tile):
+    """A windowed level keeps its target's guide image, never its projected neighbourhoods
+    whole: each window's are projected on the window with a margin (round the torus when the
+    level tiles, reflected at a level's edge otherwise), as the whole level's projection gives
+    them, for windows inside, at the edges and across the torus' seam."""
+    from barkgen.nnf import project_neighbourhoods
+    from barkgen.synth.guides.guidance import LevelGuidance, guide_out_at
+
+    rng = np.random.default_rng(4)
+    image = rng.random((90, 70, 3), dtype=np.float32)
+    projections = {size: (rng.normal(size=(4, size, size, 3)), rng.random((size, size, 3))) for size in (5, 9, 15)}
+    empty = np.zeros(1, np.int32)
+    guide = LevelGuidance(empty, empty[None], empty, empty, None, 0, 1.0, {}, {}, True, projections, image, tile)
+    for window in window_grid(image.shape[:2], 32, tile, halo=8, offset=20):
+        got = guide_out_at(guide, window.rows, window.cols)
+        for size, (weights, mean) in projections.items():
+            whole = project_neighbourhoods(image, weights, mean, wrap=tile).reshape(90, 70, -1)
+            assert np.allclose(got[size], whole[np.ix_(window.rows, window.cols)], atol=1e-4), (size, window.core)

@@ -113,13 +113,13 @@ def level_context(
     canvas: Canvas,
     rng: np.random.Generator,
     guidance: Guidance | None,
+    by_window: bool = False,
 ) -> LevelContext:
-    """The :class:`LevelContext` of level ``lvl``: its guide (:func:`level_guidance`) and its
-    seam image made."""
+    """The :class:`LevelContext` of level ``lvl``: its guide (:func:`level_guidance`; the
+    target's neighbourhoods left to each window ``by_window``) and its seam image made."""
     shape = level_shape(canvas.shape, lvl)
-    guide = level_guidance(
-        guidance, lvl, inputs.n_levels, inputs.config, canvas.replace(shape=shape, exemplar_wrap=la.wrap)
-    )
+    level_canvas = canvas.replace(shape=shape, exemplar_wrap=la.wrap)
+    guide = level_guidance(guidance, lvl, inputs.n_levels, inputs.config, level_canvas, by_window)
     seam_image = np.ascontiguousarray(la.features[:, : inputs.seam_channels]).reshape(
         la.height, la.width, -1
     )  # what the seam costs compare, as an image

@@ -45,7 +45,7 @@ from barkgen.synth._level import (
     upsampled_state,
 )
 from barkgen.synth._occurrence import LabelBalance
-from barkgen.synth._windows import is_windowed, solve_windowed_level
+from barkgen.synth._windows import solve_windowed_level, windowed_level
 from barkgen.synth.guides.guidance import Guidance
 from barkgen.synth.seams.gradient import BLEND_HALO, blend_seams, blend_seams_in_windows, resolve_continuous
 
@@ -186,7 +186,8 @@ def solve(
                     f"level{lvl}_exemplar",
                     level_image(ex, np.arange(la.height * la.width).reshape(la.height, la.width), lvl),
                 )
-            ctx = level_context(la, lvl, inputs, canvas, rng, guidance)
+            by_window = windowed_level(config, lvl, shape, canvas.links)
+            ctx = level_context(la, lvl, inputs, canvas, rng, guidance, by_window)
             if start is not None and lvl == start[0]:
                 refs = np.ascontiguousarray(start[1], dtype=np.int32)
                 forbid = np.full(shape, -1, np.int64)
@@ -200,7 +201,7 @@ def solve(
                 assert forbid is not None and coarser is not None  # set with refs, on the level above
                 refs, forbid = upsampled_state(ctx, refs, forbid, coarser)
             refs = ctx.relink(refs)
-            if is_windowed(ctx):
+            if by_window:
                 refs = solve_windowed_level(ctx, refs, forbid, solve_this, tick)
             else:
                 refs = solve_this(ctx, refs, forbid, tick)

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from barkgen.synth._level import LevelContext, move_seams
-from barkgen.synth.guides.guidance import LevelGuidance
+from barkgen.synth.guides.guidance import LevelGuidance, guide_out_at
 from barkgen.synth.seams.pieces import moved_offsets
 
 #: px of frozen halo round a window's core: the largest neighbourhood's radius (7 for 15x15),
@@ -84,13 +84,17 @@ def window_grid(
 
 
 def is_windowed(ctx: LevelContext) -> bool:
-    """Whether the level of ``ctx`` is solved window by window: a window is set
-    (``config.window``), the level is one of the :data:`WINDOWED_LEVELS` finest and larger than
-    a window and its halo on both sides, and no output pixel takes another's references
-    (linked pixels, a texture atlas's gutters, may span the level: such a level is solved
-    whole)."""
-    side = ctx.config.window
-    return bool(side) and ctx.level < WINDOWED_LEVELS and min(ctx.shape) > side + 2 * WINDOW_HALO and ctx.links is None
+    """Whether the level of ``ctx`` is solved window by window (:func:`windowed_level`)."""
+    return windowed_level(ctx.config, ctx.level, ctx.shape, ctx.links)
+
+
+def windowed_level(config, level: int, shape: tuple[int, int], links) -> bool:
+    """Whether a level is solved window by window: a window is set (``config.window``), the
+    level is one of the :data:`WINDOWED_LEVELS` finest and larger than a window and its halo on
+    both sides, and no output pixel takes another's references (``links``, a texture atlas's
+    gutters, may span the level: such a level is solved whole)."""
+    side = config.window
+    return bool(side) and level < WINDOWED_LEVELS and min(shape) > side + 2 * WINDOW_HALO and links is None
 
 
 def window_guide(guide: LevelGuidance, grid: tuple[np.ndarray, ...]) -> LevelGuidance:
@@ -99,10 +103,16 @@ def window_guide(guide: LevelGuidance, grid: tuple[np.ndarray, ...]) -> LevelGui
     expected use stays the level's: the window's occurrence cost counts the whole level)."""
     if not guide.guided:
         return guide
+    if guide.projections:  # projected on the window (the level's own never made whole)
+        guide_out = guide_out_at(guide, grid[0].ravel(), grid[1].ravel())
+    else:
+        guide_out = {size: np.ascontiguousarray(channels[grid]) for size, channels in guide.guide_out.items()}
     return dataclasses.replace(
         guide,
         target=np.ascontiguousarray(guide.target[grid]),
-        guide_out={size: np.ascontiguousarray(channels[grid]) for size, channels in guide.guide_out.items()},
+        guide_out=guide_out,
+        projections={},
+        target_guide=None,
     )
 
 

@@ -7,7 +7,7 @@ guide the solver is given (:class:`Guidance`), what one level's kernels take fro
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -57,6 +57,13 @@ class LevelGuidance:
     guide_ex: dict
     guide_out: dict
     guided: bool
+    #: a level solved window by window (:mod:`barkgen.synth._windows`) keeps its target's guide
+    #: image (``target_guide``, whether it ``tile``\ s) and each neighbourhood size's projection
+    #: ``(weights, mean)`` instead of ``guide_out``: each window's are projected on the window
+    #: (:func:`guide_out_at`), never the whole level's at once
+    projections: dict = field(default_factory=dict)
+    target_guide: np.ndarray | None = None
+    tile: bool = False
 
 
 NO_LABELS = np.zeros(1, np.int32)
@@ -72,22 +79,44 @@ def level_guidance(
     n_levels: int,
     config: SynthesisConfig,
     canvas: Canvas,
+    by_window: bool = False,
 ) -> LevelGuidance:
     """The label tables of level ``lvl`` and the appearance-space label neighbourhoods of the
     exemplar and of the target for each neighbourhood size of the level's schedule
     (laitoch2018 §3.3, eq. 3.2). ``canvas``: the level's (its shape, whether it tiles, the
-    exemplar level's resolved wrap)."""
+    exemplar level's resolved wrap). ``by_window``: the target's are left to each window
+    (:func:`guide_out_at`; issue 69, the level's memory a window's)."""
     shape, tile, wrap = canvas.shape, canvas.tile, canvas.exemplar_wrap or (False, False)
     if guidance is None:
         return LevelGuidance(NO_LABELS, NO_TARGET, NO_LABELS, NO_POOL_START, None, 0, 1.0, {}, {}, False)
     lg = guidance.levels[lvl]
     guide_ex, guide_out = {}, {}
+    projections = {}
     for nb_size in schedule_sizes(config, lvl, n_levels):
         gp = neighbourhood_pca(guidance.exemplar_guides[lvl], nb_size, guidance.components, wrap=wrap)
         guide_ex[nb_size] = gp.features
-        guide_out[nb_size] = project_neighbourhoods(
-            guidance.target_guides[lvl], gp.weights, gp.mean, wrap=tile
-        ).reshape(shape + (-1,))
+        if by_window:
+            projections[nb_size] = (gp.weights, gp.mean)
+        else:
+            guide_out[nb_size] = project_neighbourhoods(
+                guidance.target_guides[lvl], gp.weights, gp.mean, wrap=tile
+            ).reshape(shape + (-1,))
+    if by_window:
+        return LevelGuidance(
+            lg.exemplar_labels,
+            lg.target_labels,
+            lg.pool,
+            lg.pool_start,
+            lg.expected_use,
+            guidance.random_candidates,
+            guidance.vote_discount,
+            guide_ex,
+            {},
+            True,
+            projections,
+            guidance.target_guides[lvl],
+            bool(tile),
+        )
     return LevelGuidance(
         lg.exemplar_labels,
         lg.target_labels,
@@ -100,6 +129,35 @@ def level_guidance(
         guide_out,
         True,
     )
+
+
+def guide_out_at(guide: LevelGuidance, rows: np.ndarray, cols: np.ndarray) -> dict:
+    """A level's target guide neighbourhoods (``guide_out``) at the level's ``rows`` and
+    ``cols`` (a window, its halo included; taken round the torus when the level tiles), projected
+    from ``guide.target_guide`` read with a margin of each neighbourhood's radius: what the whole
+    level's projection gives there (borders reflected where the window meets an edge of a level
+    that does not tile)."""
+    assert guide.target_guide is not None  # (a level guided by window)
+    image = guide.target_guide
+    out = {}
+    for nb_size, (weights, mean) in guide.projections.items():
+        r = nb_size // 2
+        ext_rows, top = _with_margin(rows, r, image.shape[0], guide.tile)
+        ext_cols, left = _with_margin(cols, r, image.shape[1], guide.tile)
+        block = image[np.ix_(ext_rows, ext_cols)]
+        features = project_neighbourhoods(block, weights, mean).reshape(block.shape[:2] + (-1,))
+        out[nb_size] = np.ascontiguousarray(features[top : top + rows.size, left : left + cols.size])
+    return out
+
+
+def _with_margin(positions: np.ndarray, r: int, n: int, wrap: bool) -> tuple[np.ndarray, int]:
+    """``positions`` (consecutive along the axis, round it when ``wrap``) with up to ``r`` more
+    either side: round the axis when it wraps, up to its ends otherwise; and how many came before."""
+    first, last = int(positions[0]), int(positions[-1])
+    if wrap:
+        return np.concatenate([np.arange(first - r, first) % n, positions, np.arange(last + 1, last + 1 + r) % n]), r
+    before = np.arange(max(first - r, 0), first)
+    return np.concatenate([before, positions, np.arange(last + 1, min(last + 1 + r, n))]), before.size
 
 
 def enforce_labels(refs: np.ndarray, ctx, passes: int) -> np.ndarray:
