@@ -391,6 +391,10 @@ def test_the_expansion_buffers_grow_to_the_largest_piece_with_the_same_result(mo
     whole, grown = expanded(flat.size), expanded(8)
     assert (whole != flat).sum() > 100  # the moves did move borders
     assert np.array_equal(grown, whole)
+    codes = expansion.piece_offsets(flat, grid)
+    monkeypatch.setattr(expansion, "_BAND_ROWS", 7)  # the offset codes made by bands of rows
+    assert np.array_equal(expansion.piece_offsets(flat, grid), codes)
+    assert len(np.unique(codes)) == 30
 
 
 def test_expansion_keeps_forbidden_offsets_and_labels():

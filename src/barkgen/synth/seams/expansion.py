@@ -41,6 +41,10 @@ RARE_SHARE = 0.5
 FIRST_NODES = 1 << 18
 
 
+#: rows of the output whose offset codes are made at once (:func:`piece_offsets`)
+_BAND_ROWS = 256
+
+
 class _MoveBuffers:
     """The graph buffers of one expansion move (:func:`~barkgen.synth.seams._kernels.expansion_nodes`,
     :func:`~barkgen.synth.seams._kernels.expansion_terms`): ``capacity`` nodes, twice as many
@@ -91,14 +95,19 @@ def piece_offsets(refs: np.ndarray, grid: tuple) -> np.ndarray:
 
     coords_y, coords_x, ex_h, ex_w, wrap_y, wrap_x = grid
     H, W = refs.shape
-    dy = coords_y[refs].astype(np.int64) - np.arange(H)[:, None]
-    dx = coords_x[refs].astype(np.int64) - np.arange(W)[None, :]
-    if wrap_y:
-        dy %= ex_h
-    if wrap_x:
-        dx %= ex_w
     bias = K.OFFSET_BIAS
-    return np.ascontiguousarray((dy + bias) * (2 * bias) + (dx + bias))
+    codes = np.empty((H, W), np.int64)
+    columns = np.arange(W)[None, :]
+    for top in range(0, H, _BAND_ROWS):  # by bands of rows: the temporaries a band's, not the output's
+        band = refs[top : top + _BAND_ROWS]
+        dy = coords_y[band].astype(np.int64) - np.arange(top, top + band.shape[0])[:, None]
+        dx = coords_x[band].astype(np.int64) - columns
+        if wrap_y:
+            dy %= ex_h
+        if wrap_x:
+            dx %= ex_w
+        codes[top : top + band.shape[0]] = (dy + bias) * (2 * bias) + (dx + bias)
+    return codes
 
 
 def rare_references(refs: np.ndarray, grid: tuple) -> np.ndarray:
