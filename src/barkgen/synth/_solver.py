@@ -237,8 +237,9 @@ def _result(
             timings=timings,
         )
     h, w = ex.shape[:2]
-    ry, rx = levels[0].coords_y[refs], levels[0].coords_x[refs]
-    references = np.stack([ry, rx], axis=-1).astype(np.int32)
+    references = np.empty(out_shape + (2,), np.int32)  # (filled a coordinate at a time: no temporaries held)
+    references[..., 0] = levels[0].coords_y[refs]
+    references[..., 1] = levels[0].coords_x[refs]
     t0 = time.perf_counter()
     window = inputs.config.window
     if blend == "gradient" and window and min(out_shape) > window + 2 * BLEND_HALO:  # (memory: a window's)
