@@ -101,22 +101,6 @@ def level_guidance(
             guide_out[nb_size] = project_neighbourhoods(
                 guidance.target_guides[lvl], gp.weights, gp.mean, wrap=tile
             ).reshape(shape + (-1,))
-    if by_window:
-        return LevelGuidance(
-            lg.exemplar_labels,
-            lg.target_labels,
-            lg.pool,
-            lg.pool_start,
-            lg.expected_use,
-            guidance.random_candidates,
-            guidance.vote_discount,
-            guide_ex,
-            {},
-            True,
-            projections,
-            guidance.target_guides[lvl],
-            bool(tile),
-        )
     return LevelGuidance(
         lg.exemplar_labels,
         lg.target_labels,
@@ -128,6 +112,9 @@ def level_guidance(
         guide_ex,
         guide_out,
         True,
+        projections,
+        guidance.target_guides[lvl] if by_window else None,
+        bool(tile),
     )
 
 
