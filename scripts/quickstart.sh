@@ -11,7 +11,7 @@ cd "$(dirname "$0")/.."
 # compile the numba kernels into their cache once, as part of the set-up (about 30 s), so that
 # the first run is as fast as every later one
 "$VENV/bin/barkgen" warm-up --quiet
-"$VENV/bin/barkgen" generate -o out --size 1024x1024 --tile --seed 0 --material --name bark "$@"
+"$VENV/bin/barkgen" generate -o out --size 1024x1024 --tile --seed 0 --material "$@"
 # the preview and the 2x2 tiling in one Python start-up (barkgen preview out -o out/trunk_preview.png)
 "$VENV/bin/python" - <<'PY'
 import numpy as np
