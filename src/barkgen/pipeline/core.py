@@ -35,11 +35,11 @@ from barkgen._shared.arrays import ProgressCallback
 from barkgen._shared.canvas import Budget, Canvas
 from barkgen._shared.threads import in_budget, thread_budget, worker_pool
 from barkgen.pipeline.labelmaps import with_edge_labels
-from barkgen.pipeline.materials import WindowedMaterial, output_material, photo_material, windowed_run
+from barkgen.pipeline.materials import WindowedMaterial, output_material, photo_material
 from barkgen.pipeline.options import GenerateOptions
 from barkgen.pipeline.progress import ANALYSIS_SHARES, share_spans
 from barkgen.pipeline.report import run_report
-from barkgen.pipeline.rules import PhotoInputs, check_photo_inputs, check_run
+from barkgen.pipeline.rules import PhotoInputs, check_photo_inputs, check_run, windowed_run
 from barkgen.pipeline.rules import check_generate_memory as check_generate_memory
 from barkgen.pipeline.variants import ANALYSIS_SEED, INIT_LEVELS, Exemplar, Run, variants
 

@@ -17,11 +17,6 @@ if TYPE_CHECKING:
     from barkgen.material import MaterialOptions, MaterialSet
 
 
-#: outputs of more than this many pixels are made window by window under ``windowed="auto"``
-#: (issue 69): a 4096² run already peaks at 3 GB whole
-WINDOWED_PIXELS = 4096 * 4096
-
-
 @dataclass(frozen=True)
 class WindowedMaterial:
     """The output's material set before it is made: the photo's set, the reference map and the
@@ -83,21 +78,6 @@ class WindowedMaterial:
             width_m=self.width_m,
             **options,
         )
-
-
-def windowed_run(options: GenerateOptions, along: bool, edits: bool) -> bool:
-    """Whether the run is made window by window (``options.windowed``; issue 69): its finest
-    levels solved and its colour blended in windows (``SynthesisConfig.window``), its material
-    set a :class:`WindowedMaterial`. ``auto``: for an output of more than
-    :data:`WINDOWED_PIXELS` whose run needs nothing whole
-    (:func:`~barkgen.pipeline.rules.whole_run_needs`); ``yes`` is refused with those by
-    :func:`~barkgen.pipeline.rules.check_run`."""
-    from barkgen.pipeline.rules import whole_run_needs
-
-    if options.windowed != "auto":
-        return options.windowed == "yes"
-    h, w = options.size
-    return whole_run_needs(options, along, edits) is None and h * w > WINDOWED_PIXELS
 
 
 def output_material(photo, options: GenerateOptions, canvas: Canvas, scan, analysis, result, windowed: bool = False):

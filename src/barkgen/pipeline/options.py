@@ -94,7 +94,7 @@ class GenerateOptions:
         blended per window (:func:`barkgen.synth.blend_seams_in_windows`), and :func:`generate`'s
         ``material`` a :class:`~barkgen.pipeline.WindowedMaterial`, written window by window
         (:func:`barkgen.pipeline.write_windowed_material`). ``auto``: so for outputs of more than
-        :data:`~barkgen.pipeline.materials.WINDOWED_PIXELS` whose run needs nothing whole
+        :data:`~barkgen.pipeline.rules.WINDOWED_PIXELS` whose run needs nothing whole
         (height edits, a flow field, a bi-layer texture).
     exemplar_wrap : {"auto", "yes", "no"}, default "auto"
         ``auto``: the photo is used as a torus along each axis it tiles along

@@ -32,6 +32,14 @@ Options = Any
 #: bytes per output pixel of the material stage (height, normals, AO, roughness, albedo and the
 #: gradient-domain solves' transforms; the 4096x4096 set peaked at 2.7 GiB with the texture)
 MATERIAL_BYTES_PER_PIXEL = 48
+#: outputs of more than this many pixels are made window by window under ``windowed="auto"``
+#: (issue 69): a 4096² run already peaks at 3 GB whole
+WINDOWED_PIXELS = 4096 * 4096
+#: bytes per output pixel of a run made window by window, beside its windows' own: what it still
+#: holds whole (the label stage's maps, the reference map, the texture, the target's guide
+#: channels; ``bench_windows.py --large``: 1846 MiB at 4096², 4970 MiB at 8192², 65 B a pixel
+#: more, and a tenth for what the estimate leaves out)
+WINDOWED_BYTES_PER_PIXEL = 72
 
 
 @dataclass(frozen=True)
@@ -46,11 +54,21 @@ class PhotoInputs:
     cracks: Any = None
 
 
-def check_generate_memory(photo: np.ndarray, options: Options, extra: Mapping[str, np.ndarray] | None = None) -> int:
+def check_generate_memory(
+    photo: np.ndarray,
+    options: Options,
+    extra: Mapping[str, np.ndarray] | None = None,
+    *,
+    along: bool = False,
+    edits: bool = False,
+) -> int:
     """The estimated peak memory of :func:`~barkgen.pipeline.generate` (bytes), checked against
     ``options.max_memory`` before any work: texture-by-numbers' solver, the largest of the run,
-    and the material set (each stage frees what it made before the next starts). A photo of
-    more than :data:`~barkgen._shared.checks.MAX_PHOTO_PIXELS` is refused whatever the budget.
+    and the material set (each stage frees what it made before the next starts); in a run made
+    window by window (:func:`windowed_run` of its flow field, ``along``, and height ``edits``),
+    the solver and the material set of one window and :data:`WINDOWED_BYTES_PER_PIXEL` of the
+    output. A photo of more than :data:`~barkgen._shared.checks.MAX_PHOTO_PIXELS` is refused
+    whatever the budget.
 
     Raises
     ------
@@ -73,17 +91,26 @@ def check_generate_memory(photo: np.ndarray, options: Options, extra: Mapping[st
     extra_channels = sum(1 if np.ndim(e) == 2 else np.shape(e)[2] for e in (extra or {}).values())
     itemsize = max([np.asarray(photo).dtype.itemsize] + [np.asarray(e).dtype.itemsize for e in (extra or {}).values()])
     n_ex, n_out = shape[0] * shape[1], options.size[0] * options.size[1]
+    solved = options.size
+    if windowed_run(options, along, edits):
+        from barkgen.pipeline.windowed import MATERIAL_HALO, WINDOW
+
+        side = WINDOW + 2 * MATERIAL_HALO  # the largest window any pass holds
+        solved = (min(side, options.size[0]), min(side, options.size[1]))
+    n_solved = solved[0] * solved[1]
     need = estimate_memory(
         shape[:2],
-        options.size,
+        solved,
         channels + extra_channels,
         itemsize,
         (3 if channels >= 3 else 1) + 1 + extra_channels,
         TBN_CONFIG,
     )
-    need += 24 * (n_ex + n_out)  # label pyramids and tables
+    need += 24 * (n_ex + n_solved)  # label pyramids and tables
     if options.material:
-        need += MATERIAL_BYTES_PER_PIXEL * (n_ex + n_out)
+        need += MATERIAL_BYTES_PER_PIXEL * (n_ex + n_solved)
+    if solved != options.size:
+        need += WINDOWED_BYTES_PER_PIXEL * n_out
     h, w = options.size
     return check_memory_budget(need, options.max_memory, f"output {w}x{h} from a {shape[1]}x{shape[0]} photo")
 
@@ -130,7 +157,8 @@ def check_run(
     InvalidInputError, ImageTooLargeError, MemoryBudgetError
         The first rule the run breaks, in one line.
     """
-    check_generate_memory(photo, options, given.extra)
+    along = fields is not None and fields.along
+    check_generate_memory(photo, options, given.extra, along=along, edits=bool(edits))
     if fields is not None and (fields.shape != options.size or fields.tile != options.tile):
         h, w = options.size
         raise InvalidInputError(
@@ -138,14 +166,27 @@ def check_run(
             f"output is {w}x{h} px{', tiled' if options.tile else ''}: give Canvas(options.size, "
             "tile=options.tile, flow=...)"
         )
-    _check_variant(options, fields is not None and fields.along, resume is not None)
+    _check_variant(options, along, resume is not None)
     if edits and (not options.material or given.scan is not None):
         raise InvalidInputError("height edits apply to an estimated material set: turn material on, give no scan")
-    _check_windows(options, fields is not None and fields.along, bool(edits))
+    _check_windows(options, along, bool(edits))
     if analysis is None:
         check_photo_inputs(photo, options, given, memory=False)
     else:
         _check_analysis(analysis, photo, options, given)
+
+
+def windowed_run(options: Options, along: bool, edits: bool) -> bool:
+    """Whether the run is made window by window (``options.windowed``; issue 69): its finest
+    levels solved and its colour blended in windows (``SynthesisConfig.window``), its material
+    set a :class:`~barkgen.pipeline.WindowedMaterial`. ``auto``: for an output of more than
+    :data:`WINDOWED_PIXELS` whose run needs nothing whole (:func:`whole_run_needs`: along a
+    flow field, ``along``, or with height ``edits``); ``yes`` is refused with those by
+    :func:`check_run`."""
+    if options.windowed != "auto":
+        return options.windowed == "yes"
+    h, w = options.size
+    return whole_run_needs(options, along, edits) is None and h * w > WINDOWED_PIXELS
 
 
 def whole_run_needs(options: Options, along: bool, edits: bool) -> str | None:
