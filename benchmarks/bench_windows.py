@@ -19,6 +19,19 @@ and across the window cores' borders over the steps elsewhere
 and window by window (``--windowed no`` / ``yes``: the finest levels, the colour blend and the
 material set), each in a process of its own: seconds, peak resident memory, the coherence of the
 texture's top-left 1024² and the longest straight seam of its reference map. ``--quick``: 1024².
+
+    .venv/bin/python benchmarks/bench_windows.py --large [16384] [--base 4096] [--cache DIR] [--quick]
+
+``--large``: issue 69's acceptance run. The set of each ``--large`` size made window by window,
+beside the ``--base`` size made whole and window by window (the same-run time base: a run
+linear in area takes ``(size / base)²`` times as long). Each run in a process of its own, then
+measured from its files in another (:func:`large_quality`): the likeness of the texture's
+top-left 2048² (coherence, completeness, sharpness and colour against the photo), every map's
+longest straight line and the reference map's longest straight seam (both measured on
+overlapping crops of :data:`CROP` px, so a large map is never held as floats whole), and the
+colour's step ratio across the window cores' borders over the steps inside them. ``--cache DIR``
+keeps each run's figures (``DIR/SIZE-MODE.json``) and skips a run whose figures are there.
+``--quick``: 2048² beside 1024².
 """
 
 from __future__ import annotations
@@ -70,7 +83,19 @@ def material_case(size: int, mode: str, seed: int, folder: str) -> dict:
     from barkgen.data import sample_exemplar_path
 
     t0 = time.perf_counter()
-    args = ["generate", str(sample_exemplar_path()), "-o", folder, "--size", f"{size}x{size}", "--tile", "--material"]
+    # (beyond 8192² the output limit is raised, as a user does)
+    limit = ["--max-pixels", str(size * size)] if size > 8192 else []
+    args = [
+        *limit,
+        "generate",
+        str(sample_exemplar_path()),
+        "-o",
+        folder,
+        "--size",
+        f"{size}x{size}",
+        "--tile",
+        "--material",
+    ]
     try:
         barkgen([*args, "--windowed", mode, "--seed", str(seed), "--no-cache", "-q"])
     except SystemExit as exc:
@@ -101,6 +126,160 @@ def output_quality(folder: str) -> dict:
             references, tile=True, exemplar_wrap=tuple(n if w else 0 for n, w in zip(photo.shape[:2], wraps))
         ),
     }
+
+
+#: side of the crops a large map's lines and seams are measured on, and their overlap: a line or
+#: seam across a crop's border is whole in the next crop up to ``CROP_OVERLAP`` px
+CROP = 4096
+CROP_OVERLAP = 512
+#: the maps of a set whose lines are measured (``NAME_<map>.png``)
+SET_MAPS = ("Color", "Displacement", "NormalGL", "AmbientOcclusion", "Roughness")
+
+
+def _crops(shape: tuple[int, int]) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Overlapping crops covering a tiling map, round its edges: ``(rows, cols)`` index arrays."""
+    h, w = shape
+
+    def starts(n: int) -> list[np.ndarray]:
+        if n <= CROP:
+            return [np.arange(n)]
+        return [np.arange(s, s + CROP + CROP_OVERLAP) % n for s in range(0, n, CROP)]
+
+    return [(rows, cols) for rows in starts(h) for cols in starts(w)]
+
+
+def _longest_in_crops(image: np.ndarray, figure) -> int:
+    """``figure(crop, tile)`` (px) at its largest over :func:`_crops` (the whole map, tiling,
+    when it is one crop)."""
+    crops = _crops(image.shape[:2])
+    if len(crops) == 1:
+        return int(figure(image, True))
+    return max(int(figure(image[np.ix_(rows, cols)], False)) for rows, cols in crops)
+
+
+#: the period of the grid a texture's piece borders favour (its coarse levels' references
+#: up-sampled three times): every 8th boundary steps ~1.3x the others in a whole solve too
+PHASE = 8
+
+
+def window_step_ratio(image: np.ndarray, side: int) -> tuple[float, float]:
+    """:func:`barkgen.evaluate.grid_step_ratio` of a tiling image, measured in bands of rows so a
+    large image is never held in CIELAB floats whole: the mean step across the ``side`` px
+    cells' borders over the mean step across the other boundaries; and over the other
+    boundaries of the same place on the :data:`PHASE` px grid (the window borders measured
+    against their own kind: 1 = no trace of the windows)."""
+    from barkgen.evaluate import as_lab
+
+    h, w = image.shape[:2]
+    sums = [np.zeros(w), np.zeros(h)]  # per boundary: after column j / after row i
+    for top in range(0, h, CROP):
+        rows = np.arange(top, min(top + CROP, h) + 1) % h  # one row more: the step to the next band
+        band = as_lab(image[rows]).astype(np.float64)
+        nxt = np.roll(band[:-1], -1, axis=1)
+        sums[0] += np.sqrt(np.sum((nxt - band[:-1]) ** 2, axis=2)).sum(axis=0)
+        sums[1][rows[:-1]] += np.sqrt(np.sum((band[1:] - band[:-1]) ** 2, axis=2)).sum(axis=1)
+    on, off, same = [], [], []
+    for total, n, length in ((sums[0], w, h), (sums[1], h, w)):
+        index = np.arange(n)
+        border = index % side == side - 1
+        on.append(total[border] / length)
+        off.append(total[~border] / length)
+        same.append(total[~border & (index % PHASE == (side - 1) % PHASE)] / length)
+    grid = float(np.concatenate(on).mean())
+    return grid / max(float(np.concatenate(off).mean()), 1e-12), grid / max(float(np.concatenate(same).mean()), 1e-12)
+
+
+def large_quality(folder: str) -> dict:
+    """The acceptance figures of a tileable run's files: likeness of the texture's top-left
+    2048², every map's longest line, the longest seam and the colour's step ratio at the window
+    cores' borders."""
+    from pathlib import Path
+
+    from barkgen.data import sample_exemplar_path
+    from barkgen.evaluate import coherence, colour_distance, completeness, longest_line, longest_seam, sharpness_ratio
+    from barkgen.io import read_image, read_reference
+    from barkgen.pipeline.windowed import WINDOW
+
+    photo = read_image(sample_exemplar_path())
+    texture = read_image(Path(folder) / "texture.png")
+    crop = texture[:2048, :2048]
+    whole = crop.shape[0] == texture.shape[0]
+    figures: dict = {
+        "coherence": coherence(crop, photo, wrap=whole),
+        "completeness": completeness(crop, photo, wrap=whole),
+        "sharpness": sharpness_ratio(crop, photo),
+        "colour": colour_distance(crop, photo),
+    }
+    figures["grid_step"], figures["window_step"] = window_step_ratio(texture, WINDOW)
+    del texture, crop
+    lines = {}
+    for kind in SET_MAPS:
+        (path,) = Path(folder).glob(f"*_{kind}.png")
+        lines[kind] = _longest_in_crops(read_image(path), lambda c, t: longest_line(c, tile=t))
+    figures["lines"] = lines
+    references, _ = read_reference(Path(folder) / "reference.png")
+    wraps = json.loads((Path(folder) / "report.json").read_text())["exemplar_wrap"]
+    exemplar_wrap = tuple(n if w else 0 for n, w in zip(photo.shape[:2], wraps))
+    figures["longest_seam"] = _longest_in_crops(
+        references, lambda c, t: longest_seam(c, tile=t, exemplar_wrap=exemplar_wrap)
+    )
+    return figures
+
+
+def large_table(sizes: list[int], base: int, seed: int, cache: str | None) -> list[dict]:
+    """The ``--large`` table: ``base`` whole and windowed, then each size windowed; every run
+    and its measuring in processes of their own (figures kept in ``cache``)."""
+    import tempfile
+    from pathlib import Path
+
+    print(f"barkgen generate --tile --material of the bundled sample, seed {seed}: large sets window by window")
+    print(
+        f"{'size':>6} {'run':>9} {'s':>7} {'x base':>6} {'peak MiB':>9} {'coh':>6} {'comp':>6} {'sharp':>6} "
+        f"{'colour':>6} {'grid':>6} {'win step':>8} {'seam':>5} {'line':>5} {'(map)':<16}"
+    )
+    rows, base_seconds = [], {}
+    for size, mode in [(base, "no"), (base, "yes")] + [(size, "yes") for size in sizes]:
+        label = "whole" if mode == "no" else "windowed"
+        kept = Path(cache, f"{size}-{label}.json") if cache else None
+        if kept is not None and kept.exists():
+            r = json.loads(kept.read_text())
+        else:
+            with tempfile.TemporaryDirectory() as folder:
+                cmd = [sys.executable, __file__, "--material-case", str(size), mode, folder, "--seed", str(seed)]
+                ran = json.loads(
+                    subprocess.run(cmd, capture_output=True, text=True, check=True).stdout.splitlines()[-1]
+                )
+                cmd = [sys.executable, __file__, "--measure", folder]
+                measured = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout.splitlines()[-1]
+            r = {
+                "size": size,
+                "run": label,
+                "seconds": ran["seconds"],
+                "peak_mib": ran["peak_mib"],
+                **json.loads(measured),
+            }
+            if kept is not None:
+                kept.parent.mkdir(parents=True, exist_ok=True)
+                kept.write_text(json.dumps(r, indent=1))
+        rows.append(r)
+        if size == base:
+            base_seconds[label] = r["seconds"]
+        # the time against the base's, run the same way and scaled by the area (1: linear)
+        linear = r["seconds"] / (base_seconds[label] * (size / base) ** 2)
+        line_map = max(r["lines"], key=r["lines"].get)
+        print(
+            f"{size:6d} {label:>9} {r['seconds']:7.1f} {linear:6.2f} {r['peak_mib']:9.0f} {r['coherence']:6.3f} "
+            f"{r['completeness']:6.3f} {r['sharpness']:6.3f} {r['colour']:6.2f} {r['grid_step']:6.3f} {r['window_step']:8.3f} "
+            f"{r['longest_seam']:5d} {r['lines'][line_map]:5d} {line_map:<16}",
+            flush=True,
+        )
+    for r in rows[2:]:
+        area = (r["size"] / base) ** 2
+        print(
+            f"{r['size']}² windowed: {r['seconds'] / base_seconds['whole']:.1f}x the {base}² whole run's time, "
+            f"{r['seconds'] / base_seconds['windowed']:.1f}x its windowed run's (linear in area: {area:g}x)"
+        )
+    return rows
 
 
 def material_table(sizes: list[int], seed: int) -> list[dict]:
@@ -137,7 +316,21 @@ def main() -> None:
     parser.add_argument("--material", action="store_true", help="barkgen generate's set, whole and in windows")
     parser.add_argument("--case", nargs=3, type=int, help=argparse.SUPPRESS)  # size window trace: one run
     parser.add_argument("--material-case", nargs=3, help=argparse.SUPPRESS)  # size mode folder: one run
+    parser.add_argument("--large", type=int, nargs="*", help="windowed sets of these sizes (16384) beside --base")
+    parser.add_argument("--base", type=int, default=4096, help="the --large runs' base size")
+    parser.add_argument("--cache", help="--large: a folder keeping each run's figures")
+    parser.add_argument("--measure", help=argparse.SUPPRESS)  # folder: a large run's figures
     args = parser.parse_args()
+    if args.measure:
+        print(json.dumps(large_quality(args.measure)))
+        return
+    if args.large is not None:
+        sizes, base = ([2048], 1024) if args.quick else (args.large or [16384], args.base)
+        rows = large_table(sizes, base, args.seed, args.cache)
+        if args.json:
+            with open(args.json, "w") as f:
+                json.dump(rows, f, indent=1)
+        return
     if args.case:
         print(json.dumps(run_case(*args.case[:2], args.seed, args.case[2])))
         return

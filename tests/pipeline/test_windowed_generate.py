@@ -124,3 +124,32 @@ def test_the_cli_writes_a_windowed_set_and_leaves_nothing_on_a_failure(tmp_path,
     failed = run_here(*args, "-o", str(tmp_path / "failed"), "--windowed", "yes", "--no-cache")
     assert failed.returncode != 0 and "No space left" in failed.stderr, failed.stderr
     assert not (tmp_path / "failed").exists()  # no map, no temporary, no folder
+
+
+def test_a_windowed_runs_memory_is_a_windows_and_a_few_bytes_a_pixel(monkeypatch):
+    """A 16384² tileable set made window by window is estimated as one window's solve and set
+    plus what the run holds whole (72 B a pixel, measured at 4096² and 8192² with a margin), not
+    as a whole solve of the output (66 GiB, which refused it on a 24 GiB machine): it is taken
+    with 22 GiB free, refused with 16 GiB, and a flow field or height edits (made whole) are
+    estimated whole."""
+    import barkgen._shared.memory as memory
+    from barkgen.errors import MemoryBudgetError
+    from barkgen.pipeline.rules import WINDOWED_BYTES_PER_PIXEL, check_generate_memory
+
+    photo = np.zeros((1024, 1024, 3), np.uint8)
+    options = GenerateOptions(size=16384, tile=True, material=True)  # auto: windowed above 4096²
+    monkeypatch.setattr(memory, "available_memory", lambda: 22 * 2**30)
+    need = check_generate_memory(photo, options)
+    assert WINDOWED_BYTES_PER_PIXEL * 16384**2 < need < 21 * 2**30
+    for whole in ({"along": True}, {"edits": True}):
+        with pytest.raises(MemoryBudgetError, match="more than the memory free"):
+            check_generate_memory(photo, options, **whole)
+    monkeypatch.setattr(memory, "available_memory", lambda: 16 * 2**30)
+    with pytest.raises(MemoryBudgetError, match="16384x16384"):
+        check_generate_memory(photo, options)
+    # at 4096², yes costs less than no
+    small = GenerateOptions(size=4096, tile=True, material=True, windowed="yes")
+    monkeypatch.setattr(memory, "available_memory", lambda: 22 * 2**30)
+    assert check_generate_memory(photo, small) < check_generate_memory(
+        photo, GenerateOptions(**{**vars(small), "windowed": "no"})
+    )

@@ -230,9 +230,9 @@ def test_joint_strategy_stops_a_level_above_the_finest(fir_photo, fir_labels, mo
     seen = {}
     move = engine._move_finest_seams
 
-    def spy(references, *args):
-        seen["up-sampled"] = references.copy()
-        return move(references, *args)
+    def spy(flat, *args):  # (the up-sampled map comes as flat exemplar indices)
+        seen["up-sampled"] = np.stack(np.divmod(flat, fir_labels[3].shape[1]), axis=-1)
+        return move(flat, *args)
 
     monkeypatch.setattr(engine, "_move_finest_seams", spy)
     labels = fir_labels[3]

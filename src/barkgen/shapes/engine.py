@@ -49,6 +49,7 @@ from collections.abc import Callable
 import numpy as np
 
 from barkgen._shared.canvas import Budget, Canvas
+from barkgen._shared.memory import BASE_BYTES
 from barkgen._shared.threads import side_by_side
 from barkgen.pyramid import count_levels, gaussian_pyramid, level_shape
 from barkgen.synth import (
@@ -105,6 +106,10 @@ JOINT_SELECT_DEPTH = 3
 #: Solving the finest level twice, here and there, cost the quickstart 1.2 s of its 11.8
 #: (its analysis 0.8 s, its iterations 0.4 s), and the ten photos' texture figures are the same
 JOINT_FINEST_LEVEL = 1
+#: joint strategy: bytes per output pixel of its finest level (the up-sampled references and
+#: their seams moved; measured over the process's base with the 1024x1024 sample: 60 at
+#: 4096x4096, 49 at 8192x8192)
+JOINT_FINEST_BYTES_PER_PIXEL = 64
 #: weights of the label-area error and of the seams in :func:`start_score` (one percentage
 #: point of area weighs as two of coverage and half a point of seams)
 START_AREA_WEIGHT = 2.0
@@ -231,12 +236,16 @@ def synthesize_codes(
         stop_level=finest,
     )
     references = result.references
+    del result
     for lvl in reversed(range(finest)):
         references = upsample_references(
             references, level_shape(out_shape, lvl), level_shape(codes.shape, lvl), exemplar_wrap
         )
     if finest > 0 and joint:
-        references = _move_finest_seams(references, features[..., : features.shape[2] - n_labels], canvas, config, rng)
+        # (handed over as flat indices: the (H, W, 2) map is not held through the moves)
+        flat = references[..., 0] * codes.shape[1] + references[..., 1]
+        del references
+        references = _move_finest_seams(flat, features[..., : features.shape[2] - n_labels], canvas, config, rng)
     out_codes = codes[references[..., 0], references[..., 1]].astype(np.int32)
     if finest > 0 and on_level is not None:
         on_level(0, out_codes)
@@ -275,13 +284,14 @@ def _edited_start(
 
 
 def _move_finest_seams(
-    references: np.ndarray,
+    flat: np.ndarray,
     colour: np.ndarray,
     canvas: Canvas,
     config: SynthesisConfig,
     rng: np.random.Generator,
 ) -> np.ndarray:
-    """The finest level's reference map, up-sampled from the level above, with its seams moved
+    """The finest level's reference map (given as flat exemplar indices ``(H, W)``, returned as
+    ``(H, W, 2)``), up-sampled from the level above, with its seams moved
     onto the photo's low-error paths: expansion moves on the photo's colour
     (:func:`barkgen.synth.expand_pieces`) take them off the up-sampling's 2x2 grid,
     then graph cuts re-cut the straight stretches left (:func:`cut_straight_seams`, with
@@ -294,19 +304,21 @@ def _move_finest_seams(
     h, w = colour.shape[:2]
     exemplar_wrap = canvas.exemplar_wrap
     if config.seam_expansion_band:
-        flat = references[..., 0] * w + references[..., 1]
         unguided = (np.zeros(1, np.int32), np.zeros((1, 1), np.int32))
-        moved = expand_pieces(
+        flat = expand_pieces(
             flat,
             exemplar_grid((h, w), exemplar_wrap),
             colour,
             canvas,
-            np.full(flat.shape, -1, np.int64),
+            np.full((1, 1), -1, np.int64),  # no offset forbidden anywhere
             unguided,
             band=config.seam_expansion_band,
             rounds=config.seam_expansion_rounds,
         )
-        references = np.stack(np.divmod(moved, w), axis=-1).astype(np.int32)
+    references = np.empty(flat.shape + (2,), np.int32)
+    np.floor_divide(flat, w, out=references[..., 0])
+    np.remainder(flat, w, out=references[..., 1])
+    del flat
     if config.seam_cut_run:
         references = cut_straight_seams(references, colour, canvas, min_run=config.seam_cut_run, rng=rng)
     return references
@@ -487,13 +499,21 @@ def estimate_engine_memory(
     """Estimated peak memory (bytes) of :func:`synthesize_codes`: the solver's
     (:func:`barkgen.synth.estimate_memory`) on the label channels (and the photo's three
     colour channels when ``joint``), plus the label pyramids and tables. Measured peaks from
-    the 1024x1024 sample's label map: 1024x1024 out 0.39 GiB, 2048x2048 0.53 GiB (joint alike)."""
+    the 1024x1024 sample's label map: 1024x1024 out 0.39 GiB, 2048x2048 0.53 GiB (joint alike).
+    The joint strategy solves down to :data:`JOINT_FINEST_LEVEL` only, then moves the finest
+    level's seams: the larger of that solve's and :data:`JOINT_FINEST_BYTES_PER_PIXEL` of the
+    output."""
     from barkgen.synth import estimate_memory
 
     config = JOINT_CONFIG if joint else LABEL_ENGINE_CONFIG
     features = n_labels + (3 if joint else 0)
     n_ex, n_out = exemplar_shape[0] * exemplar_shape[1], out_shape[0] * out_shape[1]
-    return estimate_memory(exemplar_shape, out_shape, 1, 1, features, config) + 24 * (n_ex + n_out)
+    if not joint:
+        return estimate_memory(exemplar_shape, out_shape, 1, 1, features, config) + 24 * (n_ex + n_out)
+    finest = finest_level(engine_levels(exemplar_shape, out_shape, config, joint=True), joint=True)
+    solved = level_shape(out_shape, finest)
+    solve = estimate_memory(exemplar_shape, solved, 1, 1, features, config) + 24 * (n_ex + solved[0] * solved[1])
+    return max(solve, int(BASE_BYTES + JOINT_FINEST_BYTES_PER_PIXEL * n_out + 24 * n_ex))
 
 
 def _features(codes: np.ndarray, n_labels: int, wrap: tuple[bool, bool]) -> np.ndarray:

@@ -488,7 +488,7 @@ def expansion_nodes(output, codes, piece, exemplar, keep, labels, band, node_of,
 
     A pixel may not when the continued reference leaves an exemplar that does not wrap, when
     its offset is the pixel's forbidden one (``keep = (forbid, rare, border_cost, least)``:
-    ``forbid`` (H, W), the copy-size control's), when its own reference is one the output has too few of (``rare``,
+    ``forbid`` (H, W), the copy-size control's, or (1, 1), the same for every pixel), when its own reference is one the output has too few of (``rare``,
     per flat exemplar index: taking it over would leave that part of the exemplar out), or when
     guided
     (``labels = (ex_labels, target)`` with more than one exemplar label) it would give a pixel
@@ -540,7 +540,7 @@ def expansion_nodes(output, codes, piece, exemplar, keep, labels, band, node_of,
                 ax = _ex_inside(ex_x[e] + dx, ex_w, wrap_x)
                 if ay < 0 or ax < 0:
                     continue
-                fb = forbid[qy, qx]
+                fb = forbid[qy % forbid.shape[0], qx % forbid.shape[1]]  # (1, 1): one for all
                 if fb >= 0 and offset_code(ay, ax, qy, qx) == fb:
                     continue
                 u = ay * ex_w + ax

@@ -151,8 +151,9 @@ def expand_pieces(
         What the seam cost compares (the exemplar's colour at this level).
     canvas : Canvas
         The output's: whether it tiles (wraps round).
-    forbid : ndarray of int64, shape (H, W)
-        Each pixel's forbidden offset code (-1: none), which no move gives it. A pixel whose
+    forbid : ndarray of int64, shape (H, W) or (1, 1)
+        Each pixel's forbidden offset code (-1: none), which no move gives it (``(1, 1)``: the
+        same for every pixel, ``[[-1]]`` none anywhere). A pixel whose
         reference the output has few copies of (:func:`rare_references`) keeps it.
     labels : (ndarray, ndarray)
         ``(exemplar labels per flat index, target labels (H, W))``; a move never gives a pixel
