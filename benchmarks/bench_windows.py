@@ -38,10 +38,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import multiprocessing
 import resource
 import subprocess
 import sys
 import time
+from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
@@ -196,8 +198,8 @@ def large_quality(folder: str) -> dict:
     from pathlib import Path
 
     from barkgen.data import sample_exemplar_path
-    from barkgen.evaluate import coherence, colour_distance, completeness, longest_line, longest_seam, sharpness_ratio
-    from barkgen.io import read_image, read_reference
+    from barkgen.evaluate import coherence, colour_distance, completeness, sharpness_ratio
+    from barkgen.io import read_image
     from barkgen.pipeline.windowed import WINDOW
 
     photo = read_image(sample_exemplar_path())
@@ -212,18 +214,40 @@ def large_quality(folder: str) -> dict:
     }
     figures["grid_step"], figures["window_step"] = window_step_ratio(texture, WINDOW)
     del texture, crop
-    lines = {}
-    for kind in SET_MAPS:
-        (path,) = Path(folder).glob(f"*_{kind}.png")
-        lines[kind] = _longest_in_crops(read_image(path), lambda c, t: longest_line(c, tile=t))
-    figures["lines"] = lines
-    references, _ = read_reference(Path(folder) / "reference.png")
     wraps = json.loads((Path(folder) / "report.json").read_text())["exemplar_wrap"]
     exemplar_wrap = tuple(n if w else 0 for n, w in zip(photo.shape[:2], wraps))
-    figures["longest_seam"] = _longest_in_crops(
-        references, lambda c, t: longest_seam(c, tile=t, exemplar_wrap=exemplar_wrap)
-    )
+    # a map a process, two at a time (each reads its map and goes through its crops)
+    with ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("fork")) as pool:
+        seam = pool.submit(_reference_seam, str(Path(folder) / "reference.png"), exemplar_wrap)
+        lines = {kind: pool.submit(_map_line, str(next(Path(folder).glob(f"*_{kind}.png")))) for kind in SET_MAPS}
+        figures["lines"] = {kind: done.result() for kind, done in lines.items()}
+        figures["longest_seam"] = seam.result()
     return figures
+
+
+def _map_line(path: str) -> int:
+    """A map file's longest straight line (:func:`barkgen.evaluate.longest_line`), in crops."""
+    from barkgen.evaluate import longest_line
+    from barkgen.io import read_image
+
+    return _longest_in_crops(read_image(path), lambda c, t: longest_line(c, tile=t))
+
+
+def _reference_seam(path: str, exemplar_wrap: tuple) -> int:
+    """A reference map file's longest straight seam (:func:`barkgen.evaluate.longest_seam`), in crops."""
+    from barkgen.evaluate import longest_seam
+    from barkgen.io import read_reference
+
+    references, _ = read_reference(path)
+    return _longest_in_crops(references, lambda c, t: longest_seam(c, tile=t, exemplar_wrap=exemplar_wrap))
+
+
+def _output(cmd: list[str]) -> str:
+    """The last line a command of this benchmark prints; its error's last lines if it fails."""
+    done = subprocess.run(cmd, capture_output=True, text=True)
+    if done.returncode:
+        raise SystemExit(f"{' '.join(cmd[1:])} failed ({done.returncode}):\n{done.stderr[-2000:]}")
+    return done.stdout.splitlines()[-1]
 
 
 def large_table(sizes: list[int], base: int, seed: int, cache: str | None) -> list[dict]:
@@ -246,11 +270,8 @@ def large_table(sizes: list[int], base: int, seed: int, cache: str | None) -> li
         else:
             with tempfile.TemporaryDirectory() as folder:
                 cmd = [sys.executable, __file__, "--material-case", str(size), mode, folder, "--seed", str(seed)]
-                ran = json.loads(
-                    subprocess.run(cmd, capture_output=True, text=True, check=True).stdout.splitlines()[-1]
-                )
-                cmd = [sys.executable, __file__, "--measure", folder]
-                measured = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout.splitlines()[-1]
+                ran = json.loads(_output(cmd))
+                measured = _output([sys.executable, __file__, "--measure", folder])
             r = {
                 "size": size,
                 "run": label,

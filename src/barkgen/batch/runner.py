@@ -164,12 +164,25 @@ def check_scheduler_address(address: str) -> str:
     return address
 
 
+def _knock(address: str) -> None:
+    """One TCP connection to a scheduler's (checked) address, so that nothing listening there is
+    said at once (the Dask client retries a refused connection until its 20 s timeout).
+    Raises OSError."""
+    import socket
+
+    m = _ADDRESS.match(address)
+    assert m is not None  # (checked by check_scheduler_address)
+    with socket.create_connection((m.group(2).strip("[]"), int(m.group(3))), timeout=20):
+        pass
+
+
 def _client(scheduler: str | None, workers: int | None, threads: int | None):
     """A Dask client of ``scheduler``, or of a new :func:`local_cluster` (returned too, to close)."""
     from distributed import Client
 
     if scheduler is not None:
         try:
+            _knock(scheduler)
             return Client(scheduler, timeout="20s"), None
         except (OSError, TimeoutError) as exc:
             raise InvalidInputError(f"cannot reach the Dask scheduler at {scheduler}: {_one_line(exc)}") from None

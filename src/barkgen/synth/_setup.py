@@ -55,6 +55,13 @@ def validate_inputs(
     return ex, out_shape, extras
 
 
+#: bytes per output pixel of a solve whose finest levels go window by window
+#: (``config.window``), beside one window's working arrays: what its levels hold whole (the
+#: reference maps, the result, the target's labels and guide channels; ``generate``'s texture
+#: stage at 4096², windowed: 62 B a pixel over the analysis, the label stage's result included)
+WINDOWED_SOLVE_BYTES_PER_PIXEL = 64
+
+
 def check_memory(
     ex: np.ndarray,
     extras: Mapping[str, np.ndarray],
@@ -62,18 +69,30 @@ def check_memory(
     feature_channels: int,
     config: SynthesisConfig,
     guided: bool = False,
+    links=None,
 ) -> None:
-    """Raise :class:`MemoryBudgetError` before any work if the job would not fit the budget."""
+    """Raise :class:`MemoryBudgetError` before any work if the job would not fit the budget: the
+    solver's arrays for the output, or, its finest levels solved window by window
+    (:func:`~barkgen.synth._windows.windowed_level`), for one window and its halo, plus
+    :data:`WINDOWED_SOLVE_BYTES_PER_PIXEL` of the output."""
+    from barkgen.synth._windows import WINDOW_HALO, windowed_level
+
+    solved = out_shape
+    if windowed_level(config, 0, out_shape, links):
+        side = config.window + 2 * WINDOW_HALO
+        solved = (min(side, out_shape[0]), min(side, out_shape[1]))
     need = estimate_memory(
         ex.shape[:2],
-        out_shape,
+        solved,
         ex.shape[2] + sum(e.shape[2] for e in extras.values()),
         max([ex.dtype.itemsize] + [e.dtype.itemsize for e in extras.values()]),
         feature_channels,
         config,
     )
     if guided:  # label pyramids and tables
-        need += 24 * out_shape[0] * out_shape[1] + 24 * ex.shape[0] * ex.shape[1]
+        need += 24 * solved[0] * solved[1] + 24 * ex.shape[0] * ex.shape[1]
+    if solved != out_shape:
+        need += WINDOWED_SOLVE_BYTES_PER_PIXEL * out_shape[0] * out_shape[1]
     check_memory_budget(need, config.max_memory, f"output {out_shape[1]}x{out_shape[0]}")
 
 
@@ -191,7 +210,7 @@ def set_up(
     ex, out_shape, extras = validate_inputs(exemplar, canvas.shape, budget, extra)
     front.check(ex)
     n_feat = colour_channels(ex) + front.added_channels + sum(e.shape[2] for e in extras.values())
-    check_memory(ex, extras, out_shape, n_feat, config, guided=front.guided)
+    check_memory(ex, extras, out_shape, n_feat, config, guided=front.guided, links=canvas.links)
     wrap = resolve_exemplar_wrap(canvas.wrap_mode, ex)
     feats = front.features(ex, extras, wrap, config, budget.cache)
     n_levels = count_levels(ex.shape[:2], out_shape, config.coarsest_exemplar)
