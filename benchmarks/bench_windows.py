@@ -78,7 +78,7 @@ def run_case(size: int, window: int, seed: int, trace: int) -> dict:
     }
 
 
-def material_case(size: int, mode: str, seed: int, folder: str) -> dict:
+def material_case(size: int, mode: str, seed: int, folder: str, quality: bool = True) -> dict:
     """One ``barkgen generate --tile --material`` in this process: seconds, peak memory and
     the output's quality (:func:`output_quality`)."""
     from barkgen.cli import main as barkgen
@@ -105,7 +105,7 @@ def material_case(size: int, mode: str, seed: int, folder: str) -> dict:
             raise
     seconds = round(time.perf_counter() - t0, 2)
     peak = round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1)
-    return {"seconds": seconds, "peak_mib": peak, **output_quality(folder)}
+    return {"seconds": seconds, "peak_mib": peak, **(output_quality(folder) if quality else {})}
 
 
 def output_quality(folder: str) -> dict:
@@ -203,7 +203,7 @@ def large_quality(folder: str) -> dict:
     from barkgen.pipeline.windowed import WINDOW
 
     photo = read_image(sample_exemplar_path())
-    texture = read_image(Path(folder) / "texture.png")
+    texture = _read_large(Path(folder) / "texture.png")
     crop = texture[:2048, :2048]
     whole = crop.shape[0] == texture.shape[0]
     figures: dict = {
@@ -225,20 +225,32 @@ def large_quality(folder: str) -> dict:
     return figures
 
 
+def _read_large(path) -> np.ndarray:
+    """An image file as RGB (or grey), whatever its size (OpenCV: Pillow refuses more than
+    179 megapixels as a decompression bomb)."""
+    import cv2
+
+    image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    if image is None:
+        raise SystemExit(f"{path}: not an image")
+    return image[..., 2::-1] if image.ndim == 3 else image
+
+
 def _map_line(path: str) -> int:
     """A map file's longest straight line (:func:`barkgen.evaluate.longest_line`), in crops."""
     from barkgen.evaluate import longest_line
-    from barkgen.io import read_image
 
-    return _longest_in_crops(read_image(path), lambda c, t: longest_line(c, tile=t))
+    return _longest_in_crops(_read_large(path), lambda c, t: longest_line(c, tile=t))
 
 
 def _reference_seam(path: str, exemplar_wrap: tuple) -> int:
-    """A reference map file's longest straight seam (:func:`barkgen.evaluate.longest_seam`), in crops."""
+    """A reference map file's longest straight seam (:func:`barkgen.evaluate.longest_seam`), in
+    crops (``reference.png``: red the exemplar column, green its row)."""
     from barkgen.evaluate import longest_seam
-    from barkgen.io import read_reference
 
-    references, _ = read_reference(path)
+    rgb = _read_large(path)
+    references = np.stack([rgb[..., 1], rgb[..., 0]], axis=-1).astype(np.int32)
+    del rgb
     return _longest_in_crops(references, lambda c, t: longest_seam(c, tile=t, exemplar_wrap=exemplar_wrap))
 
 
@@ -250,7 +262,7 @@ def _output(cmd: list[str]) -> str:
     return done.stdout.splitlines()[-1]
 
 
-def large_table(sizes: list[int], base: int, seed: int, cache: str | None) -> list[dict]:
+def large_table(sizes: list[int], base: int, seed: int, cache: str | None, keep: str | None = None) -> list[dict]:
     """The ``--large`` table: ``base`` whole and windowed, then each size windowed; every run
     and its measuring in processes of their own (figures kept in ``cache``)."""
     import tempfile
@@ -269,8 +281,11 @@ def large_table(sizes: list[int], base: int, seed: int, cache: str | None) -> li
             r = json.loads(kept.read_text())
         else:
             with tempfile.TemporaryDirectory() as folder:
+                if keep:  # the run's files kept for a look (DIR/SIZE-RUN)
+                    folder = str(Path(keep, f"{size}-{label}"))
+                    Path(folder).mkdir(parents=True, exist_ok=True)
                 cmd = [sys.executable, __file__, "--material-case", str(size), mode, folder, "--seed", str(seed)]
-                ran = json.loads(_output(cmd))
+                ran = json.loads(_output([*cmd, "--no-quality"]))  # (measured below, from its files)
                 measured = _output([sys.executable, __file__, "--measure", folder])
             r = {
                 "size": size,
@@ -340,14 +355,16 @@ def main() -> None:
     parser.add_argument("--large", type=int, nargs="*", help="windowed sets of these sizes (16384) beside --base")
     parser.add_argument("--base", type=int, default=4096, help="the --large runs' base size")
     parser.add_argument("--cache", help="--large: a folder keeping each run's figures")
+    parser.add_argument("--keep", help="--large: keep each run's files in this folder (DIR/SIZE-RUN)")
     parser.add_argument("--measure", help=argparse.SUPPRESS)  # folder: a large run's figures
+    parser.add_argument("--no-quality", action="store_true", help=argparse.SUPPRESS)  # --material-case: time it only
     args = parser.parse_args()
     if args.measure:
         print(json.dumps(large_quality(args.measure)))
         return
     if args.large is not None:
         sizes, base = ([2048], 1024) if args.quick else (args.large or [16384], args.base)
-        rows = large_table(sizes, base, args.seed, args.cache)
+        rows = large_table(sizes, base, args.seed, args.cache, args.keep)
         if args.json:
             with open(args.json, "w") as f:
                 json.dump(rows, f, indent=1)
@@ -357,7 +374,7 @@ def main() -> None:
         return
     if args.material_case:
         size, mode, folder = args.material_case
-        print(json.dumps(material_case(int(size), mode, args.seed, folder)))
+        print(json.dumps(material_case(int(size), mode, args.seed, folder, quality=not args.no_quality)))
         return
     if args.material:
         rows = material_table([1024] if args.quick else args.sizes, args.seed)

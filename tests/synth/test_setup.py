@@ -33,6 +33,26 @@ def test_memory_budget_is_checked_before_work(synthetic_exemplar):
         synthesize(synthetic_exemplar, (50_000, 50_000), config=SynthesisConfig(max_memory=2**30))
 
 
+def test_windowed_finest_levels_are_budgeted_as_a_window_and_a_few_bytes_a_pixel():
+    """A 16384² solve whose finest levels go in 1024 px windows needs one window's working
+    arrays and what its levels hold whole (about 64 B a pixel, 17 GiB), not a whole solve's
+    (54 GiB, which refused ``generate``'s 16384² texture stage on a 24 GiB machine); a budget
+    below that is still refused."""
+    from barkgen.synth._setup import WINDOWED_SOLVE_BYTES_PER_PIXEL, check_memory
+
+    photo = np.zeros((1024, 1024, 3), np.uint8)
+
+    def fits(window: int, budget: int) -> bool:
+        try:
+            check_memory(photo, {}, (16384, 16384), 5, SynthesisConfig(window=window, max_memory=budget), guided=True)
+        except MemoryBudgetError:
+            return False
+        return True
+
+    assert fits(1024, 20 * 2**30) and not fits(0, 20 * 2**30)
+    assert not fits(1024, WINDOWED_SOLVE_BYTES_PER_PIXEL * 16384**2)  # (the window's own on top)
+
+
 def test_the_set_up_is_what_synthesize_runs(synthetic_exemplar):
     """:func:`set_up` then :meth:`SolveSetup.solve` is :func:`synthesize`, byte for byte; a grey
     ``(h, w)`` exemplar is given back as a grey image."""
