@@ -236,11 +236,24 @@ def _read_large(path) -> np.ndarray:
     return image[..., 2::-1] if image.ndim == 3 else image
 
 
+#: px of a crop's edges whose boundaries are not counted: there a boundary is compared with the
+#: boundaries on one side only (:data:`barkgen.evaluate.lines.REACH`), and the crop's first and
+#: last look like lines; the crops' overlap measures them in the next crop
+EDGE = 8
+
+
 def _map_line(path: str) -> int:
     """A map file's longest straight line (:func:`barkgen.evaluate.longest_line`), in crops."""
-    from barkgen.evaluate import longest_line
+    from barkgen.evaluate import line_mask, longest_line
+    from barkgen.evaluate.seams import longest_run
 
-    return _longest_in_crops(_read_large(path), lambda c, t: longest_line(c, tile=t))
+    def in_crop(crop: np.ndarray, tile: bool) -> int:
+        if tile:  # (the whole map)
+            return longest_line(crop, tile=True)
+        across_cols, across_rows = line_mask(crop)
+        return max(longest_run(across_cols[:, EDGE:-EDGE].T), longest_run(across_rows[EDGE:-EDGE]))
+
+    return _longest_in_crops(_read_large(path), in_crop)
 
 
 def _reference_seam(path: str, exemplar_wrap: tuple) -> int:

@@ -37,8 +37,8 @@ MATERIAL_BYTES_PER_PIXEL = 48
 WINDOWED_PIXELS = 4096 * 4096
 #: bytes per output pixel of a run made window by window, beside its windows' own: what it still
 #: holds whole (the label stage's maps, the reference map, the texture, the target's guide
-#: channels; ``bench_windows.py --large``: 1846 MiB at 4096², 4970 MiB at 8192², 65 B a pixel
-#: more, and a tenth for what the estimate leaves out)
+#: channels; ``bench_windows.py --large``: 1920 MiB at 4096², 14866 MiB at 16384², 55 B a pixel
+#: over the photo's analysis, and a margin for another photo's labels)
 WINDOWED_BYTES_PER_PIXEL = 72
 
 
