@@ -181,7 +181,9 @@ def _run_report(options) -> dict:
     label_result = types.SimpleNamespace(layer_order=None, references=None, resumed_level=None, label_map=labels)
     result = types.SimpleNamespace(extras={}, extra_wraps={}, orientation=None)
     photo = np.zeros((8, 8, 3), np.uint8)
-    return run_report(photo, options, (False, False), labels, label_result, result, None, {"total": 1.0})
+    return run_report(
+        photo, options, (False, False), labels, label_result, result, None, {"total": 1.0}, referenced=False
+    )
 
 
 def test_a_new_field_reaches_report_json():

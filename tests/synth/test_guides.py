@@ -180,3 +180,36 @@ def test_the_label_clean_up_continues_a_neighbouring_piece():
     out = enforce_labels(stray, level, 3)
     assert np.array_equal(out, refs)
     assert np.array_equal(enforce_labels(refs, level, 3), refs)
+
+
+@pytest.mark.parametrize("tile", [True, False])
+@pytest.mark.parametrize("n_labels", [3, 11])
+def test_a_target_guide_made_where_it_is_read_is_the_whole_pyramids(tile, n_labels):
+    """A windowed solve's target guide (issue 69) is made a window at a time from the labels: at
+    every level, whole or in windows (round a torus of odd side too, where the pyramid's grid
+    does not run on), it is the whole pyramid's to float rounding, and it holds no level."""
+    import cv2
+
+    from barkgen.synth.guides.channels import soft_labels
+    from barkgen.synth.guides.target import TargetGuideLevel, target_guide_pyramid
+
+    rng = np.random.default_rng(3)
+    exemplar = rng.integers(0, n_labels, (64, 80)).astype(np.int32)
+    blobs = cv2.resize(rng.random((30, 27)), (301, 333)) * n_labels  # odd sides
+    target = np.clip(blobs.astype(np.int32), 0, n_labels - 1)
+    recipe, _ = soft_labels(exemplar, n_labels, 2.5)
+    whole = gaussian_pyramid(recipe(target, tile), 4, (tile, tile))
+    made = target_guide_pyramid(target, recipe, 4, tile, made_where_read=2)
+    assert [type(level) for level in made[:2]] == [TargetGuideLevel, TargetGuideLevel]
+    assert all(isinstance(level, np.ndarray) for level in made[2:])
+    for lvl, (lazy, full) in enumerate(zip(made, whole)):
+        assert np.asarray(lazy).shape == full.shape
+        np.testing.assert_allclose(np.asarray(lazy), full, atol=1e-5)
+        if lvl >= 2:
+            continue
+        h, w = full.shape[:2]
+        for top, left, side in ((0, 0, 40), (h - 20, w - 30, 50), (10, 20, 33)):
+            rows = np.arange(top, top + side) % h if tile else np.arange(top, min(top + side, h))
+            cols = np.arange(left, left + side) % w if tile else np.arange(left, min(left + side, w))
+            window = lazy[np.ix_(rows, cols)]
+            np.testing.assert_allclose(window, full[np.ix_(rows, cols)], atol=1e-5)

@@ -254,6 +254,27 @@ def test_a_continuous_map_has_no_cliff_where_pieces_meet():
     assert u16.dtype == np.uint16
 
 
+def test_the_screened_poisson_solve_leaves_its_inputs_alone():
+    """The solve works in place on the arrays it makes itself (issue 69: a material window holds
+    4 arrays of its size, not 9), never on its caller's: the plain map and the gradients are
+    the same after it, on the torus and with a Neumann border."""
+    from barkgen._shared.arrays import Boundary
+    from barkgen.synth import screened_poisson
+
+    rng = np.random.default_rng(5)
+    plain, gy, gx = rng.random((3, 40, 30, 2))
+    kept = plain.copy(), gy.copy(), gx.copy()
+    for tile in (False, True):
+        u = screened_poisson(plain, gy, gx, Boundary(tile), screening=1e-2)
+        assert u.shape == plain.shape and np.isfinite(u).all()
+        for before, after in zip(kept, (plain, gy, gx)):
+            assert np.array_equal(before, after)
+    # the solve does what it says: the plain map's own gradients give the plain map back
+    steps_y = np.concatenate([np.diff(plain, axis=0), np.zeros((1, 30, 2))], axis=0)
+    steps_x = np.concatenate([np.diff(plain, axis=1), np.zeros((40, 1, 2))], axis=1)
+    np.testing.assert_allclose(screened_poisson(plain, steps_y, steps_x, Boundary(False)), plain, atol=1e-9)
+
+
 def test_synthesized_material_maps_have_no_cliffs(sample256):
     """generate --tile --material: the displacement, normals, AO and roughness step across the
     borders of the copied pieces no more than 1.5x as much as inside them (measured 0.84 /

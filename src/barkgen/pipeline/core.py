@@ -33,6 +33,7 @@ import numpy as np
 
 from barkgen._shared.arrays import ProgressCallback
 from barkgen._shared.canvas import Budget, Canvas
+from barkgen._shared.memory import give_back_freed_memory
 from barkgen._shared.threads import in_budget, thread_budget, worker_pool
 from barkgen.pipeline.labelmaps import with_edge_labels
 from barkgen.pipeline.materials import WindowedMaterial, output_material, photo_material
@@ -383,8 +384,10 @@ def generate(
     with thread_budget(options.threads):  # every pool sized, BLAS at one thread
         windowed = windowed_run(options, run.canvas.along, bool(edits))
         labels = _label_stage(run, analysis, source, resume)
+        give_back_freed_memory()  # (each stage's freed working arrays not kept beside the next's)
         timings["labels_out"] = time.perf_counter() - t1
         result = _texture_stage(run, analysis, source, labels, extra, windowed)
+        give_back_freed_memory()
         timings["texture"] = time.perf_counter() - t1 - timings["labels_out"]
         material = _material_stage(run, analysis, source, scan, result, timings, windowed)
     # the analysis' own cost counts whether it ran here or was shared
@@ -401,6 +404,15 @@ class _Labels:
     grown: Any
     tbn_in: np.ndarray
     tbn_out: np.ndarray
+    #: the label map came with references into the photo (texture-by-numbers starts from them)
+    referenced: bool = False
+
+    def hand_over(self) -> np.ndarray:
+        """The label map's references, taken from its result: whoever takes them holds the
+        only reference (issue 69: the texture stage lets them go once its start is made)."""
+        references, self.result.references = self.result.references, None
+        assert references is not None  # (handed over once, when the label map has them)
+        return references
 
 
 def _label_stage(run: Run, analysis: PhotoAnalysis, source: np.ndarray, resume) -> _Labels:
@@ -409,7 +421,7 @@ def _label_stage(run: Run, analysis: PhotoAnalysis, source: np.ndarray, resume) 
     labels_in = analysis.labels_in
     result, grown = run.structure.label_map(labels_in, source, analysis, run, resume)
     tbn_in, tbn_out = with_edge_labels(labels_in, result.label_map, run, analysis.tbn_labels_in)
-    return _Labels(result, grown, tbn_in, tbn_out)
+    return _Labels(result, grown, tbn_in, tbn_out, result.references is not None)
 
 
 def _texture_stage(
@@ -435,8 +447,8 @@ def _texture_stage(
         window=WINDOW if windowed else 0,
     )
     # the engines' label maps copy exemplar label pieces: the same pieces of the photo are a
-    # label-exact, coherent start for texture-by-numbers (else its smart initialisation)
-    references = label_result.references
+    # label-exact, coherent start for texture-by-numbers (else its smart initialisation); handed
+    # over, not held through its solve (8 B a pixel)
     level = 0 if along else INIT_LEVELS.get(options.strategy, 0)
     return texture_by_numbers(
         source,
@@ -444,7 +456,7 @@ def _texture_stage(
         labels.tbn_out,
         label_weight=options.label_weight,
         feature_weight=options.feature_weight,
-        init="smart" if references is None else (references, level),
+        init="smart" if labels.result.references is None else (labels.hand_over(), level),
         thin_labels=() if along else run.structure.thin_labels,
         extra=extra,
         config=config,
@@ -479,7 +491,17 @@ def _finished(run: Run, analysis: PhotoAnalysis, source, labels: _Labels, result
 
         material = edit_material(material, edits, texture=texture, label_map=labels.result.label_map)
     wrap = run.canvas.exemplar_wrap
-    report = run_report(source, options, wrap, analysis.labels_in, labels.result, result, material, timings)
+    report = run_report(
+        source,
+        options,
+        wrap,
+        analysis.labels_in,
+        labels.result,
+        result,
+        material,
+        timings,
+        referenced=labels.referenced,
+    )
     report["height_edits"] = len(edits)
     report.update(run.structure.report(exemplar) if exemplar is not None else {})
     return GenerateResult(

@@ -15,12 +15,15 @@ def _fractions(label_map: np.ndarray, values: np.ndarray) -> dict[str, float]:
     return {str(int(v)): round(float(np.mean(label_map == v)), 4) for v in values}
 
 
-def run_report(photo, options: GenerateOptions, wrap, labels_in, label_result, result, material, timings) -> dict:
+def run_report(
+    photo, options: GenerateOptions, wrap, labels_in, label_result, result, material, timings, *, referenced: bool
+) -> dict:
     """The JSON-ready report of a :func:`generate` run: every option, from its declaration
     (:func:`barkgen._shared.options.option_values`: each field under its report key, so a new
     option is reported with no edit here), the options of the material set it made, and what
     the run found and took: the photo's size, its labels and their areas, the wraps, the light,
-    the flow's copies and the timings."""
+    the flow's copies and the timings. ``referenced``: texture-by-numbers started from the
+    label map's references (handed over to it, the result no longer has them)."""
     from barkgen._shared.options import option_values
     from barkgen.pipeline.materials import photo_material_options
     from barkgen.pipeline.variants import bilayer_options, growth_options
@@ -33,7 +36,7 @@ def run_report(photo, options: GenerateOptions, wrap, labels_in, label_result, r
         "k": int(values.size),  # the labels found (a given label map has its own count)
         "layer_order": label_result.layer_order,
         "exemplar_wrap": [bool(wrap[0]), bool(wrap[1])],
-        "texture_init": "label map references" if label_result.references is not None else "smart",
+        "texture_init": "label map references" if referenced else "smart",
         "extras": sorted(result.extras),
         "extra_wraps": {name: list(axes) for name, axes in sorted(result.extra_wraps.items())},
         "resumed_from_level": label_result.resumed_level,

@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from barkgen._shared.canvas import Canvas
+from barkgen._shared.memory import give_back_freed_memory
 from barkgen.errors import InvalidInputError
 from barkgen.io.udim import UdimGrid, udim_file_name, udim_grid, udim_number
 from barkgen.material.materialset import MaterialSet
@@ -453,6 +454,7 @@ def _first_pass(
         band.add(maps.target[1], images, material.height)
         height_range = height_range.add(material.height)
         del maps, material  # (not held while the next window is solved)
+        give_back_freed_memory()
         done += 1
         if progress is not None:
             progress(done, total)

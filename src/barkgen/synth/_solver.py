@@ -209,6 +209,9 @@ def solve(
                 debug(f"level{lvl}_result", level_image(ex, refs, lvl))
         timings = {"analysis": t1 - t0, "synthesis": time.perf_counter() - t1}
         assert refs is not None  # the finest level ran
+        # (the levels' working state goes before the result is made: the forbidden offsets, 8 B
+        # a pixel, and the finest level's guide)
+        del forbid, ctx
         return _result(inputs, canvas, budget, refs, levels, stop_level, timings)
 
 

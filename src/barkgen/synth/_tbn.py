@@ -35,19 +35,21 @@ from barkgen.synth._config import TBN_CONFIG, SynthesisConfig
 from barkgen.synth._edges import resolve_exemplar_wrap
 from barkgen.synth._setup import Front, SolveSetup, extra_inputs, set_up, validate_inputs
 from barkgen.synth._solver import DebugCallback, SynthesisResult
+from barkgen.synth._windows import WINDOWED_LEVELS
 from barkgen.synth.guides.channels import (
     THIN_LABEL_WEIGHT,
     LabelMaps,
     boundary_distance,
     encode_label_maps,
-    guide_channels,
     label_pyramid,
     level_guide,
+    soft_labels,
     thin_codes,
     thin_label_channels,
 )
 from barkgen.synth.guides.guidance import Guidance
 from barkgen.synth.guides.initialization import random_initialization, smart_initialization
+from barkgen.synth.guides.target import target_guide_pyramid
 
 INITIALIZATIONS = ("smart", "random")
 
@@ -210,6 +212,8 @@ def texture_by_numbers(
     front = _LabelFront(exemplar_labels, target, feature_weight)
     setup = set_up(exemplar, extra, config, canvas, budget, front=front)
     guidance, start = _guidance(front, setup, label_weight, init, thin_labels)
+    # (a reference map handed over is not held through the solve: its start is made)
+    del init
     return setup.solve(guidance=guidance, start=start)
 
 
@@ -224,13 +228,18 @@ def _guidance(
     wrap, n_levels, tile, debug = setup.wrap, setup.inputs.n_levels, setup.canvas.tile, setup.budget.debug
     # a pixel whose soft label differs completely costs label_weight x the colour variance
     scale = np.sqrt(label_weight * colour_variance / 2.0)
-    guide_a, guide_b = guide_channels(
-        labels.exemplar, labels.target, labels.n_labels, scale, exemplar_wrap=wrap, target_wrap=tile
-    )
+    recipe, guide_a = soft_labels(labels.exemplar, labels.n_labels, scale, exemplar_wrap=wrap)
     if thin_labels:
         thin, weight = thin_codes(labels.palette, thin_labels), np.float32(THIN_LABEL_WEIGHT * scale)
+        guide_b = recipe(labels.target, tile)
         guide_a = np.concatenate([guide_a, thin_label_channels(labels.exemplar, thin, wrap=wrap) * weight], axis=2)
         guide_b = np.concatenate([guide_b, thin_label_channels(labels.target, thin, wrap=tile) * weight], axis=2)
+        target_guides = gaussian_pyramid(guide_b, n_levels, (tile, tile))
+    else:
+        # a windowed solve reads its finest levels' target guide a window at a time: made there
+        # from the labels (issue 69: 4 B a pixel a label less), the same values
+        windowed = WINDOWED_LEVELS if setup.inputs.config.window else 0
+        target_guides = target_guide_pyramid(labels.target, recipe, n_levels, tile, windowed)
     pyr_a = label_pyramid(labels.exemplar, labels.n_labels, n_levels)
     pyr_b = label_pyramid(labels.target, labels.n_labels, n_levels)
     guides = [level_guide(a, b, labels.n_labels) for a, b in zip(pyr_a, pyr_b)]
@@ -240,7 +249,7 @@ def _guidance(
     guidance = Guidance(
         levels=guides,
         exemplar_guides=gaussian_pyramid(guide_a, n_levels, wrap),
-        target_guides=gaussian_pyramid(guide_b, n_levels, (tile, tile)),
+        target_guides=target_guides,
         initial_references=initial,
     )
     return guidance, start

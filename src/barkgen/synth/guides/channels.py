@@ -13,7 +13,7 @@ as an extra matching channel so that matched neighbourhoods agree on where the e
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -244,6 +244,71 @@ RARE_LABEL_BOOST = 16.0
 MAX_GUIDE_CHANNELS = 8
 
 
+@dataclass(frozen=True)
+class SoftLabels:
+    """How a label map becomes guide channels (:func:`guide_channels`): each label's indicator
+    blurred by :data:`GUIDE_BLUR` px, times its rarity ``boost``; projected on ``basis`` (after
+    taking ``mean`` off) when there are more than :data:`MAX_GUIDE_CHANNELS` labels; times
+    ``scale``. Made from the exemplar's map, applied alike to the target's, whole or a
+    rectangle at a time (:class:`barkgen.synth.guides.target.TargetGuideLevel`)."""
+
+    n_labels: int
+    boost: np.ndarray
+    scale: float
+    mean: np.ndarray | None = None
+    basis: np.ndarray | None = None
+
+    #: px the blur reads beyond a pixel
+    reach: ClassVar[int] = int(np.ceil(4 * GUIDE_BLUR)) + 1
+
+    @property
+    def channels(self) -> int:
+        """How many guide channels a pixel has."""
+        return self.n_labels if self.basis is None else int(self.basis.shape[1])
+
+    def unscaled(self, codes: np.ndarray, wrap: Wrap) -> np.ndarray:
+        """The blurred, boosted indicators ``(H, W, n_labels)`` of ``codes``, round ``wrap``."""
+        import cv2
+
+        def blurred(indicator: np.ndarray) -> np.ndarray:
+            return cv2.GaussianBlur(indicator, (0, 0), GUIDE_BLUR, borderType=cv2.BORDER_REFLECT_101)
+
+        chans = [
+            Boundary(wrap).torus(blurred, (codes == lab).astype(np.float32), self.reach) * np.float32(self.boost[lab])
+            for lab in range(self.n_labels)
+        ]
+        return np.stack(chans, axis=-1)
+
+    def finished(self, unscaled: np.ndarray) -> np.ndarray:
+        """:meth:`unscaled` channels projected (with many labels) and scaled, float32."""
+        if self.basis is not None and self.mean is not None:
+            unscaled = _project(unscaled, self.mean, self.basis)
+        return np.ascontiguousarray(unscaled * np.float32(self.scale), dtype=np.float32)
+
+    def __call__(self, codes: np.ndarray, wrap: Wrap = False) -> np.ndarray:
+        """The guide channels ``(H, W, channels)`` of the label ``codes``, blurred round ``wrap``."""
+        return self.finished(self.unscaled(codes, wrap))
+
+
+def soft_labels(exemplar_codes: np.ndarray, n_labels: int, scale: float, *, exemplar_wrap: Wrap = False):
+    """``(recipe, exemplar channels)``: the :class:`SoftLabels` of the exemplar's label codes
+    (rare labels weighed up to :data:`RARE_LABEL_BOOST` more, so that small features such as
+    lenticels are not traded away, the mean cost per pixel staying ``scale ** 2``; with more than
+    :data:`MAX_GUIDE_CHANNELS` labels, the exemplar's first principal axes) and the exemplar's
+    own guide channels."""
+    freq = np.bincount(exemplar_codes.ravel(), minlength=n_labels) / exemplar_codes.size
+    boost = np.clip(1.0 / np.sqrt(np.maximum(freq, 1e-9) * n_labels), 1.0, RARE_LABEL_BOOST)
+    boost /= np.sqrt(np.sum(freq * boost**2))
+    recipe = SoftLabels(n_labels, boost, float(scale))
+    ga = recipe.unscaled(exemplar_codes, exemplar_wrap)
+    if n_labels > MAX_GUIDE_CHANNELS:
+        flat = ga.reshape(-1, n_labels)
+        mean = flat.mean(axis=0)
+        _, _, vt = np.linalg.svd((flat - mean)[:: max(1, len(flat) // 20000)], full_matrices=False)
+        recipe = SoftLabels(n_labels, boost, float(scale), mean, vt[:MAX_GUIDE_CHANNELS].T.astype(np.float32))
+    return recipe, recipe.finished(ga)
+
+
 def guide_channels(
     exemplar_codes: np.ndarray,
     target_codes: np.ndarray,
@@ -257,38 +322,10 @@ def guide_channels(
     indicator, blurred by a Gaussian of :data:`GUIDE_BLUR` px (a boundary one pixel off then costs
     little), weighted up when the label is rare and multiplied by ``scale``; with more than
     :data:`MAX_GUIDE_CHANNELS` labels, both are projected on the exemplar's first principal
-    axes. Each map is blurred round its own wrap (``exemplar_wrap``: the photo tiles;
-    ``target_wrap``: the output does)."""
-    import cv2
-
-    # rare labels weigh more (up to RARE_LABEL_BOOST), so that small features such as lenticels
-    # are not traded away; the mean cost per pixel stays ``scale ** 2``
-    freq = np.bincount(exemplar_codes.ravel(), minlength=n_labels) / exemplar_codes.size
-    boost = np.clip(1.0 / np.sqrt(np.maximum(freq, 1e-9) * n_labels), 1.0, RARE_LABEL_BOOST)
-    boost /= np.sqrt(np.sum(freq * boost**2))
-
-    def soft(codes: np.ndarray, wrap: Wrap) -> np.ndarray:
-        def blurred(indicator: np.ndarray) -> np.ndarray:
-            return cv2.GaussianBlur(indicator, (0, 0), GUIDE_BLUR, borderType=cv2.BORDER_REFLECT_101)
-
-        reach = int(np.ceil(4 * GUIDE_BLUR)) + 1
-        chans = [
-            Boundary(wrap).torus(blurred, (codes == lab).astype(np.float32), reach) * np.float32(boost[lab])
-            for lab in range(n_labels)
-        ]
-        return np.stack(chans, axis=-1)
-
-    ga, gb = soft(exemplar_codes, exemplar_wrap), soft(target_codes, target_wrap)
-    if n_labels > MAX_GUIDE_CHANNELS:
-        flat = ga.reshape(-1, n_labels)
-        mean = flat.mean(axis=0)
-        _, _, vt = np.linalg.svd((flat - mean)[:: max(1, len(flat) // 20000)], full_matrices=False)
-        basis = vt[:MAX_GUIDE_CHANNELS].T.astype(np.float32)
-        ga, gb = _project(ga, mean, basis), _project(gb, mean, basis)
-    return (
-        np.ascontiguousarray(ga * np.float32(scale), dtype=np.float32),
-        np.ascontiguousarray(gb * np.float32(scale), dtype=np.float32),
-    )
+    axes (:func:`soft_labels`). Each map is blurred round its own wrap (``exemplar_wrap``: the
+    photo tiles; ``target_wrap``: the output does)."""
+    recipe, ga = soft_labels(exemplar_codes, n_labels, scale, exemplar_wrap=exemplar_wrap)
+    return ga, recipe(target_codes, target_wrap)
 
 
 def _project(channels: np.ndarray, mean: np.ndarray, basis: np.ndarray) -> np.ndarray:

@@ -23,7 +23,8 @@ class Guidance:
 
     ``exemplar_guides[l]`` ``(h_l, w_l, G)`` and ``target_guides[l]`` ``(H_l, W_l, G)`` are the
     guide channels (soft labels) of the exemplar (``A``) and of the output (``B``) at level
-    ``l``; their neighbourhoods are compared in an appearance space of their own with
+    ``l`` (a target level may be a :class:`~barkgen.synth.guides.target.TargetGuideLevel`, made
+    where it is read); their neighbourhoods are compared in an appearance space of their own with
     ``components`` dimensions. ``levels`` are the label tables; ``initial_references(a, b, rng)``
     makes the coarsest level's reference map from its exemplar and target labels.
 
@@ -99,7 +100,7 @@ def level_guidance(
             projections[nb_size] = (gp.weights, gp.mean)
         else:
             guide_out[nb_size] = project_neighbourhoods(
-                guidance.target_guides[lvl], gp.weights, gp.mean, wrap=tile
+                np.asarray(guidance.target_guides[lvl]), gp.weights, gp.mean, wrap=tile
             ).reshape(shape + (-1,))
     return LevelGuidance(
         lg.exemplar_labels,

@@ -108,47 +108,73 @@ def screened_poisson(
     ``(H, W, C)`` map, forward differences; on the torus when the map's ``boundary`` wraps both
     axes (FFT), else with a Neumann border (DCT; the last row's ``gy`` and last column's ``gx``
     are not used)."""
+    tile = boundary.wraps_both
+    div = _divergence(np.asarray(gy, np.float64), np.asarray(gx, np.float64), tile, overwrite=False)
+    rhs = np.asarray(plain, dtype=np.float64) * screening
+    rhs -= div
+    del div
+    return _solve_screened(rhs, screening, tile)
+
+
+def _divergence(gy: np.ndarray, gx: np.ndarray, tile: bool, *, overwrite: bool) -> np.ndarray:
+    """The backward-difference divergence of ``(gy, gx)`` (round the torus when ``tile``, else
+    the last row's ``gy`` and last column's ``gx`` taken as 0: a Neumann border); ``overwrite``:
+    in ``gx``'s buffer (``gy``'s last row zeroed too)."""
+    if tile:
+        div = gx - np.roll(gx, 1, axis=1)
+        div += gy - np.roll(gy, 1, axis=0)
+        return div
+    if not overwrite:
+        gy, gx = gy.copy(), gx.copy()
+    gx[:, -1] = 0.0
+    gy[-1, :] = 0.0
+    div = gx
+    div[:, 1:] -= gx[:, :-1].copy()
+    div += gy
+    div[1:] -= gy[:-1]
+    return div
+
+
+def _solve_screened(rhs: np.ndarray, screening: float, tile: bool) -> np.ndarray:
+    """The screened Poisson solve of :func:`screened_poisson` from its right-hand side
+    ``screening * plain - div`` (overwritten)."""
     import scipy.fft as sfft
 
-    tile = boundary.wraps_both
-    f = np.asarray(plain, dtype=np.float64)
-    H, W = f.shape[:2]
-    if tile:
-        div = (gx - np.roll(gx, 1, axis=1)) + (gy - np.roll(gy, 1, axis=0))
-    else:
-        gx = gx.copy()
-        gy = gy.copy()
-        gx[:, -1] = 0.0
-        gy[-1, :] = 0.0
-        div = gx.copy()
-        div[:, 1:] -= gx[:, :-1]
-        div += gy
-        div[1:] -= gy[:-1]
-    rhs = screening * f - div
+    H, W = rhs.shape[:2]
     # eigenvalues of the 1-D negative Laplacian: periodic (FFT) or Neumann (DCT-II)
     period = 2.0 if tile else 1.0
     eig_y, eig_x = (2.0 - 2.0 * np.cos(period * np.pi * np.arange(n) / n) for n in (H, W))
     denom = (screening + eig_y[:, None] + eig_x[None, :])[:, :, None]
     if tile:
         return np.real(sfft.ifft2(sfft.fft2(rhs, axes=(0, 1)) / denom, axes=(0, 1)))
-    return sfft.idctn(sfft.dctn(rhs, type=2, axes=(0, 1), norm="ortho") / denom, type=2, axes=(0, 1), norm="ortho")
+    spectrum = sfft.dctn(rhs, type=2, axes=(0, 1), norm="ortho", overwrite_x=True)
+    spectrum /= denom
+    return sfft.idctn(spectrum, type=2, axes=(0, 1), norm="ortho", overwrite_x=True)
 
 
 def _integrate(
     source: np.ndarray, references: np.ndarray, canvas: Canvas, screening: float, smooth_slopes: bool
 ) -> np.ndarray:
     """The gradient-domain map ``(H, W, C)`` float64 of an ``(h, w, C)`` exemplar map, on the
-    ``canvas`` (its tile, the exemplar's wrap)."""
+    ``canvas`` (its tile, the exemplar's wrap): :func:`screened_poisson`, each array of the
+    output's size let go as soon as it is spent (a window of the material set holds 4 at a time,
+    not 9: issue 69)."""
     tile, wrap = canvas.tile, _exemplar_wrap(canvas)
-    ry, rx = references[..., 0], references[..., 1]
-    plain = np.asarray(source, dtype=np.float64)[ry, rx]
     if not smooth_slopes:
         gy, gx = carried_gradients(source, references, wrap)
     else:  # the slopes are continuous maps themselves: carried through their own gradients
         sy, sx = exemplar_steps(source, wrap)
         gy = _integrate(sy, references, canvas, screening, False)
         gx = _integrate(sx, references, canvas, screening, False)
-    return screened_poisson(plain, gy, gx, Boundary(tile), screening=screening)
+        del sy, sx
+    div = _divergence(gy, gx, tile, overwrite=True)
+    del gy, gx
+    ry, rx = references[..., 0], references[..., 1]
+    rhs = np.asarray(source, dtype=np.float64)[ry, rx]
+    rhs *= screening
+    rhs -= div
+    del div
+    return _solve_screened(rhs, screening, tile)
 
 
 def _exemplar_wrap(canvas: Canvas) -> tuple[bool, bool]:
@@ -267,6 +293,7 @@ def blend_seams_in_windows(source: np.ndarray, references: np.ndarray, canvas: C
     border, its anchor's correction decays within a few more), so the result is the whole
     blend's to a last bit, and its working arrays are a window's, not the output's (issue 69;
     perez2003)."""
+    from barkgen._shared.memory import give_back_freed_memory
     from barkgen._shared.windows import resolve_windows
 
     refs = np.asarray(references)
@@ -277,6 +304,8 @@ def blend_seams_in_windows(source: np.ndarray, references: np.ndarray, canvas: C
         if out is None:
             out = np.empty(refs.shape[:2] + core.shape[2:], core.dtype)
         out[win.target] = core
+        del core
+        give_back_freed_memory()  # (the window's freed arrays not kept beside the next one's)
     assert out is not None  # (an output has a window)
     return out
 
