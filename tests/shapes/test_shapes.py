@@ -259,27 +259,62 @@ def test_joint_strategy_stops_a_level_above_the_finest(fir_photo, fir_labels, mo
     assert levels[0] is None and levels[1] is not None
 
 
+def test_a_windowed_joint_label_map_is_as_good_as_a_whole_one_and_has_no_window_seams(fir_photo, fir_labels):
+    """With ``window`` (issue 69) the joint strategy's large levels are solved and their seams
+    moved window by window (cores of 160 px here, each with a halo from its neighbours): the
+    label areas and the pieces' fit are a whole solve's, no straight seam runs along the windows'
+    borders, and the same seed gives the same map."""
+    from barkgen.evaluate import longest_seam
+    from barkgen.synth import exemplar_wraps
+
+    labels = fir_labels[3]
+    values = np.unique(labels)
+    wraps = tuple(n if w else 0 for n, w in zip(labels.shape, exemplar_wraps(fir_photo)))
+    made = {}
+    for window in (0, 160, 160):
+        result = synthesize_label_map(
+            labels,
+            (480, 480),
+            strategy="joint",
+            photo=fir_photo,
+            canvas=Canvas((480, 480), tile=True),
+            budget=Budget(seed=3),
+            window=window,
+        )
+        assert np.array_equal(result.label_map, labels[result.references[..., 0], result.references[..., 1]])
+        made.setdefault(window, []).append(result)
+    whole, windowed = made[0][0], made[160][0]
+    assert np.array_equal(windowed.references, made[160][1].references)  # (reproducible)
+    assert not np.array_equal(windowed.references, whole.references)  # (the windows did run)
+    for result in (whole, windowed):
+        assert np.abs(_fractions(result.label_map, values) - _fractions(labels, values)).max() < 0.03
+    assert _colour_seams(fir_photo, windowed.references) < 1.15 * _colour_seams(fir_photo, whole.references)
+    seams = [longest_seam(r.references, tile=True, exemplar_wrap=wraps) for r in (whole, windowed)]
+    assert seams[1] <= max(48, seams[0] + 8), seams
+
+
 def test_joint_strategy_pieces_fit_in_the_photo(fir_photo, fir_labels):
     """What the joint strategy is for: the photo resolved through its references has fewer
     colour seams than through the label-only engine's (whose pieces only fit in labels)."""
-    from barkgen.color import rgb_to_lab
-
     labels = fir_labels[3]
-    lab = rgb_to_lab(fir_photo.astype(np.float32) / 255.0)
-
-    def seam_energy(refs):
-        # colour jump between output neighbours, beyond the jump between the same exemplar
-        # pixels' own neighbours (0 inside a verbatim piece)
-        ry, rx = refs[..., 0], refs[..., 1]
-        out = lab[ry, rx]
-        right = np.linalg.norm(out[:, 1:] - out[:, :-1], axis=-1)
-        inside = np.linalg.norm(lab[ry[:, :-1], np.minimum(rx[:, :-1] + 1, lab.shape[1] - 1)] - out[:, :-1], axis=-1)
-        return float(np.mean(np.abs(right - inside)))
-
     for seed in (0, 1):
         joint = synthesize_label_map(labels, 256, strategy="joint", photo=fir_photo, budget=Budget(seed=seed))
         engine = synthesize_label_map(labels, 256, strategy="engine", budget=Budget(seed=seed))
-        assert seam_energy(joint.references) < 0.8 * seam_energy(engine.references)
+        assert _colour_seams(fir_photo, joint.references) < 0.8 * _colour_seams(fir_photo, engine.references)
+
+
+def _colour_seams(photo: np.ndarray, refs: np.ndarray) -> float:
+    """The photo's colour jump between output neighbours (across columns) through ``refs``,
+    beyond the jump between the same exemplar pixels' own neighbours (0 inside a verbatim
+    piece)."""
+    from barkgen.color import rgb_to_lab
+
+    lab = rgb_to_lab(photo.astype(np.float32) / 255.0)
+    ry, rx = refs[..., 0], refs[..., 1]
+    out = lab[ry, rx]
+    right = np.linalg.norm(out[:, 1:] - out[:, :-1], axis=-1)
+    inside = np.linalg.norm(lab[ry[:, :-1], np.minimum(rx[:, :-1] + 1, lab.shape[1] - 1)] - out[:, :-1], axis=-1)
+    return float(np.mean(np.abs(right - inside)))
 
 
 def test_joint_strategy_needs_its_photo(fir_photo, fir_labels):

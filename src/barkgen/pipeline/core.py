@@ -383,7 +383,7 @@ def generate(
     timings.update({f"analysis_{step}": seconds for step, seconds in analysis.steps.items()})
     with thread_budget(options.threads):  # every pool sized, BLAS at one thread
         windowed = windowed_run(options, run.canvas.along, bool(edits))
-        labels = _label_stage(run, analysis, source, resume)
+        labels = _label_stage(run, analysis, source, resume, windowed)
         give_back_freed_memory()  # (each stage's freed working arrays not kept beside the next's)
         timings["labels_out"] = time.perf_counter() - t1
         result = _texture_stage(run, analysis, source, labels, extra, windowed)
@@ -415,11 +415,14 @@ class _Labels:
         return references
 
 
-def _label_stage(run: Run, analysis: PhotoAnalysis, source: np.ndarray, resume) -> _Labels:
-    """Labels or cracks: the structure variant's output label map, then the edge label on both
-    maps (laitoch2018 §3.5.5)."""
+def _label_stage(run: Run, analysis: PhotoAnalysis, source: np.ndarray, resume, windowed: bool) -> _Labels:
+    """Labels or cracks: the structure variant's output label map (``windowed``: its large
+    finest levels solved window by window, :data:`~barkgen.pipeline.windowed.WINDOW`), then the
+    edge label on both maps (laitoch2018 §3.5.5)."""
+    from barkgen.pipeline.windowed import WINDOW
+
     labels_in = analysis.labels_in
-    result, grown = run.structure.label_map(labels_in, source, analysis, run, resume)
+    result, grown = run.structure.label_map(labels_in, source, analysis, run, resume, WINDOW if windowed else 0)
     tbn_in, tbn_out = with_edge_labels(labels_in, result.label_map, run, analysis.tbn_labels_in)
     return _Labels(result, grown, tbn_in, tbn_out, result.references is not None)
 

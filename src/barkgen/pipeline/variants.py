@@ -133,8 +133,11 @@ class PhotoLabels:
                 exemplar_wrap=run.canvas.exemplar_wrap,
             )
 
-    def label_map(self, labels_in: np.ndarray, photo: np.ndarray, analysis: Any, run: Run, resume: Any):
-        """The output label map and no grown network."""
+    def label_map(
+        self, labels_in: np.ndarray, photo: np.ndarray, analysis: Any, run: Run, resume: Any, window: int = 0
+    ):
+        """The output label map and no grown network (its large finest levels solved window by
+        window of ``window`` px, 0: whole)."""
         from barkgen.shapes import synthesize_label_map
 
         # (the run's memory was checked as a whole, check_generate_memory)
@@ -147,6 +150,7 @@ class PhotoLabels:
             budget=budget,
             rotations=run.options.rotations,
             resume=resume,
+            window=window,
         )
         return result, None
 
@@ -176,8 +180,11 @@ class Cracks:
     def analyse(self, labels_in: np.ndarray, photo: np.ndarray, cache: Any, run: Run) -> None:
         """Nothing: a network is grown, not synthesized."""
 
-    def label_map(self, labels_in: np.ndarray, photo: np.ndarray, analysis: Any, run: Run, resume: Any):
-        """The grown network's raster and the network."""
+    def label_map(
+        self, labels_in: np.ndarray, photo: np.ndarray, analysis: Any, run: Run, resume: Any, window: int = 0
+    ):
+        """The grown network's raster and the network (``window``: not used, the raster is
+        drawn whole)."""
         return crack_label_map(analysis.exemplar.cracks, run.options, run.canvas, run.progress("label_map"))
 
     def report(self, exemplar: Exemplar) -> dict:

@@ -160,6 +160,7 @@ def synthesize_label_map(
     layer_order: list[int] | None = None,
     resume: tuple[int, np.ndarray] | np.ndarray | None = None,
     config: ShapeConfig | None = None,
+    window: int = 0,
 ) -> LabelMapResult:
     """Synthesize a new label map of ``size`` from the exemplar's ``label_map`` (laitoch2018 §3.6).
 
@@ -196,6 +197,11 @@ def synthesize_label_map(
         size tells the level, :func:`label_map_levels`), in the exemplar's grey values.
     config : ShapeConfig, optional
         Parameters of the layered strategy.
+    window : int, default 0
+        Engine and joint strategies: side (px) of the windows that their large finest levels
+        are solved and their seams moved in, each with a halo from its neighbours, so that
+        their working memory is a window's, not the output's (issue 69; as
+        :class:`~barkgen.synth.SynthesisConfig`'s ``window``); 0: whole.
 
     Returns
     -------
@@ -216,6 +222,8 @@ def synthesize_label_map(
     """
     if strategy not in STRATEGIES:
         raise InvalidInputError(f"strategy must be one of {', '.join(STRATEGIES)}, not {strategy!r}")
+    if isinstance(window, bool) or not isinstance(window, (int, np.integer)) or window < 0:
+        raise InvalidInputError(f"window must be a side in px (0: none), not {window!r}")
     turns = check_rotations(rotations)
     budget = budget or Budget()
     check_seed(budget.seed)
@@ -247,7 +255,7 @@ def synthesize_label_map(
 
         canvas = canvas.replace(exemplar_wrap=_wrap(canvas.exemplar_wrap, codes, photo))
         out, references = synthesize_codes(
-            codes, palette.size, canvas, budget, start=start, on_level=on_level, photo=photo
+            codes, palette.size, canvas, budget, start=start, on_level=on_level, photo=photo, window=int(window)
         )
     else:
         layers = _LayeredRequest(palette, shapes, layer_order, turns, config)

@@ -58,6 +58,7 @@ from barkgen.synth import (
     LabelBalance,
     SolverInputs,
     SynthesisConfig,
+    by_windows,
     cut_straight_seams,
     exemplar_grid,
     expand_pieces,
@@ -106,6 +107,10 @@ JOINT_SELECT_DEPTH = 3
 #: Solving the finest level twice, here and there, cost the quickstart 1.2 s of its 11.8
 #: (its analysis 0.8 s, its iterations 0.4 s), and the ten photos' texture figures are the same
 JOINT_FINEST_LEVEL = 1
+#: px read round each window of the finest level's seam moves (``synthesize_codes(window=...)``):
+#: twice the expansion moves' reach and the straight-seam cuts' band, so that a core's moves see
+#: what lies beyond its edge
+FINEST_MOVES_HALO = 32
 #: joint strategy: bytes per output pixel of its finest level (the up-sampled references and
 #: their seams moved; measured over the process's base with the 1024x1024 sample: 60 at
 #: 4096x4096, 49 at 8192x8192)
@@ -168,6 +173,7 @@ def synthesize_codes(
     config: SynthesisConfig | None = None,
     balance_weight: float | None = None,
     photo: np.ndarray | None = None,
+    window: int = 0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Synthesize label codes ``canvas.shape`` from the exemplar's ``codes`` with the core
     solver; returns them and their reference map ``(H, W, 2)`` (exemplar ``(y, x)`` per pixel).
@@ -186,11 +192,16 @@ def synthesize_codes(
     initialisation of texture-by-numbers (coherent exemplar pieces whose labels match the edit,
     laitoch2018 §3.4.2) and the solver continues from that level. ``on_level(level, codes)``
     receives each level's result.
+
+    ``window``: the large finest levels solved window by window (``SynthesisConfig.window``) and
+    the joint strategy's finest seam moves made so too (:func:`_move_finest_seams`): the
+    working memory a window's, not the output's (issue 69).
     """
     joint = photo is not None
     out_shape, exemplar_wrap = canvas.shape, canvas.exemplar_wrap
     cache = budget.cache if budget.cache is not None else AnalysisCache()
     features, config = _solver_inputs(codes, n_labels, photo, config, exemplar_wrap, cache)
+    config = dataclasses.replace(config, window=int(window)) if window else config
     n_levels = engine_levels(codes.shape, out_shape, config)
     ex = codes.astype(np.uint8)[:, :, None]
     rng = np.random.default_rng([int(budget.seed), 1])
@@ -303,25 +314,38 @@ def _move_finest_seams(
     79 px before this level's cuts)."""
     h, w = colour.shape[:2]
     exemplar_wrap = canvas.exemplar_wrap
-    if config.seam_expansion_band:
-        unguided = (np.zeros(1, np.int32), np.zeros((1, 1), np.int32))
-        flat = expand_pieces(
-            flat,
+    # a large level's moves window by window (``config.window``; issue 69), each window an output
+    # that does not tile; the cuts' windows are shifted by half a window, so that their cores
+    # hold the moves' window borders
+    side = config.window if config.window and min(flat.shape) > config.window + 2 * FINEST_MOVES_HALO else 0
+
+    def on(shape: tuple[int, int]) -> Canvas:
+        return Canvas(shape, tile=False, exemplar_wrap=exemplar_wrap) if side else canvas
+
+    def expanded(refs: np.ndarray) -> np.ndarray:
+        return expand_pieces(
+            refs,
             exemplar_grid((h, w), exemplar_wrap),
             colour,
-            canvas,
+            on(refs.shape),
             np.full((1, 1), -1, np.int64),  # no offset forbidden anywhere
-            unguided,
+            (np.zeros(1, np.int32), np.zeros((1, 1), np.int32)),  # unguided
             band=config.seam_expansion_band,
             rounds=config.seam_expansion_rounds,
         )
+
+    def cut(refs: np.ndarray) -> np.ndarray:
+        return cut_straight_seams(refs, colour, on(refs.shape[:2]), min_run=config.seam_cut_run, rng=rng)
+
+    if config.seam_expansion_band:
+        flat = by_windows(flat, side, expanded, tile=canvas.tile, halo=FINEST_MOVES_HALO) if side else expanded(flat)
     references = np.empty(flat.shape + (2,), np.int32)
     np.floor_divide(flat, w, out=references[..., 0])
     np.remainder(flat, w, out=references[..., 1])
     del flat
-    if config.seam_cut_run:
-        references = cut_straight_seams(references, colour, canvas, min_run=config.seam_cut_run, rng=rng)
-    return references
+    if config.seam_cut_run and side:
+        return by_windows(references, side, cut, tile=canvas.tile, halo=FINEST_MOVES_HALO, offset=side // 2)
+    return cut(references) if config.seam_cut_run else references
 
 
 def start_score(references: np.ndarray, exemplar_width: int, shares: np.ndarray, fractions: np.ndarray) -> float:

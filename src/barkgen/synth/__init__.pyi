@@ -27,6 +27,7 @@ from barkgen.synth._synthesize import apply_references as apply_references
 from barkgen.synth._synthesize import synthesize as synthesize
 from barkgen.synth._tbn import analyse_texture_by_numbers as analyse_texture_by_numbers
 from barkgen.synth._tbn import texture_by_numbers as texture_by_numbers
+from barkgen.synth._windows import by_windows as by_windows
 from barkgen.synth.guides.channels import MAX_LABELS as MAX_LABELS
 from barkgen.synth.guides.channels import guide_channels as guide_channels
 from barkgen.synth.guides.channels import label_pyramid as label_pyramid

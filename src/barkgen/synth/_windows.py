@@ -208,3 +208,25 @@ def _solve_window(
         counts -= np.bincount(refs[window.target].ravel(), minlength=n)
     refs[window.target] = solved[window.core]
     forbid[window.target] = moved_offsets(local_forbid, -row_moves, -col_moves)[window.core]
+
+
+def by_windows(
+    refs: np.ndarray,
+    side: int,
+    step: Callable[[np.ndarray], np.ndarray],
+    *,
+    tile: bool,
+    halo: int = WINDOW_HALO,
+    offset: int = 0,
+) -> np.ndarray:
+    """A reference map ``(H, W)`` or ``(H, W, 2)`` with ``step`` run on it window by window
+    (:func:`window_grid`: cores of ``side`` px from ``offset`` on, in raster order, each with
+    ``halo`` px read round it from the map as the cores before it left it; round the torus when
+    it ``tile``\\ s) and each window's core written back, in place: for a pass whose moves reach
+    less than ``halo`` (seam moves, straight-seam cuts), whose working memory is then a
+    window's, not the map's (issue 69). ``step(local)`` returns the window's new references
+    (it may take ``local``, a copy, as its own)."""
+    for window in window_grid(refs.shape[:2], side, tile, halo=halo, offset=offset):
+        grid = np.ix_(window.rows, window.cols)
+        refs[window.target] = step(refs[grid])[window.core]
+    return refs
