@@ -348,3 +348,36 @@ def test_generate_takes_an_exr_extra_as_the_16_bit_png_of_its_values(tmp_path):
         assert r.returncode == 0, r.stderr
     for output in ("texture.png", "height.png"):
         assert np.array_equal(read_image(tmp_path / "exr" / output), read_image(tmp_path / "png" / output))
+
+
+# ------------------------------------------------------------------------ past Pillow's own limit
+
+
+def test_a_png_past_pillows_own_limit_is_read_as_barkgens_own_16k_maps_are(tmp_path, monkeypatch):
+    """Pillow refuses any image over twice its ``MAX_IMAGE_PIXELS`` (179 megapixels), so barkgen
+    could not read its own 16384² maps back (issue 69). A PNG past that limit is decoded by
+    OpenCV instead (8 and 16 bits, grey, RGB and RGBA alike) and measured from its header; barkgen's
+    own ``max_pixels`` still refuses it. Pillow's limit is lowered here to make a small image
+    past it."""
+    import cv2
+
+    monkeypatch.setattr(Image, "MAX_IMAGE_PIXELS", 50)  # (its error from 100 px on)
+    rgba = np.dstack([RGB16, RNG.integers(0, 65536, (12, 17), dtype=np.uint16)])
+    for name, pixels in {"rgb8": RGB8, "rgb16": RGB16, "grey8": RGB8[:, :, 0], "rgba16": rgba}.items():
+        path = tmp_path / f"{name}.png"
+        bgr = pixels if pixels.ndim == 2 else pixels[:, :, [2, 1, 0, 3][: pixels.shape[2]]]
+        assert cv2.imwrite(str(path), bgr)
+        with pytest.raises(Image.DecompressionBombError):
+            Image.open(path)
+        assert image_size(path) == (17, 12)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", AlphaDroppedWarning)
+            read = read_image(path)
+        expected = pixels[:, :, None] if pixels.ndim == 2 else pixels[:, :, :3]
+        assert read.dtype == pixels.dtype and np.array_equal(read, expected), name
+        with pytest.raises(ImageTooLargeError, match="megapixels"):
+            decode_image(path.read_bytes(), name, max_pixels=100)
+    jpeg = tmp_path / "photo.jpg"
+    assert cv2.imwrite(str(jpeg), RGB8)  # (a JPEG past it is still refused: Pillow reads it)
+    with pytest.raises(ImageTooLargeError, match="too large"):
+        read_image(jpeg)

@@ -234,6 +234,8 @@ def _image_size(data: bytes, name, size: int | None = None) -> tuple[int, int]:
                 turned = header_exif and im.getexif().get(_EXIF_ORIENTATION) in (5, 6, 7, 8)
                 return (height, width) if turned else (width, height)
     except Image.DecompressionBombError as exc:  # over twice Pillow's own limit
+        if data.startswith(_PNG_MAGIC) and len(data) >= 24:  # (barkgen's own 16K maps: its header)
+            return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
         raise ImageTooLargeError(f"{name}: image too large ({exc})") from None
     except UnidentifiedImageError:
         raise ImageReadError(f"{name}: not an image (unrecognised format)") from None
@@ -360,7 +362,12 @@ def decode_image(
     except UnidentifiedImageError:
         raise ImageReadError(f"{path}: not an image (unrecognised format)") from None
     except Image.DecompressionBombError as exc:
-        raise ImageTooLargeError(f"{path}: image too large ({exc})") from None
+        # Pillow's own limit is for images from anywhere (179 megapixels): a PNG past it, such as
+        # barkgen's own 16384² maps, is decoded by OpenCV (whose limit is 1 gigapixel), the caller
+        # having checked its size against its own ``max_pixels`` already
+        if not data.startswith(_PNG_MAGIC):
+            raise ImageTooLargeError(f"{path}: image too large ({exc})") from None
+        arr, has_alpha = None, False
     except (OSError, SyntaxError, ValueError) as exc:
         raise ImageReadError(f"{path}: truncated or corrupt image ({exc})") from None
 
@@ -369,8 +376,9 @@ def decode_image(
 
         dec = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
         if dec is None:
-            raise ImageReadError(f"{path}: truncated or corrupt 16-bit PNG")
+            raise ImageReadError(f"{path}: truncated or corrupt PNG")
         if dec.ndim == 3:
+            has_alpha = has_alpha or dec.shape[2] == 4
             dec = dec[:, :, [2, 1, 0, 3][: dec.shape[2]]] if dec.shape[2] == 4 else dec[:, :, ::-1]
         arr = dec
     return _normalise(np.asarray(arr), path, has_alpha)
