@@ -226,14 +226,11 @@ def large_quality(folder: str) -> dict:
 
 
 def _read_large(path) -> np.ndarray:
-    """An image file as RGB (or grey), whatever its size (OpenCV: Pillow refuses more than
-    179 megapixels as a decompression bomb)."""
-    import cv2
+    """An image file as barkgen reads it, whatever its size (:func:`barkgen.io.read_image`: a PNG
+    past Pillow's own 179-megapixel limit, such as a 16384² map, is decoded by OpenCV)."""
+    from barkgen.io import read_image
 
-    image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
-    if image is None:
-        raise SystemExit(f"{path}: not an image")
-    return image[..., 2::-1] if image.ndim == 3 else image
+    return read_image(path)
 
 
 #: px of a crop's edges whose boundaries are not counted: there a boundary is compared with the
@@ -258,12 +255,11 @@ def _map_line(path: str) -> int:
 
 def _reference_seam(path: str, exemplar_wrap: tuple) -> int:
     """A reference map file's longest straight seam (:func:`barkgen.evaluate.longest_seam`), in
-    crops (``reference.png``: red the exemplar column, green its row)."""
+    crops (``reference.png`` read by :func:`barkgen.io.read_reference`)."""
     from barkgen.evaluate import longest_seam
+    from barkgen.io import read_reference
 
-    rgb = _read_large(path)
-    references = np.stack([rgb[..., 1], rgb[..., 0]], axis=-1).astype(np.int32)
-    del rgb
+    references, _ = read_reference(path)
     return _longest_in_crops(references, lambda c, t: longest_seam(c, tile=t, exemplar_wrap=exemplar_wrap))
 
 

@@ -141,6 +141,18 @@ def test_concurrent_encoding_gives_each_file_its_own_bytes_in_order(rgb8):
         encode_concurrently({"a.png": jobs["m0.png"], "b.png": lambda: encode_png(rgb8 * 0.5)})
 
 
+def test_an_image_in_opencvs_channel_order_is_encoded_as_the_same_png(rgb8):
+    """``channel_order="bgr"`` (issue 69: a large reference map made in OpenCV's order needs no
+    reordered copy) gives the very bytes of the RGB image, RGBA too; another order is refused."""
+    from barkgen.io import encode_png
+
+    rgba = np.dstack([rgb8, rgb8[:, :, 0]])
+    assert encode_png(rgb8[:, :, ::-1].copy(), channel_order="bgr") == encode_png(rgb8)
+    assert encode_png(rgba[:, :, [2, 1, 0, 3]].copy(), channel_order="bgr") == encode_png(rgba)
+    with pytest.raises(InvalidInputError, match="channel_order"):
+        encode_png(rgb8, channel_order="gbr")
+
+
 def test_exif_orientation_animations_and_float_ranges_are_honoured_or_said():
     """A phone photo stands as its orientation tag says; an animation's later frames and float
     pixels outside 0-1 are named in a warning, not dropped or clipped without a word."""

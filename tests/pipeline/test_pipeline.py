@@ -3,6 +3,7 @@ files, report, determinism, quality against plain synthesis, editing levels, bad
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -69,6 +70,17 @@ def test_generate_api_outputs_and_report(fir128):
     assert set(fin) == set(fout) and abs(sum(fout.values()) - 1) < 1e-3
     sheet = preview_sheet(fir128, result)
     assert sheet.ndim == 3 and sheet.shape[1] > 4 * 300
+    # a large output's tiles are made from a pixel in ``step`` (issue 69: never coloured whole),
+    # a sheet of the same size whose output tiles are the small one's
+    large = dataclasses.replace(
+        result,
+        labels_out=np.repeat(np.repeat(result.labels_out, 40, axis=0), 40, axis=1),
+        texture=np.repeat(np.repeat(result.texture, 40, axis=0), 40, axis=1),
+    )
+    assert large.texture.shape[0] >= 4 * 320 * 2
+    big_sheet = preview_sheet(fir128, large)
+    assert big_sheet.shape == sheet.shape
+    assert np.abs(big_sheet.astype(int) - sheet.astype(int)).mean() < 8
 
 
 def test_generate_is_deterministic(fir128):

@@ -15,6 +15,7 @@ from barkgen.io.asset_names import (
 )
 from barkgen.io.bilayer import encode_bilayer_model, read_bilayer_model, write_bilayer_model
 from barkgen.io.blender import blender_setup_script
+from barkgen.io.crops import read_centre_crop
 from barkgen.io.fields import read_field
 from barkgen.io.folders import (
     check_replaceable,
@@ -31,7 +32,6 @@ from barkgen.io.images import (
     encode_concurrently,
     encode_png,
     image_size,
-    read_centre_crop,
     read_image,
     read_image_bytes,
     read_png_text,

@@ -442,7 +442,12 @@ def _png_text_chunk(key: str, value: str) -> bytes:
 
 
 def encode_png(
-    image: np.ndarray, *, bits: int | None = None, text: dict[str, str] | None = None, compression: int = 1
+    image: np.ndarray,
+    *,
+    bits: int | None = None,
+    text: dict[str, str] | None = None,
+    compression: int = 1,
+    channel_order: str = "rgb",
 ) -> bytes:
     """Encode an ``(H, W[, C])`` uint8/uint16 array as PNG bytes.
 
@@ -457,6 +462,9 @@ def encode_png(
     compression : int, default 1
         zlib's level (0-9); on photographic textures level 1 gives files within 1 % of level 6's
         size in half the time.
+    channel_order : {"rgb", "bgr"}, default "rgb"
+        The order of ``image``'s colour channels: ``"bgr"`` (OpenCV's own) is encoded without a
+        reordered copy (a large image's).
 
     Returns
     -------
@@ -469,6 +477,9 @@ def encode_png(
     """
     import cv2
 
+    if channel_order not in ("rgb", "bgr"):
+        raise InvalidInputError(f"channel_order must be rgb or bgr, not {channel_order!r}")
+
     arr = np.asarray(image)
     if bits is not None:
         arr = to_bits(arr, bits)
@@ -479,11 +490,14 @@ def encode_png(
     if arr.ndim == 3:
         if arr.shape[2] not in (3, 4):
             raise InvalidInputError(f"cannot write an image with {arr.shape[2]} channels")
-        arr = arr[:, :, [2, 1, 0, 3][: arr.shape[2]]]  # OpenCV writes BGR(A)
+        if channel_order == "rgb":
+            arr = arr[:, :, [2, 1, 0, 3][: arr.shape[2]]]  # OpenCV writes BGR(A)
     ok, buf = cv2.imencode(".png", np.ascontiguousarray(arr), [cv2.IMWRITE_PNG_COMPRESSION, int(compression)])
+    del arr  # (a reordered copy: not held beside the encoded bytes)
     if not ok:
         raise InvalidInputError("PNG encoding failed")
     data = buf.tobytes()
+    del buf
     if text:
         ihdr_end = 8 + 4 + 4 + 13 + 4
         extra = b"".join(_png_text_chunk(k, v) for k, v in text.items())
@@ -567,37 +581,3 @@ def write_png(
     (4, 6, 1)
     """
     return write_bytes_atomic(path, encode_png(image, bits=bits, text=text))
-
-
-def read_centre_crop(path: str | os.PathLike, size: int) -> np.ndarray:
-    """The ``size x size`` RGB centre crop of an image file, its short side resized to ``size`` first.
-
-    Lanczos resampling, decoded by Pillow, as the team's compare.py prepares exemplars: the
-    benchmarks' and tests' way of reading a photo of the team's data folder (``BARKGEN_SHARED``).
-
-    Parameters
-    ----------
-    path : str or PathLike
-        The image file.
-    size : int
-        Side of the crop in pixels.
-
-    Returns
-    -------
-    ndarray of uint8, shape (size, size, 3)
-
-    Examples
-    --------
-    >>> import barkgen
-    >>> read_centre_crop(barkgen.sample_exemplar_path(), 128).shape
-    (128, 128, 3)
-    """
-    from PIL import Image
-
-    im = Image.open(path).convert("RGB")
-    w, h = im.size
-    s = size / min(w, h)
-    im = im.resize((max(size, round(w * s)), max(size, round(h * s))), Image.Resampling.LANCZOS)
-    w, h = im.size
-    left, top = (w - size) // 2, (h - size) // 2
-    return np.asarray(im.crop((left, top, left + size, top + size)))

@@ -82,10 +82,13 @@ def preview_sheet(photo: np.ndarray, result, tile_size: int = 320) -> np.ndarray
     from barkgen.labels import contact_sheet, label_colour_map
 
     values = np.unique(result.labels_in)
+    # a large output is taken a pixel in ``step`` first (a view: its tile is 4x finer than the
+    # sheet's, then averaged down as any tile is): colouring a 16384² label map whole cost 2.5 GB
+    step = max(1, min(result.labels_out.shape[:2]) // (4 * tile_size))
     tiles = [
         as_uint8(photo),
         label_colour_map(result.labels_in, values),
-        label_colour_map(result.labels_out, values),
-        as_uint8(result.texture),
+        label_colour_map(result.labels_out[::step, ::step], values),
+        as_uint8(result.texture[::step, ::step]),
     ]
     return contact_sheet(tiles, ["photo", "labels in", "labels out", "result"], columns=4, tile_size=tile_size)
